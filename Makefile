@@ -1,0 +1,27 @@
+# The two commands of the README: `make demo` and `make test`.
+# Each creates its own virtual environment (.venv) from nothing but python3.
+PYTHON ?= python3
+VENV   := .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed
+
+.PHONY: demo test bench clean
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e '.[test,bench]'
+	touch $(STAMP)
+
+demo: $(STAMP)
+	$(BIN)/ur3dq demo
+
+test: $(STAMP)
+	$(BIN)/python -m pytest
+
+bench: $(STAMP)
+	$(BIN)/python benchmarks/bench_kinematics.py
+	$(BIN)/python benchmarks/bench_driver.py
+
+clean:
+	rm -rf $(VENV) .pytest_cache .hypothesis

@@ -1,0 +1,39 @@
+"""Shared fixtures: a running simulator, or the official URSim / robot named by UR3DQ_TEST_HOST."""
+import os
+
+import pytest
+
+ROBOT_HOST_ENV = "UR3DQ_TEST_HOST"
+
+
+def external_robot_host():
+    """The host of an official URSim or real robot to test against, or None for the embedded simulator."""
+    return os.environ.get(ROBOT_HOST_ENV) or None
+
+
+needs_simulator = pytest.mark.skipif(
+    external_robot_host() is not None,
+    reason=f"fault injection needs sim_ursim; {ROBOT_HOST_ENV} names an external controller",
+)
+
+
+@pytest.fixture
+def sim():
+    """A fresh sim_ursim (UR3, CB3 3.15) on a free loopback address, shut down after the test."""
+    from sim_ursim.testing import running_simulator
+
+    with running_simulator(model="ur3") as simulator:
+        yield simulator
+
+
+@pytest.fixture
+def robot_host(request):
+    """The host robot-facing tests talk to: UR3DQ_TEST_HOST if set, else a fresh embedded simulator."""
+    host = external_robot_host()
+    if host is not None:
+        yield host
+        return
+    from sim_ursim.testing import running_simulator
+
+    with running_simulator(model="ur3") as simulator:
+        yield simulator.host

@@ -1,0 +1,52 @@
+"""Every exception ur3dq raises, in one hierarchy so callers can catch by kind.
+
+Each message is meant to be shown to a person as one line: it names the thing that is wrong and why.
+"""
+
+
+class UR3DQError(Exception):
+    """Base class of every ur3dq error."""
+
+
+class UnreachablePoseError(UR3DQError, ValueError):
+    """No joint configuration reaches the pose (too far, too close, wrist singular, outside limits)."""
+
+
+class JointLimitError(UR3DQError, ValueError):
+    """A joint target lies outside the model's joint limits."""
+
+
+class StoreError(UR3DQError):
+    """The pose store cannot be read or written; the message names file:line where it can."""
+
+
+class RobotError(UR3DQError):
+    """Something went wrong talking to, or moving, the robot."""
+
+
+class RobotConnectionError(RobotError):
+    """The controller could not be reached."""
+
+
+class ConnectionLostError(RobotError):
+    """The connection dropped or froze during an operation."""
+
+
+class ProtectiveStopError(RobotError):
+    """The controller is in (or entered) a protective stop."""
+
+
+class EmergencyStopError(RobotError):
+    """The controller is in (or entered) an emergency stop."""
+
+
+class ProgramError(RobotError):
+    """The controller reported a URScript compile or runtime error, or stopped the program."""
+
+
+class MotionTimeoutError(RobotError):
+    """A motion did not finish within the time derived from its own expected duration."""
+
+
+class SafetyCheckError(RobotError, ValueError):
+    """A motion was refused before sending: it failed a safety check (limits, travel, FK consistency)."""
