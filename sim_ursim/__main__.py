@@ -1,0 +1,123 @@
+"""`sim-ursim` / `python -m sim_ursim`: run a simulated UR controller, or inject a fault into a running one."""
+import json
+import logging
+import signal
+import sys
+
+import click
+
+from .control_channel import CONTROL_PORT, send_request
+from .models import MODEL_NAMES
+
+
+def parse_joint_list(text):
+    """Six joint values (rad) from "a,b,c,d,e,f" or "a b c d e f"; ValueError otherwise."""
+    parts = text.replace(",", " ").split()
+    try:
+        values = [float(part) for part in parts]
+    except ValueError:
+        raise ValueError(f"joints must be 6 numbers, got {text!r}") from None
+    if len(values) != 6:
+        raise ValueError(f"joints must be 6 numbers, got {len(values)} in {text!r}")
+    return values
+
+
+def load_calibration(path):
+    """DH deltas {a, d, alpha, theta: 6 numbers each} from a JSON file."""
+    with open(path, encoding="utf-8") as calibration_file:
+        calibration = json.load(calibration_file)
+    if not isinstance(calibration, dict):
+        raise ValueError(f"{path}: calibration must be a JSON object of DH deltas (a, d, alpha, theta)")
+    return calibration
+
+
+@click.group(invoke_without_command=True, context_settings={"help_option_names": ["-h", "--help"]})
+@click.option("--model", type=click.Choice(MODEL_NAMES), default="ur3", show_default=True, help="Arm to emulate.")
+@click.option("--version", "software_version", default=None,
+              help="Controller software version, e.g. 3.15.8 or 5.11.1 (default: 3.15.8 CB3, 5.11.1 e-series).")
+@click.option("--host", default="127.0.0.1", show_default=True,
+              help="Loopback address to bind the robot's ports on (e.g. 127.0.0.2 for a second simulator).")
+@click.option("--initial-q", default=None, help="Initial joints in rad: 'a,b,c,d,e,f'.")
+@click.option("--frequency", type=float, default=None, help="Control frequency in Hz (default 125 CB3, 500 e-series).")
+@click.option("--calibration", type=click.Path(exists=True, dir_okay=False), default=None,
+              help="JSON file of DH deltas {a, d, alpha, theta: 6 numbers each}: a calibrated arm.")
+@click.option("--programs-dir", type=click.Path(file_okay=False), default=None,
+              help="Where dashboard `load` finds relative program paths (default: current directory).")
+@click.option("--log-level", type=click.Choice(["DEBUG", "INFO", "WARNING"]), default="INFO", show_default=True)
+@click.pass_context
+def main(ctx, model, software_version, host, initial_q, frequency, calibration, programs_dir, log_level):
+    """Run a protocol-level UR controller simulator (dashboard 29999, primary 30001, secondary 30002,
+    real-time 30003, RTDE 30004, fault control 29998) until Ctrl-C, SIGTERM or the dashboard's `shutdown`."""
+    if ctx.invoked_subcommand is not None:
+        return
+    logging.basicConfig(level=log_level, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    from .simulator import Simulator
+
+    try:
+        simulator = Simulator(model=model, version=software_version, host=host,
+                              initial_q=parse_joint_list(initial_q) if initial_q else None,
+                              calibration=load_calibration(calibration) if calibration else None,
+                              frequency=frequency, programs_directory=programs_dir)
+    except ValueError as error:
+        raise click.BadParameter(str(error)) from None
+    try:
+        simulator.start()
+    except OSError as error:
+        raise click.ClickException(f"cannot bind the robot's ports on {host}: {error}") from None
+    signal.signal(signal.SIGTERM, lambda *_: simulator.request_stop())
+    try:
+        while not simulator.wait(0.5):
+            pass
+    except KeyboardInterrupt:
+        pass
+    finally:
+        simulator.stop()
+
+
+@main.command()
+@click.argument("kind", type=click.Choice(["protective-stop", "emergency-stop", "release-emergency-stop",
+                                           "drop-connections", "freeze", "latency", "reset", "status", "shutdown"]))
+@click.option("--host", default="127.0.0.1", show_default=True, help="Address of the running simulator.")
+@click.option("--port", default=CONTROL_PORT, show_default=True, help="Its fault-control port.")
+@click.option("--seconds", type=float, default=None, help="Duration for freeze, delay for latency.")
+@click.option("--reason", default="injected fault", show_default=True, help="Reason logged for a protective stop.")
+def fault(kind, host, port, seconds, reason):
+    """Inject a fault into (or query) a running simulator through its control channel."""
+    arguments = {}
+    if kind in ("freeze", "latency"):
+        if seconds is None:
+            raise click.UsageError(f"{kind} needs --seconds")
+        arguments["seconds"] = seconds
+    if kind == "protective-stop":
+        arguments["reason"] = reason
+    try:
+        reply = send_request(host, kind, port=port, **arguments)
+    except OSError as error:
+        raise click.ClickException(f"no simulator control channel on {host}:{port}: {error}") from None
+    if not reply.get("ok"):
+        raise click.ClickException(reply.get("error", "refused"))
+    click.echo(reply["message"])
+
+
+@main.command(name="move-by-hand")
+@click.argument("joints")
+@click.option("--host", default="127.0.0.1", show_default=True, help="Address of the running simulator.")
+@click.option("--port", default=CONTROL_PORT, show_default=True, help="Its fault-control port.")
+def move_by_hand(joints, host, port):
+    """Hand-guiding demo: switch freedrive on, push the arm to JOINTS ('a,b,c,d,e,f' rad), switch it off."""
+    try:
+        q = parse_joint_list(joints)
+    except ValueError as error:
+        raise click.BadParameter(str(error), param_hint="JOINTS") from None
+    for command, arguments in (("freedrive", {"on": True}), ("move-by-hand", {"q": q}), ("freedrive", {"on": False})):
+        try:
+            reply = send_request(host, command, port=port, **arguments)
+        except OSError as error:
+            raise click.ClickException(f"no simulator control channel on {host}:{port}: {error}") from None
+        if not reply.get("ok"):
+            raise click.ClickException(reply.get("error", "refused"))
+    click.echo(f"arm moved by hand to {q}")
+
+
+if __name__ == "__main__":
+    sys.exit(main())

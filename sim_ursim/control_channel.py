@@ -1,0 +1,174 @@
+"""The simulator's fault-control channel: a loopback TCP port (29998) taking one JSON request per line.
+
+Request  {"command": "protective-stop", "reason": "..."} | {"command": "emergency-stop"} |
+         {"command": "release-emergency-stop"} | {"command": "drop-connections"} |
+         {"command": "freeze", "seconds": 2} | {"command": "latency", "seconds": 0.05} | {"command": "reset"} |
+         {"command": "freedrive", "on": true} | {"command": "move-by-hand", "q": [6 floats]} |
+         {"command": "status"} | {"command": "shutdown"}
+Reply    {"ok": true, "message": "..."} or {"ok": false, "error": "..."}; one line of JSON each.
+This port is not a UR interface: it exists so tests and `python -m sim_ursim fault ...` can inject faults.
+"""
+import json
+import logging
+import socket
+import threading
+
+from .controller import CommandRefused, RobotMode, SafetyMode
+
+log = logging.getLogger("sim_ursim.control")
+
+CONTROL_PORT = 29998
+COMMANDS = ("protective-stop", "emergency-stop", "release-emergency-stop", "drop-connections", "freeze", "latency",
+            "reset", "freedrive", "move-by-hand", "status", "shutdown")
+
+
+def encode_request(command, **arguments):
+    """The request line for `command` with its arguments."""
+    return (json.dumps({"command": command, **arguments}) + "\n").encode("utf-8")
+
+
+def execute(request, controller, request_stop=None):
+    """Carry out one decoded request on `controller`; returns the reply dict (errors reported, never raised)."""
+    if not isinstance(request, dict) or request.get("command") not in COMMANDS:
+        command = request.get("command") if isinstance(request, dict) else request
+        return {"ok": False, "error": f"unknown command {command!r}; expected one of {', '.join(COMMANDS)}"}
+    command = request["command"]
+    try:
+        message = _run(command, request, controller, request_stop)
+    except (ValueError, CommandRefused, TypeError, KeyError) as error:
+        return {"ok": False, "error": f"{command}: {error}"}
+    log.info("control channel: %s -> %s", command, message)
+    return {"ok": True, "message": message}
+
+
+def _run(command, request, controller, request_stop):
+    faults = controller.faults
+    if command == "protective-stop":
+        controller.protective_stop(request.get("reason", "injected fault"))
+        return "protective stop"
+    if command == "emergency-stop":
+        controller.emergency_stop()
+        return "emergency stop pressed"
+    if command == "release-emergency-stop":
+        controller.release_emergency_stop()
+        return "emergency stop released"
+    if command == "drop-connections":
+        return f"connections dropped (generation {faults.drop_connections()})"
+    if command == "freeze":
+        faults.freeze_streams(request["seconds"])
+        return f"streams frozen for {float(request['seconds'])} s"
+    if command == "latency":
+        faults.add_latency(request["seconds"])
+        return f"latency {float(request['seconds'])} s"
+    if command == "reset":
+        faults.reset()
+        return "transport faults cleared"
+    if command == "freedrive":
+        controller.set_freedrive(bool(request.get("on", True)))
+        return f"freedrive {'on' if request.get('on', True) else 'off'}"
+    if command == "move-by-hand":
+        controller.move_joints_by_hand(request["q"])
+        return "joints moved by hand"
+    if command == "status":
+        return status_line(controller.state(), faults)
+    if request_stop is None:
+        raise CommandRefused("this channel cannot shut the simulator down")
+    request_stop()
+    return "shutting down"
+
+
+def status_line(state, faults):
+    """One human-readable line: modes, joints and transport faults."""
+    joints = " ".join(f"{value:+.4f}" for value in state.actual_q)
+    return (f"robot {RobotMode.NAMES[state.robot_mode]}, safety {SafetyMode.NAMES[state.safety_mode]}, "
+            f"program {'running' if state.program_running else 'stopped'}, q [{joints}], {faults.describe()}")
+
+
+def send_request(host, command, port=CONTROL_PORT, timeout=5.0, **arguments):
+    """Client side: send one request to a simulator's control channel and return its reply dict."""
+    with socket.create_connection((host, port), timeout=timeout) as connection:
+        connection.sendall(encode_request(command, **arguments))
+        reader = connection.makefile("rb")
+        line = reader.readline()
+    if not line:
+        raise ConnectionError(f"the control channel on {host}:{port} closed without replying")
+    return json.loads(line)
+
+
+class ControlChannelServer:
+    """Serves the control channel for one Simulator (its controller and its stop request)."""
+
+    def __init__(self, simulator, host, port=CONTROL_PORT):
+        self.simulator = simulator
+        self.host = host
+        self.port = port
+        self._listener = None
+        self._thread = None
+        self._stopping = threading.Event()
+        self._clients = set()
+        self._lock = threading.Lock()
+
+    def start(self):
+        """Bind and start accepting."""
+        listener = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        listener.bind((self.host, self.port))
+        listener.listen(8)
+        listener.settimeout(0.1)
+        self.port = listener.getsockname()[1]
+        self._listener = listener
+        self._stopping.clear()
+        self._thread = threading.Thread(target=self._accept_loop, name=f"control-{self.port}", daemon=True)
+        self._thread.start()
+
+    def stop(self):
+        """Stop accepting and close every client."""
+        self._stopping.set()
+        if self._thread is not None:
+            self._thread.join(timeout=2.0)
+            self._thread = None
+        if self._listener is not None:
+            self._listener.close()
+            self._listener = None
+        self.drop_connections()
+
+    def drop_connections(self):
+        """Close every control client (the control channel itself ignores fault generations)."""
+        with self._lock:
+            clients = list(self._clients)
+        for client in clients:
+            try:
+                client.shutdown(socket.SHUT_RDWR)
+            except OSError:
+                pass
+
+    def _accept_loop(self):
+        while not self._stopping.is_set():
+            try:
+                connection, _ = self._listener.accept()
+            except socket.timeout:
+                continue
+            except OSError:
+                break
+            with self._lock:
+                self._clients.add(connection)
+            threading.Thread(target=self._serve, args=(connection,), name="control-client", daemon=True).start()
+
+    def _serve(self, connection):
+        try:
+            connection.settimeout(None)
+            reader = connection.makefile("rb")
+            for line in reader:
+                try:
+                    request = json.loads(line)
+                except ValueError:
+                    reply = {"ok": False, "error": "request is not one line of JSON"}
+                else:
+                    reply = execute(request, self.simulator.controller, self.simulator.request_stop)
+                connection.sendall((json.dumps(reply) + "\n").encode("utf-8"))
+        except OSError:
+            pass
+        finally:
+            with self._lock:
+                self._clients.discard(connection)
+            connection.close()

@@ -1,0 +1,1 @@
+"""Dashboard server (port 29999): protocol (lines in, replies out) apart from the socket server."""

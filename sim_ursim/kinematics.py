@@ -1,0 +1,172 @@
+"""The simulator's own kinematics: plain standard-DH homogeneous matrices and a damped-Newton IK (numpy only).
+
+Convention throughout: 4x4 homogeneous matrices map child to parent frame; a UR pose vector is
+[x, y, z, rx, ry, rz] in metres with a rotation vector (axis * angle, radians); the TCP is flange · tcp_offset.
+"""
+import math
+
+import numpy as np
+
+
+class IKError(ValueError):
+    """The numeric IK found no joint vector reaching the pose (unreachable, or singular from the given start)."""
+
+
+def dh_matrix(a, d, alpha, theta):
+    """Standard DH transform of one row: Rz(theta) · Tz(d) · Tx(a) · Rx(alpha)."""
+    ct, st = math.cos(theta), math.sin(theta)
+    ca, sa = math.cos(alpha), math.sin(alpha)
+    return np.array([
+        [ct, -st * ca, st * sa, a * ct],
+        [st, ct * ca, -ct * sa, a * st],
+        [0.0, sa, ca, d],
+        [0.0, 0.0, 0.0, 1.0],
+    ])
+
+
+def joint_frames(dh, q):
+    """The 7 frames base→frame i (i = 0..6) of a standard-DH chain (a, d, alpha, theta offsets) at joints q."""
+    a, d, alpha, theta = dh
+    frames = [np.eye(4)]
+    for i in range(6):
+        frames.append(frames[-1] @ dh_matrix(a[i], d[i], alpha[i], theta[i] + q[i]))
+    return frames
+
+
+def flange_matrix(dh, q):
+    """Base→flange (DH frame 6) transform at joints q."""
+    return joint_frames(dh, q)[-1]
+
+
+def rotation_vector_to_matrix(rotvec):
+    """Rodrigues: rotation matrix of a rotation vector (axis * angle, radians)."""
+    rotvec = np.asarray(rotvec, dtype=float)
+    angle = float(np.linalg.norm(rotvec))
+    if angle < 1e-12:
+        return np.eye(3)
+    kx, ky, kz = rotvec / angle
+    k = np.array([[0.0, -kz, ky], [kz, 0.0, -kx], [-ky, kx, 0.0]])
+    return np.eye(3) + math.sin(angle) * k + (1 - math.cos(angle)) * (k @ k)
+
+
+def matrix_to_rotation_vector(rotation):
+    """Rotation vector (angle in [0, π]) of a rotation matrix, robust near 0 and π (via the unit quaternion)."""
+    r = np.asarray(rotation, dtype=float)
+    trace = r[0, 0] + r[1, 1] + r[2, 2]
+    # Shepperd's method: pick the largest of w, x, y, z to divide by, so no precision is lost near π.
+    candidates = (trace, r[0, 0], r[1, 1], r[2, 2])
+    k = int(np.argmax(candidates))
+    if k == 0:
+        w = math.sqrt(max(1.0 + trace, 0.0)) / 2
+        x, y, z = (r[2, 1] - r[1, 2]) / (4 * w), (r[0, 2] - r[2, 0]) / (4 * w), (r[1, 0] - r[0, 1]) / (4 * w)
+    elif k == 1:
+        x = math.sqrt(max(1.0 + r[0, 0] - r[1, 1] - r[2, 2], 0.0)) / 2
+        w, y, z = (r[2, 1] - r[1, 2]) / (4 * x), (r[0, 1] + r[1, 0]) / (4 * x), (r[0, 2] + r[2, 0]) / (4 * x)
+    elif k == 2:
+        y = math.sqrt(max(1.0 - r[0, 0] + r[1, 1] - r[2, 2], 0.0)) / 2
+        w, x, z = (r[0, 2] - r[2, 0]) / (4 * y), (r[0, 1] + r[1, 0]) / (4 * y), (r[1, 2] + r[2, 1]) / (4 * y)
+    else:
+        z = math.sqrt(max(1.0 - r[0, 0] - r[1, 1] + r[2, 2], 0.0)) / 2
+        w, x, y = (r[1, 0] - r[0, 1]) / (4 * z), (r[0, 2] + r[2, 0]) / (4 * z), (r[1, 2] + r[2, 1]) / (4 * z)
+    if w < 0:
+        w, x, y, z = -w, -x, -y, -z
+    vector_norm = math.sqrt(x * x + y * y + z * z)
+    if vector_norm < 1e-15:
+        return np.zeros(3)
+    angle = 2 * math.atan2(vector_norm, w)
+    return np.array([x, y, z]) * (angle / vector_norm)
+
+
+def pose_to_matrix(pose):
+    """4x4 transform of a UR pose vector [x, y, z, rx, ry, rz]; ValueError unless 6 finite numbers."""
+    pose = checked_vector(pose, 6, "pose")
+    matrix = np.eye(4)
+    matrix[:3, :3] = rotation_vector_to_matrix(pose[3:])
+    matrix[:3, 3] = pose[:3]
+    return matrix
+
+
+def matrix_to_pose(matrix):
+    """UR pose vector [x, y, z, rx, ry, rz] of a 4x4 transform."""
+    return np.concatenate([matrix[:3, 3], matrix_to_rotation_vector(matrix[:3, :3])])
+
+
+def tcp_matrix(dh, q, tcp_offset):
+    """Base→TCP transform: flange(q) · tcp_offset (a UR pose vector in the flange frame)."""
+    return flange_matrix(dh, q) @ pose_to_matrix(tcp_offset)
+
+
+def tcp_pose(dh, q, tcp_offset):
+    """Forward kinematics: the UR pose vector of the TCP in the base frame at joints q."""
+    return matrix_to_pose(tcp_matrix(dh, q, tcp_offset))
+
+
+def checked_vector(values, length, name):
+    """`values` as a float array of `length` finite numbers; ValueError naming `name` otherwise."""
+    try:
+        array = np.array(values, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be {length} numbers, got {values!r}") from None
+    if array.shape != (length,):
+        raise ValueError(f"{name} must be {length} numbers, got {array.size}")
+    if not np.all(np.isfinite(array)):
+        raise ValueError(f"{name} must be finite, got {array.tolist()}")
+    return array
+
+
+def geometric_jacobian(dh, q, tcp_offset):
+    """6x6 Jacobian mapping joint speeds to the TCP twist [v; ω] in the base frame (revolute joints about z_{i-1})."""
+    frames = joint_frames(dh, q)
+    tcp = frames[-1] @ pose_to_matrix(tcp_offset)
+    p_end = tcp[:3, 3]
+    jacobian = np.empty((6, 6))
+    for i in range(6):
+        z_axis, origin = frames[i][:3, 2], frames[i][:3, 3]
+        jacobian[:3, i] = np.cross(z_axis, p_end - origin)
+        jacobian[3:, i] = z_axis
+    return jacobian
+
+
+def pose_error(target, current):
+    """6-vector from `current` to `target` transforms: [Δposition; rotation vector of R_target · R_currentᵀ] (base frame)."""
+    position_error = target[:3, 3] - current[:3, 3]
+    rotation_error = matrix_to_rotation_vector(target[:3, :3] @ current[:3, :3].T)
+    return np.concatenate([position_error, rotation_error])
+
+
+def inverse_kinematics(dh, pose, q_near, tcp_offset, tolerance=1e-10, max_iterations=100, damping=1e-3):
+    """Joints reaching TCP `pose` by damped Newton steps from `q_near` (so the nearest branch); IKError if none."""
+    target = pose_to_matrix(pose)
+    q = checked_vector(q_near, 6, "q_near").copy()
+    for _ in range(max_iterations):
+        error = pose_error(target, tcp_matrix(dh, q, tcp_offset))
+        if float(np.linalg.norm(error)) < tolerance:
+            return q
+        jacobian = geometric_jacobian(dh, q, tcp_offset)
+        # Damped least squares: well-behaved near singularities, plain Newton far from them.
+        step = jacobian.T @ np.linalg.solve(jacobian @ jacobian.T + damping**2 * np.eye(6), error)
+        # Cap the step so a far target is approached along the branch instead of jumping to another one.
+        largest = float(np.max(np.abs(step)))
+        if largest > 0.5:
+            step *= 0.5 / largest
+        q = q + step
+    residual = float(np.linalg.norm(pose_error(target, tcp_matrix(dh, q, tcp_offset))))
+    if residual < 1e-7:
+        return q
+    raise IKError(f"no joint solution reaches pose {np.round(pose, 6).tolist()} from the current joints "
+                  f"(residual {residual:.2e}: out of reach or singular)")
+
+
+def interpolate_pose(start, end, fraction):
+    """Pose `fraction` (0..1) of the way along the straight line start→end, orientation by constant angular rate."""
+    relative = start[:3, :3].T @ end[:3, :3]
+    step = rotation_vector_to_matrix(matrix_to_rotation_vector(relative) * fraction)
+    result = np.eye(4)
+    result[:3, :3] = start[:3, :3] @ step
+    result[:3, 3] = start[:3, 3] + (end[:3, 3] - start[:3, 3]) * fraction
+    return result
+
+
+def rotation_angle_between(start, end):
+    """Angle (rad, 0..π) of the rotation taking `start`'s orientation to `end`'s."""
+    return float(np.linalg.norm(matrix_to_rotation_vector(start[:3, :3].T @ end[:3, :3])))

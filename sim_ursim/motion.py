@@ -1,0 +1,275 @@
+"""Trajectory maths of the simulator's motion engine: trapezoidal profiles and the segments the controller executes.
+
+Every segment answers `advance(dt, q, qd) -> q_next` once per control cycle; `dt` is already scaled by the speed
+slider where the segment is a planned trajectory. Segments know nothing about threads, safety or clients.
+"""
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import kinematics
+
+
+@dataclass(frozen=True)
+class Trapezoid:
+    """Trapezoidal (or triangular) speed profile over `distance` ≥ 0: accelerate, cruise at `peak`, decelerate."""
+
+    distance: float
+    peak: float
+    acceleration: float
+    accel_time: float
+    duration: float
+
+    def position(self, t):
+        """Distance travelled at time t (clamped to [0, duration])."""
+        t = min(max(t, 0.0), self.duration)
+        if self.duration == 0.0:
+            return self.distance
+        if t < self.accel_time:
+            return 0.5 * self.acceleration * t * t
+        cruise_end = self.duration - self.accel_time
+        if t <= cruise_end:
+            return 0.5 * self.acceleration * self.accel_time**2 + self.peak * (t - self.accel_time)
+        remaining = self.duration - t
+        return self.distance - 0.5 * self.acceleration * remaining * remaining
+
+    def speed(self, t):
+        """Speed along the profile at time t (0 outside [0, duration])."""
+        if t <= 0.0 or t >= self.duration:
+            return 0.0
+        if t < self.accel_time:
+            return self.acceleration * t
+        if t > self.duration - self.accel_time:
+            return self.acceleration * (self.duration - t)
+        return self.peak
+
+
+def trapezoid(distance, speed, acceleration):
+    """Fastest profile covering `distance` with at most `speed` and `acceleration` (triangular when too short)."""
+    if distance < 0 or speed <= 0 or acceleration <= 0:
+        raise ValueError(f"trapezoid needs distance ≥ 0, speed > 0, acceleration > 0; got {distance}, {speed}, "
+                         f"{acceleration}")
+    if distance == 0.0:
+        return Trapezoid(0.0, 0.0, acceleration, 0.0, 0.0)
+    if distance >= speed * speed / acceleration:
+        accel_time = speed / acceleration
+        return Trapezoid(distance, speed, acceleration, accel_time, distance / speed + accel_time)
+    accel_time = math.sqrt(distance / acceleration)
+    return Trapezoid(distance, acceleration * accel_time, acceleration, accel_time, 2 * accel_time)
+
+
+def timed_trapezoid(distance, duration, acceleration):
+    """Profile covering `distance` in exactly `duration`: uses `acceleration` when it allows, else a triangle."""
+    if duration <= 0:
+        raise ValueError(f"motion time t must be > 0, got {duration}")
+    if distance == 0.0:
+        return Trapezoid(0.0, 0.0, acceleration, 0.0, duration)
+    discriminant = acceleration * acceleration * duration * duration - 4 * acceleration * distance
+    if acceleration > 0 and discriminant >= 0:
+        # D = v (T - v/a) solved for the slower root v: the profile accelerates with `a` then cruises.
+        peak = (acceleration * duration - math.sqrt(discriminant)) / 2
+        return Trapezoid(distance, peak, acceleration, peak / acceleration, duration)
+    # `a` too small to make it in time: the triangle with the acceleration that exactly fits.
+    needed = 4 * distance / (duration * duration)
+    return Trapezoid(distance, needed * duration / 2, needed, duration / 2, duration)
+
+
+def synchronised_joint_profile(delta_q, speed, acceleration, duration, max_speeds, max_accelerations):
+    """Leading-axis profile for movej: the longest travel leads with a, v (or time t); slower joints are scaled to it.
+
+    `speed` is lowered (and `acceleration` capped) so that no joint exceeds its own limit after scaling.
+    """
+    travel = np.abs(np.asarray(delta_q, dtype=float))
+    leading = float(travel.max()) if travel.size else 0.0
+    if leading == 0.0:
+        return Trapezoid(0.0, 0.0, max(acceleration, 1e-9), 0.0, max(duration, 0.0))
+    ratios = travel / leading
+    moving = ratios > 0
+    speed_cap = float(np.min(np.asarray(max_speeds)[moving] / ratios[moving]))
+    accel_cap = float(np.min(np.asarray(max_accelerations)[moving] / ratios[moving]))
+    acceleration = min(acceleration, accel_cap)
+    if duration > 0:
+        profile = timed_trapezoid(leading, duration, acceleration)
+        if profile.peak <= speed_cap * (1 + 1e-9):
+            return profile
+        # The requested time would exceed a joint's speed limit: stretch it, as the controller's limiter does.
+    return trapezoid(leading, min(speed, speed_cap), acceleration)
+
+
+class JointMove:
+    """movej segment: every joint on the same normalised trapezoid from q_start to q_end."""
+
+    kind = "movej"
+
+    def __init__(self, q_start, q_end, profile):
+        self.q_start = np.array(q_start, dtype=float)
+        self.q_end = np.array(q_end, dtype=float)
+        self.profile = profile
+        self.elapsed = 0.0
+
+    @property
+    def finished(self):
+        return self.elapsed >= self.profile.duration
+
+    def sample(self):
+        """Joints at the current trajectory time."""
+        if self.profile.distance == 0.0:
+            return self.q_end.copy() if self.finished else self.q_start.copy()
+        fraction = self.profile.position(self.elapsed) / self.profile.distance
+        return self.q_start + (self.q_end - self.q_start) * fraction
+
+    def advance(self, dt, q=None):
+        """Move trajectory time on by dt (already speed-slider scaled); return the joints there (`q` unused)."""
+        self.elapsed = min(self.elapsed + dt, self.profile.duration)
+        return self.sample()
+
+
+class LinearMove:
+    """movel segment: TCP on a straight line (orientation at constant angular rate); joints by IK every cycle."""
+
+    kind = "movel"
+
+    def __init__(self, start_matrix, end_matrix, q_start, q_end, profile, solve_ik):
+        self.start_matrix = start_matrix
+        self.end_matrix = end_matrix
+        self.q_start = np.array(q_start, dtype=float)
+        self.q_end = np.array(q_end, dtype=float)
+        self.profile = profile
+        self.elapsed = 0.0
+        self._solve_ik = solve_ik
+        self._last_q = self.q_start.copy()
+
+    @property
+    def finished(self):
+        return self.elapsed >= self.profile.duration
+
+    def sample(self):
+        """Joints placing the TCP at the current point of the line (IK seeded with the previous cycle's joints)."""
+        # At the end too, IK from the previous cycle keeps the joints continuous (q_end is only the planned guess).
+        fraction = self.profile.position(self.elapsed) / self.profile.distance if self.profile.distance else 1.0
+        target = kinematics.interpolate_pose(self.start_matrix, self.end_matrix, fraction)
+        self._last_q = self._solve_ik(kinematics.matrix_to_pose(target), self._last_q)
+        return self._last_q.copy()
+
+    def advance(self, dt, q=None):
+        """Move trajectory time on by dt (already speed-slider scaled); return the joints there (`q` unused)."""
+        self.elapsed = min(self.elapsed + dt, self.profile.duration)
+        return self.sample()
+
+
+def linear_distance(start_matrix, end_matrix):
+    """Leading 'distance' of a movel: the larger of the path length (m) and the rotation angle (rad, read as m)."""
+    length = float(np.linalg.norm(end_matrix[:3, 3] - start_matrix[:3, 3]))
+    return max(length, kinematics.rotation_angle_between(start_matrix, end_matrix))
+
+
+def ramp_towards(current, target, max_change):
+    """Vector `current` moved towards `target` by at most `max_change` (largest component), direction kept."""
+    difference = np.asarray(target, dtype=float) - current
+    largest = float(np.max(np.abs(difference))) if difference.size else 0.0
+    if largest <= max_change or largest == 0.0:
+        return np.array(target, dtype=float)
+    return current + difference * (max_change / largest)
+
+
+class JointSpeed:
+    """speedj segment: joint speeds ramp to `qd_target` at `acceleration`; after `duration` (if > 0) ramp to zero."""
+
+    kind = "speedj"
+
+    def __init__(self, qd_start, qd_target, acceleration, duration):
+        self.qd = np.array(qd_start, dtype=float)
+        self.qd_target = np.array(qd_target, dtype=float)
+        self.acceleration = acceleration
+        self.duration = duration
+        self.elapsed = 0.0
+
+    @property
+    def finished(self):
+        return self.duration > 0 and self.elapsed >= self.duration and not np.any(self.qd)
+
+    def advance(self, dt, q):
+        """Joints after dt at the ramped speed."""
+        self.elapsed += dt
+        goal = self.qd_target if (self.duration <= 0 or self.elapsed < self.duration) else np.zeros(6)
+        self.qd = ramp_towards(self.qd, goal, self.acceleration * dt)
+        return q + self.qd * dt
+
+
+class CartesianSpeed:
+    """speedl segment: TCP twist [v; ω] (base frame) ramps to `xd_target`; joints follow by IK each cycle."""
+
+    kind = "speedl"
+
+    def __init__(self, xd_start, xd_target, acceleration, duration, tcp_matrix_of, solve_ik):
+        self.xd = np.array(xd_start, dtype=float)
+        self.xd_target = np.array(xd_target, dtype=float)
+        self.acceleration = acceleration
+        self.duration = duration
+        self.elapsed = 0.0
+        self._tcp_matrix_of = tcp_matrix_of
+        self._solve_ik = solve_ik
+
+    @property
+    def finished(self):
+        return self.duration > 0 and self.elapsed >= self.duration and not np.any(self.xd)
+
+    def advance(self, dt, q):
+        """Joints after moving the TCP by the ramped twist for dt."""
+        self.elapsed += dt
+        goal = self.xd_target if (self.duration <= 0 or self.elapsed < self.duration) else np.zeros(6)
+        self.xd = ramp_towards(self.xd, goal, self.acceleration * dt)
+        current = self._tcp_matrix_of(q)
+        target = np.eye(4)
+        target[:3, 3] = current[:3, 3] + self.xd[:3] * dt
+        target[:3, :3] = kinematics.rotation_vector_to_matrix(self.xd[3:] * dt) @ current[:3, :3]
+        return self._solve_ik(kinematics.matrix_to_pose(target), q)
+
+
+class ServoTarget:
+    """servoj segment: reach `q_target` linearly within `duration` from the command, speed clipped to `max_speeds`.
+
+    lookahead_time and gain are accepted by the controller but their smoothing is not modelled (documented).
+    """
+
+    kind = "servoj"
+
+    def __init__(self, q_target, duration, max_speeds):
+        self.q_target = np.array(q_target, dtype=float)
+        self.duration = duration
+        self.max_speeds = np.asarray(max_speeds, dtype=float)
+        self.elapsed = 0.0
+
+    @property
+    def finished(self):
+        return False  # holds its target until the next command replaces it or a stop ends it
+
+    def advance(self, dt, q):
+        """Joints after dt of linear travel towards the target."""
+        remaining = max(self.duration - self.elapsed, dt)
+        self.elapsed += dt
+        speed = (self.q_target - q) / remaining
+        speed = np.clip(speed, -self.max_speeds, self.max_speeds)
+        step = speed * dt
+        overshoot = np.abs(step) >= np.abs(self.q_target - q)
+        return np.where(overshoot, self.q_target, q + step)
+
+
+class Stop:
+    """stopj / stopl / protective stop: every joint's speed falls linearly to zero together (path kept)."""
+
+    kind = "stop"
+
+    def __init__(self, qd_start, deceleration):
+        self.qd = np.array(qd_start, dtype=float)
+        self.deceleration = deceleration
+
+    @property
+    def finished(self):
+        return not np.any(self.qd)
+
+    def advance(self, dt, q):
+        """Joints after dt of deceleration."""
+        self.qd = ramp_towards(self.qd, np.zeros(6), self.deceleration * dt)
+        return q + self.qd * dt

@@ -1,0 +1,109 @@
+"""Cutting the URScript byte stream of ports 30001–30003 into programs (pure; no sockets).
+
+A controller runs what a client sends as soon as it is complete (protocols.md §3.6):
+- a `def name():` / `sec name():` … `end` block — complete when its `end` closes it (nested `if`, `while`,
+  `thread`, `def`, `for` blocks counted; `elif`/`else` neither open nor close);
+- otherwise one or more top-level statement lines; an expression with unclosed brackets continues on the next line.
+Top-level statement lines that arrive in the same chunk form one program, so a client writing
+"set_standard_digital_out(0, True)\\nset_standard_digital_out(1, True)\\n" gets both outputs set, instead of the second
+line aborting the first (how the real controller splits such writes is not documented).
+"""
+import re
+
+# A block header: keyword at the start of the line (ur_rtde's `$5.4`-style version tags already removed by the
+# client), ending with ':' before any comment.
+_BLOCK_OPENER = re.compile(r"^\s*(def|sec|thread|if|while|for)\b[^#]*:\s*(#.*)?$")
+_BLOCK_END = re.compile(r"^\s*end\s*(#.*)?$")
+_PROGRAM_START = re.compile(r"^\s*(def|sec)\b")
+_STRING = re.compile(r'"[^"]*"|\'[^\']*\'')
+_COMMENT = re.compile(r"#.*$")
+
+MAX_PENDING_BYTES = 4 * 1024 * 1024  # a client streaming garbage must not grow the buffer without bound
+
+
+def _code_of(line):
+    """The line without string literals and comment, for bracket counting and block detection."""
+    return _COMMENT.sub("", _STRING.sub('""', line))
+
+
+def _bracket_balance(line):
+    """Open minus closed ( and [ brackets on a line (strings and comments ignored)."""
+    code = _code_of(line)
+    return code.count("(") + code.count("[") - code.count(")") - code.count("]")
+
+
+def is_block_opener(line):
+    """True for a line that opens a block closed by `end` (def, sec, thread, if, while, for … :)."""
+    return bool(_BLOCK_OPENER.match(_code_of(line)))
+
+
+def is_block_end(line):
+    """True for a line holding only `end` (and maybe a comment)."""
+    return bool(_BLOCK_END.match(line))
+
+
+class ScriptAssembler:
+    """Accumulates received bytes; `feed` returns the programs completed by this chunk, in arrival order."""
+
+    def __init__(self):
+        self._partial_line = ""
+        self._block_lines = []
+        self._block_bytes = 0
+        self._depth = 0
+        self._statement_lines = []
+        self._bracket_depth = 0
+
+    @property
+    def pending(self):
+        """True while an incomplete program or line is buffered."""
+        return bool(self._partial_line or self._block_lines or self._statement_lines)
+
+    def feed(self, data):
+        """Add received bytes (ASCII/UTF-8; undecodable bytes replaced) and return the completed program texts."""
+        text = self._partial_line + data.decode("utf-8", errors="replace").replace("\r\n", "\n")
+        *lines, self._partial_line = text.split("\n")
+        if len(self._partial_line) > MAX_PENDING_BYTES:
+            self._partial_line = ""
+        programs = []
+        for line in lines:
+            programs.extend(self._take_line(line))
+        # Statement lines complete at the end of a chunk (unless an expression is still open).
+        if self._bracket_depth <= 0:
+            programs.extend(self._take_statements())
+        return programs
+
+    def _take_statements(self):
+        """The held statement lines as one program (a list of zero or one program texts)."""
+        if not self._statement_lines:
+            return []
+        program = "\n".join(self._statement_lines) + "\n"
+        self._statement_lines, self._bracket_depth = [], 0
+        return [program]
+
+    def _take_line(self, line):
+        """Process one complete line; returns the programs it completes (statements held before a block, the block)."""
+        if self._depth > 0:
+            self._block_lines.append(line)
+            self._block_bytes += len(line) + 1
+            if is_block_end(line):
+                self._depth -= 1
+            elif is_block_opener(line):
+                self._depth += 1
+            if self._depth == 0:
+                program = "\n".join(self._block_lines) + "\n"
+                self._block_lines = []
+                return [program]
+            if self._block_bytes > MAX_PENDING_BYTES:
+                self._block_lines, self._depth = [], 0
+            return []
+        if self._bracket_depth <= 0 and _PROGRAM_START.match(line) and is_block_opener(line):
+            held = self._take_statements()
+            self._block_lines = [line]
+            self._block_bytes = len(line) + 1
+            self._depth = 1
+            return held
+        if not self._statement_lines and not _code_of(line).strip():
+            return []  # blank lines and comments between programs
+        self._statement_lines.append(line)
+        self._bracket_depth += _bracket_balance(line)
+        return []

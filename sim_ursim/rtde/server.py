@@ -1,0 +1,433 @@
+"""RTDE server (port 30004): sockets, one session per client, and one streamer paced by the control cycle.
+
+Transport only; the bytes come from `protocol`, names and values from `variables` and `inputs`.
+Threads: an acceptor, a reader per connection (setup requests and input packages), and ONE streamer that waits
+for each control cycle, packs every distinct output recipe once and queues it on every started session. Sends are
+non-blocking into a bounded per-session buffer, so a client that stops reading never stalls the others; like the
+real controller, the server closes a client whose backlog overflows.
+"""
+import logging
+import socket
+import threading
+import time
+from collections import deque
+
+from . import inputs, protocol, variables
+from .protocol import PackageType
+
+log = logging.getLogger("sim_ursim.rtde")
+
+DEFAULT_PORT = 30004
+# A stalled client is dropped once this much output waits for it beyond the kernel's send buffer, itself fixed
+# (no autotuning to megabytes) so that a client which stopped reading is noticed within seconds, not minutes.
+DEFAULT_BACKLOG_LIMIT = 1024 * 1024
+DEFAULT_SEND_BUFFER = 512 * 1024
+OUTPUT_RECIPE_ID = 1  # the controller supports one output recipe per connection; URCL's fake server also answers 1
+_WAIT_TIMEOUT = 0.5
+
+
+class OutputRecipe:
+    """A validated output recipe: names, precompiled struct, readers, decimation and the id sent in U packages."""
+
+    def __init__(self, names, types, recipe_id, decimation, protocol_version):
+        self.names = tuple(names)
+        self.types = tuple(types)
+        self.struct = protocol.recipe_struct(types)
+        self.readers = variables.output_readers(names)
+        self.decimation = decimation
+        # Protocol 1 data packages carry no recipe id (URCL data_package.cpp parses it only for protocol 2).
+        self.wire_recipe_id = recipe_id if protocol_version >= 2 else None
+        self.header = protocol.data_package_header(self.wire_recipe_id, self.struct.size)
+        self.cache_key = (self.names, self.wire_recipe_id)
+
+    def pack(self, state):
+        """The U package of this recipe for one controller state."""
+        return self.header + self.struct.pack(*variables.read_flat_values(self.readers, state))
+
+
+class InputRecipe:
+    """A validated input recipe: names, types and the struct of its data packages."""
+
+    def __init__(self, recipe_id, names, types):
+        self.recipe_id = recipe_id
+        self.names = tuple(names)
+        self.types = tuple(types)
+        self.struct = protocol.recipe_struct(types)
+
+
+class Session:
+    """One client connection: its negotiated protocol, recipes, input values and outgoing byte backlog."""
+
+    def __init__(self, sock, peer, number, generation, backlog_limit):
+        self.sock = sock
+        self.peer = peer
+        self.number = number
+        self.generation = generation
+        self.backlog_limit = backlog_limit
+        self.protocol_version = 1
+        self.output_recipe = None
+        self.output_recipe_requested = False
+        self.input_recipes = {}
+        self.next_input_recipe_id = 1
+        self.input_values = {}
+        self.streaming = False
+        self.next_cycle = 0
+        self.closed = False
+        self.close_reason = None
+        self._lock = threading.Lock()
+        self._pending = bytearray()
+        self._delayed = deque()  # (due monotonic time, package) while latency is injected
+
+    def __repr__(self):
+        return f"RTDE client #{self.number} {self.peer[0]}:{self.peer[1]}"
+
+    def send(self, data, due=None):
+        """Queue bytes (after `due` when latency is injected) and push what the socket takes without blocking."""
+        with self._lock:
+            if self.closed:
+                return
+            if due is None and not self._delayed:
+                self._pending += data
+            else:
+                self._delayed.append((due or 0.0, data))
+            self._flush_locked()
+
+    def flush(self):
+        """Move due delayed packages to the backlog and push the backlog without blocking."""
+        with self._lock:
+            if not self.closed and (self._pending or self._delayed):
+                self._flush_locked()
+
+    def _flush_locked(self):
+        now = time.monotonic()
+        while self._delayed and self._delayed[0][0] <= now:
+            self._pending += self._delayed.popleft()[1]
+        while self._pending:
+            try:
+                sent = self.sock.send(self._pending, socket.MSG_DONTWAIT)
+            except (BlockingIOError, InterruptedError):
+                break
+            except OSError as error:
+                self._close_locked(f"send failed: {error}")
+                return
+            del self._pending[:sent]
+        if len(self._pending) > self.backlog_limit:
+            self._close_locked(f"client does not read its data ({len(self._pending)} bytes waiting)")
+
+    def close(self, reason):
+        """Close the connection once (the reader thread wakes up with EOF and exits)."""
+        with self._lock:
+            self._close_locked(reason)
+
+    def _close_locked(self, reason):
+        if self.closed:
+            return
+        self.closed = True
+        self.streaming = False
+        self.close_reason = reason
+        self._pending.clear()
+        self._delayed.clear()
+        try:
+            self.sock.shutdown(socket.SHUT_RDWR)
+        except OSError:
+            pass
+        self.sock.close()
+
+
+class RTDEServer:
+    """RTDE interface of one simulated controller, listening on (host, port)."""
+
+    def __init__(self, controller, host="127.0.0.1", port=DEFAULT_PORT, backlog_limit=DEFAULT_BACKLOG_LIMIT,
+                 send_buffer=DEFAULT_SEND_BUFFER):
+        self.controller = controller
+        self.host = host
+        self.port = port
+        self.backlog_limit = backlog_limit
+        self.send_buffer = send_buffer
+        self._version = tuple(controller.version)[:4]
+        self._control_rate = 1.0 / controller.period
+        self._listener = None
+        self._threads = []
+        self._running = threading.Event()
+        self._stopped = threading.Event()
+        self._sessions_lock = threading.Lock()
+        self._sessions = []
+        self._session_count = 0
+        self._input_owners = {}  # input name -> Session that controls it (only one client per variable)
+
+    # --- life cycle ---------------------------------------------------------------------------------------------
+
+    def start(self):
+        """Bind, listen, and start the acceptor and the streamer; `port` becomes the bound port (0 picks one)."""
+        listener = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        listener.bind((self.host, self.port))
+        listener.listen(16)
+        listener.settimeout(_WAIT_TIMEOUT)
+        self._listener = listener
+        self.port = listener.getsockname()[1]
+        self._stopped.clear()
+        self._running.set()
+        for target, name in ((self._accept_loop, "rtde-accept"), (self._stream_loop, "rtde-stream")):
+            thread = threading.Thread(target=target, name=f"{name}-{self.host}", daemon=True)
+            thread.start()
+            self._threads.append(thread)
+        log.info("RTDE server listening on %s:%d (version %s, control rate %.0f Hz)", self.host, self.port,
+                 ".".join(map(str, self._version)), self._control_rate)
+        return self
+
+    def stop(self):
+        """Stop accepting, close every connection and join all threads."""
+        self._running.clear()
+        self._stopped.set()
+        if self._listener is not None:
+            self._listener.close()
+        self.drop_connections("server stopping")
+        for thread in self._threads:
+            thread.join(timeout=5)
+        self._threads.clear()
+
+    def drop_connections(self, reason="connections dropped"):
+        """Close every client connection now."""
+        for session in self.sessions():
+            session.close(reason)
+
+    def sessions(self):
+        """The open sessions (a snapshot)."""
+        with self._sessions_lock:
+            return list(self._sessions)
+
+    def __enter__(self):
+        return self.start()
+
+    def __exit__(self, *exc):
+        self.stop()
+
+    # --- connections --------------------------------------------------------------------------------------------
+
+    def _accept_loop(self):
+        while self._running.is_set():
+            try:
+                sock, peer = self._listener.accept()
+            except socket.timeout:
+                continue
+            except OSError:
+                break
+            sock.settimeout(None)
+            sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, self.send_buffer)
+            with self._sessions_lock:
+                self._session_count += 1
+                session = Session(sock, peer, self._session_count, self.controller.faults.generation,
+                                  self.backlog_limit)
+                self._sessions.append(session)
+            log.info("%s connected", session)
+            reader = threading.Thread(target=self._read_loop, args=(session,), name=f"rtde-read-{session.number}",
+                                      daemon=True)
+            reader.start()
+
+    def _read_loop(self, session):
+        buffer = bytearray()
+        try:
+            while not session.closed:
+                try:
+                    chunk = session.sock.recv(65536)
+                except OSError:
+                    break
+                if not chunk:
+                    break
+                buffer += chunk
+                while True:
+                    package = protocol.split_package(buffer)
+                    if package is None:
+                        break
+                    package_type, payload, consumed = package
+                    del buffer[:consumed]
+                    self._handle(session, package_type, payload)
+        except protocol.ProtocolError as error:
+            log.warning("%s sent a malformed package: %s", session, error)
+        finally:
+            session.close(session.close_reason or "client closed the connection")
+            self._forget(session)
+            log.info("%s disconnected (%s)", session, session.close_reason)
+
+    def _forget(self, session):
+        with self._sessions_lock:
+            if session in self._sessions:
+                self._sessions.remove(session)
+            for name in [name for name, owner in self._input_owners.items() if owner is session]:
+                del self._input_owners[name]
+
+    def _reply(self, session, data):
+        latency = self.controller.faults.latency
+        session.send(data, due=time.monotonic() + latency if latency > 0 else None)
+
+    # --- requests -----------------------------------------------------------------------------------------------
+
+    def _handle(self, session, package_type, payload):
+        handler = self._handlers.get(package_type)
+        if handler is None:
+            log.warning("%s sent unknown package type %d (%d bytes); ignored", session, package_type, len(payload))
+            return
+        handler(self, session, payload)
+
+    def _on_protocol_version(self, session, payload):
+        requested = protocol.parse_protocol_version_request(payload)
+        accepted = requested in protocol.SUPPORTED_PROTOCOL_VERSIONS
+        if accepted:
+            session.protocol_version = requested
+        log.debug("%s asks protocol %d: %s", session, requested, "accepted" if accepted else "refused")
+        self._reply(session, protocol.pack_accepted_reply(PackageType.REQUEST_PROTOCOL_VERSION, accepted))
+
+    def _on_controller_version(self, session, payload):
+        self._reply(session, protocol.pack_controller_version_reply(*self._version))
+
+    def _on_setup_outputs(self, session, payload):
+        frequency, names = protocol.parse_setup_outputs_request(payload, session.protocol_version)
+        types = [variables.output_type(name, self._version) for name in names]
+        # Protocol 1 has no frequency field: it streams every control cycle.
+        rate = self._control_rate if frequency is None else frequency
+        valid = bool(names) and protocol.NOT_FOUND not in types and protocol.is_valid_frequency(rate)
+        recipe_id = OUTPUT_RECIPE_ID if valid else 0
+        session.output_recipe_requested = True
+        if valid:
+            decimation = protocol.output_decimation(rate, self._control_rate)
+            session.output_recipe = OutputRecipe(names, types, recipe_id, decimation, session.protocol_version)
+            log.info("%s output recipe: %d variables at %.1f Hz", session, len(names),
+                     self._control_rate / decimation)
+        else:
+            session.output_recipe = None
+            missing = [name for name, kind in zip(names, types) if kind == protocol.NOT_FOUND]
+            log.warning("%s output recipe refused (frequency %r, not found: %s)", session, frequency, missing)
+        self._reply(session, protocol.pack_setup_outputs_reply(recipe_id, types, session.protocol_version))
+
+    def _on_setup_inputs(self, session, payload):
+        names = protocol.parse_setup_inputs_request(payload)
+        with self._sessions_lock:
+            types = []
+            for name in names:
+                kind = variables.input_type(name, self._version)
+                owner = self._input_owners.get(name)
+                if kind != protocol.NOT_FOUND and owner is not None and owner is not session:
+                    kind = protocol.IN_USE
+                types.append(kind)
+            valid = bool(names) and protocol.NOT_FOUND not in types and protocol.IN_USE not in types
+            if valid:
+                for name in names:
+                    self._input_owners[name] = session
+        if valid:
+            recipe_id = session.next_input_recipe_id
+            session.next_input_recipe_id += 1
+            session.input_recipes[recipe_id] = InputRecipe(recipe_id, names, types)
+        else:
+            recipe_id = 0
+            log.warning("%s input recipe refused: %s", session,
+                        [f"{n}={t}" for n, t in zip(names, types) if t in (protocol.NOT_FOUND, protocol.IN_USE)])
+        self._reply(session, protocol.pack_setup_inputs_reply(recipe_id, types))
+
+    def _on_start(self, session, payload):
+        accepted = session.output_recipe is not None or not session.output_recipe_requested
+        if accepted:
+            # The reply is queued before streaming is switched on, so no data package can overtake it.
+            self._reply(session, protocol.pack_accepted_reply(PackageType.CONTROL_PACKAGE_START, True))
+            session.next_cycle = 0
+            session.streaming = session.output_recipe is not None
+            log.info("%s started", session)
+        else:
+            self._reply(session, protocol.pack_accepted_reply(PackageType.CONTROL_PACKAGE_START, False))
+            log.warning("%s start refused: its output recipe is invalid", session)
+
+    def _on_pause(self, session, payload):
+        session.streaming = False
+        self._reply(session, protocol.pack_accepted_reply(PackageType.CONTROL_PACKAGE_PAUSE, True))
+        log.info("%s paused", session)
+
+    def _on_data(self, session, payload):
+        recipe_id = protocol.data_package_recipe_id(payload)
+        recipe = session.input_recipes.get(recipe_id)
+        if recipe is None:
+            self._complain(session, f"data package for unknown input recipe {recipe_id}")
+            return
+        try:
+            _, flat = protocol.parse_data_package(payload, recipe.struct)
+        except protocol.ProtocolError as error:
+            self._complain(session, f"input recipe {recipe_id}: {error}")
+            return
+        received = dict(zip(recipe.names, protocol.group_values(recipe.types, flat)))
+        session.input_values.update(received)
+        try:
+            inputs.apply_inputs(self.controller, session.input_values, received.keys())
+        except ValueError as error:
+            self._complain(session, f"input recipe {recipe_id}: {error}")
+
+    def _on_text_message(self, session, payload):
+        try:
+            message, source, level = protocol.parse_text_message(payload)
+        except protocol.ProtocolError as error:
+            log.warning("%s sent a malformed text message: %s", session, error)
+            return
+        log.info("%s message from %r (level %d): %s", session, source, level, message)
+
+    def _complain(self, session, text):
+        """Log a client error; tell the client too, but only while streaming (never during setup, see §1.3)."""
+        log.warning("%s: %s", session, text)
+        if session.streaming:
+            self._reply(session, protocol.pack_text_message(text, "RTDE", protocol.MessageLevel.ERROR,
+                                                            session.protocol_version))
+
+    _handlers = {
+        PackageType.REQUEST_PROTOCOL_VERSION: _on_protocol_version,
+        PackageType.GET_URCONTROL_VERSION: _on_controller_version,
+        PackageType.CONTROL_PACKAGE_SETUP_OUTPUTS: _on_setup_outputs,
+        PackageType.CONTROL_PACKAGE_SETUP_INPUTS: _on_setup_inputs,
+        PackageType.CONTROL_PACKAGE_START: _on_start,
+        PackageType.CONTROL_PACKAGE_PAUSE: _on_pause,
+        PackageType.DATA_PACKAGE: _on_data,
+        PackageType.TEXT_MESSAGE: _on_text_message,
+    }
+
+    # --- streaming ----------------------------------------------------------------------------------------------
+
+    def _stream_loop(self):
+        controller = self.controller
+        faults = controller.faults
+        last_cycle = controller.state().cycle
+        while self._running.is_set():
+            state = controller.wait_cycle(last_cycle, _WAIT_TIMEOUT)
+            if state.cycle <= last_cycle:
+                if not controller.running:
+                    # wait_cycle returns at once while the control loop is stopped: do not spin meanwhile.
+                    self._stopped.wait(_WAIT_TIMEOUT)
+                continue
+            last_cycle = state.cycle
+            sessions = self.sessions()
+            generation = faults.generation
+            for session in sessions:
+                if session.generation < generation:
+                    session.close("connections dropped by fault injection")
+            if faults.streams_frozen:
+                continue
+            latency = faults.latency
+            due = time.monotonic() + latency if latency > 0 else None
+            packed = {}
+            for session in sessions:
+                recipe = session.output_recipe
+                if not session.streaming or recipe is None:
+                    session.flush()
+                    continue
+                if state.cycle < session.next_cycle:
+                    session.flush()
+                    continue
+                # Phase the next package from this cycle: after a stall the client gets the newest data, not a burst.
+                session.next_cycle = state.cycle + recipe.decimation
+                package = packed.get(recipe.cache_key)
+                if package is None:
+                    try:
+                        package = recipe.pack(state)
+                    except Exception:  # noqa: BLE001 - one bad recipe must not kill the stream of every client
+                        log.exception("%s: packing its output recipe failed; closing it", session)
+                        session.close("output recipe could not be packed")
+                        continue
+                    packed[recipe.cache_key] = package
+                session.send(package, due)
+

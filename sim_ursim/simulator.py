@@ -1,0 +1,91 @@
+"""One simulated robot on one loopback address: controller + URScript runner + every server + the fault channel."""
+import logging
+import threading
+
+from .control_channel import CONTROL_PORT, ControlChannelServer
+from .controller import Controller
+from .dashboard.server import DashboardServer
+from .primary.server import PrimaryServer, RealtimeServer, SecondaryServer
+from .rtde.server import RTDEServer
+from .urscript.runtime import ProgramRunner
+
+log = logging.getLogger("sim_ursim")
+
+DASHBOARD_PORT, PRIMARY_PORT, SECONDARY_PORT, REALTIME_PORT, RTDE_PORT = 29999, 30001, 30002, 30003, 30004
+STANDARD_PORTS = (DASHBOARD_PORT, PRIMARY_PORT, SECONDARY_PORT, REALTIME_PORT, RTDE_PORT, CONTROL_PORT)
+
+
+class Simulator:
+    """Controller and servers of one emulated robot bound on `host` (the robot's standard ports)."""
+
+    def __init__(self, model="ur3", version=None, host="127.0.0.1", initial_q=None, calibration=None,
+                 frequency=None, programs_directory=None, **controller_options):
+        self.host = host
+        self.controller = Controller(model=model, version=version, initial_q=initial_q, calibration=calibration,
+                                     frequency=frequency, **controller_options)
+        self.controller.programs_directory = programs_directory
+        self.runner = ProgramRunner(self.controller)
+        self.controller.attach_program_runner(self.runner)
+        self.servers = {
+            "dashboard": DashboardServer(self.controller, host, DASHBOARD_PORT, on_shutdown=self.request_stop),
+            "primary": PrimaryServer(self.controller, host, PRIMARY_PORT),
+            "secondary": SecondaryServer(self.controller, host, SECONDARY_PORT),
+            "realtime": RealtimeServer(self.controller, host, REALTIME_PORT),
+            "rtde": RTDEServer(self.controller, host, RTDE_PORT),
+            "control": ControlChannelServer(self, host, CONTROL_PORT),
+        }
+        self._stopped = threading.Event()
+        self._started = False
+
+    @property
+    def ports(self):
+        """{server name: port} of every server."""
+        return {name: server.port for name, server in self.servers.items()}
+
+    def start(self):
+        """Start the control loop, then every server (a server that fails to bind stops the ones already started)."""
+        self.controller.start()
+        self._started = True
+        started = []
+        try:
+            for name, server in self.servers.items():
+                server.start()
+                started.append(server)
+        except OSError:
+            for server in reversed(started):
+                server.stop()
+            self.controller.shutdown()
+            self._started = False
+            raise
+        log.info("sim_ursim %s (software %s) serving on %s: %s", self.controller.model.name, self.controller.version,
+                 self.host, ", ".join(f"{name} {port}" for name, port in self.ports.items()))
+        return self
+
+    def request_stop(self):
+        """Ask the simulator to stop (dashboard `shutdown`, control channel); `wait()` returns afterwards."""
+        log.info("shutdown requested")
+        self._stopped.set()
+
+    def wait(self, timeout=None):
+        """Block until a stop is requested (True) or `timeout` passes (False)."""
+        return self._stopped.wait(timeout)
+
+    def stop(self):
+        """Stop every server, the program and the control loop (idempotent)."""
+        if not self._started:
+            return
+        self._started = False
+        self._stopped.set()
+        for server in reversed(list(self.servers.values())):
+            try:
+                server.stop()
+            except Exception:  # noqa: BLE001 - one failing server must not keep the others running
+                log.exception("stopping a server failed")
+        self.controller.shutdown()
+        log.info("sim_ursim on %s stopped", self.host)
+
+    def __enter__(self):
+        return self.start()
+
+    def __exit__(self, *exc):
+        self.stop()

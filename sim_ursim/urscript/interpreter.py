@@ -1,0 +1,634 @@
+"""URScript evaluation: programs, scopes, functions, threads, run-time errors.
+
+`compile_program` turns a parsed script into a `Program` (definitions hoisted, names resolved as the controller
+does before running). `Execution` runs one program: a main thread plus script threads sharing the globals.
+
+Scoping (URScript rules): the program's top level is the global scope; inside a function or thread an assignment
+writes an existing global unless the name was declared `local` there, otherwise it creates a local; `global x = v`
+always writes the global. Lists and poses are values: assignment and argument passing copy them.
+
+Scheduling: like the controller, script threads do not run in parallel. A thread holds the execution's scheduler
+lock while it runs statements and gives it up when it waits for physical time (sleep, sync, a move, join) or after
+`_STATEMENTS_PER_SLICE` statements outside `enter_critical`/`exit_critical`.
+"""
+import itertools
+import threading
+from dataclasses import dataclass
+
+from sim_ursim.urscript import nodes
+from sim_ursim.urscript.values import Pose, ScriptError, copy_value, to_str, truth
+
+_STATEMENTS_PER_SLICE = 200
+# Names a script may read without assigning them (built-in constants).
+BUILTIN_CONSTANTS = {"pi": 3.141592653589793}
+
+
+class CompileError(ValueError):
+    """The controller refuses the script before running it (e.g. an unknown name)."""
+
+    def __init__(self, line, column, text):
+        super().__init__(f"line {line}, column {column}: {text}")
+        self.line = line
+        self.column = column
+        self.text = text
+
+
+class URScriptRuntimeError(RuntimeError):
+    """A run-time error at a source position; `text` is the runtime-exception message text."""
+
+    def __init__(self, line, column, text):
+        super().__init__(f"line {line}, column {column}: {text}")
+        self.line = line
+        self.column = column
+        self.text = text
+
+
+class Cancelled(Exception):
+    """The running thread was killed or its program stopped/replaced."""
+
+
+class _Return(Exception):
+    def __init__(self, value):
+        self.value = value
+
+
+class _Break(Exception):
+    pass
+
+
+class _Continue(Exception):
+    pass
+
+
+class _Halt(Exception):
+    pass
+
+
+@dataclass(frozen=True)
+class Program:
+    """A compiled script: the statements the main thread runs, plus every function and thread definition."""
+
+    name: str
+    body: tuple
+    functions: dict
+    threads: dict
+    secondary: bool
+
+
+def _walk(node):
+    """Every node below (and including) `node`, depth first, following tuples and tuple pairs."""
+    stack = [node]
+    while stack:
+        item = stack.pop()
+        if isinstance(item, tuple):
+            stack.extend(item)
+        elif isinstance(item, nodes.Node):
+            yield item
+            stack.extend(getattr(item, name) for name in item.__dataclass_fields__ if name not in ("line", "column"))
+
+
+def compile_program(script, builtin_names, default_name="Unnamed"):
+    """nodes.Script -> Program; CompileError (line, column, controller text) for an unknown function/variable/thread.
+
+    A script that is exactly one `def` is that program; exactly one `sec` is a secondary program; anything else
+    (statement lines, with or without definitions) runs top to bottom as one program named `default_name`.
+    """
+    body = script.body
+    if len(body) == 1 and isinstance(body[0], nodes.FunctionDef) and not body[0].params:
+        name, main, secondary = body[0].name, body[0].body, False
+    elif len(body) == 1 and isinstance(body[0], nodes.SecDef):
+        name, main, secondary = body[0].name, body[0].body, True
+    else:
+        name, main, secondary = default_name, body, False
+    functions, threads, bound = {}, {}, set(BUILTIN_CONSTANTS)
+    for node in _walk(main):
+        if isinstance(node, nodes.FunctionDef):
+            functions[node.name] = node
+            bound.update(p.name for p in node.params)
+        elif isinstance(node, nodes.ThreadDef):
+            threads[node.name] = node
+        elif isinstance(node, (nodes.Assign, nodes.GlobalDecl, nodes.LocalDecl)):
+            bound.add(node.name)
+    for node in _walk(main):
+        if isinstance(node, nodes.Call) and node.name not in functions and node.name not in builtin_names:
+            raise CompileError(node.line, node.column, f"compile_error_name_not_found:{node.name}:")
+        if isinstance(node, nodes.Run) and node.thread not in threads:
+            raise CompileError(node.line, node.column, f"compile_error_name_not_found:{node.thread}:")
+        if isinstance(node, nodes.Name) and node.name not in bound:
+            raise CompileError(node.line, node.column, f"compile_error_name_not_found:{node.name}:")
+    return Program(name, main, functions, threads, secondary)
+
+
+class ThreadContext:
+    """One script thread's state: its cancel event, call frames and critical-section depth. Built-ins receive it."""
+
+    def __init__(self, execution, name):
+        self.execution = execution
+        self.controller = execution.controller
+        self.name = name
+        self.cancel = threading.Event()
+        self.done = threading.Event()
+        self.frames = []  # one dict of locals per active function call / thread body
+        self.critical = 0
+        self._statements_in_slice = 0
+        self.last_cycle = None
+
+    # --- scheduling, used by the interpreter and by blocking built-ins
+    def check(self):
+        """Raise Cancelled if this thread was killed or its program stopped; block while the program is paused."""
+        if self.cancel.is_set():
+            raise Cancelled()
+        if not self.execution.unpaused.is_set():
+            with self.waiting():
+                while not self.execution.unpaused.wait(0.05):
+                    if self.cancel.is_set():
+                        break
+            if self.cancel.is_set():
+                raise Cancelled()
+
+    def waiting(self):
+        """Context manager: let other script threads run while this one waits for physical time."""
+        return _Released(self.execution.scheduler)
+
+    def time_slice(self):
+        """Count one statement; give other threads a turn at the end of a slice unless in a critical section."""
+        self._statements_in_slice += 1
+        if self._statements_in_slice >= _STATEMENTS_PER_SLICE and self.critical == 0:
+            self._statements_in_slice = 0
+            with self.waiting():
+                pass
+
+    def sleep(self, seconds):
+        """Wait `seconds` of wall time (the controller runs in real time), interruptibly."""
+        with self.waiting():
+            self.cancel.wait(seconds)
+        self.check()
+
+    def sync(self):
+        """Wait for the next control cycle after the one this thread last saw."""
+        with self.waiting():
+            state = self.controller.state()
+            after = state.cycle if self.last_cycle is None else max(self.last_cycle, state.cycle)
+            while not self.cancel.is_set() and state.cycle <= after:
+                state = self.controller.wait_cycle(after, timeout=0.05)
+            self.last_cycle = state.cycle
+        self.check()
+
+    def wait_motion(self, motion):
+        """Block until `motion` is done (ScriptError with its error if it failed), interruptibly."""
+        with self.waiting():
+            motion.wait(cancel=self.cancel)
+        self.check()
+        if motion.error:
+            raise ScriptError(motion.error)
+
+    def publish(self, message):
+        """Send a robot message to the primary interface's subscribers."""
+        self.controller.messages.publish(message)
+
+
+class _Released:
+    """Releases a held lock for the duration of a `with` block (re-acquires it afterwards)."""
+
+    def __init__(self, lock):
+        self._lock = lock
+
+    def __enter__(self):
+        self._lock.release()
+
+    def __exit__(self, *exc):
+        self._lock.acquire()
+        return False
+
+
+class Execution:
+    """One run of a Program on a controller: globals, the scheduler lock, the main thread and script threads."""
+
+    def __init__(self, program, controller, builtins):
+        self.program = program
+        self.controller = controller
+        self.builtins = builtins
+        self.globals = {}
+        self.scheduler = threading.Lock()
+        self.unpaused = threading.Event()
+        self.unpaused.set()
+        self.error = None  # the first URScriptRuntimeError of any thread
+        self._threads = {}
+        self._handles = itertools.count(1)
+        self._contexts = []
+        self._contexts_lock = threading.Lock()
+        self._python_threads = set()  # idents of the Python threads running this program's script threads
+        self.main = self._new_context(program.name)
+
+    def owns_current_thread(self):
+        """True when called from one of this program's script threads (which must not wait for themselves)."""
+        return threading.get_ident() in self._python_threads
+
+    def _new_context(self, name):
+        context = ThreadContext(self, name)
+        with self._contexts_lock:
+            self._contexts.append(context)
+        return context
+
+    # --- control from the runtime (any Python thread)
+    def cancel(self):
+        """Stop every thread of this program as soon as it next checks (waits are interrupted at once)."""
+        self.unpaused.set()
+        with self._contexts_lock:
+            contexts = list(self._contexts)
+        for context in contexts:
+            context.cancel.set()
+
+    def run(self):
+        """Run the main thread to the end in the calling Python thread; returns the URScriptRuntimeError or None.
+
+        Threads still running when the main thread ends are killed, as on the controller.
+        """
+        context = self.main
+        self._python_threads.add(threading.get_ident())
+        self.scheduler.acquire()
+        try:
+            self.exec_block(context, self.program.body)
+        except _Halt:
+            pass
+        except Cancelled:
+            pass
+        except URScriptRuntimeError as error:
+            self._record_error(error)
+        except (_Return, _Break, _Continue):
+            pass
+        finally:
+            context.done.set()
+            self.scheduler.release()
+            self.cancel()
+        return self.error
+
+    def _record_error(self, error):
+        if self.error is None:
+            self.error = error
+        self.cancel()
+
+    # --- statements
+    def exec_block(self, ctx, body):
+        """Execute statements in order."""
+        for statement in body:
+            ctx.check()
+            ctx.time_slice()
+            _STATEMENTS[type(statement)](self, ctx, statement)
+
+    def _exec_expr(self, ctx, node):
+        self.eval(ctx, node.expr)
+
+    def _exec_assign(self, ctx, node):
+        value = copy_value(self.eval(ctx, node.value))
+        if not node.indices:
+            self._store(ctx, node.name, value)
+            return
+        container = self._load(ctx, node.name, node)
+        indices = [self.eval(ctx, index) for index in node.indices]
+        for index, index_node in zip(indices[:-1], node.indices[:-1]):
+            container = _element(container, index, index_node)
+        last = _checked_index(container, indices[-1], node.indices[-1])
+        if isinstance(container, str):
+            raise URScriptRuntimeError(node.line, node.column, "runtime_error:strings are immutable:")
+        container[last] = _pose_element(container, value, node) if isinstance(container, Pose) else value
+
+    def _exec_global(self, ctx, node):
+        self.globals[node.name] = copy_value(self.eval(ctx, node.value))
+
+    def _exec_local(self, ctx, node):
+        value = copy_value(self.eval(ctx, node.value))
+        if ctx.frames:
+            ctx.frames[-1][node.name] = value
+        else:
+            self.globals[node.name] = value
+
+    def _exec_if(self, ctx, node):
+        for condition, body in node.branches:
+            if self._condition(ctx, condition):
+                self.exec_block(ctx, body)
+                return
+        if node.orelse is not None:
+            self.exec_block(ctx, node.orelse)
+
+    def _exec_while(self, ctx, node):
+        while self._condition(ctx, node.condition):
+            try:
+                self.exec_block(ctx, node.body)
+            except _Break:
+                break
+            except _Continue:
+                pass
+            ctx.check()
+
+    def _exec_return(self, ctx, node):
+        raise _Return(None if node.value is None else self.eval(ctx, node.value))
+
+    def _exec_halt(self, ctx, node):
+        raise _Halt()
+
+    def _exec_break(self, ctx, node):
+        raise _Break()
+
+    def _exec_continue(self, ctx, node):
+        raise _Continue()
+
+    def _exec_definition(self, ctx, node):
+        """Definitions were hoisted by compile_program: nothing to do when execution passes them."""
+
+    def _exec_kill(self, ctx, node):
+        handle = self._load(ctx, node.handle, node)
+        thread = self._threads.get(handle)
+        if thread is not None:
+            thread.cancel.set()
+
+    def _exec_join(self, ctx, node):
+        handle = self._load(ctx, node.handle, node)
+        thread = self._threads.get(handle)
+        if thread is None:
+            return
+        with ctx.waiting():
+            while not thread.done.wait(0.05) and not ctx.cancel.is_set():
+                pass
+        ctx.check()
+
+    def _exec_enter_critical(self, ctx, node):
+        ctx.critical += 1
+
+    def _exec_exit_critical(self, ctx, node):
+        ctx.critical = max(0, ctx.critical - 1)
+
+    # --- variables
+    def _load(self, ctx, name, node):
+        if ctx.frames and name in ctx.frames[-1]:
+            return ctx.frames[-1][name]
+        if name in self.globals:
+            return self.globals[name]
+        if name in BUILTIN_CONSTANTS:
+            return BUILTIN_CONSTANTS[name]
+        raise URScriptRuntimeError(node.line, node.column, f"runtime_error_name_not_found:{name}:")
+
+    def _store(self, ctx, name, value):
+        if ctx.frames:
+            frame = ctx.frames[-1]
+            if name in frame or (name not in self.globals):
+                frame[name] = value
+                return
+        self.globals[name] = value
+
+    def _condition(self, ctx, node):
+        try:
+            return truth(self.eval(ctx, node))
+        except ScriptError as error:
+            raise URScriptRuntimeError(node.line, node.column, error.text) from None
+
+    # --- expressions
+    def eval(self, ctx, node):
+        """Value of expression `node`."""
+        return _EXPRESSIONS[type(node)](self, ctx, node)
+
+    def _eval_literal(self, ctx, node):
+        return node.value
+
+    def _eval_name(self, ctx, node):
+        return self._load(ctx, node.name, node)
+
+    def _eval_list(self, ctx, node):
+        return [self.eval(ctx, item) for item in node.items]
+
+    def _eval_pose(self, ctx, node):
+        values = [self.eval(ctx, item) for item in node.items]
+        try:
+            return Pose(values)
+        except ScriptError as error:
+            raise URScriptRuntimeError(node.line, node.column, error.text) from None
+
+    def _eval_index(self, ctx, node):
+        return _element(self.eval(ctx, node.target), self.eval(ctx, node.index), node)
+
+    def _eval_unary(self, ctx, node):
+        value = self.eval(ctx, node.operand)
+        try:
+            if node.op == "not":
+                return not truth(value)
+            _require_number(value, node.op)
+            return -value if node.op == "-" else value
+        except ScriptError as error:
+            raise URScriptRuntimeError(node.line, node.column, error.text) from None
+
+    def _eval_binary(self, ctx, node):
+        op = node.op
+        try:
+            if op == "and":
+                return truth(self.eval(ctx, node.left)) and truth(self.eval(ctx, node.right))
+            if op == "or":
+                return truth(self.eval(ctx, node.left)) or truth(self.eval(ctx, node.right))
+            left, right = self.eval(ctx, node.left), self.eval(ctx, node.right)
+            return _BINARY[op](left, right)
+        except ScriptError as error:
+            raise URScriptRuntimeError(node.line, node.column, error.text) from None
+
+    def _eval_call(self, ctx, node):
+        args = [self.eval(ctx, arg) for arg in node.args]
+        kwargs = {name: self.eval(ctx, value) for name, value in node.kwargs}
+        function = self.program.functions.get(node.name)
+        if function is not None:
+            return self._call_function(ctx, function, args, kwargs, node)
+        builtin = self.builtins[node.name]
+        try:
+            return builtin(ctx, *args, **kwargs)
+        except ScriptError as error:
+            raise URScriptRuntimeError(node.line, node.column, error.text) from None
+        except ValueError as error:
+            raise URScriptRuntimeError(node.line, node.column, f"runtime_error:{node.name}:{error}:") from None
+        except TypeError as error:
+            raise URScriptRuntimeError(
+                node.line, node.column, f"runtime_error:wrong arguments to {node.name}:{error}:"
+            ) from None
+
+    def _call_function(self, ctx, function, args, kwargs, node):
+        frame = self._bind_arguments(ctx, function, args, kwargs, node)
+        ctx.frames.append(frame)
+        try:
+            self.exec_block(ctx, function.body)
+        except _Return as result:
+            return result.value
+        finally:
+            ctx.frames.pop()
+        return None
+
+    def _bind_arguments(self, ctx, function, args, kwargs, node):
+        params = function.params
+        if len(args) > len(params):
+            raise URScriptRuntimeError(
+                node.line, node.column, f"runtime_error:{function.name} takes {len(params)} arguments:"
+            )
+        frame = {}
+        for param, value in zip(params, args):
+            frame[param.name] = copy_value(value)
+        for name, value in kwargs.items():
+            if name not in {p.name for p in params} or name in frame:
+                raise URScriptRuntimeError(node.line, node.column, f"runtime_error:{function.name}:bad argument {name}:")
+            frame[name] = copy_value(value)
+        for param in params:
+            if param.name not in frame:
+                if param.default is None:
+                    raise URScriptRuntimeError(
+                        node.line, node.column, f"runtime_error:{function.name}:missing argument {param.name}:"
+                    )
+                frame[param.name] = copy_value(self.eval(ctx, param.default))
+        return frame
+
+    def _eval_run(self, ctx, node):
+        definition = self.program.threads[node.thread]
+        handle = next(self._handles)
+        thread_context = self._new_context(definition.name)
+        if ctx.cancel.is_set():
+            thread_context.cancel.set()
+        self._threads[handle] = thread_context
+        python_thread = threading.Thread(
+            target=self._run_thread, args=(thread_context, definition), name=f"urscript-{definition.name}", daemon=True
+        )
+        python_thread.start()
+        return handle
+
+    def _run_thread(self, ctx, definition):
+        self._python_threads.add(threading.get_ident())
+        self.scheduler.acquire()
+        ctx.frames.append({})
+        try:
+            self.exec_block(ctx, definition.body)
+        except _Halt:
+            self.cancel()
+        except (_Return, _Break, _Continue, Cancelled):
+            pass
+        except URScriptRuntimeError as error:
+            self._record_error(error)
+        finally:
+            ctx.done.set()
+            self.scheduler.release()
+
+
+# --- value helpers (pure)
+
+
+def _require_number(value, op):
+    """ScriptError unless value is an int/float (booleans count as numbers, as 0/1)."""
+    if not isinstance(value, (int, float)):
+        raise ScriptError(f"runtime_error:type mismatch:{op} needs a number, got {to_str(value)}:")
+
+
+def _arithmetic(symbol, function):
+    def apply(left, right):
+        if isinstance(left, str) and isinstance(right, str) and symbol == "+":
+            return left + right
+        _require_number(left, symbol)
+        _require_number(right, symbol)
+        return function(left, right)
+
+    return apply
+
+
+def _divide(left, right):
+    if right == 0:
+        raise ScriptError("runtime_error:division by zero:")
+    return left / right
+
+
+def _modulo(left, right):
+    if right == 0:
+        raise ScriptError("runtime_error:division by zero:")
+    return left % right
+
+
+def _ordering(symbol, function):
+    def apply(left, right):
+        _require_number(left, symbol)
+        _require_number(right, symbol)
+        return function(left, right)
+
+    return apply
+
+
+def _equal(left, right):
+    if isinstance(left, (list, tuple)) and isinstance(right, (list, tuple)):
+        return len(left) == len(right) and all(_equal(a, b) for a, b in zip(left, right))
+    return left == right
+
+
+def _xor(left, right):
+    return truth(left) != truth(right)
+
+
+_BINARY = {
+    "+": _arithmetic("+", lambda a, b: a + b),
+    "-": _arithmetic("-", lambda a, b: a - b),
+    "*": _arithmetic("*", lambda a, b: a * b),
+    "/": _arithmetic("/", _divide),
+    "%": _arithmetic("%", _modulo),
+    "<": _ordering("<", lambda a, b: a < b),
+    "<=": _ordering("<=", lambda a, b: a <= b),
+    ">": _ordering(">", lambda a, b: a > b),
+    ">=": _ordering(">=", lambda a, b: a >= b),
+    "==": _equal,
+    "!=": lambda a, b: not _equal(a, b),
+    "xor": _xor,
+}
+
+
+def _checked_index(container, index, node):
+    """Validated integer index into a list, pose or string (URScriptRuntimeError naming the problem)."""
+    if not isinstance(container, (list, str)):
+        raise URScriptRuntimeError(node.line, node.column, f"runtime_error:cannot index {to_str(container)}:")
+    if isinstance(index, float) and index.is_integer():
+        index = int(index)
+    if not isinstance(index, int) or isinstance(index, bool):
+        raise URScriptRuntimeError(node.line, node.column, f"runtime_error:index must be an integer:{to_str(index)}:")
+    if not 0 <= index < len(container):
+        raise URScriptRuntimeError(
+            node.line, node.column, f"runtime_error:index out of range:{index} not in 0..{len(container) - 1}:"
+        )
+    return index
+
+
+def _element(container, index, node):
+    return container[_checked_index(container, index, node)]
+
+
+def _pose_element(pose, value, node):
+    if not isinstance(value, (int, float)):
+        raise URScriptRuntimeError(node.line, node.column, f"runtime_error:pose element must be a number:")
+    return float(value)
+
+
+_STATEMENTS = {
+    nodes.ExprStatement: Execution._exec_expr,
+    nodes.Assign: Execution._exec_assign,
+    nodes.GlobalDecl: Execution._exec_global,
+    nodes.LocalDecl: Execution._exec_local,
+    nodes.If: Execution._exec_if,
+    nodes.While: Execution._exec_while,
+    nodes.Return: Execution._exec_return,
+    nodes.Halt: Execution._exec_halt,
+    nodes.Break: Execution._exec_break,
+    nodes.Continue: Execution._exec_continue,
+    nodes.Kill: Execution._exec_kill,
+    nodes.Join: Execution._exec_join,
+    nodes.EnterCritical: Execution._exec_enter_critical,
+    nodes.ExitCritical: Execution._exec_exit_critical,
+    nodes.FunctionDef: Execution._exec_definition,
+    nodes.ThreadDef: Execution._exec_definition,
+    nodes.SecDef: Execution._exec_definition,
+}
+
+_EXPRESSIONS = {
+    nodes.Literal: Execution._eval_literal,
+    nodes.Name: Execution._eval_name,
+    nodes.ListExpr: Execution._eval_list,
+    nodes.PoseExpr: Execution._eval_pose,
+    nodes.Index: Execution._eval_index,
+    nodes.Unary: Execution._eval_unary,
+    nodes.Binary: Execution._eval_binary,
+    nodes.Call: Execution._eval_call,
+    nodes.Run: Execution._eval_run,
+}

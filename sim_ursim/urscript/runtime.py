@@ -1,0 +1,181 @@
+"""ProgramRunner: the controller's URScript runtime — compile, run, replace, stop, pause and resume programs.
+
+The primary/secondary/realtime servers hand every received script to `submit(source, origin)`.
+- A main program (a `def` program or statement lines) replaces the running one, as on the controller.
+- A `sec` program runs alongside the main one and does not change the program state; its errors are reported but
+  do not stop the main program.
+- A script that fails to compile is reported (RuntimeExceptionMessage) and does not disturb the running program
+  (the real controller's choice here is not documented).
+- Program state goes to the controller (`set_program_state`): runtime_state, robot_status_bits, dashboard and
+  primary views all read it. KeyMessages PROGRAM_XXX_STARTED / PROGRAM_XXX_STOPPED carry the program name.
+- When a program is stopped, replaced or fails, the arm decelerates to rest; when it ends normally the last
+  commanded motion is left to finish.
+"""
+import logging
+import threading
+
+from sim_ursim.controller import PROTECTIVE_STOP_DECELERATION, CommandRefused
+from sim_ursim.messages import KeyMessage, RuntimeExceptionMessage
+from sim_ursim.urscript.builtins import BUILTINS
+from sim_ursim.urscript.interpreter import CompileError, Execution, compile_program
+from sim_ursim.urscript.parser import URScriptSyntaxError, parse
+
+log = logging.getLogger("sim_ursim.urscript")
+
+JOIN_TIMEOUT = 2.0  # s: a cancelled program's threads end at their next statement or wait, far sooner than this
+
+
+class _Running:
+    """A started Execution and the Python thread running its main thread."""
+
+    def __init__(self, execution, thread=None):
+        self.execution = execution
+        self.thread = thread
+        self.stopped = False  # stop()/replacement asked for it (as opposed to a normal end)
+
+
+class ProgramRunner:
+    """Runs URScript programs on `controller` (attach with controller.attach_program_runner(runner))."""
+
+    def __init__(self, controller, builtins=None):
+        self._controller = controller
+        self._builtins = BUILTINS if builtins is None else builtins
+        self._lock = threading.RLock()
+        self._main = None
+        self._secondary = []
+        self._paused = False
+
+    # ----------------------------------------------------------------------------------------------- queries
+    @property
+    def is_running(self):
+        """True while a main program runs (paused included)."""
+        with self._lock:
+            return self._main is not None
+
+    @property
+    def is_paused(self):
+        """True while the main program is paused."""
+        with self._lock:
+            return self._main is not None and self._paused
+
+    @property
+    def program_name(self):
+        """Name of the running main program (None when idle)."""
+        with self._lock:
+            return None if self._main is None else self._main.execution.program.name
+
+    def wait_until_stopped(self, timeout):
+        """Block until no main program runs (True) or `timeout` s pass (False)."""
+        with self._lock:
+            running = self._main
+        if running is None:
+            return True
+        running.thread.join(timeout)
+        return not running.thread.is_alive()
+
+    # ----------------------------------------------------------------------------------------------- commands
+    def submit(self, source, origin="unknown"):
+        """Compile and start `source`; returns True if it started, False if it was refused (error published)."""
+        try:
+            program = compile_program(parse(source), self._builtins)
+        except (URScriptSyntaxError, CompileError) as error:
+            log.info("script from %s refused: %s", origin, error)
+            self._publish(RuntimeExceptionMessage(line=error.line, column=error.column, text=error.text))
+            return False
+        execution = Execution(program, self._controller, self._builtins)
+        if program.secondary:
+            self._start_secondary(execution)
+            return True
+        with self._lock:
+            self._stop_main(stop_arm=True)
+            running = _Running(execution)
+            running.thread = threading.Thread(target=self._run_main, args=(running,), daemon=True,
+                                              name=f"urscript-{program.name}")
+            self._main = running
+            self._paused = False
+            self._controller.set_program_state(True, False)
+            running.thread.start()
+        log.info("program %s started from %s", program.name, origin)
+        return True
+
+    def stop(self):
+        """Stop the main program (and secondary programs); returns once its threads have ended."""
+        with self._lock:
+            self._stop_main(stop_arm=True)
+            for running in self._secondary:
+                running.execution.cancel()
+
+    def pause(self):
+        """Pause the main program at its next statement (a move already under way finishes)."""
+        with self._lock:
+            if self._main is None:
+                return
+            self._paused = True
+            self._main.execution.unpaused.clear()
+            self._controller.set_program_state(True, True)
+
+    def resume(self):
+        """Resume a paused main program."""
+        with self._lock:
+            if self._main is None:
+                return
+            self._paused = False
+            self._main.execution.unpaused.set()
+            self._controller.set_program_state(True, False)
+
+    # ----------------------------------------------------------------------------------------------- internals
+    def _stop_main(self, stop_arm):
+        """Cancel the running main program and wait for it (unless called from one of its own threads)."""
+        running = self._main
+        if running is None:
+            return
+        running.stopped = True
+        running.execution.cancel()
+        if not running.execution.owns_current_thread():
+            running.thread.join(JOIN_TIMEOUT)
+            if running.thread.is_alive():
+                log.warning("program %s did not stop within %.1f s", running.execution.program.name, JOIN_TIMEOUT)
+        if stop_arm:
+            self._stop_arm()
+
+    def _run_main(self, running):
+        execution = running.execution
+        name = execution.program.name
+        self._publish(KeyMessage(code=0, argument=0, title="PROGRAM_XXX_STARTED", text=name))
+        error = execution.run()
+        if error is not None:
+            log.info("program %s failed: %s", name, error)
+            self._publish(RuntimeExceptionMessage(line=error.line, column=error.column, text=error.text))
+            self._stop_arm()
+        with self._lock:
+            if self._main is running:
+                self._main = None
+                self._paused = False
+                self._controller.set_program_state(False)
+        self._publish(KeyMessage(code=0, argument=0, title="PROGRAM_XXX_STOPPED", text=name))
+
+    def _start_secondary(self, execution):
+        thread = threading.Thread(target=self._run_secondary, args=(execution,), daemon=True,
+                                  name=f"urscript-sec-{execution.program.name}")
+        with self._lock:
+            self._secondary.append(_Running(execution, thread))
+        thread.start()
+
+    def _run_secondary(self, execution):
+        error = execution.run()
+        if error is not None:
+            self._publish(RuntimeExceptionMessage(line=error.line, column=error.column, text=error.text))
+        with self._lock:
+            self._secondary = [r for r in self._secondary if r.execution is not execution]
+
+    def _stop_arm(self):
+        """Bring the arm to rest as the controller does when a program stops (nothing to do if it cannot move)."""
+        if not self._controller.state().motion_active:
+            return
+        try:
+            self._controller.stopj(PROTECTIVE_STOP_DECELERATION)
+        except CommandRefused:
+            pass
+
+    def _publish(self, message):
+        self._controller.messages.publish(message)

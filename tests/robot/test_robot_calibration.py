@@ -1,0 +1,52 @@
+"""The driver reads the controller's calibrated DH, so its FK matches the controller's TCP on a non-nominal arm."""
+import os
+
+import numpy as np
+import pytest
+
+import ur3dq.robot
+from ur3dq.kinematics import robot_model
+
+pytestmark = pytest.mark.skipif(bool(os.environ.get("UR3DQ_TEST_HOST")),
+                                reason="a non-nominal calibration is injected into sim_ursim")
+
+# Deltas of the size a real arm's calibration shows (millimetres, milliradians).
+CALIBRATION = {
+    "a": [0.0, 0.0021, -0.0017, 0.0, 0.0, 0.0],
+    "d": [0.0012, 0.0, 0.0, -0.0009, 0.0006, 0.0004],
+    "alpha": [0.0008, -0.0004, 0.0005, 0.0, 0.0003, 0.0],
+    "theta": [0.0, 0.0015, -0.002, 0.001, 0.0, 0.0025],
+}
+CONFIGURATIONS = [
+    [0.0, -1.5707963267948966, 1.2, -1.2, -1.5707963267948966, 0.0],
+    [0.4, -1.2, 1.5, -1.9, -1.2, 0.7],
+    [-0.6, -1.9, 0.8, -0.4, -1.9, -0.5],
+]
+
+
+@pytest.fixture
+def calibrated_sim():
+    from sim_ursim.testing import running_simulator
+
+    with running_simulator(model="ur3", calibration=CALIBRATION) as simulator:
+        simulator.controller.power_up()
+        yield simulator
+
+
+@pytest.mark.parametrize("backend", ["rtde", "urx"])
+def test_calibrated_fk_matches_the_controller_where_nominal_does_not(calibrated_sim, backend, record_property):
+    nominal = robot_model("ur3")
+    with ur3dq.robot.connect(calibrated_sim.host, backend=backend) as robot:
+        for key, deltas in CALIBRATION.items():
+            assert np.allclose(getattr(robot.model.dh, key) - getattr(nominal.dh, key), deltas, atol=1e-12)
+        nominal_errors = []
+        for q in CONFIGURATIONS:
+            robot.movej(q)
+            joints, reported = robot.joints(), robot.tcp_pose()
+            calibrated_m, calibrated_rad = robot.model.fk(joints).distance(reported)
+            assert calibrated_m < 1e-6 and calibrated_rad < 1e-6
+            nominal_errors.append(nominal.fk(joints).distance(reported)[0])
+        worst_mm = max(nominal_errors) * 1000
+        record_property("nominal_vs_calibrated_mm", worst_mm)
+        print(f"nominal-vs-calibrated TCP difference avoided: up to {worst_mm:.2f} mm")
+        assert worst_mm > 1.0

@@ -1,0 +1,167 @@
+"""Faults during motion, injected into sim_ursim: each gives its own exception, in bounded time, and the arm stops."""
+import _thread
+import os
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import ur3dq.robot
+from ur3dq.errors import (ConnectionLostError, EmergencyStopError, MotionTimeoutError, ProgramError,
+                          ProtectiveStopError, RobotError)
+from ur3dq.robot import motion
+
+pytestmark = pytest.mark.skipif(bool(os.environ.get("UR3DQ_TEST_HOST")),
+                                reason="fault injection needs sim_ursim; UR3DQ_TEST_HOST names another controller")
+
+LONG_MOVE = np.array([2.5, 0, 0, 0, 0, 0])  # about 3.4 s at the URScript defaults
+
+
+def after(seconds, action):
+    """Run `action` on a timer thread after `seconds`; returns the thread (join it)."""
+    timer = threading.Timer(seconds, action)
+    timer.start()
+    return timer
+
+
+def timed_failure(robot, target, **kwargs):
+    """(exception, seconds until it reached us) of a movej expected to fail."""
+    started = time.monotonic()
+    with pytest.raises(RobotError) as caught:
+        robot.movej(target, **kwargs)
+    return caught.value, time.monotonic() - started
+
+
+def assert_at_rest_short_of(robot, target, settle=1.0):
+    """The arm comes to rest (within `settle` s) away from `target`: it was stopped, not left running."""
+    deadline = time.monotonic() + settle
+    while np.max(np.abs(robot.state().joint_speeds)) > 5e-3:
+        assert time.monotonic() < deadline, "the arm kept moving"
+        time.sleep(0.02)
+    assert np.max(np.abs(robot.joints() - target)) > 0.2
+
+
+def test_protective_stop_during_motion(sim_robot, home):
+    sim, robot = sim_robot
+    stopped = {}
+
+    def protective_stop():
+        stopped["at"] = time.monotonic()
+        sim.controller.protective_stop("test")
+
+    timer = after(0.5, protective_stop)
+    error, _ = timed_failure(robot, home + LONG_MOVE)
+    caught = time.monotonic()
+    timer.join()
+    assert isinstance(error, ProtectiveStopError) and "unlock_protective_stop" in str(error)
+    assert caught - stopped["at"] < 0.5
+    with pytest.raises(ProtectiveStopError):  # no motion while stopped
+        robot.movej(home)
+    with pytest.raises(ProtectiveStopError, match="refused.*5"):  # the controller refuses an early unlock
+        robot.unlock_protective_stop()
+    assert robot.state().protective_stopped  # never unlocked by the driver itself
+    time.sleep(5.2)
+    robot.unlock_protective_stop()
+    assert not robot.state().protective_stopped
+    robot.movej(home)
+
+
+def test_emergency_stop_during_motion(sim_robot, home):
+    sim, robot = sim_robot
+    timer = after(0.5, sim.controller.emergency_stop)
+    error, elapsed = timed_failure(robot, home + LONG_MOVE)
+    timer.join()
+    assert isinstance(error, EmergencyStopError) and elapsed < 1.5
+
+
+def test_program_stopped_by_the_controller_is_a_program_error(sim_robot, home):
+    sim, robot = sim_robot
+    timer = after(0.5, sim.controller.stop_program)
+    error, elapsed = timed_failure(robot, home + LONG_MOVE)
+    timer.join()
+    assert isinstance(error, ProgramError) and "from its target" in str(error) and elapsed < 2.0
+    assert_at_rest_short_of(robot, home + LONG_MOVE)
+
+
+def test_runtime_exception_is_a_program_error(sim_robot, home):
+    from sim_ursim.messages import RuntimeExceptionMessage
+
+    sim, robot = sim_robot
+    timer = after(0.5, lambda: sim.controller.messages.publish(
+        RuntimeExceptionMessage(2, 3, "runtime_error_injected_by_test")))
+    error, elapsed = timed_failure(robot, home + LONG_MOVE)
+    timer.join()
+    assert isinstance(error, ProgramError) and "runtime_error_injected_by_test" in str(error)
+    assert elapsed < 1.5
+    assert_at_rest_short_of(robot, home + LONG_MOVE)  # stopj was sent before the error left the driver
+
+
+def test_dropped_connection_during_motion_then_reconnect_without_resending(sim_robot, home):
+    sim, robot = sim_robot
+    target = home + LONG_MOVE
+    timer = after(0.5, sim.controller.faults.drop_connections)
+    error, elapsed = timed_failure(robot, target)
+    timer.join()
+    assert isinstance(error, ConnectionLostError) and elapsed < 2.0
+    time.sleep(0.5)
+    status = robot.state()  # reconnects the streams with backoff
+    assert status.age < 0.5 and not status.program_running
+    assert_at_rest_short_of(robot, target)  # stopped, and the motion was not re-sent
+    robot.movej(home)  # usable again
+
+
+def test_frozen_stream_during_motion(sim_robot, home):
+    sim, robot = sim_robot
+    target = home + LONG_MOVE
+    timer = after(0.5, lambda: sim.controller.faults.freeze_streams(2.0))
+    error, elapsed = timed_failure(robot, target)
+    timer.join()
+    assert isinstance(error, ConnectionLostError) and "fro" in str(error) and elapsed < 2.5
+    time.sleep(2.5)  # the freeze ends
+    assert_at_rest_short_of(robot, target)
+
+
+def test_slider_lowered_mid_motion_times_out(sim_robot, home):
+    sim, robot = sim_robot
+    target = home + np.array([1.0, 0, 0, 0, 0, 0])
+    duration = motion.movej_duration(home, target, 1.4, 1.05)
+    timer = after(0.3, lambda: sim.controller.set_speed_slider(0.05))
+    error, elapsed = timed_failure(robot, target, a=1.4, v=1.05)
+    timer.join()
+    sim.controller.set_speed_slider(1.0)
+    assert isinstance(error, MotionTimeoutError) and "speed slider" in str(error)
+    assert elapsed == pytest.approx(motion.motion_timeout(duration, 1.0), abs=0.5)
+
+
+def test_timeout_allows_for_a_slow_slider(sim_robot, home):
+    sim, robot = sim_robot
+    sim.controller.set_speed_slider(0.5)
+    time.sleep(0.1)
+    target = home + np.array([0.5, 0, 0, 0, 0, 0])
+    wall = robot.movej(target, a=1.4, v=1.05)
+    assert wall >= 1.8 * motion.movej_duration(home, target, 1.4, 1.05)
+
+
+def test_keyboard_interrupt_stops_the_arm(sim_robot, home):
+    sim, robot = sim_robot
+    target = home + LONG_MOVE
+    timer = after(0.5, _thread.interrupt_main)
+    with pytest.raises(KeyboardInterrupt):
+        robot.movej(target)
+    timer.join()
+    assert_at_rest_short_of(robot, target)
+
+
+def test_not_running_robot_is_refused_then_powered_through_the_dashboard(backend, home):
+    from sim_ursim.testing import running_simulator
+
+    with running_simulator(model="ur3") as sim:
+        with ur3dq.robot.connect(sim.host, backend=backend) as robot:
+            if robot.state().robot_mode != 7:
+                with pytest.raises(RobotError, match="not RUNNING"):
+                    robot.movej(home)
+            robot.power_on()
+            robot.brake_release()
+            assert robot.state().robot_mode_name == "RUNNING"
+            robot.movej(home)

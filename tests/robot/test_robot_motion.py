@@ -1,0 +1,63 @@
+"""Trapezoidal durations and speed-slider-aware timeouts."""
+import math
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from ur3dq.robot import motion
+
+positive = st.floats(min_value=1e-3, max_value=50, allow_nan=False)
+
+
+def test_trapezoid_with_cruise():
+    # D = 2 rad, a = 1, v = 1: accelerate 0.5 rad in 1 s, cruise 1 rad in 1 s, decelerate 1 s.
+    assert motion.trapezoid_duration(2.0, 1.0, 1.0) == pytest.approx(3.0)
+
+
+def test_trapezoid_triangular():
+    # D = 0.25, a = 1: never reaches v = 1; 0.125 rad in 0.5 s each way.
+    assert motion.trapezoid_duration(0.25, 1.0, 1.0) == pytest.approx(1.0)
+
+
+@given(st.floats(min_value=0, max_value=20), positive, positive)
+def test_trapezoid_is_continuous_and_no_faster_than_cruise(distance, a, v):
+    duration = motion.trapezoid_duration(distance, a, v)
+    assert duration >= distance / v - 1e-12
+    boundary = v * v / a
+    assert motion.trapezoid_duration(boundary, a, v) == pytest.approx(2 * v / a)
+
+
+def test_trapezoid_zero_distance():
+    assert motion.trapezoid_duration(0.0, 1.4, 1.05) == 0.0
+
+
+@pytest.mark.parametrize("args, name", [((-1, 1, 1), "distance"), ((1, 0, 1), "a"), ((1, 1, math.nan), "v")])
+def test_trapezoid_rejects(args, name):
+    with pytest.raises(ValueError, match=name):
+        motion.trapezoid_duration(*args)
+
+
+def test_movej_duration_is_led_by_the_longest_travel():
+    q0 = [0, 0, 0, 0, 0, 0]
+    q1 = [0.1, -2.0, 0.5, 0, 0, 0]
+    assert motion.movej_duration(q0, q1, 1.0, 1.0) == pytest.approx(motion.trapezoid_duration(2.0, 1.0, 1.0))
+
+
+def test_path_duration_sums_segments():
+    q0, q1, q2 = [0] * 6, [1] * 6, [0] * 6
+    assert motion.path_duration(q0, [q1, q2], 1.4, 1.05) == pytest.approx(2 * motion.movej_duration(q0, q1, 1.4, 1.05))
+
+
+def test_timeout_grows_as_the_slider_slows():
+    assert motion.motion_timeout(2.0, 1.0) == pytest.approx(2.0 * 1.5 + 1.0)
+    assert motion.motion_timeout(2.0, 0.5) == pytest.approx(4.0 * 1.5 + 1.0)
+
+
+def test_timeout_is_finite_with_the_slider_at_zero():
+    assert motion.motion_timeout(1.0, 0.0) == pytest.approx(1.0 / motion.MIN_SPEED_FRACTION * 1.5 + 1.0)
+
+
+def test_timeout_rejects_nan():
+    with pytest.raises(ValueError, match="speed_fraction"):
+        motion.motion_timeout(1.0, math.nan)

@@ -1,0 +1,434 @@
+"""Ports 30001 / 30002 / 30003 over real sockets: streams, fault injection, URScript from raw sockets, and what
+ur_rtde's RTDE clients see while those scripts run.  Bytes are read with struct layouts written here."""
+import socket
+import struct
+import subprocess
+import sys
+import textwrap
+import time
+
+import numpy as np
+import pytest
+
+from sim_ursim.messages import TextMessage
+from sim_ursim.testing import running_simulator, simulator_process
+
+PRIMARY, SECONDARY, REALTIME, DASHBOARD = 30001, 30002, 30003, 29999
+ROBOT_STATE, ROBOT_MESSAGE = 16, 20
+TEXT, VERSION, KEY, RUNTIME_EXCEPTION = 0, 3, 7, 10
+PLAYING, STOPPED = 2, 1
+
+
+@pytest.fixture
+def sim():
+    with running_simulator(model="ur3") as simulator:
+        yield simulator
+
+
+@pytest.fixture
+def powered_sim(sim):
+    sim.controller.power_up()
+    return sim
+
+
+class Client:
+    """A raw TCP client that reads size-prefixed messages (int32 total size first, as on 30001–30003)."""
+
+    def __init__(self, host, port, timeout=3.0):
+        self.sock = socket.create_connection((host, port), timeout=timeout)
+        self.buffer = b""
+
+    def read_exactly(self, count):
+        while len(self.buffer) < count:
+            chunk = self.sock.recv(65536)
+            if not chunk:
+                raise ConnectionError("closed by the server")
+            self.buffer += chunk
+        data, self.buffer = self.buffer[:count], self.buffer[count:]
+        return data
+
+    def message(self):
+        """The next whole message (its bytes, size field included)."""
+        head = self.read_exactly(4)
+        (size,) = struct.unpack(">i", head)
+        return head + self.read_exactly(size - 4)
+
+    def send(self, text):
+        self.sock.sendall(text.encode())
+
+    def robot_messages(self, predicate, timeout):
+        """Robot messages (subtype, text-bearing body) until one satisfies predicate(subtype, data); all of them."""
+        seen = []
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            data = self.message()
+            if data[4] != ROBOT_MESSAGE:
+                continue
+            subtype = data[14]
+            seen.append((subtype, data))
+            if predicate(subtype, data):
+                return seen
+        raise AssertionError(f"no matching robot message within {timeout} s; saw {[s for s, _ in seen]}")
+
+    def close(self):
+        self.sock.close()
+
+
+@pytest.fixture
+def clients():
+    opened = []
+
+    def _open(host, port, **kwargs):
+        client = Client(host, port, **kwargs)
+        opened.append(client)
+        return client
+
+    yield _open
+    for client in opened:
+        client.close()
+
+
+def robot_mode_of(state_message):
+    """Robot mode byte of a robot-state message (RobotModeData is the first sub-package)."""
+    assert state_message[4] == ROBOT_STATE and state_message[9] == 0
+    return state_message[5 + 5 + 8 + 7]
+
+
+def next_state(client):
+    while True:
+        data = client.message()
+        if data[4] == ROBOT_STATE:
+            return data
+
+
+# --- streams --------------------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("port", [PRIMARY, SECONDARY])
+def test_version_message_first_then_robot_state_at_10_hz(sim, clients, port):
+    client = clients(sim.host, port)
+    first = client.message()
+    assert (first[4], first[14]) == (ROBOT_MESSAGE, VERSION)
+    name_length = first[15]
+    assert first[16:16 + name_length] == b"URControl"
+    assert tuple(first[16 + name_length:18 + name_length]) == (3, 15)
+    started = time.monotonic()
+    states = [next_state(client) for _ in range(10)]
+    elapsed = time.monotonic() - started
+    assert 0.6 < elapsed < 1.6  # ten packets at 10 Hz, generous for a loaded 2-core machine
+    assert all(len(s) <= 2000 for s in states)
+
+
+def test_robot_state_follows_power_up(sim, clients):
+    client = clients(sim.host, SECONDARY)
+    assert robot_mode_of(next_state(client)) == 3  # POWER_OFF
+    sim.controller.power_up()
+    deadline = time.monotonic() + 3
+    while robot_mode_of(next_state(client)) != 7:  # RUNNING
+        assert time.monotonic() < deadline
+
+
+def test_bus_messages_reach_30001_but_not_30002(sim, clients):
+    primary, secondary = clients(sim.host, PRIMARY), clients(sim.host, SECONDARY)
+    next_state(primary), next_state(secondary)
+    sim.controller.messages.publish(TextMessage("hello from the bus"))
+    found = primary.robot_messages(lambda subtype, data: subtype == TEXT, timeout=2)
+    assert found[-1][1].endswith(b"hello from the bus")
+    deadline = time.monotonic() + 0.5
+    while time.monotonic() < deadline:
+        data = secondary.message()
+        assert data[4] == ROBOT_STATE
+
+
+def test_frozen_streams_send_nothing_then_resume(sim, clients):
+    client = clients(sim.host, SECONDARY)
+    next_state(client)
+    sim.controller.faults.freeze_streams(0.8)
+    client.buffer = b""
+    client.sock.settimeout(0.3)
+    with pytest.raises(socket.timeout):
+        while True:  # what was already in flight may still arrive, then silence
+            client.message()
+    client.sock.settimeout(3.0)
+    client.buffer = b""
+    assert next_state(client)[4] == ROBOT_STATE
+
+
+def test_latency_delays_the_first_message(sim, clients):
+    sim.controller.faults.add_latency(0.4)
+    started = time.monotonic()
+    client = clients(sim.host, PRIMARY)
+    client.message()
+    assert time.monotonic() - started >= 0.35
+
+
+def test_drop_connections_closes_every_client_and_new_ones_are_served(sim, clients):
+    primary, realtime = clients(sim.host, PRIMARY), clients(sim.host, REALTIME)
+    next_state(primary), realtime.message()
+    sim.controller.faults.drop_connections()
+    for client in (primary, realtime):
+        with pytest.raises((ConnectionError, OSError)):
+            for _ in range(2000):
+                client.message()
+    assert next_state(clients(sim.host, PRIMARY))[4] == ROBOT_STATE
+
+
+# --- realtime -------------------------------------------------------------------------------------------------
+
+def test_realtime_streams_the_3_15_package_at_about_125_hz(sim, clients):
+    client = clients(sim.host, REALTIME)
+    first = client.message()
+    assert len(first) == 1116
+    times = [struct.unpack_from(">d", first, 4)[0]]
+    started = time.monotonic()
+    while time.monotonic() - started < 1.0:
+        times.append(struct.unpack_from(">d", client.message(), 4)[0])
+    assert len(times) > 60  # 125 expected; the controller skips cycles on a busy machine
+    steps = np.diff(times)
+    assert np.all(steps > 0) and np.median(steps) == pytest.approx(0.008, abs=1e-6)
+
+
+def test_realtime_e_series_package_is_1220_bytes_at_500_hz(clients):
+    with running_simulator(model="ur3e") as simulator:
+        client = clients(simulator.host, REALTIME)
+        first = client.message()
+        assert len(first) == 1220
+        times = [struct.unpack_from(">d", client.message(), 4)[0] for _ in range(50)]
+        assert np.median(np.diff(times)) == pytest.approx(0.002, abs=1e-6)
+
+
+def test_a_client_that_never_reads_is_discontinued_but_can_still_send_scripts(sim, clients):
+    silent = socket.socket()
+    silent.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+    silent.connect((sim.host, REALTIME))
+    try:
+        reader = clients(sim.host, REALTIME)
+        server = sim.servers["realtime"]
+        deadline = time.monotonic() + 30
+        received = 0
+        while server.discontinued_count() == 0:
+            reader.message()
+            received += 1
+            assert time.monotonic() < deadline, "the silent client was never discontinued"
+        # The reader kept its stream the whole time, and keeps it now.
+        started = time.monotonic()
+        for _ in range(25):
+            reader.message()
+        assert time.monotonic() - started < 2.0
+        silent.sendall(b"write_output_integer_register(5, 42)\n")
+        assert wait_for(lambda: sim.controller.state().output_int_registers[5] == 42, timeout=3)
+    finally:
+        silent.close()
+
+
+def wait_for(predicate, timeout, interval=0.02):
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if predicate():
+            return True
+        time.sleep(interval)
+    return predicate()
+
+
+# --- URScript from raw sockets --------------------------------------------------------------------------------
+
+def test_key_messages_mark_program_start_and_stop(sim, clients):
+    primary = clients(sim.host, PRIMARY)
+    next_state(primary)
+    clients(sim.host, SECONDARY).send("def keyed():\n  sleep(0.2)\nend\n")
+    seen = primary.robot_messages(lambda s, d: s == KEY and b"STOPPED" in d, timeout=5)
+    keys = [data for subtype, data in seen if subtype == KEY]
+    assert b"PROGRAM_XXX_STARTED" in keys[0] and keys[0].endswith(b"keyed")
+    assert b"PROGRAM_XXX_STOPPED" in keys[-1]
+
+
+def test_multi_line_program_with_a_thread(sim, clients):
+    primary = clients(sim.host, PRIMARY)
+    next_state(primary)
+    program = textwrap.dedent(
+        """\
+        def counting_program():
+          global counter = 0
+          thread counter_thread():
+            while counter < 5:
+              counter = counter + 1
+              write_output_integer_register(3, counter)
+              sleep(0.02)
+            end
+          end
+          handle = run counter_thread()
+          join handle
+          textmsg("counted ", counter)
+        end
+        """
+    )
+    primary.send(program)
+    seen = primary.robot_messages(lambda s, d: s == TEXT, timeout=5)
+    assert seen[-1][1].endswith(b"counted 5")
+    assert sim.controller.state().output_int_registers[3] == 5
+
+
+def program_window(realtime_client, timeout):
+    """Controller times (s) at which the realtime program-state field turned PLAYING and back to STOPPED, and the
+    joints of the last package."""
+    started = ended = None
+    deadline = time.monotonic() + timeout
+    while ended is None:
+        assert time.monotonic() < deadline, "program did not finish"
+        data = realtime_client.message()
+        values = struct.unpack(f">{(len(data) - 4) // 8}d", data[4:])
+        program_state, timestamp = values[131], values[0]
+        if started is None and program_state == PLAYING:
+            started = timestamp
+        elif started is not None and program_state == STOPPED:
+            ended = timestamp
+    return ended - started, values[31:37]
+
+
+def test_a_blended_sequence_of_moves_is_faster_than_stopping_at_each(powered_sim, clients):
+    waypoints = ["[0.6, -1.2, 1.0, -1.4, -1.5, 0.2]", "[0.9, -1.0, 0.8, -1.4, -1.5, 0.2]",
+                 "[1.2, -1.2, 1.0, -1.4, -1.5, 0.2]"]
+    powered_sim.controller.movej([0.3, -1.2, 1.0, -1.4, -1.5, 0.2], a=3.0, v=2.0).wait(timeout=10)
+    durations = {}
+    for radius in (0.0, 0.05):
+        moves = "".join(f"  movej({q}, a=2.0, v=1.0, r={radius if i < 2 else 0})\n" for i, q in enumerate(waypoints))
+        realtime = clients(powered_sim.host, REALTIME)
+        clients(powered_sim.host, SECONDARY).send(f"def sequence():\n{moves}end\n")
+        durations[radius], final_q = program_window(realtime, timeout=15)
+        assert list(final_q) == pytest.approx([1.2, -1.2, 1.0, -1.4, -1.5, 0.2], abs=1e-4)
+        powered_sim.controller.movej([0.3, -1.2, 1.0, -1.4, -1.5, 0.2], a=3.0, v=2.0).wait(timeout=10)
+    assert durations[0.05] < durations[0.0] - 0.1
+
+
+def test_a_runtime_error_is_reported_on_30001_and_stops_the_program(sim, clients):
+    primary = clients(sim.host, PRIMARY)
+    next_state(primary)
+    primary.send("def failing():\n  values = [1, 2]\n  x = values[5]\n  textmsg(\"not reached\")\nend\n")
+    seen = primary.robot_messages(lambda s, d: s == RUNTIME_EXCEPTION, timeout=5)
+    data = seen[-1][1]
+    line, column = struct.unpack_from(">II", data, 15)
+    assert line == 3 and b"runtime_error" in data[23:]
+    assert data[13] == 256 - 3  # source -3
+    assert wait_for(lambda: sim.controller.state().runtime_state == STOPPED, timeout=2)
+    assert not any(subtype == TEXT for subtype, _ in seen)
+
+
+def test_a_compile_error_names_the_unknown_function(sim, clients):
+    primary = clients(sim.host, PRIMARY)
+    next_state(primary)
+    primary.send("def typo():\n  txtmsg(\"x\")\nend\n")
+    seen = primary.robot_messages(lambda s, d: s == RUNTIME_EXCEPTION, timeout=5)
+    assert b"txtmsg" in seen[-1][1]
+
+
+def test_a_new_program_replaces_the_running_one(sim, clients):
+    sender = clients(sim.host, PRIMARY)
+    sender.send("def first():\n  sleep(30)\nend\n")
+    assert wait_for(lambda: sim.controller.state().runtime_state == PLAYING, timeout=3)
+    sender.send("def second():\n  write_output_integer_register(7, 2)\nend\n")
+    assert wait_for(lambda: sim.controller.state().output_int_registers[7] == 2, timeout=3)
+    assert wait_for(lambda: sim.controller.state().runtime_state == STOPPED, timeout=3)
+
+
+def test_statement_lines_run_as_a_program(sim, clients):
+    clients(sim.host, REALTIME).send("write_output_integer_register(1, 11)\nwrite_output_integer_register(2, 22)\n")
+    assert wait_for(lambda: list(sim.controller.state().output_int_registers[1:3]) == [11, 22], timeout=3)
+
+
+# --- ur_rtde watching URScript sent on raw sockets (simulator in a subprocess: ur_rtde holds the GIL) -----------
+
+def dashboard(host, *commands):
+    with socket.create_connection((host, DASHBOARD), timeout=3) as sock:
+        reader = sock.makefile("r")
+        reader.readline()
+        replies = []
+        for command in commands:
+            sock.sendall(command.encode() + b"\n")
+            replies.append(reader.readline().strip())
+        return replies
+
+
+def run_child(code, timeout=40):
+    """Run `code` in a fresh interpreter (ur_rtde blocks with the GIL held); its stdout, or the failure."""
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=timeout)
+    assert result.returncode == 0, result.stdout + result.stderr
+    return result.stdout
+
+
+def test_ur_rtde_receive_watches_a_urscript_movej_from_start_to_finish():
+    target = [0.4, -1.3, 1.1, -1.2, -1.4, 0.3]
+    with simulator_process(model="ur3") as process:
+        dashboard(process.host, "power on", "brake release")
+        code = textwrap.dedent(
+            f"""
+            import socket, time
+            import rtde_receive
+            receiver = rtde_receive.RTDEReceiveInterface({process.host!r})
+            deadline = time.monotonic() + 5
+            while receiver.getRobotMode() != 7:
+                assert time.monotonic() < deadline, "never RUNNING"
+                time.sleep(0.01)
+            script = socket.create_connection(({process.host!r}, 30002))
+            script.sendall(b"movej({target}, a=2.0, v=1.5)\\n")
+            states, bits, first_move = [], [], None
+            deadline = time.monotonic() + 15
+            while True:
+                assert time.monotonic() < deadline, "movej never finished"
+                state, status = receiver.getRuntimeState(), receiver.getRobotStatus()
+                q = receiver.getActualQ()
+                if not states or states[-1] != state:
+                    states.append(state)
+                bits.append(status)
+                if state == 2 and first_move is None and any(abs(a - b) > 1e-6 for a, b in zip(q, [0.0] * 6)):
+                    first_move = q
+                if len(states) >= 2 and state == 1:
+                    break
+                time.sleep(0.004)
+            print(states)
+            print(sorted(set(bits)))
+            print(first_move is not None)
+            print(receiver.getActualQ())
+            receiver.disconnect()
+            script.close()
+            """
+        )
+        states, bits, moved, final_q = run_child(code).strip().splitlines()
+    assert eval(states)[-2:] == [2, 1]  # PLAYING, then STOPPED
+    assert 3 in eval(bits)  # power on + program running (robot_status_bits bits 0 and 1) while it ran
+    assert moved == "True"
+    assert eval(final_q) == pytest.approx(target, abs=1e-4)
+
+
+def test_register_handshake_with_a_raw_script_observed_over_rtde():
+    with simulator_process(model="ur3") as process:
+        code = textwrap.dedent(
+            f"""
+            import socket, time
+            import rtde_io, rtde_receive
+            receiver = rtde_receive.RTDEReceiveInterface({process.host!r})
+            io = rtde_io.RTDEIOInterface({process.host!r})
+            script = socket.create_connection(({process.host!r}, 30001))
+            script.sendall(
+                b"def handshake():\\n"
+                b"  write_output_integer_register(12, 1)\\n"
+                b"  while read_input_integer_register(18) != 7:\\n"
+                b"    sync()\\n"
+                b"  end\\n"
+                b"  write_output_float_register(12, read_input_integer_register(18) * 0.5)\\n"
+                b"  write_output_integer_register(12, 2)\\n"
+                b"end\\n")
+            def wait_register(value):
+                deadline = time.monotonic() + 5
+                while receiver.getOutputIntRegister(12) != value:
+                    assert time.monotonic() < deadline, f"register 12 never became {{value}}"
+                    time.sleep(0.004)
+            wait_register(1)
+            print(receiver.getRuntimeState())
+            io.setInputIntRegister(18, 7)
+            wait_register(2)
+            print(receiver.getOutputDoubleRegister(12))
+            io.disconnect(); receiver.disconnect(); script.close()
+            """
+        )
+        playing, doubled = run_child(code).strip().splitlines()
+    assert playing == "2"
+    assert float(doubled) == 3.5

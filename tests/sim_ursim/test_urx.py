@@ -1,0 +1,121 @@
+"""python-urx 0.11, unmodified, against sim_ursim: what it can and cannot do per emulated version
+(docs/urx-compatibility.md records the same facts)."""
+import time
+
+import numpy as np
+import pytest
+import urx
+from urx.urrobot import RobotException
+
+from sim_ursim.testing import running_simulator
+
+TARGET = [0.3, -1.2, 1.0, -1.4, -1.5, 0.2]
+FAST = dict(acc=3.0, vel=2.0)
+
+
+def powered(simulator):
+    simulator.controller.power_up()
+    return simulator
+
+
+@pytest.fixture
+def sim_3_15():
+    with running_simulator(model="ur3") as simulator:
+        yield powered(simulator)
+
+
+@pytest.fixture
+def sim_3_4():
+    with running_simulator(model="ur3", version="3.4.5") as simulator:
+        yield powered(simulator)
+
+
+@pytest.fixture
+def connect():
+    robots = []
+
+    def _connect(host, cls=urx.URRobot, **kwargs):
+        robot = cls(host, **kwargs)
+        robots.append(robot)
+        return robot
+
+    yield _connect
+    for robot in robots:
+        robot.close()
+
+
+def wait_for(predicate, timeout, interval=0.02):
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if predicate():
+            return True
+        time.sleep(interval)
+    return predicate()
+
+
+def test_getj_and_getl_match_the_controller_on_the_default_3_15(sim_3_15, connect):
+    sim_3_15.controller.movej(TARGET, a=3.0, v=2.0).wait(timeout=10)
+    robot = connect(sim_3_15.host, cls=urx.Robot)
+    state = sim_3_15.controller.state()
+    assert robot.getj(wait=True) == pytest.approx(list(state.actual_q), abs=1e-12)
+    # urx.Robot.getl needs math3d < 4 (PoseVector.tolist); the base class reads the same CartesianInfo.
+    assert urx.URRobot.getl(robot) == pytest.approx(list(state.actual_tcp_pose), abs=1e-12)
+
+
+def test_urx_0_11_does_not_recognise_the_real_3_15_robot_mode_layout(sim_3_15, connect):
+    robot = connect(sim_3_15.host)
+    assert robot.secmon._parser.version == (0, 0)
+    assert robot.is_running() is False  # so movej(wait=True) cannot work here, see the next tests
+
+
+def test_movej_without_waiting_moves_the_arm_on_3_15(sim_3_15, connect):
+    robot = connect(sim_3_15.host)
+    robot.movej(TARGET, wait=False, **FAST)
+    assert wait_for(lambda: np.allclose(robot.getj(), TARGET, atol=1e-4), timeout=15)
+    assert np.allclose(sim_3_15.controller.state().actual_q, TARGET, atol=1e-4)
+
+
+def test_movej_with_waiting_is_refused_by_urx_on_3_15(sim_3_15, connect):
+    robot = connect(sim_3_15.host)
+    with pytest.raises(RobotException, match="Robot stopped"):
+        robot.movej(TARGET, wait=True, **FAST)
+
+
+def test_movej_with_waiting_returns_at_the_target_on_3_4(sim_3_4, connect):
+    robot = connect(sim_3_4.host)
+    assert robot.secmon._parser.version == (3, 2) and robot.is_running()
+    started = time.monotonic()
+    reached = robot.movej(TARGET, wait=True, **FAST)
+    assert time.monotonic() - started > 0.5  # it really waited for the ~1.4 s move
+    assert reached == pytest.approx(TARGET, abs=1e-3)
+    assert not robot.is_program_running()
+
+
+def test_is_program_running_follows_the_interpreter_on_3_4(sim_3_4, connect):
+    robot = connect(sim_3_4.host)
+    robot.send_program("def waiting():\n  sleep(1.0)\nend")
+    assert wait_for(robot.is_program_running, timeout=2)
+    assert sim_3_4.controller.state().runtime_state == 2
+    assert wait_for(lambda: not robot.is_program_running(), timeout=5)
+
+
+def test_movel_with_waiting_on_3_4(sim_3_4, connect):
+    sim_3_4.controller.movej(TARGET, a=3.0, v=2.0).wait(timeout=10)
+    robot = connect(sim_3_4.host)
+    start = urx.URRobot.getl(robot, wait=True)
+    goal = list(start)
+    goal[2] += 0.05
+    reached = robot.movel(goal, acc=1.0, vel=0.2, wait=True)
+    assert reached == pytest.approx(goal, abs=2e-3)
+
+
+def test_realtime_monitor_reads_joints_and_pose(sim_3_15, connect):
+    sim_3_15.controller.movej(TARGET, a=3.0, v=2.0).wait(timeout=10)
+    robot = connect(sim_3_15.host, use_rt=True)
+    monitor = robot.get_realtime_monitor()
+    assert wait_for(lambda: monitor.q_actual() is not None, timeout=2)
+    state = sim_3_15.controller.state()
+    assert list(monitor.q_actual(wait=True)) == pytest.approx(list(state.actual_q), abs=1e-12)
+    assert list(monitor.q_target()) == pytest.approx(list(state.target_q), abs=1e-12)
+    # urx's tcf_pose reads the realtime "tool vector target" field (doubles 73..78).
+    assert list(monitor.tcf_pose()) == pytest.approx(list(state.target_tcp_pose), abs=1e-12)

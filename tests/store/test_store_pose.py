@@ -1,0 +1,67 @@
+"""Pose validation and the naming helpers."""
+import re
+
+import numpy as np
+import pytest
+from pyquaternion import Quaternion
+
+from ur3dq.dualquat import DualQuaternion
+from ur3dq.pose import Pose, name_problem, next_free_name, numbering_prefix, utc_now_iso
+
+A_POSE = DualQuaternion.from_rotation_translation(Quaternion(axis=[0, 0, 1], angle=0.5), [0.1, -0.2, 0.3])
+
+
+def test_from_dual_quaternion_derives_the_ur_pose_vector():
+    pose = Pose.from_dual_quaternion("a", A_POSE, "ur3")
+    np.testing.assert_allclose(pose.ur_pose, [0.1, -0.2, 0.3, 0, 0, 0.5], atol=1e-12)
+    assert pose.dq.is_close(A_POSE)
+    assert pose.joints is None and pose.tcp_offset == (0.0,) * 6 and pose.note == ""
+
+
+def test_the_negated_dual_quaternion_is_the_same_pose():
+    negated = DualQuaternion.from_array(-A_POSE.to_array())
+    pose = Pose(name="a", time=utc_now_iso(), robot_model="ur3", dual_quaternion=tuple(negated.to_array()),
+                ur_pose=tuple(A_POSE.to_ur_pose()))
+    assert pose.dq.is_close(A_POSE)
+
+
+def test_utc_now_iso_is_iso_8601_utc_with_z():
+    assert re.fullmatch(r"\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d\.\d{3}Z", utc_now_iso())
+
+
+@pytest.mark.parametrize("name, problem", [
+    ("pick", None), ("pick up 1 ñ", None), ("", "empty"), (" pick", "blanks"), ("a\nb", "control"),
+    ("x" * 101, "longer than 100"), (7, "must be text"),
+])
+def test_name_problem(name, problem):
+    found = name_problem(name)
+    assert (found is None) if problem is None else (problem in found)
+
+
+def test_bad_name_is_refused_on_construction():
+    with pytest.raises(ValueError, match="control characters"):
+        Pose.from_dual_quaternion("a\x00", A_POSE, "ur3")
+
+
+def test_bad_joints_name_the_pose():
+    with pytest.raises(ValueError, match=r"pose 'a': joints contains NaN"):
+        Pose.from_dual_quaternion("a", A_POSE, "ur3", joints=[0, 0, float("nan"), 0, 0, 0])
+
+
+def test_renamed_keeps_everything_else():
+    pose = Pose.from_dual_quaternion("a", A_POSE, "ur3", joints=[0.1] * 6, note="n")
+    other = pose.renamed("b")
+    assert other.name == "b" and other.joints == pose.joints and other.note == "n" and other.time == pose.time
+
+
+@pytest.mark.parametrize("prefix, taken, expected", [
+    ("pose", [], "pose-1"), ("pose", ["pose", "pose-1", "pose-7", "posey-9", "pose-x"], "pose-8"),
+    ("a-b", ["a-b-2"], "a-b-3"),
+])
+def test_next_free_name(prefix, taken, expected):
+    assert next_free_name(prefix, taken) == expected
+
+
+@pytest.mark.parametrize("name, prefix", [("pose-12", "pose"), ("pose", "pose"), ("-3", "-3"), ("a-b", "a-b")])
+def test_numbering_prefix(name, prefix):
+    assert numbering_prefix(name) == prefix

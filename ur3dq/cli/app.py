@@ -1,0 +1,212 @@
+"""The `ur3dq` command group: global options, the shared settings, and one-line errors with documented exit codes."""
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import json
+import os
+import sys
+from pathlib import Path
+
+import click
+from rich.console import Console
+
+from ur3dq.errors import RobotConnectionError, RobotError, SafetyCheckError, StoreError, UR3DQError
+from ur3dq.store import DEFAULT_STORE_PATH, PoseStore
+
+EXIT_OK = 0
+EXIT_CANCELLED = 1
+EXIT_USAGE = 2
+EXIT_STORE = 3
+EXIT_INPUT = 4
+EXIT_NO_ROBOT = 5
+EXIT_ROBOT = 6
+EXIT_NOT_REACHED = 7
+EXIT_INTERNAL = 70
+EXIT_INTERRUPTED = 130
+
+# First match wins: SafetyCheckError is both a RobotError and a ValueError, and is about the input.
+ERROR_EXIT_CODES = (
+    (StoreError, EXIT_STORE),
+    (RobotConnectionError, EXIT_NO_ROBOT),
+    (SafetyCheckError, EXIT_INPUT),
+    (RobotError, EXIT_ROBOT),
+    (ValueError, EXIT_INPUT),
+    (OSError, EXIT_STORE),
+)
+
+EXIT_CODES_EPILOG = f"""\b
+Exit codes:
+  {EXIT_OK}  done
+  {EXIT_CANCELLED}  cancelled at a question (answer it, or pass --yes)
+  {EXIT_USAGE}  bad command line
+  {EXIT_STORE}  pose store or file problem (StoreError; the store is left unchanged)
+  {EXIT_INPUT}  bad input: unreachable pose, joint limits, NaN, refused motion (ValueError, SafetyCheckError)
+  {EXIT_NO_ROBOT}  no robot configured or reachable (RobotConnectionError)
+  {EXIT_ROBOT}  robot fault: protective/emergency stop, program error, lost connection, timeout (RobotError)
+  {EXIT_NOT_REACHED}  demo: a replayed pose was not reached within tolerance
+  {EXIT_INTERNAL}  internal error (set UR3DQ_DEBUG=1 for the traceback)
+  {EXIT_INTERRUPTED}  interrupted (Ctrl-C); a moving arm was stopped with stopj
+"""
+
+NO_ROBOT_HINT = ("no robot configured: name one with --host ADDRESS (or export UR3DQ_HOST=ADDRESS), "
+                 "or start the embedded simulator with `ur3dq sim start`")
+
+
+class Cancelled(UR3DQError):
+    """The user answered no (or nothing) to a question."""
+
+
+@dataclasses.dataclass
+class Settings:
+    """What the global options chose, shared by every command through click's context object."""
+
+    host: str | None
+    backend: str
+    model: str | None
+    store_path: Path
+    json: bool
+    deg: bool
+    out: Console = dataclasses.field(repr=False)
+
+    @property
+    def store(self) -> PoseStore:
+        """The pose store the options name."""
+        return PoseStore(self.store_path)
+
+
+def make_console() -> Console:
+    """A console for stdout: the terminal's width, or a wide fixed width when piped so tables stay whole."""
+    return Console(width=None if sys.stdout.isatty() else 160, highlight=False, soft_wrap=False)
+
+
+def _set_flag(ctx, param, value):
+    """Callback of the per-command --json/--deg: a flag given after the command counts like a global one."""
+    if value:
+        setattr(ctx.find_object(Settings), param.name, True)
+
+
+def display_options(command):
+    """Add --json and --deg to a command too, so `ur3dq fk ... --deg` works as well as `ur3dq --deg fk ...`."""
+    command = click.option("--json", "json", is_flag=True, expose_value=False, callback=_set_flag,
+                           help="Machine-readable JSON on stdout.")(command)
+    return click.option("--deg", "deg", is_flag=True, expose_value=False, callback=_set_flag,
+                        help="Angles in degrees (input and display).")(command)
+
+
+def emit_json(data) -> None:
+    """Print `data` as indented JSON on stdout."""
+    click.echo(json.dumps(data, indent=2, ensure_ascii=False))
+
+
+def confirm(question: str, assume_yes: bool, default: bool = True) -> None:
+    """Ask `question` unless `assume_yes`; Cancelled if the answer is no or stdin has no answer."""
+    if assume_yes:
+        return
+    try:
+        answer = click.confirm(question, default=default, err=True)
+    except click.Abort:
+        raise Cancelled(f"no answer to {question!r}: pass --yes to answer yes in scripts") from None
+    if not answer:
+        raise Cancelled(f"answered no to {question!r}; nothing done")
+
+
+@click.group(
+    context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 110},
+    epilog=EXIT_CODES_EPILOG,
+)
+@click.option("--host", envvar="UR3DQ_HOST", metavar="ADDRESS",
+              help="The robot or URSim to talk to (env UR3DQ_HOST). Default: the embedded simulator if "
+                   "`ur3dq sim start` is running.")
+@click.option("--backend", type=click.Choice(["rtde", "urx"]), default="rtde", show_default=True,
+              help="Client library the driver uses for state and programs.")
+@click.option("--model", type=click.Choice(["ur3", "ur5", "ur10", "ur3e", "ur5e", "ur10e", "ur16e"],
+                                           case_sensitive=False),
+              help="Robot model: checked against the controller; for fk/ik/plot without a robot (default ur3).")
+@click.option("--store", "store_path", envvar="UR3DQ_STORE", default=DEFAULT_STORE_PATH, show_default=True,
+              type=click.Path(dir_okay=False, path_type=Path), help="The JSON pose store (env UR3DQ_STORE).")
+@click.option("--json", "as_json", is_flag=True, help="Machine-readable JSON on stdout.")
+@click.option("--deg", is_flag=True, help="Angles in degrees (what you type and what is shown).")
+@click.version_option(package_name="ur3dq")
+@click.pass_context
+def cli(ctx, host, backend, model, store_path, as_json, deg):
+    """ur3dq: record and replay Universal Robots poses through dual-quaternion kinematics.
+
+    \b
+    Examples:
+      ur3dq sim start                       # an embedded simulated UR3 in the background
+      ur3dq record-pose --name pick --yes   # store the arm's pose in ./poses.json
+      ur3dq run-poses --dry-run             # the replay plan: IK per pose, chosen joints, travel
+      ur3dq run-poses --speed 0.5 --yes     # replay; Ctrl-C stops the arm
+      ur3dq --deg fk 0 -90 0 -90 0 0        # forward kinematics of the UR3
+      ur3dq demo                            # the whole job against a simulator it starts itself
+
+    Metres and radians unless --deg. Poses are TCP poses in the controller's base frame.
+    """
+    ctx.obj = Settings(host=host or None, backend=backend, model=model.lower() if model else None,
+                       store_path=store_path, json=as_json, deg=deg, out=make_console())
+
+
+def one_line(error: BaseException) -> str:
+    """The error's message (and any notes) as one line."""
+    text = str(error) or type(error).__name__
+    notes = getattr(error, "__notes__", None) or []
+    return " ".join(" ".join([text, *notes]).split())
+
+
+def exit_code_for(error: BaseException) -> int:
+    """The documented exit code of an error raised by a command."""
+    if isinstance(error, Cancelled):
+        return EXIT_CANCELLED
+    for kind, code in ERROR_EXIT_CODES:
+        if isinstance(error, kind):
+            return code
+    return EXIT_INTERNAL
+
+
+def main(argv=None) -> None:
+    """Entry point of the `ur3dq` command: run the CLI; any error becomes `Error: ...` on stderr and an exit code."""
+    try:
+        code = cli.main(args=argv, prog_name="ur3dq", standalone_mode=False)
+    except click.ClickException as error:
+        error.show()
+        code = error.exit_code
+    except click.Abort as error:  # click turns Ctrl-C and end-of-input into Abort
+        if isinstance(error.__cause__, KeyboardInterrupt):
+            click.echo("Error: interrupted", err=True)
+            code = EXIT_INTERRUPTED
+        else:
+            click.echo("Error: cancelled (no answer on stdin: pass --yes in scripts)", err=True)
+            code = EXIT_CANCELLED
+    except KeyboardInterrupt:
+        click.echo("Error: interrupted", err=True)
+        code = EXIT_INTERRUPTED
+    except (UR3DQError, ValueError, OSError) as error:
+        click.echo(f"Error: {one_line(error)}", err=True)
+        code = exit_code_for(error)
+    except Exception as error:  # a bug: still one line, the traceback on request
+        if os.environ.get("UR3DQ_DEBUG"):
+            raise
+        click.echo(f"Error: internal error ({type(error).__name__}): {one_line(error)} "
+                   "(set UR3DQ_DEBUG=1 for the traceback)", err=True)
+        code = EXIT_INTERNAL
+    sys.exit(code if isinstance(code, int) else EXIT_OK)
+
+
+@contextlib.contextmanager
+def robot_session(settings: Settings, **options):
+    """A connected Robot for the host the options (or the running embedded simulator) name; closed afterwards.
+    `options` go to the driver's connect (e.g. max_joint_travel)."""
+    from ur3dq.cli.simstate import running_simulator_host
+    from ur3dq.robot import connect
+
+    host = settings.host or running_simulator_host()
+    if not host:
+        raise RobotConnectionError(NO_ROBOT_HINT)
+    try:
+        robot = connect(host, backend=settings.backend, model=settings.model, **options)
+    except OSError as error:
+        raise RobotConnectionError(f"cannot reach a UR controller at {host}: {error.strerror or error}; check --host "
+                                   "or UR3DQ_HOST, or start the embedded simulator with `ur3dq sim start`") from None
+    with robot:
+        yield robot

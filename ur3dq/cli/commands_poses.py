@@ -1,0 +1,171 @@
+"""`ur3dq poses ...`: look after the pose store (list, show, rm, rename, import, export)."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+from rich.table import Table
+
+from ur3dq.cli.app import Settings, cli, confirm, display_options, emit_json
+from ur3dq.cli.commands_kinematics import NUMBERS_CONTEXT, ur_pose_from_input
+from ur3dq.cli.display import angles_text, coefficients_text, key_value_table, pose_vector_text
+from ur3dq.errors import StoreError
+from ur3dq.store import format_store, format_thesis_lines, parse_store, pose_to_dict, write_atomically
+
+
+@cli.group()
+def poses():
+    """Look after the pose store: list, show, rm, rename, import, export.
+
+    \b
+    Examples:
+      ur3dq poses list
+      ur3dq poses show pick --deg
+      ur3dq poses rename pose-3 place
+      ur3dq poses import recorded.txt --prefix thesis     # the thesis' 8-coefficient lines
+      ur3dq poses export cell.txt pick place             # back to thesis lines
+      ur3dq --store other.json poses export all.json --format json
+    """
+
+
+@poses.command("list")
+@display_options
+@click.pass_obj
+def list_poses(settings: Settings):
+    """Every stored pose: name, time, model, TCP position and orientation, whether joints are known."""
+    stored = settings.store.load()
+    if settings.json:
+        emit_json([pose_to_dict(pose) for pose in stored])
+        return
+    if not stored:
+        settings.out.print(f"{settings.store_path} has no poses yet: record one with `ur3dq record-pose`.")
+        return
+    table = Table(title=f"{len(stored)} poses in {settings.store_path}", title_justify="left")
+    for header in ("#", "name", "recorded (UTC)", "model", "TCP pose", "joints", "note"):
+        table.add_column(header, overflow="fold")
+    for index, pose in enumerate(stored, start=1):
+        table.add_row(str(index), pose.name, pose.time, pose.robot_model,
+                      pose_vector_text(pose.ur_pose, settings.deg), "yes" if pose.joints is not None else "no",
+                      pose.note)
+    settings.out.print(table)
+
+
+@poses.command()
+@click.argument("name")
+@display_options
+@click.pass_obj
+def show(settings: Settings, name):
+    """Everything stored about the pose NAME, and its thesis text line.
+
+    \b
+    Example:
+      ur3dq poses show pick --deg
+    """
+    pose = settings.store.get(name)
+    if settings.json:
+        emit_json({**pose_to_dict(pose), "thesis_line": pose.dq.to_thesis_line()})
+        return
+    settings.out.print(key_value_table(f"Pose {pose.name!r}", [
+        ("recorded (UTC)", pose.time),
+        ("robot", f"{pose.robot_model}" + (f", serial {pose.robot_serial}" if pose.robot_serial else "")),
+        ("joints", angles_text(pose.joints, settings.deg) if pose.joints is not None else "not recorded"),
+        ("TCP pose", pose_vector_text(pose.ur_pose, settings.deg)),
+        ("dual quaternion", coefficients_text(pose.dual_quaternion)),
+        ("thesis line", pose.dq.to_thesis_line()),
+        ("TCP offset", pose_vector_text(pose.tcp_offset, settings.deg)),
+        ("note", pose.note),
+    ]))
+
+
+@poses.command()
+@click.argument("name")
+@click.option("--yes", "-y", is_flag=True, help="Do not ask for confirmation.")
+@click.pass_obj
+def rm(settings: Settings, name, yes):
+    """Remove the pose NAME from the store (asks first).
+
+    \b
+    Example:
+      ur3dq poses rm pose-3 --yes
+    """
+    settings.store.get(name)  # an unknown name fails before the question
+    confirm(f"Remove pose {name!r} from {settings.store_path}?", yes, default=False)
+    removed = settings.store.remove(name)
+    click.echo(f"Removed {removed.name!r}.")
+
+
+@poses.command()
+@click.argument("old")
+@click.argument("new")
+@click.pass_obj
+def rename(settings: Settings, old, new):
+    """Rename the pose OLD to NEW (NEW must be free).
+
+    \b
+    Example:
+      ur3dq poses rename pose-1 pick
+    """
+    renamed = settings.store.rename(old, new)
+    click.echo(f"Renamed {old!r} to {renamed.name!r}.")
+
+
+@poses.command("import", context_settings=NUMBERS_CONTEXT)
+@click.argument("file", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.option("--prefix", help="Name thesis poses PREFIX-1, PREFIX-2, ... (default: the file's name).")
+@click.option("--tcp", nargs=6, type=float, metavar="X Y Z RX RY RZ",
+              help="TCP offset the thesis poses were recorded with (default none).")
+@display_options
+@click.pass_obj
+def import_poses(settings: Settings, file: Path, prefix, tcp):
+    """Add the poses of FILE: the thesis' text lines (`q.w q.x q.y q.z 0 p.x p.y p.z`, one pose a line,
+    `#` comments allowed) or another ur3dq JSON store. All or nothing; taken names are numbered on.
+
+    Thesis lines carry no joints and no model: --model (default ur3) and --tcp say what they were recorded with.
+
+    \b
+    Examples:
+      ur3dq poses import poses/thesis_poses.txt --prefix thesis
+      ur3dq --model ur5 poses import recorded.txt --tcp 0 0 0.2 0 0 0
+      ur3dq poses import other-cell.json
+    """
+    text = file.read_text(encoding="utf-8")
+    if text.lstrip().startswith("{"):
+        if prefix or tcp:
+            raise ValueError(f"{file} is a JSON pose store: --prefix and --tcp apply to thesis text files only")
+        added = settings.store.add_many(parse_store(text, str(file)), number_if_taken=True)
+    else:
+        tcp_offset = ur_pose_from_input(tcp, settings.deg, "--tcp") if tcp else (0.0,) * 6
+        added = settings.store.import_thesis_lines(file, settings.model or "ur3", tcp_offset, prefix)
+    if settings.json:
+        emit_json([pose.name for pose in added])
+    else:
+        click.echo(f"Imported {len(added)} poses into {settings.store_path}: {', '.join(p.name for p in added)}")
+
+
+@poses.command("export")
+@click.argument("file", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("names", nargs=-1)
+@click.option("--format", "file_format", type=click.Choice(["thesis", "json"]), default="thesis", show_default=True,
+              help="thesis: one 8-coefficient line per pose; json: a pose store file.")
+@click.option("--yes", "-y", is_flag=True, help="Overwrite FILE without asking.")
+@click.pass_obj
+def export_poses(settings: Settings, file: Path, names, file_format, yes):
+    """Write the poses (all, or NAMES in that order) to FILE (`-` for stdout), atomically.
+
+    \b
+    Examples:
+      ur3dq poses export recorded.txt                    # thesis lines, every pose
+      ur3dq poses export - pick place                    # two thesis lines on stdout
+      ur3dq poses export backup.json --format json --yes
+    """
+    selected = settings.store.select(names)
+    text = format_store(selected) if file_format == "json" else format_thesis_lines(pose.dq for pose in selected)
+    if str(file) == "-":
+        click.echo(text, nl=False)
+        return
+    if file.resolve() == settings.store_path.resolve():
+        raise StoreError(f"{file} is the pose store itself; export to another file")
+    if file.exists():
+        confirm(f"Overwrite {file}?", yes, default=False)
+    write_atomically(file, text)
+    click.echo(f"Exported {len(selected)} poses to {file} ({file_format}).")

@@ -1,0 +1,149 @@
+"""`ur3dq sim start/stop/status` (the embedded simulator in the background) and `ur3dq demo` (the whole job)."""
+from __future__ import annotations
+
+import math
+import tempfile
+from pathlib import Path
+
+import click
+import numpy as np
+from rich.console import Console
+
+from ur3dq.cli.app import EXIT_NOT_REACHED, Settings, cli, emit_json
+from ur3dq.cli.commands_robot import execute_plan, plan_table, read_pose, reached_table, speed_and_acceleration
+from ur3dq.cli.display import angles_text, pose_vector_text
+from ur3dq.cli.plan import plan_replay
+from ur3dq.cli.simstate import read_state, start_simulator, state_directory, stop_simulator
+from ur3dq.store import PoseStore
+
+# Where the demo parks the arm and the places it records (rad): distinct, comfortably reachable, away from the
+# wrist singularity (wrist 2 ≠ 0, π), and each within π of the last so no move is refused for its travel.
+DEMO_PARK = (0.0, -math.pi / 2, 0.0, -math.pi / 2, 0.0, 0.0)
+DEMO_PLACES = (
+    (0.0, -1.2, 1.0, -1.4, -1.57, 0.0),
+    (0.8, -1.0, 1.3, -1.9, -1.57, 0.5),
+    (-0.7, -1.6, 1.6, -1.6, -1.57, -0.3),
+    (0.3, -0.8, 0.7, -1.5, -1.2, 1.0),
+)
+
+
+@cli.group()
+def sim():
+    """The embedded simulator (sim_ursim) in the background, for trying ur3dq without a robot.
+
+    While it runs, robot commands use it when no --host / UR3DQ_HOST is given.
+
+    \b
+    Examples:
+      ur3dq sim start                     # a UR3 (CB3 3.15) on a free loopback address
+      ur3dq --model ur5e sim start --address 127.0.0.3
+      ur3dq sim status
+      ur3dq sim stop
+    """
+
+
+@sim.command("start")
+@click.option("--address", help="Loopback address to serve on (127.x.y.z; default: a free one).")
+@click.option("--version", "software_version", help="Controller software, e.g. 3.15.8 or 5.11.1.")
+@click.pass_obj
+def sim_start(settings: Settings, address, software_version):
+    """Start the simulator (the arm starts powered off at zero joints; the demo or your program powers it on)."""
+    state = start_simulator(settings.model or "ur3", address, software_version)
+    if settings.json:
+        emit_json(state)
+    else:
+        click.echo(f"Simulated {state['model']} serving on {state['host']} (pid {state['pid']}, log {state['log']}).")
+        click.echo(f"Robot commands now use it; or point other tools at it: export UR3DQ_HOST={state['host']}")
+
+
+@sim.command("stop")
+@click.pass_obj
+def sim_stop(settings: Settings):
+    """Stop the simulator `ur3dq sim start` left running."""
+    state = stop_simulator()
+    if settings.json:
+        emit_json({"stopped": state})
+    elif state:
+        click.echo(f"Stopped the simulator on {state['host']} (pid {state['pid']}).")
+    else:
+        click.echo("No embedded simulator was running.")
+
+
+@sim.command("status")
+@click.pass_obj
+def sim_status(settings: Settings):
+    """Whether the simulator runs, and where."""
+    state = read_state(state_directory())
+    if settings.json:
+        emit_json({"running": state is not None, **(state or {})})
+    elif state:
+        click.echo(f"Running: simulated {state['model']} on {state['host']} (pid {state['pid']}, since "
+                   f"{state['started']}, log {state['log']}).")
+    else:
+        click.echo("Not running (start it with `ur3dq sim start`).")
+
+
+@cli.command()
+@click.option("--save", type=click.Path(dir_okay=False, path_type=Path),
+              help="Keep the demo's pose store in this file (default: a temporary one, removed afterwards).")
+@click.option("--speed", type=float, default=1.5, show_default=True, help="movej speed, rad/s.")
+@click.option("--acceleration", type=float, default=3.0, show_default=True, help="movej acceleration, rad/s².")
+@click.option("--tolerance-mm", type=float, default=0.5, show_default=True,
+              help="A replayed pose counts as reached within this distance.")
+@click.option("--tolerance-deg", type=float, default=0.1, show_default=True,
+              help="... and within this rotation.")
+@click.pass_obj
+def demo(settings: Settings, save, speed, acceleration, tolerance_mm, tolerance_deg):
+    """The whole job against a simulator it starts itself: power on, release the brakes, move the arm to a few
+    places and record each into a pose store, park the arm, replay the store (IK nearest the recorded joints,
+    as run-poses does), and show where the arm ended vs where each pose was recorded.
+
+    Exits 0 only if every replayed pose was reached within tolerance (else 7).
+
+    \b
+    Examples:
+      ur3dq demo
+      ur3dq --model ur5e demo --save demo-poses.json
+    """
+    from sim_ursim.testing import simulator_process
+    from ur3dq.robot import connect
+
+    say = settings.out.print
+    model_name = settings.model or "ur3"
+    with tempfile.TemporaryDirectory(prefix="ur3dq-demo-") as scratch:
+        store = PoseStore(save or Path(scratch) / "demo-poses.json")
+        say(f"[bold]1.[/bold] Starting the embedded simulator (sim_ursim, {model_name}) ...")
+        with simulator_process(model=model_name) as simulator, connect(simulator.host, model=model_name) as robot:
+            say(f"   serving on {simulator.host}; powering on and releasing the brakes")
+            robot.power_on()
+            robot.brake_release()
+            a, v = speed_and_acceleration(robot.model, speed, acceleration, Console(stderr=True))
+            say(f"[bold]2.[/bold] Moving the arm to {len(DEMO_PLACES)} places and recording each into {store.path}")
+            recorded = []
+            for index, place in enumerate(DEMO_PLACES, start=1):
+                robot.movej(np.array(place), a=a, v=v)
+                stored = store.add(read_pose(robot, f"demo-{index}", note="recorded by ur3dq demo"),
+                                   number_if_taken=True)
+                recorded.append(stored.name)
+                say(f"   recorded {stored.name}: joints {angles_text(stored.joints, settings.deg)}, "
+                    f"TCP {pose_vector_text(stored.ur_pose, settings.deg)}")
+            say(f"[bold]3.[/bold] Parking the arm at {angles_text(DEMO_PARK, settings.deg)}")
+            robot.movej(np.array(DEMO_PARK), a=a, v=v)
+            say("[bold]4.[/bold] Replaying the store as run-poses does (IK of each dual quaternion, FK-checked)")
+            steps = plan_replay(robot.model, store.select(recorded), robot.joints(), a, v)
+            say(plan_table(steps, settings.deg, "Plan"))
+            results = execute_plan(robot, steps, a, v, 0.0, 1, Console(stderr=True))
+    missed = [r for r in results
+              if r.error_m * 1000 > tolerance_mm or math.degrees(r.error_rad) > tolerance_deg]
+    if settings.json:
+        emit_json({"reached": [{"pose": r.step.pose.name, "error_m": r.error_m, "error_rad": r.error_rad}
+                               for r in results], "missed": [r.step.pose.name for r in missed]})
+    else:
+        say(reached_table(results, "5. Where the arm ended vs where each pose was recorded"))
+    if missed:
+        click.echo(f"Error: {len(missed)} of {len(results)} poses missed the tolerance of {tolerance_mm} mm / "
+                   f"{tolerance_deg}°: {', '.join(r.step.pose.name for r in missed)}", err=True)
+        click.get_current_context().exit(EXIT_NOT_REACHED)
+    if not settings.json:
+        say(f"[green]Every pose reached within {tolerance_mm} mm / {tolerance_deg}°.[/green]"
+            + (f" The poses are in {save}." if save else ""))

@@ -1,0 +1,300 @@
+"""The Universal Robots family: DH parameters, joint limits, maximum joint speeds, calibrated DH, and fast FK.
+
+Frames (../shared/conventions.md): base = the controller's base frame (DH frame 0; ROS ``base_link`` is this frame
+turned π about z), flange = DH frame 6, TCP = flange · tcp. Metres, radians, seconds.
+
+Sources of the numbers:
+* DH: conventions.md (checked against ``ur_analytic_ik`` for every model).
+* Maximum joint speeds: Universal_Robots_ROS2_Description ``config/<model>/joint_limits.yaml`` (taken from the UR
+  user manuals): UR3/UR3e 180°/s base-shoulder-elbow and 360°/s wrists; UR5/UR5e 180°/s every joint; UR10/UR10e/
+  UR16e 120°/s base and shoulder, 180°/s the others.
+* Joint ranges: ±2π on every joint, as the controller allows (the ROS description's ±π on the elbow is a planning
+  restriction, not a controller limit); the UR3's wrist 3 turns without limit: ±inf.
+* Maximum joint acceleration: UR does not publish one; 40 rad/s² is the bound the controller accepts for
+  ``movej``'s ``a`` (ur_rtde's ``UR_JOINT_ACCELERATION_MAX``), used here as the ceiling for checks.
+
+FK of a nominal model uses a closed form (joints 2–4 are parallel, so their rotations add up) that costs a few
+dozen float operations; a calibrated model (small DH deltas breaking that structure) goes through its
+:class:`~ur3dq.kinematics.chain.SerialChain`.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ur3dq import dqarray
+from ur3dq.dualquat import DualQuaternion, multiply_coefficients
+from ur3dq.errors import JointLimitError
+from ur3dq.kinematics.chain import SerialChain, evaluate_in_blocks, thesis_to_dh_flange
+
+JOINT_NAMES = ("base", "shoulder", "elbow", "wrist 1", "wrist 2", "wrist 3")
+NOMINAL_ALPHA = (math.pi / 2, 0.0, 0.0, math.pi / 2, -math.pi / 2, 0.0)
+MAX_JOINT_ACCELERATION = 40.0  # rad/s², see the module docstring
+
+_DEG = math.pi / 180.0
+_IDENTITY = (1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+# name: (d1, a2, a3, d4, d5, d6), max joint speeds in °/s, wrist 3 unlimited
+_FAMILY = {
+    "ur3": ((0.1519, -0.24365, -0.21325, 0.11235, 0.08535, 0.0819), (180, 180, 180, 360, 360, 360), True),
+    "ur5": ((0.089159, -0.425, -0.39225, 0.10915, 0.09465, 0.0823), (180,) * 6, False),
+    "ur10": ((0.1273, -0.612, -0.5723, 0.163941, 0.1157, 0.0922), (120, 120, 180, 180, 180, 180), False),
+    "ur3e": ((0.15185, -0.24355, -0.2132, 0.13105, 0.08535, 0.0921), (180, 180, 180, 360, 360, 360), False),
+    "ur5e": ((0.1625, -0.425, -0.3922, 0.1333, 0.0997, 0.0996), (180,) * 6, False),
+    "ur10e": ((0.1807, -0.6127, -0.57155, 0.17415, 0.11985, 0.11655), (120, 120, 180, 180, 180, 180), False),
+    "ur16e": ((0.1807, -0.4784, -0.36, 0.17415, 0.11985, 0.11655), (120, 120, 180, 180, 180, 180), False),
+}
+MODEL_NAMES = tuple(_FAMILY)
+DH_DELTA_KEYS = ("a", "d", "alpha", "theta")
+
+
+def _frozen(values) -> np.ndarray:
+    """A read-only float copy (model attributes are values that must not change under a cached solver)."""
+    array = np.array(values, dtype=float)
+    array.flags.writeable = False
+    return array
+
+
+@dataclass(frozen=True)
+class DHParameters:
+    """Standard DH columns of 6 joints: joint i = rz(θ_i + q_i)·tz(d_i)·tx(a_i)·rx(α_i); θ is the joint offset."""
+
+    a: np.ndarray
+    d: np.ndarray
+    alpha: np.ndarray
+    theta: np.ndarray
+
+    @classmethod
+    def nominal(cls, name: str) -> "DHParameters":
+        """The nominal (catalogue) DH of a UR model."""
+        d1, a2, a3, d4, d5, d6 = _FAMILY[name][0]
+        return cls(
+            a=_frozen([0.0, a2, a3, 0.0, 0.0, 0.0]),
+            d=_frozen([d1, 0.0, 0.0, d4, d5, d6]),
+            alpha=_frozen(NOMINAL_ALPHA),
+            theta=_frozen(np.zeros(6)),
+        )
+
+    def with_deltas(self, deltas: dict) -> "DHParameters":
+        """These parameters plus calibration deltas {'a','d','alpha','theta': 6 values each, missing keys = 0}."""
+        if not isinstance(deltas, dict):
+            raise ValueError(f"dh_deltas: expected a dict with keys {DH_DELTA_KEYS}, got {type(deltas).__name__}")
+        unknown = sorted(set(deltas) - set(DH_DELTA_KEYS))
+        if unknown:
+            raise ValueError(f"dh_deltas: unknown key {unknown[0]!r} (expected some of {', '.join(DH_DELTA_KEYS)})")
+        columns = {}
+        for key in DH_DELTA_KEYS:
+            delta = dqarray.as_array(deltas.get(key, np.zeros(6)), 6, f"dh_deltas[{key!r}]")
+            if delta.shape != (6,):
+                raise ValueError(f"dh_deltas[{key!r}]: expected 6 values, got shape {delta.shape}")
+            columns[key] = _frozen(getattr(self, key) + delta)
+        return DHParameters(**columns)
+
+    def is_nominal_structure(self) -> bool:
+        """True when a1 = a4 = a5 = a6 = d2 = d3 = 0, α is nominal and θ = 0 exactly (the closed form applies)."""
+        return (
+            not any(self.a[[0, 3, 4, 5]])
+            and not any(self.d[[1, 2]])
+            and tuple(self.alpha) == NOMINAL_ALPHA
+            and not any(self.theta)
+        )
+
+
+def _sincos_floats(angle: float) -> tuple:
+    """(sin, cos) of one float angle."""
+    return math.sin(angle), math.cos(angle)
+
+
+def _ur_flange(d1, a2, a3, d4, d5, d6, q1, q2, q3, q4, q5, q6, sincos) -> tuple:
+    """Flange σ (8 coefficients) of a nominal UR arm; q floats or arrays, with the matching ``sincos``.
+
+    Rotation r = rz(q1)·rx(π/2) · rz(q234)·rx(π/2) · rz(q5)·rx(−π/2)·rz(q6); the first pair of factors multiplies
+    out to (−s1 sb, c1 cb, s1 cb, c1 sb) and the last to (1/√2)(cP, −cM, −sM, sP) with half angles b = q234/2,
+    P = (q5 + q6)/2, M = (q5 − q6)/2. The position is that of the planar arm (joints 2–4) in frame 1:
+    p = c1·ρ + s1·δ, s1·ρ − c1·δ, d1 + a2 s2 + a3 s23 − d5 c234 − d6 s5 s234, with
+    ρ = a2 c2 + a3 c23 + d5 s234 − d6 s5 c234 and δ = d4 + d6 c5 (full angles).
+    """
+    q23 = q2 + q3
+    q234 = q23 + q4
+    s1, c1 = sincos(0.5 * q1)
+    sb, cb = sincos(0.5 * q234)
+    sp, cp = sincos(0.5 * (q5 + q6))
+    sm, cm = sincos(0.5 * (q5 - q6))
+    sin2, cos2 = sincos(q2)
+    sin23, cos23 = sincos(q23)
+    # First factor A = (aw, ax, ay, az), second factor B = k·(cp, −cm, −sm, sp) with k = 1/√2.
+    aw, ax, ay, az = -s1 * sb, c1 * cb, s1 * cb, c1 * sb
+    k = 0.7071067811865476
+    bw, bx, by, bz = k * cp, -k * cm, -k * sm, k * sp
+    rw = aw * bw - ax * bx - ay * by - az * bz
+    rx = aw * bx + ax * bw + ay * bz - az * by
+    ry = aw * by - ax * bz + ay * bw + az * bx
+    rz = aw * bz + ax * by - ay * bx + az * bw
+    # Full angles from the half angles already at hand (double-angle and angle-sum formulas).
+    cos1, sin1 = c1 * c1 - s1 * s1, 2.0 * s1 * c1
+    cos234, sin234 = cb * cb - sb * sb, 2.0 * sb * cb
+    cos5, sin5 = cp * cm - sp * sm, sp * cm + cp * sm
+    d6_sin5 = d6 * sin5
+    reach = a2 * cos2 + a3 * cos23 + d5 * sin234 - d6_sin5 * cos234
+    offset = d4 + d6 * cos5
+    px = cos1 * reach + sin1 * offset
+    py = sin1 * reach - cos1 * offset
+    pz = d1 + a2 * sin2 + a3 * sin23 - d5 * cos234 - d6_sin5 * sin234
+    # Dual part ½·(0, p)·r.
+    return (
+        rw, rx, ry, rz,
+        0.5 * (-px * rx - py * ry - pz * rz),
+        0.5 * (px * rw + py * rz - pz * ry),
+        0.5 * (-px * rz + py * rw + pz * rx),
+        0.5 * (px * ry - py * rx + pz * rw),
+    )
+
+
+class URModel:
+    """A UR arm: DH, limits, speeds, TCP; ``fk``/``fk_batch`` here, IK delegated to :mod:`ur3dq.kinematics.ur_ik`."""
+
+    def __init__(self, name: str, dh: DHParameters, max_joint_speed, joint_lower, joint_upper,
+                 max_joint_acceleration=None, tcp=None, calibrated: bool = False):
+        """Assemble a model; prefer :func:`robot_model`, which fills every argument from the catalogue."""
+        self.name = name
+        self.dh = dh
+        self.max_joint_speed = _frozen(max_joint_speed)
+        self.joint_lower = _frozen(joint_lower)
+        self.joint_upper = _frozen(joint_upper)
+        acceleration = (MAX_JOINT_ACCELERATION,) * 6 if max_joint_acceleration is None else max_joint_acceleration
+        self.max_joint_acceleration = _frozen(acceleration)
+        self.tcp = DualQuaternion.identity() if tcp is None else tcp
+        self.calibrated = calibrated
+        self._tcp_coefficients = tuple(float(c) for c in self.tcp.to_array())
+        self._closed_form = dh.is_nominal_structure()
+        self._lengths = (float(dh.d[0]), float(dh.a[1]), float(dh.a[2]), float(dh.d[3]), float(dh.d[4]), float(dh.d[5]))
+        self.chain = SerialChain.from_dh(dh.a, dh.d, dh.alpha, dh.theta, tool=self.tcp)
+
+    def __repr__(self) -> str:
+        return f"URModel({self.name!r}{', calibrated' if self.calibrated else ''}, tcp={self.tcp.to_ur_pose().round(6).tolist()})"
+
+    def with_tcp(self, tcp) -> "URModel":
+        """The same arm with a TCP offset in the flange frame: a DualQuaternion or a UR pose vector [x,y,z,rx,ry,rz]."""
+        if isinstance(tcp, DualQuaternion):
+            if not tcp.is_unit():
+                raise ValueError("tcp: not a unit dual quaternion (a rigid transform is required)")
+            offset = tcp
+        else:
+            offset = DualQuaternion.from_ur_pose(tcp)
+        return URModel(self.name, self.dh, self.max_joint_speed, self.joint_lower, self.joint_upper,
+                       self.max_joint_acceleration, offset, self.calibrated)
+
+    # ------------------------------------------------------------------------------------------------------ FK
+    @staticmethod
+    def _joint_floats(q, name: str = "q") -> tuple:
+        """Six finite floats from ``q``; ValueError naming ``name`` (kept cheap: this is on the single-FK path)."""
+        try:
+            values = tuple(float(v) for v in q)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"{name}: expected 6 joint angles (radians), got {q!r}") from exc
+        if len(values) != 6:
+            raise ValueError(f"{name}: expected 6 joint angles, got {len(values)}")
+        # One sum tells "all finite" in the common case; only a NaN/inf (or an overflowing sum) looks closer.
+        if not math.isfinite(sum(values)) and not all(math.isfinite(v) for v in values):
+            raise ValueError(f"{name}: contains NaN or infinite values")
+        return values
+
+    def fk(self, q) -> DualQuaternion:
+        """TCP pose in the base frame at joint angles ``q`` (6, radians)."""
+        q = self._joint_floats(q)
+        if not self._closed_form:
+            return self.chain.fk_of_floats(q)
+        flange = _ur_flange(*self._lengths, *q, _sincos_floats)
+        if self._tcp_coefficients != _IDENTITY:
+            flange = multiply_coefficients(flange, self._tcp_coefficients)
+        return DualQuaternion._from_tuple(flange)
+
+    def fk_flange(self, q) -> DualQuaternion:
+        """Flange pose (DH frame 6, TCP offset ignored) in the base frame."""
+        return self.with_tcp(DualQuaternion.identity()).fk(q) if self._tcp_coefficients != _IDENTITY else self.fk(q)
+
+    def fk_batch(self, joint_matrix) -> np.ndarray:
+        """TCP poses (N, 8) [rw rx ry rz dw dx dy dz] of N joint configurations (N, 6), vectorised over N."""
+        joint_matrix = dqarray.as_array(joint_matrix, 6, "joint_matrix")
+        if joint_matrix.ndim != 2:
+            raise ValueError(f"joint_matrix: expected shape (N, 6), got {joint_matrix.shape}")
+        if not self._closed_form:
+            return self.chain.fk_batch(joint_matrix)
+        def tcp_pose(columns):
+            flange = _ur_flange(*self._lengths, *columns, dqarray.sincos)
+            if self._tcp_coefficients == _IDENTITY:
+                return flange
+            return multiply_coefficients(flange, self._tcp_coefficients)
+
+        return evaluate_in_blocks(tcp_pose, joint_matrix)
+
+    def frames(self, q) -> np.ndarray:
+        """(7, 8) DH frames 0..6 in the base frame at ``q``; the last one includes the TCP offset."""
+        return self.chain.frames(self._joint_floats(q))
+
+    def joint_axes(self, q) -> tuple[np.ndarray, np.ndarray]:
+        """(directions, points), each (6, 3): joint axes in the base frame at ``q`` (for Jacobians)."""
+        return self.chain.joint_axes(self._joint_floats(q))
+
+    def flange_rotation_at_zero(self) -> DualQuaternion:
+        """R0: the flange's orientation at q = 0 (pure rotation); the thesis' end frame is σ_DH(q)·R0*."""
+        home = self.with_tcp(DualQuaternion.identity()).fk(np.zeros(6))
+        return DualQuaternion.from_rotation_translation(home.rotation, (0.0, 0.0, 0.0))
+
+    def thesis_chain(self, tool_point=(0.0, 0.0, 0.0)) -> SerialChain:
+        """The thesis' axis-angle chain (§4.2): axes in the base frame at q = 0, end frame parallel to the base at
+        q = 0, and a tool point given in that frame (the thesis' example uses (0, −0.2, 0))."""
+        flange_chain = SerialChain.from_dh(self.dh.a, self.dh.d, self.dh.alpha, self.dh.theta)
+        directions, points = flange_chain.joint_axes(np.zeros(6))
+        home = flange_chain.home() * thesis_to_dh_flange(flange_chain.home())
+        return SerialChain.from_axes(directions, points, home, tool=DualQuaternion.from_translation(tool_point))
+
+    # ------------------------------------------------------------------------------------------------------ IK
+    def ik_all(self, pose) -> list:
+        """Every FK-verified joint solution of a TCP ``pose`` (see ur3dq.kinematics.ur_ik.ik_all)."""
+        from ur3dq.kinematics import ur_ik  # imported here: the IK module builds on this one
+
+        return ur_ik.ik_all(self, pose)
+
+    def ik(self, pose, q_ref, weights=None) -> np.ndarray:
+        """The solution (±2π variants within limits) closest to ``q_ref`` (see ur3dq.kinematics.ur_ik.ik)."""
+        from ur3dq.kinematics import ur_ik
+
+        return ur_ik.ik(self, pose, q_ref, weights)
+
+    def ik_batch(self, poses, q_ref) -> np.ndarray:
+        """(N, 6) solutions closest to ``q_ref``, NaN rows where unreachable (see ur3dq.kinematics.ur_ik.ik_batch)."""
+        from ur3dq.kinematics import ur_ik
+
+        return ur_ik.ik_batch(self, poses, q_ref)
+
+    # ------------------------------------------------------------------------------------------------- limits
+    def check_joints(self, q) -> np.ndarray:
+        """Return ``q`` as an array after checking it: ValueError for shape/NaN, JointLimitError outside limits."""
+        values = np.array(self._joint_floats(q))
+        outside = (values < self.joint_lower) | (values > self.joint_upper)
+        if outside.any():
+            i = int(np.argmax(outside))
+            raise JointLimitError(
+                f"q: joint {i + 1} ({JOINT_NAMES[i]}) = {values[i]:.6g} rad is outside "
+                f"[{self.joint_lower[i]:.6g}, {self.joint_upper[i]:.6g}] of the {self.name}"
+            )
+        return values
+
+
+def robot_model(name: str, dh_deltas: dict | None = None) -> URModel:
+    """The UR model ``name`` (ur3 ur5 ur10 ur3e ur5e ur10e ur16e, any case), optionally with calibration deltas
+    {'a','d','alpha','theta': 6 values} added to the nominal DH as the controller's Kinematics Info reports."""
+    if not isinstance(name, str) or name.strip().lower() not in _FAMILY:
+        raise ValueError(f"name: unknown robot model {name!r} (known: {', '.join(MODEL_NAMES)})")
+    key = name.strip().lower()
+    _, speeds_deg, wrist3_unlimited = _FAMILY[key]
+    dh = DHParameters.nominal(key)
+    calibrated = dh_deltas is not None
+    if calibrated:
+        dh = dh.with_deltas(dh_deltas)
+    upper = np.full(6, 2.0 * math.pi)
+    if wrist3_unlimited:
+        upper[5] = math.inf
+    return URModel(key, dh, np.array(speeds_deg) * _DEG, -upper, upper, calibrated=calibrated)

@@ -1,0 +1,663 @@
+"""Analytic inverse kinematics of the UR family, after the thesis' dual-quaternion derivation (seed 000, §4.3).
+
+Frames: base = DH frame 0, flange = DH frame 6, standard DH (conventions.md); the pose asked for is the TCP
+(flange · model.tcp). Angles in radians; every solution is returned canonical in (−π, π].
+
+The thesis' equations, restated in the DH frames (its own frames differ by constant rotations):
+  (4.9–4.11) wrist centre p5 = p − d6·z6 lies at distance d4 from the base axis along z1 = (sin θ1, −cos θ1, 0):
+             x5·sin θ1 − y5·cos θ1 = d4, solved as θ1 = atan2(x5, −y5) ± atan2(√(x5² + y5² − d4²), d4).
+  (4.13)     cos θ5 = z1·z6 (equal to (x6·sin θ1 − y6·cos θ1 − d4)/d6), two signs of θ5.
+  (4.14–4.28) with r' = Rx(−π/2)·Rz(−θ1)·r (the thesis' N2 = Q1⁻¹·N1, rotation part) one gets the half-angle
+             identities  w' = cos(θ5/2)·cos(Σ/2),  z' = cos(θ5/2)·sin(Σ/2),
+                         x' = sin(θ5/2)·sin(Δ/2),  y' = −sin(θ5/2)·cos(Δ/2),
+             Σ = θ234 + θ6, Δ = θ234 − θ6, θ234 = θ2 + θ3 + θ4, hence θ6 = (Σ − Δ)/2 and θ234 = (Σ + Δ)/2.
+  (4.35–4.38) the planar 3R arm of joints 2–4: (x4, z4) = a2·(c2, s2) + a3·(c23, s23),
+             cos θ3 = (x4² + z4² − a2² − a3²)/(2·a2·a3), two signs of θ3.
+  (4.41)     θ2 = atan2(z4·(a2 + a3·c3) − x4·a3·s3, x4·(a2 + a3·c3) + z4·a3·s3).
+  (4.44)     θ4 = θ234 − θ2 − θ3 (the thesis' half-angle form reduces to this: joints 2–4 are parallel).
+  (4.45)     the FK filter: a branch is kept only if its forward kinematics reproduces the pose.
+
+Up to 2 × 2 × 2 = 8 branches, ordered (θ1 sign, θ5 sign, θ3 sign) with the + sign first.
+
+Singularities (defined behaviour, tested):
+  wrist (θ5 ≈ 0 or π, |sin(θ5/2)| or |cos(θ5/2)| < WRIST_SINGULAR_TOLERANCE): only Σ = θ4 + θ6 (or Δ = θ4 − θ6
+      for θ5 ≈ π, with θ2 + θ3 fixed) is defined; θ6 is set to the reference configuration's θ6 (0 without one)
+      so wrist 3 does not jump, θ4 takes the rest; the two θ5 signs merge.
+  shoulder (x5² + y5² = d4², the wrist centre's projection in the arm plane on the base axis): the two θ1 branches
+      merge. UR arms have d4 > 0, so a wrist centre *on* the base axis is unreachable ("too close").
+  stretched or folded elbow (cos θ3 = ±1): the two θ3 branches merge.
+Values a rounding error outside their domain (|cos θ3| ≤ 1 + DOMAIN_TOLERANCE …) are clamped; the FK filter then
+decides whether the pose is met. Unreachable poses raise UnreachablePoseError saying why.
+
+Calibrated models (DH deltas): the nominal geometry (d1, a2, a3, d4, d5, d6 of the calibrated table) gives the
+starting branches, then Newton steps on the calibrated FK converge each to CALIBRATED_TOLERANCE.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ur3dq import dqarray
+from ur3dq.errors import UnreachablePoseError
+
+#: FK filter (thesis eq. 4.45): a branch is a solution when its FK is within these of the pose asked for.
+#: Justification: the closed forms lose at most a few hundred ulps on metre-sized arms (measured max ≈ 1e-14 m /
+#: 1e-14 rad over random and near-singular poses), five orders below; a wrong branch misses by far more
+#: (>1e-4 at the least), and 1 nm / 1 nrad is four orders below any UR arm's repeatability.
+FK_TOLERANCE_M = 1e-9
+FK_TOLERANCE_RAD = 1e-9
+#: Below this |sin(θ5/2)| (θ5 ≈ 0) or |cos(θ5/2)| (θ5 ≈ π) the wrist is treated as singular: any θ4/θ6 split
+#: with the right sum (difference) then moves the flange by at most 2·1e-10 rad, inside the FK filter.
+WRIST_SINGULAR_TOLERANCE = 1e-10
+#: Relative rounding slack for the domains of the square roots / arccosines (shoulder, elbow); the clamped value
+#: moves the wrist by < 1e-10 m, so the FK filter still judges the result.
+DOMAIN_TOLERANCE = 1e-10
+#: Two solutions closer than this in every joint (mod 2π) are the same solution.
+DUPLICATE_TOLERANCE = 1e-9
+#: Newton refinement on calibrated models stops below this pose error (metres + radians).
+CALIBRATED_TOLERANCE = 1e-12
+CALIBRATED_MAX_STEPS = 12
+#: Domain slack of the nominal closed form on calibrated models: none — a calibrated arm reaches where its nominal
+#: geometry cannot (near the stretched elbow), so every out-of-domain value is clamped and Newton (with the FK
+#: filter) decides whether the branch exists.
+CALIBRATED_DOMAIN_SLACK = math.inf
+#: On calibrated models the clamped values stop this far inside the domain (θ3 = ±0.045 rad at the stretched
+#: elbow): the two branches of a ± then start on their own sides of the singular point, beyond the nearby true
+#: solutions, from where Newton on the (locally quadratic) reach runs monotonically to the one on its side.
+CALIBRATED_DOMAIN_EDGE = 1e-3
+
+_TWO_PI = 2.0 * math.pi
+_HALF_SQRT2 = math.sqrt(0.5)
+_NOMINAL_ALPHA = (math.pi / 2, 0.0, 0.0, math.pi / 2, -math.pi / 2, 0.0)
+
+
+# ------------------------------------------------------------------------------------------ model geometry
+@dataclass(frozen=True)
+class _Geometry:
+    """What the solver needs of a model: the closed-form lengths, the full DH table and the TCP, as floats."""
+
+    d1: float
+    a2: float
+    a3: float
+    d4: float
+    d5: float
+    d6: float
+    calibrated: bool      # some DH term beyond (d1, a2, a3, d4, d5, d6) is off nominal: refine with Newton
+    domain_slack: float   # relative slack before a square root / arccosine argument counts as out of reach
+    domain_edge: float    # relative margin kept inside the domain when clamping (0: clamp onto the boundary)
+    joints: tuple         # per joint (a, d, θ offset, cos α/2, sin α/2): the full table, for FK
+    tcp_inverse: tuple    # 8 floats of tcp⁻¹, or None for the identity TCP
+    lower: tuple
+    upper: tuple
+
+
+_GEOMETRY_CACHE: dict = {}
+_GEOMETRY_CACHE_SIZE = 64
+
+
+def _geometry(model) -> _Geometry:
+    """The solver's view of ``model`` (cached per model object: models are immutable values)."""
+    cached = _GEOMETRY_CACHE.get(id(model))
+    if cached is not None and cached[0] is model:
+        return cached[1]
+    geometry = _build_geometry(model)
+    if len(_GEOMETRY_CACHE) >= _GEOMETRY_CACHE_SIZE:
+        _GEOMETRY_CACHE.pop(next(iter(_GEOMETRY_CACHE)))
+    _GEOMETRY_CACHE[id(model)] = (model, geometry)   # the model is kept alive so its id cannot be reused
+    return geometry
+
+
+def _build_geometry(model) -> _Geometry:
+    """Read DH (standard: a, d, α, θ offset), limits and TCP of ``model`` into plain floats."""
+    dh = model.dh
+    a, d, alpha, theta = (tuple(float(v) for v in column) for column in (dh.a, dh.d, dh.alpha, dh.theta))
+    off_nominal = (abs(a[0]) + abs(a[3]) + abs(a[4]) + abs(a[5]) + abs(d[1]) + abs(d[2])
+                   + sum(abs(x - y) for x, y in zip(alpha, _NOMINAL_ALPHA)) + sum(abs(t) for t in theta))
+    joints = tuple((a[i], d[i], theta[i], math.cos(0.5 * alpha[i]), math.sin(0.5 * alpha[i])) for i in range(6))
+    tcp = tuple(float(v) for v in model.tcp.to_array())
+    tcp_inverse = None if tcp == (1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0) else _dq_conjugate(tcp)
+    calibrated = off_nominal > 0.0
+    slack = CALIBRATED_DOMAIN_SLACK if calibrated else DOMAIN_TOLERANCE
+    edge = CALIBRATED_DOMAIN_EDGE if calibrated else 0.0
+    return _Geometry(d[0], a[1], a[2], d[3], d[4], d[5], calibrated, slack, edge, joints, tcp_inverse,
+                     tuple(float(v) for v in model.joint_lower), tuple(float(v) for v in model.joint_upper))
+
+
+# --------------------------------------------------------------------------------- scalar / array backends
+class _ScalarOps:
+    """Plain-float math for single poses: no numpy object churn on the hot path."""
+
+    sqrt = staticmethod(math.sqrt)
+    atan2 = staticmethod(math.atan2)
+    cos = staticmethod(math.cos)
+    sin = staticmethod(math.sin)
+
+    @staticmethod
+    def where(condition, if_true, if_false):
+        """Select like numpy.where, for floats."""
+        return if_true if condition else if_false
+
+    @staticmethod
+    def clamp_or_nan(value, low, high, slack):
+        """``value`` clipped into [low, high] if within ``slack`` of it, else NaN."""
+        if value < low - slack or value > high + slack:
+            return math.nan
+        return min(max(value, low), high)
+
+
+class _ArrayOps:
+    """numpy math over arrays of poses: every branch of every pose at once."""
+
+    sqrt = staticmethod(np.sqrt)
+    atan2 = staticmethod(np.arctan2)
+    cos = staticmethod(np.cos)
+    sin = staticmethod(np.sin)
+    where = staticmethod(np.where)
+
+    @staticmethod
+    def clamp_or_nan(value, low, high, slack):
+        """``value`` clipped into [low, high] where within ``slack`` of it, NaN elsewhere."""
+        outside = (value < low - slack) | (value > high + slack)
+        return np.where(outside, np.nan, np.clip(value, low, high))
+
+
+# --------------------------------------------------------------------------------- the thesis' equations
+def _wrist_centre(g: _Geometry, qw, qx, qy, qz, px, py):
+    """(x5, y5) of the wrist centre p5 = p − d6·z6 in the base frame (z6 = third column of the flange rotation)."""
+    z6x = 2.0 * (qx * qz + qw * qy)
+    z6y = 2.0 * (qy * qz - qw * qx)
+    return px - g.d6 * z6x, py - g.d6 * z6y
+
+
+def _theta1_pair(ops, g: _Geometry, x5, y5):
+    """The two θ1 (eqs. 4.10–4.11) solving x5·sin θ1 − y5·cos θ1 = d4; NaN when the wrist centre is too close."""
+    d4 = g.d4
+    radial2 = x5 * x5 + y5 * y5
+    # cos of the shoulder offset angle = d4/ρ must be ≤ 1: ρ ≥ d4 (clamped within the domain slack).
+    reach = ops.clamp_or_nan(radial2 - d4 * d4, g.domain_edge * d4 * d4, math.inf, g.domain_slack * d4 * d4)
+    base = ops.atan2(x5, -y5)
+    offset = ops.atan2(ops.sqrt(reach), d4)
+    return base + offset, base - offset
+
+
+def _reduced_rotation(ops, theta1, qw, qx, qy, qz):
+    """(cos θ1, sin θ1, (w', x', y', z')): r' = Rx(−π/2)·Rz(−θ1)·r, what wrist joints 2…6 must produce."""
+    ch, sh = ops.cos(0.5 * theta1), -ops.sin(0.5 * theta1)
+    # Rz(−θ1)·r, with Rz(−θ1) = (ch, 0, 0, sh).
+    w1, x1, y1, z1 = ch * qw - sh * qz, ch * qx - sh * qy, ch * qy + sh * qx, ch * qz + sh * qw
+    # Rx(−π/2)·(…), with Rx(−π/2) = (h, −h, 0, 0).
+    h = _HALF_SQRT2
+    reduced = (h * (w1 + x1), h * (x1 - w1), h * (y1 + z1), h * (z1 - y1))
+    return ch * ch - sh * sh, -2.0 * ch * sh, reduced
+
+
+def _wrist_pair(ops, reduced, theta6_ref):
+    """(θ5, θ6, θ234) for θ5 ≥ 0 and for θ5 ≤ 0 (eqs. 4.13–4.28 in half-angle form); singular: θ6 = theta6_ref."""
+    w, x, y, z = reduced
+    sin_half5 = ops.sqrt(x * x + y * y)
+    cos_half5 = ops.sqrt(w * w + z * z)
+    half_sum = ops.atan2(z, w)          # Σ/2 = (θ234 + θ6)/2, eqs. 4.14 and 4.16
+    half_diff = ops.atan2(x, -y)        # Δ/2 = (θ234 − θ6)/2 for sin(θ5/2) > 0, eqs. 4.15 and 4.17
+    at_zero = sin_half5 < WRIST_SINGULAR_TOLERANCE
+    at_pi = cos_half5 < WRIST_SINGULAR_TOLERANCE
+    singular = at_zero | at_pi
+    theta5 = ops.where(at_zero, 0.0, ops.where(at_pi, math.pi, 2.0 * ops.atan2(sin_half5, cos_half5)))
+    theta6 = ops.where(singular, theta6_ref, half_sum - half_diff)
+    theta234 = ops.where(at_zero, 2.0 * half_sum - theta6,
+                         ops.where(at_pi, 2.0 * half_diff + theta6, half_sum + half_diff))
+    # −θ5 turns Δ/2 by π (x', y' change sign): the wrist flip θ6 − π, θ234 + π; one solution when singular.
+    flipped = (-theta5, ops.where(singular, theta6, theta6 - math.pi), ops.where(singular, theta234, theta234 + math.pi))
+    return (theta5, theta6, theta234), flipped
+
+
+def _planar_arm(ops, g: _Geometry, cos1, sin1, theta5, theta234, px, py, pz):
+    """(x4, z4): where joints 2–3 must put the frame-4 origin, in the shoulder plane (eqs. 4.33–4.34)."""
+    c234, s234 = ops.cos(theta234), ops.sin(theta234)
+    s5 = ops.sin(theta5)
+    x4 = cos1 * px + sin1 * py - s234 * g.d5 + c234 * s5 * g.d6
+    z4 = pz - g.d1 + c234 * g.d5 + s234 * s5 * g.d6
+    return x4, z4
+
+
+def _elbow_cosine(ops, g: _Geometry, x4, z4):
+    """cos θ3 of eq. 4.38, clamped within rounding of ±1 (stretched / folded elbow), NaN when out of reach."""
+    cos3 = (x4 * x4 + z4 * z4 - g.a2 * g.a2 - g.a3 * g.a3) / (2.0 * g.a2 * g.a3)
+    return ops.clamp_or_nan(cos3, g.domain_edge - 1.0, 1.0 - g.domain_edge, g.domain_slack)
+
+
+def _shoulder_elbow(ops, g: _Geometry, x4, z4, cos3, sign3):
+    """(θ2, θ3) of one elbow sign: θ3 from eq. 4.38, θ2 from eq. 4.41."""
+    sin3 = sign3 * ops.sqrt(1.0 - cos3 * cos3)
+    theta3 = ops.atan2(sin3, cos3)
+    along = g.a2 + g.a3 * cos3
+    across = g.a3 * sin3
+    theta2 = ops.atan2(z4 * along - x4 * across, x4 * along + z4 * across)
+    return theta2, theta3
+
+
+def _branches(ops, g: _Geometry, target, theta6_ref):
+    """The 8 analytic branches (θ1…θ6 tuples, NaN where a branch does not exist), ordered (θ1, θ5, θ3) signs, + first."""
+    qw, qx, qy, qz, px, py, pz = target
+    x5, y5 = _wrist_centre(g, qw, qx, qy, qz, px, py)
+    branches = []
+    for theta1 in _theta1_pair(ops, g, x5, y5):
+        cos1, sin1, reduced = _reduced_rotation(ops, theta1, qw, qx, qy, qz)
+        for theta5, theta6, theta234 in _wrist_pair(ops, reduced, theta6_ref):
+            x4, z4 = _planar_arm(ops, g, cos1, sin1, theta5, theta234, px, py, pz)
+            cos3 = _elbow_cosine(ops, g, x4, z4)
+            for sign3 in (1.0, -1.0):
+                theta2, theta3 = _shoulder_elbow(ops, g, x4, z4, cos3, sign3)
+                theta4 = theta234 - theta2 - theta3   # eq. 4.44
+                branches.append((theta1, theta2, theta3, theta4, theta5, theta6))
+    return branches
+
+
+
+# ---------------------------------------------------------------------------------- plain-float pose helpers
+def wrap_angle(angle):
+    """Angle(s) mapped into (−π, π] (radians; floats or arrays, NaN stays NaN)."""
+    return angle - _TWO_PI * np.ceil((np.asarray(angle) - math.pi) / _TWO_PI)
+
+
+def _wrap_float(angle: float) -> float:
+    """A float angle mapped into (−π, π]."""
+    return angle - _TWO_PI * math.ceil((angle - math.pi) / _TWO_PI)
+
+
+def _quaternion_product(a, b) -> tuple:
+    """Hamilton product a·b of two (w, x, y, z) float tuples."""
+    aw, ax, ay, az = a
+    bw, bx, by, bz = b
+    return (aw * bw - ax * bx - ay * by - az * bz, aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx, aw * bz + ax * by - ay * bx + az * bw)
+
+
+def _rotate(q, v) -> tuple:
+    """Vector v rotated by unit quaternion q: v + 2w(u×v) + 2u×(u×v), u = vector part of q."""
+    w, ux, uy, uz = q
+    vx, vy, vz = v
+    cx, cy, cz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+    return (vx + 2.0 * (w * cx + uy * cz - uz * cy), vy + 2.0 * (w * cy + uz * cx - ux * cz),
+            vz + 2.0 * (w * cz + ux * cy - uy * cx))
+
+
+def _dq_conjugate(c) -> tuple:
+    """r* + ε d* of 8 floats: the inverse of a unit dual quaternion."""
+    return (c[0], -c[1], -c[2], -c[3], c[4], -c[5], -c[6], -c[7])
+
+
+def _dq_product(a, b) -> tuple:
+    """(ra + ε da)(rb + ε db) = ra rb + ε(ra db + da rb) of two 8-float tuples."""
+    real = _quaternion_product(a[:4], b[:4])
+    left, right = _quaternion_product(a[:4], b[4:]), _quaternion_product(a[4:], b[:4])
+    return real + tuple(x + y for x, y in zip(left, right))
+
+
+def _pair_of(c) -> tuple:
+    """(qw, qx, qy, qz, px, py, pz) — the thesis pair (q, p) — of a unit dual quaternion's 8 floats: p = 2·d·r*."""
+    rw, rx, ry, rz, dw, dx, dy, dz = c
+    return (rw, rx, ry, rz, 2.0 * (-dw * rx + dx * rw - dy * rz + dz * ry),
+            2.0 * (-dw * ry + dx * rz + dy * rw - dz * rx), 2.0 * (-dw * rz - dx * ry + dy * rx + dz * rw))
+
+
+def _pose_coefficients(pose, name: str) -> tuple:
+    """8 floats of a unit pose given as a DualQuaternion or 8 numbers; ValueError naming ``name`` otherwise."""
+    values = pose.to_array() if hasattr(pose, "to_array") else np.asarray(pose, dtype=float)
+    if values.shape != (8,):
+        raise ValueError(f"{name}: expected a DualQuaternion or 8 coefficients, got shape {values.shape}")
+    c = tuple(values.tolist())
+    norm2 = c[0] * c[0] + c[1] * c[1] + c[2] * c[2] + c[3] * c[3]
+    if not math.isfinite(norm2 + c[4] + c[5] + c[6] + c[7]):
+        raise ValueError(f"{name}: contains NaN or infinite values")
+    if abs(norm2 - 1.0) > 2.0 * dqarray.UNIT_TOLERANCE:
+        raise ValueError(f"{name}: rotation part is not a unit quaternion (norm² {norm2:.6g})")
+    return c
+
+
+def _targets(g: _Geometry, pose) -> tuple:
+    """(TCP pair, flange pair) — each (qw, qx, qy, qz, px, py, pz) — of a TCP pose; flange = pose · tcp⁻¹."""
+    c = _pose_coefficients(pose, "pose")
+    tcp_pair = _pair_of(c)
+    if g.tcp_inverse is None:
+        return tcp_pair, tcp_pair
+    return tcp_pair, _pair_of(_dq_product(c, g.tcp_inverse))
+
+
+def _pose_error(ops, a, b) -> tuple:
+    """(metres, radians) between two pairs (q, p): |pa − pb| and the rotation angle of qa*·qb (q ≡ −q)."""
+    metres = ops.sqrt((a[4] - b[4]) ** 2 + (a[5] - b[5]) ** 2 + (a[6] - b[6]) ** 2)
+    relative = _quaternion_product((a[0], -a[1], -a[2], -a[3]), b[:4])
+    radians = 2.0 * ops.atan2(ops.sqrt(relative[1] ** 2 + relative[2] ** 2 + relative[3] ** 2), abs(relative[0]))
+    return metres, radians
+
+
+def _meets(model, q, tcp_target) -> bool:
+    """The thesis' FK filter (eq. 4.45): the model's FK(q) within FK_TOLERANCE_M / FK_TOLERANCE_RAD of the TCP pair."""
+    metres, radians = _pose_error(_ScalarOps, _pair_of(model.fk(q).to_array().tolist()), tcp_target)
+    return metres <= FK_TOLERANCE_M and radians <= FK_TOLERANCE_RAD
+
+
+# ------------------------------------------------------------------------------------------------ single pose
+def _unreachable_reason(g: _Geometry, target, branches) -> str:
+    """Why no branch exists for ``target``: the first geometric constraint it violates, in words."""
+    qw, qx, qy, qz, px, py, pz = target
+    x5, y5 = _wrist_centre(g, qw, qx, qy, qz, px, py)
+    radial = math.hypot(x5, y5)
+    if radial < abs(g.d4) * (1.0 - DOMAIN_TOLERANCE):
+        return (f"too close to the base axis: the wrist centre is {radial:.4f} m from it, "
+                f"less than the shoulder offset d4 = {abs(g.d4):.4f} m")
+    reach_max, reach_min = abs(g.a2) + abs(g.a3), abs(abs(g.a2) - abs(g.a3))
+    needed = []
+    for theta1 in _theta1_pair(_ScalarOps, g, x5, y5):
+        cos1, sin1, reduced = _reduced_rotation(_ScalarOps, theta1, qw, qx, qy, qz)
+        for theta5, _, theta234 in _wrist_pair(_ScalarOps, reduced, 0.0):
+            needed.append(math.hypot(*_planar_arm(_ScalarOps, g, cos1, sin1, theta5, theta234, px, py, pz)))
+    if all(n > reach_max for n in needed):
+        return (f"too far: the elbow would have to span {min(needed):.4f} m, "
+                f"the upper and lower arm reach at most {reach_max:.4f} m")
+    if all(n < reach_min for n in needed):
+        return (f"too close: the elbow would have to span {max(needed):.4f} m, "
+                f"the folded arm reaches no closer than {reach_min:.4f} m")
+    if any(all(math.isfinite(v) for v in branch) for branch in branches):
+        return "no analytic branch passes the FK filter (numerically singular pose)"
+    return "out of reach of every elbow branch for this wrist orientation"
+
+
+def _refine_calibrated(g: _Geometry, q, target):
+    """Newton steps on the calibrated FK from the nominal solution q; the refined q (floats) or None if no convergence."""
+    refined, residual = _refine_batch(g, np.array([q], dtype=float), np.array([target], dtype=float))
+    if not residual[0] <= CALIBRATED_TOLERANCE:
+        return None
+    return tuple(refined[0].tolist())
+
+
+def _solution_candidates(g: _Geometry, target, theta6_ref: float) -> list:
+    """Existing analytic branches of ``target`` (flange pair), refined if calibrated; unwrapped, not yet filtered."""
+    candidates = []
+    for branch in _branches(_ScalarOps, g, target, theta6_ref):
+        if branch[1] != branch[1] or branch[0] != branch[0]:   # NaN: this branch does not exist
+            continue
+        if g.calibrated:
+            branch = _refine_calibrated(g, branch, target)
+            if branch is None:
+                continue
+        candidates.append(branch)
+    return candidates
+
+
+def _is_new(solution, kept) -> bool:
+    """True unless some kept solution agrees with ``solution`` within DUPLICATE_TOLERANCE in every joint (mod 2π)."""
+    for other in kept:
+        for x, y in zip(solution, other):
+            difference = x - y
+            if abs(difference - _TWO_PI * round(difference / _TWO_PI)) >= DUPLICATE_TOLERANCE:
+                break
+        else:
+            return False
+    return True
+
+
+def _reference(q_ref, name: str = "q_ref") -> tuple:
+    """Six finite floats of a joint reference; ValueError naming ``name`` otherwise."""
+    try:
+        values = tuple(float(v) for v in q_ref)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name}: expected 6 joint angles (radians), got {q_ref!r}") from exc
+    if len(values) != 6:
+        raise ValueError(f"{name}: expected 6 joint angles, got {len(values)}")
+    if not all(math.isfinite(v) for v in values):
+        raise ValueError(f"{name}: contains NaN or infinite values")
+    return values
+
+
+def ik_all(model, pose, q_ref=None) -> list:
+    """Every FK-verified joint solution (radians, each in (−π, π]) of the TCP ``pose`` (base frame), up to 8.
+
+    ``q_ref`` (optional) only resolves the wrist singularity: there θ6 is set to q_ref[5] (0 without a reference)
+    and θ4 absorbs the rest of θ4 ± θ6. Raises UnreachablePoseError (a ValueError) saying why when none exists.
+    """
+    g = _geometry(model)
+    tcp_target, target = _targets(g, pose)
+    theta6_ref = 0.0 if q_ref is None else _wrap_float(_reference(q_ref)[5])
+    candidates = _solution_candidates(g, target, theta6_ref)
+    solutions = []
+    for candidate in candidates:
+        if _is_new(candidate, solutions) and _meets(model, candidate, tcp_target):
+            solutions.append(candidate)
+    if not solutions:
+        raise UnreachablePoseError(f"pose unreachable for {model.name}: "
+                                   f"{_unreachable_reason(g, target, candidates or [[math.nan]])}")
+    return [np.array([_wrap_float(v) for v in solution]) for solution in solutions]
+
+
+def _closest_variant(angle: float, reference: float, lower: float, upper: float):
+    """angle + 2πk inside [lower, upper] closest to ``reference``, or None when no variant fits the limits."""
+    centre = angle + _TWO_PI * round((reference - angle) / _TWO_PI)
+    if lower <= centre <= upper:
+        return centre   # the nearest variant of all: nothing inside the limits can be nearer
+    best = None
+    for candidate in (centre - _TWO_PI, centre + _TWO_PI):
+        if lower <= candidate <= upper and (best is None or abs(candidate - reference) < abs(best - reference)):
+            best = candidate
+    return best
+
+
+def _weights(weights) -> tuple:
+    """Six positive finite joint weights (default all 1); ValueError naming ``weights`` otherwise."""
+    if weights is None:
+        return (1.0,) * 6
+    values = _reference(weights, "weights")
+    if any(w <= 0.0 for w in values):
+        raise ValueError(f"weights: every joint weight must be > 0, got {list(values)}")
+    return values
+
+
+def _variant_cost(g: _Geometry, solution, reference, weights, bound: float) -> float:
+    """Σ wᵢ·(qᵢ − refᵢ)² over the in-limit ±2π variants nearest ``reference``; inf if none fits or ≥ ``bound``."""
+    cost = 0.0
+    for angle, ref, low, high, weight in zip(solution, reference, g.lower, g.upper, weights):
+        variant = angle + _TWO_PI * round((ref - angle) / _TWO_PI)   # nearest of all variants, usually inside
+        if not low <= variant <= high:
+            variant = _closest_variant(angle, ref, low, high)
+            if variant is None:
+                return math.inf
+        cost += weight * (variant - ref) ** 2
+        if cost >= bound:   # cannot beat the best candidate so far: stop early
+            return math.inf
+    return cost
+
+
+def _nearest_joints(g: _Geometry, solution, reference) -> np.ndarray:
+    """The joints of ``solution`` moved by ±2π to the in-limit variants nearest ``reference``."""
+    return np.array([_closest_variant(angle, ref, low, high)
+                     for angle, ref, low, high in zip(solution, reference, g.lower, g.upper)])
+
+
+def ik(model, pose, q_ref, weights=None) -> np.ndarray:
+    """The joint solution of TCP ``pose`` nearest ``q_ref`` (Σ wᵢ·Δqᵢ², over all ±2π variants inside the limits).
+
+    This is the choice a replay needs: the arm never flips branch while a nearer one exists. At the wrist
+    singularity θ6 stays at q_ref[5]. Raises UnreachablePoseError when no solution lies inside the joint limits.
+    """
+    g = _geometry(model)
+    reference = _reference(q_ref)
+    weight = _weights(weights)
+    tcp_target, target = _targets(g, pose)
+    candidates = _solution_candidates(g, target, _wrap_float(reference[5]))
+    remaining = list(candidates)
+    # Nearest first, FK filter only on the winner (usually one FK evaluation); a rejected winner is dropped.
+    while remaining:
+        best, best_cost = None, math.inf
+        for candidate in remaining:
+            cost = _variant_cost(g, candidate, reference, weight, best_cost)
+            if cost < best_cost:
+                best, best_cost = candidate, cost
+        if best is None:
+            break
+        if _meets(model, best, tcp_target):
+            return _nearest_joints(g, best, reference)
+        remaining.remove(best)
+    if any(_meets(model, c, tcp_target) for c in candidates):
+        raise UnreachablePoseError(f"pose unreachable for {model.name}: outside limits — every solution has a "
+                                   "joint outside the joint limits")
+    raise UnreachablePoseError(f"pose unreachable for {model.name}: "
+                               f"{_unreachable_reason(g, target, candidates or [[math.nan]])}")
+
+
+# ----------------------------------------------------------------------------------------------------- batches
+def _batch_poses(poses) -> np.ndarray:
+    """(N, 8) unit dual quaternions; ValueError naming ``poses`` for a wrong shape, NaN/inf or non-unit rows."""
+    array = np.asarray(poses, dtype=float)
+    if array.ndim != 2 or array.shape[1] != 8:
+        raise ValueError(f"poses: expected shape (N, 8), got {array.shape}")
+    return dqarray.check_unit(array, "poses")
+
+
+def _batch_flange_targets(g: _Geometry, poses: np.ndarray) -> tuple:
+    """Seven (N,) arrays (qw, qx, qy, qz, px, py, pz): flange pairs of (N, 8) TCP poses (pose · tcp⁻¹)."""
+    if g.tcp_inverse is not None:
+        poses = dqarray.multiply_unchecked(poses, np.array(g.tcp_inverse))
+    translation = dqarray.translation_unchecked(poses)
+    return tuple(poses[:, i] for i in range(4)) + tuple(translation[:, i] for i in range(3))
+
+
+def _chain_frames(g: _Geometry, q: np.ndarray) -> list:
+    """Frames 0…6 of standard DH joints q (M, 6) as (rotation 4-tuple, position 3-tuple) of (M,) arrays."""
+    rotation = (np.ones(len(q)), np.zeros(len(q)), np.zeros(len(q)), np.zeros(len(q)))
+    position = (np.zeros(len(q)), np.zeros(len(q)), np.zeros(len(q)))
+    frames = [(rotation, position)]
+    for i, (a, d, offset, cos_half_alpha, sin_half_alpha) in enumerate(g.joints):
+        half = 0.5 * (q[:, i] + offset)
+        ch, sh = np.cos(half), np.sin(half)
+        step = _rotate(rotation, (a * (ch * ch - sh * sh), a * 2.0 * ch * sh, np.full(len(q), d)))
+        position = tuple(p + s for p, s in zip(position, step))
+        rotation = _quaternion_product(
+            rotation, (ch * cos_half_alpha, ch * sin_half_alpha, sh * sin_half_alpha, sh * cos_half_alpha))
+        frames.append((rotation, position))
+    return frames
+
+
+def _pose_residual(frame, target: np.ndarray) -> np.ndarray:
+    """(M, 6) [position error (m), rotation error (rad, base frame)] from a frame to target pairs (M, 7)."""
+    rotation, position = frame
+    position_error = target[:, 4:] - np.stack(position, axis=-1)
+    relative = dqarray.quaternion_multiply(target[:, :4], dqarray.quaternion_conjugate(np.stack(rotation, -1)))
+    # 2·vec(q_t·q*) on the w ≥ 0 sheet: the rotation vector to first order (errors here are small).
+    rotation_error = 2.0 * np.where(relative[:, :1] < 0.0, -1.0, 1.0) * relative[:, 1:]
+    return np.concatenate((position_error, rotation_error), axis=-1)
+
+
+def _geometric_jacobian(frames) -> np.ndarray:
+    """(M, 6, 6) base-frame Jacobian [v; ω] of revolute DH joints: column i = [z_{i−1}×(p − o_{i−1}); z_{i−1}]."""
+    end = np.stack(frames[-1][1], axis=-1)
+    columns = []
+    for rotation, position in frames[:-1]:
+        w, x, y, z = rotation
+        axis = np.stack((2.0 * (x * z + w * y), 2.0 * (y * z - w * x), 1.0 - 2.0 * (x * x + y * y)), axis=-1)
+        columns.append(np.concatenate((np.cross(axis, end - np.stack(position, axis=-1)), axis), axis=-1))
+    return np.stack(columns, axis=-1)
+
+
+def _refine_batch(g: _Geometry, q: np.ndarray, targets: np.ndarray):
+    """Newton steps on the calibrated FK: (refined q (M, 6), final residual norm (M,)); rows of NaN stay NaN."""
+    q = q.copy()
+    for _ in range(CALIBRATED_MAX_STEPS):
+        frames = _chain_frames(g, q)
+        error = _pose_residual(frames[-1], targets)
+        residual = np.linalg.norm(error, axis=-1)
+        active = residual > 0.1 * CALIBRATED_TOLERANCE
+        if not np.any(active):
+            break
+        jacobian = _geometric_jacobian(frames)
+        # The pseudo-inverse keeps a near-singular row from spoiling the others (np.linalg.solve would raise).
+        step = np.einsum("mij,mj->mi", np.linalg.pinv(jacobian, rcond=1e-12), error)
+        q = q + np.where(active[:, None], step, 0.0)
+    residual = np.linalg.norm(_pose_residual(_chain_frames(g, q)[-1], targets), axis=-1)
+    return q, residual
+
+
+def _batch_candidates(g: _Geometry, targets: tuple, theta6_ref) -> np.ndarray:
+    """(N, 8, 6) canonical analytic branches of flange targets (seven (N,) arrays), refined if calibrated."""
+    branches = _branches(_ArrayOps, g, targets, theta6_ref)
+    candidates = np.stack([np.stack(np.broadcast_arrays(*branch), axis=-1) for branch in branches], axis=1)
+    if g.calibrated:
+        flat = candidates.reshape(-1, 6)
+        repeated = np.repeat(np.stack(targets, axis=-1), 8, axis=0)
+        usable = np.all(np.isfinite(flat), axis=1)
+        refined, residual = _refine_batch(g, flat[usable], repeated[usable])
+        flat = flat.copy()
+        flat[usable] = np.where((residual <= CALIBRATED_TOLERANCE)[:, None], refined, np.nan)
+        candidates = flat.reshape(candidates.shape)
+    return wrap_angle(candidates)
+
+
+def _fk_filter(model, candidates: np.ndarray, poses: np.ndarray) -> np.ndarray:
+    """Candidates (N, 8, 6) with the branches that fail the FK filter (eq. 4.45) or repeat another set set to NaN."""
+    flat = candidates.reshape(-1, 6)
+    exists = np.all(np.isfinite(flat), axis=1)
+    fk = model.fk_batch(np.where(exists[:, None], flat, 0.0)).reshape(candidates.shape[:2] + (8,))
+    fk_pair = tuple(fk[..., i] for i in range(4)) + tuple(np.moveaxis(dqarray.translation_unchecked(fk), -1, 0))
+    target_translation = dqarray.translation_unchecked(poses)
+    target_pair = tuple(poses[:, None, i] for i in range(4)) + tuple(target_translation[:, None, i] for i in range(3))
+    metres, radians = _pose_error(_ArrayOps, fk_pair, target_pair)
+    keep = exists.reshape(candidates.shape[:2]) & (metres <= FK_TOLERANCE_M) & (radians <= FK_TOLERANCE_RAD)
+    for later in range(1, 8):
+        for earlier in range(later):
+            difference = np.abs(wrap_angle(candidates[:, later] - candidates[:, earlier]))
+            keep[:, later] &= ~(np.all(difference < DUPLICATE_TOLERANCE, axis=-1) & keep[:, earlier])
+    return np.where(keep[..., None], candidates, np.nan)
+
+
+def ik_all_batch(model, poses, q_ref=None) -> np.ndarray:
+    """(N, 8, 6) every FK-verified solution of (N, 8) TCP poses, in (−π, π]; absent branches are rows of NaN.
+
+    Branch k of every pose is the same sign choice (θ1, θ5, θ3) in that order, + first; duplicates are NaN.
+    ``q_ref`` ((6,) or (N, 6), optional) only resolves the wrist singularity as in ik_all.
+    """
+    g = _geometry(model)
+    poses = _batch_poses(poses)
+    targets = _batch_flange_targets(g, poses)
+    theta6_ref = 0.0 if q_ref is None else wrap_angle(_batch_reference(q_ref, len(poses))[:, 5])
+    return _fk_filter(model, _batch_candidates(g, targets, theta6_ref), poses)
+
+
+def _batch_reference(q_ref, count: int) -> np.ndarray:
+    """(count, 6) finite joint references from a (6,) or (count, 6) array; ValueError naming ``q_ref``."""
+    reference = np.asarray(q_ref, dtype=float)
+    if reference.shape == (6,):
+        reference = np.broadcast_to(reference, (count, 6))
+    if reference.shape != (count, 6):
+        raise ValueError(f"q_ref: expected shape (6,) or ({count}, 6), got {reference.shape}")
+    if not np.all(np.isfinite(reference)):
+        raise ValueError("q_ref: contains NaN or infinite values")
+    return reference
+
+
+def _nearest_variants(g: _Geometry, solutions: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """(N, 8, 6) ±2π variants nearest ``reference`` (N, 1, 6) inside the limits; NaN where none fits."""
+    centre = solutions + _TWO_PI * np.round((reference - solutions) / _TWO_PI)
+    variants = centre[..., None] + np.array([0.0, -_TWO_PI, _TWO_PI])
+    lower, upper = np.array(g.lower)[:, None], np.array(g.upper)[:, None]
+    with np.errstate(invalid="ignore"):
+        distance = np.where((variants >= lower) & (variants <= upper), np.abs(variants - reference[..., None]),
+                            np.inf)
+    choice = np.argmin(distance, axis=-1)
+    best = np.take_along_axis(variants, choice[..., None], axis=-1)[..., 0]
+    return np.where(np.isfinite(np.min(distance, axis=-1)), best, np.nan)
+
+
+def ik_batch(model, poses, q_ref, weights=None) -> np.ndarray:
+    """(N, 6): for each (N, 8) TCP pose the solution nearest q_ref ((6,) or (N, 6)) as in ``ik``; NaN rows where
+    the pose is unreachable or no solution lies inside the joint limits (no exception: batches keep going)."""
+    poses = _batch_poses(poses)
+    reference = _batch_reference(q_ref, len(poses))
+    weight = np.array(_weights(weights))
+    solutions = ik_all_batch(model, poses, reference)
+    variants = _nearest_variants(_geometry(model), solutions, reference[:, None, :])
+    cost = np.sum(weight * (variants - reference[:, None, :]) ** 2, axis=-1)
+    cost = np.where(np.isnan(cost), np.inf, cost)
+    best = np.argmin(cost, axis=1)
+    chosen = variants[np.arange(len(poses)), best]
+    return np.where(np.isfinite(cost[np.arange(len(poses)), best])[:, None], chosen, np.nan)

@@ -1,0 +1,158 @@
+"""A recorded pose: what the pose store keeps for each pose, validated on construction.
+
+A pose is the TCP's transform in the robot's base frame, kept three ways that must agree: the unit dual quaternion
+σ = r + ε·½·t·r (8 coefficients [rw rx ry rz dw dx dy dz]), the UR pose vector [x, y, z, rx, ry, rz], and, when the
+pose came from a robot, the six joint angles that produced it. Metres and radians.
+"""
+from __future__ import annotations
+
+import dataclasses
+import unicodedata
+from datetime import datetime, timezone
+
+import numpy as np
+
+from ur3dq.dualquat import DualQuaternion
+
+# How far the stored UR pose vector may drift from the dual quaternion (JSON floats round-trip exactly, so only
+# hand edits can exceed this).
+POSE_AGREEMENT_TOLERANCE = 1e-6
+# A unit dual quaternion has |r| = 1 and r·d = 0; 1e-6 accepts any value printed with 7+ significant digits.
+UNIT_TOLERANCE = 1e-6
+MAX_NAME_LENGTH = 100
+
+
+def utc_now_iso() -> str:
+    """The current time as ISO 8601 UTC with milliseconds and a `Z` suffix, e.g. 2026-11-22T01:02:03.456Z."""
+    return datetime.now(timezone.utc).isoformat(timespec="milliseconds").replace("+00:00", "Z")
+
+
+def name_problem(name) -> str | None:
+    """Why `name` cannot name a pose (None if it can): non-empty text, ≤ 100 characters, no control characters,
+    no leading or trailing blanks."""
+    if not isinstance(name, str):
+        return f"a pose name must be text, got {type(name).__name__}"
+    if not name:
+        return "a pose name must not be empty"
+    if len(name) > MAX_NAME_LENGTH:
+        return f"pose name {name[:20]!r}... is longer than {MAX_NAME_LENGTH} characters"
+    if name != name.strip():
+        return f"pose name {name!r} starts or ends with blanks"
+    if any(unicodedata.category(ch).startswith("C") for ch in name):
+        return f"pose name {name!r} contains control characters"
+    return None
+
+
+def _finite_vector(value, length: int, field: str, who: str) -> tuple[float, ...]:
+    """`value` as a tuple of `length` finite floats, or ValueError naming `who` and `field`."""
+    try:
+        array = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{who}: {field} must be {length} numbers, got {value!r}") from None
+    if array.shape != (length,):
+        raise ValueError(f"{who}: {field} must be {length} numbers, got {array.size}")
+    if not np.all(np.isfinite(array)):
+        raise ValueError(f"{who}: {field} contains NaN or infinity: {array.tolist()}")
+    return tuple(float(x) for x in array)
+
+
+def _check_utc_time(time: str, who: str) -> None:
+    """Raise ValueError naming `who` unless `time` is ISO 8601 with a UTC offset of zero."""
+    try:
+        parsed = datetime.fromisoformat(time)
+    except (TypeError, ValueError):
+        raise ValueError(f"{who}: time {time!r} is not ISO 8601 (e.g. 2026-11-22T01:02:03Z)") from None
+    if parsed.utcoffset() is None or parsed.utcoffset().total_seconds() != 0:
+        raise ValueError(f"{who}: time {time!r} must be in UTC (end it with Z)")
+
+
+def _check_unit_dual_quaternion(coefficients: tuple[float, ...], who: str) -> None:
+    """Raise ValueError naming `who` unless [r | d] is a unit dual quaternion: |r| = 1 and r·d = 0."""
+    real, dual = np.array(coefficients[:4]), np.array(coefficients[4:])
+    norm = float(np.linalg.norm(real))
+    if abs(norm - 1.0) > UNIT_TOLERANCE:
+        raise ValueError(f"{who}: dual_quaternion rotation part has norm {norm:.9g}, not 1 (not a rigid transform)")
+    if abs(float(real @ dual)) > UNIT_TOLERANCE:
+        raise ValueError(f"{who}: dual_quaternion is not a rigid transform (r·d = {float(real @ dual):.3g}, not 0)")
+
+
+@dataclasses.dataclass(frozen=True)
+class Pose:
+    """One recorded TCP pose in the base frame (metres, radians); validated when built, so a Pose is always sound.
+
+    `joints` is None for poses that did not come from a robot (e.g. imported thesis lines).
+    """
+
+    name: str
+    time: str
+    robot_model: str
+    dual_quaternion: tuple[float, ...]
+    ur_pose: tuple[float, ...]
+    tcp_offset: tuple[float, ...] = (0.0,) * 6
+    joints: tuple[float, ...] | None = None
+    robot_serial: str | None = None
+    note: str = ""
+
+    def __post_init__(self):
+        problem = name_problem(self.name)
+        if problem:
+            raise ValueError(problem)
+        who = f"pose {self.name!r}"
+        set_field = object.__setattr__  # frozen dataclass: normalise fields once, here
+        set_field(self, "dual_quaternion", _finite_vector(self.dual_quaternion, 8, "dual_quaternion", who))
+        set_field(self, "ur_pose", _finite_vector(self.ur_pose, 6, "ur_pose", who))
+        set_field(self, "tcp_offset", _finite_vector(self.tcp_offset, 6, "tcp_offset", who))
+        if self.joints is not None:
+            set_field(self, "joints", _finite_vector(self.joints, 6, "joints", who))
+        if not isinstance(self.robot_model, str) or not self.robot_model:
+            raise ValueError(f"{who}: robot_model must be a model name such as 'ur3'")
+        if self.robot_serial is not None and not isinstance(self.robot_serial, str):
+            raise ValueError(f"{who}: robot_serial must be text or null")
+        if not isinstance(self.note, str):
+            raise ValueError(f"{who}: note must be text")
+        _check_utc_time(self.time, who)
+        _check_unit_dual_quaternion(self.dual_quaternion, who)
+        from_vector = DualQuaternion.from_ur_pose(self.ur_pose)
+        if not from_vector.is_close(self.dq, POSE_AGREEMENT_TOLERANCE, POSE_AGREEMENT_TOLERANCE):
+            metres, radians = from_vector.distance(self.dq)
+            raise ValueError(
+                f"{who}: ur_pose and dual_quaternion disagree by {metres:.3g} m and {radians:.3g} rad"
+            )
+
+    @property
+    def dq(self) -> DualQuaternion:
+        """The pose as a DualQuaternion (σ = r + ε·½·t·r, TCP in the base frame)."""
+        return DualQuaternion.from_array(self.dual_quaternion)
+
+    @classmethod
+    def from_dual_quaternion(cls, name: str, pose: DualQuaternion, robot_model: str, **fields) -> "Pose":
+        """A Pose from a DualQuaternion (TCP in base); the UR pose vector is derived, the time defaults to now."""
+        fields.setdefault("time", utc_now_iso())
+        return cls(
+            name=name,
+            robot_model=robot_model,
+            dual_quaternion=tuple(pose.to_array()),
+            ur_pose=tuple(pose.to_ur_pose()),
+            **fields,
+        )
+
+    def renamed(self, name: str) -> "Pose":
+        """The same pose under another name (validated)."""
+        return dataclasses.replace(self, name=name)
+
+
+def next_free_name(prefix: str, taken) -> str:
+    """`prefix-N` with N one more than the largest N already used with that prefix (1 if none)."""
+    used = [0]
+    for name in taken:
+        head, dash, tail = name.rpartition("-")
+        if dash and head == prefix and tail.isdigit():
+            used.append(int(tail))
+    return f"{prefix}-{max(used) + 1}"
+
+
+def numbering_prefix(name: str) -> str:
+    """The name without a trailing `-N`, the stem that `next_free_name` numbers."""
+    head, dash, tail = name.rpartition("-")
+    return head if dash and head and tail.isdigit() else name
+

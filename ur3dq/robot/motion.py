@@ -1,0 +1,53 @@
+"""Motion timing: the trapezoidal profile of a UR movej and the time a driver may wait for it.
+
+movej moves every joint on one synchronised trapezoidal profile led by the joint with the longest travel
+(conventions.md, "Motion facts"), so its duration is the trapezoid of the largest joint travel.
+"""
+import math
+
+import numpy as np
+
+# The slider is never read as slower than this, so a slider at 0 yields a (long) finite timeout, not a hang.
+MIN_SPEED_FRACTION = 0.05
+
+
+def trapezoid_duration(distance, a, v):
+    """Seconds for a rest-to-rest trapezoid over `distance` (≥ 0) with acceleration a and cruise speed v (> 0)."""
+    if not (math.isfinite(distance) and distance >= 0):
+        raise ValueError(f"distance must be finite and ≥ 0, got {distance!r}")
+    if not (math.isfinite(a) and a > 0):
+        raise ValueError(f"a (acceleration) must be finite and > 0, got {a!r}")
+    if not (math.isfinite(v) and v > 0):
+        raise ValueError(f"v (speed) must be finite and > 0, got {v!r}")
+    if distance >= v * v / a:
+        return distance / v + v / a
+    return 2.0 * math.sqrt(distance / a)
+
+
+def leading_travel(q_from, q_to):
+    """The largest joint travel |q_to − q_from| (radians): the joint that leads a movej."""
+    return float(np.max(np.abs(np.asarray(q_to, dtype=float) - np.asarray(q_from, dtype=float))))
+
+
+def movej_duration(q_from, q_to, a, v):
+    """Seconds a movej from `q_from` to `q_to` takes at 100 % speed (trapezoid of the leading joint)."""
+    return trapezoid_duration(leading_travel(q_from, q_to), a, v)
+
+
+def path_duration(q_start, targets, a, v):
+    """Seconds for movej through `targets` from `q_start`, each stopping (an upper bound when moves blend)."""
+    total, previous = 0.0, q_start
+    for target in targets:
+        total += movej_duration(previous, target, a, v)
+        previous = target
+    return total
+
+
+def motion_timeout(duration, speed_fraction, margin_ratio=0.5, margin_s=1.0):
+    """Seconds to wait for a motion of `duration` at 100 % when the speed slider reads `speed_fraction` (0..1)."""
+    if not (math.isfinite(duration) and duration >= 0):
+        raise ValueError(f"duration must be finite and ≥ 0, got {duration!r}")
+    if not math.isfinite(speed_fraction):
+        raise ValueError(f"speed_fraction must be finite, got {speed_fraction!r}")
+    slowed = duration / max(min(speed_fraction, 1.0), MIN_SPEED_FRACTION)
+    return slowed * (1.0 + margin_ratio) + margin_s

@@ -1,0 +1,137 @@
+"""Transport for the primary interface (port 30001): a reader thread that keeps the latest robot state and
+fans robot messages (program started/stopped, runtime exceptions, errors) out to watchers. Parsing is in primary.py.
+"""
+import queue
+import socket
+import threading
+import time
+
+from ur3dq.errors import RobotConnectionError
+from ur3dq.robot import primary
+
+PRIMARY_PORT = 30001
+SECONDARY_PORT = 30002
+
+
+class PrimaryClient:
+    """A connection to port 30001 read by a daemon thread; `close()` ends it."""
+
+    def __init__(self, host, port=PRIMARY_PORT, connect_timeout=2.0):
+        try:
+            self._socket = socket.create_connection((host, port), timeout=connect_timeout)
+        except OSError as error:
+            raise RobotConnectionError(f"cannot reach the primary interface at {host}:{port}: {error}") from None
+        self._socket.settimeout(0.2)  # lets the reader notice close() without waiting for data
+        self._socket.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        self.host, self.port = host, port
+        self._lock = threading.Lock()
+        self._changed = threading.Condition(self._lock)
+        self._watchers = []
+        self._closing = False
+        self.version = None
+        self.robot_mode = None
+        self.safety_mode = None
+        self.cartesian = None
+        self.kinematics = None
+        self.configuration = None
+        self.last_state_time = None  # time.monotonic() of the last robot-state message
+        self.error = None  # why the reader stopped, once it has
+        self._thread = threading.Thread(target=self._read_forever, name=f"ur3dq-primary-{host}", daemon=True)
+        self._thread.start()
+
+    @property
+    def alive(self):
+        """True while the reader thread runs (connection open and in step)."""
+        return self._thread.is_alive()
+
+    def wait_for(self, predicate, timeout):
+        """Block until predicate(self) is true (re-checked on every message) or `timeout` s pass; returns it."""
+        deadline = time.monotonic() + timeout
+        with self._changed:
+            while not predicate(self):
+                remaining = deadline - time.monotonic()
+                if remaining <= 0 or not self.alive:
+                    return predicate(self)
+                self._changed.wait(min(remaining, 0.1))
+            return True
+
+    def watch(self):
+        """A queue receiving every robot message parsed from now on; pass it to `unwatch` when done."""
+        watcher = queue.Queue()
+        with self._lock:
+            self._watchers.append(watcher)
+        return watcher
+
+    def unwatch(self, watcher):
+        """Stop delivering messages to `watcher`."""
+        with self._lock:
+            if watcher in self._watchers:
+                self._watchers.remove(watcher)
+
+    def close(self):
+        """Stop the reader and close the socket (idempotent)."""
+        self._closing = True
+        self._thread.join(timeout=2.0)
+        try:
+            self._socket.close()
+        except OSError:
+            pass
+
+    def _read_forever(self):
+        """Reader thread body: receive, split, parse, publish — until close() or the stream breaks."""
+        buffer = b""
+        try:
+            while not self._closing:
+                try:
+                    chunk = self._socket.recv(65536)
+                except socket.timeout:
+                    continue
+                if not chunk:
+                    raise ConnectionError("the controller closed the primary connection")
+                messages, buffer = primary.split_messages(buffer + chunk)
+                for message_type, body in messages:
+                    self._handle(message_type, body)
+        except (OSError, ConnectionError, primary.PrimaryParseError) as error:
+            self.error = str(error)
+        finally:
+            with self._changed:
+                self._changed.notify_all()
+
+    def _handle(self, message_type, body):
+        """Store a robot state or publish a robot message."""
+        if message_type == primary.ROBOT_STATE:
+            state = primary.parse_robot_state(body)
+            with self._changed:
+                if state.robot_mode is not None:
+                    self.robot_mode = state.robot_mode
+                if state.safety_mode is not None:
+                    self.safety_mode = state.safety_mode
+                if state.cartesian is not None:
+                    self.cartesian = state.cartesian
+                if state.kinematics is not None:
+                    self.kinematics = state.kinematics
+                if state.configuration is not None:
+                    self.configuration = state.configuration
+                self.last_state_time = time.monotonic()
+                self._changed.notify_all()
+        elif message_type == primary.ROBOT_MESSAGE:
+            message = primary.parse_robot_message(body)
+            if message is None:
+                return
+            with self._changed:
+                if isinstance(message, primary.VersionMessage):
+                    self.version = message
+                for watcher in self._watchers:
+                    watcher.put(message)
+                self._changed.notify_all()
+
+
+def send_script(host, script, port=SECONDARY_PORT, timeout=2.0):
+    """Send URScript text to the secondary interface on a short-lived connection (the controller runs it at once)."""
+    if not script.endswith("\n"):
+        script += "\n"
+    try:
+        with socket.create_connection((host, port), timeout=timeout) as connection:
+            connection.sendall(script.encode("ascii"))
+    except OSError as error:
+        raise RobotConnectionError(f"cannot send a program to {host}:{port}: {error}") from None

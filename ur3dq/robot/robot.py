@@ -1,0 +1,434 @@
+"""The Robot facade: checked motions sent as URScript and watched to their end, stops, power, TCP, freedrive.
+
+A motion is only reported done when the controller says the program ran and ended and the arm rests at the
+target; every fault (protective stop, emergency stop, program error, dropped or frozen stream, overrun) raises
+its own RobotError subclass within a bounded time, and any error or KeyboardInterrupt during a motion sends
+`stopj` before it leaves the driver. Nothing here ever resends a motion by itself.
+"""
+import math
+import queue
+import time
+
+import numpy as np
+
+from ur3dq.dualquat import DualQuaternion
+from ur3dq.errors import (
+    ConnectionLostError,
+    EmergencyStopError,
+    MotionTimeoutError,
+    ProgramError,
+    ProtectiveStopError,
+    RobotConnectionError,
+    RobotError,
+    SafetyCheckError,
+)
+from ur3dq.kinematics import robot_model
+from ur3dq.robot import motion, primary, safety, script, state
+from ur3dq.robot.dashboard import Dashboard, model_from_reply
+from ur3dq.robot.primary_client import PrimaryClient, send_script
+
+URSCRIPT_DEFAULT_A = 1.4  # rad/s², URScript movej default
+URSCRIPT_DEFAULT_V = 1.05  # rad/s
+SAFE_STOP_DECELERATION = 2.0  # rad/s²: stops a 1.05 rad/s joint in 0.5 s (ur_rtde's stopJ default)
+MAX_BLEND_RADIUS = 2.0  # metres; ur_rtde's client-side bound
+START_TIMEOUT = 5.0  # s for the controller to start a sent program (generous: a loaded simulator parses slowly)
+SETTLE_TIME = 0.3  # s a stopped program may take to show the arm at rest before it counts as failed
+RECONNECT_DELAYS = (0.05, 0.1, 0.2, 0.4, 0.8)  # s between stream reconnection attempts (exponential backoff)
+MODE_CHANGE_TIMEOUT = 15.0  # s for power on / brake release to reach their robot mode
+
+
+def dh_deltas(kinematics, nominal_dh):
+    """{'a','d','alpha','theta': 6 deltas} = controller Kinematics Info − nominal DH (the model's calibration)."""
+    return {key: np.asarray(getattr(kinematics, key), dtype=float) - np.asarray(nominal_dh[key], dtype=float)
+            for key in ("a", "d", "alpha", "theta")}
+
+
+def calibrated_model(name, kinematics, tcp_offset=None):
+    """The ur3dq model `name` with the controller's calibrated DH and (if given) its TCP offset (UR pose vector)."""
+    nominal = robot_model(name)
+    model = robot_model(name, dh_deltas=dh_deltas(kinematics, _dh_dict(nominal.dh)))
+    return model.with_tcp(tcp_offset) if tcp_offset is not None else model
+
+
+def effective_speed_limits(model, configuration):
+    """(max joint acceleration, max joint speed) arrays: the lower of the model's and the controller's values."""
+    if configuration is None:
+        return np.asarray(model.max_joint_acceleration, float), np.asarray(model.max_joint_speed, float)
+    return (np.minimum(model.max_joint_acceleration, configuration.max_joint_acceleration),
+            np.minimum(model.max_joint_speed, configuration.max_joint_speed))
+
+
+def _dh_dict(dh):
+    """The model's DH as a dict a, d, alpha, theta (accepts a mapping or an object with those attributes)."""
+    if isinstance(dh, dict):
+        return dh
+    return {key: getattr(dh, key) for key in ("a", "d", "alpha", "theta")}
+
+
+class Robot:
+    """A connection to one UR controller. Use `ur3dq.robot.connect(...)`; close with `close()` or `with`."""
+
+    def __init__(self, host, backend="rtde", model=None, max_joint_travel=safety.DEFAULT_MAX_JOINT_TRAVEL,
+                 connect_timeout=3.0):
+        if backend not in ("rtde", "urx"):
+            raise ValueError(f"backend must be 'rtde' or 'urx', got {backend!r}")
+        if not (isinstance(max_joint_travel, (int, float)) and max_joint_travel > 0):
+            raise ValueError(f"max_joint_travel must be a positive number of radians, got {max_joint_travel!r}")
+        self.host = host
+        self.backend_name = backend
+        self.max_joint_travel = float(max_joint_travel)
+        self._connect_timeout = connect_timeout
+        self._primary = self._backend = self._dashboard = None
+        try:
+            self._primary = self._open_primary()
+            self._dashboard = Dashboard(host)
+            self.model_name = self._identify_model(model)
+            self.model = calibrated_model(self.model_name, self._primary.kinematics,
+                                          self._controller_tcp_offset())
+            self._backend = self._open_backend()
+        except BaseException:
+            self.close()
+            raise
+
+    # --- connection -------------------------------------------------------------------------------------------
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc_info):
+        self.close()
+
+    def close(self):
+        """Close every connection (idempotent). Never moves or stops the arm."""
+        for part in (self._backend, self._dashboard, self._primary):
+            if part is not None:
+                part.close()
+
+    @property
+    def controller_version(self):
+        """(major, minor, bugfix, build) of the controller software, from the primary version message."""
+        version = self._primary.version
+        return (version.major, version.minor, version.bugfix, version.build)
+
+    def _open_primary(self):
+        """A PrimaryClient that has received the version, robot mode, kinematics and configuration."""
+        client = PrimaryClient(self.host)
+        complete = client.wait_for(
+            lambda c: None not in (c.version, c.robot_mode, c.kinematics, c.cartesian), self._connect_timeout)
+        if not complete:
+            client.close()
+            raise RobotConnectionError(
+                f"the primary interface of {self.host} sent no version, robot state and Kinematics Info "
+                f"within {self._connect_timeout} s ({client.error or 'incomplete data'})")
+        return client
+
+    def _open_backend(self):
+        """The state/program backend chosen at connect time."""
+        if self.backend_name == "rtde":
+            from ur3dq.robot.rtde_backend import RTDEBackend
+            return RTDEBackend(self.host)
+        from ur3dq.robot.urx_backend import URXBackend
+        return URXBackend(self.host, self._primary)
+
+    def _identify_model(self, requested):
+        """The model name from the dashboard and Configuration Data; RobotError if they or `requested` disagree."""
+        major = self._primary.version.major
+        identified = model_from_reply(self._dashboard.robot_model_reply(), major)
+        configuration = self._primary.configuration
+        if configuration is not None:
+            from_configuration = primary.model_name(configuration.robot_type, major)
+            if from_configuration != identified:
+                raise RobotError(f"the dashboard says {identified} but Configuration Data says {from_configuration}")
+        if requested is not None and requested.lower() != identified:
+            raise RobotError(f"model {requested!r} was requested but the controller is a {identified}")
+        return identified
+
+    def _controller_tcp_offset(self):
+        """The controller's active TCP offset (UR pose vector, flange frame), or None before software 3.2."""
+        return self._primary.cartesian.tcp_offset
+
+    def _ensure_streams(self):
+        """Reconnect dead state streams with exponential backoff; ConnectionLostError if they stay down."""
+        if self._primary.alive and self._backend.connected:
+            return
+        last_error = None
+        for delay in RECONNECT_DELAYS:
+            try:
+                if not self._primary.alive:
+                    self._primary.close()
+                    self._primary = self._open_primary()
+                    if self.backend_name == "urx":
+                        self._backend._primary = self._primary
+                if not self._backend.connected:
+                    self._backend.reconnect()
+                return
+            except RobotConnectionError as error:
+                last_error = error
+                time.sleep(delay)
+        raise ConnectionLostError(
+            f"the state streams from {self.host} stay down after {len(RECONNECT_DELAYS)} attempts: {last_error}")
+
+    # --- reading ----------------------------------------------------------------------------------------------
+
+    def state(self):
+        """The newest RobotStatus (joints, TCP, robot/safety mode, program running, speed fractions, age)."""
+        self._ensure_streams()
+        return self._backend.status()
+
+    def joints(self):
+        """The actual joint angles (radians, 6); ConnectionLostError if the stream is frozen."""
+        return self._fresh_status().joints
+
+    def tcp_pose(self):
+        """The TCP pose the controller reports, as a DualQuaternion (base frame)."""
+        return DualQuaternion.from_ur_pose(self.tcp_pose_vector())
+
+    def tcp_pose_vector(self):
+        """The TCP pose the controller reports, as a UR pose vector [x, y, z, rx, ry, rz]."""
+        return self._fresh_status().tcp_pose
+
+    def _fresh_status(self):
+        """A status no older than the backend's freeze timeout, else ConnectionLostError."""
+        status = self.state()
+        if status.age > self._backend.freeze_timeout:
+            raise ConnectionLostError(
+                f"the state stream from {self.host} is frozen: no fresh data for {status.age:.2f} s")
+        return status
+
+    # --- motion -----------------------------------------------------------------------------------------------
+
+    def movej(self, q, a=None, v=None, expected_pose=None):
+        """Move to joint target `q` (rad) on a trapezoid with acceleration a (rad/s²) and speed v (rad/s).
+
+        Blocks until the arm rests at `q`; returns the wall time in seconds. `expected_pose` (DualQuaternion)
+        marks a target that came from IK: the model's FK of `q` must reach it.
+        """
+        return self.movej_path([q], blend=0.0, a=a, v=v, expected_poses=None if expected_pose is None
+                               else [expected_pose])
+
+    def movej_path(self, targets, blend=0.0, a=None, v=None, expected_poses=None):
+        """Move through joint `targets` in one blended program (blend radius in metres); returns wall time (s)."""
+        targets = [self._checked_target(q, f"targets[{index}]") for index, q in enumerate(targets)]
+        if not targets:
+            raise SafetyCheckError("targets must hold at least one joint vector")
+        if expected_poses is not None:
+            if len(expected_poses) != len(targets):
+                raise SafetyCheckError(f"expected_poses has {len(expected_poses)} entries for {len(targets)} targets")
+            for index, (q, pose) in enumerate(zip(targets, expected_poses)):
+                safety.check_fk_consistency(self.model, q, pose, name=f"targets[{index}]")
+        if not (isinstance(blend, (int, float)) and math.isfinite(blend) and 0.0 <= blend <= MAX_BLEND_RADIUS):
+            raise SafetyCheckError(f"blend must be a radius in metres within [0, {MAX_BLEND_RADIUS}], got {blend!r}")
+        status = self._ready_status()
+        a, v = self._clamped(status.joints, targets, a, v)
+        previous = status.joints
+        for index, q in enumerate(targets):
+            safety.check_travel(previous, q, self.max_joint_travel, name=f"targets[{index}]")
+            previous = q
+        if len(targets) == 1 and motion.leading_travel(status.joints, targets[0]) < 1e-9:
+            return 0.0  # already there: sending a program would only add a start/stop
+        duration = motion.path_duration(status.joints, targets, a, v)
+        name = script.new_program_name("move")
+        program = script.movej_program(name, targets, a, v, blend=float(blend))
+        timeout = motion.motion_timeout(duration, status.target_speed_fraction)
+        return self._run_motion(name, program, targets[-1], status.joints, timeout)
+
+    def movej_pose(self, pose, a=None, v=None):
+        """Move to the TCP `pose` (DualQuaternion) through the IK solution closest to the current joints."""
+        q = self.model.ik(pose, self.joints())
+        return self.movej(q, a=a, v=v, expected_pose=pose)
+
+    def stop(self, a=SAFE_STOP_DECELERATION):
+        """Decelerate the arm to rest with `stopj(a)` (rad/s², clamped to the model's limit)."""
+        self._send_stop(a)
+
+    def _checked_target(self, q, name):
+        """A joint target that is six finite values inside the model's joint limits."""
+        return safety.check_joint_limits(q, self.model.joint_lower, self.model.joint_upper, name)
+
+    def _clamped(self, q_start, targets, a, v):
+        """(a, v) defaulting to URScript's and lowered so no joint of any segment exceeds its limits."""
+        a = URSCRIPT_DEFAULT_A if a is None else a
+        v = URSCRIPT_DEFAULT_V if v is None else v
+        max_acceleration, max_speed = effective_speed_limits(self.model, self._primary.configuration)
+        previous = q_start
+        for q in targets:
+            a, v = safety.clamp_movej_speed(np.asarray(q) - previous, a, v, max_acceleration, max_speed)
+            previous = q
+        return a, v
+
+    def _ready_status(self):
+        """The current status if the arm can move (running, no stop), else the specific error."""
+        status = self._checked_status(self._fresh_status())
+        if status.robot_mode != state.ROBOT_MODE_RUNNING:
+            raise RobotError(f"the robot is in mode {status.robot_mode_name}, not RUNNING: "
+                             "power it on and release the brakes first (power_on(), brake_release())")
+        return status
+
+    def _checked_status(self, status):
+        """`status` unchanged unless it shows an emergency or protective stop, or a frozen stream."""
+        if status.emergency_stopped:
+            raise EmergencyStopError(f"{self.host} is emergency-stopped (safety mode {status.safety_mode_name}); "
+                                     "release the e-stop and power on again")
+        if status.protective_stopped:
+            raise ProtectiveStopError(f"{self.host} is in a protective stop; inspect the cause, then call "
+                                      "unlock_protective_stop()")
+        if status.age > self._backend.freeze_timeout:
+            raise ConnectionLostError(f"the state stream from {self.host} froze: no fresh data for {status.age:.2f} s")
+        if not self._primary.alive:
+            raise ConnectionLostError(f"the primary interface of {self.host} closed: {self._primary.error}")
+        return status
+
+    def _run_motion(self, name, program, target, q_start, timeout):
+        """Send `program`, then watch it to its end; any failure stops the arm before the exception leaves."""
+        watcher = self._primary.watch()
+        sent = time.monotonic()
+        try:
+            self._backend.send_program(program)
+            outcome = _MotionWatch(name, target, far_from_target=motion.leading_travel(q_start, target) > 2e-3)
+            while True:
+                for message in _drain(watcher):
+                    outcome.note_message(message)
+                status = self._checked_status(self._backend.status())
+                now = time.monotonic()
+                if outcome.finished(status, now):
+                    return now - sent
+                if not outcome.started and now - sent > START_TIMEOUT:
+                    raise ProgramError(f"the controller did not start program {name} within {START_TIMEOUT} s")
+                if now - sent > timeout:
+                    raise MotionTimeoutError(
+                        f"program {name} did not finish within {timeout:.2f} s (derived from its trapezoidal "
+                        f"duration and the speed slider); the arm is {outcome.distance(status):.4f} rad from target")
+                time.sleep(self._backend.poll_period)
+        except BaseException as error:
+            self._stop_after(error)
+            raise
+        finally:
+            self._primary.unwatch(watcher)
+
+    def _stop_after(self, error):
+        """Best-effort stopj after a failed or interrupted motion; a failing stop is attached, never raised."""
+        try:
+            self._send_stop(SAFE_STOP_DECELERATION)
+        except RobotError as stop_error:
+            error.add_note(f"ur3dq: sending stopj after this error also failed: {stop_error}")
+
+    def _send_stop(self, a):
+        """Send a `stopj` program on its own short-lived connection (works even if a backend is stuck)."""
+        a = min(float(a), float(np.min(self.model.max_joint_acceleration)))
+        if not (math.isfinite(a) and a > 0):
+            raise ValueError(f"a (deceleration) must be finite and > 0, got {a!r}")
+        send_script(self.host, script.program(script.new_program_name("stop"), [script.stopj_statement(a)]),
+                    timeout=1.0)
+
+    # --- power, safety, TCP, freedrive ------------------------------------------------------------------------
+
+    def power_on(self):
+        """Power the arm on and wait until it is IDLE (brakes still held)."""
+        self._dashboard.power_on()
+        self._wait_for_mode({state.ROBOT_MODE_IDLE, state.ROBOT_MODE_RUNNING}, "power on")
+
+    def brake_release(self):
+        """Release the brakes and wait until the arm is RUNNING."""
+        self._dashboard.brake_release()
+        self._wait_for_mode({state.ROBOT_MODE_RUNNING}, "brake release")
+
+    def unlock_protective_stop(self):
+        """Unlock a protective stop (the controller refuses within 5 s of it). Never called by ur3dq itself."""
+        self._dashboard.unlock_protective_stop()
+        deadline = time.monotonic() + 2.0
+        while self.state().protective_stopped:
+            if time.monotonic() > deadline:
+                raise ProtectiveStopError(f"{self.host} still reports a protective stop 2 s after the unlock")
+            time.sleep(0.01)
+
+    def set_tcp(self, tcp):
+        """Set the controller's TCP offset (DualQuaternion or UR pose vector, flange frame); the model follows."""
+        pose = tcp.to_ur_pose() if isinstance(tcp, DualQuaternion) else safety.check_joint_vector(tcp, "tcp")
+        name = script.new_program_name("tcp")
+        self._backend.send_program(script.program(name, [script.set_tcp_statement(pose)]))
+        applied = self._primary.wait_for(
+            lambda c: c.cartesian is not None and c.cartesian.tcp_offset is not None
+            and np.allclose(c.cartesian.tcp_offset, pose, atol=1e-9), timeout=2.0)
+        if not applied:
+            raise ProgramError(f"the controller did not apply TCP offset {list(pose)} within 2 s")
+        self.model = self.model.with_tcp(pose)
+
+    def teach_mode(self, on, hold_seconds=3600.0):
+        """Freedrive on (a program holding freedrive for `hold_seconds`) or off; waits for the controller."""
+        name = script.new_program_name("teach")
+        statements = script.freedrive_statements(hold_seconds) if on else script.end_freedrive_statements()
+        self._ready_status()
+        self._backend.send_program(script.program(name, statements))
+        wanted = 1 if on else 0  # primary controlMode: 1 TEACH, 0 POSITION
+        if not self._primary.wait_for(lambda c: c.robot_mode.control_mode == wanted, timeout=2.0):
+            raise ProgramError(f"the controller did not switch freedrive {'on' if on else 'off'} within 2 s")
+
+    def _wait_for_mode(self, modes, action):
+        """Wait until the robot mode is one of `modes`; RobotError naming `action` after MODE_CHANGE_TIMEOUT."""
+        deadline = time.monotonic() + MODE_CHANGE_TIMEOUT
+        while True:
+            status = self.state()
+            if status.robot_mode in modes:
+                return
+            if status.emergency_stopped:
+                raise EmergencyStopError(f"{action} impossible: {self.host} is emergency-stopped")
+            if time.monotonic() > deadline:
+                raise RobotError(f"{action}: the robot is still in mode {status.robot_mode_name} after "
+                                 f"{MODE_CHANGE_TIMEOUT} s")
+            time.sleep(0.02)
+
+
+class _MotionWatch:
+    """What is known about one sent program: started, stopped, and a runtime error if the controller sent one."""
+
+    def __init__(self, name, target, far_from_target):
+        self.name = name
+        self.target = np.asarray(target, dtype=float)
+        self.far_from_target = far_from_target  # arriving at the target then proves the program ran
+        self.started = False
+        self.stopped = False
+        self.last_error_text = None
+        self._ended_at = None
+
+    def note_message(self, message):
+        """Update from one robot message; ProgramError for a runtime exception."""
+        if primary.is_program_started(message, self.name):
+            self.started = True
+        elif primary.is_program_stopped(message, self.name):
+            self.started = self.stopped = True
+        elif isinstance(message, primary.RuntimeExceptionMessage):
+            raise ProgramError(f"the controller reported an error in program {self.name} at line {message.line}, "
+                               f"column {message.column}: {message.text}")
+        elif isinstance(message, primary.ErrorCodeMessage) and message.report_level >= 2:
+            self.last_error_text = f"C{message.code}A{message.argument}: {message.text}"
+
+    def distance(self, status):
+        """The largest joint distance (rad) from the arm to the target."""
+        return float(np.max(np.abs(status.joints - self.target)))
+
+    def finished(self, status, now):
+        """True when the program has ended with the arm at rest on target; ProgramError if it ended elsewhere."""
+        running = status.program_running and not self.stopped
+        if running:
+            self.started, self._ended_at = True, None
+            return False
+        if state.at_rest_at(status, self.target) and (self.started or self.far_from_target):
+            return True
+        if not self.started:
+            return False
+        if self._ended_at is None:
+            self._ended_at = now
+        elif now - self._ended_at > SETTLE_TIME:
+            reason = f": {self.last_error_text}" if self.last_error_text else ""
+            raise ProgramError(f"program {self.name} ended with the arm {self.distance(status):.4f} rad from its "
+                               f"target{reason}")
+        return False
+
+
+def _drain(watcher):
+    """Every message waiting in `watcher`, without blocking."""
+    while True:
+        try:
+            yield watcher.get_nowait()
+        except queue.Empty:
+            return

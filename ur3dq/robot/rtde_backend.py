@@ -1,0 +1,81 @@
+"""The default backend: state from ur_rtde's RTDEReceiveInterface (125/500 Hz), programs over the secondary port."""
+import time
+
+import numpy as np
+import rtde_receive
+
+from ur3dq.errors import ConnectionLostError, RobotConnectionError
+from ur3dq.robot import primary_client, state
+
+# Only what the driver reads, so no version-gated default variable can make the controller refuse the recipe.
+RTDE_VARIABLES = [
+    "timestamp", "actual_q", "actual_qd", "actual_TCP_pose", "robot_mode", "safety_mode", "runtime_state",
+    "robot_status_bits", "safety_status_bits", "speed_scaling", "target_speed_fraction",
+]
+
+
+class RTDEBackend:
+    """State over RTDE, URScript over port 30002; `close()` disconnects."""
+
+    name = "rtde"
+    poll_period = 0.001  # RTDE delivers every 2-8 ms; polling faster than that only burns CPU
+    freeze_timeout = 0.5  # ≥ 60 CB3 cycles without fresh data: the stream is frozen, not just late
+
+    def __init__(self, host):
+        self.host = host
+        try:
+            self._receive = rtde_receive.RTDEReceiveInterface(host, -1.0, RTDE_VARIABLES)
+        except RuntimeError as error:
+            raise RobotConnectionError(f"cannot start the RTDE state stream from {host}:30004: {error}") from None
+        self._last_timestamp = None
+        self._last_fresh = time.monotonic()
+
+    @property
+    def connected(self):
+        """True while ur_rtde's receive thread holds the connection."""
+        return bool(self._receive.isConnected())
+
+    def reconnect(self):
+        """Re-open the RTDE stream (RobotConnectionError if the controller does not answer)."""
+        try:
+            if not self._receive.reconnect():
+                raise RobotConnectionError(f"RTDE reconnect to {self.host}:30004 was refused")
+        except RuntimeError as error:
+            raise RobotConnectionError(f"RTDE reconnect to {self.host}:30004 failed: {error}") from None
+        self._last_timestamp, self._last_fresh = None, time.monotonic()
+
+    def status(self):
+        """A RobotStatus from the newest RTDE package; ConnectionLostError if the stream has closed."""
+        receive = self._receive
+        if not receive.isConnected():
+            raise ConnectionLostError(f"the RTDE state stream from {self.host} is closed")
+        timestamp = receive.getTimestamp()
+        now = time.monotonic()
+        if timestamp != self._last_timestamp:
+            self._last_timestamp, self._last_fresh = timestamp, now
+        safety_mode = receive.getSafetyMode()
+        safety_bits = receive.getSafetyStatusBits()
+        return state.RobotStatus(
+            joints=np.array(receive.getActualQ()),
+            joint_speeds=np.array(receive.getActualQd()),
+            tcp_pose=np.array(receive.getActualTCPPose()),
+            robot_mode=receive.getRobotMode(),
+            safety_mode=safety_mode,
+            program_running=state.program_running_from(receive.getRuntimeState(), receive.getRobotStatus()),
+            protective_stopped=state.protective_stopped_from(safety_bits, safety_mode),
+            emergency_stopped=state.emergency_stopped_from(safety_bits, safety_mode),
+            speed_scaling=receive.getSpeedScaling(),
+            target_speed_fraction=receive.getTargetSpeedFraction(),
+            age=now - self._last_fresh,
+        )
+
+    def send_program(self, script):
+        """Send URScript to the secondary interface (30002)."""
+        primary_client.send_script(self.host, script)
+
+    def close(self):
+        """Disconnect the RTDE stream (idempotent)."""
+        try:
+            self._receive.disconnect()
+        except RuntimeError:
+            pass

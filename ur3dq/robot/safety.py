@@ -1,0 +1,93 @@
+"""Checks every motion passes before it is sent, and the clamping of its speed and acceleration.
+
+Each function is pure: it takes the numbers (and, for FK consistency, the model) and either returns the safe
+values or raises SafetyCheckError (ValueError) naming the argument and the problem.
+"""
+import math
+
+import numpy as np
+
+from ur3dq.errors import SafetyCheckError
+
+# Default bound on any single joint's travel in one move: a surprising IK branch (a 2π wrist flip, an elbow
+# swap) travels more than this and is refused instead of swinging the arm.
+DEFAULT_MAX_JOINT_TRAVEL = math.pi
+
+
+def check_joint_vector(q, name="q"):
+    """`q` as a float array of six finite joint angles (radians), or SafetyCheckError naming the problem."""
+    try:
+        array = np.asarray(q, dtype=float)
+    except (TypeError, ValueError):
+        raise SafetyCheckError(f"{name} must be six joint angles in radians, got {q!r}") from None
+    if array.shape != (6,):
+        raise SafetyCheckError(f"{name} must be six joint angles in radians, got shape {array.shape}")
+    bad = [index for index in range(6) if not math.isfinite(array[index])]
+    if bad:
+        raise SafetyCheckError(f"{name}: joint {bad[0] + 1} is {array[bad[0]]!r}; every joint angle must be finite")
+    return array
+
+
+def check_joint_limits(q, lower, upper, name="q"):
+    """`q` unchanged if every joint lies within [lower, upper] (radians), else SafetyCheckError naming the joint."""
+    q = check_joint_vector(q, name)
+    for index in range(6):
+        if not lower[index] <= q[index] <= upper[index]:
+            raise SafetyCheckError(
+                f"{name}: joint {index + 1} = {q[index]:.6f} rad lies outside its limits "
+                f"[{lower[index]:.6f}, {upper[index]:.6f}]"
+            )
+    return q
+
+
+def check_travel(q_from, q_to, max_travel, name="q"):
+    """`q_to` unchanged if no joint travels more than `max_travel` radians from `q_from`, else SafetyCheckError."""
+    travel = np.abs(check_joint_vector(q_to, name) - check_joint_vector(q_from, "current joints"))
+    worst = int(np.argmax(travel))
+    if travel[worst] > max_travel:
+        raise SafetyCheckError(
+            f"{name}: joint {worst + 1} would travel {travel[worst]:.4f} rad, more than the allowed "
+            f"{max_travel:.4f} rad per move (a different IK branch? raise max_joint_travel if intended)"
+        )
+    return np.asarray(q_to, dtype=float)
+
+
+def clamp_movej_speed(delta_q, a, v, max_acceleration, max_speed):
+    """(a, v) for a movej of joint travel `delta_q`, lowered so that no joint exceeds its own max (rad/s², rad/s).
+
+    The leading joint moves at a and v; joint i at a·|Δq_i|/D and v·|Δq_i|/D, D = max |Δq|.
+    """
+    a, v = _positive(a, "a"), _positive(v, "v")
+    travel = np.abs(np.asarray(delta_q, dtype=float))
+    leading = float(np.max(travel)) if travel.size else 0.0
+    if leading == 0.0:
+        return min(a, float(np.min(max_acceleration))), min(v, float(np.min(max_speed)))
+    moving = travel > 0
+    share = travel[moving] / leading
+    with np.errstate(divide="ignore", over="ignore"):  # a joint with a vanishing share has no binding limit (inf)
+        a_limit = float(np.min(np.asarray(max_acceleration, dtype=float)[moving] / share))
+        v_limit = float(np.min(np.asarray(max_speed, dtype=float)[moving] / share))
+    return min(a, a_limit), min(v, v_limit)
+
+
+def check_fk_consistency(model, q, pose, tol_m=1e-4, tol_rad=1e-3, name="q"):
+    """`q` unchanged if the model's FK of `q` is `pose` (DualQuaternion) within tolerance, else SafetyCheckError."""
+    reached = model.fk(check_joint_vector(q, name))
+    metres, radians = reached.distance(pose)
+    if metres > tol_m or radians > tol_rad:
+        raise SafetyCheckError(
+            f"{name} does not reach the pose it was solved for: FK is {metres * 1000:.3f} mm / "
+            f"{math.degrees(radians):.3f}° away (tolerance {tol_m * 1000:.3f} mm / {math.degrees(tol_rad):.3f}°)"
+        )
+    return np.asarray(q, dtype=float)
+
+
+def _positive(value, name):
+    """`value` as a float if finite and > 0, else SafetyCheckError."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise SafetyCheckError(f"{name} must be a positive number, got {value!r}") from None
+    if not (math.isfinite(number) and number > 0):
+        raise SafetyCheckError(f"{name} must be finite and > 0, got {number!r}")
+    return number

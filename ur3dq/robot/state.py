@@ -1,0 +1,90 @@
+"""The driver's view of the controller: one immutable snapshot, and pure decoders of the controller's codes.
+
+Enumerations follow protocols.md §1.6 (RTDE) and §3.5 (primary); both interfaces use the same robot-mode and
+safety-mode numbers.
+"""
+from dataclasses import dataclass
+
+import numpy as np
+
+ROBOT_MODE_NAMES = {
+    -1: "NO_CONTROLLER", 0: "DISCONNECTED", 1: "CONFIRM_SAFETY", 2: "BOOTING", 3: "POWER_OFF", 4: "POWER_ON",
+    5: "IDLE", 6: "BACKDRIVE", 7: "RUNNING", 8: "UPDATING_FIRMWARE",
+}
+SAFETY_MODE_NAMES = {
+    1: "NORMAL", 2: "REDUCED", 3: "PROTECTIVE_STOP", 4: "RECOVERY", 5: "SAFEGUARD_STOP",
+    6: "SYSTEM_EMERGENCY_STOP", 7: "ROBOT_EMERGENCY_STOP", 8: "VIOLATION", 9: "FAULT", 10: "VALIDATE_JOINT_ID",
+    11: "UNDEFINED_SAFETY_MODE", 12: "AUTOMATIC_MODE_SAFEGUARD_STOP", 13: "SYSTEM_THREE_POSITION_ENABLING_STOP",
+}
+ROBOT_MODE_IDLE = 5
+ROBOT_MODE_RUNNING = 7
+RUNTIME_STATE_PLAYING = 2
+EMERGENCY_SAFETY_MODES = frozenset({6, 7})
+PROTECTIVE_SAFETY_MODES = frozenset({3})
+
+_STATUS_BIT_PROGRAM_RUNNING = 1 << 1
+_SAFETY_BIT_PROTECTIVE_STOPPED = 1 << 2
+_SAFETY_BIT_EMERGENCY_STOPPED = 1 << 7
+
+
+@dataclass(frozen=True)
+class RobotStatus:
+    """One reading of the controller: joints (rad), TCP pose (UR pose vector), modes, flags and speed fractions.
+
+    `age` is how many seconds ago the state stream last delivered fresh data (large ⇒ frozen stream).
+    """
+
+    joints: np.ndarray
+    joint_speeds: np.ndarray
+    tcp_pose: np.ndarray
+    robot_mode: int
+    safety_mode: int
+    program_running: bool
+    protective_stopped: bool
+    emergency_stopped: bool
+    speed_scaling: float
+    target_speed_fraction: float
+    age: float
+
+    @property
+    def robot_mode_name(self):
+        """The robot mode's name, e.g. 'RUNNING'."""
+        return robot_mode_name(self.robot_mode)
+
+    @property
+    def safety_mode_name(self):
+        """The safety mode's name, e.g. 'NORMAL'."""
+        return safety_mode_name(self.safety_mode)
+
+
+def robot_mode_name(mode):
+    """Name of a robot-mode code (RTDE robot_mode / primary robotMode), 'UNKNOWN(n)' if unlisted."""
+    return ROBOT_MODE_NAMES.get(int(mode), f"UNKNOWN({int(mode)})")
+
+
+def safety_mode_name(mode):
+    """Name of a safety-mode code (RTDE safety_mode / masterboard safetyMode), 'UNKNOWN(n)' if unlisted."""
+    return SAFETY_MODE_NAMES.get(int(mode), f"UNKNOWN({int(mode)})")
+
+
+def program_running_from(runtime_state, robot_status_bits):
+    """True if RTDE says a program runs: runtime_state PLAYING or robot_status_bits bit 1."""
+    return int(runtime_state) == RUNTIME_STATE_PLAYING or bool(int(robot_status_bits) & _STATUS_BIT_PROGRAM_RUNNING)
+
+
+def protective_stopped_from(safety_status_bits, safety_mode):
+    """True if RTDE reports a protective stop: safety_status_bits bit 2, or safety mode PROTECTIVE_STOP."""
+    return bool(int(safety_status_bits) & _SAFETY_BIT_PROTECTIVE_STOPPED) or int(safety_mode) in PROTECTIVE_SAFETY_MODES
+
+
+def emergency_stopped_from(safety_status_bits, safety_mode):
+    """True if RTDE reports an emergency stop: safety_status_bits bit 7, or a (system/robot) e-stop safety mode."""
+    return bool(int(safety_status_bits) & _SAFETY_BIT_EMERGENCY_STOPPED) or int(safety_mode) in EMERGENCY_SAFETY_MODES
+
+
+def at_rest_at(status, target, position_tolerance=2e-3, speed_tolerance=5e-3):
+    """True if every joint is within `position_tolerance` rad of `target` and slower than `speed_tolerance` rad/s."""
+    return bool(
+        np.max(np.abs(status.joints - np.asarray(target, dtype=float))) <= position_tolerance
+        and np.max(np.abs(status.joint_speeds)) <= speed_tolerance
+    )

@@ -1,0 +1,105 @@
+"""The urx backend (as the source thesis used): urx 0.11 reads joints and TCP from port 30002 and sends programs;
+modes and stop flags come from our own primary-interface reader, because urx 0.11 misreads the Robot Mode Data
+of controllers newer than 3.4 (its `is_running()` stays False there), so completion is watched by ur3dq's logic.
+"""
+import socket
+import threading
+import time
+
+import numpy as np
+import urx.ursecmon
+from urx.urrobot import URRobot
+
+from ur3dq.errors import ConnectionLostError, RobotConnectionError
+from ur3dq.robot import state
+
+# urx hands a program to its reader thread and waits on a condition with no timeout; if that thread has died
+# (urx ends it on any 0.5 s gap in the stream) the wait would never return, so it is bounded here.
+SEND_TIMEOUT = 2.0
+
+
+class URXBackend:
+    """Joints, TCP and program sending through urx; modes and flags from `primary` (a PrimaryClient)."""
+
+    name = "urx"
+    poll_period = 0.005  # urx and the primary interface update at 10 Hz
+    freeze_timeout = 1.0  # ten missed 10 Hz packets
+
+    def __init__(self, host, primary):
+        self.host = host
+        self._primary = primary
+        self._robot = _open_urx(host)
+
+    @property
+    def connected(self):
+        """True while urx's reader thread and our primary reader both run."""
+        return self._robot.secmon.is_alive() and self._primary.alive
+
+    def reconnect(self):
+        """Open a fresh urx connection (the primary reader is reconnected by the Robot)."""
+        self._shut(self._robot)
+        self._robot = _open_urx(self.host)
+
+    def status(self):
+        """A RobotStatus from urx's newest joint/cartesian data and the primary reader's robot mode."""
+        if not self.connected:
+            self._shut(self._robot)  # a dead peer would leave urx's reader spinning on recv
+            raise ConnectionLostError(f"the urx/primary state stream from {self.host} is closed")
+        data = self._robot.secmon.get_all_data()
+        mode = self._primary.robot_mode
+        if mode is None or "JointData" not in data or "CartesianInfo" not in data:
+            raise ConnectionLostError(f"no complete robot state from {self.host} yet")
+        joint_data, cartesian = data["JointData"], data["CartesianInfo"]
+        now = time.monotonic()
+        urx_age = time.time() - self._robot.secmon.lastpacket_timestamp
+        return state.RobotStatus(
+            joints=np.array([joint_data[f"q_actual{i}"] for i in range(6)]),
+            joint_speeds=np.array([joint_data[f"qd_actual{i}"] for i in range(6)]),
+            tcp_pose=np.array([cartesian[key] for key in ("X", "Y", "Z", "Rx", "Ry", "Rz")]),
+            robot_mode=mode.robot_mode,
+            safety_mode=self._primary.safety_mode if self._primary.safety_mode is not None else 0,
+            program_running=mode.program_running,
+            protective_stopped=mode.protective_stopped,
+            emergency_stopped=mode.emergency_stopped,
+            speed_scaling=mode.speed_scaling,
+            target_speed_fraction=mode.target_speed_fraction,
+            age=max(urx_age, now - self._primary.last_state_time),
+        )
+
+    def send_program(self, script):
+        """Send URScript through urx (port 30002); ConnectionLostError if urx cannot hand it over in time."""
+        if not self._robot.secmon.is_alive():
+            raise ConnectionLostError(f"urx's connection to {self.host} has stopped; program not sent")
+        sender = threading.Thread(target=self._robot.send_program, args=(script,), daemon=True)
+        sender.start()
+        sender.join(SEND_TIMEOUT)
+        if sender.is_alive():
+            raise ConnectionLostError(f"urx could not send the program to {self.host} within {SEND_TIMEOUT} s")
+
+    def close(self):
+        """Stop urx's reader and close its socket (idempotent)."""
+        self._shut(self._robot)
+
+    @staticmethod
+    def _shut(robot):
+        """Close a URRobot without hanging. A healthy urx reader sees its stop flag after the next 10 Hz packet;
+        on a dead or frozen peer it never would (it loops on recv), so then its socket is closed under it."""
+        secmon = robot.secmon
+        secmon._trystop = True
+        secmon.join(timeout=0.6)
+        if secmon.is_alive():
+            try:
+                secmon._s_secondary.shutdown(socket.SHUT_RDWR)
+            except OSError:
+                pass
+            secmon._s_secondary.close()
+            secmon.join(timeout=2.0)
+        secmon._s_secondary.close()
+
+
+def _open_urx(host):
+    """A connected urx URRobot, or RobotConnectionError."""
+    try:
+        return URRobot(host)
+    except (OSError, urx.ursecmon.TimeoutException) as error:
+        raise RobotConnectionError(f"urx cannot connect to {host}:30002: {error}") from None
