@@ -35,10 +35,17 @@ def execute(request, controller, request_stop=None):
     command = request["command"]
     try:
         message = _run(command, request, controller, request_stop)
-    except (ValueError, CommandRefused, TypeError, KeyError) as error:
+    except (ValueError, CommandRefused, TypeError) as error:
         return {"ok": False, "error": f"{command}: {error}"}
     log.info("control channel: %s -> %s", command, message)
     return {"ok": True, "message": message}
+
+
+def _argument(request, name):
+    """The request's `name` argument; ValueError naming it when missing."""
+    if name not in request:
+        raise ValueError(f"needs the argument {name!r}")
+    return request[name]
 
 
 def _run(command, request, controller, request_stop):
@@ -55,11 +62,13 @@ def _run(command, request, controller, request_stop):
     if command == "drop-connections":
         return f"connections dropped (generation {faults.drop_connections()})"
     if command == "freeze":
-        faults.freeze_streams(request["seconds"])
-        return f"streams frozen for {float(request['seconds'])} s"
+        seconds = _argument(request, "seconds")
+        faults.freeze_streams(seconds)
+        return f"streams frozen for {float(seconds)} s"
     if command == "latency":
-        faults.add_latency(request["seconds"])
-        return f"latency {float(request['seconds'])} s"
+        seconds = _argument(request, "seconds")
+        faults.add_latency(seconds)
+        return f"latency {float(seconds)} s"
     if command == "reset":
         faults.reset()
         return "transport faults cleared"
@@ -67,7 +76,7 @@ def _run(command, request, controller, request_stop):
         controller.set_freedrive(bool(request.get("on", True)))
         return f"freedrive {'on' if request.get('on', True) else 'off'}"
     if command == "move-by-hand":
-        controller.move_joints_by_hand(request["q"])
+        controller.move_joints_by_hand(_argument(request, "q"))
         return "joints moved by hand"
     if command == "status":
         return status_line(controller.state(), faults)

@@ -307,6 +307,8 @@ class Controller:
         self.loaded_program = None  # path of the program `play` runs
         self.loaded_program_source = None
         self._kinematics_cache = (None, None)
+        self._changes = 0
+        self._idle_signature = (None, None, None)
         self._execution_time = 0.0
         self._script_control_line = 0
         self._external_force_torque = _frozen(np.zeros(6))
@@ -381,19 +383,44 @@ class Controller:
             self._cycle += steps
             self._sim_time += dt
             self._advance_mode_transition()
-            previous_q, previous_qd = self._q, self._qd
-            new_q = self._advance_motion(dt)
-            qd = (new_q - previous_q) / dt
-            self._qdd = _frozen((qd - previous_qd) / dt)
-            self._qd = _frozen(qd)
-            if not np.array_equal(new_q, previous_q):
-                self._q = _frozen(new_q)
-            state = self._snapshot(previous_q, previous_qd)
-            self._execution_time = time.perf_counter() - began
+            signature = (self._changes, self.io.version, self._q)
+            if self._at_rest_and_unchanged(signature):
+                state = self._next_idle_snapshot(began)
+            else:
+                previous_q, previous_qd = self._q, self._qd
+                new_q = self._advance_motion(dt)
+                qd = (new_q - previous_q) / dt
+                self._qdd = _frozen((qd - previous_qd) / dt)
+                self._qd = _frozen(qd)
+                if not np.array_equal(new_q, previous_q):
+                    self._q = _frozen(new_q)
+                self._execution_time = time.perf_counter() - began
+                state = self._snapshot(previous_q, previous_qd)
+            self._idle_signature = (self._changes, self.io.version, self._q)
             # Stored under the lock so a command's _publish_status never overwrites a newer cycle.
             with self._cycle_changed:
                 self._state = state
                 self._cycle_changed.notify_all()
+
+    def _at_rest_and_unchanged(self, signature):
+        """True when nothing moves or changed since the last snapshot, so it can be reused with a new cycle number."""
+        last = self._state
+        return (self._active is None and self._tail is None and signature[0] == self._idle_signature[0]
+                and signature[1] == self._idle_signature[1] and signature[2] is self._idle_signature[2]
+                and not np.any(last.actual_qd) and not np.any(last.target_qdd) and last.actual_q is self._q)
+
+    def _next_idle_snapshot(self, began):
+        """The last snapshot with this cycle's number and times: an idle cycle costs almost nothing."""
+        state = object.__new__(ControllerState)
+        fields = state.__dict__
+        fields.update(self._state.__dict__)
+        self._execution_time = time.perf_counter() - began
+        fields.update(cycle=self._cycle, timestamp=self._sim_time, execution_time=self._execution_time)
+        return state
+
+    def _touch(self):
+        """Note a change the next snapshot must show (commands, settings, hand moves)."""
+        self._changes += 1
 
     # ---------------------------------------------------------------- snapshots
     def state(self):
@@ -497,6 +524,7 @@ class Controller:
     def _publish_status(self):
         """Make a command's effect visible in state() at once (same cycle number; motion fields unchanged)."""
         with self._lock, self._cycle_changed:
+            self._touch()
             self._state = dataclasses.replace(self._state, **self._status_fields())
             self._cycle_changed.notify_all()
 
@@ -572,16 +600,19 @@ class Controller:
         if target == RobotMode.RUNNING:
             self._brakes_released = True
         self._set_robot_mode(target)
+        self._touch()
 
     def _set_robot_mode(self, mode):
         if mode != self._robot_mode:
             log.info("robot mode %s -> %s", RobotMode.NAMES[self._robot_mode], RobotMode.NAMES[mode])
             self._robot_mode = mode
+            self._touch()
 
     def _set_safety_mode(self, mode):
         if mode != self._safety_mode:
             log.info("safety mode %s -> %s", SafetyMode.NAMES[self._safety_mode], SafetyMode.NAMES[mode])
             self._safety_mode = mode
+            self._touch()
             self.messages.publish(SafetyModeMessage(code=0, argument=0, safety_mode_type=mode))
 
     def protective_stop(self, reason="protective stop requested"):
@@ -719,6 +750,9 @@ class Controller:
             if not self._freedrive:
                 raise CommandRefused("the arm can be moved by hand only in freedrive (teach) mode")
             self._q = _frozen(q)
+            self._touch()
+            with self._cycle_changed:
+                self._state = self._snapshot(self._q, self._qd)
 
     def set_freedrive(self, on):
         """Freedrive / teach mode on or off (on needs RUNNING + NORMAL; motions are refused while it is on)."""
@@ -746,6 +780,7 @@ class Controller:
         pose = _frozen(kinematics.checked_vector(pose, 6, "tcp pose"))
         with self._lock:
             self._tcp_offset = pose
+            self._touch()
 
     def set_payload(self, mass, cog=None, inertia=None):
         """Payload mass [kg] (≥ 0), centre of gravity [m] in the flange frame, inertia [Ixx Iyy Izz Ixy Ixz Iyz]."""
@@ -763,11 +798,13 @@ class Controller:
         wrench = _frozen(kinematics.checked_vector(wrench, 6, "external_force_torque"))
         with self._lock:
             self._external_force_torque = wrench
+            self._touch()
 
     def set_script_control_line(self, line):
         """The URScript line being executed (RTDE script_control_line); set by the runner."""
         with self._lock:
             self._script_control_line = max(0, int(line))
+            self._touch()
 
     # ---------------------------------------------------------------- kinematics helpers
     def fk(self, q):
@@ -936,6 +973,7 @@ class Controller:
         entry = _Active(motion.Stop(self._qd, deceleration), Motion(kind), False)
         self._active = entry
         self._tail = None
+        self._publish_status()
         return entry.motion
 
     def _decelerate(self, deceleration, error):

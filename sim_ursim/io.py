@@ -35,6 +35,7 @@ class IOState:
 
     def __init__(self):
         self._lock = threading.Lock()
+        self.version = 0  # bumped by every write, so the controller knows when its snapshot is stale
         self.standard_digital_outputs = 0  # bit n = DO n
         self.configurable_digital_outputs = 0
         self.tool_digital_outputs = 0
@@ -57,23 +58,27 @@ class IOState:
         """Standard digital output DO`index` (0..7) on or off."""
         bit = 1 << _checked_index(index, 8, "standard digital output")
         with self._lock:
+            self.version += 1
             self.standard_digital_outputs = set_bits(self.standard_digital_outputs, bit, bit if value else 0)
 
     def set_configurable_digital_out(self, index, value):
         """Configurable digital output CO`index` (0..7) on or off."""
         bit = 1 << _checked_index(index, 8, "configurable digital output")
         with self._lock:
+            self.version += 1
             self.configurable_digital_outputs = set_bits(self.configurable_digital_outputs, bit, bit if value else 0)
 
     def set_tool_digital_out(self, index, value):
         """Tool digital output TO`index` (0..1) on or off."""
         bit = 1 << _checked_index(index, 2, "tool digital output")
         with self._lock:
+            self.version += 1
             self.tool_digital_outputs = set_bits(self.tool_digital_outputs, bit, bit if value else 0)
 
     def apply_digital_output_masks(self, standard=(0, 0), configurable=(0, 0), tool=(0, 0)):
         """Write (mask, values) pairs to the three digital output groups at once, as an RTDE input package does."""
         with self._lock:
+            self.version += 1
             self.standard_digital_outputs = set_bits(self.standard_digital_outputs, *standard) & 0xFF
             self.configurable_digital_outputs = set_bits(self.configurable_digital_outputs, *configurable) & 0xFF
             self.tool_digital_outputs = set_bits(self.tool_digital_outputs, *tool) & 0x3
@@ -82,6 +87,7 @@ class IOState:
         """Simulated wiring: standard digital input DI`index` (0..7) high or low (for tests)."""
         bit = 1 << _checked_index(index, 8, "standard digital input")
         with self._lock:
+            self.version += 1
             self.standard_digital_inputs = set_bits(self.standard_digital_inputs, bit, bit if value else 0)
 
     @property
@@ -104,6 +110,7 @@ class IOState:
         if not 0.0 <= value <= 1.0:
             raise ValueError(f"analog output {index} value must be a ratio 0..1, got {value}")
         with self._lock:
+            self.version += 1
             outputs = self.analog_outputs.copy()
             outputs[index] = value
             self.analog_outputs = _frozen(outputs)
@@ -141,6 +148,7 @@ class IOState:
             raise ValueError(f"bit register word must start at 0 or 32, got {first!r}")
         name = f"{_checked_bank(bank)}_bit_registers"
         with self._lock:
+            self.version += 1
             bits = getattr(self, name).copy()
             bits[first:first + 32] = [(int(word) >> n) & 1 for n in range(32)]
             setattr(self, name, _frozen(bits))
@@ -154,6 +162,7 @@ class IOState:
 
     def _replace(self, name, index, value):
         with self._lock:
+            self.version += 1
             array = getattr(self, name).copy()
             array[index] = value
             setattr(self, name, _frozen(array))

@@ -143,8 +143,10 @@ def inverse_kinematics(dh, pose, q_near, tcp_offset, tolerance=1e-10, max_iterat
         if float(np.linalg.norm(error)) < tolerance:
             return q
         jacobian = geometric_jacobian(dh, q, tcp_offset)
-        # Damped least squares: well-behaved near singularities, plain Newton far from them.
-        step = jacobian.T @ np.linalg.solve(jacobian @ jacobian.T + damping**2 * np.eye(6), error)
+        # Damped least squares, the damping shrinking with the error: robust far away, quadratic Newton close in.
+        error_norm = float(np.linalg.norm(error))
+        lam = min(damping, error_norm)
+        step = jacobian.T @ np.linalg.solve(jacobian @ jacobian.T + lam**2 * np.eye(6), error)
         # Cap the step so a far target is approached along the branch instead of jumping to another one.
         largest = float(np.max(np.abs(step)))
         if largest > 0.5:

@@ -35,6 +35,7 @@ class Simulator:
             "control": ControlChannelServer(self, host, CONTROL_PORT),
         }
         self._stopped = threading.Event()
+        self._stop_lock = threading.Lock()
         self._started = False
 
     @property
@@ -62,27 +63,29 @@ class Simulator:
         return self
 
     def request_stop(self):
-        """Ask the simulator to stop (dashboard `shutdown`, control channel); `wait()` returns afterwards."""
+        """Stop the simulator soon, from any thread (dashboard `shutdown`, control channel, SIGTERM)."""
         log.info("shutdown requested")
         self._stopped.set()
+        threading.Thread(target=self.stop, name="sim_ursim-shutdown", daemon=True).start()
 
     def wait(self, timeout=None):
-        """Block until a stop is requested (True) or `timeout` passes (False)."""
+        """Block until a stop is requested or done (True) or `timeout` passes (False)."""
         return self._stopped.wait(timeout)
 
     def stop(self):
-        """Stop every server, the program and the control loop (idempotent)."""
-        if not self._started:
-            return
-        self._started = False
-        self._stopped.set()
-        for server in reversed(list(self.servers.values())):
-            try:
-                server.stop()
-            except Exception:  # noqa: BLE001 - one failing server must not keep the others running
-                log.exception("stopping a server failed")
-        self.controller.shutdown()
-        log.info("sim_ursim on %s stopped", self.host)
+        """Stop every server, the program and the control loop (idempotent; a second caller waits for the first)."""
+        with self._stop_lock:
+            if not self._started:
+                return
+            self._stopped.set()
+            for server in reversed(list(self.servers.values())):
+                try:
+                    server.stop()
+                except Exception:  # noqa: BLE001 - one failing server must not keep the others running
+                    log.exception("stopping a server failed")
+            self.controller.shutdown()
+            self._started = False
+            log.info("sim_ursim on %s stopped", self.host)
 
     def __enter__(self):
         return self.start()

@@ -27,13 +27,16 @@ def sim():
 
 
 @pytest.fixture
-def robot_host(request):
-    """The host robot-facing tests talk to: UR3DQ_TEST_HOST if set, else a fresh embedded simulator."""
+def robot_host():
+    """The host robot-facing tests talk to: UR3DQ_TEST_HOST if set, else a fresh simulator process.
+
+    A separate process, because ur_rtde blocks without releasing the GIL and would starve an in-process simulator.
+    """
     host = external_robot_host()
     if host is not None:
         yield host
         return
-    from sim_ursim.testing import running_simulator
+    from sim_ursim.testing import simulator_process
 
-    with running_simulator(model="ur3") as simulator:
+    with simulator_process(model="ur3") as simulator:
         yield simulator.host

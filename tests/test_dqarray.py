@@ -10,8 +10,6 @@ from pyquaternion import Quaternion
 
 from ur3dq import DualQuaternion, dqarray
 
-unit = st.floats(min_value=-1.0, max_value=1.0, allow_nan=False)
-
 
 def random_poses(count, seed=0):
     """(count, 8) unit dual quaternions: uniform random rotations, translations within ±1 m."""

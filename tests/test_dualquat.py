@@ -11,7 +11,6 @@ from ur3dq import DualQuaternion
 
 finite = st.floats(min_value=-2.0, max_value=2.0, allow_nan=False, allow_infinity=False)
 vectors = st.tuples(finite, finite, finite).map(np.array)
-angles = st.floats(min_value=-math.pi, max_value=math.pi, allow_nan=False)
 
 
 @st.composite
@@ -76,6 +75,28 @@ def test_conjugate_signs():
     assert a.conjugate().to_array().tolist() == [1, -2, -3, -4, 5, -6, -7, -8]
     assert a.dual_conjugate().to_array().tolist() == [1, 2, 3, 4, -5, -6, -7, -8]
     assert a.combined_conjugate().to_array().tolist() == [1, -2, -3, -4, -5, 6, 7, 8]
+
+
+@given(poses(), poses())
+def test_product_is_the_matrix_product(a, b):
+    np.testing.assert_allclose((a * b).to_matrix(), a.to_matrix() @ b.to_matrix(), atol=1e-12)
+
+
+def test_equal_dual_quaternions_hash_alike():
+    a = DualQuaternion.from_ur_pose([0.1, 0.2, 0.3, 0.4, 0.5, 0.6])
+    b = DualQuaternion.from_array(a.to_array())
+    assert a == b and hash(a) == hash(b) and len({a, b}) == 1
+    assert a != -a
+
+
+def test_from_matrix_accepts_a_rounded_printout_with_a_looser_tolerance():
+    # Seed 003 eq. (59) is exact; a matrix printed with 3 decimals needs a tolerance of the print precision.
+    rounded = np.round(DualQuaternion.from_ur_pose([0, 0, 0, 0.3, 0.2, 0.1]).to_matrix(), 3)
+    with pytest.raises(ValueError, match="orthonormal"):
+        DualQuaternion.from_matrix(rounded)
+    pose = DualQuaternion.from_matrix(rounded, tolerance=5e-3)
+    assert pose.is_unit(1e-15)
+    assert pose.distance(DualQuaternion.from_ur_pose([0, 0, 0, 0.3, 0.2, 0.1]))[1] < 2e-3
 
 
 @given(poses(), poses(), vectors)
@@ -218,6 +239,13 @@ def test_log_is_smooth_at_tiny_rotations(a):
     assert_same_pose(DualQuaternion.exp(tiny.log()), tiny, tol=1e-14)
 
 
+@pytest.mark.parametrize("angle", [math.pi, math.pi - 1e-9, math.pi + 1e-9, -math.pi, 1e-12])
+def test_log_exp_round_trip_at_half_turns_and_tiny_turns(angle):
+    pose = DualQuaternion.from_rotation_translation(Quaternion(axis=[0.2, -0.3, 0.9], angle=angle), [0.4, -0.1, 0.7])
+    assert_same_pose(DualQuaternion.exp(pose.log()), pose, tol=1e-12)
+    assert_same_pose(pose.power(0.5) * pose.power(0.5), pose, tol=1e-12)
+
+
 # ---------------------------------------------------------------------------------------------------- ScLERP
 @given(poses(), poses())
 def test_sclerp_endpoints(a, b):
@@ -232,6 +260,13 @@ def test_sclerp_moves_at_constant_speed_along_one_screw(a, b):
     steps = [(first.inverse() * second) for first, second in zip(samples, samples[1:])]
     for step in steps[1:]:
         assert_same_pose(step, steps[0], tol=1e-8)
+
+
+def test_sclerp_reaches_a_half_turn_away():
+    a = DualQuaternion.from_ur_pose([0.1, 0.2, 0.3, 0.0, 0.0, 0.5])
+    b = a * DualQuaternion.from_rotation_translation(Quaternion(axis=[1, 0, 0], angle=math.pi), [0.0, 0.5, 0.0])
+    assert_same_pose(a.sclerp(b, 1.0), b, tol=1e-12)
+    assert a.distance(a.sclerp(b, 0.5))[1] == pytest.approx(math.pi / 2, abs=1e-12)
 
 
 def test_sclerp_halfway_of_a_pure_translation_and_rotation():

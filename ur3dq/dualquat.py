@@ -105,12 +105,14 @@ class DualQuaternion:
         return cls._from_tuple(tuple(float(c) for c in array))
 
     @classmethod
-    def from_matrix(cls, matrix) -> "DualQuaternion":
-        """From a 4×4 homogeneous transform (rotation block orthonormal with det +1, bottom row 0 0 0 1)."""
+    def from_matrix(cls, matrix, tolerance: float = UNIT_TOLERANCE) -> "DualQuaternion":
+        """From a 4×4 homogeneous transform (rotation block orthonormal within ``tolerance``, det +1, last row
+        0 0 0 1); the quaternion is extracted (Shepperd) and normalised, so a looser tolerance admits rounded
+        printouts at about their print precision."""
         matrix = dqarray.as_array(matrix, (4, 4), "matrix")
         if matrix.shape != (4, 4):
             raise ValueError(f"matrix: expected a 4×4 matrix, got shape {matrix.shape}")
-        return cls.from_array(dqarray.from_matrix(matrix))
+        return cls.from_array(dqarray.from_matrix(matrix, tolerance))
 
     @classmethod
     def from_ur_pose(cls, pose) -> "DualQuaternion":
@@ -234,7 +236,9 @@ class DualQuaternion:
             return NotImplemented
         return self._c == other._c
 
-    __hash__ = None  # mutable-looking value type compared by coefficients; poses are compared with is_close
+    def __hash__(self) -> int:
+        """Hash of the coefficients, consistent with ``==`` (immutable value)."""
+        return hash(self._c)
 
     def __repr__(self) -> str:
         r = " ".join(f"{c:+.6f}" for c in self._c[:4])

@@ -45,7 +45,6 @@ RUNTIME_EXCEPTION_MESSAGE = 10
 
 VERSION_MESSAGE_SOURCE = -2
 PROJECT_NAME = b"URControl"
-SIMULATOR_BUILD_DATE = "01-01-2026, 00:00:00"  # controller format "dd-mm-yyyy, hh:mm:ss"
 
 # Tool modes (protocols.md §3.5).
 TOOL_MODE_RUNNING = 253
@@ -136,8 +135,9 @@ def frame(message_type, body):
 
 
 def sub_package(package_type, body):
-    """One robot-state sub-package: int32 size (its 5-byte header included), uint8 type, body."""
-    return _HEADER.pack(len(body) + _HEADER.size, package_type) + body
+    """One robot-state sub-package: int32 size (its 5-byte header included), uint8 type, body — framed like a
+    message."""
+    return frame(package_type, body)
 
 
 def robot_mode_data_size(version):
@@ -334,7 +334,7 @@ def robot_message(robot_message_type, body, timestamp_ms, source):
     return frame(ROBOT_MESSAGE, _ROBOT_MESSAGE_HEADER.pack(int(timestamp_ms), source, robot_message_type) + body)
 
 
-def version_message(version, build_date=SIMULATOR_BUILD_DATE, timestamp_ms=0):
+def version_message(version, build_date, timestamp_ms=0):
     """VersionMessage (3), sent first on connect: project name "URControl", major, minor, then bugfix and build
     (int32 each, 3.12+ and e-series) or the older single int32 svnRevision (before 3.12), then the build date."""
     major, minor, bugfix, build = (int(v) for v in version)

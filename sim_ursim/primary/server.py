@@ -31,7 +31,8 @@ log = logging.getLogger(__name__)
 STATE_PERIOD = 0.1  # 10 Hz robot state on 30001/30002
 SEND_TIMEOUT = 2.0  # a primary client that takes nothing for this long is disconnected
 REALTIME_STALL_LIMIT = 1.0  # a realtime client whose unsent bytes have not drained for this long is discontinued
-REALTIME_SEND_BUFFER = 64 * 1024
+PRIMARY_SEND_BUFFER = 64 * 1024  # kernel send buffer of a 30001/30002 connection: several seconds of state
+REALTIME_SEND_BUFFER = 64 * 1024  # kernel send buffer of a 30003 connection: about half a second of packages
 POLL_INTERVAL = 0.2  # how often idle threads look at the stop flag
 RECEIVE_SIZE = 65536
 
@@ -88,9 +89,8 @@ def send_all(connection, data, timeout):
 
 
 class _InterfaceServer:
-    """Listening socket, accept loop, drop-generation watcher and URScript intake shared by the three ports."""
-
-    origin = "interface"
+    """Listening socket, accept loop, drop-generation watcher and URScript intake shared by the three ports; a
+    subclass names its `origin` (passed with each program) and says what a new client is sent."""
 
     def __init__(self, controller, host, port):
         self.controller = controller
@@ -136,12 +136,6 @@ class _InterfaceServer:
             self._connections.clear()
         for connection in connections:
             connection.close()
-
-    @property
-    def connection_count(self):
-        """Number of clients currently connected."""
-        with self._lock:
-            return sum(1 for c in self._connections if not c.closed.is_set())
 
     # threads ------------------------------------------------------------------------------------------------------
     def _spawn(self, target, role, *args):
@@ -265,6 +259,11 @@ class PrimaryServer(_InterfaceServer):
         super().__init__(controller, host, port)
         self.robot_messages = robot_messages
         self.origin = "primary" if robot_messages else "secondary"
+
+    def _configure(self, sock):
+        # Bounded kernel buffering (Linux would grow it to megabytes): a client that stops reading fills it within
+        # seconds of robot state and is then disconnected after SEND_TIMEOUT.
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, PRIMARY_SEND_BUFFER)
 
     def _on_connect(self, connection):
         self._spawn(self._stream, "writer", connection)
@@ -396,7 +395,8 @@ class RealtimeServer(_InterfaceServer):
         cycle = controller.state().cycle
         while not self._stopping.is_set():
             state = controller.wait_cycle(cycle, timeout=POLL_INTERVAL)
-            if state is None or state.cycle == cycle:
+            if state.cycle == cycle:  # no new cycle: timed out, or the control loop has stopped
+                self._stopping.wait(controller.period)
                 continue
             cycle = state.cycle
             with self._clients_lock:
@@ -405,8 +405,7 @@ class RealtimeServer(_InterfaceServer):
             if not clients or faults.streams_frozen:
                 continue
             now = time.monotonic()
-            package = realtime.realtime_package(version, realtime.realtime_values(state))
-            delayed.put(package, now + faults.latency)
+            delayed.put(realtime.realtime_package(version, realtime.realtime_values(state)), now + faults.latency)
             for package in delayed.take_due(now):
                 for client in clients:
                     client.offer(package, now)

@@ -22,6 +22,7 @@ DEFAULT_PORT = 30004
 # (no autotuning to megabytes) so that a client which stopped reading is noticed within seconds, not minutes.
 DEFAULT_BACKLOG_LIMIT = 1024 * 1024
 DEFAULT_SEND_BUFFER = 512 * 1024
+MAX_RECIPE_ID = 255  # recipe ids travel as uint8
 OUTPUT_RECIPE_ID = 1  # the controller supports one output recipe per connection; URCL's fake server also answers 1
 _WAIT_TIMEOUT = 0.5
 
@@ -74,6 +75,7 @@ class Session:
         self.next_cycle = 0
         self.closed = False
         self.close_reason = None
+        self.reader = None  # the thread reading this connection
         self._lock = threading.Lock()
         self._pending = bytearray()
         self._delayed = deque()  # (due monotonic time, package) while latency is injected
@@ -181,9 +183,14 @@ class RTDEServer:
         self._running.clear()
         self._stopped.set()
         if self._listener is not None:
+            try:
+                self._listener.shutdown(socket.SHUT_RDWR)  # wakes the acceptor at once on Linux
+            except OSError:
+                pass
             self._listener.close()
+        sessions = self.sessions()
         self.drop_connections("server stopping")
-        for thread in self._threads:
+        for thread in self._threads + [session.reader for session in sessions]:
             thread.join(timeout=5)
         self._threads.clear()
 
@@ -222,9 +229,9 @@ class RTDEServer:
                                   self.backlog_limit)
                 self._sessions.append(session)
             log.info("%s connected", session)
-            reader = threading.Thread(target=self._read_loop, args=(session,), name=f"rtde-read-{session.number}",
-                                      daemon=True)
-            reader.start()
+            session.reader = threading.Thread(target=self._read_loop, args=(session,),
+                                              name=f"rtde-read-{session.number}", daemon=True)
+            session.reader.start()
 
     def _read_loop(self, session):
         buffer = bytearray()
@@ -315,6 +322,9 @@ class RTDEServer:
             if valid:
                 for name in names:
                     self._input_owners[name] = session
+        if valid and session.next_input_recipe_id > MAX_RECIPE_ID:
+            valid = False
+            log.warning("%s has used all %d input recipe ids", session, MAX_RECIPE_ID)
         if valid:
             recipe_id = session.next_input_recipe_id
             session.next_input_recipe_id += 1

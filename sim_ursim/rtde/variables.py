@@ -90,15 +90,15 @@ class _ToolAccelerometer:
     """
 
     def __init__(self):
-        self._pose = None
-        self._values = None
+        self._cache = (None, None)  # (pose array, values): one tuple, swapped atomically between streamer threads
 
     def __call__(self, state):
         pose = state.actual_tcp_pose
-        if pose is not self._pose:
-            self._values = tool_accelerometer(pose)
-            self._pose = pose
-        return self._values
+        cached_pose, values = self._cache
+        if pose is not cached_pose:
+            values = tool_accelerometer(pose)
+            self._cache = (pose, values)
+        return values
 
 
 def _tcp_force_scalar(state):

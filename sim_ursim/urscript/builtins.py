@@ -166,16 +166,16 @@ def pose_inv(ctx, p_from):
 
 
 def pose_add(ctx, p_1, p_2):
-    """Positions added, rotations composed in the base frame: p[p1.pos + p2.pos, R2 · R1]."""
+    """URScript pose addition: positions added, rotations composed p_1.R · p_2.R."""
     a, b = _pose(p_1, "p_1"), _pose(p_2, "p_2")
-    rotation = kinematics.rotation_vector_to_matrix(b[3:]) @ kinematics.rotation_vector_to_matrix(a[3:])
+    rotation = kinematics.rotation_vector_to_matrix(a[3:]) @ kinematics.rotation_vector_to_matrix(b[3:])
     return _to_pose(np.concatenate([a[:3] + b[:3], kinematics.matrix_to_rotation_vector(rotation)]))
 
 
 def pose_sub(ctx, p_to, p_from):
-    """Inverse of pose_add: p[to.pos − from.pos, R_to · R_fromᵀ]."""
+    """URScript pose subtraction: positions subtracted, rotation p_from.R⁻¹ · p_to.R (undoes pose_add(p_from, x))."""
     a, b = _pose(p_to, "p_to"), _pose(p_from, "p_from")
-    rotation = kinematics.rotation_vector_to_matrix(a[3:]) @ kinematics.rotation_vector_to_matrix(b[3:]).T
+    rotation = kinematics.rotation_vector_to_matrix(b[3:]).T @ kinematics.rotation_vector_to_matrix(a[3:])
     return _to_pose(np.concatenate([a[:3] - b[:3], kinematics.matrix_to_rotation_vector(rotation)]))
 
 
@@ -624,6 +624,31 @@ def _force_parameter(ctx, value):
         raise ScriptError(f"runtime_error:force mode parameter must be 0..2, got {to_str(value)}:")
 
 
+def set_gravity(ctx, d):
+    """Gravity direction [m/s²] in the base frame: checked and accepted; the simulator models no dynamics."""
+    number_list(d, 3, "d")
+
+
+def tool_contact(ctx, direction):
+    """Cycles since the tool touched something along `direction`: always 0, the simulated arm never collides."""
+    number_list(direction, 6, "direction")
+    return 0
+
+
+def get_target_joint_accelerations(ctx):
+    """Commanded joint accelerations [rad/s²]."""
+    return _to_list(ctx.controller.state().target_qdd)
+
+
+def get_jacobian(ctx, q=None, tcp=None):
+    """6x6 geometric Jacobian (rows: TCP twist [v; ω] in the base frame, columns: joints) as a list of rows."""
+    state = ctx.controller.state()
+    joints = state.actual_q if q is None else np.array(number_list(q, 6, "q"))
+    offset = state.tcp_offset if tcp is None else _pose(tcp, "tcp")
+    jacobian = kinematics.geometric_jacobian(ctx.controller.model.dh, joints, offset)
+    return [_to_list(row) for row in jacobian]
+
+
 def zero_ftsensor(ctx):
     """Zero the F/T sensor: the simulated sensor always reads zero, so nothing changes."""
 
@@ -642,8 +667,7 @@ def _unsupported(name):
 
 UNSUPPORTED = (
     "force_mode", "enable_external_ft_sensor", "ft_rtde_input_enable", "get_tcp_force", "get_joint_torques", "servoc",
-    "tool_contact", "set_gravity", "get_actual_joint_positions_history", "direct_torque", "get_mass_matrix",
-    "get_coriolis_and_centrifugal_torques", "get_target_joint_accelerations", "get_jacobian",
+    "get_actual_joint_positions_history", "direct_torque", "get_mass_matrix", "get_coriolis_and_centrifugal_torques",
     "get_jacobian_time_derivative", "teach_mode_set_params", "set_analog_inputrange",
 )
 
@@ -695,7 +719,10 @@ def _table():
         "rtde_set_watchdog": rtde_set_watchdog,
         # force control: parameters accepted, force mode itself unsupported
         "force_mode_set_damping": _force_parameter, "force_mode_set_gain_scaling": _force_parameter,
-        "zero_ftsensor": zero_ftsensor, "end_force_mode": end_force_mode,
+        "zero_ftsensor": zero_ftsensor, "end_force_mode": end_force_mode, "set_gravity": set_gravity,
+        "tool_contact": tool_contact,
+        # dynamics-free state
+        "get_target_joint_accelerations": get_target_joint_accelerations, "get_jacobian": get_jacobian,
     }
     for bank in ("input", "output"):
         table[f"read_{bank}_integer_register"] = _register(bank, "int")

@@ -130,6 +130,7 @@ class ThreadContext:
         self.done = threading.Event()
         self.frames = []  # one dict of locals per active function call / thread body
         self.critical = 0
+        self.line = 0  # line of the statement being executed
         self._statements_in_slice = 0
         self.last_cycle = None
 
@@ -147,7 +148,13 @@ class ThreadContext:
                 raise Cancelled()
 
     def waiting(self):
-        """Context manager: let other script threads run while this one waits for physical time."""
+        """Context manager: let other script threads run while this one waits for physical time.
+
+        The main thread's line is published (RTDE script_control_line) here, where it stays for a while, rather
+        than on every statement.
+        """
+        if self is self.execution.main:
+            self.controller.set_script_control_line(self.line)
         return _Released(self.execution.scheduler)
 
     def time_slice(self):
@@ -178,6 +185,9 @@ class ThreadContext:
         """Block until `motion` is done (ScriptError with its error if it failed), interruptibly."""
         with self.waiting():
             motion.wait(cancel=self.cancel)
+            # The motion ends inside a control cycle whose snapshot is published just after: wait for it, so
+            # the next get_actual_* sees where the move ended.
+            self.controller.wait_cycle(self.controller.state().cycle, timeout=5 * self.controller.period)
         self.check()
         if motion.error:
             raise ScriptError(motion.error)
@@ -274,6 +284,7 @@ class Execution:
         for statement in body:
             ctx.check()
             ctx.time_slice()
+            ctx.line = statement.line
             _STATEMENTS[type(statement)](self, ctx, statement)
 
     def _exec_expr(self, ctx, node):
@@ -405,6 +416,10 @@ class Execution:
 
     def _eval_index(self, ctx, node):
         return _element(self.eval(ctx, node.target), self.eval(ctx, node.index), node)
+
+    def _eval_matrix_index(self, ctx, node):
+        row = _element(self.eval(ctx, node.target), self.eval(ctx, node.row_index), node)
+        return _element(row, self.eval(ctx, node.column_index), node)
 
     def _eval_unary(self, ctx, node):
         value = self.eval(ctx, node.operand)
@@ -627,6 +642,7 @@ _EXPRESSIONS = {
     nodes.ListExpr: Execution._eval_list,
     nodes.PoseExpr: Execution._eval_pose,
     nodes.Index: Execution._eval_index,
+    nodes.MatrixIndex: Execution._eval_matrix_index,
     nodes.Unary: Execution._eval_unary,
     nodes.Binary: Execution._eval_binary,
     nodes.Call: Execution._eval_call,

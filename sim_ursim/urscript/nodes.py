@@ -51,6 +51,15 @@ class Index(Node):
 
 
 @dataclass(frozen=True)
+class MatrixIndex(Node):
+    """`matrix[row, column]` on a list of lists (PolyScope 5 matrices)."""
+
+    target: Node
+    row_index: Node
+    column_index: Node
+
+
+@dataclass(frozen=True)
 class Unary(Node):
     """`-x`, `+x`, `not x`."""
 

@@ -15,7 +15,7 @@ GRAMMAR_PATH = Path(__file__).with_name("urscript.lark")
 
 # After one of these tokens a newline cannot end the statement, so the expression continues on the next line.
 _CONTINUES_AFTER = frozenset(
-    {"OR", "XOR", "AND", "NOT", "COMPARE", "ADD_OP", "MUL_OP", "EQUAL", "COMMA", "LPAR", "LSQB"}
+    {"OR", "XOR", "AND", "NOT", "EQUALITY", "RELATION", "ADD_OP", "MUL_OP", "EQUAL", "COMMA", "LPAR", "LSQB"}
 )
 _OPENING = frozenset({"LPAR", "LSQB"})
 _CLOSING = frozenset({"RPAR", "RSQB"})
@@ -54,13 +54,14 @@ class _LineJoiner:
 
 @functools.lru_cache(maxsize=1)
 def _lark_parser():
-    """The LALR parser, built once (building takes ~0.1 s; parsing reuses it)."""
+    """The LALR parser, built once per process; lark's cache file (temp dir) saves the ~0.5 s build next time."""
     return Lark(
         GRAMMAR_PATH.read_text(),
         parser="lalr",
         postlex=_LineJoiner(),
         propagate_positions=True,
         maybe_placeholders=True,
+        cache=True,
     )
 
 
@@ -158,8 +159,11 @@ class _ToNodes(Transformer):
     def assign(self, meta, children):
         target, value = children
         indices = []
-        while isinstance(target, nodes.Index):
-            indices.insert(0, target.index)
+        while isinstance(target, (nodes.Index, nodes.MatrixIndex)):
+            if isinstance(target, nodes.MatrixIndex):
+                indices[:0] = [target.row_index, target.column_index]
+            else:
+                indices.insert(0, target.index)
             target = target.target
         if not isinstance(target, nodes.Name):
             raise URScriptSyntaxError(meta.line, meta.column, f"syntax_error_on_line:{meta.line}:cannot assign:")
@@ -182,9 +186,11 @@ class _ToNodes(Transformer):
         # `p[...]` with other than one element is a pose literal; `p[i]` indexes a variable named p.
         if isinstance(target, nodes.Name) and target.name == "p" and len(items) != 1:
             return nodes.PoseExpr(tuple(items), **_position(meta))
+        if len(items) == 2:
+            return nodes.MatrixIndex(target, items[0], items[1], **_position(meta))
         if len(items) != 1:
             raise URScriptSyntaxError(
-                meta.line, meta.column, f"syntax_error_on_line:{meta.line}:one index expected:"
+                meta.line, meta.column, f"syntax_error_on_line:{meta.line}:one index or a row and column expected:"
             )
         return nodes.Index(target, items[0], **_position(meta))
 
@@ -253,7 +259,7 @@ def parse(source):
     except lark.exceptions.UnexpectedInput as error:
         line = getattr(error, "line", 0) or 0
         column = getattr(error, "column", 0) or 0
-        if isinstance(error, lark.exceptions.UnexpectedEOF) or getattr(error, "token", None) == "$END":
+        if line <= 0:  # input ended inside a construct: point at the last line
             line = max(1, len(source.splitlines()))
             column = 1
         text = f"syntax_error_on_line:{line}:{_source_line(source, line)}:"

@@ -31,7 +31,6 @@ class _Running:
     def __init__(self, execution, thread=None):
         self.execution = execution
         self.thread = thread
-        self.stopped = False  # stop()/replacement asked for it (as opposed to a normal end)
 
 
 class ProgramRunner:
@@ -41,6 +40,7 @@ class ProgramRunner:
         self._controller = controller
         self._builtins = BUILTINS if builtins is None else builtins
         self._lock = threading.RLock()
+        self._submit_lock = threading.Lock()  # one replacement at a time
         self._main = None
         self._secondary = []
         self._paused = False
@@ -86,24 +86,29 @@ class ProgramRunner:
         if program.secondary:
             self._start_secondary(execution)
             return True
-        with self._lock:
-            self._stop_main(stop_arm=True)
-            running = _Running(execution)
-            running.thread = threading.Thread(target=self._run_main, args=(running,), daemon=True,
-                                              name=f"urscript-{program.name}")
-            self._main = running
-            self._paused = False
-            self._controller.set_program_state(True, False)
-            running.thread.start()
+        with self._submit_lock:
+            with self._lock:
+                previous = self._detach_main()
+            self._end(previous)
+            with self._lock:
+                running = _Running(execution)
+                running.thread = threading.Thread(target=self._run_main, args=(running,), daemon=True,
+                                                  name=f"urscript-{program.name}")
+                self._main = running
+                self._controller.set_program_state(True, False)
+                running.thread.start()
         log.info("program %s started from %s", program.name, origin)
         return True
 
     def stop(self):
         """Stop the main program (and secondary programs); returns once its threads have ended."""
         with self._lock:
-            self._stop_main(stop_arm=True)
+            previous = self._detach_main()
             for running in self._secondary:
                 running.execution.cancel()
+        self._end(previous)
+        if previous is not None:
+            self._controller.set_program_state(False)
 
     def pause(self):
         """Pause the main program at its next statement (a move already under way finishes)."""
@@ -124,19 +129,22 @@ class ProgramRunner:
             self._controller.set_program_state(True, False)
 
     # ----------------------------------------------------------------------------------------------- internals
-    def _stop_main(self, stop_arm):
-        """Cancel the running main program and wait for it (unless called from one of its own threads)."""
-        running = self._main
+    def _detach_main(self):
+        """Take the running main program out of the runner (call with the lock held); it still has to be ended."""
+        running, self._main = self._main, None
+        self._paused = False
+        return running
+
+    def _end(self, running):
+        """Cancel a detached program, wait for it (unless called from one of its own threads), stop the arm."""
         if running is None:
             return
-        running.stopped = True
         running.execution.cancel()
         if not running.execution.owns_current_thread():
             running.thread.join(JOIN_TIMEOUT)
             if running.thread.is_alive():
                 log.warning("program %s did not stop within %.1f s", running.execution.program.name, JOIN_TIMEOUT)
-        if stop_arm:
-            self._stop_arm()
+        self._stop_arm()
 
     def _run_main(self, running):
         execution = running.execution

@@ -63,6 +63,23 @@ def test_seed_003_puma_equations_58_and_59():
     np.testing.assert_allclose(pose.to_matrix(), PUMA_EQ59, atol=1e-9)
 
 
+def elementary_product(theta, d, a, alpha):
+    """Rz(θ)·Tz(d)·Tx(a)·Rx(α) as four separate 4×4 matrices multiplied (the definition of a DH row)."""
+    c, s, ca, sa = math.cos(theta), math.sin(theta), math.cos(alpha), math.sin(alpha)
+    rz = np.array([[c, -s, 0, 0], [s, c, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]])
+    tz = np.eye(4)
+    tz[2, 3] = d
+    tx = np.eye(4)
+    tx[0, 3] = a
+    rx = np.array([[1, 0, 0, 0], [0, ca, -sa, 0], [0, sa, ca, 0], [0, 0, 0, 1]])
+    return rz @ tz @ tx @ rx
+
+
+@given(angles, lengths, lengths, angles)
+def test_dh_matrix_is_the_product_of_its_elementary_motions(theta, d, a, alpha):
+    np.testing.assert_allclose(dh_matrix(theta, d, a, alpha), elementary_product(theta, d, a, alpha), atol=1e-15)
+
+
 @given(angles, lengths, lengths, angles)
 def test_dh_joint_dual_quaternion_equals_the_dh_matrix(theta, d, a, alpha):
     np.testing.assert_allclose(
@@ -171,6 +188,21 @@ def test_joint_axes_are_the_z_axes_of_the_previous_dh_frames():
         np.testing.assert_allclose(directions[i], matrix[:3, 2], atol=1e-12)
         # The point lies on the axis through the frame origin.
         np.testing.assert_allclose(np.cross(points[i] - matrix[:3, 3], matrix[:3, 2]), 0, atol=1e-9)
+
+
+def test_axis_chain_frames_are_partial_products_of_exponentials():
+    # Two joints about z through (0,0,0) and (1,0,0), end at (2,0,0): frame 1 = exp(ξ1 q1) is a turn about the origin.
+    end = DualQuaternion.from_translation([2, 0, 0])
+    arm = SerialChain.from_axes([[0, 0, 1], [0, 0, 1]], [[0, 0, 0], [1, 0, 0]], end)
+    q = [math.pi / 2, math.pi / 2]
+    frames = [DualQuaternion.from_array(f) for f in arm.frames(q)]
+    assert frames[0].is_close(DualQuaternion.identity())
+    assert frames[1].is_close(DualQuaternion.from_axis_angle([0, 0, 1], math.pi / 2), tol_m=1e-15, tol_rad=1e-15)
+    # The last frame is the end pose, exp(ξ1 q1)·exp(ξ2 q2)·M; exp(ξ2 q2) fixes (1,0,0), exp(ξ1 q1) takes it to (0,1,0).
+    assert frames[2].is_close(arm.fk(q))
+    partial = frames[2] * end.inverse()
+    np.testing.assert_allclose(partial.transform_point([1, 0, 0]), [0, 1, 0], atol=1e-15)
+    np.testing.assert_allclose(arm.fk(q).translation, [-1, 1, 0], atol=1e-15)
 
 
 @pytest.mark.parametrize("direction", [[0, 0, 1], [0, 0, -1], [1, 0, 0], [0.3, -0.4, 0.5], [1e-9, 0, -1]])

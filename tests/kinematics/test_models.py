@@ -9,8 +9,7 @@ from hypothesis import strategies as st
 
 from ur3dq import DualQuaternion, dqarray
 from ur3dq.errors import JointLimitError
-from ur3dq.kinematics import MODEL_NAMES, robot_model
-from ur3dq.kinematics.chain import dh_matrix
+from ur3dq.kinematics import MODEL_NAMES, robot_model, robot_model_from_dh
 
 HOME = np.array([0, -math.pi / 2, 0, -math.pi / 2, 0, 0])  # seed 000 §4.5
 joint_angle = st.floats(min_value=-2 * math.pi, max_value=2 * math.pi, allow_nan=False)
@@ -42,7 +41,39 @@ def test_fk_batch_equals_ur_analytic_ik(name):
     np.testing.assert_allclose(dqarray.to_matrix(model.fk_batch(joints)), expected, rtol=0, atol=1e-12)
 
 
-@settings(max_examples=300)
+SINGULAR_CONFIGURATIONS = np.array([
+    [0, 0, 0, 0, 0, 0],                              # everything zero: wrist singular (q5 = 0), arm stretched
+    [0.3, -1.2, 0, -0.4, 0, 2.0],                    # stretched elbow and wrist singular together
+    [1.0, -math.pi / 2, 0, -math.pi / 2, 0, 0],      # seed 000's home pose, turned
+    [-2.0, -0.7, math.pi, 0.2, math.pi, -1.0],       # folded elbow, wrist 2 at π
+    [2 * math.pi, -2 * math.pi, 2 * math.pi, -2 * math.pi, 2 * math.pi, -2 * math.pi],   # the limits
+])
+
+
+@pytest.mark.parametrize("name", MODEL_NAMES)
+def test_fk_at_singular_and_extreme_configurations(name):
+    model = robot_model(name)
+    batch = model.fk_batch(SINGULAR_CONFIGURATIONS)
+    for q, row in zip(SINGULAR_CONFIGURATIONS, batch):
+        expected = oracle(name).forward_kinematics(*q)
+        np.testing.assert_allclose(model.fk(q).to_matrix(), expected, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(DualQuaternion.from_array(row).to_matrix(), expected, rtol=0, atol=1e-12)
+
+
+def test_fk_batch_of_no_configurations_is_empty():
+    assert robot_model("ur3").fk_batch(np.zeros((0, 6))).shape == (0, 8)
+    assert robot_model("ur3", dh_deltas={"a": [1e-4] * 6}).fk_batch(np.zeros((0, 6))).shape == (0, 8)
+
+
+def test_fk_accepts_lists_tuples_and_integer_arrays():
+    model = robot_model("ur10")
+    expected = model.fk(np.zeros(6))
+    for q in ([0, 0, 0, 0, 0, 0], (0.0,) * 6, np.zeros(6, dtype=int)):
+        assert model.fk(q) == expected
+    np.testing.assert_array_equal(model.fk_batch([[0] * 6]), [expected.to_array()])
+
+
+@settings(max_examples=150)
 @given(configurations, st.sampled_from(MODEL_NAMES))
 def test_fk_batch_equals_fk(q, name):
     model = robot_model(name).with_tcp([0.01, -0.02, 0.15, 0.1, -0.2, 0.3])
@@ -100,7 +131,7 @@ def test_seed_000_home_pose_with_the_thesis_axis_angle_chain():
     np.testing.assert_allclose(model.thesis_chain().fk(HOME).translation, [0, -0.19425, 0.69415], atol=1e-12)
 
 
-@settings(max_examples=100)
+@settings(max_examples=50)
 @given(configurations, st.sampled_from(MODEL_NAMES))
 def test_thesis_frame_is_the_flange_times_the_inverse_home_rotation(q, name):
     model = robot_model(name)
@@ -137,7 +168,11 @@ def calibrated_matrix_fk(name, q):
     alpha = np.array([math.pi / 2, 0, 0, math.pi / 2, -math.pi / 2, 0]) + DELTAS["alpha"]
     total = np.eye(4)
     for i in range(6):
-        total = total @ dh_matrix(q[i] + DELTAS["theta"][i], d[i], a[i], alpha[i])
+        theta = q[i] + DELTAS["theta"][i]
+        ct, st, ca, sa = math.cos(theta), math.sin(theta), math.cos(alpha[i]), math.sin(alpha[i])
+        total = total @ np.array(
+            [[ct, -st * ca, st * sa, a[i] * ct], [st, ct * ca, -ct * sa, a[i] * st], [0, sa, ca, d[i]], [0, 0, 0, 1]]
+        )
     return total
 
 
@@ -151,6 +186,23 @@ def test_calibrated_model_equals_the_dh_matrix_product(name):
         expected = calibrated_matrix_fk(name, q)
         np.testing.assert_allclose(model.fk(q).to_matrix(), expected, rtol=0, atol=1e-12)
         np.testing.assert_allclose(DualQuaternion.from_array(row).to_matrix(), expected, rtol=0, atol=1e-12)
+
+
+def test_model_from_reported_dh_values():
+    # URSim reports the nominal table in Kinematics Info (protocols.md): that gives the nominal model back.
+    ursim = robot_model_from_dh("ur5e", [0, -0.425, -0.3922, 0, 0, 0], [0.1625, 0, 0, 0.1333, 0.0997, 0.0996],
+                                [math.pi / 2, 0, 0, math.pi / 2, -math.pi / 2, 0], [0] * 6)
+    assert ursim.calibrated
+    np.testing.assert_array_equal(ursim.dh.a, robot_model("ur5e").dh.a)
+    q = random_configurations(1, seed=6)[0]
+    assert ursim.fk(q) == robot_model("ur5e").fk(q)
+    # A real arm's absolute values become deltas on the nominal table.
+    nominal = robot_model("ur3").dh
+    real = robot_model_from_dh("ur3", nominal.a + DELTAS["a"], nominal.d + DELTAS["d"],
+                               nominal.alpha + DELTAS["alpha"], nominal.theta + DELTAS["theta"])
+    assert real.fk(q).is_close(DualQuaternion.from_matrix(calibrated_matrix_fk("ur3", q)), tol_m=1e-12, tol_rad=1e-12)
+    with pytest.raises(ValueError, match="alpha"):
+        robot_model_from_dh("ur3", nominal.a, nominal.d, [0] * 5, nominal.theta)
 
 
 def test_calibrated_model_is_millimetres_off_the_nominal_one():
@@ -239,6 +291,8 @@ def test_ik_methods_delegate_to_the_analytic_solver():
         assert model.fk(solution).is_close(pose, tol_m=1e-9, tol_rad=1e-9)
     np.testing.assert_allclose(model.ik(pose, q), q, atol=1e-9)
     np.testing.assert_allclose(model.ik_batch(pose.to_array()[None, :], q), [q], atol=1e-9)
+    np.testing.assert_allclose(model.ik_batch(pose.to_array()[None, :], q, weights=[1, 2, 3, 4, 5, 6]), [q], atol=1e-9)
+    assert any(np.allclose(solution, q, atol=1e-9) for solution in model.ik_all(pose, q_ref=q))
 
 
 # ------------------------------------------------------------------------------------------------- bad input

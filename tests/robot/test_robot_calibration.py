@@ -7,6 +7,8 @@ import pytest
 import ur3dq.robot
 from ur3dq.kinematics import robot_model
 
+from robot_test_support import ready, simulator_with
+
 pytestmark = pytest.mark.skipif(bool(os.environ.get("UR3DQ_TEST_HOST")),
                                 reason="a non-nominal calibration is injected into sim_ursim")
 
@@ -24,19 +26,17 @@ CONFIGURATIONS = [
 ]
 
 
-@pytest.fixture
-def calibrated_sim():
-    from sim_ursim.testing import running_simulator
-
-    with running_simulator(model="ur3", calibration=CALIBRATION) as simulator:
-        simulator.controller.power_up()
-        yield simulator
+@pytest.fixture(scope="module")
+def calibrated_host():
+    with simulator_with(calibration=CALIBRATION, initial_q=CONFIGURATIONS[0]) as simulator:
+        yield simulator.host
 
 
 @pytest.mark.parametrize("backend", ["rtde", "urx"])
-def test_calibrated_fk_matches_the_controller_where_nominal_does_not(calibrated_sim, backend, record_property):
+def test_calibrated_fk_matches_the_controller_where_nominal_does_not(calibrated_host, backend, record_property):
     nominal = robot_model("ur3")
-    with ur3dq.robot.connect(calibrated_sim.host, backend=backend) as robot:
+    with ur3dq.robot.connect(calibrated_host, backend=backend) as robot:
+        ready(robot)
         for key, deltas in CALIBRATION.items():
             assert np.allclose(getattr(robot.model.dh, key) - getattr(nominal.dh, key), deltas, atol=1e-12)
         nominal_errors = []

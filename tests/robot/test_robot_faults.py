@@ -12,6 +12,8 @@ from ur3dq.errors import (ConnectionLostError, EmergencyStopError, MotionTimeout
                           ProtectiveStopError, RobotError)
 from ur3dq.robot import motion
 
+from robot_test_support import inject, set_speed_slider
+
 pytestmark = pytest.mark.skipif(bool(os.environ.get("UR3DQ_TEST_HOST")),
                                 reason="fault injection needs sim_ursim; UR3DQ_TEST_HOST names another controller")
 
@@ -42,13 +44,13 @@ def assert_at_rest_short_of(robot, target, settle=1.0):
     assert np.max(np.abs(robot.joints() - target)) > 0.2
 
 
-def test_protective_stop_during_motion(sim_robot, home):
-    sim, robot = sim_robot
+def test_protective_stop_during_motion(own_sim_robot, home):
+    host, robot = own_sim_robot
     stopped = {}
 
     def protective_stop():
         stopped["at"] = time.monotonic()
-        sim.controller.protective_stop("test")
+        inject(host, "protective-stop", reason="test")
 
     timer = after(0.5, protective_stop)
     error, _ = timed_failure(robot, home + LONG_MOVE)
@@ -61,46 +63,49 @@ def test_protective_stop_during_motion(sim_robot, home):
     with pytest.raises(ProtectiveStopError, match="refused.*5"):  # the controller refuses an early unlock
         robot.unlock_protective_stop()
     assert robot.state().protective_stopped  # never unlocked by the driver itself
-    time.sleep(5.2)
+    time.sleep(max(0.0, stopped["at"] + 5.2 - time.monotonic()))
     robot.unlock_protective_stop()
     assert not robot.state().protective_stopped
     robot.movej(home)
 
 
-def test_emergency_stop_during_motion(sim_robot, home):
-    sim, robot = sim_robot
-    timer = after(0.5, sim.controller.emergency_stop)
+def test_emergency_stop_during_motion(own_sim_robot, home):
+    host, robot = own_sim_robot
+    timer = after(0.5, lambda: inject(host, "emergency-stop"))
     error, elapsed = timed_failure(robot, home + LONG_MOVE)
     timer.join()
     assert isinstance(error, EmergencyStopError) and elapsed < 1.5
+    with pytest.raises(EmergencyStopError):
+        robot.movej(home)
 
 
-def test_program_stopped_by_the_controller_is_a_program_error(sim_robot, home):
-    sim, robot = sim_robot
-    timer = after(0.5, sim.controller.stop_program)
-    error, elapsed = timed_failure(robot, home + LONG_MOVE)
-    timer.join()
+def test_program_stopped_from_the_dashboard_is_a_program_error(sim_robot, home):
+    import dashboard_client
+
+    host, robot = sim_robot
+    dashboard = dashboard_client.DashboardClient(host)
+    dashboard.connect()
+    timer = after(0.5, dashboard.stop)
+    try:
+        error, elapsed = timed_failure(robot, home + LONG_MOVE)
+    finally:
+        timer.join()
+        dashboard.disconnect()
     assert isinstance(error, ProgramError) and "from its target" in str(error) and elapsed < 2.0
     assert_at_rest_short_of(robot, home + LONG_MOVE)
 
 
-def test_runtime_exception_is_a_program_error(sim_robot, home):
-    from sim_ursim.messages import RuntimeExceptionMessage
-
-    sim, robot = sim_robot
-    timer = after(0.5, lambda: sim.controller.messages.publish(
-        RuntimeExceptionMessage(2, 3, "runtime_error_injected_by_test")))
+def test_runtime_error_in_the_program_is_a_program_error(sim_robot, home):
+    host, robot = sim_robot
+    inject(host, "freedrive", on=True)  # the controller now refuses movej at run time
     error, elapsed = timed_failure(robot, home + LONG_MOVE)
-    timer.join()
-    assert isinstance(error, ProgramError) and "runtime_error_injected_by_test" in str(error)
-    assert elapsed < 1.5
-    assert_at_rest_short_of(robot, home + LONG_MOVE)  # stopj was sent before the error left the driver
+    assert isinstance(error, ProgramError) and "line" in str(error) and elapsed < 1.5
 
 
 def test_dropped_connection_during_motion_then_reconnect_without_resending(sim_robot, home):
-    sim, robot = sim_robot
+    host, robot = sim_robot
     target = home + LONG_MOVE
-    timer = after(0.5, sim.controller.faults.drop_connections)
+    timer = after(0.5, lambda: inject(host, "drop-connections"))
     error, elapsed = timed_failure(robot, target)
     timer.join()
     assert isinstance(error, ConnectionLostError) and elapsed < 2.0
@@ -112,31 +117,30 @@ def test_dropped_connection_during_motion_then_reconnect_without_resending(sim_r
 
 
 def test_frozen_stream_during_motion(sim_robot, home):
-    sim, robot = sim_robot
+    host, robot = sim_robot
     target = home + LONG_MOVE
-    timer = after(0.5, lambda: sim.controller.faults.freeze_streams(2.0))
+    timer = after(0.5, lambda: inject(host, "freeze", seconds=2.0))
     error, elapsed = timed_failure(robot, target)
     timer.join()
     assert isinstance(error, ConnectionLostError) and "fro" in str(error) and elapsed < 2.5
-    time.sleep(2.5)  # the freeze ends
+    time.sleep(2.0)  # the freeze ends
     assert_at_rest_short_of(robot, target)
 
 
 def test_slider_lowered_mid_motion_times_out(sim_robot, home):
-    sim, robot = sim_robot
+    host, robot = sim_robot
     target = home + np.array([1.0, 0, 0, 0, 0, 0])
     duration = motion.movej_duration(home, target, 1.4, 1.05)
-    timer = after(0.3, lambda: sim.controller.set_speed_slider(0.05))
+    timer = after(0.3, lambda: set_speed_slider(host, 0.05))
     error, elapsed = timed_failure(robot, target, a=1.4, v=1.05)
     timer.join()
-    sim.controller.set_speed_slider(1.0)
     assert isinstance(error, MotionTimeoutError) and "speed slider" in str(error)
     assert elapsed == pytest.approx(motion.motion_timeout(duration, 1.0), abs=0.5)
 
 
 def test_timeout_allows_for_a_slow_slider(sim_robot, home):
-    sim, robot = sim_robot
-    sim.controller.set_speed_slider(0.5)
+    host, robot = sim_robot
+    set_speed_slider(host, 0.5)
     time.sleep(0.1)
     target = home + np.array([0.5, 0, 0, 0, 0, 0])
     wall = robot.movej(target, a=1.4, v=1.05)
@@ -144,7 +148,7 @@ def test_timeout_allows_for_a_slow_slider(sim_robot, home):
 
 
 def test_keyboard_interrupt_stops_the_arm(sim_robot, home):
-    sim, robot = sim_robot
+    host, robot = sim_robot
     target = home + LONG_MOVE
     timer = after(0.5, _thread.interrupt_main)
     with pytest.raises(KeyboardInterrupt):
@@ -153,15 +157,13 @@ def test_keyboard_interrupt_stops_the_arm(sim_robot, home):
     assert_at_rest_short_of(robot, target)
 
 
-def test_not_running_robot_is_refused_then_powered_through_the_dashboard(backend, home):
-    from sim_ursim.testing import running_simulator
-
-    with running_simulator(model="ur3") as sim:
-        with ur3dq.robot.connect(sim.host, backend=backend) as robot:
-            if robot.state().robot_mode != 7:
-                with pytest.raises(RobotError, match="not RUNNING"):
-                    robot.movej(home)
-            robot.power_on()
-            robot.brake_release()
-            assert robot.state().robot_mode_name == "RUNNING"
-            robot.movej(home)
+def test_not_running_robot_is_refused_then_powered_through_the_dashboard(sim_host, backend, home):
+    with ur3dq.robot.connect(sim_host, backend=backend) as robot:
+        assert robot.state().robot_mode_name == "POWER_OFF"
+        with pytest.raises(RobotError, match="not RUNNING"):
+            robot.movej(home + 0.1)
+        robot.power_on()
+        assert robot.state().robot_mode_name == "IDLE"
+        robot.brake_release()
+        assert robot.state().robot_mode_name == "RUNNING"
+        robot.movej(home + 0.1)

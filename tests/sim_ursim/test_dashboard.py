@@ -172,6 +172,12 @@ def test_shutdown_stops_the_simulator(sim):
     replies = raw_exchange(sim.host, ["shutdown"])
     assert replies[1] == "Shutting down\n"
     assert sim.wait(timeout=5)
+    deadline = time.monotonic() + 10
+    while sim.controller.running and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert not sim.controller.running
+    with pytest.raises(ConnectionRefusedError):
+        socket.create_connection((sim.host, 29999), timeout=2)
 
 
 # ------------------------------------------------------------------------------------------ protocol (pure)

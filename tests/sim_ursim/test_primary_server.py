@@ -1,5 +1,6 @@
 """Ports 30001 / 30002 / 30003 over real sockets: streams, fault injection, URScript from raw sockets, and what
 ur_rtde's RTDE clients see while those scripts run.  Bytes are read with struct layouts written here."""
+import ast
 import socket
 import struct
 import subprocess
@@ -9,13 +10,17 @@ import time
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from sim_ursim.messages import TextMessage
+from sim_ursim.primary import server as server_module
+from sim_ursim.primary.script_intake import ScriptAssembler
 from sim_ursim.testing import running_simulator, simulator_process
 
 PRIMARY, SECONDARY, REALTIME, DASHBOARD = 30001, 30002, 30003, 29999
 ROBOT_STATE, ROBOT_MESSAGE = 16, 20
-TEXT, VERSION, KEY, RUNTIME_EXCEPTION = 0, 3, 7, 10
+TEXT, POPUP, VERSION, SAFETY_MODE, ERROR_CODE, KEY, RUNTIME_EXCEPTION = 0, 2, 3, 5, 6, 7, 10
 PLAYING, STOPPED = 2, 1
 
 
@@ -114,7 +119,7 @@ def test_version_message_first_then_robot_state_at_10_hz(sim, clients, port):
     started = time.monotonic()
     states = [next_state(client) for _ in range(10)]
     elapsed = time.monotonic() - started
-    assert 0.6 < elapsed < 1.6  # ten packets at 10 Hz, generous for a loaded 2-core machine
+    assert 0.6 < elapsed < 3.0  # ten packets at 10 Hz (0.9 s), generous for a loaded 2-core machine
     assert all(len(s) <= 2000 for s in states)
 
 
@@ -137,6 +142,38 @@ def test_bus_messages_reach_30001_but_not_30002(sim, clients):
     while time.monotonic() < deadline:
         data = secondary.message()
         assert data[4] == ROBOT_STATE
+
+
+def test_a_protective_stop_is_announced_on_30001_and_flagged_in_the_state(powered_sim, clients):
+    primary = clients(powered_sim.host, PRIMARY)
+    next_state(primary)
+    powered_sim.controller.protective_stop("test")
+    seen = primary.robot_messages(lambda s, d: s == ERROR_CODE, timeout=3)
+    safety = [data for subtype, data in seen if subtype == SAFETY_MODE]
+    assert safety and struct.unpack_from(">iiB", safety[0], 15)[2] == 3  # PROTECTIVE_STOP
+    code, _, report_level = struct.unpack_from(">iii", seen[-1][1], 15)
+    assert (code, report_level) == (209, 3) and b"Protective stop" in seen[-1][1]
+    robot_mode_data = next_state(primary)[5:]
+    assert struct.unpack_from(">?", robot_mode_data, 5 + 8 + 4)[0] is True  # isProtectiveStopped
+
+
+def test_a_primary_client_that_stops_reading_is_disconnected(sim):
+    silent = socket.socket()
+    silent.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+    silent.connect((sim.host, PRIMARY))
+    try:
+        time.sleep(0.3)  # subscribed to the bus by now
+        for _ in range(300):  # 2.4 MB of robot messages: far more than the socket buffers hold
+            sim.controller.messages.publish(TextMessage("x" * 8000))
+        time.sleep(server_module.SEND_TIMEOUT + 1.0)
+        silent.settimeout(3.0)
+        with pytest.raises((ConnectionError, OSError)):
+            deadline = time.monotonic() + 20
+            while time.monotonic() < deadline:  # drain what was buffered; the server has hung up behind it
+                if not silent.recv(65536):
+                    raise ConnectionError("closed by the server")
+    finally:
+        silent.close()
 
 
 def test_frozen_streams_send_nothing_then_resume(sim, clients):
@@ -182,9 +219,8 @@ def test_realtime_streams_the_3_15_package_at_about_125_hz(sim, clients):
     started = time.monotonic()
     while time.monotonic() - started < 1.0:
         times.append(struct.unpack_from(">d", client.message(), 4)[0])
-    assert len(times) > 60  # 125 expected; the controller skips cycles on a busy machine
-    steps = np.diff(times)
-    assert np.all(steps > 0) and np.median(steps) == pytest.approx(0.008, abs=1e-6)
+    assert len(times) > 40  # 125 expected; a busy machine makes the controller merge cycles
+    assert_cycle_steps(np.diff(times), period=0.008)
 
 
 def test_realtime_e_series_package_is_1220_bytes_at_500_hz(clients):
@@ -193,7 +229,22 @@ def test_realtime_e_series_package_is_1220_bytes_at_500_hz(clients):
         first = client.message()
         assert len(first) == 1220
         times = [struct.unpack_from(">d", client.message(), 4)[0] for _ in range(50)]
-        assert np.median(np.diff(times)) == pytest.approx(0.002, abs=1e-6)
+        assert_cycle_steps(np.diff(times), period=0.002)
+
+
+def test_a_frozen_realtime_stream_leaves_a_gap_in_controller_time(sim, clients):
+    client = clients(sim.host, REALTIME)
+    before = struct.unpack_from(">d", client.message(), 4)[0]
+    sim.controller.faults.freeze_streams(0.5)
+    times = [before] + [struct.unpack_from(">d", client.message(), 4)[0] for _ in range(50)]
+    assert np.max(np.diff(times)) >= 0.4
+
+
+def assert_cycle_steps(steps, period):
+    """One package per control cycle: controller time advances by whole periods, and by exactly one at least once."""
+    cycles = steps / period
+    assert np.allclose(cycles, np.round(cycles), atol=1e-6) and np.all(cycles >= 1 - 1e-6)
+    assert np.min(steps) == pytest.approx(period, abs=1e-9)
 
 
 def test_a_client_that_never_reads_is_discontinued_but_can_still_send_scripts(sim, clients):
@@ -312,6 +363,16 @@ def test_a_runtime_error_is_reported_on_30001_and_stops_the_program(sim, clients
     assert not any(subtype == TEXT for subtype, _ in seen)
 
 
+def test_a_urscript_popup_reaches_30001_in_the_cb3_layout(sim, clients):
+    primary = clients(sim.host, PRIMARY)
+    next_state(primary)
+    primary.send("popup(\"Check the gripper\", title=\"Attention\", warning=True)\n")
+    data = primary.robot_messages(lambda s, d: s == POPUP, timeout=5)[-1][1]
+    warning, error, title_length = struct.unpack_from(">??B", data, 15)
+    assert (warning, error) == (True, False)
+    assert data[18:18 + title_length] == b"Attention" and data[18 + title_length:] == b"Check the gripper"
+
+
 def test_a_compile_error_names_the_unknown_function(sim, clients):
     primary = clients(sim.host, PRIMARY)
     next_state(primary)
@@ -392,10 +453,10 @@ def test_ur_rtde_receive_watches_a_urscript_movej_from_start_to_finish():
             """
         )
         states, bits, moved, final_q = run_child(code).strip().splitlines()
-    assert eval(states)[-2:] == [2, 1]  # PLAYING, then STOPPED
-    assert 3 in eval(bits)  # power on + program running (robot_status_bits bits 0 and 1) while it ran
+    assert ast.literal_eval(states)[-2:] == [2, 1]  # PLAYING, then STOPPED
+    assert 3 in ast.literal_eval(bits)  # power on + program running (robot_status_bits bits 0 and 1) while it ran
     assert moved == "True"
-    assert eval(final_q) == pytest.approx(target, abs=1e-4)
+    assert ast.literal_eval(final_q) == pytest.approx(target, abs=1e-4)
 
 
 def test_register_handshake_with_a_raw_script_observed_over_rtde():
@@ -432,3 +493,89 @@ def test_register_handshake_with_a_raw_script_observed_over_rtde():
         playing, doubled = run_child(code).strip().splitlines()
     assert playing == "2"
     assert float(doubled) == 3.5
+
+
+def test_ur_rtde_control_uploads_its_script_on_30003_and_moves_the_arm():
+    """RTDEControlInterface sends its ~38 kB control script on 30003 (never reading that socket); the script must
+    arrive as one program and run: moveJ returns only after the script reports the command done."""
+    target = [0.3, -1.2, 1.0, -1.4, -1.5, 0.2]
+    with simulator_process(model="ur3") as process:
+        dashboard(process.host, "power on", "brake release")
+        code = textwrap.dedent(
+            f"""
+            import time
+            import rtde_control, rtde_receive
+            receiver = rtde_receive.RTDEReceiveInterface({process.host!r})
+            deadline = time.monotonic() + 5
+            while receiver.getRobotMode() != 7:
+                assert time.monotonic() < deadline, "never RUNNING"
+                time.sleep(0.01)
+            control = rtde_control.RTDEControlInterface({process.host!r})
+            print(control.isProgramRunning())
+            print(control.moveJ({target}, 1.5, 2.0))
+            print(receiver.getActualQ())
+            control.stopScript()
+            control.disconnect(); receiver.disconnect()
+            """
+        )
+        running, moved, final_q = run_child(code).strip().splitlines()
+    assert (running, moved) == ("True", "True")
+    assert ast.literal_eval(final_q) == pytest.approx(target, abs=1e-4)
+
+
+# --- cutting the byte stream into programs (pure) ----------------------------------------------------------------
+
+BLOCKS = [
+    "def first():\n  if True:\n    textmsg(\"a\")\n  elif False:\n    textmsg(\"b\")\n  else:\n    sleep(1)\n  end\nend\n",
+    "sec watcher():\n  while False:\n    sync()\n  end\nend\n",
+    "def threaded():\n  thread worker():\n    sleep(0.1)\n  end\n  t = run worker()\n  join t\nend\n",
+    "def tricky():\n  textmsg(\"end\")  # the word end inside a string and this comment: end\n"
+    "  global reg_offset_int = # int register offset\n0    global x = 1\nend\n",
+]
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.sampled_from(BLOCKS), min_size=1, max_size=5), st.data())
+def test_blocks_come_out_whole_however_the_bytes_are_split(blocks, data):
+    stream = "".join(blocks).encode()
+    cuts = sorted(data.draw(st.lists(st.integers(0, len(stream)), max_size=8)))
+    assembler = ScriptAssembler()
+    programs = []
+    for start, end in zip([0] + cuts, cuts + [len(stream)]):
+        programs += assembler.feed(stream[start:end])
+    assert programs == blocks
+    assert not assembler.pending
+
+
+def test_statement_lines_of_one_chunk_form_one_program():
+    assert ScriptAssembler().feed(b"set_standard_digital_out(0, True)\nset_standard_digital_out(1, True)\n") == [
+        "set_standard_digital_out(0, True)\nset_standard_digital_out(1, True)\n"]
+
+
+def test_an_expression_continues_on_the_next_chunk_until_its_brackets_close():
+    assembler = ScriptAssembler()
+    assert assembler.feed(b"movej([0.1, 0.2,\n") == []
+    assert assembler.feed(b"  0.3, 0.4, 0.5, 0.6], a=1.4)\n") == ["movej([0.1, 0.2,\n  0.3, 0.4, 0.5, 0.6], a=1.4)\n"]
+
+
+def test_statements_before_a_block_run_before_it_and_an_unfinished_line_waits():
+    assembler = ScriptAssembler()
+    programs = assembler.feed(b"textmsg(\"one\")\ndef two():\n  sleep(1)\nend\ntextmsg(\"thr")
+    assert programs == ["textmsg(\"one\")\n", "def two():\n  sleep(1)\nend\n"]
+    assert assembler.pending
+    assert assembler.feed(b"ee\")\r\n") == ["textmsg(\"three\")\n"]
+
+
+def test_blank_lines_and_comments_between_programs_are_not_programs():
+    assert ScriptAssembler().feed(b"\n# a comment\n   \n") == []
+
+
+def test_delay_line_releases_items_in_order_when_due():
+    line = server_module.DelayLine()
+    assert line.next_due == float("inf") and line.take_due(100.0) == []
+    line.put(b"a", 1.0)
+    line.put(b"b", 1.5)
+    assert line.next_due == 1.0
+    assert line.take_due(0.9) == []
+    assert line.take_due(1.2) == [b"a"]
+    assert line.take_due(2.0) == [b"b"]

@@ -129,6 +129,14 @@ def test_protocol_2_is_accepted_and_3_refused(clients):
     assert client.negotiate(2) is True
 
 
+def test_a_malformed_package_closes_the_connection(cb3, clients):
+    client = clients()
+    client.send(protocol.pack_package(PackageType.REQUEST_PROTOCOL_VERSION, b"\x00"))  # V needs 2 bytes
+    with pytest.raises((EOFError, ConnectionResetError)):
+        client.receive(timeout=2.0)
+    assert _wait_for(lambda: cb3[1].sessions() == [])
+
+
 def test_controller_version_is_the_emulated_one(cb3, clients):
     payload = clients().request(protocol.pack_controller_version_request())
     assert protocol.parse_controller_version_reply(payload) == tuple(cb3[0].version)
@@ -214,7 +222,7 @@ def test_a_later_output_recipe_replaces_the_first(clients):
     client = clients()
     client.negotiate(2)
     client.setup_outputs(["timestamp", "actual_q"], 125)
-    _, types = client.setup_outputs(["robot_mode"], 125)
+    assert client.setup_outputs(["robot_mode"], 125) == (1, ["INT32"])
     client.start()
     package_type, payload = client.receive()
     assert package_type == PackageType.DATA_PACKAGE
@@ -303,6 +311,27 @@ def test_speed_slider_is_set_only_with_its_mask(cb3, clients):
     assert controller.state().target_speed_fraction == 0.3
 
 
+def test_external_force_torque_input_reads_back_as_tcp_force(cb3, clients):
+    controller, _ = cb3
+    client = clients()
+    client.negotiate(2)
+    recipe_id, types = client.setup_inputs(["external_force_torque"])
+    client.send(protocol.pack_data_package(protocol.recipe_struct(types), recipe_id, [1, 2, 3, 0.1, 0.2, 0.3]))
+    assert _wait_for(lambda: controller.state().actual_tcp_force.tolist() == [1, 2, 3, 0.1, 0.2, 0.3])
+    _, out_types = client.setup_outputs(["actual_TCP_force", "tcp_force_scalar"], 125)
+    client.start()
+    force, scalar = client.data(out_types)[1]
+    assert force == (1, 2, 3, 0.1, 0.2, 0.3) and scalar == pytest.approx(14 ** 0.5)
+
+
+def test_input_recipe_ids_stop_at_255(clients):
+    client = clients()
+    client.negotiate(2)
+    for expected in range(1, 256):
+        assert client.setup_inputs([f"input_int_register_{expected % 48}"])[0] == expected
+    assert client.setup_inputs(["input_int_register_0"])[0] == 0
+
+
 def test_a_bad_input_while_streaming_is_answered_with_a_text_message(clients):
     client = clients()
     client.negotiate(2)
@@ -363,7 +392,7 @@ def test_frozen_streams_send_nothing_then_resume(cb3, clients):
     frozen_at = time.monotonic()
     # Drain what was sent before the freeze, then the next package must come only after the window.
     while True:
-        _, (stamp,) = client.data(types, timeout=2.0)
+        client.data(types, timeout=2.0)
         if time.monotonic() - frozen_at > 0.3:
             break
     assert time.monotonic() - frozen_at >= 0.55
@@ -393,3 +422,42 @@ def test_drop_generation_closes_every_connection(cb3, clients):
     assert _wait_for(lambda: server.sessions() == [])
     fresh = clients()
     assert fresh.negotiate(2) is True  # a new connection after the drop is served
+
+
+def _control_interface_input_recipes(offset):
+    """The 23 input recipes ur_rtde's RTDEControlInterface sets up, in order (protocols.md §2.4)."""
+    def ints(*numbers):
+        return [f"input_int_register_{n + offset}" for n in numbers]
+
+    def doubles(count):
+        return [f"input_double_register_{n + offset}" for n in range(count)]
+
+    return [ints(0) + doubles(8) + ints(1), ints(0) + doubles(11), ints(*range(8)) + doubles(18), ints(0),
+            ints(0) + doubles(9), ints(0) + doubles(6), ints(0) + doubles(4), ints(0) + doubles(1), ints(0, 1),
+            ints(0) + doubles(14), ints(0), ints(0) + doubles(12), ints(0) + doubles(8), ints(0) + doubles(14),
+            ints(0, 1), ints(0) + doubles(13), ints(*range(7)) + doubles(6), ints(0, 1) + doubles(7),
+            ints(0) + doubles(1) + ints(1), ints(0) + doubles(10), ints(0) + doubles(6) + ints(1),
+            ints(0) + doubles(18), ints(0) + ["external_force_torque"]]
+
+
+@pytest.mark.parametrize("model, offset", [("ur3", 0), ("ur3e", 24)])
+def test_control_interface_setup_is_accepted_with_ids_1_to_23(model, offset):
+    controller, server = _serve(model)
+    client = RawClient(("127.0.0.1", server.port))
+    try:
+        client.negotiate(2)
+        outputs = (["timestamp", "robot_status_bits", "safety_status_bits", "runtime_state"]
+                   + [f"output_int_register_{n + offset}" for n in range(3)]
+                   + [f"output_double_register_{n + offset}" for n in range(6)])
+        recipe_id, types = client.setup_outputs(outputs, 1 / controller.period)
+        assert recipe_id == 1 and "NOT_FOUND" not in types
+        for expected_id, names in enumerate(_control_interface_input_recipes(offset), start=1):
+            assert client.setup_inputs(names)[0] == expected_id
+        assert client.start() is True
+        recipe_4 = protocol.recipe_struct(["INT32"])
+        client.send(protocol.pack_data_package(recipe_4, 4, [255]))  # the stop-script command word
+        assert _wait_for(lambda: controller.state().input_int_registers[offset] == 255)
+    finally:
+        client.close()
+        server.stop()
+        controller.shutdown()

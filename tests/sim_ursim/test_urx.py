@@ -9,6 +9,8 @@ from urx.urrobot import RobotException
 
 from sim_ursim.testing import running_simulator
 
+pytestmark = pytest.mark.filterwarnings("ignore:notifyAll:DeprecationWarning")  # inside urx 0.11 itself
+
 TARGET = [0.3, -1.2, 1.0, -1.4, -1.5, 0.2]
 FAST = dict(acc=3.0, vel=2.0)
 
@@ -75,20 +77,31 @@ def test_movej_without_waiting_moves_the_arm_on_3_15(sim_3_15, connect):
     assert np.allclose(sim_3_15.controller.state().actual_q, TARGET, atol=1e-4)
 
 
+def test_is_program_running_still_works_on_3_15(sim_3_15, connect):
+    robot = connect(sim_3_15.host)
+    robot.send_program("def waiting():\n  sleep(1.0)\nend")
+    assert wait_for(robot.is_program_running, timeout=2)
+    assert wait_for(lambda: not robot.is_program_running(), timeout=5)
+
+
 def test_movej_with_waiting_is_refused_by_urx_on_3_15(sim_3_15, connect):
     robot = connect(sim_3_15.host)
     with pytest.raises(RobotException, match="Robot stopped"):
         robot.movej(TARGET, wait=True, **FAST)
 
 
-def test_movej_with_waiting_returns_at_the_target_on_3_4(sim_3_4, connect):
-    robot = connect(sim_3_4.host)
-    assert robot.secmon._parser.version == (3, 2) and robot.is_running()
-    started = time.monotonic()
-    reached = robot.movej(TARGET, wait=True, **FAST)
-    assert time.monotonic() - started > 0.5  # it really waited for the ~1.4 s move
-    assert reached == pytest.approx(TARGET, abs=1e-3)
-    assert not robot.is_program_running()
+@pytest.mark.parametrize("version, urx_sees", [("3.1.0", (3, 0)), ("3.4.5", (3, 2))])
+def test_movej_with_waiting_returns_at_the_target_on_3_1_and_3_4(connect, version, urx_sees):
+    with running_simulator(model="ur3", version=version) as simulator:
+        powered(simulator)
+        robot = connect(simulator.host)
+        assert robot.secmon._parser.version == urx_sees and robot.is_running()
+        started = time.monotonic()
+        reached = robot.movej(TARGET, wait=True, **FAST)
+        assert time.monotonic() - started > 0.5  # it really waited for the ~1.4 s move
+        assert reached == pytest.approx(TARGET, abs=1e-3)
+        assert not robot.is_program_running()
+        robot.close()
 
 
 def test_is_program_running_follows_the_interpreter_on_3_4(sim_3_4, connect):

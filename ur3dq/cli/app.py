@@ -22,6 +22,7 @@ EXIT_INPUT = 4
 EXIT_NO_ROBOT = 5
 EXIT_ROBOT = 6
 EXIT_NOT_REACHED = 7
+EXIT_SIMULATOR = 8
 EXIT_INTERNAL = 70
 EXIT_INTERRUPTED = 130
 
@@ -45,6 +46,7 @@ Exit codes:
   {EXIT_NO_ROBOT}  no robot configured or reachable (RobotConnectionError)
   {EXIT_ROBOT}  robot fault: protective/emergency stop, program error, lost connection, timeout (RobotError)
   {EXIT_NOT_REACHED}  demo: a replayed pose was not reached within tolerance
+  {EXIT_SIMULATOR}  the embedded simulator could not be started or stopped (`ur3dq sim ...`)
   {EXIT_INTERNAL}  internal error (set UR3DQ_DEBUG=1 for the traceback)
   {EXIT_INTERRUPTED}  interrupted (Ctrl-C); a moving arm was stopped with stopj
 """
@@ -106,7 +108,11 @@ def confirm(question: str, assume_yes: bool, default: bool = True) -> None:
     try:
         answer = click.confirm(question, default=default, err=True)
     except click.Abort:
-        raise Cancelled(f"no answer to {question!r}: pass --yes to answer yes in scripts") from None
+        answer = None
+    if answer is None or not sys.stdin.isatty():
+        click.echo(err=True)  # a piped or missing answer is not echoed: end the question's line
+    if answer is None:
+        raise Cancelled(f"no answer to {question!r}: pass --yes to answer yes in scripts")
     if not answer:
         raise Cancelled(f"answered no to {question!r}; nothing done")
 
@@ -156,8 +162,12 @@ def one_line(error: BaseException) -> str:
 
 def exit_code_for(error: BaseException) -> int:
     """The documented exit code of an error raised by a command."""
+    from ur3dq.cli.simstate import SimulatorError
+
     if isinstance(error, Cancelled):
         return EXIT_CANCELLED
+    if isinstance(error, SimulatorError):
+        return EXIT_SIMULATOR
     for kind, code in ERROR_EXIT_CODES:
         if isinstance(error, kind):
             return code

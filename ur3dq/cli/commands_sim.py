@@ -9,7 +9,7 @@ import click
 import numpy as np
 from rich.console import Console
 
-from ur3dq.cli.app import EXIT_NOT_REACHED, Settings, cli, emit_json
+from ur3dq.cli.app import EXIT_NOT_REACHED, Settings, cli, display_options, emit_json
 from ur3dq.cli.commands_robot import execute_plan, plan_table, read_pose, reached_table, speed_and_acceleration
 from ur3dq.cli.display import angles_text, pose_vector_text
 from ur3dq.cli.plan import plan_replay
@@ -45,6 +45,7 @@ def sim():
 @sim.command("start")
 @click.option("--address", help="Loopback address to serve on (127.x.y.z; default: a free one).")
 @click.option("--version", "software_version", help="Controller software, e.g. 3.15.8 or 5.11.1.")
+@display_options
 @click.pass_obj
 def sim_start(settings: Settings, address, software_version):
     """Start the simulator (the arm starts powered off at zero joints; the demo or your program powers it on)."""
@@ -57,6 +58,7 @@ def sim_start(settings: Settings, address, software_version):
 
 
 @sim.command("stop")
+@display_options
 @click.pass_obj
 def sim_stop(settings: Settings):
     """Stop the simulator `ur3dq sim start` left running."""
@@ -70,6 +72,7 @@ def sim_stop(settings: Settings):
 
 
 @sim.command("status")
+@display_options
 @click.pass_obj
 def sim_status(settings: Settings):
     """Whether the simulator runs, and where."""
@@ -92,6 +95,7 @@ def sim_status(settings: Settings):
               help="A replayed pose counts as reached within this distance.")
 @click.option("--tolerance-deg", type=float, default=0.1, show_default=True,
               help="... and within this rotation.")
+@display_options
 @click.pass_obj
 def demo(settings: Settings, save, speed, acceleration, tolerance_mm, tolerance_deg):
     """The whole job against a simulator it starts itself: power on, release the brakes, move the arm to a few
@@ -125,8 +129,7 @@ def demo(settings: Settings, save, speed, acceleration, tolerance_mm, tolerance_
                 stored = store.add(read_pose(robot, f"demo-{index}", note="recorded by ur3dq demo"),
                                    number_if_taken=True)
                 recorded.append(stored.name)
-                say(f"   recorded {stored.name}: joints {angles_text(stored.joints, settings.deg)}, "
-                    f"TCP {pose_vector_text(stored.ur_pose, settings.deg)}")
+                say(f"   recorded {stored.name} at TCP {pose_vector_text(stored.ur_pose, settings.deg)}")
             say(f"[bold]3.[/bold] Parking the arm at {angles_text(DEMO_PARK, settings.deg)}")
             robot.movej(np.array(DEMO_PARK), a=a, v=v)
             say("[bold]4.[/bold] Replaying the store as run-poses does (IK of each dual quaternion, FK-checked)")

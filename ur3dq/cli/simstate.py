@@ -16,7 +16,7 @@ from pathlib import Path
 
 import filelock
 
-from ur3dq.errors import RobotConnectionError, UR3DQError
+from ur3dq.errors import UR3DQError
 from ur3dq.pose import utc_now_iso
 from ur3dq.store import write_atomically
 
@@ -38,9 +38,9 @@ def state_directory() -> Path:
 
 
 def process_is_simulator(pid: int) -> bool:
-    """True if process `pid` exists and its command line runs sim_ursim (a zombie's is empty: not running)."""
+    """True if process `pid` exists and runs `python -m sim_ursim` (a zombie's command line is empty: not running)."""
     try:
-        return b"sim_ursim" in Path(f"/proc/{pid}/cmdline").read_bytes()
+        return b"sim_ursim" in Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")
     except FileNotFoundError:
         return False
     except OSError:  # no /proc (macOS): fall back to "the pid exists"
@@ -130,11 +130,3 @@ def stop_simulator() -> dict | None:
                 os.kill(pid, signal.SIGKILL)
         (directory / STATE_FILE_NAME).unlink(missing_ok=True)
         return state
-
-
-def require_simulator_host() -> str:
-    """The running embedded simulator's address; RobotConnectionError saying how to start one if none runs."""
-    host = running_simulator_host()
-    if not host:
-        raise RobotConnectionError("the embedded simulator is not running: start it with `ur3dq sim start`")
-    return host

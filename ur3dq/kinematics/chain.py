@@ -133,13 +133,14 @@ class SerialChain:
         unknown = [kind for kind in joint_types if kind not in JOINT_TYPES]
         if unknown:
             raise ValueError(f"joint_types: unknown joint type {unknown[0]!r} (use 'revolute' or 'prismatic')")
-        offsets = np.zeros(len(joint_types)) if joint_offsets is None else dqarray.as_array(joint_offsets, len(joint_types), "joint_offsets")
+        n = len(joint_types)
+        offsets = np.zeros(n) if joint_offsets is None else dqarray.as_array(joint_offsets, n, "joint_offsets")
         self._constants = tuple(tuple(float(c) for c in row) for row in constants)
         if frame_offsets is None:
             frame_offsets = [_IDENTITY] * len(constants)
         frame_offsets = dqarray.check_unit(np.asarray(frame_offsets, dtype=float), "frame_offsets")
         if frame_offsets.shape != constants.shape:
-            raise ValueError(f"frame_offsets: expected {len(constants)} dual quaternions, got shape {frame_offsets.shape}")
+            raise ValueError(f"frame_offsets: expected {len(constants)} dual quaternions, got {frame_offsets.shape}")
         self._frame_offsets = tuple(tuple(float(c) for c in row) for row in frame_offsets)
         self.joint_types = joint_types
         self.joint_offsets = tuple(float(v) for v in offsets)
@@ -152,10 +153,10 @@ class SerialChain:
         For a prismatic joint q adds to d instead (θ_i stays fixed). ``base`` and ``tool`` (DualQuaternion, 8
         coefficients or UR pose vector) are prepended / appended.
         """
-        a = dqarray.as_array(a, (len(np.atleast_1d(a)),), "a")
+        a = dqarray.as_array(a, (), "a")
+        if a.ndim != 1 or len(a) == 0:
+            raise ValueError(f"a: expected one link length per joint (at least one), got shape {a.shape}")
         n = len(a)
-        if n == 0:
-            raise ValueError("a: a chain needs at least one joint")
         d = dqarray.as_array(d, n, "d")
         alpha = dqarray.as_array(alpha, n, "alpha")
         theta = np.zeros(n) if theta is None else dqarray.as_array(theta, n, "theta")
@@ -197,7 +198,8 @@ class SerialChain:
             constants.append(multiply_coefficients(inverse[i - 1], frames[i]))
         flange = multiply_coefficients(_as_coefficients(home, "home"), _as_coefficients(tool, "tool"))
         constants.append(multiply_coefficients(inverse[n - 1], flange))
-        # Frame i is the partial product Π_{k≤i} exp(ξ_k q_k) (base at i = 0), i.e. the running product · P_{i+1}*.
+        # Frame i < n is the partial product Π_{k≤i} exp(ξ_k q_k) (base at i = 0), i.e. the running product · P_{i+1}*;
+        # frame n is the end pose.
         return cls(constants, joint_types, frame_offsets=inverse + [_IDENTITY])
 
     def with_tool(self, tool) -> "SerialChain":
@@ -274,8 +276,8 @@ class SerialChain:
         return evaluate_in_blocks(end_pose, joint_matrix)
 
     def frames(self, q) -> np.ndarray:
-        """(n + 1, 8) frames 0..n in the base frame: DH frames for DH chains (frame n includes the tool), the
-        partial products of exponentials for axis chains (frame 0 = base)."""
+        """(n + 1, 8) frames 0..n in the base frame: DH frames for DH chains, the partial products of exponentials
+        for axis chains (frame 0 = base); frame n is always the end pose, tool included."""
         q = self.check_q(q)
         running = self._accumulate([float(v) for v in q])
         return np.array([multiply_coefficients(pose, offset) for pose, offset in zip(running, self._frame_offsets)])

@@ -107,13 +107,16 @@ def _sincos_floats(angle: float) -> tuple:
 
 
 def _ur_flange(d1, a2, a3, d4, d5, d6, q1, q2, q3, q4, q5, q6, sincos) -> tuple:
-    """Flange σ (8 coefficients) of a nominal UR arm; q floats or arrays, with the matching ``sincos``.
+    """Flange σ (8 coefficients) of a nominal UR arm, given HALF the DH lengths (d1/2, a2/2, …); q floats or arrays.
 
-    Rotation r = rz(q1)·rx(π/2) · rz(q234)·rx(π/2) · rz(q5)·rx(−π/2)·rz(q6); the first pair of factors multiplies
-    out to (−s1 sb, c1 cb, s1 cb, c1 sb) and the last to (1/√2)(cP, −cM, −sM, sP) with half angles b = q234/2,
-    P = (q5 + q6)/2, M = (q5 − q6)/2. The position is that of the planar arm (joints 2–4) in frame 1:
-    p = c1·ρ + s1·δ, s1·ρ − c1·δ, d1 + a2 s2 + a3 s23 − d5 c234 − d6 s5 s234, with
-    ρ = a2 c2 + a3 c23 + d5 s234 − d6 s5 c234 and δ = d4 + d6 c5 (full angles).
+    Rotation r = [rz(q1)·rx(π/2)]·[rz(q234)·rx(π/2)]·[rz(q5)·rx(−π/2)·rz(q6)]. The first two factors multiply out
+    to (−s1 sb, c1 cb, s1 cb, c1 sb) and the third to k(cP, −cM, −sM, sP), k = 1/√2, with half angles
+    1 = q1/2, b = q234/2, P = (q5 + q6)/2, M = (q5 − q6)/2; collecting terms, with X = cb cM − sb sP,
+    Y = cb sM − sb cP, Z = cb cP + sb sM, W = cb sP + sb cM:
+    r = k(c1 X + s1 Y, c1 Z + s1 W, s1 Z − c1 W, s1 X − c1 Y).
+    The position is that of the planar arm (joints 2–4) in frame 1 (full angles):
+    p = (c1 ρ + s1 δ, s1 ρ − c1 δ, d1 + a2 s2 + a3 s23 − d5 c234 − d6 s5 s234),
+    ρ = a2 c2 + a3 c23 + d5 s234 − d6 s5 c234, δ = d4 + d6 c5. Half lengths give ½p directly for the dual ½·p·r.
     """
     q23 = q2 + q3
     q234 = q23 + q4
@@ -123,14 +126,16 @@ def _ur_flange(d1, a2, a3, d4, d5, d6, q1, q2, q3, q4, q5, q6, sincos) -> tuple:
     sm, cm = sincos(0.5 * (q5 - q6))
     sin2, cos2 = sincos(q2)
     sin23, cos23 = sincos(q23)
-    # First factor A = (aw, ax, ay, az), second factor B = k·(cp, −cm, −sm, sp) with k = 1/√2.
-    aw, ax, ay, az = -s1 * sb, c1 * cb, s1 * cb, c1 * sb
+    x = cb * cm - sb * sp
+    y = cb * sm - sb * cp
+    z = cb * cp + sb * sm
+    w = cb * sp + sb * cm
     k = 0.7071067811865476
-    bw, bx, by, bz = k * cp, -k * cm, -k * sm, k * sp
-    rw = aw * bw - ax * bx - ay * by - az * bz
-    rx = aw * bx + ax * bw + ay * bz - az * by
-    ry = aw * by - ax * bz + ay * bw + az * bx
-    rz = aw * bz + ax * by - ay * bx + az * bw
+    kc1, ks1 = k * c1, k * s1
+    rw = kc1 * x + ks1 * y
+    rx = kc1 * z + ks1 * w
+    ry = ks1 * z - kc1 * w
+    rz = ks1 * x - kc1 * y
     # Full angles from the half angles already at hand (double-angle and angle-sum formulas).
     cos1, sin1 = c1 * c1 - s1 * s1, 2.0 * s1 * c1
     cos234, sin234 = cb * cb - sb * sb, 2.0 * sb * cb
@@ -141,13 +146,13 @@ def _ur_flange(d1, a2, a3, d4, d5, d6, q1, q2, q3, q4, q5, q6, sincos) -> tuple:
     px = cos1 * reach + sin1 * offset
     py = sin1 * reach - cos1 * offset
     pz = d1 + a2 * sin2 + a3 * sin23 - d5 * cos234 - d6_sin5 * sin234
-    # Dual part ½·(0, p)·r.
+    # Dual part (0, p/2)·r.
     return (
         rw, rx, ry, rz,
-        0.5 * (-px * rx - py * ry - pz * rz),
-        0.5 * (px * rw + py * rz - pz * ry),
-        0.5 * (-px * rz + py * rw + pz * rx),
-        0.5 * (px * ry - py * rx + pz * rw),
+        -px * rx - py * ry - pz * rz,
+        px * rw + py * rz - pz * ry,
+        -px * rz + py * rw + pz * rx,
+        px * ry - py * rx + pz * rw,
     )
 
 
@@ -168,11 +173,14 @@ class URModel:
         self.calibrated = calibrated
         self._tcp_coefficients = tuple(float(c) for c in self.tcp.to_array())
         self._closed_form = dh.is_nominal_structure()
-        self._lengths = (float(dh.d[0]), float(dh.a[1]), float(dh.a[2]), float(dh.d[3]), float(dh.d[4]), float(dh.d[5]))
-        self.chain = SerialChain.from_dh(dh.a, dh.d, dh.alpha, dh.theta, tool=self.tcp)
+        lengths = (dh.d[0], dh.a[1], dh.a[2], dh.d[3], dh.d[4], dh.d[5])
+        self._half_lengths = tuple(0.5 * float(length) for length in lengths)  # what _ur_flange takes
+        self._flange_chain = SerialChain.from_dh(dh.a, dh.d, dh.alpha, dh.theta)
+        self.chain = self._flange_chain.with_tool(self.tcp)
 
     def __repr__(self) -> str:
-        return f"URModel({self.name!r}{', calibrated' if self.calibrated else ''}, tcp={self.tcp.to_ur_pose().round(6).tolist()})"
+        calibrated = ", calibrated" if self.calibrated else ""
+        return f"URModel({self.name!r}{calibrated}, tcp={self.tcp.to_ur_pose().round(6).tolist()})"
 
     def with_tcp(self, tcp) -> "URModel":
         """The same arm with a TCP offset in the flange frame: a DualQuaternion or a UR pose vector [x,y,z,rx,ry,rz]."""
@@ -200,19 +208,22 @@ class URModel:
             raise ValueError(f"{name}: contains NaN or infinite values")
         return values
 
+    def _flange(self, q: tuple) -> tuple:
+        """Flange coefficients for 6 validated floats: the closed form, or the chain of a calibrated arm."""
+        if self._closed_form:
+            return _ur_flange(*self._half_lengths, *q, _sincos_floats)
+        return self._flange_chain.fk_of_floats(q)._c
+
     def fk(self, q) -> DualQuaternion:
         """TCP pose in the base frame at joint angles ``q`` (6, radians)."""
-        q = self._joint_floats(q)
-        if not self._closed_form:
-            return self.chain.fk_of_floats(q)
-        flange = _ur_flange(*self._lengths, *q, _sincos_floats)
+        flange = self._flange(self._joint_floats(q))
         if self._tcp_coefficients != _IDENTITY:
             flange = multiply_coefficients(flange, self._tcp_coefficients)
         return DualQuaternion._from_tuple(flange)
 
     def fk_flange(self, q) -> DualQuaternion:
         """Flange pose (DH frame 6, TCP offset ignored) in the base frame."""
-        return self.with_tcp(DualQuaternion.identity()).fk(q) if self._tcp_coefficients != _IDENTITY else self.fk(q)
+        return DualQuaternion._from_tuple(self._flange(self._joint_floats(q)))
 
     def fk_batch(self, joint_matrix) -> np.ndarray:
         """TCP poses (N, 8) [rw rx ry rz dw dx dy dz] of N joint configurations (N, 6), vectorised over N."""
@@ -222,7 +233,7 @@ class URModel:
         if not self._closed_form:
             return self.chain.fk_batch(joint_matrix)
         def tcp_pose(columns):
-            flange = _ur_flange(*self._lengths, *columns, dqarray.sincos)
+            flange = _ur_flange(*self._half_lengths, *columns, dqarray.sincos)
             if self._tcp_coefficients == _IDENTITY:
                 return flange
             return multiply_coefficients(flange, self._tcp_coefficients)
@@ -239,23 +250,24 @@ class URModel:
 
     def flange_rotation_at_zero(self) -> DualQuaternion:
         """R0: the flange's orientation at q = 0 (pure rotation); the thesis' end frame is σ_DH(q)·R0*."""
-        home = self.with_tcp(DualQuaternion.identity()).fk(np.zeros(6))
+        home = self.fk_flange(np.zeros(6))
         return DualQuaternion.from_rotation_translation(home.rotation, (0.0, 0.0, 0.0))
 
     def thesis_chain(self, tool_point=(0.0, 0.0, 0.0)) -> SerialChain:
         """The thesis' axis-angle chain (§4.2): axes in the base frame at q = 0, end frame parallel to the base at
         q = 0, and a tool point given in that frame (the thesis' example uses (0, −0.2, 0))."""
-        flange_chain = SerialChain.from_dh(self.dh.a, self.dh.d, self.dh.alpha, self.dh.theta)
-        directions, points = flange_chain.joint_axes(np.zeros(6))
-        home = flange_chain.home() * thesis_to_dh_flange(flange_chain.home())
+        directions, points = self._flange_chain.joint_axes(np.zeros(6))
+        flange_home = self._flange_chain.home()
+        home = flange_home * thesis_to_dh_flange(flange_home)
         return SerialChain.from_axes(directions, points, home, tool=DualQuaternion.from_translation(tool_point))
 
     # ------------------------------------------------------------------------------------------------------ IK
-    def ik_all(self, pose) -> list:
-        """Every FK-verified joint solution of a TCP ``pose`` (see ur3dq.kinematics.ur_ik.ik_all)."""
+    def ik_all(self, pose, q_ref=None) -> list:
+        """Every FK-verified joint solution of a TCP ``pose``; ``q_ref`` settles the wrist-singular family
+        (see ur3dq.kinematics.ur_ik.ik_all)."""
         from ur3dq.kinematics import ur_ik  # imported here: the IK module builds on this one
 
-        return ur_ik.ik_all(self, pose)
+        return ur_ik.ik_all(self, pose, q_ref)
 
     def ik(self, pose, q_ref, weights=None) -> np.ndarray:
         """The solution (±2π variants within limits) closest to ``q_ref`` (see ur3dq.kinematics.ur_ik.ik)."""
@@ -263,11 +275,11 @@ class URModel:
 
         return ur_ik.ik(self, pose, q_ref, weights)
 
-    def ik_batch(self, poses, q_ref) -> np.ndarray:
+    def ik_batch(self, poses, q_ref, weights=None) -> np.ndarray:
         """(N, 6) solutions closest to ``q_ref``, NaN rows where unreachable (see ur3dq.kinematics.ur_ik.ik_batch)."""
         from ur3dq.kinematics import ur_ik
 
-        return ur_ik.ik_batch(self, poses, q_ref)
+        return ur_ik.ik_batch(self, poses, q_ref, weights)
 
     # ------------------------------------------------------------------------------------------------- limits
     def check_joints(self, q) -> np.ndarray:
@@ -298,3 +310,19 @@ def robot_model(name: str, dh_deltas: dict | None = None) -> URModel:
     if wrist3_unlimited:
         upper[5] = math.inf
     return URModel(key, dh, np.array(speeds_deg) * _DEG, -upper, upper, calibrated=calibrated)
+
+
+def robot_model_from_dh(name: str, a, d, alpha, theta) -> URModel:
+    """The model ``name`` with absolute (calibrated) DH values as the controller reports them (primary interface
+    Kinematics Info: DHa, DHd, DHalpha, DHtheta): the deltas from the nominal table are what gets stored."""
+    if not isinstance(name, str) or name.strip().lower() not in _FAMILY:
+        raise ValueError(f"name: unknown robot model {name!r} (known: {', '.join(MODEL_NAMES)})")
+    nominal = DHParameters.nominal(name.strip().lower())
+    reported = {"a": a, "d": d, "alpha": alpha, "theta": theta}
+    deltas = {}
+    for key, values in reported.items():
+        values = dqarray.as_array(values, 6, key)
+        if values.shape != (6,):
+            raise ValueError(f"{key}: expected 6 values, got shape {values.shape}")
+        deltas[key] = values - getattr(nominal, key)
+    return robot_model(name, dh_deltas=deltas)

@@ -51,6 +51,9 @@ FK_TOLERANCE_RAD = 1e-9
 #: Below this |sin(θ5/2)| (θ5 ≈ 0) or |cos(θ5/2)| (θ5 ≈ π) the wrist is treated as singular: any θ4/θ6 split
 #: with the right sum (difference) then moves the flange by at most 2·1e-10 rad, inside the FK filter.
 WRIST_SINGULAR_TOLERANCE = 1e-10
+#: Below this |sin(θ5/2)| (or |cos(θ5/2)|) the θ4/θ6 split carries a rounding error of up to 1e-16/1e-6 rad that
+#: can push a stretched elbow out of reach; such a branch is moved along the θ4 ± θ6 family back into reach.
+WRIST_NEAR_TOLERANCE = 1e-6
 #: Relative rounding slack for the domains of the square roots / arccosines (shoulder, elbow); the clamped value
 #: moves the wrist by < 1e-10 m, so the FK filter still judges the result.
 DOMAIN_TOLERANCE = 1e-10
@@ -133,6 +136,7 @@ class _ScalarOps:
     atan2 = staticmethod(math.atan2)
     cos = staticmethod(math.cos)
     sin = staticmethod(math.sin)
+    asin = staticmethod(math.asin)
 
     @staticmethod
     def where(condition, if_true, if_false):
@@ -146,6 +150,14 @@ class _ScalarOps:
             return math.nan
         return min(max(value, low), high)
 
+    @staticmethod
+    def wrap(angle):
+        """Angle into [−π, π] (either end: used for distances only; NaN stays NaN)."""
+        return math.remainder(angle, _TWO_PI)
+
+    any = staticmethod(bool)
+    isnan = staticmethod(math.isnan)
+
 
 class _ArrayOps:
     """numpy math over arrays of poses: every branch of every pose at once."""
@@ -154,13 +166,23 @@ class _ArrayOps:
     atan2 = staticmethod(np.arctan2)
     cos = staticmethod(np.cos)
     sin = staticmethod(np.sin)
+    asin = staticmethod(np.arcsin)
     where = staticmethod(np.where)
 
     @staticmethod
     def clamp_or_nan(value, low, high, slack):
         """``value`` clipped into [low, high] where within ``slack`` of it, NaN elsewhere."""
-        outside = (value < low - slack) | (value > high + slack)
+        with np.errstate(invalid="ignore"):
+            outside = (value < low - slack) | (value > high + slack)
         return np.where(outside, np.nan, np.clip(value, low, high))
+
+    @staticmethod
+    def wrap(angle):
+        """Angles into [−π, π] (either end: used for distances only)."""
+        return angle - _TWO_PI * np.round(angle / _TWO_PI)
+
+    any = staticmethod(np.any)
+    isnan = staticmethod(np.isnan)
 
 
 # --------------------------------------------------------------------------------- the thesis' equations
@@ -194,7 +216,10 @@ def _reduced_rotation(ops, theta1, qw, qx, qy, qz):
 
 
 def _wrist_pair(ops, reduced, theta6_ref):
-    """(θ5, θ6, θ234) for θ5 ≥ 0 and for θ5 ≤ 0 (eqs. 4.13–4.28 in half-angle form); singular: θ6 = theta6_ref."""
+    """(θ5, θ6, θ234) for θ5 ≥ 0 and for θ5 ≤ 0 (eqs. 4.13–4.28 in half-angle form); singular: θ6 = theta6_ref.
+
+    Also returns the flags (singular at 0, singular at π, near-singular, nearer 0 than π) used by _branches.
+    """
     w, x, y, z = reduced
     sin_half5 = ops.sqrt(x * x + y * y)
     cos_half5 = ops.sqrt(w * w + z * z)
@@ -209,7 +234,39 @@ def _wrist_pair(ops, reduced, theta6_ref):
                          ops.where(at_pi, 2.0 * half_diff + theta6, half_sum + half_diff))
     # −θ5 turns Δ/2 by π (x', y' change sign): the wrist flip θ6 − π, θ234 + π; one solution when singular.
     flipped = (-theta5, ops.where(singular, theta6, theta6 - math.pi), ops.where(singular, theta234, theta234 + math.pi))
-    return (theta5, theta6, theta234), flipped
+    near = (sin_half5 < WRIST_NEAR_TOLERANCE) | (cos_half5 < WRIST_NEAR_TOLERANCE)
+    return (theta5, theta6, theta234), flipped, (singular, near, sin_half5 < cos_half5)
+
+
+def _reachable_wrist_family(ops, g: _Geometry, cos1, sin1, theta5, theta234, px, py, pz):
+    """The θ234 nearest ``theta234`` at which the planar arm reaches, for fixed θ1 and θ5 (NaN if none does).
+
+    Eq. 4.34 gives (x4, z4) = P − ρ·(sin ψ, −cos ψ) with P = (c1 px + s1 py, pz − d1), ρ = |(d5, d6 s5)|,
+    ψ = θ234 − atan2(d6 s5, d5): a circle. The elbow must span R² + ρ² − 2ρR·sin(ψ − φ) (R, φ: polar form of P),
+    between the folded and the stretched arm; the allowed ψ form arcs whose ends have sin(ψ − φ) = low or high.
+    """
+    near_x, near_z = cos1 * px + sin1 * py, pz - g.d1
+    radius = ops.sqrt(near_x * near_x + near_z * near_z)
+    phase = ops.atan2(near_z, near_x)
+    offset = g.d6 * ops.sin(theta5)
+    rho = ops.sqrt(g.d5 * g.d5 + offset * offset)
+    beta = ops.atan2(offset, g.d5)
+    longest, shortest = abs(g.a2) + abs(g.a3), abs(abs(g.a2) - abs(g.a3))
+    base2 = radius * radius + rho * rho
+    low = (base2 - longest * longest) / (2.0 * rho * radius)
+    high = (base2 - shortest * shortest) / (2.0 * rho * radius)
+    psi = theta234 - beta
+    sine = ops.sin(psi - phase)
+    best = psi
+    best_distance = ops.where((sine >= low) & (sine <= high), 0.0, math.inf)
+    for bound in (low, high):
+        arc_end = ops.asin(ops.clamp_or_nan(bound, -1.0, 1.0, 0.0))
+        for candidate in (phase + arc_end, phase + math.pi - arc_end):
+            distance = abs(ops.wrap(candidate - psi))
+            nearer = distance < best_distance     # False for NaN: an arc end that does not exist
+            best = ops.where(nearer, candidate, best)
+            best_distance = ops.where(nearer, distance, best_distance)
+    return ops.where(best_distance < math.inf, best + beta, math.nan)
 
 
 def _planar_arm(ops, g: _Geometry, cos1, sin1, theta5, theta234, px, py, pz):
@@ -244,9 +301,20 @@ def _branches(ops, g: _Geometry, target, theta6_ref):
     branches = []
     for theta1 in _theta1_pair(ops, g, x5, y5):
         cos1, sin1, reduced = _reduced_rotation(ops, theta1, qw, qx, qy, qz)
-        for theta5, theta6, theta234 in _wrist_pair(ops, reduced, theta6_ref):
+        upper, lower, (singular, near, nearer_zero) = _wrist_pair(ops, reduced, theta6_ref)
+        for theta5, theta6, theta234 in (upper, lower):
             x4, z4 = _planar_arm(ops, g, cos1, sin1, theta5, theta234, px, py, pz)
             cos3 = _elbow_cosine(ops, g, x4, z4)
+            # At (or near) a singular wrist only θ4 + θ6 (θ5 ≈ 0) or θ4 − θ6 (θ5 ≈ π) is well determined; a split
+            # the arm cannot reach is moved to the nearest reachable one, θ6 compensating; the FK filter judges.
+            move = singular | (near & ops.isnan(cos3))
+            if ops.any(move):
+                reachable = _reachable_wrist_family(ops, g, cos1, sin1, theta5, theta234, px, py, pz)
+                shift = ops.where(move, reachable - theta234, 0.0)
+                theta234 = theta234 + shift
+                theta6 = theta6 + ops.where(nearer_zero, -shift, shift)
+                x4, z4 = _planar_arm(ops, g, cos1, sin1, theta5, theta234, px, py, pz)
+                cos3 = _elbow_cosine(ops, g, x4, z4)
             for sign3 in (1.0, -1.0):
                 theta2, theta3 = _shoulder_elbow(ops, g, x4, z4, cos3, sign3)
                 theta4 = theta234 - theta2 - theta3   # eq. 4.44
@@ -258,12 +326,16 @@ def _branches(ops, g: _Geometry, target, theta6_ref):
 # ---------------------------------------------------------------------------------- plain-float pose helpers
 def wrap_angle(angle):
     """Angle(s) mapped into (−π, π] (radians; floats or arrays, NaN stays NaN)."""
-    return angle - _TWO_PI * np.ceil((np.asarray(angle) - math.pi) / _TWO_PI)
+    wrapped = np.mod(np.asarray(angle, dtype=float) + math.pi, _TWO_PI) - math.pi
+    # Rounding in the shift can land a hair outside: fold the ends back so the interval is exactly (−π, π].
+    wrapped = np.where(wrapped <= -math.pi, wrapped + _TWO_PI, wrapped)
+    return np.where(wrapped > math.pi, wrapped - _TWO_PI, wrapped)
 
 
 def _wrap_float(angle: float) -> float:
-    """A float angle mapped into (−π, π]."""
-    return angle - _TWO_PI * math.ceil((angle - math.pi) / _TWO_PI)
+    """A float angle mapped into (−π, π] (IEEE remainder: exact, then −π moved to π)."""
+    wrapped = math.remainder(angle, _TWO_PI)
+    return wrapped + _TWO_PI if wrapped <= -math.pi else wrapped
 
 
 def _quaternion_product(a, b) -> tuple:
@@ -352,7 +424,7 @@ def _unreachable_reason(g: _Geometry, target, branches) -> str:
     needed = []
     for theta1 in _theta1_pair(_ScalarOps, g, x5, y5):
         cos1, sin1, reduced = _reduced_rotation(_ScalarOps, theta1, qw, qx, qy, qz)
-        for theta5, _, theta234 in _wrist_pair(_ScalarOps, reduced, 0.0):
+        for theta5, _, theta234 in _wrist_pair(_ScalarOps, reduced, 0.0)[:2]:
             needed.append(math.hypot(*_planar_arm(_ScalarOps, g, cos1, sin1, theta5, theta234, px, py, pz)))
     if all(n > reach_max for n in needed):
         return (f"too far: the elbow would have to span {min(needed):.4f} m, "

@@ -6,7 +6,7 @@ import socket
 import threading
 import time
 
-from ur3dq.errors import RobotConnectionError
+from ur3dq.errors import ConnectionLostError, RobotConnectionError
 from ur3dq.robot import primary
 
 PRIMARY_PORT = 30001
@@ -25,6 +25,7 @@ class PrimaryClient:
         self._socket.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         self.host, self.port = host, port
         self._lock = threading.Lock()
+        self._send_lock = threading.Lock()
         self._changed = threading.Condition(self._lock)
         self._watchers = []
         self._closing = False
@@ -67,6 +68,16 @@ class PrimaryClient:
         with self._lock:
             if watcher in self._watchers:
                 self._watchers.remove(watcher)
+
+    def send_script(self, script):
+        """Send URScript on this connection (30001 runs it at once); ConnectionLostError if the socket fails."""
+        if not self.alive:
+            raise ConnectionLostError(f"the primary connection to {self.host} is closed ({self.error}); not sent")
+        with self._send_lock:
+            try:
+                self._socket.sendall(_script_bytes(script))
+            except OSError as error:
+                raise ConnectionLostError(f"sending a program to {self.host}:{self.port} failed: {error}") from None
 
     def close(self):
         """Stop the reader and close the socket (idempotent)."""
@@ -126,12 +137,22 @@ class PrimaryClient:
                 self._changed.notify_all()
 
 
-def send_script(host, script, port=SECONDARY_PORT, timeout=2.0):
-    """Send URScript text to the secondary interface on a short-lived connection (the controller runs it at once)."""
-    if not script.endswith("\n"):
-        script += "\n"
+def send_script(host, script, port=SECONDARY_PORT, timeout=1.0):
+    """Send URScript on a connection of its own (for when the main one is gone), half-close it, and wait (≤ timeout)
+    for the controller to close its side, so the script is known to be read before the socket goes away."""
     try:
         with socket.create_connection((host, port), timeout=timeout) as connection:
-            connection.sendall(script.encode("ascii"))
+            connection.sendall(_script_bytes(script))
+            connection.shutdown(socket.SHUT_WR)
+            deadline = time.monotonic() + timeout
+            while time.monotonic() < deadline and connection.recv(65536):
+                pass  # state messages the controller streams meanwhile
+    except socket.timeout:
+        pass  # sent; the controller just keeps the connection open
     except OSError as error:
         raise RobotConnectionError(f"cannot send a program to {host}:{port}: {error}") from None
+
+
+def _script_bytes(script):
+    """URScript text as the bytes a controller expects: ASCII, ending with a newline."""
+    return (script if script.endswith("\n") else script + "\n").encode("ascii")

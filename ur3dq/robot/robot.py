@@ -126,7 +126,7 @@ class Robot:
         """The state/program backend chosen at connect time."""
         if self.backend_name == "rtde":
             from ur3dq.robot.rtde_backend import RTDEBackend
-            return RTDEBackend(self.host)
+            return RTDEBackend(self.host, self._primary)
         from ur3dq.robot.urx_backend import URXBackend
         return URXBackend(self.host, self._primary)
 
@@ -157,8 +157,7 @@ class Robot:
                 if not self._primary.alive:
                     self._primary.close()
                     self._primary = self._open_primary()
-                    if self.backend_name == "urx":
-                        self._backend._primary = self._primary
+                    self._backend.primary = self._primary
                 if not self._backend.connected:
                     self._backend.reconnect()
                 return
@@ -313,12 +312,16 @@ class Robot:
             error.add_note(f"ur3dq: sending stopj after this error also failed: {stop_error}")
 
     def _send_stop(self, a):
-        """Send a `stopj` program on its own short-lived connection (works even if a backend is stuck)."""
+        """Send a `stopj` program on the primary connection, or on a fresh one if that is gone (never via urx,
+        whose sending can block)."""
         a = min(float(a), float(np.min(self.model.max_joint_acceleration)))
         if not (math.isfinite(a) and a > 0):
             raise ValueError(f"a (deceleration) must be finite and > 0, got {a!r}")
-        send_script(self.host, script.program(script.new_program_name("stop"), [script.stopj_statement(a)]),
-                    timeout=1.0)
+        stop_program = script.program(script.new_program_name("stop"), [script.stopj_statement(a)])
+        try:
+            self._primary.send_script(stop_program)
+        except ConnectionLostError:
+            send_script(self.host, stop_program)
 
     # --- power, safety, TCP, freedrive ------------------------------------------------------------------------
 
@@ -379,14 +382,13 @@ class Robot:
 
 
 class _MotionWatch:
-    """What is known about one sent program: started, stopped, and a runtime error if the controller sent one."""
+    """What is known about one sent program: started (key message or state), and the controller's last error."""
 
     def __init__(self, name, target, far_from_target):
         self.name = name
         self.target = np.asarray(target, dtype=float)
         self.far_from_target = far_from_target  # arriving at the target then proves the program ran
         self.started = False
-        self.stopped = False
         self.last_error_text = None
         self._ended_at = None
 
@@ -395,7 +397,7 @@ class _MotionWatch:
         if primary.is_program_started(message, self.name):
             self.started = True
         elif primary.is_program_stopped(message, self.name):
-            self.started = self.stopped = True
+            self.started = True  # it ran, however briefly
         elif isinstance(message, primary.RuntimeExceptionMessage):
             raise ProgramError(f"the controller reported an error in program {self.name} at line {message.line}, "
                                f"column {message.column}: {message.text}")
@@ -408,8 +410,8 @@ class _MotionWatch:
 
     def finished(self, status, now):
         """True when the program has ended with the arm at rest on target; ProgramError if it ended elsewhere."""
-        running = status.program_running and not self.stopped
-        if running:
+        # The state stream has the last word on "running": a key message can arrive a cycle before it agrees.
+        if status.program_running:
             self.started, self._ended_at = True, None
             return False
         if state.at_rest_at(status, self.target) and (self.started or self.far_from_target):

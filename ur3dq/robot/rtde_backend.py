@@ -1,11 +1,11 @@
-"""The default backend: state from ur_rtde's RTDEReceiveInterface (125/500 Hz), programs over the secondary port."""
+"""The default backend: state from ur_rtde's RTDEReceiveInterface (125/500 Hz), programs over the primary port."""
 import time
 
 import numpy as np
 import rtde_receive
 
 from ur3dq.errors import ConnectionLostError, RobotConnectionError
-from ur3dq.robot import primary_client, state
+from ur3dq.robot import state
 
 # Only what the driver reads, so no version-gated default variable can make the controller refuse the recipe.
 RTDE_VARIABLES = [
@@ -15,14 +15,15 @@ RTDE_VARIABLES = [
 
 
 class RTDEBackend:
-    """State over RTDE, URScript over port 30002; `close()` disconnects."""
+    """State over RTDE, URScript on the primary connection `primary` (a PrimaryClient); `close()` disconnects."""
 
     name = "rtde"
     poll_period = 0.001  # RTDE delivers every 2-8 ms; polling faster than that only burns CPU
     freeze_timeout = 0.5  # ≥ 60 CB3 cycles without fresh data: the stream is frozen, not just late
 
-    def __init__(self, host):
+    def __init__(self, host, primary):
         self.host = host
+        self.primary = primary
         try:
             self._receive = rtde_receive.RTDEReceiveInterface(host, -1.0, RTDE_VARIABLES)
         except RuntimeError as error:
@@ -70,8 +71,8 @@ class RTDEBackend:
         )
 
     def send_program(self, script):
-        """Send URScript to the secondary interface (30002)."""
-        primary_client.send_script(self.host, script)
+        """Send URScript on the open primary connection (port 30001)."""
+        self.primary.send_script(script)
 
     def close(self):
         """Disconnect the RTDE stream (idempotent)."""

@@ -27,13 +27,13 @@ class URXBackend:
 
     def __init__(self, host, primary):
         self.host = host
-        self._primary = primary
+        self.primary = primary
         self._robot = _open_urx(host)
 
     @property
     def connected(self):
         """True while urx's reader thread and our primary reader both run."""
-        return self._robot.secmon.is_alive() and self._primary.alive
+        return self._robot.secmon.is_alive() and self.primary.alive
 
     def reconnect(self):
         """Open a fresh urx connection (the primary reader is reconnected by the Robot)."""
@@ -46,7 +46,7 @@ class URXBackend:
             self._shut(self._robot)  # a dead peer would leave urx's reader spinning on recv
             raise ConnectionLostError(f"the urx/primary state stream from {self.host} is closed")
         data = self._robot.secmon.get_all_data()
-        mode = self._primary.robot_mode
+        mode = self.primary.robot_mode
         if mode is None or "JointData" not in data or "CartesianInfo" not in data:
             raise ConnectionLostError(f"no complete robot state from {self.host} yet")
         joint_data, cartesian = data["JointData"], data["CartesianInfo"]
@@ -57,13 +57,13 @@ class URXBackend:
             joint_speeds=np.array([joint_data[f"qd_actual{i}"] for i in range(6)]),
             tcp_pose=np.array([cartesian[key] for key in ("X", "Y", "Z", "Rx", "Ry", "Rz")]),
             robot_mode=mode.robot_mode,
-            safety_mode=self._primary.safety_mode if self._primary.safety_mode is not None else 0,
+            safety_mode=self.primary.safety_mode if self.primary.safety_mode is not None else 0,
             program_running=mode.program_running,
             protective_stopped=mode.protective_stopped,
             emergency_stopped=mode.emergency_stopped,
             speed_scaling=mode.speed_scaling,
             target_speed_fraction=mode.target_speed_fraction,
-            age=max(urx_age, now - self._primary.last_state_time),
+            age=max(urx_age, now - self.primary.last_state_time),
         )
 
     def send_program(self, script):

@@ -1,0 +1,1 @@
+"""RTDE server (port 30004): wire format (protocol), variable table (variables), input rules (inputs), sockets (server)."""

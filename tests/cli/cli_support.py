@@ -1,0 +1,71 @@
+"""Helpers of the CLI tests: the environment of a `ur3dq` run, error checks, and the simulated arm they drive."""
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+UR3DQ = str(Path(sys.executable).with_name("ur3dq"))
+
+
+def cli_env(tmp_path, **extra):
+    """The environment of a CLI run: no inherited robot, store or state; the state dir under `tmp_path`."""
+    env = {key: value for key, value in os.environ.items() if not key.startswith("UR3DQ_")}
+    env["UR3DQ_STATE_DIR"] = str(tmp_path / "state")
+    env["COLUMNS"] = "200"
+    env.update(extra)
+    return env
+
+
+def assert_one_line_error(result, code, *fragments):
+    """The run failed with exit `code` and ended with exactly one stderr line `Error: ...` (after any question it
+    asked) containing every fragment."""
+    lines = [line for line in result.stderr.splitlines() if line.strip()]
+    assert result.returncode == code, (result.returncode, result.stdout, result.stderr)
+    errors = [line for line in lines if line.startswith("Error")]
+    assert len(errors) == 1 and lines[-1] == errors[0] and errors[0].startswith("Error: "), result.stderr
+    for fragment in fragments:
+        assert fragment in errors[0], (fragment, errors[0])
+
+
+class SimulatedArm:
+    """A sim_ursim subprocess, powered on with brakes released, read and placed through independent clients:
+    ur_rtde's RTDE receive interface reads it, the simulator's control channel moves it by hand."""
+
+    def __init__(self, host):
+        import rtde_receive
+
+        self.host = host
+        self.receive = rtde_receive.RTDEReceiveInterface(host)
+
+    def joints(self):
+        """Actual joints (rad) as ur_rtde reads them."""
+        return np.array(self.receive.getActualQ())
+
+    def tcp_pose(self):
+        """Actual TCP pose vector as ur_rtde reads it."""
+        return np.array(self.receive.getActualTCPPose())
+
+    def joint_speeds(self):
+        """Actual joint speeds (rad/s) as ur_rtde reads them."""
+        return np.array(self.receive.getActualQd())
+
+    def place(self, q):
+        """Move the arm by hand to `q` (freedrive on, push, freedrive off) and wait until RTDE shows it there."""
+        from sim_ursim.control_channel import send_request
+
+        for command, arguments in (("freedrive", {"on": True}), ("move-by-hand", {"q": list(q)}),
+                                   ("freedrive", {"on": False})):
+            reply = send_request(self.host, command, **arguments)
+            assert reply.get("ok"), reply
+        self.wait_until_at(q)
+
+    def wait_until_at(self, q, timeout=10.0, tolerance=1e-6):
+        """Block until the arm rests at `q`; AssertionError with where it is after `timeout`."""
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            if np.max(np.abs(self.joints() - q)) < tolerance and np.max(np.abs(self.joint_speeds())) < 1e-9:
+                return
+            time.sleep(0.02)
+        raise AssertionError(f"the arm is at {self.joints()}, not {list(q)}")

@@ -1,0 +1,189 @@
+"""The CLI without a robot, through real `ur3dq` subprocesses: kinematics, the pose store, files, bad input."""
+import json
+import math
+
+import numpy as np
+import pytest
+import ur_analytic_ik
+from click.testing import CliRunner
+
+from cli_support import assert_one_line_error
+from ur3dq.cli import cli
+from ur3dq.dualquat import DualQuaternion
+from ur3dq.pose import Pose
+from ur3dq.store import PoseStore
+
+THESIS_HOME = [0, -math.pi / 2, 0, -math.pi / 2, 0, 0]
+# Two UR3 configurations (rad) and their FK lines, written as the thesis' text file would hold them.
+CONFIGS = [[0.0, -1.2, 1.0, -1.4, -1.57, 0.0], [0.8, -1.0, 1.3, -1.9, -1.57, 0.5]]
+
+
+def thesis_lines_of(configs):
+    """Thesis text lines of the UR3's TCP at `configs`, from ur_analytic_ik's FK (an independent peer)."""
+    return "".join(DualQuaternion.from_matrix(ur_analytic_ik.ur3.forward_kinematics(*q)).to_thesis_line() + "\n"
+                   for q in configs)
+
+
+@pytest.fixture
+def thesis_store(tmp_path, run_cli):
+    """A store holding the two CONFIGS poses imported from a thesis text file (names cell-1, cell-2)."""
+    (tmp_path / "cell.txt").write_text(thesis_lines_of(CONFIGS))
+    result = run_cli("poses", "import", "cell.txt")
+    assert result.returncode == 0, result.stderr
+    return tmp_path / "poses.json"
+
+
+def test_help_teaches_with_examples(run_cli):
+    top = run_cli("--help")
+    assert top.returncode == 0 and "Exit codes:" in top.stdout and "UR3DQ_HOST" in top.stdout
+    runner = CliRunner()  # the same click commands in-process: 12 more interpreter start-ups would teach nothing
+    for command in (["record-pose"], ["run-poses"], ["fk"], ["ik"], ["export-urscript"], ["plot"], ["demo"],
+                    ["sim"], ["poses"], ["poses", "import"], ["status"]):
+        result = runner.invoke(cli, [*command, "--help"])
+        assert result.exit_code == 0 and "Example" in result.output, command
+
+
+def test_fk_of_the_thesis_home_pose(run_cli):
+    result = run_cli("fk", *THESIS_HOME, "--json")
+    assert result.returncode == 0, result.stderr
+    out = json.loads(result.stdout)
+    np.testing.assert_allclose(out["ur_pose"][:3], [0, -0.19425, 0.69415], atol=1e-12)
+    in_degrees = json.loads(run_cli("--deg", "fk", 0, -90, 0, -90, 0, 0, "--json").stdout)
+    np.testing.assert_allclose(in_degrees["dual_quaternion"], out["dual_quaternion"], atol=1e-15)
+    assert "thesis line" in run_cli("fk", *THESIS_HOME).stdout
+
+
+def test_ik_lists_every_solution_and_each_reaches_the_pose(run_cli):
+    target = ur_analytic_ik.ur3.forward_kinematics(*CONFIGS[0])
+    pose = DualQuaternion.from_matrix(target).to_ur_pose()
+    result = run_cli("ik", *pose, "--near", *CONFIGS[0], "--json")
+    assert result.returncode == 0, result.stderr
+    out = json.loads(result.stdout)
+    assert len(out["solutions"]) == len(ur_analytic_ik.ur3.inverse_kinematics(target)) == 4
+    for q in out["solutions"]:
+        np.testing.assert_allclose(ur_analytic_ik.ur3.forward_kinematics(*q), target, atol=1e-9)
+    np.testing.assert_allclose(out["chosen"], CONFIGS[0], atol=1e-9)
+    table = run_cli("--deg", "ik", *pose).stdout
+    assert "4 IK solutions" in table and table.count("°") > 24
+
+
+def test_unreachable_pose_is_one_clear_error(run_cli):
+    assert_one_line_error(run_cli("ik", 2, 0, 0, 0, 0, 0), 4, "unreachable", "too far")
+
+
+def test_bad_numbers_are_one_clear_error(run_cli):
+    assert_one_line_error(run_cli("fk", 0, 0, 0), 4, "expected 6 joint angles, got 3")
+    assert_one_line_error(run_cli("fk", 0, 0, 0, 0, 0, "nan"), 4, "finite")
+    assert run_cli("fk", 0, 0, 0, 0, 0, "x").returncode == 2
+
+
+def test_poses_import_list_show_rename_rm_export(tmp_path, run_cli, thesis_store):
+    listed = json.loads(run_cli("poses", "list", "--json").stdout)
+    assert [p["name"] for p in listed] == ["cell-1", "cell-2"]
+    assert all(p["joints"] is None and p["robot_model"] == "ur3" for p in listed)
+    shown = json.loads(run_cli("poses", "show", "cell-2", "--json").stdout)
+    expected = DualQuaternion.from_matrix(ur_analytic_ik.ur3.forward_kinematics(*CONFIGS[1]))
+    assert DualQuaternion.from_array(shown["dual_quaternion"]).is_close(expected, 1e-12, 1e-12)
+    assert run_cli("poses", "rename", "cell-2", "place").returncode == 0
+    assert run_cli("poses", "rm", "cell-1", "--yes").returncode == 0
+    assert [p.name for p in PoseStore(thesis_store).load()] == ["place"]
+    exported = run_cli("poses", "export", "-").stdout.split()
+    np.testing.assert_allclose([float(x) for x in exported], [float(x) for x in thesis_lines_of(CONFIGS[1:]).split()],
+                               atol=1e-12)
+    assert run_cli("poses", "export", "backup.json", "--format", "json").returncode == 0
+    assert [p.name for p in PoseStore(tmp_path / "backup.json").load()] == ["place"]
+    reimported = run_cli("poses", "import", "backup.json", "--json")
+    assert json.loads(reimported.stdout) == ["place-1"]
+
+
+def test_rm_without_an_answer_changes_nothing(run_cli, thesis_store):
+    before = thesis_store.read_bytes()
+    assert_one_line_error(run_cli("poses", "rm", "cell-1"), 1, "--yes")
+    assert_one_line_error(run_cli("poses", "rm", "cell-1", input="n\n"), 1, "answered no")
+    assert thesis_store.read_bytes() == before
+
+
+@pytest.mark.parametrize("command", [
+    ["poses", "rm", "nope", "--yes"], ["run-poses", "nope", "--dry-run"], ["export-urscript", "cell-1", "nope"],
+])
+def test_unknown_pose_name_is_a_clear_error_and_changes_nothing(run_cli, thesis_store, command):
+    before = thesis_store.read_bytes()
+    assert_one_line_error(run_cli(*command), 3, "no pose named 'nope'", "cell-1")
+    assert thesis_store.read_bytes() == before
+
+
+def corrupt_store_text(tmp_path):
+    """A store with a JSON syntax error on line 3."""
+    return '{"schema": "ur3dq.poses", "version": 1,\n "poses": [\n  {"name": "a",,}\n ]}\n'
+
+
+def nan_store_text(tmp_path):
+    """A valid store file with NaN typed into the second pose's joints."""
+    scratch = PoseStore(tmp_path / "scratch.json")
+    for name, q in zip(("a", "b"), CONFIGS):
+        pose = DualQuaternion.from_matrix(ur_analytic_ik.ur3.forward_kinematics(*q))
+        scratch.add(Pose.from_dual_quaternion(name, pose, "ur3", joints=q))
+    text = scratch.path.read_text()
+    return text.replace(f'"joints": [{CONFIGS[1][0]}', '"joints": [NaN')
+
+
+BROKEN = {
+    "corrupt": (corrupt_store_text, "poses.json:3:", "not valid JSON"),
+    "nan": (nan_store_text, "poses.json:6: pose #2 'b'", "joints contains NaN"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BROKEN))
+@pytest.mark.parametrize("command", [["poses", "list"], ["poses", "import", "more.txt"], ["record-pose", "--yes"]])
+def test_broken_store_is_one_clear_error_and_never_overwritten(tmp_path, run_cli, case, command):
+    make_text, where, what = BROKEN[case]
+    text = make_text(tmp_path)
+    store = tmp_path / "poses.json"
+    store.write_text(text)
+    (tmp_path / "more.txt").write_text(thesis_lines_of(CONFIGS[:1]))
+    assert_one_line_error(run_cli(*command), 3, where, what)
+    assert store.read_text() == text
+
+
+@pytest.fixture
+def recorded_store(tmp_path):
+    """A store of the two CONFIGS poses with their joints, as record-pose writes them; awkward names included."""
+    store = PoseStore(tmp_path / "poses.json")
+    for name, q in zip(("café #1", "end\" of line"), CONFIGS):
+        pose = DualQuaternion.from_matrix(ur_analytic_ik.ur3.forward_kinematics(*q))
+        store.add(Pose.from_dual_quaternion(name, pose, "ur3", joints=q))
+    return store
+
+
+def test_export_urscript_moves_through_the_recorded_joints(tmp_path, run_cli, recorded_store):
+    result = run_cli("export-urscript", "-o", "cell.script", "--speed", "0.5", "--loop", "2")
+    assert result.returncode == 0, result.stderr
+    program = (tmp_path / "cell.script").read_text()
+    code = [line.split("#")[0].strip() for line in program.splitlines() if line.split("#")[0].strip()]
+    assert code[0] == "def ur3dq_poses():" and code[-1] == "end"
+    assert "while ur3dq_loop < 2:" in code
+    moves = [line for line in code if line.startswith("movej(")]
+    assert len(moves) == 2
+    for move, q in zip(moves, CONFIGS):
+        joints = [float(x) for x in move[len("movej(["):move.index("]")].split(",")]
+        np.testing.assert_allclose(joints, q, atol=1e-9)
+        assert "v=0.5" in move
+    assert "# 1: caf? #1" in program and '# 2: end" of line' in program
+    assert program.isascii()
+
+
+def test_plot_writes_a_png(tmp_path, run_cli, recorded_store):
+    result = run_cli("plot", "-o", "path.png")
+    assert result.returncode == 0, result.stderr
+    image = (tmp_path / "path.png").read_bytes()
+    assert image.startswith(b"\x89PNG\r\n\x1a\n") and len(image) > 10_000
+    assert_one_line_error(run_cli("plot", "-o", "path.png"), 1, "Overwrite")
+
+
+def test_unreachable_stored_pose_stops_the_plan_and_changes_nothing(tmp_path, run_cli):
+    (tmp_path / "far.txt").write_text(thesis_lines_of(CONFIGS[:1]) + "1 0 0 0 0 2.0 0 0\n")
+    assert run_cli("poses", "import", "far.txt").returncode == 0
+    before = (tmp_path / "poses.json").read_bytes()
+    for command in (["run-poses", "--dry-run"], ["export-urscript"], ["plot"]):
+        assert_one_line_error(run_cli(*command), 4, "pose 'far-2' is unreachable on the ur3", "too far")
+    assert (tmp_path / "poses.json").read_bytes() == before

@@ -1,0 +1,73 @@
+"""Helpers of the driver tests (a module name of its own, so test files can import it next to conftest.py)."""
+import json
+import os
+import tempfile
+
+import numpy as np
+
+BACKENDS = ["rtde", "urx"]
+# A comfortable UR3 configuration away from singularities and joint limits.
+HOME = np.array([0.0, -1.5707963267948966, 1.2, -1.2, -1.5707963267948966, 0.0])
+
+
+def external_robot_host():
+    """The official URSim / robot named by UR3DQ_TEST_HOST (tests/conftest.py's rule), or None."""
+    return os.environ.get("UR3DQ_TEST_HOST") or None
+
+
+def inject(host, command, **arguments):
+    """Send one fault-control request to the simulator at `host`; AssertionError if it is refused."""
+    from sim_ursim.control_channel import send_request
+
+    reply = send_request(host, command, **arguments)
+    assert reply["ok"], reply
+    return reply["message"]
+
+
+def simulator_with(calibration=None, **options):
+    """A context manager running `python -m sim_ursim` (UR3) with an optional DH calibration (deltas dict)."""
+    from sim_ursim.testing import simulator_process
+
+    if calibration is None:
+        return simulator_process(model="ur3", **options)
+    handle, path = tempfile.mkstemp(prefix="ur3dq-calibration-", suffix=".json")
+    with os.fdopen(handle, "w") as calibration_file:
+        json.dump(calibration, calibration_file)
+    return _removing(path, simulator_process(model="ur3", extra_args=("--calibration", path), **options))
+
+
+class _removing:
+    """Wraps a context manager and removes `path` when it exits."""
+
+    def __init__(self, path, inner):
+        self.path, self.inner = path, inner
+
+    def __enter__(self):
+        return self.inner.__enter__()
+
+    def __exit__(self, *exc_info):
+        try:
+            return self.inner.__exit__(*exc_info)
+        finally:
+            os.remove(self.path)
+
+
+def ready(robot):
+    """Power the arm and release its brakes through the driver if needed, then move it to HOME."""
+    if robot.state().robot_mode != 7:
+        robot.power_on()
+        robot.brake_release()
+    robot.movej(HOME)
+    return robot
+
+
+def set_speed_slider(host, fraction):
+    """Set the controller's speed slider through ur_rtde's RTDE IO interface (a real client)."""
+    import rtde_io
+
+    io = rtde_io.RTDEIOInterface(host)
+    try:
+        assert io.setSpeedSlider(fraction)
+    finally:
+        io.disconnect()
+

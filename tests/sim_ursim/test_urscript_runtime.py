@@ -1,0 +1,246 @@
+"""ProgramRunner on the controller: program state, key/exception messages, replacement, stop, pause, sec programs;
+and the next goal: ur_rtde's RTDEControlInterface uploading its control script to a simulator."""
+import queue
+import time
+
+import numpy as np
+import pytest
+
+from sim_ursim.controller import Controller, RuntimeState
+from sim_ursim.messages import KeyMessage, RuntimeExceptionMessage, TextMessage
+from sim_ursim.urscript.runtime import ProgramRunner
+
+HOME = [0.0, -1.2, 1.0, -1.0, -1.5, 0.3]
+LONG_MOVE = "movej([1.5, -1.2, 1.0, -1.0, -1.5, 0.3], a=0.5, v=0.2)\n"
+
+
+@pytest.fixture
+def controller():
+    """A started, powered-up UR3 controller with a ProgramRunner attached."""
+    c = Controller("ur3", initial_q=HOME, mode_delay=0.01)
+    c.attach_program_runner(ProgramRunner(c))
+    c.start()
+    c.power_up()
+    yield c
+    c.shutdown()
+
+
+def wait_for(predicate, timeout=3.0):
+    """Poll `predicate` every 5 ms until true (returns True) or `timeout` s pass (False)."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if predicate():
+            return True
+        time.sleep(0.005)
+    return predicate()
+
+
+def drain(messages):
+    """Every message waiting in a subscription queue."""
+    result = []
+    while True:
+        try:
+            result.append(messages.get_nowait())
+        except queue.Empty:
+            return result
+
+
+def runtime_state(controller):
+    """runtime_state of the next published cycle (set_program_state takes effect at the next snapshot)."""
+    return controller.wait_cycle(controller.state().cycle, timeout=1.0).runtime_state
+
+
+def test_program_state_and_key_messages_follow_a_program(controller):
+    runner = controller.program_runner
+    messages = controller.messages.subscribe()
+    assert runner.submit('def greet():\n  textmsg("hello")\n  sleep(0.2)\nend\n', "test")
+    assert runner.is_running and runner.program_name == "greet"
+    assert runtime_state(controller) == RuntimeState.PLAYING
+    assert controller.state().robot_status_bits & 0b10
+    assert runner.wait_until_stopped(3.0)
+    assert runtime_state(controller) == RuntimeState.STOPPED
+    assert not runner.is_running
+    kinds = [(type(m).__name__, getattr(m, "title", None), m.text) for m in drain(messages)]
+    assert kinds == [("KeyMessage", "PROGRAM_XXX_STARTED", "greet"), ("TextMessage", None, "hello"),
+                     ("KeyMessage", "PROGRAM_XXX_STOPPED", "greet")]
+
+
+def test_statement_lines_run_as_one_program(controller):
+    runner = controller.program_runner
+    messages = controller.messages.subscribe()
+    runner.submit('set_standard_digital_out(0, True)\nset_standard_digital_out(1, True)\ntextmsg("both")\n')
+    assert runner.wait_until_stopped(3.0)
+    assert controller.io.standard_digital_outputs & 0b11 == 0b11
+    assert [m.text for m in drain(messages) if isinstance(m, TextMessage)] == ["both"]
+
+
+def test_runtime_error_is_published_and_the_program_stops(controller):
+    runner = controller.program_runner
+    messages = controller.messages.subscribe()
+    runner.submit("def broken():\n  x = [1, 2]\n  y = x[2]\n  textmsg(\"not reached\")\nend\n")
+    assert runner.wait_until_stopped(3.0)
+    assert runtime_state(controller) == RuntimeState.STOPPED
+    received = drain(messages)
+    (error,) = [m for m in received if isinstance(m, RuntimeExceptionMessage)]
+    assert (error.line, error.column) == (3, 7) and "index out of range" in error.text
+    assert not any(isinstance(m, TextMessage) for m in received)
+    assert isinstance(received[-1], KeyMessage) and received[-1].title == "PROGRAM_XXX_STOPPED"
+
+
+def test_compile_error_is_published_and_leaves_the_running_program_alone(controller):
+    runner = controller.program_runner
+    messages = controller.messages.subscribe()
+    runner.submit("def waiting():\n  sleep(1.0)\nend\n")
+    assert not runner.submit('txtmsg("typo")\n')
+    assert runner.is_running and runner.program_name == "waiting"
+    errors = [m for m in drain(messages) if isinstance(m, RuntimeExceptionMessage)]
+    assert [(e.line, e.column, e.text) for e in errors] == [(1, 1, "compile_error_name_not_found:txtmsg:")]
+    runner.stop()
+
+
+def test_a_new_program_replaces_the_running_one(controller):
+    runner = controller.program_runner
+    messages = controller.messages.subscribe()
+    runner.submit("def first():\n  while True:\n    sync()\n  end\nend\n")
+    assert wait_for(lambda: runner.is_running)
+    runner.submit('def second():\n  textmsg("second ran")\nend\n')
+    assert runner.wait_until_stopped(3.0)
+    keys = [(m.title, m.text) for m in drain(messages) if isinstance(m, KeyMessage)]
+    assert keys == [("PROGRAM_XXX_STARTED", "first"), ("PROGRAM_XXX_STOPPED", "first"),
+                    ("PROGRAM_XXX_STARTED", "second"), ("PROGRAM_XXX_STOPPED", "second")]
+
+
+def test_stop_interrupts_a_move_and_the_arm_comes_to_rest(controller):
+    runner = controller.program_runner
+    runner.submit(LONG_MOVE)
+    assert wait_for(lambda: controller.state().motion_active)
+    time.sleep(0.2)
+    started = time.monotonic()
+    controller.stop_program()
+    stopped_after = time.monotonic() - started
+    assert not runner.is_running
+    # Motion.wait polls its cancel event every 50 ms; the bound adds two CB3 cycles on top.
+    assert stopped_after < 0.05 + 2 * controller.period + 0.1
+    assert runtime_state(controller) == RuntimeState.STOPPED
+    assert wait_for(lambda: not controller.state().motion_active, timeout=2.0)
+    assert controller.state().actual_q[0] < 1.0
+
+
+def test_replacing_a_moving_program_stops_its_move(controller):
+    runner = controller.program_runner
+    runner.submit(LONG_MOVE)
+    assert wait_for(lambda: controller.state().motion_active)
+    runner.submit("def idle():\n  sleep(0.5)\nend\n")
+    assert wait_for(lambda: not controller.state().motion_active, timeout=2.0)
+    runner.stop()
+
+
+def test_pause_holds_the_program_and_resume_continues_it(controller):
+    runner = controller.program_runner
+    runner.submit("def counting():\n  n = 0\n  while True:\n    n = n + 1\n    write_output_integer_register(3, n)\n"
+                  "    sync()\n  end\nend\n")
+    assert wait_for(lambda: controller.io.output_int_registers[3] > 2)
+    controller.pause_program()
+    assert runtime_state(controller) == RuntimeState.PAUSED
+    held = controller.io.output_int_registers[3]
+    time.sleep(0.1)
+    assert controller.io.output_int_registers[3] - held <= 1  # at most the statement already under way
+    controller.resume_program()
+    assert runtime_state(controller) == RuntimeState.PLAYING
+    assert wait_for(lambda: controller.io.output_int_registers[3] > held + 3)
+    controller.stop_program()
+    assert not runner.is_running
+
+
+def test_secondary_program_runs_alongside_and_leaves_program_state_alone(controller):
+    runner = controller.program_runner
+    runner.submit("def main_program():\n  sleep(0.5)\nend\n")
+    assert runner.submit("sec set_output():\n  set_standard_digital_out(5, True)\nend\n")
+    assert wait_for(lambda: controller.io.standard_digital_outputs & (1 << 5))
+    assert runner.is_running and runner.program_name == "main_program"
+    runner.stop()
+
+
+def test_protective_stop_ends_the_program(controller):
+    runner = controller.program_runner
+    runner.submit(LONG_MOVE)
+    assert wait_for(lambda: controller.state().motion_active)
+    controller.protective_stop("test")
+    assert wait_for(lambda: not runner.is_running, timeout=2.0)
+    assert runtime_state(controller) == RuntimeState.STOPPED
+
+
+# ------------------------------------------------------------------------------------------------ the next goal
+
+
+@pytest.fixture
+def ur_rtde_modules():
+    """ur_rtde's Python modules (the tests below need the real client)."""
+    return (pytest.importorskip("dashboard_client"), pytest.importorskip("rtde_control"),
+            pytest.importorskip("rtde_receive"))
+
+
+def powered_simulator_process(dashboard_client, **options):
+    """A simulator subprocess, powered up through the dashboard with ur_rtde's DashboardClient.
+
+    A subprocess because ur_rtde's constructors hold the GIL while they wait for the simulator.
+    """
+    from sim_ursim.testing import simulator_process
+
+    context = simulator_process(**options)
+    sim = context.__enter__()
+    dashboard = dashboard_client.DashboardClient(sim.host)
+    dashboard.connect()
+    dashboard.powerOn()
+    dashboard.brakeRelease()
+    assert wait_for(lambda: "RUNNING" in dashboard.robotmode(), timeout=5.0)
+    dashboard.disconnect()
+    return context, sim
+
+
+def test_ur_rtde_control_interface_runs_its_uploaded_script_on_the_simulator(ur_rtde_modules):
+    """The real ur_rtde 1.6.5 uploads its 38 kB rtde_control script (CB3 3.15) on 30003; our interpreter runs it
+    unmodified and executes moveJ / moveL / FK / isSteady / stopScript through the RTDE register handshake."""
+    dashboard_client, rtde_control, rtde_receive = ur_rtde_modules
+    context, sim = powered_simulator_process(dashboard_client, model="ur3")
+    try:
+        control = rtde_control.RTDEControlInterface(sim.host)  # raises unless runtime_state reaches PLAYING
+        receive = rtde_receive.RTDEReceiveInterface(sim.host)
+        try:
+            assert receive.getRuntimeState() == RuntimeState.PLAYING
+            target = [0.2, -1.0, 0.8, -1.0, -1.5, 0.3]
+            assert control.moveJ(target, 1.05, 1.4)
+            np.testing.assert_allclose(receive.getActualQ(), target, atol=1e-6)
+            pose = control.getForwardKinematics()
+            np.testing.assert_allclose(pose, receive.getActualTCPPose(), atol=1e-6)
+            raised = list(pose)
+            raised[2] += 0.05
+            assert control.moveL(raised, 0.25, 1.2)
+            np.testing.assert_allclose(receive.getActualTCPPose(), raised, atol=1e-5)
+            assert control.isSteady()
+            control.stopScript()
+            assert wait_for(lambda: receive.getRuntimeState() == RuntimeState.STOPPED, timeout=3.0)
+        finally:
+            control.disconnect()
+            receive.disconnect()
+    finally:
+        context.__exit__(None, None, None)
+
+
+def test_ur_rtde_control_script_of_an_e_series_5_24_runs(ur_rtde_modules):
+    """The 5.24 variant of the script (50 kB: matrices, dynamics functions) compiles and serves moveJ."""
+    dashboard_client, rtde_control, rtde_receive = ur_rtde_modules
+    context, sim = powered_simulator_process(dashboard_client, model="ur3e", version="5.24.0")
+    try:
+        control = rtde_control.RTDEControlInterface(sim.host)
+        receive = rtde_receive.RTDEReceiveInterface(sim.host)
+        try:
+            target = [0.1, -1.1, 0.9, -1.0, -1.5, 0.3]
+            assert control.moveJ(target, 3.0, 4.0)
+            np.testing.assert_allclose(receive.getActualQ(), target, atol=1e-6)
+            control.stopScript()
+        finally:
+            control.disconnect()
+            receive.disconnect()
+    finally:
+        context.__exit__(None, None, None)
