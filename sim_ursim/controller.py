@@ -13,7 +13,9 @@ Modelling choices (documented where the real controller's rule is not public):
 - Blending (r > 0): the Motion counts as done once the TCP is within r of its target; the next move then starts
   and is superposed on the rest of the current one in joint space (q = q_rest + q_next − q_next_start), so speed
   stays continuous and the arm ends exactly on the next target. The blend path is not the controller's.
-- Speed slider: planned trajectories (movej, movel) and speed commands advance by dt × slider; stops use real time.
+- Speed slider: planned trajectories (movej, movel) and speed commands advance by dt × slider × speed_scaling;
+  stops use real time. Pausing the program ramps speed_scaling to 0 in PAUSE_RAMP_TIME (the arm halts on its path)
+  and resuming ramps it back to 1, so a paused move continues where it stopped.
 - Protective stop: decelerate at `PROTECTIVE_STOP_DECELERATION`; emergency stop: the arm halts at once.
 """
 import dataclasses
@@ -79,6 +81,7 @@ STATUS_BIT_POWER_ON, STATUS_BIT_PROGRAM_RUNNING, STATUS_BIT_TEACH_BUTTON = 1 << 
 PROTECTIVE_STOP_UNLOCK_DELAY = 5.0  # s: "Cannot unlock protective stop until 5s after occurrence"
 PROTECTIVE_STOP_DECELERATION = 10.0  # rad/s² on every joint: a controlled (category 2) stop
 DEFAULT_MODE_DELAY = 0.3  # s from `power on` to IDLE and from `brake release` to RUNNING (real arms take seconds)
+PAUSE_RAMP_TIME = 0.3  # s for speed_scaling to fall to 0 on pause (and rise back to 1 on resume)
 JOINT_SPEED_TOLERANCE = 1.05  # movel/speedl may exceed a joint's max speed by 5 % before the protective stop
 AMBIENT_TEMPERATURE = 25.0
 POWERED_TEMPERATURE = 32.0
@@ -291,6 +294,7 @@ class Controller:
         self._payload_cog = _frozen(np.zeros(3))
         self._payload_inertia = _frozen(np.zeros(6))
         self._speed_slider = 1.0
+        self._speed_scaling = 1.0  # trajectory-time scaling the controller applies itself (pause ramps it to 0)
         self._robot_mode = RobotMode.POWER_OFF
         self._safety_mode = SafetyMode.NORMAL
         self._pending_mode = None  # (sim time, robot mode) of a power-on / brake-release transition
@@ -475,7 +479,7 @@ class Controller:
             actual_robot_voltage=MAIN_VOLTAGE if powered else 0.0,
             actual_robot_current=0.0,
             actual_momentum=0.0,
-            speed_scaling=1.0,
+            speed_scaling=self._speed_scaling,
             digital_input_bits=io.digital_input_bits,
             configurable_digital_input_bits=io.configurable_digital_inputs,
             tool_digital_input_bits=io.tool_digital_inputs,
@@ -849,6 +853,8 @@ class Controller:
                 log.info("program %s", "paused" if running and paused else "running" if running else "stopped")
             self._program_running = bool(running)
             self._program_paused = bool(running) and bool(paused)
+            if not running:
+                self._speed_scaling = 1.0  # a stopped program leaves no pause ramp behind
             self._publish_status()
 
     def run_program(self, source, origin="dashboard"):
@@ -1010,7 +1016,7 @@ class Controller:
         q = np.array(self._q)
         if self._freedrive or self._active is None:
             return q
-        planned_dt = dt * self._speed_slider
+        planned_dt = dt * self._speed_slider * self._ramp_speed_scaling(dt)
         active = self._active
         try:
             new_q = active.segment.advance(planned_dt if active.follows_slider else dt, q)
@@ -1028,6 +1034,14 @@ class Controller:
             return q
         self._finish_or_blend(active, new_q)
         return new_q
+
+    def _ramp_speed_scaling(self, dt):
+        """speed_scaling after dt: towards 0 while the program is paused, towards 1 otherwise."""
+        goal = 0.0 if self._program_paused else 1.0
+        step = dt / PAUSE_RAMP_TIME
+        self._speed_scaling = min(goal, self._speed_scaling + step) if goal > self._speed_scaling else max(
+            goal, self._speed_scaling - step)
+        return self._speed_scaling
 
     def _motion_step_safe(self, q, new_q, dt, active):
         """Joint-limit and (for Cartesian motions) joint-speed protection; protective stop when violated."""

@@ -9,6 +9,9 @@ from pyquaternion import Quaternion
 
 from ur3dq import DualQuaternion
 
+# Timing on a shared 2-core CI machine is no property of the code: no per-example deadline.
+NO_DEADLINE = settings(deadline=None)
+
 finite = st.floats(min_value=-2.0, max_value=2.0, allow_nan=False, allow_infinity=False)
 vectors = st.tuples(finite, finite, finite).map(np.array)
 
@@ -38,11 +41,13 @@ def assert_same_pose(a, b, tol=1e-9):
 
 
 # ------------------------------------------------------------------------------------------------ algebra laws
+@NO_DEADLINE
 @given(poses(), poses(), poses())
 def test_product_is_associative(a, b, c):
     np.testing.assert_allclose(((a * b) * c).to_array(), (a * (b * c)).to_array(), atol=1e-12)
 
 
+@NO_DEADLINE
 @given(poses())
 def test_inverse_and_conjugate_undo_a_pose(a):
     identity = DualQuaternion.identity().to_array()
@@ -56,6 +61,7 @@ def test_inverse_of_a_non_unit_dual_quaternion():
     np.testing.assert_allclose((a * a.inverse()).to_array(), [1, 0, 0, 0, 0, 0, 0, 0], atol=1e-14)
 
 
+@NO_DEADLINE
 @given(poses(), poses())
 def test_conjugates_reverse_products(a, b):
     # (ab)* = b* a* holds for the quaternion and the combined conjugate; the dual conjugate keeps the order.
@@ -77,6 +83,7 @@ def test_conjugate_signs():
     assert a.combined_conjugate().to_array().tolist() == [1, -2, -3, -4, -5, 6, 7, 8]
 
 
+@NO_DEADLINE
 @given(poses(), poses())
 def test_product_is_the_matrix_product(a, b):
     np.testing.assert_allclose((a * b).to_matrix(), a.to_matrix() @ b.to_matrix(), atol=1e-12)
@@ -99,11 +106,13 @@ def test_from_matrix_accepts_a_rounded_printout_with_a_looser_tolerance():
     assert pose.distance(DualQuaternion.from_ur_pose([0, 0, 0, 0.3, 0.2, 0.1]))[1] < 2e-3
 
 
+@NO_DEADLINE
 @given(poses(), poses(), vectors)
 def test_composition_transforms_points_in_order(a, b, p):
     np.testing.assert_allclose((a * b).transform_point(p), a.transform_point(b.transform_point(p)), atol=1e-11)
 
 
+@NO_DEADLINE
 @given(poses())
 def test_negated_pose_is_the_same_pose(a):
     assert (-a).is_close(a)
@@ -143,6 +152,7 @@ def test_rotation_then_translation_in_the_parent_frame():
     np.testing.assert_allclose(pose.dual.q, (0.5 * Quaternion(0, 1, 0, 0) * r).q, atol=1e-15)
 
 
+@NO_DEADLINE
 @given(poses())
 def test_matrix_round_trip(a):
     matrix = a.to_matrix()
@@ -151,6 +161,7 @@ def test_matrix_round_trip(a):
     np.testing.assert_allclose(matrix[:3, :3], a.rotation.rotation_matrix, atol=1e-12)
 
 
+@NO_DEADLINE
 @given(poses())
 def test_ur_pose_round_trip(a):
     pose = a.to_ur_pose()
@@ -158,6 +169,7 @@ def test_ur_pose_round_trip(a):
     assert_same_pose(DualQuaternion.from_ur_pose(pose), a)
 
 
+@NO_DEADLINE
 @given(vectors, unit_axes(), st.floats(min_value=0.0, max_value=math.pi - 1e-9))
 def test_ur_pose_vector_survives_a_round_trip_below_pi(t, axis, angle):
     pose = np.concatenate((t, axis * angle))
@@ -189,6 +201,7 @@ def test_ur_pose_matches_the_matrix_rotation():
     np.testing.assert_allclose(pose.to_matrix()[:3, :3], [[0, 0, 1], [0, 1, 0], [-1, 0, 0]], atol=1e-15)
 
 
+@NO_DEADLINE
 @given(poses())
 def test_pair_and_thesis_line_round_trip(a):
     q, p = a.to_pair()
@@ -209,6 +222,7 @@ def test_thesis_line_of_the_home_pose_printout():
     np.testing.assert_allclose(pose.transform_point([0, -0.2, 0]), [0, -0.394, 0.694], atol=1e-15)
 
 
+@NO_DEADLINE
 @given(poses())
 def test_array_round_trip(a):
     assert DualQuaternion.from_array(a.to_array()) == a
@@ -216,11 +230,13 @@ def test_array_round_trip(a):
 
 
 # ----------------------------------------------------------------------------------------------- log and exp
+@NO_DEADLINE
 @given(poses())
 def test_log_exp_round_trip(a):
     assert_same_pose(DualQuaternion.exp(a.log()), a, tol=1e-9)
 
 
+@NO_DEADLINE
 @given(vectors, unit_axes(), st.floats(min_value=-3.1, max_value=3.1))
 def test_exp_log_round_trip_on_the_principal_sheet(v, axis, half_turn):
     screw = np.concatenate((axis * half_turn / 2, v))
@@ -233,6 +249,7 @@ def test_log_of_simple_motions():
     np.testing.assert_allclose(rotation.log(), [0, 0, 0.5, 0, 0, 0], atol=1e-15)
 
 
+@NO_DEADLINE
 @given(poses())
 def test_log_is_smooth_at_tiny_rotations(a):
     tiny = DualQuaternion.from_rotation_translation(Quaternion(axis=[1, 2, 3], angle=1e-7), a.translation)
@@ -247,13 +264,14 @@ def test_log_exp_round_trip_at_half_turns_and_tiny_turns(angle):
 
 
 # ---------------------------------------------------------------------------------------------------- ScLERP
+@NO_DEADLINE
 @given(poses(), poses())
 def test_sclerp_endpoints(a, b):
     assert_same_pose(a.sclerp(b, 0.0), a)
     assert_same_pose(a.sclerp(b, 1.0), b, tol=1e-8)
 
 
-@settings(max_examples=50)
+@settings(NO_DEADLINE, max_examples=50)
 @given(poses(), poses())
 def test_sclerp_moves_at_constant_speed_along_one_screw(a, b):
     samples = [a.sclerp(b, tau) for tau in np.linspace(0.0, 1.0, 9)]

@@ -11,10 +11,9 @@ from ur3dq.dualquat import DualQuaternion
 
 
 def arm_points(model, joints) -> np.ndarray:
-    """(8, 3) points of the arm's stick figure in the base frame (metres): the base origin, then the origins of the
-    model's own frames at `joints` (radians), the last being the TCP."""
-    frames = [DualQuaternion.from_array(frame).translation for frame in model.frames(joints)]
-    return np.array([np.zeros(3), *frames])
+    """(7, 3) points of the arm's stick figure in the base frame (metres): the origins of the model's own frames
+    0..6 at `joints` (radians), the last one being the TCP."""
+    return np.array([DualQuaternion.from_array(frame).translation for frame in model.frames(joints)])
 
 
 def plot_poses(path, model, steps, title: str = "") -> None:

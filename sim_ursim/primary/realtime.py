@@ -14,7 +14,6 @@ import struct
 
 import numpy as np
 
-
 _SIZE = struct.Struct(">i")
 
 

@@ -3,8 +3,8 @@
 Names, types and versions follow UR's RTDE guide ("Introduced in version" column) and URCL's type list, as
 collected in protocols.md §1.4 / §1.5. A version pair (CB3, e-series) of None means the platform never had it.
 An output reader maps a ControllerState (Contract 3) to the variable's flat values, in wire order.
-Names whose introduction version no source states (URCL-only entries such as `tcp_offset`) are deliberately left
-out: the server answers NOT_FOUND for them rather than claim them for every version.
+Names whose introduction version no source states (URCL-only entries such as `actual_current_window`) are
+deliberately left out: the server answers NOT_FOUND for them rather than claim them for every version.
 """
 from dataclasses import dataclass
 from typing import Callable, Optional, Tuple
@@ -16,7 +16,7 @@ from sim_ursim.kinematics import rotation_vector_to_matrix
 Version3 = Tuple[int, int, int]
 RTDE_FIRST = ((3, 4, 0), (5, 0, 0))  # RTDE exists since CB3 3.4 and on every e-series version
 UPPER_REGISTERS = ((3, 9, 0), (5, 3, 0))
-STANDARD_GRAVITY = 9.82  # m/s², the value UR's controller uses for g
+STANDARD_GRAVITY = 9.82  # m/s²: URScript set_gravity's default vector is [0, 0, 9.82] (base frame, pointing up)
 
 
 @dataclass(frozen=True)
@@ -27,7 +27,7 @@ class Variable:
     type: str
     introduced_cb3: Optional[Version3]
     introduced_e_series: Optional[Version3]
-    read: Optional[Callable] = None  # outputs only: read(state) -> tuple of flat values
+    read: Optional[Callable] = None  # outputs only: read(state) -> sequence of flat values in wire order
 
     def available_in(self, version):
         """True when a controller running `version` (major, minor, bugfix, ...) offers this variable."""
@@ -116,7 +116,8 @@ def _tool_mode(state):
 
 
 def _gravity(state):
-    return (0.0, 0.0, -STANDARD_GRAVITY)
+    # Same convention as set_gravity: the vector opposite to free fall, in the base frame (the base stands upright).
+    return (0.0, 0.0, STANDARD_GRAVITY)
 
 
 # --- the tables ----------------------------------------------------------------------------------------------------
@@ -190,6 +191,8 @@ _OUTPUT_LIST = [
     _out("payload", "DOUBLE", _double("payload"), ((3, 11, 0), (5, 5, 1))),
     _out("payload_cog", "VECTOR3D", _vector("payload_cog"), ((3, 11, 0), (5, 5, 1))),
     _out("payload_inertia", "VECTOR6D", _vector("payload_inertia"), ((3, 15, 0), (5, 11, 0))),
+    # Missing from UR's guide; URCL's maintainers state it exists from 3.12.0 / 5.5.1 (URCL pull request #110).
+    _out("tcp_offset", "VECTOR6D", _vector("tcp_offset"), ((3, 12, 0), (5, 5, 1))),
     _out("script_control_line", "UINT32", _integer("script_control_line"), ((3, 14, 0), (5, 9, 0))),
     _out("ft_raw_wrench", "VECTOR6D", _vector("actual_tcp_force"), (None, (5, 9, 0))),
     _out("actual_current_as_torque", "VECTOR6D", _vector("target_moment"), (None, (5, 23, 0))),

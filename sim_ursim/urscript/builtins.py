@@ -261,19 +261,27 @@ def _wait_for(ctx, seconds):
 
 
 def speedj(ctx, qd, a, t=None):
-    """Accelerate the joints to speeds qd [rad/s] at a [rad/s²]; returns after t [s] (else one cycle)."""
-    qd = number_list(qd, 6, "qd")
-    duration = 0.0 if t is None else _number(t, "t")
-    _controller_call(ctx.controller.speedj, qd, a, 0.0)
-    _wait_for(ctx, duration)
+    """Accelerate the joints to speeds qd [rad/s] at a [rad/s²] and keep them; returns after t [s], or without t
+    once the speeds are reached (the ramp time max|Δqd| / a)."""
+    qd = np.array(number_list(qd, 6, "qd"))
+    acceleration = _number(a, "a")
+    _controller_call(ctx.controller.speedj, qd, acceleration, 0.0)
+    if t is None:
+        _wait_for(ctx, float(np.max(np.abs(qd - ctx.controller.state().actual_qd))) / acceleration)
+    else:
+        _wait_for(ctx, _number(t, "t"))
 
 
 def speedl(ctx, xd, a, t=None, aRot=None):
-    """Accelerate the TCP to twist xd [m/s, rad/s] at a [m/s²]; returns after t [s] (else one cycle)."""
-    xd = number_list(xd, 6, "xd")
-    duration = 0.0 if t is None else _number(t, "t")
-    _controller_call(ctx.controller.speedl, xd, a, 0.0)
-    _wait_for(ctx, duration)
+    """Accelerate the TCP to twist xd [m/s, rad/s] at a [m/s²] and keep it; returns after t [s], or without t
+    once the linear speed is reached (the ramp time |Δv| / a)."""
+    xd = np.array(number_list(xd, 6, "xd"))
+    acceleration = _number(a, "a")
+    _controller_call(ctx.controller.speedl, xd, acceleration, 0.0)
+    if t is None:
+        _wait_for(ctx, float(np.linalg.norm(xd[:3] - ctx.controller.state().actual_tcp_speed[:3])) / acceleration)
+    else:
+        _wait_for(ctx, _number(t, "t"))
 
 
 def servoj(ctx, q, a=0, v=0, t=0.008, lookahead_time=0.1, gain=300):

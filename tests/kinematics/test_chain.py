@@ -17,6 +17,9 @@ from ur3dq.kinematics.chain import (
     thesis_to_dh_flange,
 )
 
+# Timing on a shared 2-core CI machine is no property of the code: no per-example deadline.
+NO_DEADLINE = settings(deadline=None)
+
 DEG = math.pi / 180
 
 # Seed 003's PUMA example (millimetres): the printed eq. (58) dual quaternion and eq. (59) matrix.
@@ -75,11 +78,13 @@ def elementary_product(theta, d, a, alpha):
     return rz @ tz @ tx @ rx
 
 
+@NO_DEADLINE
 @given(angles, lengths, lengths, angles)
 def test_dh_matrix_is_the_product_of_its_elementary_motions(theta, d, a, alpha):
     np.testing.assert_allclose(dh_matrix(theta, d, a, alpha), elementary_product(theta, d, a, alpha), atol=1e-15)
 
 
+@NO_DEADLINE
 @given(angles, lengths, lengths, angles)
 def test_dh_joint_dual_quaternion_equals_the_dh_matrix(theta, d, a, alpha):
     np.testing.assert_allclose(
@@ -95,7 +100,7 @@ def test_dh_joint_is_seed_003_closed_form_for_the_last_puma_joint():
     np.testing.assert_allclose(dh_joint(theta, d6, 0.0, 0.0), expected, atol=1e-14)
 
 
-@settings(max_examples=150)
+@settings(NO_DEADLINE, max_examples=150)
 @given(dh_chains())
 def test_dh_chain_equals_the_dh_matrix_product(chain_case):
     a, d, alpha, theta, kinds, q = chain_case
@@ -103,7 +108,7 @@ def test_dh_chain_equals_the_dh_matrix_product(chain_case):
     np.testing.assert_allclose(chain.fk(q).to_matrix(), matrix_product_fk(a, d, alpha, theta, q, kinds), atol=1e-12)
 
 
-@settings(max_examples=150)
+@settings(NO_DEADLINE, max_examples=150)
 @given(dh_chains(), st.integers(min_value=0, max_value=2**32 - 1))
 def test_axis_chain_equals_dh_chain(chain_case, seed):
     a, d, alpha, theta, kinds, q = chain_case
@@ -118,7 +123,7 @@ def test_axis_chain_equals_dh_chain(chain_case, seed):
         np.testing.assert_allclose(got, expected, atol=1e-12)
 
 
-@settings(max_examples=60)
+@settings(NO_DEADLINE, max_examples=60)
 @given(dh_chains())
 def test_batch_fk_equals_single_fk(chain_case):
     a, d, alpha, theta, kinds, q = chain_case
@@ -212,6 +217,7 @@ def test_frame_with_z_axis(direction):
     np.testing.assert_allclose(frame.translation, [1, 2, 3], atol=1e-15)
 
 
+@NO_DEADLINE
 @given(dh_chains())
 def test_thesis_frame_differs_from_the_dh_flange_by_the_home_rotation(chain_case):
     a, d, alpha, theta, kinds, q = chain_case

@@ -366,6 +366,24 @@ def test_program_state_hooks_drive_runtime_state_and_status_bits(controller):
     assert runner.calls == [("submit", "test"), ("pause",), ("resume",), ("stop",)]
 
 
+def test_pause_halts_the_arm_on_its_path_and_resume_finishes_the_move(stepped):
+    stepped.set_program_state(True)
+    target = np.array(HOME) + [1.0, 0, 0, 0, 0, 0]
+    move = stepped.movej(target)
+    for _ in range(60):
+        stepped.step()
+    stepped.pause_program()
+    trace = [stepped.step() for _ in range(100)]
+    paused = trace[-1]
+    assert not np.any(paused.actual_qd) and paused.speed_scaling == 0.0 and not move.done
+    assert HOME[0] < paused.actual_q[0] < target[0]
+    assert max(abs(b.actual_qd[0] - a.actual_qd[0]) for a, b in zip(trace, trace[1:])) < 0.05  # ramped, no jolt
+    stepped.resume_program()
+    run_and_trace(stepped, move)
+    assert move.succeeded and stepped.state().actual_q.tolist() == pytest.approx(target.tolist(), abs=1e-12)
+    assert stepped.state().speed_scaling == 1.0
+
+
 def test_motion_wait_honours_timeout_and_cancel(controller):
     move = controller.movej(np.array(HOME) + [1.0, 0, 0, 0, 0, 0])
     assert move.wait(timeout=0.05) is False

@@ -194,6 +194,10 @@ def test_every_output_of_ur_rtde_default_recipe_for_5_11_is_found():
     ("output_int_register_48", E_5_11, "NOT_FOUND"),
     ("actual_current_as_torque", E_5_11, "NOT_FOUND"),
     ("actual_current_as_torque", (5, 23, 0, 0), "VECTOR6D"),
+    ("tcp_offset", (3, 11, 0, 0), "NOT_FOUND"),
+    ("tcp_offset", (3, 12, 0, 0), "VECTOR6D"),
+    ("tcp_offset", (5, 5, 1, 0), "VECTOR6D"),
+    ("actual_current_window", E_5_11, "NOT_FOUND"),  # URCL lists it, no source dates it
     ("joint_mode", CB3_3_15, "VECTOR6INT32"),
     ("runtime_state", CB3_3_15, "UINT32"),
     ("no_such_variable", E_5_11, "NOT_FOUND"),
@@ -211,6 +215,18 @@ def test_output_types_are_version_gated(name, version, expected):
 ])
 def test_input_types_are_version_gated(name, version, expected):
     assert variables.input_type(name, version) == expected
+
+
+def test_the_ros2_driver_output_recipe_is_served_from_3_14_and_5_9():
+    """Universal_Robots_ROS2_Driver's resources/rtde_output_recipe.txt (it requires CB3 3.14 / e-series 5.9)."""
+    names = ("timestamp actual_q actual_qd speed_scaling target_speed_fraction runtime_state actual_TCP_force "
+             "actual_TCP_pose target_TCP_pose tcp_offset actual_digital_input_bits actual_digital_output_bits "
+             "standard_analog_input0 standard_analog_input1 standard_analog_output0 standard_analog_output1 "
+             "analog_io_types tool_mode tool_analog_input_types tool_analog_input0 tool_analog_input1 "
+             "tool_output_voltage tool_output_current tool_temperature robot_mode safety_mode robot_status_bits "
+             "safety_status_bits actual_current").split()
+    for version in ((3, 14, 0, 0), (5, 9, 0, 0)):
+        assert [n for n in names if variables.output_type(n, version) == "NOT_FOUND"] == []
 
 
 def test_every_output_reader_yields_as_many_values_as_its_type_holds():

@@ -108,7 +108,25 @@ def _task_several(host, count, seconds):
     return {"advance": advance, "connected": connected}
 
 
-_TASKS = {"snapshot": _task_snapshot, "record": _task_record, "io": _task_io, "not_found": _task_not_found,
+def _task_io_twice(host):
+    """A second RTDEIOInterface while the first holds its input registers, then one after the first left."""
+    import rtde_io
+
+    first = rtde_io.RTDEIOInterface(host)
+    try:
+        rtde_io.RTDEIOInterface(host)
+        second_error = None
+    except RuntimeError as error:
+        second_error = str(error)
+    first.disconnect()
+    time.sleep(0.2)
+    third = rtde_io.RTDEIOInterface(host)
+    third_works = third.setSpeedSlider(0.25)
+    third.disconnect()
+    return {"second_error": second_error, "third_works": third_works}
+
+
+_TASKS = {"io_twice": _task_io_twice, "snapshot": _task_snapshot, "record": _task_record, "io": _task_io, "not_found": _task_not_found,
           "several": _task_several}
 
 
@@ -255,6 +273,17 @@ def test_io_interface_sets_outputs_slider_and_registers(robot):
     assert state.target_speed_fraction == 0.5
     # The inputs read back as RTDE outputs, as a PLC or UR's RTDE client would see them.
     assert read_outputs_raw(server.host, ["input_int_register_18", "input_double_register_20"]) == [7, 1.25]
+
+
+def test_a_second_io_interface_finds_the_inputs_in_use_until_the_first_leaves(robot):
+    controller, server = robot
+    seen = run_client("io_twice", server.host)
+    assert seen["second_error"] is not None and "already in use" in seen["second_error"]
+    assert seen["third_works"] is True
+    deadline = time.monotonic() + 2.0  # the server may still be reading the last package the child sent
+    while controller.state().target_speed_fraction != 0.25 and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert controller.state().target_speed_fraction == 0.25
 
 
 def test_several_receive_clients_stream_at_once(robot):

@@ -377,6 +377,36 @@ def test_blended_sequence_ends_on_the_last_target_without_stopping_between(contr
     assert min(between_first_and_last_fast_sample) > 1e-3, "the arm came to rest between blended moves"
 
 
+def test_speedj_without_time_returns_once_the_speed_is_reached_and_stopj_brings_rest(controller):
+    source = """speedj([0.2, 0, 0, 0, 0, 0], 2.0)
+reached = get_actual_joint_speeds()
+stopj(4.0)
+after_stop = get_actual_joint_speeds()
+"""
+    outcome = run(controller, source)
+    assert outcome.error is None
+    assert outcome.globals["reached"][0] == pytest.approx(0.2, abs=2.0 * 2 * controller.period)
+    assert max(abs(v) for v in outcome.globals["after_stop"]) < 1e-9
+    run(controller, f"movej({HOME}, a=4.0, v=3.0)\n")
+
+
+def test_servoj_stream_is_followed(controller):
+    source = """q = get_actual_joint_positions()
+i = 0
+while i < 50:
+  q[5] = q[5] + 0.002
+  servoj(q, t=0.008, lookahead_time=0.1, gain=300)
+  i = i + 1
+end
+stopj(10)
+final = get_actual_joint_positions()
+"""
+    outcome = run(controller, source)
+    assert outcome.error is None
+    assert outcome.globals["final"][5] == pytest.approx(HOME[5] + 0.1, abs=0.01)
+    run(controller, f"movej({HOME}, a=4.0, v=3.0)\n")
+
+
 def test_stop_interrupts_a_blocking_move_within_two_cycles(controller):
     program = compile_program(parse("movej([1.5, -1.2, 1.0, -1.0, -1.5, 0.3], a=0.5, v=0.2)\n"), BUILTINS)
     execution = Execution(program, controller, BUILTINS)

@@ -1,5 +1,6 @@
 """ProgramRunner on the controller: program state, key/exception messages, replacement, stop, pause, sec programs;
 and the next goal: ur_rtde's RTDEControlInterface uploading its control script to a simulator."""
+import contextlib
 import queue
 import time
 
@@ -180,6 +181,7 @@ def ur_rtde_modules():
             pytest.importorskip("rtde_receive"))
 
 
+@contextlib.contextmanager
 def powered_simulator_process(dashboard_client, **options):
     """A simulator subprocess, powered up through the dashboard with ur_rtde's DashboardClient.
 
@@ -187,23 +189,21 @@ def powered_simulator_process(dashboard_client, **options):
     """
     from sim_ursim.testing import simulator_process
 
-    context = simulator_process(**options)
-    sim = context.__enter__()
-    dashboard = dashboard_client.DashboardClient(sim.host)
-    dashboard.connect()
-    dashboard.powerOn()
-    dashboard.brakeRelease()
-    assert wait_for(lambda: "RUNNING" in dashboard.robotmode(), timeout=5.0)
-    dashboard.disconnect()
-    return context, sim
+    with simulator_process(**options) as sim:
+        dashboard = dashboard_client.DashboardClient(sim.host)
+        dashboard.connect()
+        dashboard.powerOn()
+        dashboard.brakeRelease()
+        assert wait_for(lambda: "RUNNING" in dashboard.robotmode(), timeout=5.0)
+        dashboard.disconnect()
+        yield sim
 
 
 def test_ur_rtde_control_interface_runs_its_uploaded_script_on_the_simulator(ur_rtde_modules):
     """The real ur_rtde 1.6.5 uploads its 38 kB rtde_control script (CB3 3.15) on 30003; our interpreter runs it
     unmodified and executes moveJ / moveL / FK / isSteady / stopScript through the RTDE register handshake."""
     dashboard_client, rtde_control, rtde_receive = ur_rtde_modules
-    context, sim = powered_simulator_process(dashboard_client, model="ur3")
-    try:
+    with powered_simulator_process(dashboard_client, model="ur3") as sim:
         control = rtde_control.RTDEControlInterface(sim.host)  # raises unless runtime_state reaches PLAYING
         receive = rtde_receive.RTDEReceiveInterface(sim.host)
         try:
@@ -223,15 +223,12 @@ def test_ur_rtde_control_interface_runs_its_uploaded_script_on_the_simulator(ur_
         finally:
             control.disconnect()
             receive.disconnect()
-    finally:
-        context.__exit__(None, None, None)
 
 
 def test_ur_rtde_control_script_of_an_e_series_5_24_runs(ur_rtde_modules):
     """The 5.24 variant of the script (50 kB: matrices, dynamics functions) compiles and serves moveJ."""
     dashboard_client, rtde_control, rtde_receive = ur_rtde_modules
-    context, sim = powered_simulator_process(dashboard_client, model="ur3e", version="5.24.0")
-    try:
+    with powered_simulator_process(dashboard_client, model="ur3e", version="5.24.0") as sim:
         control = rtde_control.RTDEControlInterface(sim.host)
         receive = rtde_receive.RTDEReceiveInterface(sim.host)
         try:
@@ -242,5 +239,3 @@ def test_ur_rtde_control_script_of_an_e_series_5_24_runs(ur_rtde_modules):
         finally:
             control.disconnect()
             receive.disconnect()
-    finally:
-        context.__exit__(None, None, None)

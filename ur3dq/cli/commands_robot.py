@@ -78,7 +78,7 @@ def plan_table(steps, deg: bool, title: str) -> Table:
     """The replay plan: each pose's chosen joints, how they were chosen, travel and time, FK residual."""
     table = Table(title=title, title_justify="left")
     for header in ("#", "pose", "joints", "chosen by", "travel", "time", "FK check"):
-        table.add_column(header, overflow="fold")
+        table.add_column(header, overflow="fold", no_wrap=header == "joints")
     for index, step in enumerate(steps, start=1):
         travel = "—" if step.travel is None else angle_text(step.travel, deg)
         seconds = "—" if step.duration is None else f"{step.duration:.2f} s"

@@ -45,11 +45,24 @@ def sim():
 @sim.command("start")
 @click.option("--address", help="Loopback address to serve on (127.x.y.z; default: a free one).")
 @click.option("--version", "software_version", help="Controller software, e.g. 3.15.8 or 5.11.1.")
+@click.option("--powered-off", is_flag=True,
+              help="Leave the arm powered off with brakes held, as a real controller boots (default: ready to move).")
 @display_options
 @click.pass_obj
-def sim_start(settings: Settings, address, software_version):
-    """Start the simulator (the arm starts powered off at zero joints; the demo or your program powers it on)."""
+def sim_start(settings: Settings, address, software_version, powered_off):
+    """Start the simulator in the background: the arm at zero joints, powered on with its brakes released
+    (what an operator does at the pendant) unless --powered-off."""
     state = start_simulator(settings.model or "ur3", address, software_version)
+    if not powered_off:
+        from ur3dq.robot import connect
+
+        try:
+            with connect(state["host"]) as robot:
+                robot.power_on()
+                robot.brake_release()
+        except BaseException:
+            stop_simulator()  # a half-started simulator would only confuse the next command
+            raise
     if settings.json:
         emit_json(state)
     else:

@@ -9,9 +9,11 @@ Sources of the numbers:
   user manuals): UR3/UR3e 180°/s base-shoulder-elbow and 360°/s wrists; UR5/UR5e 180°/s every joint; UR10/UR10e/
   UR16e 120°/s base and shoulder, 180°/s the others.
 * Joint ranges: ±2π on every joint, as the controller allows (the ROS description's ±π on the elbow is a planning
-  restriction, not a controller limit); the UR3's wrist 3 turns without limit: ±inf.
-* Maximum joint acceleration: UR does not publish one; 40 rad/s² is the bound the controller accepts for
-  ``movej``'s ``a`` (ur_rtde's ``UR_JOINT_ACCELERATION_MAX``), used here as the ceiling for checks.
+  restriction, not a controller limit); the UR3's (CB3) wrist 3 turns without limit: ±inf. The UR3e's wrist 3
+  keeps ±2π, as in the ROS description.
+* Maximum joint acceleration: not in the manuals; 40 rad/s² on every joint is what the controller itself reports
+  (primary interface Configuration Data, jointMaxAcceleration, URSim dump in ../shared/protocols.md) and the cap
+  ur_rtde puts on ``movej``'s ``a`` (``UR_JOINT_ACCELERATION_MAX``).
 
 FK of a nominal model uses a closed form (joints 2–4 are parallel, so their rotations add up) that costs a few
 dozen float operations; a calibrated model (small DH deltas breaking that structure) goes through its
@@ -177,6 +179,13 @@ class URModel:
         self._half_lengths = tuple(0.5 * float(length) for length in lengths)  # what _ur_flange takes
         self._flange_chain = SerialChain.from_dh(dh.a, dh.d, dh.alpha, dh.theta)
         self.chain = self._flange_chain.with_tool(self.tcp)
+        self._sealed = True
+
+    def __setattr__(self, name, value):
+        # Models are values: solvers cache per model object, so a changed TCP or DH must make a new model.
+        if getattr(self, "_sealed", False):
+            raise AttributeError(f"URModel is immutable; build a new one (with_tcp, robot_model) to change {name!r}")
+        object.__setattr__(self, name, value)
 
     def __repr__(self) -> str:
         calibrated = ", calibrated" if self.calibrated else ""

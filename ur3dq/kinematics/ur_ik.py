@@ -376,7 +376,10 @@ def _pair_of(c) -> tuple:
 
 def _pose_coefficients(pose, name: str) -> tuple:
     """8 floats of a unit pose given as a DualQuaternion or 8 numbers; ValueError naming ``name`` otherwise."""
-    values = pose.to_array() if hasattr(pose, "to_array") else np.asarray(pose, dtype=float)
+    try:
+        values = pose.to_array() if hasattr(pose, "to_array") else np.asarray(pose, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name}: expected a DualQuaternion or 8 coefficients, got {pose!r}") from exc
     if values.shape != (8,):
         raise ValueError(f"{name}: expected a DualQuaternion or 8 coefficients, got shape {values.shape}")
     c = tuple(values.tolist())

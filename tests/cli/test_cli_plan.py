@@ -1,0 +1,90 @@
+"""Replay planning (pure): which joints each pose gets, travel and time, and the refusals that name the pose."""
+import math
+
+import numpy as np
+import pytest
+
+from ur3dq.cli.plan import (
+    SOURCE_IK_PREVIOUS, SOURCE_IK_RECORDED, SOURCE_IK_ZERO, SOURCE_RECORDED, choose_joints, loop_closing_travel,
+    plan_replay, tcp_pose_for,
+)
+from ur3dq.dualquat import DualQuaternion
+from ur3dq.errors import JointLimitError, SafetyCheckError, UnreachablePoseError
+from ur3dq.kinematics import robot_model
+from ur3dq.pose import Pose
+from ur3dq.robot import motion
+
+UR3 = robot_model("ur3")
+A = np.array([0.0, -1.2, 1.0, -1.4, -1.57, 0.0])
+B = np.array([0.8, -1.0, 1.3, -1.9, -1.57, 0.5])
+TOOL = [0.0, 0.0, 0.15, 0.0, 0.0, 0.3]
+
+
+def recorded(name, q, tcp=(0.0,) * 6, keep_joints=True, model="ur3"):
+    """A pose as record-pose stores it: TCP pose of `q` with TCP offset `tcp`."""
+    return Pose.from_dual_quaternion(name, UR3.with_tcp(tcp).fk(q), model, joints=q if keep_joints else None,
+                                     tcp_offset=tcp)
+
+
+def test_ik_follows_the_recorded_joints_even_on_another_branch():
+    # B with the wrist flipped is another IK branch of a different pose; record it and the planner must return it
+    flipped = B + np.array([0, 0, 0, 0, 0, 2 * math.pi])
+    q, source, count = choose_joints(UR3, recorded("b", flipped), previous=A, replay_recorded_joints=False)
+    np.testing.assert_allclose(q, flipped, atol=1e-9)
+    assert source == SOURCE_IK_RECORDED and count >= 1
+
+
+def test_without_recorded_joints_ik_takes_the_closest_to_the_previous():
+    pose = recorded("b", B, keep_joints=False)
+    q, source, _ = choose_joints(UR3, pose, previous=B + 0.01, replay_recorded_joints=False)
+    np.testing.assert_allclose(q, B, atol=1e-9)
+    assert source == SOURCE_IK_PREVIOUS
+    _, source, _ = choose_joints(UR3, pose, previous=None, replay_recorded_joints=False)
+    assert source == SOURCE_IK_ZERO
+
+
+def test_each_pose_is_solved_with_its_own_tcp_offset():
+    q, _, _ = choose_joints(UR3, recorded("tool", A, tcp=TOOL, keep_joints=False), A + 0.01, False)
+    np.testing.assert_allclose(q, A, atol=1e-9)
+
+
+def test_recorded_joints_mode_replays_them_and_refuses_what_it_cannot():
+    q, source, count = choose_joints(UR3, recorded("a", A), None, replay_recorded_joints=True)
+    np.testing.assert_array_equal(q, A)
+    assert source == SOURCE_RECORDED and count == 0
+    with pytest.raises(ValueError, match="pose 'x' has no recorded joints"):
+        choose_joints(UR3, recorded("x", A, keep_joints=False), None, True)
+    with pytest.raises(ValueError, match="pose 'y' was recorded on a ur5"):
+        choose_joints(UR3, recorded("y", A, model="ur5"), None, True)
+    outside = A + np.array([7.0, 0, 0, 0, 0, 0])
+    with pytest.raises(JointLimitError, match="pose 'z'"):
+        choose_joints(UR3, Pose.from_dual_quaternion("z", UR3.fk(outside), "ur3", joints=outside), None, True)
+
+
+def test_unreachable_pose_names_itself():
+    far = Pose.from_dual_quaternion("far", DualQuaternion.from_translation([2.0, 0, 0]), "ur3")
+    with pytest.raises(UnreachablePoseError, match="pose 'far' is unreachable on the ur3: .*too far"):
+        plan_replay(UR3, [recorded("a", A), far], A)
+
+
+def test_plan_reports_travel_time_and_fk_residual():
+    steps = plan_replay(UR3, [recorded("a", A), recorded("b", B)], start_joints=A, a=1.4, v=1.05)
+    assert [s.pose.name for s in steps] == ["a", "b"]
+    assert steps[0].travel == pytest.approx(0.0, abs=1e-9) and steps[0].duration == pytest.approx(0.0, abs=1e-4)
+    assert steps[1].travel == pytest.approx(0.8)
+    assert steps[1].duration == pytest.approx(motion.movej_duration(A, B, 1.4, 1.05))
+    assert all(s.fk_error_m < 1e-9 and s.fk_error_rad < 1e-9 for s in steps)
+    unknown_start = plan_replay(UR3, [recorded("a", A)], None)
+    assert unknown_start[0].travel is None and unknown_start[0].duration is None
+    assert loop_closing_travel(steps) == pytest.approx(0.8)
+
+
+def test_plan_refuses_a_move_beyond_max_travel():
+    with pytest.raises(SafetyCheckError, match="pose 'b': a joint would travel 0.800 rad"):
+        plan_replay(UR3, [recorded("a", A), recorded("b", B)], A, max_joint_travel=0.5)
+
+
+def test_tcp_pose_for_moves_the_recorded_pose_onto_the_current_tcp():
+    pose = recorded("tool", A, tcp=TOOL)
+    assert tcp_pose_for(pose, DualQuaternion.from_ur_pose(TOOL)).is_close(pose.dq)
+    assert tcp_pose_for(pose, DualQuaternion.identity()).is_close(UR3.fk(A))

@@ -1,0 +1,115 @@
+"""The CLI's small pure pieces: display text, exit codes, speed clamping, URScript export, plot geometry, sim state."""
+import math
+import os
+
+import numpy as np
+import pytest
+
+from ur3dq.cli import display
+from ur3dq.cli.app import Cancelled, exit_code_for, one_line
+from ur3dq.cli.commands_robot import clamp_to_model
+from ur3dq.cli.plan import plan_replay
+from ur3dq.cli.simstate import process_is_simulator, read_state, state_directory
+from ur3dq.errors import (
+    ConnectionLostError, JointLimitError, ProtectiveStopError, RobotConnectionError, SafetyCheckError, StoreError,
+    UnreachablePoseError,
+)
+from ur3dq.kinematics import robot_model
+from ur3dq.plot import arm_points
+from ur3dq.pose import Pose
+from ur3dq.urscript_export import comment_text, replay_program
+
+UR3 = robot_model("ur3")
+
+
+def test_angles_in_degrees_or_radians():
+    assert display.angle_text(math.pi / 2, deg=True) == "90.000°"
+    assert display.angle_text(math.pi / 2, deg=False) == "1.570796"
+    assert display.angles_text([0, -math.pi], True) == "[0.000°, -180.000°]"
+    assert display.pose_vector_text([0.1, 0.2, 0.3, 0, 0, math.pi], True) == \
+        "p[0.100000, 0.200000, 0.300000, 0.000°, 0.000°, 180.000°]"
+    assert display.coefficients_text(range(8)) == ("[0.000000000 1.000000000 2.000000000 3.000000000 | 4.000000000 "
+                                                  "5.000000000 6.000000000 7.000000000]")
+    assert display.distance_text(0.0015, math.radians(2)) == "1.500 mm / 2.000°"
+
+
+@pytest.mark.parametrize("error, code", [
+    (StoreError("x"), 3), (UnreachablePoseError("x"), 4), (JointLimitError("x"), 4), (SafetyCheckError("x"), 4),
+    (ValueError("x"), 4), (RobotConnectionError("x"), 5), (ProtectiveStopError("x"), 6),
+    (ConnectionLostError("x"), 6), (Cancelled("x"), 1), (FileNotFoundError("x"), 3), (RuntimeError("x"), 70),
+])
+def test_each_error_kind_has_its_exit_code(error, code):
+    assert exit_code_for(error) == code
+
+
+def test_one_line_joins_lines_and_notes():
+    error = RuntimeError("first\nsecond")
+    error.add_note("stopj also failed")
+    assert one_line(error) == "first second stopj also failed"
+
+
+def test_clamp_to_model():
+    assert clamp_to_model(0.5, UR3.max_joint_speed, "--speed") == (0.5, False)
+    assert clamp_to_model(10.0, UR3.max_joint_speed, "--speed") == (pytest.approx(math.pi), True)
+    for bad in (0.0, -1.0, math.nan, math.inf):
+        with pytest.raises(ValueError, match="--speed must be a finite number > 0"):
+            clamp_to_model(bad, UR3.max_joint_speed, "--speed")
+
+
+def test_comment_text_keeps_comments_single_line_ascii():
+    assert comment_text("café\n#2\tok") == "caf??#2?ok"
+    assert len(comment_text("x" * 500)) == 100 and comment_text("x" * 500).endswith("...")
+
+
+def two_step_plan():
+    """A plan of two UR3 poses (joints A, B)."""
+    poses = [Pose.from_dual_quaternion(name, UR3.fk(q), "ur3", joints=q)
+             for name, q in (("a", [0.0, -1.2, 1.0, -1.4, -1.57, 0.0]), ("b", [0.8, -1.0, 1.3, -1.9, -1.57, 0.5]))]
+    return plan_replay(UR3, poses, None)
+
+
+def test_replay_program_blends_only_between_poses():
+    program = replay_program(two_step_plan(), a=1.4, v=1.05, blend=0.02, tcp_offset=[0, 0, 0.1, 0, 0, 0],
+                             header=["made\nby test"])
+    lines = program.splitlines()
+    assert lines[0] == "# made?by test" and lines[1] == "def ur3dq_poses():" and lines[-1] == "end"
+    assert lines[2] == "  set_tcp(p[0.0, 0.0, 0.1, 0.0, 0.0, 0.0])"
+    moves = [line for line in lines if "movej(" in line]
+    assert moves[0].endswith("r=0.02)") and moves[1].endswith("r=0.0)")
+    looped = replay_program(two_step_plan(), 1.4, 1.05, loops=3)
+    assert "  while ur3dq_loop < 3:" in looped and looped.count("movej(") == 2
+
+
+def test_replay_program_refuses_bad_arguments():
+    with pytest.raises(ValueError, match="at least one pose"):
+        replay_program([], 1.4, 1.05)
+    with pytest.raises(ValueError, match="loops"):
+        replay_program(two_step_plan(), 1.4, 1.05, loops=0)
+    with pytest.raises(ValueError, match="identifier"):
+        replay_program(two_step_plan(), 1.4, 1.05, program_name="bad name")
+
+
+def test_arm_points_run_from_the_base_to_the_tcp():
+    q = [0.3, -1.0, 1.2, -1.5, -1.4, 0.2]
+    tool = UR3.with_tcp([0, 0, 0.2, 0, 0, 0])
+    points = arm_points(tool, q)
+    np.testing.assert_allclose(points[0], 0.0)
+    np.testing.assert_allclose(points[1], [0, 0, 0.1519], atol=1e-12)
+    np.testing.assert_allclose(points[-1], tool.fk(q).translation, atol=1e-12)
+
+
+def test_state_directory_precedence(monkeypatch, tmp_path):
+    monkeypatch.setenv("UR3DQ_STATE_DIR", str(tmp_path / "explicit"))
+    assert state_directory() == tmp_path / "explicit"
+    monkeypatch.delenv("UR3DQ_STATE_DIR")
+    monkeypatch.setenv("XDG_STATE_HOME", str(tmp_path / "xdg"))
+    assert state_directory() == tmp_path / "xdg" / "ur3dq"
+
+
+def test_a_stale_state_file_is_no_simulator(tmp_path):
+    assert not process_is_simulator(os.getpid())  # pytest is not sim_ursim
+    (tmp_path / "sim.json").write_text(f'{{"pid": {os.getpid()}, "host": "127.0.0.9"}}')
+    assert read_state(tmp_path) is None
+    (tmp_path / "sim.json").write_text("not json")
+    assert read_state(tmp_path) is None
+    assert read_state(tmp_path / "missing") is None
