@@ -20,7 +20,8 @@ from urx.urrobot import URRobot
 import ur3dq.robot
 from ur3dq.errors import ProtectiveStopError
 from ur3dq.robot import motion
-from sim_ursim.testing import running_simulator
+from sim_ursim.control_channel import send_request
+from sim_ursim.testing import simulator_process
 
 CB3_CYCLE = 0.008
 A, V = 1.4, 1.05
@@ -70,17 +71,18 @@ def urx_overheads(host, count):
 
 
 def protective_stop_latency(backend):
-    """Seconds from controller.protective_stop() to ProtectiveStopError in the caller of a blocking movej."""
-    with running_simulator(model="ur3") as sim:
-        setup_arm(sim)
+    """Seconds from requesting a protective stop (simulator control channel) to ProtectiveStopError in the caller
+    of a blocking movej: an upper bound, since it includes the request's own transport."""
+    with simulator_process(model="ur3", initial_q=list(HOME)) as sim:
         with ur3dq.robot.connect(sim.host, backend=backend) as robot:
+            power_up(robot)
             robot.movej(HOME, a=A, v=V)
-            stopped_at = []
+            requested_at = []
 
             def stop_later():
                 time.sleep(0.4)
-                stopped_at.append(time.perf_counter())
-                sim.controller.protective_stop("benchmark")
+                requested_at.append(time.perf_counter())
+                send_request(sim.host, "protective-stop", reason="benchmark")
 
             trigger = threading.Thread(target=stop_later)
             trigger.start()
@@ -92,7 +94,7 @@ def protective_stop_latency(backend):
                 raise AssertionError("the protective stop did not interrupt the movej")
             finally:
                 trigger.join()
-            return caught - stopped_at[0]
+            return caught - requested_at[0]
 
 
 def describe(label, overheads):
@@ -102,9 +104,22 @@ def describe(label, overheads):
             f"p95 {p95 * 1000:7.1f} ms ({p95 / CB3_CYCLE:4.1f} cycles)")
 
 
-def setup_arm(sim):
-    """Power the simulated arm up so it can move."""
-    sim.controller.power_up()
+def power_up(robot):
+    """Power the arm and release its brakes through the driver's dashboard connection."""
+    if robot.state().robot_mode != 7:
+        robot.power_on()
+        robot.brake_release()
+
+
+def powered_simulator(**options):
+    """A simulator process (UR3 at HOME) whose arm is powered up and warmed up (its URScript parser built)."""
+    simulator = simulator_process(model="ur3", initial_q=list(HOME), **options)
+    host = simulator.__enter__().host
+    with ur3dq.robot.connect(host) as robot:
+        power_up(robot)
+        robot.movej(HOME + OFFSET, a=A, v=V)
+        robot.movej(HOME, a=A, v=V)
+    return simulator, host
 
 
 def main():
@@ -115,14 +130,18 @@ def main():
     print(f"movej a={A} rad/s², v={V} rad/s, {args.moves} moves of {motion.leading_travel(HOME, HOME + OFFSET):.2f} "
           f"rad ({motion.movej_duration(HOME, HOME + OFFSET, A, V) * 1000:.0f} ms each); CB3 cycle 8 ms")
     results = {}
-    with running_simulator(model="ur3") as sim:
-        setup_arm(sim)
+    simulator, host = powered_simulator()
+    try:
         for backend in ("rtde", "urx"):
-            results[f"ur3dq {backend} backend, CB3 3.15"] = ur3dq_overheads(sim.host, backend, args.moves)
-    with running_simulator(model="ur3", version="3.4") as sim:
-        setup_arm(sim)
-        results["ur3dq rtde backend, CB3 3.4"] = ur3dq_overheads(sim.host, "rtde", args.moves)
-        results["urx 0.11 movej(wait=True), CB3 3.4"] = urx_overheads(sim.host, args.moves)
+            results[f"ur3dq {backend} backend, CB3 3.15"] = ur3dq_overheads(host, backend, args.moves)
+    finally:
+        simulator.__exit__(None, None, None)
+    simulator, host = powered_simulator(version="3.4")
+    try:
+        results["ur3dq rtde backend, CB3 3.4"] = ur3dq_overheads(host, "rtde", args.moves)
+        results["urx 0.11 movej(wait=True), CB3 3.4"] = urx_overheads(host, args.moves)
+    finally:
+        simulator.__exit__(None, None, None)
     for label, overheads in results.items():
         print(describe(label, overheads))
     ours = statistics.median(results["ur3dq rtde backend, CB3 3.4"])

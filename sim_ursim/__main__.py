@@ -6,7 +6,7 @@ import sys
 
 import click
 
-from .control_channel import CONTROL_PORT, send_request
+from .control_channel import CONTROL_PORT, FAULT_COMMANDS, send_request
 from .models import MODEL_NAMES
 
 
@@ -75,8 +75,7 @@ def main(ctx, model, software_version, host, initial_q, frequency, calibration, 
 
 
 @main.command()
-@click.argument("kind", type=click.Choice(["protective-stop", "emergency-stop", "release-emergency-stop",
-                                           "drop-connections", "freeze", "latency", "reset", "status", "shutdown"]))
+@click.argument("kind", type=click.Choice(FAULT_COMMANDS))
 @click.option("--host", default="127.0.0.1", show_default=True, help="Address of the running simulator.")
 @click.option("--port", default=CONTROL_PORT, show_default=True, help="Its fault-control port.")
 @click.option("--seconds", type=float, default=None, help="Duration for freeze, delay for latency.")

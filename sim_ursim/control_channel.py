@@ -18,8 +18,9 @@ from .controller import CommandRefused, RobotMode, SafetyMode
 log = logging.getLogger("sim_ursim.control")
 
 CONTROL_PORT = 29998
-COMMANDS = ("protective-stop", "emergency-stop", "release-emergency-stop", "drop-connections", "freeze", "latency",
-            "reset", "freedrive", "move-by-hand", "status", "shutdown")
+FAULT_COMMANDS = ("protective-stop", "emergency-stop", "release-emergency-stop", "drop-connections", "freeze",
+                  "latency", "reset", "status", "shutdown")
+COMMANDS = FAULT_COMMANDS + ("freedrive", "move-by-hand")
 
 
 def encode_request(command, **arguments):

@@ -1120,6 +1120,3 @@ def _number(value, name):
     if not math.isfinite(number):
         raise ValueError(f"{name} must be finite, got {value!r}")
     return number
-
-
-STATE_FIELDS = tuple(f.name for f in dataclasses.fields(ControllerState))

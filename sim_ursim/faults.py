@@ -6,10 +6,6 @@ transport faults every server checks before it sends (docs/architecture.md, Cont
 import threading
 import time
 
-FAULT_KINDS = ("protective-stop", "emergency-stop", "release-emergency-stop", "drop-connections", "freeze",
-               "latency", "reset")
-
-
 class Faults:
     """Transport faults shared by every server of one simulator; thread-safe."""
 

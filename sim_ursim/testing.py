@@ -2,6 +2,8 @@
 
 UR clients cannot change the robot's ports, so parallel simulators differ by address: every one gets its own
 random 127.a.b.c (all of 127.0.0.0/8 is loopback on Linux) where every standard port is free.
+ur_rtde's RTDE interfaces hold the GIL in their constructors and deadlock against an in-process simulator: give
+them `simulator_process` (DashboardClient, urx and raw sockets are fine with `running_simulator`).
 """
 import contextlib
 import os

@@ -15,7 +15,6 @@ log = logging.getLogger("sim_ursim.dashboard")
 GREETING = "Connected: Universal Robots Dashboard Server"
 UNLOCK_TOO_EARLY = ("Cannot unlock protective stop until 5s after occurrence. "
                     "Always inspect cause of protective stop before unlocking")
-PROGRAM_STATE_NAMES = {True: "PLAYING", False: "STOPPED"}
 
 
 @dataclass(frozen=True)
@@ -48,7 +47,7 @@ def unknown(text):
     return Reply(f"could not understand: '{text}'")
 
 
-def handle(line, controller, on_shutdown=None):
+def handle(line, controller):
     """The Reply to one request `line` for `controller` (which it may command)."""
     command, argument = parse_command(line)
     if command is None:
@@ -56,7 +55,7 @@ def handle(line, controller, on_shutdown=None):
     minimum = _MINIMUM_VERSION.get(command)
     if minimum is not None and not controller.version.at_least(*minimum):
         return unknown(line.strip())
-    return _HANDLERS[command](controller, argument, on_shutdown)
+    return _HANDLERS[command](controller, argument)
 
 
 def robot_mode_reply(mode):
@@ -81,7 +80,10 @@ def program_name(path):
 
 def program_state_reply(state, loaded_program):
     """`<STOPPED|PLAYING|PAUSED> <program name>` for a controller snapshot."""
-    word = "PAUSED" if state.program_running and state.program_paused else PROGRAM_STATE_NAMES[state.program_running]
+    if not state.program_running:
+        word = "STOPPED"
+    else:
+        word = "PAUSED" if state.program_paused else "PLAYING"
     return f"{word} {program_name(loaded_program)}"
 
 
@@ -93,17 +95,17 @@ def resolve_program_path(argument, programs_directory):
 
 
 # ----------------------------------------------------------------------------------------------- handlers
-def _power_on(controller, argument, on_shutdown):
+def _power_on(controller, argument):
     _try(controller.power_on, "power on")
     return Reply("Powering on")
 
 
-def _power_off(controller, argument, on_shutdown):
+def _power_off(controller, argument):
     controller.power_off()
     return Reply("Powering off")
 
 
-def _brake_release(controller, argument, on_shutdown):
+def _brake_release(controller, argument):
     _try(controller.brake_release, "brake release")
     return Reply("Brake releasing")
 
@@ -116,7 +118,7 @@ def _try(action, name):
         log.warning("%s: %s", name, refusal)
 
 
-def _load(controller, argument, on_shutdown):
+def _load(controller, argument):
     if not argument:
         return unknown("load")
     path = resolve_program_path(argument, controller.programs_directory)
@@ -135,7 +137,7 @@ def _load(controller, argument, on_shutdown):
     return Reply(f"Loading program: {argument}")
 
 
-def _play(controller, argument, on_shutdown):
+def _play(controller, argument):
     state = controller.state()
     if state.program_running and state.program_paused:
         controller.resume_program()
@@ -153,14 +155,14 @@ def _play(controller, argument, on_shutdown):
     return Reply("Failed to execute: play" if started is False else "Starting program")
 
 
-def _stop(controller, argument, on_shutdown):
+def _stop(controller, argument):
     if not controller.state().program_running:
         return Reply("Failed to execute: stop")
     controller.stop_program()
     return Reply("Stopped")
 
 
-def _pause(controller, argument, on_shutdown):
+def _pause(controller, argument):
     state = controller.state()
     if not state.program_running or state.program_paused:
         return Reply("Failed to execute: pause")
@@ -168,7 +170,7 @@ def _pause(controller, argument, on_shutdown):
     return Reply("Pausing program")
 
 
-def _unlock(controller, argument, on_shutdown):
+def _unlock(controller, argument):
     try:
         controller.unlock_protective_stop()
     except UnlockTooEarly:
@@ -178,7 +180,7 @@ def _unlock(controller, argument, on_shutdown):
     return Reply("Protective stop releasing")
 
 
-def _restart_safety(controller, argument, on_shutdown):
+def _restart_safety(controller, argument):
     # A safety restart clears a protective stop and leaves the arm powered off, as on the real controller.
     controller.power_off()
     try:
@@ -189,23 +191,23 @@ def _restart_safety(controller, argument, on_shutdown):
 
 
 def _reply(text):
-    return lambda controller, argument, on_shutdown: Reply(text)
+    return lambda controller, argument: Reply(text)
 
 
-def _quit(controller, argument, on_shutdown):
+def _quit(controller, argument):
     return Reply("Disconnected", close=True)
 
 
-def _shutdown(controller, argument, on_shutdown):
+def _shutdown(controller, argument):
     return Reply("Shutting down", close=True, shutdown=True)
 
 
-def _add_to_log(controller, argument, on_shutdown):
+def _add_to_log(controller, argument):
     log.info("log message from a dashboard client: %s", argument)
     return Reply("Added log message")
 
 
-def _loaded_program(controller, argument, on_shutdown):
+def _loaded_program(controller, argument):
     if controller.loaded_program is None:
         return Reply("No program loaded")
     return Reply(f"Loaded program: {controller.loaded_program}")
@@ -221,27 +223,27 @@ _HANDLERS = {
     "pause": _pause,
     "unlock protective stop": _unlock,
     "restart safety": _restart_safety,
-    "robotmode": lambda c, a, s: Reply(robot_mode_reply(c.state().robot_mode)),
-    "safetymode": lambda c, a, s: Reply(safety_mode_reply(c.state().safety_mode)),
-    "safetystatus": lambda c, a, s: Reply(safety_mode_reply(c.state().safety_status, "Safetystatus")),
-    "programstate": lambda c, a, s: Reply(program_state_reply(c.state(), c.loaded_program)),
-    "running": lambda c, a, s: Reply(f"Program running: {'true' if c.state().program_running else 'false'}"),
+    "robotmode": lambda c, a: Reply(robot_mode_reply(c.state().robot_mode)),
+    "safetymode": lambda c, a: Reply(safety_mode_reply(c.state().safety_mode)),
+    "safetystatus": lambda c, a: Reply(safety_mode_reply(c.state().safety_status, "Safetystatus")),
+    "programstate": lambda c, a: Reply(program_state_reply(c.state(), c.loaded_program)),
+    "running": lambda c, a: Reply(f"Program running: {'true' if c.state().program_running else 'false'}"),
     "close safety popup": _reply("closing safety popup"),
     "close popup": _reply("closing popup"),
     "popup": _reply("showing popup"),
-    "polyscopeversion": lambda c, a, s: Reply(polyscope_version_reply(c.version)),
-    "version": lambda c, a, s: Reply(str(c.version)),
-    "get serial number": lambda c, a, s: Reply(c.model.serial_number),
-    "get robot model": lambda c, a, s: Reply(c.model.display_name),
+    "polyscopeversion": lambda c, a: Reply(polyscope_version_reply(c.version)),
+    "version": lambda c, a: Reply(str(c.version)),
+    "get serial number": lambda c, a: Reply(c.model.serial_number),
+    "get robot model": lambda c, a: Reply(c.model.display_name),
     "is in remote control": _reply("true"),
     "get operational mode": _reply("NONE"),
     "getuserrole": _reply("PROGRAMMER"),
-    "setuserrole": lambda c, a, s: Reply(f"Setting user role: {a}"),
+    "setuserrole": lambda c, a: Reply(f"Setting user role: {a}"),
     "get loaded program": _loaded_program,
-    "isprogramsaved": lambda c, a, s: Reply(f"true {program_name(c.loaded_program)}"),
+    "isprogramsaved": lambda c, a: Reply(f"true {program_name(c.loaded_program)}"),
     "addtolog": _add_to_log,
     "savelog": _reply("Log saved to disk"),
-    "load installation": lambda c, a, s: Reply(f"Loading installation: {a}"),
+    "load installation": lambda c, a: Reply(f"Loading installation: {a}"),
     "quit": _quit,
     "shutdown": _shutdown,
 }

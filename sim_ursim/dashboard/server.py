@@ -23,7 +23,7 @@ class DashboardServer:
         self.controller = controller
         self.host = host
         self.port = port
-        self.on_shutdown = on_shutdown  # called (on its own thread) after a `shutdown` command
+        self.on_shutdown = on_shutdown  # called after a `shutdown` command has been answered; must not block
         self._listener = None
         self._accept_thread = None
         self._stopping = threading.Event()
@@ -116,7 +116,7 @@ class DashboardServer:
         log.info("dashboard: %s:%d %r -> %r", peer[0], peer[1], line.strip(), reply.text)
         self._send(connection, reply.text)
         if reply.shutdown and self.on_shutdown is not None:
-            threading.Thread(target=self.on_shutdown, name="dashboard-shutdown", daemon=True).start()
+            self.on_shutdown()
         return not reply.close
 
     def _send(self, connection, text):

@@ -15,10 +15,12 @@ import itertools
 import threading
 from dataclasses import dataclass
 
+from sim_ursim.controller import CommandRefused
 from sim_ursim.urscript import nodes
 from sim_ursim.urscript.values import Pose, ScriptError, copy_value, to_str, truth
 
 _STATEMENTS_PER_SLICE = 200
+KILLED_MOVE_DECELERATION = 4.0  # rad/s²: the arm's stop when the thread running its move is killed
 # Names a script may read without assigning them (built-in constants).
 BUILTIN_CONSTANTS = {"pi": 3.141592653589793}
 
@@ -88,7 +90,8 @@ def _walk(node):
 
 
 def compile_program(script, builtin_names, default_name="Unnamed"):
-    """nodes.Script -> Program; CompileError (line, column, controller text) for an unknown function/variable/thread.
+    """nodes.Script -> Program; CompileError (line, column, controller text) for an unknown function or thread, or a
+    variable that is assigned nowhere in the program (scopes are checked only when the program runs).
 
     A script that is exactly one `def` is that program; exactly one `sec` is a secondary program; anything else
     (statement lines, with or without definitions) runs top to bottom as one program named `default_name`.
@@ -131,8 +134,8 @@ class ThreadContext:
         self.frames = []  # one dict of locals per active function call / thread body
         self.critical = 0
         self.line = 0  # line of the statement being executed
+        self.motion = None  # the Motion this thread is waiting for, if any
         self._statements_in_slice = 0
-        self.last_cycle = None
 
     # --- scheduling, used by the interpreter and by blocking built-ins
     def check(self):
@@ -172,22 +175,22 @@ class ThreadContext:
         self.check()
 
     def sync(self):
-        """Wait for the next control cycle after the one this thread last saw."""
+        """Wait for the next control cycle (the rest of this one is used up)."""
         with self.waiting():
-            state = self.controller.state()
-            after = state.cycle if self.last_cycle is None else max(self.last_cycle, state.cycle)
-            while not self.cancel.is_set() and state.cycle <= after:
-                state = self.controller.wait_cycle(after, timeout=0.05)
-            self.last_cycle = state.cycle
+            now = self.controller.state().cycle
+            while not self.cancel.is_set() and self.controller.wait_cycle(now, timeout=0.05).cycle <= now:
+                pass
         self.check()
 
     def wait_motion(self, motion):
         """Block until `motion` is done (ScriptError with its error if it failed), interruptibly."""
+        self.motion = motion
         with self.waiting():
             motion.wait(cancel=self.cancel)
             # The motion ends inside a control cycle whose snapshot is published just after: wait for it, so
             # the next get_actual_* sees where the move ended.
             self.controller.wait_cycle(self.controller.state().cycle, timeout=5 * self.controller.period)
+        self.motion = None
         self.check()
         if motion.error:
             raise ScriptError(motion.error)
@@ -302,7 +305,7 @@ class Execution:
         last = _checked_index(container, indices[-1], node.indices[-1])
         if isinstance(container, str):
             raise URScriptRuntimeError(node.line, node.column, "runtime_error:strings are immutable:")
-        container[last] = _pose_element(container, value, node) if isinstance(container, Pose) else value
+        container[last] = _pose_element(value, node) if isinstance(container, Pose) else value
 
     def _exec_global(self, ctx, node):
         self.globals[node.name] = copy_value(self.eval(ctx, node.value))
@@ -348,10 +351,18 @@ class Execution:
         """Definitions were hoisted by compile_program: nothing to do when execution passes them."""
 
     def _exec_kill(self, ctx, node):
+        """Kill a thread; a move it was executing is aborted (the arm decelerates, modelling choice)."""
         handle = self._load(ctx, node.handle, node)
         thread = self._threads.get(handle)
-        if thread is not None:
-            thread.cancel.set()
+        if thread is None:
+            return
+        thread.cancel.set()
+        motion = thread.motion
+        if motion is not None and not motion.done:
+            try:
+                self.controller.stopj(KILLED_MOVE_DECELERATION)
+            except CommandRefused:
+                pass
 
     def _exec_join(self, ctx, node):
         handle = self._load(ctx, node.handle, node)
@@ -610,9 +621,10 @@ def _element(container, index, node):
     return container[_checked_index(container, index, node)]
 
 
-def _pose_element(pose, value, node):
-    if not isinstance(value, (int, float)):
-        raise URScriptRuntimeError(node.line, node.column, f"runtime_error:pose element must be a number:")
+def _pose_element(value, node):
+    """A value stored into a pose: a number, kept as float (URScriptRuntimeError otherwise)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise URScriptRuntimeError(node.line, node.column, "runtime_error:pose element must be a number:")
     return float(value)
 
 

@@ -7,7 +7,7 @@ import functools
 from pathlib import Path
 
 import lark
-from lark import Lark, Token, Transformer, v_args
+from lark import Lark, Transformer, v_args
 
 from sim_ursim.urscript import nodes
 

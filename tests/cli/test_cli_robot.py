@@ -51,6 +51,21 @@ def test_record_several_poses_then_replay_them(arm, run_cli, tmp_path):
     np.testing.assert_allclose(arm.joints(), PLACES[0], atol=1e-4)
 
 
+def test_blended_loop_runs_every_pass_and_ends_at_the_last_pose(arm, run_cli, tmp_path):
+    for index, q in enumerate(PLACES, start=1):
+        arm.place(q)
+        assert run_cli("--host", arm.host, "record-pose", "--yes").returncode == 0
+    arm.place(PARK)
+    result = run_cli("--host", arm.host, "run-poses", "--yes", *FAST, "--blend", "0.01", "--loop", "2", "--json")
+    assert result.returncode == 0, result.stderr
+    report = json.loads(result.stdout)
+    one_pass = sum(step["duration"] for step in report["plan"])
+    (reached,) = report["reached"]
+    assert reached["pose"] == "pose-3" and reached["error_m"] < 1e-4
+    assert reached["seconds"] > one_pass, "two blended passes took less than one stop-and-go pass"
+    np.testing.assert_allclose(arm.joints(), PLACES[2], atol=1e-4)
+
+
 def test_dry_run_plans_but_does_not_move(arm, run_cli, tmp_path):
     arm.place(PLACES[0])
     assert run_cli("--host", arm.host, "record-pose", "--name", "far", "--yes").returncode == 0
@@ -186,6 +201,7 @@ def test_sim_start_status_stop_and_commands_use_it(run_cli, tmp_path):
         robot = run_cli("status", "--json")  # no --host: the embedded simulator
         assert robot.returncode == 0, robot.stderr
         assert json.loads(robot.stdout)["host"] == state["host"]
+        assert json.loads(robot.stdout)["robot_mode"] == "RUNNING"  # sim start powers on, releases the brakes
         assert_one_line_error(run_cli("sim", "start"), 8, "already runs")
     finally:
         stopped = run_cli("sim", "stop")
@@ -196,7 +212,7 @@ def test_sim_start_status_stop_and_commands_use_it(run_cli, tmp_path):
 
 @pytest.mark.timeout(120)
 def test_demo_runs_the_whole_job(run_cli, tmp_path):
-    result = run_cli("demo", "--save", "demo.json", timeout=110)
+    result = run_cli("demo", "--save", "demo.json", "--speed", "3", "--acceleration", "20", timeout=110)
     assert result.returncode == 0, result.stdout + result.stderr
     assert "Every pose reached" in result.stdout
     assert [p.name for p in PoseStore(tmp_path / "demo.json").load()] == ["demo-1", "demo-2", "demo-3", "demo-4"]

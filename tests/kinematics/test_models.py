@@ -76,6 +76,19 @@ def test_fk_accepts_lists_tuples_and_integer_arrays():
     np.testing.assert_array_equal(model.fk_batch([[0] * 6]), [expected.to_array()])
 
 
+@pytest.mark.parametrize("name", MODEL_NAMES)
+def test_fk_dual_quaternion_equals_dqrobotics(name):
+    # dqrobotics (installed with the bench extra) uses the same σ = r + ε½tr: the 8 coefficients agree up to sign.
+    robot_modeling = pytest.importorskip("dqrobotics.robot_modeling")
+    model = robot_model(name)
+    dh = model.dh
+    reference = robot_modeling.DQ_SerialManipulatorDH(np.array([dh.theta, dh.d, dh.a, dh.alpha, np.zeros(6)]))
+    for q in random_configurations(200, seed=7):
+        ours = model.fk(q).to_array()
+        theirs = reference.fkm(q).vec8()
+        np.testing.assert_allclose(ours * np.sign(ours @ theirs), theirs, rtol=0, atol=1e-12)
+
+
 @settings(NO_DEADLINE, max_examples=150)
 @given(configurations, st.sampled_from(MODEL_NAMES))
 def test_fk_batch_equals_fk(q, name):

@@ -336,9 +336,11 @@ def test_io_and_registers_appear_in_the_snapshot_read_only(controller):
     controller.io.set_int_register("input", 24, -7)
     controller.io.set_double_register("output", 0, 2.5)
     controller.io.set_bit_register_word("input", 32, 0b101)
+    controller.io.set_standard_digital_in(2, True)
     controller.set_payload(1.5, [0, 0, 0.05])
     state = controller.wait_cycle(controller.state().cycle, 1)
     assert state.digital_output_bits == (1 << 3) | (1 << 17)
+    assert state.digital_input_bits == 1 << 2
     assert (state.input_int_registers[24], state.output_double_registers[0]) == (-7, 2.5)
     assert state.input_bit_registers[32] and not state.input_bit_registers[33] and state.input_bit_registers[34]
     assert controller.io.bit_register_word("input", 32) == 0b101

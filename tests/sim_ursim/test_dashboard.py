@@ -194,3 +194,19 @@ def test_shutdown_stops_the_simulator(sim):
 ])
 def test_parse_command_splits_the_command_from_its_argument(line, expected):
     assert protocol.parse_command(line) == expected
+
+
+def test_pure_replies_follow_the_controller_state():
+    from sim_ursim.controller import Controller
+
+    cb3, e_series = Controller("ur3"), Controller("ur5e", version="5.4.0")
+    assert protocol.handle("safetystatus", cb3).text == "could not understand: 'safetystatus'"
+    assert protocol.handle("safetystatus", e_series).text == "Safetystatus: NORMAL"
+    assert protocol.handle("get serial number", e_series).text == "could not understand: 'get serial number'"
+    assert protocol.handle("get robot model", e_series).text == "UR5"
+    assert protocol.handle("PolyscopeVersion", e_series).text == "URSoftware 5.4.0.0 (Jan 01 2022)"
+    assert protocol.handle("quit", cb3) == protocol.Reply("Disconnected", close=True)
+    assert protocol.handle("shutdown", cb3).shutdown
+    assert protocol.handle("load", cb3).text == "could not understand: 'load'"
+    cb3.set_program_state(True, paused=True)
+    assert protocol.handle("programState", cb3).text == "PAUSED <unnamed>"

@@ -2,6 +2,7 @@
 and the next goal: ur_rtde's RTDEControlInterface uploading its control script to a simulator."""
 import contextlib
 import queue
+import socket
 import time
 
 import numpy as np
@@ -169,6 +170,42 @@ def test_protective_stop_ends_the_program(controller):
     controller.protective_stop("test")
     assert wait_for(lambda: not runner.is_running, timeout=2.0)
     assert runtime_state(controller) == RuntimeState.STOPPED
+
+
+@pytest.mark.filterwarnings("ignore:notifyAll:DeprecationWarning")  # inside urx 0.11
+def test_program_state_agrees_on_rtde_dashboard_and_primary_views():
+    """A program sent on 30002: runtime_state / robot_status_bits (RTDE fields), dashboard `running` and
+    `programState` (ur_rtde DashboardClient) and primary isProgramRunning (urx's parser) agree at every stage."""
+    dashboard_client = pytest.importorskip("dashboard_client")
+    ursecmon = pytest.importorskip("urx.ursecmon")
+    from sim_ursim.testing import running_simulator
+
+    with running_simulator(model="ur3") as sim:
+        sim.controller.power_up()
+        secondary = ursecmon.SecondaryMonitor(sim.host)
+        dashboard = dashboard_client.DashboardClient(sim.host)
+        dashboard.connect()
+
+        def views():
+            state = sim.controller.wait_cycle(sim.controller.state().cycle, timeout=1.0)
+            secondary.wait()  # a fresh primary state packet
+            return (state.runtime_state, dashboard.running(), dashboard.programState().split()[0],
+                    secondary.is_program_running())
+
+        try:
+            assert wait_for(lambda: views() == (RuntimeState.STOPPED, False, "STOPPED", False))
+            with socket.create_connection((sim.host, 30002), timeout=2.0) as client:
+                client.sendall(b"def agree():\n  sleep(1.5)\nend\n")
+                assert wait_for(lambda: views() == (RuntimeState.PLAYING, True, "PLAYING", True))
+                assert sim.controller.state().robot_status_bits & 0b10
+                dashboard.pause()
+                assert wait_for(lambda: views() == (RuntimeState.PAUSED, True, "PAUSED", True))
+                dashboard.play()
+                assert wait_for(lambda: views() == (RuntimeState.PLAYING, True, "PLAYING", True))
+                assert wait_for(lambda: views() == (RuntimeState.STOPPED, False, "STOPPED", False), timeout=4.0)
+        finally:
+            secondary.close()
+            dashboard.disconnect()
 
 
 # ------------------------------------------------------------------------------------------------ the next goal

@@ -16,6 +16,7 @@ from ur3dq.cli.display import (
     angle_text, angles_text, coefficients_text, distance_text, key_value_table, pose_vector_text,
 )
 from ur3dq.cli.plan import PlanStep, loop_closing_travel, plan_replay, tcp_pose_for
+from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import ConnectionLostError, SafetyCheckError, StoreError
 from ur3dq.pose import Pose, next_free_name
 from ur3dq.robot.safety import DEFAULT_MAX_JOINT_TRAVEL
@@ -54,8 +55,6 @@ def read_pose(robot, name: str, note: str = "") -> Pose:
     status = robot.state()
     if status.age > MAX_STATUS_AGE_S:
         raise ConnectionLostError(f"the robot's state stream is frozen ({status.age:.1f} s old); pose not recorded")
-    from ur3dq.dualquat import DualQuaternion
-
     return Pose.from_dual_quaternion(
         name, DualQuaternion.from_ur_pose(status.tcp_pose), robot.model_name, joints=status.joints,
         tcp_offset=robot.model.tcp.to_ur_pose(), note=note)
@@ -108,8 +107,9 @@ def plan_to_json(steps) -> list[dict]:
 
 
 def execute_plan(robot, steps, a: float, v: float, blend: float, loops: int, console: Console) -> list[Reached]:
-    """Move through `steps` `loops` times (one blended program per pass when `blend` > 0), showing progress;
-    returns where each move ended. Ctrl-C or any fault stops the arm (the driver sends stopj) and propagates."""
+    """Move through `steps` `loops` times, showing progress; returns where each move ended (with `blend` > 0 the
+    whole run is one blended program, and only its end is measured). Ctrl-C or any fault stops the arm (the
+    driver sends stopj) and propagates."""
     results = []
     tcp_now = robot.model.tcp
     expected = [tcp_pose_for(step.pose, tcp_now) for step in steps]
@@ -118,15 +118,13 @@ def execute_plan(robot, steps, a: float, v: float, blend: float, loops: int, con
     try:
         with Progress(*columns, console=console, transient=False) as progress:
             task = progress.add_task("moving", total=len(steps) * loops)
+            if blend > 0:
+                progress.update(task, description=f"blended path through {len(steps) * loops} poses")
+                seconds = robot.movej_path([s.joints for s in steps] * loops, blend=blend, a=a, v=v,
+                                           expected_poses=expected * loops)
+                progress.advance(task, len(steps) * loops)
+                return [Reached(steps[-1], *robot.tcp_pose().distance(expected[-1]), seconds)]
             for loop in range(loops):
-                if blend > 0:
-                    progress.update(task, description=f"pass {loop + 1}/{loops}: blended path")
-                    seconds = robot.movej_path([s.joints for s in steps], blend=blend, a=a, v=v,
-                                               expected_poses=expected)
-                    progress.advance(task, len(steps))
-                    reached = robot.tcp_pose()
-                    results.append(Reached(steps[-1], *reached.distance(expected[-1]), seconds))
-                    continue
                 for step, pose in zip(steps, expected):
                     progress.update(task, description=f"pass {loop + 1}/{loops}: {step.pose.name}")
                     seconds = robot.movej(step.joints, a=a, v=v, expected_pose=pose)

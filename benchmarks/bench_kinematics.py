@@ -1,0 +1,145 @@
+"""Kinematics benchmark: ur3dq against ur-analytic-ik (C++/Eigen via nanobind) and dqrobotics (C++), in one run.
+
+Prints single-call FK and IK latency, batch (10^5 poses) throughput per pose, and each ratio beside the issue's goal:
+  batch FK  ≥ 10× faster per pose than the fastest per-call peer (dqrobotics or ur-analytic-ik)
+  batch IK  (all solutions, FK-filtered) ≥ 8× faster per pose than ur-analytic-ik's inverse_kinematics per call
+  single FK ≤ 3× ur-analytic-ik's forward_kinematics;  single IK ≤ 2× ur-analytic-ik's time
+Every side is timed on the same random configurations, in its native input form (ur3dq: joint arrays and
+DualQuaternions; ur-analytic-ik: floats and 4×4 matrices; dqrobotics: joint arrays). Per-call numbers are the best
+of several passes (the machine is shared; the best pass is the least disturbed one).
+
+Run:  .venv/bin/python benchmarks/bench_kinematics.py [--model ur3] [--batch 100000]
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import time
+
+import numpy as np
+import ur_analytic_ik
+from dqrobotics.robot_modeling import DQ_SerialManipulatorDH
+from rich.console import Console
+from rich.table import Table
+
+from ur3dq import dqarray
+from ur3dq.dualquat import DualQuaternion
+from ur3dq.kinematics import robot_model
+from ur3dq.kinematics import ur_ik
+
+SINGLE_CALLS = 2000
+PASSES = 5
+
+
+def per_call_seconds(function, argument_lists) -> float:
+    """Best-of-PASSES mean time of one ``function(*arguments)`` call over the argument lists."""
+    best = math.inf
+    for _ in range(PASSES):
+        start = time.perf_counter()
+        for arguments in argument_lists:
+            function(*arguments)
+        best = min(best, (time.perf_counter() - start) / len(argument_lists))
+    return best
+
+
+def batch_seconds_per_pose(function, argument, count: int, passes: int = 3) -> float:
+    """Best-of-``passes`` time of one batch call, divided by the number of poses in it."""
+    best = math.inf
+    for _ in range(passes):
+        start = time.perf_counter()
+        function(argument)
+        best = min(best, time.perf_counter() - start)
+    return best / count
+
+
+def dqrobotics_arm(model) -> DQ_SerialManipulatorDH:
+    """The same standard-DH arm in dqrobotics (rows θ, d, a, α, joint type)."""
+    dh = model.dh
+    return DQ_SerialManipulatorDH(np.array([dh.theta, dh.d, dh.a, dh.alpha, np.zeros(6)]))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--model", default="ur3", help="UR model name (default ur3)")
+    parser.add_argument("--batch", type=int, default=100_000, help="poses per batch (default 10^5)")
+    args = parser.parse_args()
+
+    model = robot_model(args.model)
+    oracle = getattr(ur_analytic_ik, model.name)
+    arm = dqrobotics_arm(model)
+    rng = np.random.default_rng(0)
+    joints = rng.uniform(-math.pi, math.pi, (SINGLE_CALLS, 6))
+    references = joints + rng.normal(0.0, 0.05, joints.shape)
+    poses = [model.fk(q) for q in joints]
+    matrices = [pose.to_matrix() for pose in poses]
+    assert np.allclose(arm.fkm(joints[0]).vec8() * np.sign(arm.fkm(joints[0]).vec8()[0]),
+                       dqarray.canonical(poses[0].to_array()), atol=1e-12), "dqrobotics arm differs from ur3dq's"
+
+    single = {
+        "FK  ur3dq model.fk(q)": per_call_seconds(model.fk, [(q,) for q in joints]),
+        "FK  ur-analytic-ik forward_kinematics": per_call_seconds(oracle.forward_kinematics, [tuple(q) for q in joints]),
+        "FK  dqrobotics fkm(q)": per_call_seconds(arm.fkm, [(q,) for q in joints]),
+        "IK  ur3dq ik(pose, q_ref)": per_call_seconds(
+            lambda pose, reference: ur_ik.ik(model, pose, reference), list(zip(poses, references))),
+        "IK  ur-analytic-ik inverse_kinematics_closest": per_call_seconds(
+            oracle.inverse_kinematics_closest, [(m, *r) for m, r in zip(matrices, references)]),
+        "IK  ur3dq ik_all(pose)": per_call_seconds(lambda pose: ur_ik.ik_all(model, pose), [(p,) for p in poses]),
+        "IK  ur-analytic-ik inverse_kinematics (all)": per_call_seconds(oracle.inverse_kinematics,
+                                                                       [(m,) for m in matrices]),
+    }
+
+    batch_joints = rng.uniform(-math.pi, math.pi, (args.batch, 6))
+    batch_poses = model.fk_batch(batch_joints)
+    batch_references = batch_joints + rng.normal(0.0, 0.05, batch_joints.shape)
+    batch = {
+        "FK  ur3dq fk_batch": batch_seconds_per_pose(model.fk_batch, batch_joints, args.batch),
+        "IK  ur3dq ik_all_batch (all, FK-filtered)": batch_seconds_per_pose(
+            lambda p: ur_ik.ik_all_batch(model, p), batch_poses, args.batch),
+        "IK  ur3dq ik_batch (nearest q_ref)": batch_seconds_per_pose(
+            lambda p: ur_ik.ik_batch(model, p, batch_references), batch_poses, args.batch),
+    }
+    solutions = ur_ik.ik_all_batch(model, batch_poses)
+
+    console = Console()
+    table = Table(title=f"{model.name}: latency per pose (µs), best of {PASSES} passes")
+    table.add_column("measurement")
+    table.add_column("µs / pose", justify="right")
+    for name, seconds in {**single, **batch}.items():
+        table.add_row(name, f"{seconds * 1e6:.2f}")
+    console.print(table)
+
+    fastest_fk_peer = min(single["FK  ur-analytic-ik forward_kinematics"], single["FK  dqrobotics fkm(q)"])
+    goals = Table(title="ratios against the goals (> 1 means the goal is met, by that factor)")
+    for column in ("goal", "measured", "target", "met"):
+        goals.add_column(column)
+    rows = [
+        ("batch FK vs fastest per-call peer FK", fastest_fk_peer / batch["FK  ur3dq fk_batch"], 10.0, "faster"),
+        ("batch IK (all, filtered) vs ur-analytic-ik IK per call",
+         single["IK  ur-analytic-ik inverse_kinematics (all)"] / batch["IK  ur3dq ik_all_batch (all, FK-filtered)"],
+         8.0, "faster"),
+        ("single FK vs ur-analytic-ik FK",
+         single["FK  ur3dq model.fk(q)"] / single["FK  ur-analytic-ik forward_kinematics"], 3.0, "slower at most"),
+        ("single IK ik() vs ur-analytic-ik closest",
+         single["IK  ur3dq ik(pose, q_ref)"] / single["IK  ur-analytic-ik inverse_kinematics_closest"], 2.0,
+         "slower at most"),
+        ("single IK ik() vs ur-analytic-ik all-solutions call",
+         single["IK  ur3dq ik(pose, q_ref)"] / single["IK  ur-analytic-ik inverse_kinematics (all)"], 2.0,
+         "slower at most"),
+    ]
+    for name, ratio, target, sense in rows:
+        met = ratio >= target if sense == "faster" else ratio <= target
+        goals.add_row(name, f"{ratio:.2f}×", f"{'≥' if sense == 'faster' else '≤'} {target:g}×",
+                      "yes" if met else "NO")
+    console.print(goals)
+
+    found = np.isfinite(solutions[..., 0])
+    fk = model.fk_batch(np.where(found[..., None], solutions, 0.0).reshape(-1, 6)).reshape(found.shape + (8,))
+    metres, radians = dqarray.pose_distance(fk[found], np.repeat(batch_poses[:, None], 8, axis=1)[found])
+    console.print(f"{args.batch} poses: {found.sum() / args.batch:.3f} solutions per pose on average; "
+                  f"FK residual of every solution ≤ {metres.max():.2e} m, {radians.max():.2e} rad "
+                  f"(filter {ur_ik.FK_TOLERANCE_M:g} m / {ur_ik.FK_TOLERANCE_RAD:g} rad)")
+    DualQuaternion  # noqa: B018 — the single-call poses above are DualQuaternions (ur3dq's public pose type)
+
+
+if __name__ == "__main__":
+    main()

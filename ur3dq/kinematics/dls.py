@@ -1,0 +1,376 @@
+"""Damped-least-squares Jacobian IK on dual quaternions (seed 001) for any :class:`SerialChain`, and an improved mode.
+
+Seed 001 (Vergara-Hernández et al., 2023) works in **log variables**: joint i contributes w_i = ½·q_i (the
+coefficient of its unit screw in the dual-quaternion logarithm of the joint's motion; for a revolute joint the
+paper's Φ_i = ½·u_i·θ_i, for a prismatic joint the dual log ½·d). The end effector is the 6-vector
+
+    e = (p, φ),  p = 2·σ_dual·r*,  φ = 2·log(r) = 2·arccos(s)·v/|v|   (r = (s, v), never hemisphere-flipped),
+
+so a rotation of 210° stays φ = 3.6652 as long as the FK keeps r on that sheet. Each pass of the paper's loop
+evaluates e, stops when ‖g − e‖ < tolerance, else steps Δw = Jᵀ(J·Jᵀ + γ²I)⁻¹·α·(g − e).
+
+Paper mode reproduces the paper's numbers exactly, quirks included (checked against its example and tables 1–2):
+
+* J's orientation rows are ∂log(r)/∂w (the paper's §3.3), half of ∂φ/∂w for the φ = 2·log(r) in e;
+* those rows use the paper's projection ∂σ_l/∂w_k = S((∂r/∂σ_l)*·∂r/∂w_k), which is the exact derivative when the
+  rotation only changes about its own axis (planar chains such as the example); for spatial chains it weights the
+  off-axis components by (sin h / h)² (h = |log r|): still a descent direction near the goal, not the exact Jacobian;
+* the iteration count is the number of loop passes, i.e. of poses evaluated, the start included (steps + 1).
+
+Improved mode (ours): Levenberg–Marquardt on the exact pose error (translation difference and the shortest
+rotation vector of r_goal·r*, so σ ≡ −σ), with the geometric Jacobian taken from the dual-quaternion pose
+Jacobian, Nielsen's gain-ratio damping update, and steps projected onto the joint limits. The error Jacobian differs
+from the true one by O(|error|), so convergence becomes quadratic near the goal.
+
+Units are the chain's: a chain in millimetres (the paper's example) gives errors in millimetres.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ur3dq import dqarray
+from ur3dq.dualquat import DualQuaternion
+from ur3dq.kinematics.chain import PRISMATIC, REVOLUTE, SerialChain
+
+PAPER = "paper"
+IMPROVED = "improved"
+MODES = (PAPER, IMPROVED)
+
+#: Seed 001's chosen step fraction α and damping γ (§4), its stopping threshold on ‖g − e‖ (every converged entry of
+#: its tables 1–2 ends just below 1e-3) and its iteration cap (table 2, α = 0.1).
+PAPER_ALPHA = 0.55
+PAPER_GAMMA = 0.22
+PAPER_TOLERANCE = 1e-3
+PAPER_MAX_ITERATIONS = 100
+
+IMPROVED_TOLERANCE = 1e-10
+IMPROVED_MAX_ITERATIONS = 50
+#: Initial Levenberg–Marquardt damping relative to the largest diagonal entry of JᵀJ (Madsen–Nielsen–Tingleff's τ).
+IMPROVED_INITIAL_DAMPING = 1e-3
+
+
+# ----------------------------------------------------------------------------------------- pure building blocks
+def joint_twists(chain: SerialChain, q) -> np.ndarray:
+    """(n, 8) unit screws ξ_i of the joints at q, base frame, as pure dual quaternions: σ̇ = ½·(Σ ξ_i q̇_i)·σ.
+
+    Revolute: ξ = (0, u) + ε(0, p × u) (u the axis, p a point on it); prismatic: ξ = ε(0, u).
+    """
+    directions, points = chain.joint_axes(q)
+    twists = np.zeros((chain.n_joints, 8))
+    for i, kind in enumerate(chain.joint_types):
+        if kind == REVOLUTE:
+            twists[i, 1:4] = directions[i]
+            twists[i, 5:8] = np.cross(points[i], directions[i])
+        else:
+            twists[i, 5:8] = directions[i]
+    return twists
+
+
+def pose_jacobian(chain: SerialChain, q) -> np.ndarray:
+    """(8, n) dual-quaternion pose Jacobian ∂σ/∂q_i = ½·ξ_i·σ of the chain's end pose σ(q) (coefficient order
+    [rw rx ry rz dw dx dy dz], the sign of σ the chain's FK produces)."""
+    sigma = chain.fk(q).to_array()
+    return 0.5 * dqarray.multiply_unchecked(joint_twists(chain, q), sigma).T
+
+
+def paper_pose_vector(sigma) -> np.ndarray:
+    """Seed 001's e = (p, φ): p = 2·σ_dual·r*, φ = 2·atan2(|v|, s)·v/|v| (= 2·arccos(s)·v/|v|, no sheet flip)."""
+    sigma = dqarray.check_unit(sigma, "sigma")
+    if sigma.shape != (8,):
+        raise ValueError(f"sigma: expected 8 coefficients, got shape {sigma.shape}")
+    return np.concatenate((dqarray.translation_unchecked(sigma), 2.0 * _paper_log(sigma[:4])))
+
+
+def paper_vector_to_dual_quaternion(vector) -> np.ndarray:
+    """(8,) σ of a seed 001 vector e = (p, φ): r = (cos(|φ|/2), sin(|φ|/2)·φ/|φ|), any |φ| (so its inverse too)."""
+    vector = dqarray.as_array(vector, 6, "vector")
+    if vector.shape != (6,):
+        raise ValueError(f"vector: expected 6 values (p, φ), got shape {vector.shape}")
+    return dqarray.from_rotation_translation(dqarray.rotation_vector_to_quaternion(vector[3:]), vector[:3])
+
+
+def _paper_log(r: np.ndarray) -> np.ndarray:
+    """log(r) = atan2(|v|, s)·v/|v| for a unit quaternion r = (s, v): ½·angle·axis, angle in [0, 2π]."""
+    n = float(np.linalg.norm(r[1:]))
+    if n == 0.0:
+        return np.zeros(3)  # identity (or a full turn, whose axis is undefined)
+    return np.arctan2(n, r[0]) / n * r[1:]
+
+
+def exp_derivative(w) -> np.ndarray:
+    """(4, 3) ∂e^w/∂w_k of the unit quaternion e^w = (cos|w|, sin|w|·w/|w|) (seed 001 eqs. 7–8; columns k)."""
+    w = dqarray.as_array(w, 3, "w")
+    h = float(np.linalg.norm(w))
+    if h < 1e-4:
+        # sinc(h) and (cos h − sinc h)/h² by their Taylor series, exact to double precision here.
+        sinc = 1.0 - h * h / 6.0
+        e = -1.0 / 3.0 + h * h / 30.0
+    else:
+        sinc = np.sin(h) / h
+        e = (np.cos(h) - sinc) / (h * h)
+    derivative = np.zeros((4, 3))
+    derivative[0] = -sinc * w
+    derivative[1:] = sinc * np.eye(3) + e * np.outer(w, w)
+    return derivative
+
+
+def paper_jacobian(chain: SerialChain, q) -> np.ndarray:
+    """(6, n) seed 001's Jacobian of (p, log r) w.r.t. the log variables w = ½·q (§3.3, quirks in the module doc).
+
+    Position rows ∂p/∂w_k = (2·D(∂σ) − p·R(∂σ))·r⁻¹, orientation rows ∂σ_l/∂w_k = S((∂r/∂σ_l)*·∂r/∂w_k).
+    """
+    sigma = chain.fk(q).to_array()
+    d_sigma = 2.0 * pose_jacobian(chain, q).T  # (n, 8): ∂σ/∂w_k = 2·∂σ/∂q_k
+    r = sigma[:4]
+    p_pure = np.concatenate(([0.0], dqarray.translation_unchecked(sigma)))
+    position_rate = dqarray.quaternion_multiply(
+        2.0 * d_sigma[:, 4:] - dqarray.quaternion_multiply(p_pure, d_sigma[:, :4]), dqarray.quaternion_conjugate(r)
+    )[:, 1:]
+    # S(a*·b) is the 4-D dot product a·b.
+    log_rate = exp_derivative(_paper_log(r)).T @ d_sigma[:, :4].T
+    return np.vstack((position_rate.T, log_rate))
+
+
+def damped_least_squares_step(jacobian, error, alpha: float, gamma: float) -> np.ndarray:
+    """Δ = Jᵀ(J·Jᵀ + γ²I)⁻¹·α·error: the minimiser of ‖J·Δ − α·error‖² + γ²‖Δ‖² (seed 001 §3.2.1)."""
+    jacobian = np.asarray(jacobian, dtype=float)
+    rows = jacobian.shape[0]
+    return jacobian.T @ np.linalg.solve(jacobian @ jacobian.T + gamma * gamma * np.eye(rows), alpha * error)
+
+
+def geometric_jacobian(chain: SerialChain, q) -> np.ndarray:
+    """(6, n) [end-point linear velocity; angular velocity] per unit q̇_i, base frame, from the twists ξ_i = 2·σ̇·σ*:
+    angular u_i (0 if prismatic), linear = v_0 + u_i × t = u_i × (t − p_i) (revolute) or u_i (prismatic)."""
+    translation = chain.fk(q).translation
+    twists = joint_twists(chain, q)
+    angular = twists[:, 1:4]
+    linear = twists[:, 5:8] + np.cross(angular, translation)
+    return np.vstack((linear.T, angular.T))
+
+
+def pose_error(sigma, goal) -> np.ndarray:
+    """(6,) (t_goal − t, rotation vector of r_goal·r*) between unit 8-arrays: base frame, shortest (σ ≡ −σ)."""
+    relative = dqarray.quaternion_multiply(goal[:4], dqarray.quaternion_conjugate(sigma[:4]))
+    return np.concatenate(
+        (dqarray.translation_unchecked(goal) - dqarray.translation_unchecked(sigma),
+         dqarray.quaternion_to_rotation_vector(relative))
+    )
+
+
+def project_to_limits(q: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    """q clamped joint by joint into [lower, upper] (the Euclidean projection onto the box)."""
+    return np.minimum(np.maximum(q, lower), upper)
+
+
+# --------------------------------------------------------------------------------------------------- results
+@dataclass(frozen=True)
+class DLSResult:
+    """Outcome of :func:`dls_ik`; the logs hold every accepted pose, the start first (for plots).
+
+    ``iterations`` counts loop passes as seed 001 does, i.e. poses evaluated with the start included; in improved
+    mode a rejected Levenberg–Marquardt trial is a pass too (it costs an FK), though it is not in the logs.
+    """
+
+    q: np.ndarray                   # final joint values (n,)
+    converged: bool
+    iterations: int
+    error: float                    # final error norm: ‖g − e‖ (paper) or ‖pose_error‖ (improved), chain units
+    mode: str
+    joint_log: np.ndarray           # (k, n) joint trajectory
+    pose_log: np.ndarray            # (k, 8) end-effector dual quaternions
+    error_log: np.ndarray           # (k,) error norm at each logged pose
+    goal: np.ndarray = field(repr=False)   # (8,) goal as used (paper mode: on the sheet of its vector g)
+
+    @property
+    def pose(self) -> DualQuaternion:
+        """Final end-effector pose."""
+        return DualQuaternion.from_array(self.pose_log[-1])
+
+    @property
+    def steps(self) -> int:
+        """Accepted joint updates."""
+        return len(self.joint_log) - 1
+
+    @property
+    def positions(self) -> np.ndarray:
+        """(k, 3) end-effector trajectory (positions of the logged poses)."""
+        return dqarray.translation_unchecked(self.pose_log)
+
+    @property
+    def paper_vectors(self) -> np.ndarray:
+        """(k, 6) seed 001 vectors e = (p, φ) of the logged poses (φ on each pose's own sheet)."""
+        return np.array([paper_pose_vector(pose) for pose in self.pose_log])
+
+
+# ----------------------------------------------------------------------------------------------------- solver
+def dls_ik(chain, goal, q0, *, mode: str = PAPER, alpha: float | None = None, gamma: float | None = None,
+           tolerance: float | None = None, max_iterations: int | None = None, lower=None, upper=None) -> DLSResult:
+    """Joint values bringing ``chain``'s end pose to ``goal`` from ``q0`` by damped least squares.
+
+    ``chain``: a SerialChain, or a model with ``.chain`` and ``.joint_lower``/``.joint_upper`` (e.g.
+    ``robot_model("ur3")``), whose limits are then the default ``lower``/``upper``. ``goal``: a DualQuaternion, 8
+    coefficients, or seed 001's 6-vector (p, φ) — which is a UR pose vector, the rotation vector φ allowed beyond π.
+    Paper mode compares φ without sheet flipping, so the sign of a given dual quaternion's real part matters there.
+    ``mode``: "paper" (seed 001, α default 0.55, γ default 0.22) or "improved" (Levenberg–Marquardt, α and γ
+    unused: it sizes its own steps). ``lower``/``upper``: joint limits (n each, ±inf allowed); every step is
+    projected into them. Returns a :class:`DLSResult`; not converging within ``max_iterations`` is reported there,
+    not raised.
+    """
+    if mode not in MODES:
+        raise ValueError(f"mode: expected one of {MODES}, got {mode!r}")
+    chain, model_lower, model_upper = _chain_and_limits(chain)
+    n = chain.n_joints
+    q0 = chain.check_q(q0, "q0")
+    lower = _limits(model_lower if lower is None else lower, n, -np.inf, "lower")
+    upper = _limits(model_upper if upper is None else upper, n, np.inf, "upper")
+    if np.any(lower > upper):
+        raise ValueError(f"lower: joint {int(np.argmax(lower > upper)) + 1} has lower limit above its upper limit")
+    outside = (q0 < lower) | (q0 > upper)
+    if np.any(outside):
+        raise ValueError(f"q0: joint {int(np.argmax(outside)) + 1} is outside the joint limits")
+    if mode == PAPER:
+        alpha = PAPER_ALPHA if alpha is None else _number(alpha, "alpha")
+        gamma = PAPER_GAMMA if gamma is None else _number(gamma, "gamma")
+        if not 0.0 < alpha <= 1.0:
+            raise ValueError(f"alpha: the step fraction must lie in (0, 1], got {alpha}")
+        if gamma < 0.0:
+            raise ValueError(f"gamma: the damping must be ≥ 0, got {gamma}")
+    elif alpha is not None or gamma is not None:
+        raise ValueError("alpha: the improved mode sizes its own steps; alpha and gamma apply to mode='paper'")
+    default_tolerance, default_cap = (
+        (PAPER_TOLERANCE, PAPER_MAX_ITERATIONS) if mode == PAPER else (IMPROVED_TOLERANCE, IMPROVED_MAX_ITERATIONS)
+    )
+    tolerance = default_tolerance if tolerance is None else _number(tolerance, "tolerance")
+    if tolerance <= 0.0:
+        raise ValueError(f"tolerance: must be > 0, got {tolerance}")
+    max_iterations = default_cap if max_iterations is None else _count(max_iterations, "max_iterations")
+    if mode == PAPER:
+        goal_vector = _goal_vector(goal)
+        return _solve_paper(chain, goal_vector, q0, alpha, gamma, tolerance, max_iterations, lower, upper)
+    return _solve_improved(chain, _goal_coefficients(goal), q0, tolerance, max_iterations, lower, upper)
+
+
+def _solve_paper(chain, goal_vector, q0, alpha, gamma, tolerance, max_iterations, lower, upper) -> DLSResult:
+    """Seed 001's loop: pass k evaluates e_k, stops if ‖g − e_k‖ < tolerance, else steps w += Δw (q = 2w)."""
+    q = q0
+    joints, poses, errors = [], [], []
+    for _ in range(max_iterations):
+        sigma = chain.fk(q).to_array()
+        difference = goal_vector - paper_pose_vector(sigma)
+        joints.append(q)
+        poses.append(sigma)
+        errors.append(float(np.linalg.norm(difference)))
+        if errors[-1] < tolerance or len(joints) == max_iterations:
+            break
+        step = damped_least_squares_step(paper_jacobian(chain, q), difference, alpha, gamma)
+        q = project_to_limits(q + 2.0 * step, lower, upper)
+    return DLSResult(q=joints[-1], converged=errors[-1] < tolerance, iterations=len(joints), error=errors[-1],
+                     mode=PAPER, joint_log=np.array(joints), pose_log=np.array(poses), error_log=np.array(errors),
+                     goal=paper_vector_to_dual_quaternion(goal_vector))
+
+
+def _solve_improved(chain, goal, q0, tolerance, max_iterations, lower, upper) -> DLSResult:
+    """Levenberg–Marquardt (Madsen, Nielsen & Tingleff 2004, alg. 3.16) on pose_error, steps projected on limits."""
+    q = q0
+    sigma = chain.fk(q).to_array()
+    error = pose_error(sigma, goal)
+    joints, poses, errors = [q], [sigma], [float(np.linalg.norm(error))]
+    passes = 1
+    damping, growth = None, 2.0
+    while errors[-1] >= tolerance and passes < max_iterations:
+        jacobian = geometric_jacobian(chain, q)
+        normal = jacobian.T @ jacobian
+        gradient = jacobian.T @ error
+        if damping is None:
+            damping = IMPROVED_INITIAL_DAMPING * float(np.max(np.diag(normal)))
+        step = np.linalg.solve(normal + damping * np.eye(len(q)), gradient)
+        trial_q = project_to_limits(q + step, lower, upper)
+        taken = trial_q - q
+        trial_sigma = chain.fk(trial_q).to_array()
+        trial_error = pose_error(trial_sigma, goal)
+        passes += 1
+        # Gain ratio: actual over predicted decrease of ½‖error‖², the prediction from the linear model for the
+        # step actually taken (after projection).
+        predicted = 0.5 * (error @ error - np.sum((error - jacobian @ taken) ** 2))
+        actual = 0.5 * (error @ error - trial_error @ trial_error)
+        ratio = actual / predicted if predicted > 0.0 else -1.0
+        if ratio > 0.0:
+            q, sigma, error = trial_q, trial_sigma, trial_error
+            joints.append(q)
+            poses.append(sigma)
+            errors.append(float(np.linalg.norm(error)))
+            damping *= max(1.0 / 3.0, 1.0 - (2.0 * ratio - 1.0) ** 3)
+            growth = 2.0
+        else:
+            damping *= growth
+            growth *= 2.0
+    return DLSResult(q=q, converged=errors[-1] < tolerance, iterations=passes, error=errors[-1], mode=IMPROVED,
+                     joint_log=np.array(joints), pose_log=np.array(poses), error_log=np.array(errors), goal=goal)
+
+
+# ------------------------------------------------------------------------------------------------ validation
+def _chain_and_limits(chain):
+    """(SerialChain, lower, upper) from a SerialChain (no limits) or a model with .chain and joint limits."""
+    if isinstance(chain, SerialChain):
+        return chain, None, None
+    inner = getattr(chain, "chain", None)
+    if isinstance(inner, SerialChain):
+        return inner, getattr(chain, "joint_lower", None), getattr(chain, "joint_upper", None)
+    raise ValueError(f"chain: expected a SerialChain or a robot model with .chain, got {type(chain).__name__}")
+
+
+def _limits(values, n: int, default: float, name: str) -> np.ndarray:
+    """n joint limits (±inf allowed, NaN not), or all ``default`` when None; ValueError naming ``name``."""
+    if values is None:
+        return np.full(n, default)
+    try:
+        array = np.asarray(values, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name}: expected {n} numbers, got {values!r}") from exc
+    if array.shape != (n,):
+        raise ValueError(f"{name}: expected {n} joint limits, got shape {array.shape}")
+    if np.any(np.isnan(array)):
+        raise ValueError(f"{name}: contains NaN")
+    return array
+
+
+def _number(value, name: str) -> float:
+    """A finite float; ValueError naming ``name``."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name}: expected a number, got {value!r}") from exc
+    if not np.isfinite(number):
+        raise ValueError(f"{name}: must be finite, got {number}")
+    return number
+
+
+def _count(value, name: str) -> int:
+    """An int ≥ 1; ValueError naming ``name``."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+        raise ValueError(f"{name}: expected a whole number ≥ 1, got {value!r}")
+    return int(value)
+
+
+def _goal_coefficients(goal) -> np.ndarray:
+    """(8,) unit coefficients of a goal given as DualQuaternion, 8 coefficients or a 6-vector (p, φ)."""
+    if isinstance(goal, DualQuaternion):
+        array = goal.to_array()
+    else:
+        array = dqarray.as_array(goal, (), "goal")
+        if array.shape == (6,):
+            return paper_vector_to_dual_quaternion(array)
+    if array.shape != (8,):
+        raise ValueError(f"goal: expected a DualQuaternion, 8 coefficients or 6 values (p, φ), got {array.shape}")
+    return dqarray.check_unit(array, "goal")
+
+
+def _goal_vector(goal) -> np.ndarray:
+    """Seed 001's goal vector g = (p, φ): a given 6-vector as is, a dual quaternion on the sheet it is given on."""
+    if not isinstance(goal, DualQuaternion):
+        array = dqarray.as_array(goal, (), "goal")
+        if array.shape == (6,):
+            return array
+    return paper_pose_vector(_goal_coefficients(goal))
