@@ -23,7 +23,6 @@ from rich.console import Console
 from rich.table import Table
 
 from ur3dq import dqarray
-from ur3dq.dualquat import DualQuaternion
 from ur3dq.kinematics import robot_model
 from ur3dq.kinematics import ur_ik
 
@@ -138,7 +137,6 @@ def main() -> None:
     console.print(f"{args.batch} poses: {found.sum() / args.batch:.3f} solutions per pose on average; "
                   f"FK residual of every solution ≤ {metres.max():.2e} m, {radians.max():.2e} rad "
                   f"(filter {ur_ik.FK_TOLERANCE_M:g} m / {ur_ik.FK_TOLERANCE_RAD:g} rad)")
-    DualQuaternion  # noqa: B018 — the single-call poses above are DualQuaternions (ur3dq's public pose type)
 
 
 if __name__ == "__main__":

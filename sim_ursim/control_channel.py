@@ -28,14 +28,17 @@ def encode_request(command, **arguments):
     return (json.dumps({"command": command, **arguments}) + "\n").encode("utf-8")
 
 
-def execute(request, controller, request_stop=None):
-    """Carry out one decoded request on `controller`; returns the reply dict (errors reported, never raised)."""
+def execute(request, controller, can_shut_down=False):
+    """Carry out one decoded request on `controller`; returns the reply dict (errors reported, never raised).
+
+    `shutdown` is only answered here; the server stops the simulator after sending the reply.
+    """
     if not isinstance(request, dict) or request.get("command") not in COMMANDS:
         command = request.get("command") if isinstance(request, dict) else request
         return {"ok": False, "error": f"unknown command {command!r}; expected one of {', '.join(COMMANDS)}"}
     command = request["command"]
     try:
-        message = _run(command, request, controller, request_stop)
+        message = _run(command, request, controller, can_shut_down)
     except (ValueError, CommandRefused, TypeError) as error:
         return {"ok": False, "error": f"{command}: {error}"}
     log.info("control channel: %s -> %s", command, message)
@@ -49,7 +52,7 @@ def _argument(request, name):
     return request[name]
 
 
-def _run(command, request, controller, request_stop):
+def _run(command, request, controller, can_shut_down):
     faults = controller.faults
     if command == "protective-stop":
         controller.protective_stop(request.get("reason", "injected fault"))
@@ -81,9 +84,8 @@ def _run(command, request, controller, request_stop):
         return "joints moved by hand"
     if command == "status":
         return status_line(controller.state(), faults)
-    if request_stop is None:
+    if not can_shut_down:
         raise CommandRefused("this channel cannot shut the simulator down")
-    request_stop()
     return "shutting down"
 
 
@@ -174,8 +176,10 @@ class ControlChannelServer:
                 except ValueError:
                     reply = {"ok": False, "error": "request is not one line of JSON"}
                 else:
-                    reply = execute(request, self.simulator.controller, self.simulator.request_stop)
+                    reply = execute(request, self.simulator.controller, can_shut_down=True)
                 connection.sendall((json.dumps(reply) + "\n").encode("utf-8"))
+                if reply["ok"] and request.get("command") == "shutdown":
+                    self.simulator.request_stop()
         except OSError:
             pass
         finally:

@@ -282,7 +282,6 @@ class Controller:
         self._cycle_changed = threading.Condition()
         self._thread = None
         self._stop_loop = threading.Event()
-        self._started_at = None
         self._cycle = 0
         self._sim_time = 0.0
 
@@ -316,7 +315,7 @@ class Controller:
         self._execution_time = 0.0
         self._script_control_line = 0
         self._external_force_torque = _frozen(np.zeros(6))
-        self._state = self._snapshot(np.zeros(6), np.zeros(6))
+        self._state = self._snapshot(self._q, self.period)
 
     # ---------------------------------------------------------------- lifecycle
     def start(self):
@@ -324,7 +323,6 @@ class Controller:
         with self._lock:
             if self._thread is not None:
                 return
-            self._started_at = time.monotonic()
             self._stop_loop.clear()
             self._thread = threading.Thread(target=self._loop, name="sim_ursim-control", daemon=True)
             self._thread.start()
@@ -399,7 +397,7 @@ class Controller:
                 if not np.array_equal(new_q, previous_q):
                     self._q = _frozen(new_q)
                 self._execution_time = time.perf_counter() - began
-                state = self._snapshot(previous_q, previous_qd)
+                state = self._snapshot(previous_q, dt)
             self._idle_signature = (self._changes, self.io.version, self._q)
             # Stored under the lock so a command's _publish_status never overwrites a newer cycle.
             with self._cycle_changed:
@@ -448,14 +446,15 @@ class Controller:
         self._kinematics_cache = ((q, self._tcp_offset), result)
         return result
 
-    def _snapshot(self, previous_q, previous_qd):
+    def _snapshot(self, previous_q, dt):
+        """A full snapshot of the present cycle; TCP and elbow speeds by finite difference from previous_q over dt."""
         tcp, frames, tcp_pose, flange_pose = self._kinematics_of(self._q)
-        dt = self.period
         if previous_q is self._q:
             tcp_speed = np.zeros(6)
             elbow_velocity = np.zeros(3)
         else:
-            old_tcp, old_frames, _, _ = self._kinematics_of_uncached(previous_q)
+            old_frames = kinematics.joint_frames(self._dh, previous_q)
+            old_tcp = old_frames[-1] @ kinematics.pose_to_matrix(self._tcp_offset)
             tcp_speed = np.concatenate([(tcp[:3, 3] - old_tcp[:3, 3]) / dt,
                                         kinematics.matrix_to_rotation_vector(tcp[:3, :3] @ old_tcp[:3, :3].T) / dt])
             elbow_velocity = (frames[2][:3, 3] - old_frames[2][:3, 3]) / dt
@@ -531,10 +530,6 @@ class Controller:
             self._touch()
             self._state = dataclasses.replace(self._state, **self._status_fields())
             self._cycle_changed.notify_all()
-
-    def _kinematics_of_uncached(self, q):
-        frames = kinematics.joint_frames(self._dh, q)
-        return frames[-1] @ kinematics.pose_to_matrix(self._tcp_offset), frames, None, None
 
     def _joint_mode(self):
         if self._robot_mode == RobotMode.RUNNING:
@@ -756,7 +751,7 @@ class Controller:
             self._q = _frozen(q)
             self._touch()
             with self._cycle_changed:
-                self._state = self._snapshot(self._q, self._qd)
+                self._state = self._snapshot(self._q, self.period)
 
     def set_freedrive(self, on):
         """Freedrive / teach mode on or off (on needs RUNNING + NORMAL; motions are refused while it is on)."""

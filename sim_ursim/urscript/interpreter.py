@@ -8,8 +8,11 @@ writes an existing global unless the name was declared `local` there, otherwise 
 always writes the global. Lists and poses are values: assignment and argument passing copy them.
 
 Scheduling: like the controller, script threads do not run in parallel. A thread holds the execution's scheduler
-lock while it runs statements and gives it up when it waits for physical time (sleep, sync, a move, join) or after
-`_STATEMENTS_PER_SLICE` statements outside `enter_critical`/`exit_critical`.
+lock while it runs statements and gives it up when it waits for physical time (sleep, sync, a move, join). As on the
+controller, a thread that uses up its time slice with computation alone is suspended until the next control cycle
+(frame); here the slice is `STATEMENTS_PER_SECOND × period` statements (200 on CB3, 50 on e-series), which also
+bounds the CPU a busy loop takes. Inside `enter_critical`/`exit_critical` the suspended thread keeps the lock, so no
+other script thread runs in between.
 """
 import itertools
 import threading
@@ -19,7 +22,7 @@ from sim_ursim.controller import CommandRefused
 from sim_ursim.urscript import nodes
 from sim_ursim.urscript.values import Pose, ScriptError, copy_value, to_str, truth
 
-_STATEMENTS_PER_SLICE = 200
+STATEMENTS_PER_SECOND = 25_000  # computation a script thread may do per second of controller time (see above)
 KILLED_MOVE_DECELERATION = 4.0  # rad/s²: the arm's stop when the thread running its move is killed
 # Names a script may read without assigning them (built-in constants).
 BUILTIN_CONSTANTS = {"pi": 3.141592653589793}
@@ -136,6 +139,7 @@ class ThreadContext:
         self.line = 0  # line of the statement being executed
         self.motion = None  # the Motion this thread is waiting for, if any
         self._statements_in_slice = 0
+        self._slice = max(1, int(STATEMENTS_PER_SECOND * execution.controller.period))
 
     # --- scheduling, used by the interpreter and by blocking built-ins
     def check(self):
@@ -158,15 +162,20 @@ class ThreadContext:
         """
         if self is self.execution.main:
             self.controller.set_script_control_line(self.line)
+        self._statements_in_slice = 0  # physical time passes: a new slice starts
         return _Released(self.execution.scheduler)
 
     def time_slice(self):
-        """Count one statement; give other threads a turn at the end of a slice unless in a critical section."""
+        """Count one statement; a thread that used up its slice waits for the next frame (see module docstring)."""
         self._statements_in_slice += 1
-        if self._statements_in_slice >= _STATEMENTS_PER_SLICE and self.critical == 0:
+        if self._statements_in_slice < self._slice:
+            return
+        if self.critical:
             self._statements_in_slice = 0
-            with self.waiting():
-                pass
+            self._wait_next_frame()  # keeping the scheduler lock: no other thread runs inside a critical section
+            self.check()
+        else:
+            self.sync()
 
     def sleep(self, seconds):
         """Wait `seconds` of wall time (the controller runs in real time), interruptibly."""
@@ -177,10 +186,14 @@ class ThreadContext:
     def sync(self):
         """Wait for the next control cycle (the rest of this one is used up)."""
         with self.waiting():
-            now = self.controller.state().cycle
-            while not self.cancel.is_set() and self.controller.wait_cycle(now, timeout=0.05).cycle <= now:
-                pass
+            self._wait_next_frame()
         self.check()
+
+    def _wait_next_frame(self):
+        """Block until the controller publishes a cycle after the current one (or this thread is cancelled)."""
+        now = self.controller.state().cycle
+        while not self.cancel.is_set() and self.controller.wait_cycle(now, timeout=0.05).cycle <= now:
+            pass
 
     def wait_motion(self, motion):
         """Block until `motion` is done (ScriptError with its error if it failed), interruptibly."""

@@ -70,6 +70,13 @@ def test_hand_guiding_command_moves_the_arm():
         assert "q [+0.2000 -1.0000 +1.0000 -1.5000 -1.5000 +0.3000]" in status
 
 
+def test_fault_shutdown_ends_the_process():
+    with simulator_process() as sim:
+        result = cli("fault", "shutdown", "--host", sim.host)
+        assert (result.returncode, result.stdout) == (0, "shutting down\n")
+        assert sim.process.wait(timeout=10) == 0
+
+
 def test_fault_without_a_simulator_says_so():
     result = cli("fault", "emergency-stop", "--host", free_loopback_address())
     assert result.returncode == 1 and "no simulator control channel on" in result.stderr

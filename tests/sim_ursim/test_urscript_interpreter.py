@@ -321,6 +321,17 @@ end
     assert outcome.error is None and outcome.globals["seen_odd"] is False
 
 
+def test_a_busy_loop_is_suspended_until_the_next_frame_when_its_slice_is_used_up(controller):
+    from sim_ursim.urscript.interpreter import STATEMENTS_PER_SECOND
+
+    iterations = 1000  # two statements each: the loop test and the assignment
+    first_cycle = controller.state().cycle
+    outcome = run(controller, f"i = 0\nwhile i < {iterations}:\n  i = i + 1\nend\n")
+    frames = controller.state().cycle - first_cycle
+    assert outcome.error is None and outcome.globals["i"] == iterations
+    assert frames >= 2 * iterations // int(STATEMENTS_PER_SECOND * controller.period) - 1
+
+
 def test_runtime_error_in_a_thread_stops_the_program(controller):
     source = """def prog():
   thread broken():

@@ -390,17 +390,20 @@ class _MotionWatch:
         self.far_from_target = far_from_target  # arriving at the target then proves the program ran
         self.started = False
         self.last_error_text = None
+        self.runtime_error = None  # raised once the state had time to show a safety stop behind it instead
         self._ended_at = None
+        self._error_at = None
 
     def note_message(self, message):
-        """Update from one robot message; ProgramError for a runtime exception."""
+        """Update from one robot message (key messages, runtime exceptions, error codes)."""
         if primary.is_program_started(message, self.name):
             self.started = True
         elif primary.is_program_stopped(message, self.name):
             self.started = True  # it ran, however briefly
-        elif isinstance(message, primary.RuntimeExceptionMessage):
-            raise ProgramError(f"the controller reported an error in program {self.name} at line {message.line}, "
-                               f"column {message.column}: {message.text}")
+        elif isinstance(message, primary.RuntimeExceptionMessage) and self.runtime_error is None:
+            self.runtime_error = ProgramError(
+                f"the controller reported an error in program {self.name} at line {message.line}, "
+                f"column {message.column}: {message.text}")
         elif isinstance(message, primary.ErrorCodeMessage) and message.report_level >= 2:
             self.last_error_text = f"C{message.code}A{message.argument}: {message.text}"
 
@@ -409,7 +412,14 @@ class _MotionWatch:
         return float(np.max(np.abs(status.joints - self.target)))
 
     def finished(self, status, now):
-        """True when the program has ended with the arm at rest on target; ProgramError if it ended elsewhere."""
+        """True when the program has ended with the arm at rest on target; ProgramError if it ended elsewhere or
+        the controller reported a runtime error (after SETTLE_TIME, so a safety stop behind it is seen first)."""
+        if self.runtime_error is not None:
+            if self._error_at is None:
+                self._error_at = now
+            elif now - self._error_at > SETTLE_TIME:
+                raise self.runtime_error
+            return False
         # The state stream has the last word on "running": a key message can arrive a cycle before it agrees.
         if status.program_running:
             self.started, self._ended_at = True, None
