@@ -374,8 +374,10 @@ class Controller:
                 steps += missed
             try:
                 self._cycle_once(steps)
-            except Exception:  # noqa: BLE001 - a bug must not freeze the robot silently; log it and keep cycling
-                log.exception("control cycle failed")
+            except Exception as error:  # noqa: BLE001 - a bug must not kill the loop: halt the arm, say why, go on
+                log.exception("control cycle failed; halting the arm")
+                with self._lock:
+                    self._halt(f"simulator internal error: {error!r}")
 
     def _cycle_once(self, steps=1):
         """One control cycle covering `steps` periods: advance modes and motion, then publish the snapshot."""

@@ -156,7 +156,8 @@ def integer_to_binary_list(ctx, x):
 
 def pose_trans(ctx, p_from, p_from_to):
     """Pose composition p_from · p_from_to (the second pose expressed in the first one's frame)."""
-    matrix = kinematics.pose_to_matrix(_pose(p_from, "p_from")) @ kinematics.pose_to_matrix(_pose(p_from_to, "p_from_to"))
+    first = kinematics.pose_to_matrix(_pose(p_from, "p_from"))
+    matrix = first @ kinematics.pose_to_matrix(_pose(p_from_to, "p_from_to"))
     return _to_pose(kinematics.matrix_to_pose(matrix))
 
 
@@ -238,13 +239,13 @@ def _pose_target(ctx, pose):
 def movej(ctx, q, a=1.4, v=1.05, t=0, r=0):
     """Joint move (leading axis a [rad/s²], v [rad/s], t [s] overrides); blocks until done, or within r [m]."""
     target = _joint_target(ctx, q)
-    ctx.wait_motion(_controller_call(ctx.controller.movej, target, a, v, t, r))
+    ctx.run_motion(lambda: _controller_call(ctx.controller.movej, target, a, v, t, r))
 
 
 def movel(ctx, pose, a=1.2, v=0.25, t=0, r=0):
     """Linear TCP move (a [m/s²], v [m/s], t [s] overrides); blocks until done, or within r [m]."""
     target = _pose_target(ctx, pose)
-    ctx.wait_motion(_controller_call(ctx.controller.movel, target, a, v, t, r))
+    ctx.run_motion(lambda: _controller_call(ctx.controller.movel, target, a, v, t, r))
 
 
 def movep(ctx, pose, a=1.2, v=0.25, r=0):
@@ -294,12 +295,14 @@ def servoj(ctx, q, a=0, v=0, t=0.008, lookahead_time=0.1, gain=300):
 
 def stopj(ctx, a):
     """Decelerate the joints to rest at a [rad/s²]; blocks until the arm stands still."""
-    ctx.wait_motion(_controller_call(ctx.controller.stopj, _number(a, "a")))
+    deceleration = _number(a, "a")
+    ctx.run_motion(lambda: _controller_call(ctx.controller.stopj, deceleration))
 
 
 def stopl(ctx, a, aRot=None):
     """Decelerate the TCP to rest at a [m/s²]; blocks until the arm stands still."""
-    ctx.wait_motion(_controller_call(ctx.controller.stopl, _number(a, "a")))
+    deceleration = _number(a, "a")
+    ctx.run_motion(lambda: _controller_call(ctx.controller.stopl, deceleration))
 
 
 def sleep(ctx, t):
@@ -424,6 +427,11 @@ def get_target_tcp_speed(ctx):
 def get_actual_tool_flange_pose(ctx):
     """Flange (DH frame 6) pose in the base frame."""
     return _to_pose(ctx.controller.state().flange_pose)
+
+
+def get_tcp_force(ctx):
+    """Wrench at the TCP [N, Nm] in the base frame, as the controller reports it (a pose-typed value)."""
+    return _to_pose(ctx.controller.state().actual_tcp_force)
 
 
 def get_tcp_offset(ctx):
@@ -674,7 +682,7 @@ def _unsupported(name):
 
 
 UNSUPPORTED = (
-    "force_mode", "enable_external_ft_sensor", "ft_rtde_input_enable", "get_tcp_force", "get_joint_torques", "servoc",
+    "force_mode", "enable_external_ft_sensor", "ft_rtde_input_enable", "get_joint_torques", "servoc",
     "get_actual_joint_positions_history", "direct_torque", "get_mass_matrix", "get_coriolis_and_centrifugal_torques",
     "get_jacobian_time_derivative", "teach_mode_set_params", "set_analog_inputrange",
 )
@@ -710,7 +718,8 @@ def _table():
         "get_target_joint_speeds": get_target_joint_speeds, "get_actual_tcp_pose": get_actual_tcp_pose,
         "get_target_tcp_pose": get_target_tcp_pose, "get_actual_tcp_speed": get_actual_tcp_speed,
         "get_target_tcp_speed": get_target_tcp_speed, "get_actual_tool_flange_pose": get_actual_tool_flange_pose,
-        "get_tcp_offset": get_tcp_offset, "get_steptime": get_steptime, "get_forward_kin": get_forward_kin,
+        "get_tcp_offset": get_tcp_offset, "get_tcp_force": get_tcp_force, "get_steptime": get_steptime,
+        "get_forward_kin": get_forward_kin,
         "get_inverse_kin": get_inverse_kin, "get_inverse_kin_has_solution": get_inverse_kin_has_solution,
         "is_within_safety_limits": is_within_safety_limits, "get_target_waypoint": get_target_waypoint,
         # messages

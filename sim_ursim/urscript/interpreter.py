@@ -5,7 +5,8 @@ does before running). `Execution` runs one program: a main thread plus script th
 
 Scoping (URScript rules): the program's top level is the global scope; inside a function or thread an assignment
 writes an existing global unless the name was declared `local` there, otherwise it creates a local; `global x = v`
-always writes the global. Lists and poses are values: assignment and argument passing copy them.
+always writes the global. Lists and poses are values: assignment and argument passing copy them. `/` divides as
+real numbers (7 / 2 = 3.5); `%` keeps integers.
 
 Scheduling: like the controller, script threads do not run in parallel. A thread holds the execution's scheduler
 lock while it runs statements and gives it up when it waits for physical time (sleep, sync, a move, join). As on the
@@ -15,6 +16,7 @@ bounds the CPU a busy loop takes. Inside `enter_critical`/`exit_critical` the su
 other script thread runs in between.
 """
 import itertools
+import operator
 import threading
 from dataclasses import dataclass
 
@@ -193,20 +195,35 @@ class ThreadContext:
         """Block until the controller publishes a cycle after the current one (or this thread is cancelled)."""
         now = self.controller.state().cycle
         while not self.cancel.is_set() and self.controller.wait_cycle(now, timeout=0.05).cycle <= now:
-            pass
+            if not self.controller.running:  # no cycles will come: pace by the clock instead of spinning
+                self.cancel.wait(self.controller.period)
+                return
 
-    def wait_motion(self, motion):
-        """Block until `motion` is done (ScriptError with its error if it failed), interruptibly."""
-        self.motion = motion
-        with self.waiting():
-            motion.wait(cancel=self.cancel)
-            # The motion ends inside a control cycle whose snapshot is published just after: wait for it, so
-            # the next get_actual_* sees where the move ended.
-            self.controller.wait_cycle(self.controller.state().cycle, timeout=5 * self.controller.period)
-        self.motion = None
-        self.check()
-        if motion.error:
-            raise ScriptError(motion.error)
+    def run_motion(self, command):
+        """Issue a motion with `command()` (returns a Motion) and block until it is done, interruptibly.
+
+        ScriptError with the motion's error if it failed. A motion cut short because the program was paused (the
+        runner brings the arm to rest) is commanded again from where the arm stopped once the program resumes.
+        """
+        while True:
+            motion = command()
+            self.motion = motion
+            with self.waiting():
+                # Wake every control cycle: a stop/kill/new program interrupts the wait within one cycle.
+                while not motion.wait(timeout=self.controller.period) and not self.cancel.is_set():
+                    pass
+                if motion.done:
+                    # The motion ends inside a control cycle whose snapshot is published just after: wait for it,
+                    # so the next get_actual_* sees where the move ended.
+                    self.controller.wait_cycle(self.controller.state().cycle, timeout=5 * self.controller.period)
+            self.motion = None
+            paused_meanwhile = motion.error is not None and not self.execution.unpaused.is_set()
+            self.check()  # raises if cancelled; blocks while paused
+            if paused_meanwhile:
+                continue
+            if motion.error:
+                raise ScriptError(motion.error)
+            return
 
     def publish(self, message):
         """Send a robot message to the primary interface's subscribers."""
@@ -297,8 +314,10 @@ class Execution:
     # --- statements
     def exec_block(self, ctx, body):
         """Execute statements in order."""
+        unpaused = self.unpaused
         for statement in body:
-            ctx.check()
+            if ctx.cancel.is_set() or not unpaused.is_set():
+                ctx.check()
             ctx.time_slice()
             ctx.line = statement.line
             _STATEMENTS[type(statement)](self, ctx, statement)
@@ -347,6 +366,7 @@ class Execution:
             except _Continue:
                 pass
             ctx.check()
+            ctx.time_slice()  # each test of the condition is computation too
 
     def _exec_return(self, ctx, node):
         raise _Return(None if node.value is None else self.eval(ctx, node.value))
@@ -463,6 +483,9 @@ class Execution:
             if op == "or":
                 return truth(self.eval(ctx, node.left)) or truth(self.eval(ctx, node.right))
             left, right = self.eval(ctx, node.left), self.eval(ctx, node.right)
+            fast = _NUMERIC_FAST_PATH.get(op)
+            if fast is not None and type(left) in _PLAIN_NUMBERS and type(right) in _PLAIN_NUMBERS:
+                return fast(left, right)
             return _BINARY[op](left, right)
         except ScriptError as error:
             raise URScriptRuntimeError(node.line, node.column, error.text) from None
@@ -506,8 +529,10 @@ class Execution:
         for param, value in zip(params, args):
             frame[param.name] = copy_value(value)
         for name, value in kwargs.items():
-            if name not in {p.name for p in params} or name in frame:
-                raise URScriptRuntimeError(node.line, node.column, f"runtime_error:{function.name}:bad argument {name}:")
+            if name in frame or not any(p.name == name for p in params):
+                raise URScriptRuntimeError(
+                    node.line, node.column, f"runtime_error:{function.name}:bad argument {name}:"
+                )
             frame[name] = copy_value(value)
         for param in params:
             if param.name not in frame:
@@ -598,6 +623,13 @@ def _equal(left, right):
 def _xor(left, right):
     return truth(left) != truth(right)
 
+
+# Numbers on both sides (the common case): the operator itself, no type checks. Not / and %: they check for zero.
+_PLAIN_NUMBERS = (int, float)
+_NUMERIC_FAST_PATH = {
+    "+": operator.add, "-": operator.sub, "*": operator.mul, "<": operator.lt, "<=": operator.le,
+    ">": operator.gt, ">=": operator.ge, "==": operator.eq, "!=": operator.ne,
+}
 
 _BINARY = {
     "+": _arithmetic("+", lambda a, b: a + b),

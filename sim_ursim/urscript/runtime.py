@@ -3,13 +3,13 @@
 The primary/secondary/realtime servers hand every received script to `submit(source, origin)`.
 - A main program (a `def` program or statement lines) replaces the running one, as on the controller.
 - A `sec` program runs alongside the main one and does not change the program state; its errors are reported but
-  do not stop the main program.
+  do not stop the main program (the controller's ban on motion and sleep in `sec` programs is not enforced).
 - A script that fails to compile is reported (RuntimeExceptionMessage) and does not disturb the running program
   (the real controller's choice here is not documented).
 - Program state goes to the controller (`set_program_state`): runtime_state, robot_status_bits, dashboard and
   primary views all read it. KeyMessages PROGRAM_XXX_STARTED / PROGRAM_XXX_STOPPED carry the program name.
-- When a program is stopped, replaced or fails, the arm decelerates to rest; when it ends normally the last
-  commanded motion is left to finish.
+- When a program is stopped, replaced, paused or fails, the arm decelerates to rest (a paused move starts again
+  from there on resume); when it ends normally the last commanded motion is left to finish.
 """
 import logging
 import threading
@@ -22,6 +22,7 @@ from sim_ursim.urscript.parser import URScriptSyntaxError, parse
 
 log = logging.getLogger("sim_ursim.urscript")
 
+PAUSE_DECELERATION = 4.0  # rad/s²: a paused program's arm comes to rest smoothly (its move resumes on `resume`)
 JOIN_TIMEOUT = 2.0  # s: a cancelled program's threads end at their next statement or wait, far sooner than this
 
 
@@ -111,13 +112,15 @@ class ProgramRunner:
             self._controller.set_program_state(False)
 
     def pause(self):
-        """Pause the main program at its next statement (a move already under way finishes)."""
+        """Pause the main program at its next statement; the arm decelerates and the interrupted move is
+        commanded again on resume."""
         with self._lock:
             if self._main is None:
                 return
             self._paused = True
             self._main.execution.unpaused.clear()
             self._controller.set_program_state(True, True)
+        self._stop_arm(PAUSE_DECELERATION)
 
     def resume(self):
         """Resume a paused main program."""
@@ -176,12 +179,13 @@ class ProgramRunner:
         with self._lock:
             self._secondary = [r for r in self._secondary if r.execution is not execution]
 
-    def _stop_arm(self):
-        """Bring the arm to rest as the controller does when a program stops (nothing to do if it cannot move)."""
+    def _stop_arm(self, deceleration=PROTECTIVE_STOP_DECELERATION):
+        """Bring the arm to rest as the controller does when a program stops or pauses (nothing to do if it cannot
+        move)."""
         if not self._controller.state().motion_active:
             return
         try:
-            self._controller.stopj(PROTECTIVE_STOP_DECELERATION)
+            self._controller.stopj(deceleration)
         except CommandRefused:
             pass
 

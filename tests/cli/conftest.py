@@ -1,5 +1,8 @@
 """CLI tests run the installed `ur3dq` command in real subprocesses, with their own store, state dir and sim."""
+import io
+import os
 import subprocess
+import sys
 import time
 
 import pytest
@@ -15,6 +18,27 @@ def run_cli(tmp_path):
         return subprocess.run([UR3DQ, *map(str, args)], cwd=tmp_path, env=cli_env(tmp_path, **extra_env),
                               input=input if input is not None else "", capture_output=True, text=True,
                               timeout=timeout)
+
+    return run
+
+
+@pytest.fixture
+def run_in_process(tmp_path, monkeypatch, capsys):
+    """Like run_cli, but `ur3dq.cli.main` in this process (same code path, no interpreter start-up): for the many
+    bad-input cases that never reach a robot."""
+    from ur3dq.cli import main
+
+    def run(*args, input=""):
+        monkeypatch.chdir(tmp_path)
+        for key in [key for key in os.environ if key.startswith("UR3DQ_")]:
+            monkeypatch.delenv(key)
+        monkeypatch.setenv("UR3DQ_STATE_DIR", str(tmp_path / "state"))
+        monkeypatch.setattr(sys, "stdin", io.StringIO(input))
+        capsys.readouterr()
+        with pytest.raises(SystemExit) as exit_info:
+            main([str(arg) for arg in args])
+        out, err = capsys.readouterr()
+        return subprocess.CompletedProcess(args, exit_info.value.code, out, err)
 
     return run
 

@@ -67,14 +67,14 @@ def test_ik_lists_every_solution_and_each_reaches_the_pose(run_cli):
     assert "4 IK solutions" in table and table.count("°") > 24
 
 
-def test_unreachable_pose_is_one_clear_error(run_cli):
-    assert_one_line_error(run_cli("ik", 2, 0, 0, 0, 0, 0), 4, "unreachable", "too far")
+def test_unreachable_pose_is_one_clear_error(run_in_process):
+    assert_one_line_error(run_in_process("ik", 2, 0, 0, 0, 0, 0), 4, "unreachable", "too far")
 
 
-def test_bad_numbers_are_one_clear_error(run_cli):
-    assert_one_line_error(run_cli("fk", 0, 0, 0), 4, "expected 6 joint angles, got 3")
-    assert_one_line_error(run_cli("fk", 0, 0, 0, 0, 0, "nan"), 4, "finite")
-    assert run_cli("fk", 0, 0, 0, 0, 0, "x").returncode == 2
+def test_bad_numbers_are_one_clear_error(run_in_process):
+    assert_one_line_error(run_in_process("fk", 0, 0, 0), 4, "expected 6 joint angles, got 3")
+    assert_one_line_error(run_in_process("fk", 0, 0, 0, 0, 0, "nan"), 4, "finite")
+    assert run_in_process("fk", 0, 0, 0, 0, 0, "x").returncode == 2
 
 
 def test_poses_import_list_show_rename_rm_export(tmp_path, run_cli, thesis_store):
@@ -96,19 +96,19 @@ def test_poses_import_list_show_rename_rm_export(tmp_path, run_cli, thesis_store
     assert json.loads(reimported.stdout) == ["place-1"]
 
 
-def test_rm_without_an_answer_changes_nothing(run_cli, thesis_store):
+def test_rm_without_an_answer_changes_nothing(run_in_process, thesis_store):
     before = thesis_store.read_bytes()
-    assert_one_line_error(run_cli("poses", "rm", "cell-1"), 1, "--yes")
-    assert_one_line_error(run_cli("poses", "rm", "cell-1", input="n\n"), 1, "answered no")
+    assert_one_line_error(run_in_process("poses", "rm", "cell-1"), 1, "--yes")
+    assert_one_line_error(run_in_process("poses", "rm", "cell-1", input="n\n"), 1, "answered no")
     assert thesis_store.read_bytes() == before
 
 
 @pytest.mark.parametrize("command", [
     ["poses", "rm", "nope", "--yes"], ["run-poses", "nope", "--dry-run"], ["export-urscript", "cell-1", "nope"],
 ])
-def test_unknown_pose_name_is_a_clear_error_and_changes_nothing(run_cli, thesis_store, command):
+def test_unknown_pose_name_is_a_clear_error_and_changes_nothing(run_in_process, thesis_store, command):
     before = thesis_store.read_bytes()
-    assert_one_line_error(run_cli(*command), 3, "no pose named 'nope'", "cell-1")
+    assert_one_line_error(run_in_process(*command), 3, "no pose named 'nope'", "cell-1")
     assert thesis_store.read_bytes() == before
 
 
@@ -135,13 +135,13 @@ BROKEN = {
 
 @pytest.mark.parametrize("case", sorted(BROKEN))
 @pytest.mark.parametrize("command", [["poses", "list"], ["poses", "import", "more.txt"], ["record-pose", "--yes"]])
-def test_broken_store_is_one_clear_error_and_never_overwritten(tmp_path, run_cli, case, command):
+def test_broken_store_is_one_clear_error_and_never_overwritten(tmp_path, run_in_process, case, command):
     make_text, where, what = BROKEN[case]
     text = make_text(tmp_path)
     store = tmp_path / "poses.json"
     store.write_text(text)
     (tmp_path / "more.txt").write_text(thesis_lines_of(CONFIGS[:1]))
-    assert_one_line_error(run_cli(*command), 3, where, what)
+    assert_one_line_error(run_in_process(*command), 3, where, what)
     assert store.read_text() == text
 
 
@@ -180,10 +180,22 @@ def test_plot_writes_a_png(tmp_path, run_cli, recorded_store):
     assert_one_line_error(run_cli("plot", "-o", "path.png"), 1, "Overwrite")
 
 
-def test_unreachable_stored_pose_stops_the_plan_and_changes_nothing(tmp_path, run_cli):
+def test_unreachable_stored_pose_stops_the_plan_and_changes_nothing(tmp_path, run_in_process):
     (tmp_path / "far.txt").write_text(thesis_lines_of(CONFIGS[:1]) + "1 0 0 0 0 2.0 0 0\n")
-    assert run_cli("poses", "import", "far.txt").returncode == 0
+    assert run_in_process("poses", "import", "far.txt").returncode == 0
     before = (tmp_path / "poses.json").read_bytes()
     for command in (["run-poses", "--dry-run"], ["export-urscript"], ["plot"]):
-        assert_one_line_error(run_cli(*command), 4, "pose 'far-2' is unreachable on the ur3", "too far")
+        assert_one_line_error(run_in_process(*command), 4, "pose 'far-2' is unreachable on the ur3", "too far")
     assert (tmp_path / "poses.json").read_bytes() == before
+
+
+def test_dry_run_plan_reads_speed_in_degrees_with_deg(run_in_process, recorded_store):
+    from ur3dq.robot import motion
+
+    result = run_in_process("--deg", "run-poses", "--dry-run", "--speed", 30, "--json")
+    assert result.returncode == 0, result.stderr
+    plan = json.loads(result.stdout)["plan"]
+    assert [step["source"] for step in plan] == ["IK nearest recorded"] * 2
+    assert plan[1]["duration"] == pytest.approx(motion.movej_duration(CONFIGS[0], CONFIGS[1], 1.4, math.radians(30)))
+    too_far = run_in_process("--deg", "run-poses", "--dry-run", "--max-travel", 30)
+    assert_one_line_error(too_far, 4, "more than --max-travel")

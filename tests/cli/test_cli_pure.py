@@ -7,7 +7,7 @@ import pytest
 
 from ur3dq.cli import display
 from ur3dq.cli.app import Cancelled, exit_code_for, one_line
-from ur3dq.cli.commands_robot import clamp_to_model
+from ur3dq.cli.commands_robot import angular_option, clamp_to_model
 from ur3dq.cli.plan import plan_replay
 from ur3dq.cli.simstate import process_is_simulator, read_state, state_directory
 from ur3dq.errors import (
@@ -54,6 +54,12 @@ def test_clamp_to_model():
     for bad in (0.0, -1.0, math.nan, math.inf):
         with pytest.raises(ValueError, match="--speed must be a finite number > 0"):
             clamp_to_model(bad, UR3.max_joint_speed, "--speed")
+
+
+def test_angular_options_follow_deg():
+    assert angular_option(None, 1.05, deg=True) == 1.05  # defaults are radians whatever --deg says
+    assert angular_option(30.0, 1.05, deg=True) == pytest.approx(math.pi / 6)
+    assert angular_option(0.5, 1.05, deg=False) == 0.5
 
 
 def test_comment_text_keeps_comments_single_line_ascii():

@@ -66,13 +66,23 @@ def test_blended_loop_runs_every_pass_and_ends_at_the_last_pose(arm, run_cli, tm
     np.testing.assert_allclose(arm.joints(), PLACES[2], atol=1e-4)
 
 
+def test_the_urx_backend_records_and_replays_too(arm, run_cli, tmp_path):
+    arm.place(PLACES[1])
+    assert run_cli("--backend", "urx", "--host", arm.host, "record-pose", "--name", "u", "--yes").returncode == 0
+    np.testing.assert_allclose(PoseStore(tmp_path / "poses.json").get("u").joints, PLACES[1], atol=1e-9)
+    arm.place(PARK)
+    result = run_cli("--backend", "urx", "--host", arm.host, "run-poses", "--yes", *FAST)
+    assert result.returncode == 0, result.stderr
+    np.testing.assert_allclose(arm.joints(), PLACES[1], atol=1e-4)
+
+
 def test_dry_run_plans_but_does_not_move(arm, run_cli, tmp_path):
     arm.place(PLACES[0])
     assert run_cli("--host", arm.host, "record-pose", "--name", "far", "--yes").returncode == 0
     arm.place(PARK)
     result = run_cli("--host", arm.host, "run-poses", "--dry-run")
     assert result.returncode == 0, result.stderr
-    assert "far" in result.stdout and "IK, nearest the recorded joints" in result.stdout
+    assert "far" in result.stdout and "IK nearest recorded" in result.stdout
     time.sleep(0.3)
     np.testing.assert_allclose(arm.joints(), PARK, atol=1e-9)
 
@@ -119,6 +129,9 @@ def test_teach_records_each_enter_and_ends_freedrive(arm, tmp_path):
         process.stdin.write("station\n")
         process.stdin.flush()
         assert "recorded 'station'" in process.stderr.readline()
+        process.stdin.write("station\n")  # a taken name is refused, and teaching goes on
+        process.stdin.flush()
+        assert "not recorded: a pose named 'station' already exists" in process.stderr.readline()
         process.stdin.write("q\n")
         process.stdin.flush()
         stdout, stderr = process.communicate(timeout=20)
@@ -138,14 +151,14 @@ def test_teach_records_each_enter_and_ends_freedrive(arm, tmp_path):
 
 def test_two_record_pose_processes_at_once_keep_every_pose(arm, tmp_path):
     arm.place(PLACES[2])
-    loop = f"for i in 1 2 3 4; do {UR3DQ} --host {arm.host} record-pose --yes --note $0 || exit 1; done"
+    loop = f"for i in 1 2 3; do {UR3DQ} --host {arm.host} record-pose --yes --note $0 || exit 1; done"
     writers = [subprocess.Popen(["bash", "-c", loop, name], cwd=tmp_path, env=cli_env(tmp_path),
                                 stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True) for name in "ab"]
     errors = [writer.communicate(timeout=120)[1] for writer in writers]
     assert [writer.returncode for writer in writers] == [0, 0], errors
     stored = PoseStore(tmp_path / "poses.json").load()
-    assert sorted(p.name for p in stored) == sorted(f"pose-{n}" for n in range(1, 9))
-    assert sorted(p.note for p in stored) == ["a"] * 4 + ["b"] * 4
+    assert sorted(p.name for p in stored) == sorted(f"pose-{n}" for n in range(1, 7))
+    assert sorted(p.note for p in stored) == ["a"] * 3 + ["b"] * 3
 
 
 def test_taken_name_or_no_answer_records_nothing(arm, run_cli, tmp_path):

@@ -273,12 +273,30 @@ def test_ik_returns_the_weighted_nearest_of_all_variants(q, reference, weights):
     weights = np.array(weights)
     best = math.inf
     for solution in ur_ik.ik_all(model, pose, q_ref=reference):
-        for shifts in np.array(np.meshgrid(*[[-1, 0, 1]] * 6)).reshape(6, -1).T:
-            variant = solution + 2 * math.pi * shifts
-            if np.all(variant >= model.joint_lower) and np.all(variant <= model.joint_upper):
-                best = min(best, float(np.sum(weights * (variant - reference) ** 2)))
+        variants = ur_ik.joint_variants(model, solution)
+        best = min(best, float(np.min(np.sum(weights * (variants - reference) ** 2, axis=1))))
     assert float(np.sum(weights * (chosen - reference) ** 2)) == pytest.approx(best, rel=1e-9, abs=1e-12)
     assert_fk_matches(model, chosen, pose)
+
+
+def test_joint_variants_lists_every_2pi_shift_inside_the_limits():
+    model = robot_model("ur3")   # ±2π, wrist 3 unlimited (listed within ±2π)
+    variants = ur_ik.joint_variants(model, [0.5, -3.0, 0.0, 1.0, 2.0, 3.0])
+    per_joint = [sorted(set(np.round(variants[:, j], 12))) for j in range(6)]
+    assert per_joint[0] == pytest.approx([0.5 - 2 * math.pi, 0.5])
+    assert per_joint[1] == pytest.approx([-3.0, -3.0 + 2 * math.pi])
+    assert per_joint[2] == pytest.approx([-2 * math.pi, 0.0, 2 * math.pi])
+    assert len(variants) == 2 * 2 * 3 * 2 * 2 * 2
+    assert np.all(variants >= model.joint_lower) and np.all(variants <= model.joint_upper)
+
+
+def test_wrist_singular_pose_beyond_reach_says_so():
+    model = robot_model("ur3")
+    d4, d6 = model.dh.d[3], model.dh.d[5]
+    # z6 along z1 of θ1 = 0 with the wrist centre exactly d4 from the base axis: θ5 = 0 for the only θ1.
+    pose = DualQuaternion.from_ur_pose([0.0, -d4 - d6, 1.0, math.pi / 2, 0.0, 0.0])
+    with pytest.raises(UnreachablePoseError, match="wrist singular .* too far"):
+        ur_ik.ik_all(model, pose)
 
 
 # ------------------------------------------------------------------------------------------ TCP, calibrated

@@ -24,16 +24,16 @@ def inject(host, command, **arguments):
     return reply["message"]
 
 
-def simulator_with(calibration=None, **options):
-    """A context manager running `python -m sim_ursim` (UR3) with an optional DH calibration (deltas dict)."""
+def simulator_with(calibration=None, model="ur3", **options):
+    """A context manager running `python -m sim_ursim` (UR3 by default) with an optional DH calibration (deltas)."""
     from sim_ursim.testing import simulator_process
 
     if calibration is None:
-        return simulator_process(model="ur3", **options)
+        return simulator_process(model=model, **options)
     handle, path = tempfile.mkstemp(prefix="ur3dq-calibration-", suffix=".json")
     with os.fdopen(handle, "w") as calibration_file:
         json.dump(calibration, calibration_file)
-    return _removing(path, simulator_process(model="ur3", extra_args=("--calibration", path), **options))
+    return _removing(path, simulator_process(model=model, extra_args=("--calibration", path), **options))
 
 
 class _removing:

@@ -82,12 +82,12 @@ def test_drop_connections_closes_a_dashboard_client(sim):
 def test_latency_delays_every_reply(sim):
     connection, reader = dashboard_connection(sim.host)
     try:
-        sim.controller.faults.add_latency(0.3)
+        sim.controller.faults.add_latency(0.5)
         reply, elapsed = timed_reply(connection, reader, "robotmode")
-        assert reply == "Robotmode: POWER_OFF\n" and elapsed >= 0.3
+        assert reply == "Robotmode: POWER_OFF\n" and elapsed >= 0.5
         sim.controller.faults.reset()
         reply, elapsed = timed_reply(connection, reader, "robotmode")
-        assert elapsed < 0.3
+        assert reply == "Robotmode: POWER_OFF\n" and elapsed < 0.5
     finally:
         connection.close()
 
@@ -141,3 +141,40 @@ def test_execute_without_a_stop_hook_refuses_shutdown(sim):
     assert execute({"command": "shutdown"}, sim.controller)["ok"] is False
     assert execute("not a dict", sim.controller)["ok"] is False
     assert CONTROL_PORT == 29998
+
+
+# ------------------------------------------------------------------------------------------ seen by ur_rtde
+def wait_until(condition, timeout=5.0):
+    deadline = time.monotonic() + timeout
+    while not condition() and time.monotonic() < deadline:
+        time.sleep(0.02)
+    return condition()
+
+
+def test_faults_from_the_command_line_are_seen_by_ur_rtde():
+    # ur_rtde's RTDE constructors hold the GIL, hence a simulator process (see sim_ursim.testing).
+    import rtde_receive
+
+    from sim_ursim.testing import simulator_process
+
+    with simulator_process(model="ur3e") as sim:
+        receiver = rtde_receive.RTDEReceiveInterface(sim.host)
+        try:
+            assert send_request(sim.host, "emergency-stop")["ok"]
+            assert wait_until(receiver.isEmergencyStopped) and receiver.getSafetyMode() == SafetyMode.ROBOT_EMERGENCY_STOP
+            assert send_request(sim.host, "release-emergency-stop")["ok"]
+            assert wait_until(lambda: not receiver.isEmergencyStopped())
+            before = receiver.getTimestamp()
+            assert send_request(sim.host, "freeze", seconds=1.0)["ok"]
+            time.sleep(0.5)
+            frozen_at = receiver.getTimestamp()
+            time.sleep(0.3)
+            assert receiver.getTimestamp() == frozen_at and receiver.isConnected()  # nothing arrives, link kept
+            assert wait_until(lambda: receiver.getTimestamp() > frozen_at + 0.5)  # streaming again, time moved on
+            assert frozen_at - before < 0.1
+            assert send_request(sim.host, "drop-connections")["ok"]
+            assert wait_until(lambda: not receiver.isConnected())
+            receiver.reconnect()
+            assert receiver.isConnected() and wait_until(lambda: receiver.getTimestamp() > frozen_at + 1.0)
+        finally:
+            receiver.disconnect()

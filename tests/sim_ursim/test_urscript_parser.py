@@ -1,5 +1,7 @@
 """URScript parser: grammar coverage, precedence, line continuation, positions in errors."""
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from sim_ursim.urscript import nodes
 from sim_ursim.urscript.parser import URScriptSyntaxError, parse
@@ -9,6 +11,14 @@ def only_expression(source):
     """The expression of a one-statement script `x = <source>`."""
     (statement,) = parse(f"x = {source}\n").body
     return statement.value
+
+
+def signed_number(node):
+    """The value of a number literal, possibly negated by unary minus."""
+    if isinstance(node, nodes.Unary) and node.op == "-":
+        return -signed_number(node.operand)
+    assert isinstance(node, nodes.Literal)
+    return node.value
 
 
 def shape(node):
@@ -46,9 +56,24 @@ def test_operator_precedence(source, expected):
 
 
 def test_literals_numbers_strings_booleans():
-    values = [only_expression(text).value for text in ("12", "1.5", ".5", "2e3", "1.5E-2", '"hi"', "'yo'", "True", "False")]
+    texts = ("12", "1.5", ".5", "2e3", "1.5E-2", '"hi"', "'yo'", "True", "False")
+    values = [only_expression(text).value for text in texts]
     assert values == [12, 1.5, 0.5, 2000.0, 0.015, "hi", "yo", True, False]
     assert isinstance(values[0], int) and isinstance(values[3], float)
+
+
+def test_urx_number_formats_and_windows_line_endings():
+    body = parse("movej([1e-06, -0.5, 2E+3, 0, 0, 0], a=1.4, v=1.05)\r\n\tx = 1\r\n").body
+    assert [signed_number(item) for item in body[0].expr.args[0].items][:3] == [1e-06, -0.5, 2000.0]
+    assert body[1].name == "x"
+
+
+@given(st.lists(st.integers(-1000, 1000), min_size=1, max_size=8),
+       st.lists(st.sampled_from([" ", "\n", "\n    ", " # note\n", "\r\n\t"]), min_size=8, max_size=8))
+def test_line_breaks_inside_brackets_do_not_change_the_list(values, breaks):
+    text = "[" + ",".join(f"{b}{v}" for v, b in zip(values, breaks)) + breaks[0] + "]"
+    (statement,) = parse(f"x = {text}\n").body
+    assert [signed_number(item) for item in statement.value.items] == values
 
 
 def test_pose_literal_and_variable_named_p_indexing():

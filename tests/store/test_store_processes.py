@@ -1,5 +1,6 @@
 """The store across processes: kill -9 mid-write loses nothing committed; concurrent writers both keep their poses."""
-import random
+import dataclasses
+import os
 import subprocess
 import sys
 import time
@@ -28,26 +29,41 @@ def start_writer(store_path, prefix, count):
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
 
+def temporary_files(directory):
+    """The writers' temporary files in `directory` (present only while a write is under way, or after a crash)."""
+    return [entry.name for entry in os.scandir(directory) if entry.name.endswith(".tmp")]
+
+
 def test_kill_9_mid_write_keeps_every_committed_pose(tmp_path):
     store_path = tmp_path / "poses.json"
-    PoseStore(store_path).add_many(random_pose(f"old-{n}", n) for n in range(1, 201))
-    rng = random.Random(7)
-    committed = {f"old-{n}" for n in range(1, 201)}
+    # ~2 MB of notes make each write last long enough to be caught in the act
+    PoseStore(store_path).add_many(dataclasses.replace(random_pose(f"old-{n}", n), note="x" * 40_000)
+                                   for n in range(1, 51))
+    committed = {f"old-{n}" for n in range(1, 51)}
+    caught_mid_write = 0
     for round_number in range(3):
         writer = start_writer(store_path, f"r{round_number}", 10_000)
-        names = [writer.stdout.readline().strip() for _ in range(rng.randint(2, 6))]
-        time.sleep(rng.uniform(0.0, 0.03))      # land the kill anywhere in the next write
+        names = [writer.stdout.readline().strip()]  # the writer is up and has committed one pose
+        deadline = time.monotonic() + 30
+        while not temporary_files(tmp_path):  # a write is under way: kill it there
+            assert time.monotonic() < deadline and writer.poll() is None, "no write was ever seen under way"
+            time.sleep(0.0005)
         writer.kill()
         writer.wait()
+        names += [line.strip() for line in writer.stdout]  # every pose announced before the kill
         writer.stdout.close()
         writer.stderr.close()
         assert writer.returncode == -9
+        caught_mid_write += bool(temporary_files(tmp_path))
         committed.update(names)
         stored = {pose.name for pose in PoseStore(store_path).load()}
         assert committed <= stored, f"round {round_number}: lost {sorted(committed - stored)}"
         # at most the one write in flight when the kill landed may have completed unannounced
         assert len(stored - committed) <= 1
         committed = stored
+        for leftover in temporary_files(tmp_path):  # harmless debris of the killed write; clear it for the next
+            os.remove(tmp_path / leftover)
+    assert caught_mid_write >= 1, "no kill landed during a write; the test proved nothing"
 
 
 def test_two_writers_at_once_keep_all_hundred_poses(tmp_path):

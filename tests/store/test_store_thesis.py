@@ -1,4 +1,6 @@
 """Import and export of the thesis' 8-coefficient text lines `q.w q.x q.y q.z 0 p.x p.y p.z`."""
+from pathlib import Path
+
 import numpy as np
 import pytest
 from pyquaternion import Quaternion
@@ -65,3 +67,12 @@ def test_import_of_a_bad_file_adds_nothing(tmp_path):
     with pytest.raises(StoreError, match="no pose lines"):
         store.import_thesis_lines(empty, "ur3")
     assert (tmp_path / "poses.json").read_bytes() == before
+
+
+def test_the_shipped_examples_load_and_agree():
+    examples = Path(__file__).resolve().parents[2] / "poses"
+    poses = PoseStore(examples / "example-poses.json").load()
+    lines = parse_thesis_lines((examples / "thesis-poses.txt").read_text(), "thesis-poses.txt")
+    assert len(poses) == len(lines) >= 3
+    for pose, (_, line_pose) in zip(poses, lines):
+        assert pose.joints is not None and line_pose.is_close(pose.dq, 1e-12, 1e-12)

@@ -11,7 +11,9 @@ from pathlib import Path
 import click
 from rich.console import Console
 
+from ur3dq.cli.simstate import SimulatorError, running_simulator_host
 from ur3dq.errors import RobotConnectionError, RobotError, SafetyCheckError, StoreError, UR3DQError
+from ur3dq.kinematics import MODEL_NAMES
 from ur3dq.store import DEFAULT_STORE_PATH, PoseStore
 
 EXIT_OK = 0
@@ -88,12 +90,17 @@ def _set_flag(ctx, param, value):
         setattr(ctx.find_object(Settings), param.name, True)
 
 
-def display_options(command):
-    """Add --json and --deg to a command too, so `ur3dq fk ... --deg` works as well as `ur3dq --deg fk ...`."""
-    command = click.option("--json", "json", is_flag=True, expose_value=False, callback=_set_flag,
-                           help="Machine-readable JSON on stdout.")(command)
+def deg_option(command):
+    """Add --deg to a command too, so `ur3dq fk ... --deg` works as well as `ur3dq --deg fk ...`."""
     return click.option("--deg", "deg", is_flag=True, expose_value=False, callback=_set_flag,
                         help="Angles in degrees (input and display).")(command)
+
+
+def display_options(command):
+    """Add --json and --deg to a command too (as well as before the command)."""
+    command = click.option("--json", "json", is_flag=True, expose_value=False, callback=_set_flag,
+                           help="Machine-readable JSON on stdout.")(command)
+    return deg_option(command)
 
 
 def emit_json(data) -> None:
@@ -126,8 +133,7 @@ def confirm(question: str, assume_yes: bool, default: bool = True) -> None:
                    "`ur3dq sim start` is running.")
 @click.option("--backend", type=click.Choice(["rtde", "urx"]), default="rtde", show_default=True,
               help="Client library the driver uses for state and programs.")
-@click.option("--model", type=click.Choice(["ur3", "ur5", "ur10", "ur3e", "ur5e", "ur10e", "ur16e"],
-                                           case_sensitive=False),
+@click.option("--model", type=click.Choice(MODEL_NAMES, case_sensitive=False),
               help="Robot model: checked against the controller; for fk/ik/plot without a robot (default ur3).")
 @click.option("--store", "store_path", envvar="UR3DQ_STORE", default=DEFAULT_STORE_PATH, show_default=True,
               type=click.Path(dir_okay=False, path_type=Path), help="The JSON pose store (env UR3DQ_STORE).")
@@ -162,8 +168,6 @@ def one_line(error: BaseException) -> str:
 
 def exit_code_for(error: BaseException) -> int:
     """The documented exit code of an error raised by a command."""
-    from ur3dq.cli.simstate import SimulatorError
-
     if isinstance(error, Cancelled):
         return EXIT_CANCELLED
     if isinstance(error, SimulatorError):
@@ -207,8 +211,7 @@ def main(argv=None) -> None:
 def robot_session(settings: Settings, **options):
     """A connected Robot for the host the options (or the running embedded simulator) name; closed afterwards.
     `options` go to the driver's connect (e.g. max_joint_travel)."""
-    from ur3dq.cli.simstate import running_simulator_host
-    from ur3dq.robot import connect
+    from ur3dq.robot import connect  # the driver loads both client libraries: only for robot commands
 
     host = settings.host or running_simulator_host()
     if not host:

@@ -6,8 +6,10 @@ from pathlib import Path
 import click
 from rich.console import Console
 
-from ur3dq.cli.app import Settings, cli, confirm
-from ur3dq.cli.commands_robot import DEFAULT_ACCELERATION, DEFAULT_SPEED, speed_and_acceleration
+from ur3dq.cli.app import Settings, cli, confirm, deg_option
+from ur3dq.cli.commands_robot import (
+    DEFAULT_ACCELERATION, DEFAULT_SPEED, angular_option, motion_options, speed_and_acceleration,
+)
 from ur3dq.cli.plan import plan_replay
 from ur3dq.errors import StoreError
 from ur3dq.pose import utc_now_iso
@@ -38,16 +40,13 @@ def _writable_target(path: Path, yes: bool) -> None:
 @click.argument("names", nargs=-1)
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), default=Path("-"),
               show_default=True, help="The .script file to write (`-`: stdout).")
-@click.option("--speed", type=float, default=DEFAULT_SPEED, show_default=True, help="movej speed, rad/s.")
-@click.option("--acceleration", type=float, default=DEFAULT_ACCELERATION, show_default=True,
-              help="movej acceleration, rad/s².")
+@motion_options
 @click.option("--blend", type=float, default=0.0, show_default=True, help="Blend radius between poses, metres.")
 @click.option("--loop", "loops", type=click.IntRange(min=1), default=1, show_default=True,
               help="Repeat the sequence this many times.")
 @click.option("--joints", "replay_joints", is_flag=True, help="Use the recorded joints instead of solving IK.")
-@click.option("--max-travel", type=float, default=DEFAULT_MAX_JOINT_TRAVEL, show_default=True,
-              help="Refuse a move that swings a joint further than this (rad).")
 @click.option("--yes", "-y", is_flag=True, help="Overwrite the output file without asking.")
+@deg_option
 @click.pass_obj
 def export_urscript(settings: Settings, names, output: Path, speed, acceleration, blend, loops, replay_joints,
                     max_travel, yes):
@@ -64,7 +63,9 @@ def export_urscript(settings: Settings, names, output: Path, speed, acceleration
     """
     if blend < 0:
         raise ValueError(f"--blend must be a radius ≥ 0 in metres, got {blend!r}")
-    model, steps, a, v = offline_plan(settings, names, speed, acceleration, replay_joints, max_travel)
+    model, steps, a, v = offline_plan(settings, names, angular_option(speed, DEFAULT_SPEED, settings.deg),
+                                      angular_option(acceleration, DEFAULT_ACCELERATION, settings.deg),
+                                      replay_joints, angular_option(max_travel, DEFAULT_MAX_JOINT_TRAVEL, settings.deg))
     offsets = {step.pose.tcp_offset for step in steps}
     header = [
         f"ur3dq export-urscript: {len(steps)} poses from {settings.store_path} for a {model.name}",

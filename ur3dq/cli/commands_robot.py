@@ -16,8 +16,10 @@ from ur3dq.cli.display import (
     angle_text, angles_text, coefficients_text, distance_text, key_value_table, pose_vector_text,
 )
 from ur3dq.cli.plan import PlanStep, loop_closing_travel, plan_replay, tcp_pose_for
+from ur3dq.cli.simstate import running_simulator_host
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import ConnectionLostError, SafetyCheckError, StoreError
+from ur3dq.kinematics import robot_model
 from ur3dq.pose import Pose, next_free_name
 from ur3dq.robot.safety import DEFAULT_MAX_JOINT_TRAVEL
 
@@ -27,6 +29,30 @@ MAX_STATUS_AGE_S = 1.0       # a reading older than this is a frozen stream, not
 
 
 # ---------------------------------------------------------------- pure helpers
+
+
+def angular_option(value: float | None, default: float, deg: bool) -> float:
+    """An angular option (speed, acceleration, travel) in radians: `default` when not given, else the typed value,
+    read as degrees when `deg` (so `--deg --speed 30` is 30°/s, never 30 rad/s)."""
+    if value is None:
+        return default
+    return math.radians(value) if deg else value
+
+
+def motion_options(command):
+    """--speed, --acceleration and --max-travel, in radians (degrees with --deg); resolve with angular_option."""
+    command = click.option(
+        "--max-travel", type=float, default=None,
+        help="Refuse a plan in which one move swings a joint further than this (rad, ° with --deg) "
+             "[default: π rad].")(command)
+    command = click.option(
+        "--acceleration", type=float, default=None,
+        help=f"Leading joint acceleration, rad/s² (°/s² with --deg), clamped to the model "
+             f"[default: {DEFAULT_ACCELERATION} rad/s²].")(command)
+    return click.option(
+        "--speed", type=float, default=None,
+        help=f"Leading joint speed, rad/s (°/s with --deg), clamped to the model [default: {DEFAULT_SPEED} rad/s]."
+    )(command)
 
 
 def clamp_to_model(value: float, limits, name: str) -> tuple[float, bool]:
@@ -81,7 +107,7 @@ def plan_table(steps, deg: bool, title: str) -> Table:
     for index, step in enumerate(steps, start=1):
         travel = "—" if step.travel is None else angle_text(step.travel, deg)
         seconds = "—" if step.duration is None else f"{step.duration:.2f} s"
-        source = step.source + (f" ({step.solutions} solutions)" if step.solutions else "")
+        source = step.source + (f" (of {step.solutions})" if step.solutions else "")
         table.add_row(str(index), step.pose.name, angles_text(step.joints, deg), source, travel, seconds,
                       distance_text(step.fk_error_m, step.fk_error_rad))
     return table
@@ -238,8 +264,12 @@ def _teach(settings: Settings, robot, prefix: str, note: str) -> None:
             if text.lower() == "q":
                 break
             taken = [pose.name for pose in settings.store.load()]
-            pose = read_pose(robot, text or next_free_name(prefix, taken), note)
-            stored = settings.store.add(pose, number_if_taken=not text)
+            try:
+                pose = read_pose(robot, text or next_free_name(prefix, taken), note)
+                stored = settings.store.add(pose, number_if_taken=not text)
+            except (StoreError, ValueError) as error:  # a taken or bad name: say so and keep teaching
+                err.print(f"not recorded: {error}")
+                continue
             recorded.append(stored.name)
             err.print(f"recorded {stored.name!r}: {pose_vector_text(stored.ur_pose, settings.deg)}")
     finally:
@@ -255,18 +285,13 @@ def _teach(settings: Settings, robot, prefix: str, note: str) -> None:
 @click.argument("names", nargs=-1)
 @click.option("--dry-run", is_flag=True, help="Show the plan and stop (no robot needed; uses it if one is set).")
 @click.option("--yes", "-y", is_flag=True, help="Move without asking.")
-@click.option("--speed", type=float, default=DEFAULT_SPEED, show_default=True,
-              help="Leading joint speed in rad/s (clamped to the model).")
-@click.option("--acceleration", type=float, default=DEFAULT_ACCELERATION, show_default=True,
-              help="Leading joint acceleration in rad/s² (clamped to the model).")
+@motion_options
 @click.option("--blend", type=float, default=0.0, show_default=True,
               help="Blend radius in metres: the poses become one smooth path (0: stop at each pose).")
 @click.option("--loop", "loops", type=click.IntRange(min=1), default=1, show_default=True,
               help="Run the sequence this many times.")
 @click.option("--joints", "replay_joints", is_flag=True,
               help="Replay the recorded joint angles directly instead of solving IK.")
-@click.option("--max-travel", type=float, default=DEFAULT_MAX_JOINT_TRAVEL, show_default=True,
-              help="Refuse a plan in which one move swings a joint further than this (rad).")
 @display_options
 @click.pass_obj
 def run_poses(settings: Settings, names, dry_run, yes, speed, acceleration, blend, loops, replay_joints,
@@ -286,14 +311,14 @@ def run_poses(settings: Settings, names, dry_run, yes, speed, acceleration, blen
       ur3dq run-poses --joints --yes                         # the recorded joints, no IK
     """
     err = Console(stderr=True, highlight=False)
+    speed = angular_option(speed, DEFAULT_SPEED, settings.deg)
+    acceleration = angular_option(acceleration, DEFAULT_ACCELERATION, settings.deg)
+    max_travel = angular_option(max_travel, DEFAULT_MAX_JOINT_TRAVEL, settings.deg)
     poses = settings.store.select(names)
     if not poses:
         raise StoreError(f"{settings.store_path} has no poses: record some with `ur3dq record-pose`")
     if not (math.isfinite(blend) and blend >= 0):
         raise ValueError(f"--blend must be a radius ≥ 0 in metres, got {blend!r}")
-    from ur3dq.cli.simstate import running_simulator_host
-    from ur3dq.kinematics import robot_model
-
     if dry_run and not (settings.host or running_simulator_host()):
         model = robot_model(settings.model or poses[0].robot_model)
         a, v = speed_and_acceleration(model, speed, acceleration, err)

@@ -10,7 +10,9 @@ import numpy as np
 from rich.console import Console
 
 from ur3dq.cli.app import EXIT_NOT_REACHED, Settings, cli, display_options, emit_json
-from ur3dq.cli.commands_robot import execute_plan, plan_table, read_pose, reached_table, speed_and_acceleration
+from ur3dq.cli.commands_robot import (
+    angular_option, execute_plan, plan_table, read_pose, reached_table, speed_and_acceleration,
+)
 from ur3dq.cli.display import angles_text, pose_vector_text
 from ur3dq.cli.plan import plan_replay
 from ur3dq.cli.simstate import read_state, start_simulator, state_directory, stop_simulator
@@ -19,6 +21,8 @@ from ur3dq.store import PoseStore
 # Where the demo parks the arm and the places it records (rad): distinct, comfortably reachable, away from the
 # wrist singularity (wrist 2 ≠ 0, π), and each within π of the last so no move is refused for its travel.
 DEMO_PARK = (0.0, -math.pi / 2, 0.0, -math.pi / 2, 0.0, 0.0)
+DEMO_SPEED = 1.5         # rad/s: brisk enough for a demo, slow enough to watch
+DEMO_ACCELERATION = 3.0  # rad/s²
 DEMO_PLACES = (
     (0.0, -1.2, 1.0, -1.4, -1.57, 0.0),
     (0.8, -1.0, 1.3, -1.9, -1.57, 0.5),
@@ -102,8 +106,9 @@ def sim_status(settings: Settings):
 @cli.command()
 @click.option("--save", type=click.Path(dir_okay=False, path_type=Path),
               help="Keep the demo's pose store in this file (default: a temporary one, removed afterwards).")
-@click.option("--speed", type=float, default=1.5, show_default=True, help="movej speed, rad/s.")
-@click.option("--acceleration", type=float, default=3.0, show_default=True, help="movej acceleration, rad/s².")
+@click.option("--speed", type=float, default=None, help="movej speed, rad/s (°/s with --deg) [default: 1.5 rad/s].")
+@click.option("--acceleration", type=float, default=None,
+              help="movej acceleration, rad/s² (°/s² with --deg) [default: 3 rad/s²].")
 @click.option("--tolerance-mm", type=float, default=0.5, show_default=True,
               help="A replayed pose counts as reached within this distance.")
 @click.option("--tolerance-deg", type=float, default=0.1, show_default=True,
@@ -134,7 +139,9 @@ def demo(settings: Settings, save, speed, acceleration, tolerance_mm, tolerance_
             say(f"   serving on {simulator.host}; powering on and releasing the brakes")
             robot.power_on()
             robot.brake_release()
-            a, v = speed_and_acceleration(robot.model, speed, acceleration, Console(stderr=True))
+            a, v = speed_and_acceleration(robot.model, angular_option(speed, DEMO_SPEED, settings.deg),
+                                          angular_option(acceleration, DEMO_ACCELERATION, settings.deg),
+                                          Console(stderr=True))
             say(f"[bold]2.[/bold] Moving the arm to {len(DEMO_PLACES)} places and recording each into {store.path}")
             recorded = []
             for index, place in enumerate(DEMO_PLACES, start=1):

@@ -16,9 +16,9 @@ from ur3dq.pose import Pose
 from ur3dq.robot import motion
 
 SOURCE_RECORDED = "recorded joints"
-SOURCE_IK_RECORDED = "IK, nearest the recorded joints"
-SOURCE_IK_PREVIOUS = "IK, nearest the previous joints"
-SOURCE_IK_ZERO = "IK, nearest zero (no robot joints known)"
+SOURCE_IK_RECORDED = "IK nearest recorded"
+SOURCE_IK_PREVIOUS = "IK nearest previous"
+SOURCE_IK_ZERO = "IK nearest zero"  # no robot joints known (dry run without a robot)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -14,13 +14,14 @@ Paper mode reproduces the paper's numbers exactly, quirks included (checked agai
 * J's orientation rows are ∂log(r)/∂w (the paper's §3.3), half of ∂φ/∂w for the φ = 2·log(r) in e;
 * those rows use the paper's projection ∂σ_l/∂w_k = S((∂r/∂σ_l)*·∂r/∂w_k), which is the exact derivative when the
   rotation only changes about its own axis (planar chains such as the example); for spatial chains it weights the
-  off-axis components by (sin h / h)² (h = |log r|): still a descent direction near the goal, not the exact Jacobian;
+  off-axis components by (sin h / h)² (h = |log r|), so there paper mode follows the paper, not the exact Jacobian;
 * the iteration count is the number of loop passes, i.e. of poses evaluated, the start included (steps + 1).
 
-Improved mode (ours): Levenberg–Marquardt on the exact pose error (translation difference and the shortest
-rotation vector of r_goal·r*, so σ ≡ −σ), with the geometric Jacobian taken from the dual-quaternion pose
-Jacobian, Nielsen's gain-ratio damping update, and steps projected onto the joint limits. The error Jacobian differs
-from the true one by O(|error|), so convergence becomes quadratic near the goal.
+Improved mode (ours): Levenberg–Marquardt on the exact screw error 2·log(σ_goal·σ*) (the screw motion from the
+current pose to the goal, shortest, so σ ≡ −σ), whose Jacobian is the joint twists ξ_i themselves (exact when a
+single joint moves, so a misaligned base or wrist is corrected in one step instead of along a chord), rotation rows
+weighted by the chain's reach, damping μ = θ·‖error‖² adapted by the gain ratio, steps projected onto the joint
+limits. The twists differ from the true error Jacobian by O(|error|), so the convergence becomes quadratic.
 
 Units are the chain's: a chain in millimetres (the paper's example) gives errors in millimetres.
 """
@@ -32,7 +33,7 @@ import numpy as np
 
 from ur3dq import dqarray
 from ur3dq.dualquat import DualQuaternion
-from ur3dq.kinematics.chain import PRISMATIC, REVOLUTE, SerialChain
+from ur3dq.kinematics.chain import REVOLUTE, SerialChain
 
 PAPER = "paper"
 IMPROVED = "improved"
@@ -47,8 +48,11 @@ PAPER_MAX_ITERATIONS = 100
 
 IMPROVED_TOLERANCE = 1e-10
 IMPROVED_MAX_ITERATIONS = 50
-#: Initial Levenberg–Marquardt damping relative to the largest diagonal entry of JᵀJ (Madsen–Nielsen–Tingleff's τ).
+#: Initial Levenberg–Marquardt damping relative to the largest diagonal entry of JᵀJ (Madsen–Nielsen–Tingleff's τ,
+#: their value for a start believed close to the solution).
 IMPROVED_INITIAL_DAMPING = 1e-3
+# Damping this many times the largest diagonal entry of JᵀJ leaves steps ~1e-12 of the gradient step: stalled.
+_STALLED = 1e12
 
 
 # ----------------------------------------------------------------------------------------- pure building blocks
@@ -134,20 +138,29 @@ def paper_jacobian(chain: SerialChain, q) -> np.ndarray:
 
 
 def damped_least_squares_step(jacobian, error, alpha: float, gamma: float) -> np.ndarray:
-    """Δ = Jᵀ(J·Jᵀ + γ²I)⁻¹·α·error: the minimiser of ‖J·Δ − α·error‖² + γ²‖Δ‖² (seed 001 §3.2.1)."""
-    jacobian = np.asarray(jacobian, dtype=float)
-    rows = jacobian.shape[0]
-    return jacobian.T @ np.linalg.solve(jacobian @ jacobian.T + gamma * gamma * np.eye(rows), alpha * error)
+    """Δ = Jᵀ(J·Jᵀ + γ²I)⁻¹·α·error, the minimiser of ‖J·Δ − α·error‖² + γ²‖Δ‖² (seed 001 §3.2.1).
+
+    Computed as Σ s_i/(s_i² + γ²)·v_i·u_iᵀ·α·error over J's singular triplets, which is the same for γ > 0 and is
+    the pseudo-inverse step for γ = 0 even where J·Jᵀ is singular (6 rows, fewer joints: the planar example).
+    """
+    u, singular, vt = np.linalg.svd(np.asarray(jacobian, dtype=float), full_matrices=False)
+    denominator = singular * singular + gamma * gamma
+    # With γ = 0, singular values at rounding level are rank deficiency, not directions to divide by.
+    kept = denominator > (np.finfo(float).eps * max(float(singular.max(initial=0.0)), 1.0)) ** 2
+    gains = np.divide(singular, denominator, out=np.zeros_like(singular), where=kept)
+    return vt.T @ (gains * (u.T @ (alpha * np.asarray(error, dtype=float))))
 
 
-def geometric_jacobian(chain: SerialChain, q) -> np.ndarray:
-    """(6, n) [end-point linear velocity; angular velocity] per unit q̇_i, base frame, from the twists ξ_i = 2·σ̇·σ*:
-    angular u_i (0 if prismatic), linear = v_0 + u_i × t = u_i × (t − p_i) (revolute) or u_i (prismatic)."""
-    translation = chain.fk(q).translation
+def screw_jacobian(chain: SerialChain, q) -> np.ndarray:
+    """(6, n) joint twists as columns [u; p × u] (revolute) or [0; u] (prismatic), base frame: to first order
+    σ(q + Δq) = exp(½·Σ ξ_i Δq_i)·σ(q), so 2·log(σ_goal·σ*) ≈ J·Δq (exactly so when one joint moves)."""
     twists = joint_twists(chain, q)
-    angular = twists[:, 1:4]
-    linear = twists[:, 5:8] + np.cross(angular, translation)
-    return np.vstack((linear.T, angular.T))
+    return np.vstack((twists[:, 1:4].T, twists[:, 5:8].T))
+
+
+def screw_error(sigma, goal) -> np.ndarray:
+    """(6,) 2·log(σ_goal·σ*) = [angle·axis, v]: the screw motion (base frame) taking σ to σ_goal, shortest (σ ≡ −σ)."""
+    return 2.0 * dqarray.log(dqarray.multiply_unchecked(goal, dqarray.conjugate(sigma)))
 
 
 def pose_error(sigma, goal) -> np.ndarray:
@@ -159,13 +172,21 @@ def pose_error(sigma, goal) -> np.ndarray:
     )
 
 
+def characteristic_length(chain: SerialChain, q) -> float:
+    """Length of the polyline joint 1 → … → joint n → end at q (the reach); 1 when it is 0 (all axes meet)."""
+    _, points = chain.joint_axes(q)
+    polyline = np.vstack((points, chain.fk(q).translation))
+    length = float(np.sum(np.linalg.norm(np.diff(polyline, axis=0), axis=1)))
+    return length if length > 0.0 else 1.0
+
+
 def project_to_limits(q: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
     """q clamped joint by joint into [lower, upper] (the Euclidean projection onto the box)."""
     return np.minimum(np.maximum(q, lower), upper)
 
 
 # --------------------------------------------------------------------------------------------------- results
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class DLSResult:
     """Outcome of :func:`dls_ik`; the logs hold every accepted pose, the start first (for plots).
 
@@ -238,7 +259,8 @@ def dls_ik(chain, goal, q0, *, mode: str = PAPER, alpha: float | None = None, ga
         if gamma < 0.0:
             raise ValueError(f"gamma: the damping must be ≥ 0, got {gamma}")
     elif alpha is not None or gamma is not None:
-        raise ValueError("alpha: the improved mode sizes its own steps; alpha and gamma apply to mode='paper'")
+        name = "alpha" if alpha is not None else "gamma"
+        raise ValueError(f"{name}: applies to mode='paper' only; the improved mode sizes its own steps")
     default_tolerance, default_cap = (
         (PAPER_TOLERANCE, PAPER_MAX_ITERATIONS) if mode == PAPER else (IMPROVED_TOLERANCE, IMPROVED_MAX_ITERATIONS)
     )
@@ -272,42 +294,70 @@ def _solve_paper(chain, goal_vector, q0, alpha, gamma, tolerance, max_iterations
 
 
 def _solve_improved(chain, goal, q0, tolerance, max_iterations, lower, upper) -> DLSResult:
-    """Levenberg–Marquardt (Madsen, Nielsen & Tingleff 2004, alg. 3.16) on pose_error, steps projected on limits."""
+    """Levenberg–Marquardt on the screw error, rotation rows weighted by the chain's reach so metres (or
+    millimetres) and radians weigh alike; steps projected onto the limits.
+
+    The damping is μ = θ·‖residual‖² (Yamashita & Fukushima 2001: it vanishes quadratically near a zero-residual
+    solution, so the steps become Gauss–Newton's and convergence quadratic), with θ adapted by Nielsen's gain-ratio
+    rule (Madsen, Nielsen & Tingleff 2004, alg. 3.16): θ·max(1/3, 1 − (2ρ − 1)³) after a good step, ×2, ×4… after
+    a rejected one.
+    """
+    weights = np.concatenate((np.full(3, characteristic_length(chain, q0)), np.ones(3)))
+
+    def evaluate(q):
+        sigma = chain.fk(q).to_array()
+        return sigma, weights * screw_error(sigma, goal), float(np.linalg.norm(pose_error(sigma, goal)))
+
     q = q0
-    sigma = chain.fk(q).to_array()
-    error = pose_error(sigma, goal)
-    joints, poses, errors = [q], [sigma], [float(np.linalg.norm(error))]
+    sigma, residual, error = evaluate(q)
+    joints, poses, errors = [q], [sigma], [error]
     passes = 1
     damping, growth = None, 2.0
-    while errors[-1] >= tolerance and passes < max_iterations:
-        jacobian = geometric_jacobian(chain, q)
+    while error >= tolerance and passes < max_iterations:
+        jacobian = weights[:, None] * screw_jacobian(chain, q)
         normal = jacobian.T @ jacobian
-        gradient = jacobian.T @ error
+        gradient = jacobian.T @ residual
+        squared = float(residual @ residual)
         if damping is None:
-            damping = IMPROVED_INITIAL_DAMPING * float(np.max(np.diag(normal)))
-        step = np.linalg.solve(normal + damping * np.eye(len(q)), gradient)
+            damping = IMPROVED_INITIAL_DAMPING * float(np.max(np.diag(normal))) / squared
+        step = _damped_step(normal, gradient, damping * squared, q, lower, upper)
         trial_q = project_to_limits(q + step, lower, upper)
-        taken = trial_q - q
-        trial_sigma = chain.fk(trial_q).to_array()
-        trial_error = pose_error(trial_sigma, goal)
+        trial_sigma, trial_residual, trial_error = evaluate(trial_q)
         passes += 1
-        # Gain ratio: actual over predicted decrease of ½‖error‖², the prediction from the linear model for the
-        # step actually taken (after projection).
-        predicted = 0.5 * (error @ error - np.sum((error - jacobian @ taken) ** 2))
-        actual = 0.5 * (error @ error - trial_error @ trial_error)
-        ratio = actual / predicted if predicted > 0.0 else -1.0
-        if ratio > 0.0:
-            q, sigma, error = trial_q, trial_sigma, trial_error
+        # Gain ratio: actual over predicted decrease of ½‖residual‖², predicted by the linear model for the step
+        # actually taken (after projection onto the limits).
+        taken = trial_q - q
+        predicted = 0.5 * (squared - np.sum((residual - jacobian @ taken) ** 2))
+        actual = 0.5 * (squared - trial_residual @ trial_residual)
+        if predicted > 0.0 and actual > 0.0:
+            ratio = actual / predicted
+            q, sigma, residual, error = trial_q, trial_sigma, trial_residual, trial_error
             joints.append(q)
             poses.append(sigma)
-            errors.append(float(np.linalg.norm(error)))
+            errors.append(error)
             damping *= max(1.0 / 3.0, 1.0 - (2.0 * ratio - 1.0) ** 3)
             growth = 2.0
+        elif np.all(taken == 0.0) or damping * squared > _STALLED * float(np.max(np.diag(normal))):
+            break  # pinned against the limits, or damped to a standstill: no step left to try
         else:
             damping *= growth
             growth *= 2.0
-    return DLSResult(q=q, converged=errors[-1] < tolerance, iterations=passes, error=errors[-1], mode=IMPROVED,
+    return DLSResult(q=q, converged=error < tolerance, iterations=passes, error=error, mode=IMPROVED,
                      joint_log=np.array(joints), pose_log=np.array(poses), error_log=np.array(errors), goal=goal)
+
+
+def _damped_step(normal, gradient, damping, q, lower, upper) -> np.ndarray:
+    """Solution of (JᵀJ + μI)·h = Jᵀr, re-solved without the joints it would push further past a limit they sit on
+    (they keep h = 0), so the step stays a descent step of the joints that can move."""
+    free = np.ones(len(q), dtype=bool)
+    while True:
+        step = np.zeros(len(q))
+        system = normal[np.ix_(free, free)] + damping * np.eye(int(free.sum()))
+        step[free] = np.linalg.solve(system, gradient[free])
+        blocked = free & (((q <= lower) & (step < 0.0)) | ((q >= upper) & (step > 0.0)))
+        if not blocked.any():
+            return step
+        free &= ~blocked
 
 
 # ------------------------------------------------------------------------------------------------ validation

@@ -20,9 +20,13 @@ The thesis' equations, restated in the DH frames (its own frames differ by const
 Up to 2 × 2 × 2 = 8 branches, ordered (θ1 sign, θ5 sign, θ3 sign) with the + sign first.
 
 Singularities (defined behaviour, tested):
-  wrist (θ5 ≈ 0 or π, |sin(θ5/2)| or |cos(θ5/2)| < WRIST_SINGULAR_TOLERANCE): only Σ = θ4 + θ6 (or Δ = θ4 − θ6
-      for θ5 ≈ π, with θ2 + θ3 fixed) is defined; θ6 is set to the reference configuration's θ6 (0 without one)
-      so wrist 3 does not jump, θ4 takes the rest; the two θ5 signs merge.
+  wrist (θ5 ≈ 0 or π, |sin(θ5/2)| or |cos(θ5/2)| < WRIST_SINGULAR_TOLERANCE): axes 2, 3, 4 and 6 are parallel
+      and the orientation fixes only Σ = θ234 + θ6 (or Δ = θ234 − θ6 at θ5 ≈ π): a one-parameter family. θ6 is
+      set to the reference configuration's θ6 (0 without one: ik_all's documented choice) so wrist 3 does not
+      jump; θ234 takes the rest and θ2, θ3 follow from the position. When the arm cannot reach with that split
+      (the d5 offset turns with θ234), the nearest reachable split is used instead. The two θ5 signs merge.
+      Near the singularity (< WRIST_NEAR_TOLERANCE) the computed split carries rounding of ~ε/θ5; a branch it
+      pushes out of reach is moved back along the family the same way.
   shoulder (x5² + y5² = d4², the wrist centre's projection in the arm plane on the base axis): the two θ1 branches
       merge. UR arms have d4 > 0, so a wrist centre *on* the base axis is unreachable ("too close").
   stretched or folded elbow (cos θ3 = ±1): the two θ3 branches merge.
@@ -326,8 +330,9 @@ def _branches(ops, g: _Geometry, target, theta6_ref):
 # ---------------------------------------------------------------------------------- plain-float pose helpers
 def wrap_angle(angle):
     """Angle(s) mapped into (−π, π] (radians; floats or arrays, NaN stays NaN)."""
-    wrapped = np.mod(np.asarray(angle, dtype=float) + math.pi, _TWO_PI) - math.pi
-    # Rounding in the shift can land a hair outside: fold the ends back so the interval is exactly (−π, π].
+    angle = np.asarray(angle, dtype=float)
+    wrapped = angle - _TWO_PI * np.rint(angle / _TWO_PI)
+    # Rounding can land a hair outside [−π, π]: fold the ends back so the interval is exactly (−π, π].
     wrapped = np.where(wrapped <= -math.pi, wrapped + _TWO_PI, wrapped)
     return np.where(wrapped > math.pi, wrapped - _TWO_PI, wrapped)
 
@@ -424,16 +429,19 @@ def _unreachable_reason(g: _Geometry, target, branches) -> str:
         return (f"too close to the base axis: the wrist centre is {radial:.4f} m from it, "
                 f"less than the shoulder offset d4 = {abs(g.d4):.4f} m")
     reach_max, reach_min = abs(g.a2) + abs(g.a3), abs(abs(g.a2) - abs(g.a3))
-    needed = []
+    needed, singular_wrist = [], []
     for theta1 in _theta1_pair(_ScalarOps, g, x5, y5):
         cos1, sin1, reduced = _reduced_rotation(_ScalarOps, theta1, qw, qx, qy, qz)
-        for theta5, _, theta234 in _wrist_pair(_ScalarOps, reduced, 0.0)[:2]:
+        upper, lower, (singular, _, _) = _wrist_pair(_ScalarOps, reduced, 0.0)
+        singular_wrist.append(singular)
+        for theta5, _, theta234 in (upper, lower):
             needed.append(math.hypot(*_planar_arm(_ScalarOps, g, cos1, sin1, theta5, theta234, px, py, pz)))
+    prefix = "wrist singular (θ5 = 0 or π) and no θ4 ± θ6 split reaches: " if all(singular_wrist) else ""
     if all(n > reach_max for n in needed):
-        return (f"too far: the elbow would have to span {min(needed):.4f} m, "
+        return (f"{prefix}too far: the elbow would have to span {min(needed):.4f} m, "
                 f"the upper and lower arm reach at most {reach_max:.4f} m")
     if all(n < reach_min for n in needed):
-        return (f"too close: the elbow would have to span {max(needed):.4f} m, "
+        return (f"{prefix}too close: the elbow would have to span {max(needed):.4f} m, "
                 f"the folded arm reaches no closer than {reach_min:.4f} m")
     if any(all(math.isfinite(v) for v in branch) for branch in branches):
         return "no analytic branch passes the FK filter (numerically singular pose)"
@@ -477,12 +485,15 @@ def _is_new(solution, kept) -> bool:
 def _reference(q_ref, name: str = "q_ref") -> tuple:
     """Six finite floats of a joint reference; ValueError naming ``name`` otherwise."""
     try:
-        values = tuple(float(v) for v in q_ref)
+        # ndarray.tolist() gives Python floats in one call (iterating an array yields slow numpy scalars).
+        values = tuple(q_ref.tolist() if isinstance(q_ref, np.ndarray) and q_ref.ndim == 1 else
+                       (float(v) for v in q_ref))
+        values = tuple(float(v) for v in values)
     except (TypeError, ValueError) as exc:
         raise ValueError(f"{name}: expected 6 joint angles (radians), got {q_ref!r}") from exc
     if len(values) != 6:
         raise ValueError(f"{name}: expected 6 joint angles, got {len(values)}")
-    if not all(math.isfinite(v) for v in values):
+    if not math.isfinite(sum(values)):   # one sum is finite exactly when every term is (or it overflows: refuse)
         raise ValueError(f"{name}: contains NaN or infinite values")
     return values
 
@@ -529,25 +540,65 @@ def _weights(weights) -> tuple:
     return values
 
 
-def _variant_cost(g: _Geometry, solution, reference, weights, bound: float) -> float:
-    """Σ wᵢ·(qᵢ − refᵢ)² over the in-limit ±2π variants nearest ``reference``; inf if none fits or ≥ ``bound``."""
-    cost = 0.0
-    for angle, ref, low, high, weight in zip(solution, reference, g.lower, g.upper, weights):
-        variant = angle + _TWO_PI * round((ref - angle) / _TWO_PI)   # nearest of all variants, usually inside
-        if not low <= variant <= high:
-            variant = _closest_variant(angle, ref, low, high)
-            if variant is None:
-                return math.inf
-        cost += weight * (variant - ref) ** 2
-        if cost >= bound:   # cannot beat the best candidate so far: stop early
+def _joint_cost(g: _Geometry, joint: int, angle: float, reference, weights) -> float:
+    """wⱼ·(v − refⱼ)² for the ±2π variant v of ``angle`` inside joint ``joint``'s limits nearest refⱼ (inf: none)."""
+    ref = reference[joint]
+    variant = angle + _TWO_PI * round((ref - angle) / _TWO_PI)   # nearest of all variants, usually inside
+    if not g.lower[joint] <= variant <= g.upper[joint]:
+        variant = _closest_variant(angle, ref, g.lower[joint], g.upper[joint])
+        if variant is None:
             return math.inf
-    return cost
+    return weights[joint] * (variant - ref) ** 2
+
+
+def _nearest_candidate(g: _Geometry, candidates, reference, weights):
+    """The candidate with the least Σ wᵢ·(qᵢ − refᵢ)² over in-limit ±2π variants, or None if none fits.
+
+    Branch and bound: candidates are ranked by the joints that tell branches apart (θ1, θ5, θ3), whose costs
+    are shared between sibling branches (computed once per value), and the other joints are only added while a
+    candidate can still win.
+    """
+    shared = {}
+    ranked = []
+    for index, candidate in enumerate(candidates):
+        partial = 0.0
+        for joint in (0, 4, 2):
+            key = (joint, candidate[joint])
+            if key not in shared:
+                shared[key] = _joint_cost(g, joint, candidate[joint], reference, weights)
+            partial += shared[key]
+        ranked.append((partial, index))
+    ranked.sort()
+    best, best_cost = None, math.inf
+    for partial, index in ranked:
+        if partial >= best_cost:
+            break
+        candidate = candidates[index]
+        cost = partial
+        for joint in (1, 3, 5):
+            cost += _joint_cost(g, joint, candidate[joint], reference, weights)
+        if cost < best_cost:
+            best, best_cost = candidate, cost
+    return best
 
 
 def _nearest_joints(g: _Geometry, solution, reference) -> np.ndarray:
     """The joints of ``solution`` moved by ±2π to the in-limit variants nearest ``reference``."""
     return np.array([_closest_variant(angle, ref, low, high)
                      for angle, ref, low, high in zip(solution, reference, g.lower, g.upper)])
+
+
+def joint_variants(model, q) -> np.ndarray:
+    """(M, 6) every q + 2πk (per joint) inside the model's limits; an unlimited joint is listed within ±2π."""
+    g = _geometry(model)
+    per_joint = []
+    for angle, low, high in zip(_reference(q, "q"), g.lower, g.upper):
+        low = -_TWO_PI if math.isinf(low) else low
+        high = _TWO_PI if math.isinf(high) else high
+        first = angle + _TWO_PI * math.ceil((low - angle) / _TWO_PI)
+        per_joint.append(np.arange(first, high + 1e-12, _TWO_PI) if first <= high else np.empty(0))
+    grids = np.meshgrid(*per_joint, indexing="ij")
+    return np.stack([grid.ravel() for grid in grids], axis=-1)
 
 
 def ik(model, pose, q_ref, weights=None) -> np.ndarray:
@@ -564,11 +615,7 @@ def ik(model, pose, q_ref, weights=None) -> np.ndarray:
     remaining = list(candidates)
     # Nearest first, FK filter only on the winner (usually one FK evaluation); a rejected winner is dropped.
     while remaining:
-        best, best_cost = None, math.inf
-        for candidate in remaining:
-            cost = _variant_cost(g, candidate, reference, weight, best_cost)
-            if cost < best_cost:
-                best, best_cost = candidate, cost
+        best = _nearest_candidate(g, remaining, reference, weight)
         if best is None:
             break
         if _meets(model, best, tcp_target):
@@ -654,35 +701,70 @@ def _refine_batch(g: _Geometry, q: np.ndarray, targets: np.ndarray):
 
 
 def _batch_candidates(g: _Geometry, targets: tuple, theta6_ref) -> np.ndarray:
-    """(N, 8, 6) canonical analytic branches of flange targets (seven (N,) arrays), refined if calibrated."""
-    branches = _branches(_ArrayOps, g, targets, theta6_ref)
-    candidates = np.stack([np.stack(np.broadcast_arrays(*branch), axis=-1) for branch in branches], axis=1)
+    """(6, 8, N) canonical analytic branches (joint, branch, pose) of flange targets (seven (N,) arrays).
+
+    Joint-major layout: every joint of every branch is one contiguous run, which is what the elementwise
+    kernels (and the model's fk_batch, reading columns) want; refined by Newton first on calibrated models.
+    """
+    count = len(targets[0])
+    columns = np.empty((6, 8, count))
+    for k, branch in enumerate(_branches(_ArrayOps, g, targets, theta6_ref)):
+        for j, value in enumerate(branch):
+            columns[j, k] = value
     if g.calibrated:
-        flat = candidates.reshape(-1, 6)
-        repeated = np.repeat(np.stack(targets, axis=-1), 8, axis=0)
+        flat = columns.reshape(6, -1).T
+        repeated = np.tile(np.stack(targets, axis=-1), (8, 1))
         usable = np.all(np.isfinite(flat), axis=1)
         refined, residual = _refine_batch(g, flat[usable], repeated[usable])
         flat = flat.copy()
         flat[usable] = np.where((residual <= CALIBRATED_TOLERANCE)[:, None], refined, np.nan)
-        candidates = flat.reshape(candidates.shape)
-    return wrap_angle(candidates)
+        columns = np.ascontiguousarray(flat.T).reshape(6, 8, count)
+    # θ2, θ3 come from atan2 already in (−π, π]; θ1, θ4, θ6 are sums and θ5 may be −π.
+    for j in (0, 3, 4, 5):
+        columns[j] = wrap_angle(columns[j])
+    return columns
 
 
-def _fk_filter(model, candidates: np.ndarray, poses: np.ndarray) -> np.ndarray:
-    """Candidates (N, 8, 6) with the branches that fail the FK filter (eq. 4.45) or repeat another set set to NaN."""
-    flat = candidates.reshape(-1, 6)
-    exists = np.all(np.isfinite(flat), axis=1)
-    fk = model.fk_batch(np.where(exists[:, None], flat, 0.0)).reshape(candidates.shape[:2] + (8,))
-    fk_pair = tuple(fk[..., i] for i in range(4)) + tuple(np.moveaxis(dqarray.translation_unchecked(fk), -1, 0))
-    target_translation = dqarray.translation_unchecked(poses)
-    target_pair = tuple(poses[:, None, i] for i in range(4)) + tuple(target_translation[:, None, i] for i in range(3))
-    metres, radians = _pose_error(_ArrayOps, fk_pair, target_pair)
-    keep = exists.reshape(candidates.shape[:2]) & (metres <= FK_TOLERANCE_M) & (radians <= FK_TOLERANCE_RAD)
+def _translation_columns(c) -> tuple:
+    """(x, y, z) = vector part of 2·d·r* from the 8 coefficient columns c of unit dual quaternions."""
+    rw, rx, ry, rz, dw, dx, dy, dz = c
+    return (2.0 * (-dw * rx + dx * rw - dy * rz + dz * ry), 2.0 * (-dw * ry + dx * rz + dy * rw - dz * rx),
+            2.0 * (-dw * rz - dx * ry + dy * rx + dz * rw))
+
+
+def _fk_filter(model, columns: np.ndarray, poses: np.ndarray) -> np.ndarray:
+    """(8, N) mask of the branches (6, 8, N) whose FK meets poses (N, 8) (the thesis' filter, eq. 4.45).
+
+    Position: |Δt|² ≤ FK_TOLERANCE_M². Rotation: the chord |r_fk − ±r| = 2 sin(angle/4), so angle ≤ tol exactly
+    when chord ≤ 2 sin(tol/4) — squared sums of differences, no cancellation-prone dot product.
+    """
+    exists = ~np.isnan(columns).any(axis=0)
+    fk = model.fk_batch(np.where(exists, columns, 0.0).reshape(6, -1).T)
+    fk_columns = [fk[:, i].reshape(exists.shape) for i in range(8)]
+    target_columns = [poses[:, i] for i in range(8)]
+    position_error2 = sum((a - b) ** 2 for a, b in zip(_translation_columns(fk_columns),
+                                                      _translation_columns(target_columns)))
+    sign = np.where(sum(a * b for a, b in zip(fk_columns[:4], target_columns[:4])) < 0.0, -1.0, 1.0)
+    chord2 = sum((a - sign * b) ** 2 for a, b in zip(fk_columns[:4], target_columns[:4]))
+    chord_limit = 2.0 * math.sin(0.25 * FK_TOLERANCE_RAD)
+    return exists & (position_error2 <= FK_TOLERANCE_M ** 2) & (chord2 <= chord_limit ** 2)
+
+
+def _drop_duplicates(columns: np.ndarray, keep: np.ndarray) -> np.ndarray:
+    """``keep`` (8, N) with every branch that repeats (within DUPLICATE_TOLERANCE, mod 2π) a kept earlier one cleared."""
+    keep = keep.copy()
     for later in range(1, 8):
         for earlier in range(later):
-            difference = np.abs(wrap_angle(candidates[:, later] - candidates[:, earlier]))
-            keep[:, later] &= ~(np.all(difference < DUPLICATE_TOLERANCE, axis=-1) & keep[:, earlier])
-    return np.where(keep[..., None], candidates, np.nan)
+            difference = columns[:, later] - columns[:, earlier]
+            difference -= _TWO_PI * np.rint(difference / _TWO_PI)
+            same = np.all(np.abs(difference) < DUPLICATE_TOLERANCE, axis=0)
+            keep[later] &= ~(same & keep[earlier])
+    return keep
+
+
+def _as_rows(columns: np.ndarray) -> np.ndarray:
+    """(N, 8, 6) contiguous array of (6, 8, N) columns."""
+    return np.ascontiguousarray(columns.transpose(2, 1, 0))
 
 
 def ik_all_batch(model, poses, q_ref=None) -> np.ndarray:
@@ -693,9 +775,10 @@ def ik_all_batch(model, poses, q_ref=None) -> np.ndarray:
     """
     g = _geometry(model)
     poses = _batch_poses(poses)
-    targets = _batch_flange_targets(g, poses)
     theta6_ref = 0.0 if q_ref is None else wrap_angle(_batch_reference(q_ref, len(poses))[:, 5])
-    return _fk_filter(model, _batch_candidates(g, targets, theta6_ref), poses)
+    columns = _batch_candidates(g, _batch_flange_targets(g, poses), theta6_ref)
+    keep = _drop_duplicates(columns, _fk_filter(model, columns, poses))
+    return _as_rows(np.where(keep, columns, np.nan))
 
 
 def _batch_reference(q_ref, count: int) -> np.ndarray:
@@ -710,17 +793,16 @@ def _batch_reference(q_ref, count: int) -> np.ndarray:
     return reference
 
 
-def _nearest_variants(g: _Geometry, solutions: np.ndarray, reference: np.ndarray) -> np.ndarray:
-    """(N, 8, 6) ±2π variants nearest ``reference`` (N, 1, 6) inside the limits; NaN where none fits."""
-    centre = solutions + _TWO_PI * np.round((reference - solutions) / _TWO_PI)
-    variants = centre[..., None] + np.array([0.0, -_TWO_PI, _TWO_PI])
-    lower, upper = np.array(g.lower)[:, None], np.array(g.upper)[:, None]
-    with np.errstate(invalid="ignore"):
-        distance = np.where((variants >= lower) & (variants <= upper), np.abs(variants - reference[..., None]),
-                            np.inf)
-    choice = np.argmin(distance, axis=-1)
-    best = np.take_along_axis(variants, choice[..., None], axis=-1)[..., 0]
-    return np.where(np.isfinite(np.min(distance, axis=-1)), best, np.nan)
+def _nearest_variants(g: _Geometry, columns: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """(6, 8, N) ±2π variants of the branches nearest ``reference`` (6, 1, N) inside the limits; NaN if none fits."""
+    centre = columns + _TWO_PI * np.rint((reference - columns) / _TWO_PI)
+    lower, upper = np.array(g.lower)[:, None, None], np.array(g.upper)[:, None, None]
+    best = np.where((centre >= lower) & (centre <= upper), centre, np.nan)   # nearest of all, usually inside
+    for shifted in (centre - _TWO_PI, centre + _TWO_PI):
+        inside = (shifted >= lower) & (shifted <= upper)
+        nearer = inside & ~(np.abs(best - reference) <= np.abs(shifted - reference))
+        best = np.where(nearer, shifted, best)
+    return best
 
 
 def ik_batch(model, poses, q_ref, weights=None) -> np.ndarray:
@@ -728,11 +810,16 @@ def ik_batch(model, poses, q_ref, weights=None) -> np.ndarray:
     the pose is unreachable or no solution lies inside the joint limits (no exception: batches keep going)."""
     poses = _batch_poses(poses)
     reference = _batch_reference(q_ref, len(poses))
-    weight = np.array(_weights(weights))
-    solutions = ik_all_batch(model, poses, reference)
-    variants = _nearest_variants(_geometry(model), solutions, reference[:, None, :])
-    cost = np.sum(weight * (variants - reference[:, None, :]) ** 2, axis=-1)
-    cost = np.where(np.isnan(cost), np.inf, cost)
-    best = np.argmin(cost, axis=1)
-    chosen = variants[np.arange(len(poses)), best]
-    return np.where(np.isfinite(cost[np.arange(len(poses)), best])[:, None], chosen, np.nan)
+    weight = np.array(_weights(weights))[:, None, None]
+    g = _geometry(model)
+    columns = _batch_candidates(g, _batch_flange_targets(g, poses), wrap_angle(reference[:, 5]))
+    # Duplicates cannot change which branch is nearest: only the FK filter is needed here.
+    valid = _fk_filter(model, columns, poses)
+    reference_columns = reference.T[:, None, :]
+    variants = _nearest_variants(g, columns, reference_columns)
+    cost = np.sum(weight * (variants - reference_columns) ** 2, axis=0)
+    cost = np.where(valid & ~np.isnan(cost), cost, np.inf)
+    best = np.argmin(cost, axis=0)
+    chosen = np.take_along_axis(variants, best[None, None, :], axis=1)[:, 0, :].T
+    reachable = np.isfinite(np.take_along_axis(cost, best[None, :], axis=0)[0])
+    return np.where(reachable[:, None], chosen, np.nan)

@@ -382,13 +382,14 @@ class Robot:
 
 
 class _MotionWatch:
-    """What is known about one sent program: started (key message or state), and the controller's last error."""
+    """What is known about one sent program: started/stopped (key messages or state), and the controller's errors."""
 
     def __init__(self, name, target, far_from_target):
         self.name = name
         self.target = np.asarray(target, dtype=float)
         self.far_from_target = far_from_target  # arriving at the target then proves the program ran
         self.started = False
+        self.stopped = False
         self.last_error_text = None
         self.runtime_error = None  # raised once the state had time to show a safety stop behind it instead
         self._ended_at = None
@@ -399,7 +400,7 @@ class _MotionWatch:
         if primary.is_program_started(message, self.name):
             self.started = True
         elif primary.is_program_stopped(message, self.name):
-            self.started = True  # it ran, however briefly
+            self.started = self.stopped = True
         elif isinstance(message, primary.RuntimeExceptionMessage) and self.runtime_error is None:
             self.runtime_error = ProgramError(
                 f"the controller reported an error in program {self.name} at line {message.line}, "
@@ -420,8 +421,9 @@ class _MotionWatch:
             elif now - self._error_at > SETTLE_TIME:
                 raise self.runtime_error
             return False
-        # The state stream has the last word on "running": a key message can arrive a cycle before it agrees.
-        if status.program_running:
+        # The controller's key message announces the end a state cycle before the state stream agrees; waiting
+        # for the stream too would add that cycle to every move.
+        if status.program_running and not self.stopped:
             self.started, self._ended_at = True, None
             return False
         if state.at_rest_at(status, self.target) and (self.started or self.far_from_target):
