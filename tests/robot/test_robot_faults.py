@@ -113,6 +113,7 @@ def test_dropped_connection_during_motion_then_reconnect_without_resending(sim_r
     status = robot.state()  # reconnects the streams with backoff
     assert status.age < 0.5 and not status.program_running
     assert_at_rest_short_of(robot, target)  # stopped, and the motion was not re-sent
+    robot.power_on()  # the dashboard reconnects too
     robot.movej(home)  # usable again
 
 

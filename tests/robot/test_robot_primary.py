@@ -2,7 +2,6 @@
 import math
 import struct
 
-import numpy as np
 import pytest
 
 from ur3dq.robot import primary

@@ -448,25 +448,18 @@ def _unreachable_reason(g: _Geometry, target, branches) -> str:
     return "out of reach of every elbow branch for this wrist orientation"
 
 
-def _refine_calibrated(g: _Geometry, q, target):
-    """Newton steps on the calibrated FK from the nominal solution q; the refined q (floats) or None if no convergence."""
-    refined, residual = _refine_batch(g, np.array([q], dtype=float), np.array([target], dtype=float))
-    if not residual[0] <= CALIBRATED_TOLERANCE:
-        return None
-    return tuple(refined[0].tolist())
+def _refine_calibrated(g: _Geometry, branches: list, target) -> list:
+    """Newton steps on the calibrated FK from the nominal branches; those that converge, as float tuples."""
+    refined, residual = _refine_batch(g, np.array(branches, dtype=float), np.tile(np.array(target), (len(branches), 1)))
+    return [tuple(q) for q, r in zip(refined.tolist(), residual.tolist()) if r <= CALIBRATED_TOLERANCE]
 
 
 def _solution_candidates(g: _Geometry, target, theta6_ref: float) -> list:
     """Existing analytic branches of ``target`` (flange pair), refined if calibrated; unwrapped, not yet filtered."""
-    candidates = []
-    for branch in _branches(_ScalarOps, g, target, theta6_ref):
-        if branch[1] != branch[1] or branch[0] != branch[0]:   # NaN: this branch does not exist
-            continue
-        if g.calibrated:
-            branch = _refine_calibrated(g, branch, target)
-            if branch is None:
-                continue
-        candidates.append(branch)
+    candidates = [branch for branch in _branches(_ScalarOps, g, target, theta6_ref)
+                  if branch[1] == branch[1] and branch[0] == branch[0]]   # NaN: the branch does not exist
+    if g.calibrated and candidates:
+        return _refine_calibrated(g, candidates, target)
     return candidates
 
 

@@ -31,38 +31,27 @@ def unlock_refusal(reply):
 
 
 class Dashboard:
-    """A ur_rtde DashboardClient connected to `host`; `close()` disconnects."""
+    """A ur_rtde DashboardClient connected to `host`, reconnected once when a command finds it dropped."""
 
     def __init__(self, host, port=DASHBOARD_PORT, timeout_ms=2500):
-        self._client = dashboard_client.DashboardClient(host, port)
-        try:
-            self._client.connect(timeout_ms)
-        except RuntimeError as error:
-            raise RobotConnectionError(f"cannot reach the dashboard server at {host}:{port}: {error}") from None
+        self.host, self.port, self._timeout_ms = host, port, timeout_ms
+        self._client = self._connected_client()
 
     def robot_model_reply(self):
         """The raw reply to `get robot model` (e.g. 'UR3')."""
-        return self._call(self._client.getRobotModel)
+        return self._call(lambda client: client.getRobotModel())
 
     def power_on(self):
         """Send `power on` (the caller watches the robot mode reach IDLE)."""
-        self._call(self._client.powerOn)
+        self._call(lambda client: client.powerOn())
 
     def brake_release(self):
         """Send `brake release` (the caller watches the robot mode reach RUNNING)."""
-        self._call(self._client.brakeRelease)
-
-    def power_off(self):
-        """Send `power off`."""
-        self._call(self._client.powerOff)
+        self._call(lambda client: client.brakeRelease())
 
     def unlock_protective_stop(self):
         """Send `unlock protective stop`; ProtectiveStopError with the controller's reason if it refuses."""
-        try:
-            self._client.send("unlock protective stop\n")
-            reply = self._client.receive()
-        except RuntimeError as error:
-            raise RobotConnectionError(f"dashboard connection failed: {error}") from None
+        reply = self._call(lambda client: (client.send("unlock protective stop\n"), client.receive())[1])
         refusal = unlock_refusal(reply)
         if refusal is not None:
             raise ProtectiveStopError(f"the controller refused to unlock the protective stop: {refusal}")
@@ -74,9 +63,27 @@ class Dashboard:
         except RuntimeError:
             pass
 
-    def _call(self, method):
-        """Call a DashboardClient method, turning its transport errors into RobotConnectionError."""
+    def _connected_client(self):
+        """A new DashboardClient that has read the server's greeting."""
+        client = dashboard_client.DashboardClient(self.host, self.port)
         try:
-            return method()
+            client.connect(self._timeout_ms)
         except RuntimeError as error:
-            raise RobotConnectionError(f"dashboard connection failed: {error}") from None
+            raise RobotConnectionError(f"cannot reach the dashboard server at {self.host}:{self.port}: {error}") \
+                from None
+        return client
+
+    def _call(self, command):
+        """command(client), retried once on a fresh connection if the old one was dropped (dashboard commands
+        are idempotent: sending one twice leaves the controller as sending it once)."""
+        if self._client.isConnected():
+            try:
+                return command(self._client)
+            except RuntimeError:
+                pass
+        self.close()
+        self._client = self._connected_client()
+        try:
+            return command(self._client)
+        except RuntimeError as error:
+            raise RobotConnectionError(f"dashboard command to {self.host} failed: {error}") from None
