@@ -5,7 +5,8 @@ Printed:
     ur3dq's paper mode;
   - the improved mode on the same example (goal: ‖g − e‖ < 1e-9 in ≤ 8 iterations; paper mode: 17 ± 3);
   - on a UR3 from random starts near random goals: passes and time per solve of the improved mode, of the paper
-    mode (both ur3dq) and, as the named peer, ur-analytic-ik's closed-form inverse_kinematics per call, with ratios.
+    mode as published and with the exact Jacobian (all ur3dq) and, as the named peer, ur-analytic-ik's closed-form
+    inverse_kinematics per call, with ratios.
 
 Iterations are counted as the paper counts them: loop passes, i.e. poses evaluated, the start included.
 
@@ -70,22 +71,28 @@ def print_ur3_runs(goals: int):
     poses = [model.fk(q) for q in q_goals]
     print(f"UR3, {goals} random goals, starts within ±0.2 rad")
     timings = {}
-    for mode, tolerance in ((IMPROVED, None), (PAPER, 1e-6)):
+    runs = {
+        "improved": dict(mode=IMPROVED),
+        "paper": dict(mode=PAPER, tolerance=1e-6),
+        "paper, exact J, γ=0.22e-3": dict(mode=PAPER, tolerance=1e-6, jacobian="exact", gamma=0.22e-3),
+    }
+    for name, options in runs.items():
         results = []
         started = time.perf_counter()
         for pose, start in zip(poses, starts):
-            results.append(dls_ik(model, pose, start, mode=mode, tolerance=tolerance, max_iterations=300))
-        timings[mode] = (time.perf_counter() - started) / goals
+            results.append(dls_ik(model, pose, start, max_iterations=300, **options))
+        timings[name] = (time.perf_counter() - started) / goals
         passes = np.array([r.iterations for r in results])
         converged = sum(r.converged for r in results)
-        print(f"  ur3dq {mode:8s} to {tolerance or 1e-10:.0e}: converged {converged}/{goals}, passes median "
-              f"{np.median(passes):.0f}, p95 {np.quantile(passes, 0.95):.0f}, max {passes.max()}; "
-              f"{timings[mode] * 1e3:.2f} ms per solve")
+        print(f"  ur3dq {name:26s} to {options.get('tolerance', 1e-10):.0e}: converged {converged}/{goals}, "
+              f"passes median {np.median(passes):.0f}, p95 {np.quantile(passes, 0.95):.0f}, max {passes.max()}; "
+              f"{timings[name] * 1e3:.2f} ms per solve")
     matrices = [(pose.to_matrix(),) for pose in poses]
     peer = seconds_per_call(ur_analytic_ik.ur3.inverse_kinematics, matrices)
     print(f"  peer ur-analytic-ik inverse_kinematics (closed form, all solutions): {peer * 1e6:.1f} µs per call")
-    print(f"  ratios: improved / paper mode = {timings[IMPROVED] / timings[PAPER]:.3f}; "
-          f"improved / ur-analytic-ik = {timings[IMPROVED] / peer:.0f}×")
+    print(f"  ratios: improved / paper mode = {timings['improved'] / timings['paper']:.3f}; improved / paper "
+          f"exact = {timings['improved'] / timings['paper, exact J, γ=0.22e-3']:.3f}; "
+          f"improved / ur-analytic-ik = {timings['improved'] / peer:.0f}×")
 
 
 def main():

@@ -26,29 +26,31 @@ from ur3dq import dqarray
 from ur3dq.kinematics import robot_model
 from ur3dq.kinematics import ur_ik
 
-SINGLE_CALLS = 2000
+SINGLE_CALLS = 500
 PASSES = 5
 
 
-def per_call_seconds(function, argument_lists) -> float:
-    """Best-of-PASSES mean time of one ``function(*arguments)`` call over the argument lists."""
-    best = math.inf
+def seconds_per_pose(measurements: dict) -> dict:
+    """Best-of-PASSES time per pose of each {name: (run, poses per run)}, ``run`` a no-argument callable.
+
+    The passes go round-robin over all measurements, so a burst of load from elsewhere on the (shared) machine
+    hits every side alike instead of one measurement only.
+    """
+    best = dict.fromkeys(measurements, math.inf)
     for _ in range(PASSES):
-        start = time.perf_counter()
-        for arguments in argument_lists:
-            function(*arguments)
-        best = min(best, (time.perf_counter() - start) / len(argument_lists))
+        for name, (run, count) in measurements.items():
+            start = time.perf_counter()
+            run()
+            best[name] = min(best[name], (time.perf_counter() - start) / count)
     return best
 
 
-def batch_seconds_per_pose(function, argument, count: int, passes: int = 3) -> float:
-    """Best-of-``passes`` time of one batch call, divided by the number of poses in it."""
-    best = math.inf
-    for _ in range(passes):
-        start = time.perf_counter()
-        function(argument)
-        best = min(best, time.perf_counter() - start)
-    return best / count
+def per_call(function, argument_lists) -> tuple:
+    """A (run, count) measurement calling ``function(*arguments)`` once per argument list."""
+    def run():
+        for arguments in argument_lists:
+            function(*arguments)
+    return run, len(argument_lists)
 
 
 def dqrobotics_arm(model) -> DQ_SerialManipulatorDH:
@@ -74,55 +76,50 @@ def main() -> None:
     assert np.allclose(arm.fkm(joints[0]).vec8() * np.sign(arm.fkm(joints[0]).vec8()[0]),
                        dqarray.canonical(poses[0].to_array()), atol=1e-12), "dqrobotics arm differs from ur3dq's"
 
-    single = {
-        "FK  ur3dq model.fk(q)": per_call_seconds(model.fk, [(q,) for q in joints]),
-        "FK  ur-analytic-ik forward_kinematics": per_call_seconds(oracle.forward_kinematics, [tuple(q) for q in joints]),
-        "FK  dqrobotics fkm(q)": per_call_seconds(arm.fkm, [(q,) for q in joints]),
-        "IK  ur3dq ik(pose, q_ref)": per_call_seconds(
-            lambda pose, reference: ur_ik.ik(model, pose, reference), list(zip(poses, references))),
-        "IK  ur-analytic-ik inverse_kinematics_closest": per_call_seconds(
-            oracle.inverse_kinematics_closest, [(m, *r) for m, r in zip(matrices, references)]),
-        "IK  ur3dq ik_all(pose)": per_call_seconds(lambda pose: ur_ik.ik_all(model, pose), [(p,) for p in poses]),
-        "IK  ur-analytic-ik inverse_kinematics (all)": per_call_seconds(oracle.inverse_kinematics,
-                                                                       [(m,) for m in matrices]),
-    }
-
     batch_joints = rng.uniform(-math.pi, math.pi, (args.batch, 6))
     batch_poses = model.fk_batch(batch_joints)
     batch_references = batch_joints + rng.normal(0.0, 0.05, batch_joints.shape)
-    batch = {
-        "FK  ur3dq fk_batch": batch_seconds_per_pose(model.fk_batch, batch_joints, args.batch),
-        "IK  ur3dq ik_all_batch (all, FK-filtered)": batch_seconds_per_pose(
-            lambda p: ur_ik.ik_all_batch(model, p), batch_poses, args.batch),
-        "IK  ur3dq ik_batch (nearest q_ref)": batch_seconds_per_pose(
-            lambda p: ur_ik.ik_batch(model, p, batch_references), batch_poses, args.batch),
-    }
+    timings = seconds_per_pose({
+        "FK  ur3dq model.fk(q)": per_call(model.fk, [(q,) for q in joints]),
+        "FK  ur-analytic-ik forward_kinematics": per_call(oracle.forward_kinematics, [tuple(q) for q in joints]),
+        "FK  dqrobotics fkm(q)": per_call(arm.fkm, [(q,) for q in joints]),
+        "IK  ur3dq ik(pose, q_ref)": per_call(lambda pose, reference: ur_ik.ik(model, pose, reference),
+                                              list(zip(poses, references))),
+        "IK  ur-analytic-ik inverse_kinematics_closest": per_call(oracle.inverse_kinematics_closest,
+                                                                  [(m, *r) for m, r in zip(matrices, references)]),
+        "IK  ur3dq ik_all(pose)": per_call(lambda pose: ur_ik.ik_all(model, pose), [(p,) for p in poses]),
+        "IK  ur-analytic-ik inverse_kinematics (all)": per_call(oracle.inverse_kinematics, [(m,) for m in matrices]),
+        "FK  ur3dq fk_batch": (lambda: model.fk_batch(batch_joints), args.batch),
+        "IK  ur3dq ik_all_batch (all, FK-filtered)": (lambda: ur_ik.ik_all_batch(model, batch_poses), args.batch),
+        "IK  ur3dq ik_batch (nearest q_ref)": (lambda: ur_ik.ik_batch(model, batch_poses, batch_references),
+                                               args.batch),
+    })
     solutions = ur_ik.ik_all_batch(model, batch_poses)
 
     console = Console()
-    table = Table(title=f"{model.name}: latency per pose (µs), best of {PASSES} passes")
+    table = Table(title=f"{model.name}: latency per pose (µs), best of {PASSES} interleaved passes")
     table.add_column("measurement")
     table.add_column("µs / pose", justify="right")
-    for name, seconds in {**single, **batch}.items():
+    for name, seconds in timings.items():
         table.add_row(name, f"{seconds * 1e6:.2f}")
     console.print(table)
 
-    fastest_fk_peer = min(single["FK  ur-analytic-ik forward_kinematics"], single["FK  dqrobotics fkm(q)"])
+    fastest_fk_peer = min(timings["FK  ur-analytic-ik forward_kinematics"], timings["FK  dqrobotics fkm(q)"])
     goals = Table(title="ratios against the goals (> 1 means the goal is met, by that factor)")
     for column in ("goal", "measured", "target", "met"):
         goals.add_column(column)
     rows = [
-        ("batch FK vs fastest per-call peer FK", fastest_fk_peer / batch["FK  ur3dq fk_batch"], 10.0, "faster"),
+        ("batch FK vs fastest per-call peer FK", fastest_fk_peer / timings["FK  ur3dq fk_batch"], 10.0, "faster"),
         ("batch IK (all, filtered) vs ur-analytic-ik IK per call",
-         single["IK  ur-analytic-ik inverse_kinematics (all)"] / batch["IK  ur3dq ik_all_batch (all, FK-filtered)"],
+         timings["IK  ur-analytic-ik inverse_kinematics (all)"] / timings["IK  ur3dq ik_all_batch (all, FK-filtered)"],
          8.0, "faster"),
         ("single FK vs ur-analytic-ik FK",
-         single["FK  ur3dq model.fk(q)"] / single["FK  ur-analytic-ik forward_kinematics"], 3.0, "slower at most"),
+         timings["FK  ur3dq model.fk(q)"] / timings["FK  ur-analytic-ik forward_kinematics"], 3.0, "slower at most"),
         ("single IK ik() vs ur-analytic-ik closest",
-         single["IK  ur3dq ik(pose, q_ref)"] / single["IK  ur-analytic-ik inverse_kinematics_closest"], 2.0,
+         timings["IK  ur3dq ik(pose, q_ref)"] / timings["IK  ur-analytic-ik inverse_kinematics_closest"], 2.0,
          "slower at most"),
         ("single IK ik() vs ur-analytic-ik all-solutions call",
-         single["IK  ur3dq ik(pose, q_ref)"] / single["IK  ur-analytic-ik inverse_kinematics (all)"], 2.0,
+         timings["IK  ur3dq ik(pose, q_ref)"] / timings["IK  ur-analytic-ik inverse_kinematics (all)"], 2.0,
          "slower at most"),
     ]
     for name, ratio, target, sense in rows:

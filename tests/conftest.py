@@ -1,20 +1,7 @@
 """Shared fixtures: a running simulator, or the official URSim / robot named by UR3DQ_TEST_HOST."""
-import os
-
 import pytest
 
-ROBOT_HOST_ENV = "UR3DQ_TEST_HOST"
-
-
-def external_robot_host():
-    """The host of an official URSim or real robot to test against, or None for the embedded simulator."""
-    return os.environ.get(ROBOT_HOST_ENV) or None
-
-
-needs_simulator = pytest.mark.skipif(
-    external_robot_host() is not None,
-    reason=f"fault injection needs sim_ursim; {ROBOT_HOST_ENV} names an external controller",
-)
+from robot_target import external_robot_host
 
 
 @pytest.fixture

@@ -13,6 +13,7 @@ from datetime import datetime, timezone
 import numpy as np
 
 from ur3dq.dualquat import DualQuaternion
+from ur3dq.kinematics.models import MODEL_NAMES
 
 # How far the stored UR pose vector may drift from the dual quaternion (JSON floats round-trip exactly, so only
 # hand edits can exceed this).
@@ -104,8 +105,8 @@ class Pose:
         set_field(self, "tcp_offset", _finite_vector(self.tcp_offset, 6, "tcp_offset", who))
         if self.joints is not None:
             set_field(self, "joints", _finite_vector(self.joints, 6, "joints", who))
-        if not isinstance(self.robot_model, str) or not self.robot_model:
-            raise ValueError(f"{who}: robot_model must be a model name such as 'ur3'")
+        if self.robot_model not in MODEL_NAMES:
+            raise ValueError(f"{who}: robot_model {self.robot_model!r} is not one of {', '.join(MODEL_NAMES)}")
         if self.robot_serial is not None and not isinstance(self.robot_serial, str):
             raise ValueError(f"{who}: robot_serial must be text or null")
         if not isinstance(self.note, str):

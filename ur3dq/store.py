@@ -88,6 +88,13 @@ def _line_of_pose(text: str, name) -> int | None:
     return None
 
 
+def _where(text: str, source: str, name) -> str:
+    """`source:line` of the pose called `name` when its line can be found, else `source` (only on errors: the
+    search reads the whole text)."""
+    line = _line_of_pose(text, name)
+    return f"{source}:{line}" if line else source
+
+
 def _without_pose_prefix(message: str, who: str, name) -> str:
     """`message` without the "pose ...: " it may already start with, so the caller names the pose once."""
     for prefix in (f"{who}: ", f"pose {name!r}: "):
@@ -119,15 +126,14 @@ def parse_store(text: str, source: str) -> list[Pose]:
     seen: set[str] = set()
     for index, entry in enumerate(entries, start=1):
         name = entry.get("name") if isinstance(entry, dict) else None
-        line = _line_of_pose(text, name)
-        where = f"{source}:{line}" if line else source
         who = f"pose #{index}" + (f" {name!r}" if isinstance(name, str) else "")
         try:
             pose = pose_from_dict(entry, who)
         except ValueError as error:
+            where = _where(text, source, name)
             raise StoreError(f"{where}: {who}: {_without_pose_prefix(str(error), who, name)}") from None
         if pose.name in seen:
-            raise StoreError(f"{where}: pose name {pose.name!r} appears twice")
+            raise StoreError(f"{_where(text, source, name)}: pose name {pose.name!r} appears twice")
         seen.add(pose.name)
         poses.append(pose)
     return poses
@@ -245,10 +251,14 @@ class PoseStore:
         names = list(names or [])
         return [find_pose(poses, name, str(self.path)) for name in names] if names else poses
 
-    def _update(self, edit: Callable[[list[Pose]], tuple[list[Pose], object]]):
-        """Apply `edit(poses) -> (new poses, result)` under the lock and write atomically; returns the result."""
+    def require_directory(self) -> None:
+        """StoreError unless the store's directory exists (checked before work that would end in a write)."""
         if not self.path.parent.is_dir():
             raise StoreError(f"{self.path}: directory {self.path.parent} does not exist")
+
+    def _update(self, edit: Callable[[list[Pose]], tuple[list[Pose], object]]):
+        """Apply `edit(poses) -> (new poses, result)` under the lock and write atomically; returns the result."""
+        self.require_directory()
         try:
             with self._lock:
                 poses, result = edit(self.load())

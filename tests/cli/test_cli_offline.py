@@ -189,6 +189,12 @@ def test_unreachable_stored_pose_stops_the_plan_and_changes_nothing(tmp_path, ru
     assert (tmp_path / "poses.json").read_bytes() == before
 
 
+def test_record_pose_into_a_missing_directory_fails_before_the_robot(run_in_process):
+    # no robot is configured either: the store is checked first, so the error names the directory
+    assert_one_line_error(run_in_process("--store", "nowhere/poses.json", "record-pose", "--yes"), 3,
+                          "directory nowhere does not exist")
+
+
 def test_dry_run_plan_reads_speed_in_degrees_with_deg(run_in_process, recorded_store):
     from ur3dq.robot import motion
 

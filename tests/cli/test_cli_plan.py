@@ -3,6 +3,7 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings, strategies as st
 
 from ur3dq.cli.plan import (
     SOURCE_IK_PREVIOUS, SOURCE_IK_RECORDED, SOURCE_IK_ZERO, SOURCE_RECORDED, choose_joints, loop_closing_travel,
@@ -88,3 +89,19 @@ def test_tcp_pose_for_moves_the_recorded_pose_onto_the_current_tcp():
     pose = recorded("tool", A, tcp=TOOL)
     assert tcp_pose_for(pose, DualQuaternion.from_ur_pose(TOOL)).is_close(pose.dq)
     assert tcp_pose_for(pose, DualQuaternion.identity()).is_close(UR3.fk(A))
+
+
+joint_angle = st.floats(-math.pi, math.pi, allow_nan=False)
+# wrist 2 away from 0 and ±π (the wrist singularity, where IK has a continuum of solutions)
+wrist_2 = st.one_of(st.floats(0.2, math.pi - 0.2), st.floats(-math.pi + 0.2, -0.2))
+# elbow away from 0 and ±π (stretched or folded arm: shoulder/elbow branches merge)
+elbow = st.one_of(st.floats(0.2, math.pi - 0.2), st.floats(-math.pi + 0.2, -0.2))
+
+
+@settings(max_examples=60, deadline=None)
+@given(q=st.tuples(joint_angle, joint_angle, elbow, joint_angle, wrist_2, joint_angle))
+def test_replay_of_a_recorded_pose_returns_its_recorded_joints(q):
+    q = np.array(q)
+    (step,) = plan_replay(UR3, [recorded("p", q)], start_joints=np.zeros(6))
+    np.testing.assert_allclose(step.joints, q, atol=1e-7)
+    assert step.source == SOURCE_IK_RECORDED and step.fk_error_m < 1e-9

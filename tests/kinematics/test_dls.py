@@ -15,6 +15,7 @@ from ur3dq.kinematics.dls import (
     PAPER,
     damped_least_squares_step,
     dls_ik,
+    exact_paper_jacobian,
     exp_derivative,
     joint_twists,
     paper_jacobian,
@@ -240,6 +241,17 @@ def test_paper_jacobian_on_a_spatial_chain_is_the_papers_projection():
     assert not np.allclose(jacobian[3:], 0.5 * exact[3:], atol=1e-3)  # the projection is no exact derivative here
 
 
+@pytest.mark.parametrize("chain", [PLANAR, UR3.chain, SCARA], ids=["planar", "ur3", "scara"])
+def test_exact_paper_jacobian_matches_finite_differences(chain):
+    rng = np.random.default_rng(5)
+    for _ in range(3):
+        q = rng.uniform(-1.5, 1.5, chain.n_joints)
+        paper_vector = lambda w: paper_pose_vector(chain.fk(2 * w).to_array())  # noqa: E731
+        scale = max(1.0, float(np.abs(chain.fk(q).translation).max()))
+        np.testing.assert_allclose(exact_paper_jacobian(chain, q), central_difference(paper_vector, q / 2),
+                                   atol=1e-7 * scale)
+
+
 @given(seed=st.integers(0, 2**32 - 1), alpha=st.floats(0.05, 1.0), gamma=st.floats(0.0, 2.0))
 @NO_DEADLINE
 def test_damped_least_squares_step_solves_the_damped_normal_equations(seed, alpha, gamma):
@@ -336,6 +348,18 @@ def test_paper_mode_quirks_oscillate_far_from_the_identity_rotation():
     assert oscillating.error_log[-1] > 1.0
     slower = dls_ik(SCARA, goal, start, mode=PAPER, alpha=0.3, tolerance=1e-6, max_iterations=200)
     assert slower.converged
+    exact = dls_ik(SCARA, goal, start, mode=PAPER, alpha=0.55, tolerance=1e-6, max_iterations=200, jacobian="exact")
+    assert exact.converged
+
+
+def test_paper_method_with_the_exact_jacobian_on_ur3():
+    """The paper's DLS with the exact Jacobian and its γ = 0.22 mm rescaled to metres converges on a UR3."""
+    rng = np.random.default_rng(2)
+    for _ in range(10):
+        q_goal = rng.uniform(-math.pi, math.pi, 6)
+        result = dls_ik(UR3, UR3.fk(q_goal), q_goal + rng.uniform(-0.2, 0.2, 6), gamma=0.22e-3, tolerance=1e-6,
+                        jacobian="exact")
+        assert result.converged, result.error
 
 
 # ----------------------------------------------------------------------------------- limits and the log
@@ -427,6 +451,8 @@ def test_start_already_at_goal_takes_one_pass():
         (dict(mode=IMPROVED, alpha=0.5), "alpha"),
         (dict(mode=IMPROVED, gamma=0.5), "gamma"),
         (dict(chain="planar"), "chain"),
+        (dict(jacobian="numeric"), "jacobian"),
+        (dict(mode=IMPROVED, jacobian="exact"), "jacobian"),
     ],
 )
 def test_bad_input_names_the_argument(kwargs, argument):

@@ -9,6 +9,7 @@ import pytest
 import ur3dq.robot
 from ur3dq.errors import ProgramError, RobotError, SafetyCheckError
 from ur3dq.robot import motion
+from ur3dq.robot.primary_client import PrimaryClient
 
 
 def test_connect_identifies_the_model_and_reads_its_kinematics(robot):
@@ -39,7 +40,10 @@ def test_movej_blocks_for_the_motion_and_ends_at_rest_on_target(robot, home):
     assert wall >= 0.9 * expected  # it did wait for the arm
     status = robot.state()
     assert np.max(np.abs(status.joints - target)) < 2e-3 and np.max(np.abs(status.joint_speeds)) < 5e-3
-    assert not status.program_running
+    # movej returns on the controller's "program stopped" message; the state stream agrees a cycle later
+    # (within 10 Hz for urx's primary data).
+    time.sleep(0.15)
+    assert not robot.state().program_running
 
 
 def test_movej_to_the_current_joints_returns_at_once(robot):
@@ -57,7 +61,15 @@ def test_movej_path_runs_one_blended_program_to_the_last_target(robot, home):
     targets = [home + np.array([0.3, 0, 0, 0, 0, 0]), home + np.array([0.3, -0.3, 0.3, 0, 0, 0]),
                home + np.array([0, -0.3, 0.3, 0.2, 0, 0])]
     stopping = motion.path_duration(robot.joints(), targets, 1.4, 1.05)
-    wall = robot.movej_path(targets, blend=0.02, a=1.4, v=1.05)
+    listener = PrimaryClient(robot.host)  # a second 30001 client sees every program the controller starts
+    messages = listener.watch()
+    try:
+        wall = robot.movej_path(targets, blend=0.02, a=1.4, v=1.05)
+        time.sleep(0.05)
+    finally:
+        listener.close()
+    started = [m for m in list(messages.queue) if getattr(m, "title", "").endswith("_STARTED")]
+    assert len(started) == 1 and started[0].text.startswith("ur3dq_move_")
     assert np.max(np.abs(robot.joints() - targets[-1])) < 2e-3
     assert wall < stopping + 1.0
 

@@ -4,7 +4,7 @@ import time
 
 import pytest
 
-from conftest import needs_simulator
+from robot_target import needs_simulator
 from sim_ursim.control_channel import CONTROL_PORT, execute, send_request
 from sim_ursim.controller import RobotMode, SafetyMode
 from sim_ursim.faults import Faults

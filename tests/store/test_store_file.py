@@ -185,6 +185,7 @@ BAD_POSES = {
     "missing field": (broken_pose("time", ...), "missing field 'time'"),
     "local time": (broken_pose("time", "2026-11-22T01:02:03+01:00"), "time .* must be in UTC"),
     "bad time": (broken_pose("time", "yesterday"), "time .yesterday. is not ISO 8601"),
+    "unknown model": (broken_pose("robot_model", "ur99"), "robot_model 'ur99' is not one of ur3, ur5"),
 }
 
 

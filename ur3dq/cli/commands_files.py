@@ -69,7 +69,8 @@ def export_urscript(settings: Settings, names, output: Path, speed, acceleration
     offsets = {step.pose.tcp_offset for step in steps}
     header = [
         f"ur3dq export-urscript: {len(steps)} poses from {settings.store_path} for a {model.name}",
-        f"generated {utc_now_iso()}; {describe_speeds(a, v, blend)}",
+        f"generated {utc_now_iso()}",
+        describe_speeds(a, v, blend),
         "the first move starts wherever the arm is: check it at low speed first",
     ]
     program = replay_program(steps, a, v, blend, loops, tcp_offset=offsets.pop() if len(offsets) == 1 else None,

@@ -124,7 +124,7 @@ def import_poses(settings: Settings, file: Path, prefix, tcp):
 
     \b
     Examples:
-      ur3dq poses import poses/thesis_poses.txt --prefix thesis
+      ur3dq poses import poses/thesis-poses.txt --prefix thesis
       ur3dq --model ur5 poses import recorded.txt --tcp 0 0 0.2 0 0 0
       ur3dq poses import other-cell.json
     """

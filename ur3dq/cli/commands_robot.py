@@ -231,6 +231,7 @@ def record_pose(settings: Settings, name, note, yes, teach):
       ur3dq record-pose --teach --name station             # station-1, station-2, ... by hand
     """
     store = settings.store
+    store.require_directory()
     existing = [pose.name for pose in store.load()]  # also refuses a corrupt store before touching the robot
     if name and not teach and name in existing:
         raise StoreError(f"a pose named {name!r} already exists in {settings.store_path}; choose another --name")

@@ -1,6 +1,7 @@
 """`ur3dq sim start/stop/status` (the embedded simulator in the background) and `ur3dq demo` (the whole job)."""
 from __future__ import annotations
 
+import contextlib
 import math
 import tempfile
 from pathlib import Path
@@ -15,7 +16,7 @@ from ur3dq.cli.commands_robot import (
 )
 from ur3dq.cli.display import angles_text, pose_vector_text
 from ur3dq.cli.plan import plan_replay
-from ur3dq.cli.simstate import read_state, start_simulator, state_directory, stop_simulator
+from ur3dq.cli.simstate import SimulatorError, read_state, start_simulator, state_directory, stop_simulator
 from ur3dq.store import PoseStore
 
 # Where the demo parks the arm and the places it records (rad): distinct, comfortably reachable, away from the
@@ -130,12 +131,17 @@ def demo(settings: Settings, save, speed, acceleration, tolerance_mm, tolerance_
     from sim_ursim.testing import simulator_process
     from ur3dq.robot import connect
 
-    say = settings.out.print
+    # with --json the story goes to stderr, so stdout carries only the JSON result
+    say = Console(stderr=True, highlight=False).print if settings.json else settings.out.print
     model_name = settings.model or "ur3"
-    with tempfile.TemporaryDirectory(prefix="ur3dq-demo-") as scratch:
+    with tempfile.TemporaryDirectory(prefix="ur3dq-demo-") as scratch, contextlib.ExitStack() as stack:
         store = PoseStore(save or Path(scratch) / "demo-poses.json")
         say(f"[bold]1.[/bold] Starting the embedded simulator (sim_ursim, {model_name}) ...")
-        with simulator_process(model=model_name) as simulator, connect(simulator.host, model=model_name) as robot:
+        try:
+            simulator = stack.enter_context(simulator_process(model=model_name))
+        except (RuntimeError, TimeoutError) as error:
+            raise SimulatorError(f"the embedded simulator did not start: {error}") from None
+        with connect(simulator.host, model=model_name) as robot:
             say(f"   serving on {simulator.host}; powering on and releasing the brakes")
             robot.power_on()
             robot.brake_release()

@@ -137,6 +137,16 @@ def paper_jacobian(chain: SerialChain, q) -> np.ndarray:
     return np.vstack((position_rate.T, log_rate))
 
 
+def exact_paper_jacobian(chain: SerialChain, q) -> np.ndarray:
+    """(6, n) the exact Jacobian of seed 001's e = (p, φ = 2·log r) w.r.t. w = ½·q: the paper's position rows, and
+    orientation rows 2·(DᵀD)⁻¹·(paper's rows), D = ∂e^σ/∂σ at σ = log r (undoing the projection and the ½)."""
+    jacobian = paper_jacobian(chain, q)
+    d = exp_derivative(_paper_log(chain.fk(q).to_array()[:4]))
+    # DᵀD = diag(1, s², s²) in the (radial, tangential) axes, s = sin h / h: singular only at a full turn.
+    jacobian[3:] = 2.0 * np.linalg.solve(d.T @ d, jacobian[3:])
+    return jacobian
+
+
 def damped_least_squares_step(jacobian, error, alpha: float, gamma: float) -> np.ndarray:
     """Δ = Jᵀ(J·Jᵀ + γ²I)⁻¹·α·error, the minimiser of ‖J·Δ − α·error‖² + γ²‖Δ‖² (seed 001 §3.2.1).
 
@@ -227,7 +237,8 @@ class DLSResult:
 
 # ----------------------------------------------------------------------------------------------------- solver
 def dls_ik(chain, goal, q0, *, mode: str = PAPER, alpha: float | None = None, gamma: float | None = None,
-           tolerance: float | None = None, max_iterations: int | None = None, lower=None, upper=None) -> DLSResult:
+           tolerance: float | None = None, max_iterations: int | None = None, lower=None, upper=None,
+           jacobian: str = "paper") -> DLSResult:
     """Joint values bringing ``chain``'s end pose to ``goal`` from ``q0`` by damped least squares.
 
     ``chain``: a SerialChain, or a model with ``.chain`` and ``.joint_lower``/``.joint_upper`` (e.g.
@@ -236,8 +247,9 @@ def dls_ik(chain, goal, q0, *, mode: str = PAPER, alpha: float | None = None, ga
     Paper mode compares φ without sheet flipping, so the sign of a given dual quaternion's real part matters there.
     ``mode``: "paper" (seed 001, α default 0.55, γ default 0.22) or "improved" (Levenberg–Marquardt, α and γ
     unused: it sizes its own steps). ``lower``/``upper``: joint limits (n each, ±inf allowed); every step is
-    projected into them. Returns a :class:`DLSResult`; not converging within ``max_iterations`` is reported there,
-    not raised.
+    projected into them. ``jacobian`` (paper mode): "paper" (its §3.3 formulas, which reproduce its numbers) or
+    "exact" (the true derivative of e, see :func:`exact_paper_jacobian`: the paper's method made sound on spatial
+    chains). Returns a :class:`DLSResult`; not converging within ``max_iterations`` is reported there, not raised.
     """
     if mode not in MODES:
         raise ValueError(f"mode: expected one of {MODES}, got {mode!r}")
@@ -268,13 +280,19 @@ def dls_ik(chain, goal, q0, *, mode: str = PAPER, alpha: float | None = None, ga
     if tolerance <= 0.0:
         raise ValueError(f"tolerance: must be > 0, got {tolerance}")
     max_iterations = default_cap if max_iterations is None else _count(max_iterations, "max_iterations")
+    if jacobian not in PAPER_JACOBIANS:
+        raise ValueError(f"jacobian: expected one of {tuple(PAPER_JACOBIANS)}, got {jacobian!r}")
     if mode == PAPER:
         goal_vector = _goal_vector(goal)
-        return _solve_paper(chain, goal_vector, q0, alpha, gamma, tolerance, max_iterations, lower, upper)
+        return _solve_paper(chain, goal_vector, q0, alpha, gamma, tolerance, max_iterations, lower, upper,
+                            PAPER_JACOBIANS[jacobian])
+    if jacobian != "paper":
+        raise ValueError("jacobian: applies to mode='paper' only; the improved mode uses the joint twists")
     return _solve_improved(chain, _goal_coefficients(goal), q0, tolerance, max_iterations, lower, upper)
 
 
-def _solve_paper(chain, goal_vector, q0, alpha, gamma, tolerance, max_iterations, lower, upper) -> DLSResult:
+def _solve_paper(chain, goal_vector, q0, alpha, gamma, tolerance, max_iterations, lower, upper,
+                 jacobian_of) -> DLSResult:
     """Seed 001's loop: pass k evaluates e_k, stops if ‖g − e_k‖ < tolerance, else steps w += Δw (q = 2w)."""
     q = q0
     joints, poses, errors = [], [], []
@@ -286,7 +304,7 @@ def _solve_paper(chain, goal_vector, q0, alpha, gamma, tolerance, max_iterations
         errors.append(float(np.linalg.norm(difference)))
         if errors[-1] < tolerance or len(joints) == max_iterations:
             break
-        step = damped_least_squares_step(paper_jacobian(chain, q), difference, alpha, gamma)
+        step = damped_least_squares_step(jacobian_of(chain, q), difference, alpha, gamma)
         q = project_to_limits(q + 2.0 * step, lower, upper)
     return DLSResult(q=joints[-1], converged=errors[-1] < tolerance, iterations=len(joints), error=errors[-1],
                      mode=PAPER, joint_log=np.array(joints), pose_log=np.array(poses), error_log=np.array(errors),
@@ -358,6 +376,10 @@ def _damped_step(normal, gradient, damping, q, lower, upper) -> np.ndarray:
         if not blocked.any():
             return step
         free &= ~blocked
+
+
+#: Paper mode's Jacobians by name (the ``jacobian`` argument of :func:`dls_ik`).
+PAPER_JACOBIANS = {"paper": paper_jacobian, "exact": exact_paper_jacobian}
 
 
 # ------------------------------------------------------------------------------------------------ validation

@@ -47,13 +47,14 @@ from ur3dq import dqarray
 from ur3dq.errors import UnreachablePoseError
 
 #: FK filter (thesis eq. 4.45): a branch is a solution when its FK is within these of the pose asked for.
-#: Justification: the closed forms lose at most a few hundred ulps on metre-sized arms (measured max ≈ 1e-14 m /
-#: 1e-14 rad over random and near-singular poses), five orders below; a wrong branch misses by far more
-#: (>1e-4 at the least), and 1 nm / 1 nrad is four orders below any UR arm's repeatability.
+#: Justification: the closed forms lose a few ulps on metre-sized arms (benchmarks/bench_kinematics.py measures the
+#: residual of every solution of 10^5 random poses: ≈ 1e-15 m / 5e-15 rad), six orders below; near singular
+#: points the clamped roots stay within 1e-10 (see below); and 1 nm / 1 nrad is four orders below any UR arm's
+#: repeatability, so a branch that misses by more is not a solution of this pose.
 FK_TOLERANCE_M = 1e-9
 FK_TOLERANCE_RAD = 1e-9
-#: Below this |sin(θ5/2)| (θ5 ≈ 0) or |cos(θ5/2)| (θ5 ≈ π) the wrist is treated as singular: any θ4/θ6 split
-#: with the right sum (difference) then moves the flange by at most 2·1e-10 rad, inside the FK filter.
+#: Below this |sin(θ5/2)| (θ5 ≈ 0) or |cos(θ5/2)| (θ5 ≈ π) the wrist is treated as singular: setting θ5 to exactly
+#: 0 (π) turns the flange by ≤ 2e-10 rad and moves it by ≤ d6·2e-10 m, inside the FK filter.
 WRIST_SINGULAR_TOLERANCE = 1e-10
 #: Below this |sin(θ5/2)| (or |cos(θ5/2)|) the θ4/θ6 split carries a rounding error of up to 1e-16/1e-6 rad that
 #: can push a stretched elbow out of reach; such a branch is moved along the θ4 ± θ6 family back into reach.
@@ -76,8 +77,8 @@ CALIBRATED_DOMAIN_SLACK = math.inf
 CALIBRATED_DOMAIN_EDGE = 1e-3
 
 _TWO_PI = 2.0 * math.pi
+_CHORD_LIMIT = 2.0 * math.sin(0.25 * FK_TOLERANCE_RAD)   # chord |r1 ∓ r2| of a rotation by FK_TOLERANCE_RAD
 _HALF_SQRT2 = math.sqrt(0.5)
-_NOMINAL_ALPHA = (math.pi / 2, 0.0, 0.0, math.pi / 2, -math.pi / 2, 0.0)
 
 
 # ------------------------------------------------------------------------------------------ model geometry
@@ -120,12 +121,10 @@ def _build_geometry(model) -> _Geometry:
     """Read DH (standard: a, d, α, θ offset), limits and TCP of ``model`` into plain floats."""
     dh = model.dh
     a, d, alpha, theta = (tuple(float(v) for v in column) for column in (dh.a, dh.d, dh.alpha, dh.theta))
-    off_nominal = (abs(a[0]) + abs(a[3]) + abs(a[4]) + abs(a[5]) + abs(d[1]) + abs(d[2])
-                   + sum(abs(x - y) for x, y in zip(alpha, _NOMINAL_ALPHA)) + sum(abs(t) for t in theta))
     joints = tuple((a[i], d[i], theta[i], math.cos(0.5 * alpha[i]), math.sin(0.5 * alpha[i])) for i in range(6))
     tcp = tuple(float(v) for v in model.tcp.to_array())
     tcp_inverse = None if tcp == (1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0) else _dq_conjugate(tcp)
-    calibrated = off_nominal > 0.0
+    calibrated = not dh.is_nominal_structure()
     slack = CALIBRATED_DOMAIN_SLACK if calibrated else DOMAIN_TOLERANCE
     edge = CALIBRATED_DOMAIN_EDGE if calibrated else 0.0
     return _Geometry(d[0], a[1], a[2], d[3], d[4], d[5], calibrated, slack, edge, joints, tcp_inverse,
@@ -237,7 +236,8 @@ def _wrist_pair(ops, reduced, theta6_ref):
     theta234 = ops.where(at_zero, 2.0 * half_sum - theta6,
                          ops.where(at_pi, 2.0 * half_diff + theta6, half_sum + half_diff))
     # −θ5 turns Δ/2 by π (x', y' change sign): the wrist flip θ6 − π, θ234 + π; one solution when singular.
-    flipped = (-theta5, ops.where(singular, theta6, theta6 - math.pi), ops.where(singular, theta234, theta234 + math.pi))
+    flipped = (-theta5, ops.where(singular, theta6, theta6 - math.pi),
+               ops.where(singular, theta234, theta234 + math.pi))
     near = (sin_half5 < WRIST_NEAR_TOLERANCE) | (cos_half5 < WRIST_NEAR_TOLERANCE)
     return (theta5, theta6, theta234), flipped, (singular, near, sin_half5 < cos_half5)
 
@@ -288,43 +288,53 @@ def _elbow_cosine(ops, g: _Geometry, x4, z4):
     return ops.clamp_or_nan(cos3, g.domain_edge - 1.0, 1.0 - g.domain_edge, g.domain_slack)
 
 
-def _shoulder_elbow(ops, g: _Geometry, x4, z4, cos3, sign3):
-    """(θ2, θ3) of one elbow sign: θ3 from eq. 4.38, θ2 from eq. 4.41."""
-    sin3 = sign3 * ops.sqrt(1.0 - cos3 * cos3)
+def _shoulder_elbow_pair(ops, g: _Geometry, x4, z4, cos3):
+    """((θ2, θ3) with θ3 ≥ 0, (θ2, θ3) with θ3 ≤ 0): θ3 from eq. 4.38, θ2 from eq. 4.41."""
+    sin3 = ops.sqrt(1.0 - cos3 * cos3)
     theta3 = ops.atan2(sin3, cos3)
     along = g.a2 + g.a3 * cos3
     across = g.a3 * sin3
-    theta2 = ops.atan2(z4 * along - x4 * across, x4 * along + z4 * across)
-    return theta2, theta3
+    near_x, near_z = x4 * along, z4 * along
+    far_x, far_z = x4 * across, z4 * across
+    return ((ops.atan2(near_z - far_x, near_x + far_z), theta3),
+            (ops.atan2(near_z + far_x, near_x - far_z), -theta3))
+
+
+def _elbow_for_wrist(ops, g: _Geometry, cos1, sin1, wrist, flags, px, py, pz):
+    """(θ6, θ234, x4, z4, cos θ3) of one wrist branch (eqs. 4.33–4.38), moved along a singular wrist's family.
+
+    At (or near) a singular wrist only θ234 + θ6 (θ5 ≈ 0) or θ234 − θ6 (θ5 ≈ π) is well determined; a split the
+    arm cannot reach is moved to the nearest reachable one, θ6 compensating; the FK filter judges the result.
+    """
+    theta5, theta6, theta234 = wrist
+    singular, near, nearer_zero = flags
+    x4, z4 = _planar_arm(ops, g, cos1, sin1, theta5, theta234, px, py, pz)
+    cos3 = _elbow_cosine(ops, g, x4, z4)
+    move = singular | (near & ops.isnan(cos3))
+    if ops.any(move):
+        reachable = _reachable_wrist_family(ops, g, cos1, sin1, theta5, theta234, px, py, pz)
+        shift = ops.where(move, reachable - theta234, 0.0)
+        theta234 = theta234 + shift
+        theta6 = theta6 + ops.where(nearer_zero, -shift, shift)
+        x4, z4 = _planar_arm(ops, g, cos1, sin1, theta5, theta234, px, py, pz)
+        cos3 = _elbow_cosine(ops, g, x4, z4)
+    return theta6, theta234, x4, z4, cos3
 
 
 def _branches(ops, g: _Geometry, target, theta6_ref):
-    """The 8 analytic branches (θ1…θ6 tuples, NaN where a branch does not exist), ordered (θ1, θ5, θ3) signs, + first."""
+    """The 8 analytic branches (θ1…θ6 tuples, NaN where one does not exist), by (θ1, θ5, θ3) sign, + first."""
     qw, qx, qy, qz, px, py, pz = target
     x5, y5 = _wrist_centre(g, qw, qx, qy, qz, px, py)
     branches = []
     for theta1 in _theta1_pair(ops, g, x5, y5):
         cos1, sin1, reduced = _reduced_rotation(ops, theta1, qw, qx, qy, qz)
-        upper, lower, (singular, near, nearer_zero) = _wrist_pair(ops, reduced, theta6_ref)
-        for theta5, theta6, theta234 in (upper, lower):
-            x4, z4 = _planar_arm(ops, g, cos1, sin1, theta5, theta234, px, py, pz)
-            cos3 = _elbow_cosine(ops, g, x4, z4)
-            # At (or near) a singular wrist only θ4 + θ6 (θ5 ≈ 0) or θ4 − θ6 (θ5 ≈ π) is well determined; a split
-            # the arm cannot reach is moved to the nearest reachable one, θ6 compensating; the FK filter judges.
-            move = singular | (near & ops.isnan(cos3))
-            if ops.any(move):
-                reachable = _reachable_wrist_family(ops, g, cos1, sin1, theta5, theta234, px, py, pz)
-                shift = ops.where(move, reachable - theta234, 0.0)
-                theta234 = theta234 + shift
-                theta6 = theta6 + ops.where(nearer_zero, -shift, shift)
-                x4, z4 = _planar_arm(ops, g, cos1, sin1, theta5, theta234, px, py, pz)
-                cos3 = _elbow_cosine(ops, g, x4, z4)
-            for sign3 in (1.0, -1.0):
-                theta2, theta3 = _shoulder_elbow(ops, g, x4, z4, cos3, sign3)
+        upper, lower, flags = _wrist_pair(ops, reduced, theta6_ref)
+        for wrist in (upper, lower):
+            theta6, theta234, x4, z4, cos3 = _elbow_for_wrist(ops, g, cos1, sin1, wrist, flags, px, py, pz)
+            for theta2, theta3 in _shoulder_elbow_pair(ops, g, x4, z4, cos3):
                 theta4 = theta234 - theta2 - theta3   # eq. 4.44
-                branches.append((theta1, theta2, theta3, theta4, theta5, theta6))
+                branches.append((theta1, theta2, theta3, theta4, wrist[0], theta6))
     return branches
-
 
 
 # ---------------------------------------------------------------------------------- plain-float pose helpers
@@ -397,31 +407,40 @@ def _pose_coefficients(pose, name: str) -> tuple:
 
 
 def _targets(g: _Geometry, pose) -> tuple:
-    """(TCP pair, flange pair) — each (qw, qx, qy, qz, px, py, pz) — of a TCP pose; flange = pose · tcp⁻¹."""
+    """(TCP coefficients (8 floats), flange pair (qw, qx, qy, qz, px, py, pz)) of a TCP pose; flange = pose · tcp⁻¹."""
     c = _pose_coefficients(pose, "pose")
-    tcp_pair = _pair_of(c)
-    if g.tcp_inverse is None:
-        return tcp_pair, tcp_pair
-    return tcp_pair, _pair_of(_dq_product(c, g.tcp_inverse))
+    return c, _pair_of(c if g.tcp_inverse is None else _dq_product(c, g.tcp_inverse))
 
 
-def _pose_error(ops, a, b) -> tuple:
-    """(metres, radians) between two pairs (q, p): |pa − pb| and the rotation angle of qa*·qb (q ≡ −q)."""
-    metres = ops.sqrt((a[4] - b[4]) ** 2 + (a[5] - b[5]) ** 2 + (a[6] - b[6]) ** 2)
-    relative = _quaternion_product((a[0], -a[1], -a[2], -a[3]), b[:4])
-    radians = 2.0 * ops.atan2(ops.sqrt(relative[1] ** 2 + relative[2] ** 2 + relative[3] ** 2), abs(relative[0]))
-    return metres, radians
+def _within_fk_tolerance(ops, fk, target):
+    """Whether poses fk and target (8 coefficients each, floats or arrays) agree: |Δt| ≤ FK_TOLERANCE_M and the
+    rotation angle ≤ FK_TOLERANCE_RAD. The chord |r_fk ∓ r| = 2 sin(angle/4) decides the angle exactly, from
+    squared differences: no cancellation-prone dot product near 1, no trigonometry per pose."""
+    fx, fy, fz = _translation_columns(fk)
+    tx, ty, tz = _translation_columns(target)
+    position_error2 = (fx - tx) ** 2 + (fy - ty) ** 2 + (fz - tz) ** 2
+    sign = ops.where(fk[0] * target[0] + fk[1] * target[1] + fk[2] * target[2] + fk[3] * target[3] < 0.0,
+                     -1.0, 1.0)
+    chord2 = ((fk[0] - sign * target[0]) ** 2 + (fk[1] - sign * target[1]) ** 2
+              + (fk[2] - sign * target[2]) ** 2 + (fk[3] - sign * target[3]) ** 2)
+    return (position_error2 <= FK_TOLERANCE_M ** 2) & (chord2 <= _CHORD_LIMIT ** 2)
 
 
-def _meets(model, q, tcp_target) -> bool:
-    """The thesis' FK filter (eq. 4.45): the model's FK(q) within FK_TOLERANCE_M / FK_TOLERANCE_RAD of the TCP pair."""
-    metres, radians = _pose_error(_ScalarOps, _pair_of(model.fk(q).to_array().tolist()), tcp_target)
-    return metres <= FK_TOLERANCE_M and radians <= FK_TOLERANCE_RAD
+def _translation_columns(c) -> tuple:
+    """(x, y, z) = vector part of 2·d·r* of unit dual quaternion coefficients c (8 floats or 8 arrays)."""
+    rw, rx, ry, rz, dw, dx, dy, dz = c
+    return (2.0 * (-dw * rx + dx * rw - dy * rz + dz * ry), 2.0 * (-dw * ry + dx * rz + dy * rw - dz * rx),
+            2.0 * (-dw * rz - dx * ry + dy * rx + dz * rw))
+
+
+def _meets(model, q, tcp_coefficients) -> bool:
+    """The thesis' FK filter (eq. 4.45): the model's FK(q) within the tolerances of the TCP pose's coefficients."""
+    return _within_fk_tolerance(_ScalarOps, model.fk(q).to_array().tolist(), tcp_coefficients)
 
 
 # ------------------------------------------------------------------------------------------------ single pose
-def _unreachable_reason(g: _Geometry, target, branches) -> str:
-    """Why no branch exists for ``target``: the first geometric constraint it violates, in words."""
+def _unreachable_reason(g: _Geometry, target, branches_existed: bool) -> str:
+    """Why ``target`` (flange pair) has no solution: the first geometric constraint it violates, in words."""
     qw, qx, qy, qz, px, py, pz = target
     x5, y5 = _wrist_centre(g, qw, qx, qy, qz, px, py)
     radial = math.hypot(x5, y5)
@@ -443,7 +462,7 @@ def _unreachable_reason(g: _Geometry, target, branches) -> str:
     if all(n < reach_min for n in needed):
         return (f"{prefix}too close: the elbow would have to span {max(needed):.4f} m, "
                 f"the folded arm reaches no closer than {reach_min:.4f} m")
-    if any(all(math.isfinite(v) for v in branch) for branch in branches):
+    if branches_existed:
         return "no analytic branch passes the FK filter (numerically singular pose)"
     return "out of reach of every elbow branch for this wrist orientation"
 
@@ -478,10 +497,10 @@ def _is_new(solution, kept) -> bool:
 def _reference(q_ref, name: str = "q_ref") -> tuple:
     """Six finite floats of a joint reference; ValueError naming ``name`` otherwise."""
     try:
-        # ndarray.tolist() gives Python floats in one call (iterating an array yields slow numpy scalars).
-        values = tuple(q_ref.tolist() if isinstance(q_ref, np.ndarray) and q_ref.ndim == 1 else
-                       (float(v) for v in q_ref))
-        values = tuple(float(v) for v in values)
+        if isinstance(q_ref, np.ndarray) and q_ref.dtype == np.float64 and q_ref.ndim == 1:
+            values = tuple(q_ref.tolist())   # Python floats in one call (iterating yields slow numpy scalars)
+        else:
+            values = tuple(float(v) for v in q_ref)
     except (TypeError, ValueError) as exc:
         raise ValueError(f"{name}: expected 6 joint angles (radians), got {q_ref!r}") from exc
     if len(values) != 6:
@@ -495,25 +514,26 @@ def ik_all(model, pose, q_ref=None) -> list:
     """Every FK-verified joint solution (radians, each in (−π, π]) of the TCP ``pose`` (base frame), up to 8.
 
     ``q_ref`` (optional) only resolves the wrist singularity: there θ6 is set to q_ref[5] (0 without a reference)
-    and θ4 absorbs the rest of θ4 ± θ6. Raises UnreachablePoseError (a ValueError) saying why when none exists.
+    when the arm can reach with it, θ2 + θ3 + θ4 takes the rest of the θ234 ± θ6 the orientation fixes (see the
+    module notes). Raises UnreachablePoseError (a ValueError) saying why when no solution exists.
     """
     g = _geometry(model)
-    tcp_target, target = _targets(g, pose)
+    tcp_coefficients, target = _targets(g, pose)
     theta6_ref = 0.0 if q_ref is None else _wrap_float(_reference(q_ref)[5])
     candidates = _solution_candidates(g, target, theta6_ref)
     solutions = []
     for candidate in candidates:
-        if _is_new(candidate, solutions) and _meets(model, candidate, tcp_target):
+        if _is_new(candidate, solutions) and _meets(model, candidate, tcp_coefficients):
             solutions.append(candidate)
     if not solutions:
         raise UnreachablePoseError(f"pose unreachable for {model.name}: "
-                                   f"{_unreachable_reason(g, target, candidates or [[math.nan]])}")
+                                   f"{_unreachable_reason(g, target, bool(candidates))}")
     return [np.array([_wrap_float(v) for v in solution]) for solution in solutions]
 
 
 def _closest_variant(angle: float, reference: float, lower: float, upper: float):
     """angle + 2πk inside [lower, upper] closest to ``reference``, or None when no variant fits the limits."""
-    centre = angle + _TWO_PI * round((reference - angle) / _TWO_PI)
+    centre = reference + math.remainder(angle - reference, _TWO_PI)
     if lower <= centre <= upper:
         return centre   # the nearest variant of all: nothing inside the limits can be nearer
     best = None
@@ -536,42 +556,67 @@ def _weights(weights) -> tuple:
 def _joint_cost(g: _Geometry, joint: int, angle: float, reference, weights) -> float:
     """wⱼ·(v − refⱼ)² for the ±2π variant v of ``angle`` inside joint ``joint``'s limits nearest refⱼ (inf: none)."""
     ref = reference[joint]
-    variant = angle + _TWO_PI * round((ref - angle) / _TWO_PI)   # nearest of all variants, usually inside
-    if not g.lower[joint] <= variant <= g.upper[joint]:
+    offset = math.remainder(angle - ref, _TWO_PI)   # to the nearest variant of all, usually inside the limits
+    if not g.lower[joint] <= ref + offset <= g.upper[joint]:
         variant = _closest_variant(angle, ref, g.lower[joint], g.upper[joint])
         if variant is None:
             return math.inf
-    return weights[joint] * (variant - ref) ** 2
+        offset = variant - ref
+    return weights[joint] * offset * offset
 
 
 def _nearest_candidate(g: _Geometry, candidates, reference, weights):
     """The candidate with the least Σ wᵢ·(qᵢ − refᵢ)² over in-limit ±2π variants, or None if none fits.
 
-    Branch and bound: candidates are ranked by the joints that tell branches apart (θ1, θ5, θ3), whose costs
-    are shared between sibling branches (computed once per value), and the other joints are only added while a
-    candidate can still win.
+    Branch and bound: candidates are ranked by the joints that tell branches apart (θ1, θ5, θ3) and the other
+    joints are only added while a candidate can still win (usually for one or two of them).
     """
-    shared = {}
-    ranked = []
-    for index, candidate in enumerate(candidates):
-        partial = 0.0
-        for joint in (0, 4, 2):
-            key = (joint, candidate[joint])
-            if key not in shared:
-                shared[key] = _joint_cost(g, joint, candidate[joint], reference, weights)
-            partial += shared[key]
-        ranked.append((partial, index))
-    ranked.sort()
+    ranked = sorted((_joint_cost(g, 0, c[0], reference, weights) + _joint_cost(g, 4, c[4], reference, weights)
+                     + _joint_cost(g, 2, c[2], reference, weights), index) for index, c in enumerate(candidates))
     best, best_cost = None, math.inf
     for partial, index in ranked:
         if partial >= best_cost:
             break
         candidate = candidates[index]
-        cost = partial
-        for joint in (1, 3, 5):
-            cost += _joint_cost(g, joint, candidate[joint], reference, weights)
+        cost = (partial + _joint_cost(g, 1, candidate[1], reference, weights)
+                + _joint_cost(g, 3, candidate[3], reference, weights)
+                + _joint_cost(g, 5, candidate[5], reference, weights))
         if cost < best_cost:
             best, best_cost = candidate, cost
+    return best
+
+
+def _nearest_branch(g: _Geometry, target, reference, weights):
+    """The analytic solution of ``target`` (flange pair) nearest ``reference``, searched branch and bound.
+
+    The same equations as _branches, walked θ1 → wrist → elbow, cheapest first: a θ1 (or wrist) whose own joint
+    costs already reach the best complete cost is not solved further. None when nothing fits the limits.
+    """
+    qw, qx, qy, qz, px, py, pz = target
+    x5, y5 = _wrist_centre(g, qw, qx, qy, qz, px, py)
+    best, best_cost = None, math.inf
+    shoulders = [(_joint_cost(g, 0, theta1, reference, weights), theta1)
+                 for theta1 in _theta1_pair(_ScalarOps, g, x5, y5) if theta1 == theta1]   # NaN: no θ1
+    for cost1, theta1 in sorted(shoulders):
+        if cost1 >= best_cost:
+            break
+        cos1, sin1, reduced = _reduced_rotation(_ScalarOps, theta1, qw, qx, qy, qz)
+        upper, lower, flags = _wrist_pair(_ScalarOps, reduced, _wrap_float(reference[5]))
+        wrists = sorted(((cost1 + _joint_cost(g, 4, wrist[0], reference, weights), index, wrist)
+                         for index, wrist in enumerate((upper, lower))))
+        for cost15, _, wrist in wrists:
+            if cost15 >= best_cost:
+                break
+            theta6, theta234, x4, z4, cos3 = _elbow_for_wrist(_ScalarOps, g, cos1, sin1, wrist, flags, px, py, pz)
+            if cos3 != cos3:   # NaN: the elbow cannot reach
+                continue
+            cost156 = cost15 + _joint_cost(g, 5, theta6, reference, weights)
+            for theta2, theta3 in _shoulder_elbow_pair(_ScalarOps, g, x4, z4, cos3):
+                theta4 = theta234 - theta2 - theta3   # eq. 4.44
+                cost = (cost156 + _joint_cost(g, 2, theta3, reference, weights)
+                        + _joint_cost(g, 1, theta2, reference, weights) + _joint_cost(g, 3, theta4, reference, weights))
+                if cost < best_cost:
+                    best, best_cost = (theta1, theta2, theta3, theta4, wrist[0], theta6), cost
     return best
 
 
@@ -598,12 +643,18 @@ def ik(model, pose, q_ref, weights=None) -> np.ndarray:
     """The joint solution of TCP ``pose`` nearest ``q_ref`` (Σ wᵢ·Δqᵢ², over all ±2π variants inside the limits).
 
     This is the choice a replay needs: the arm never flips branch while a nearer one exists. At the wrist
-    singularity θ6 stays at q_ref[5]. Raises UnreachablePoseError when no solution lies inside the joint limits.
+    singularity θ6 stays at q_ref[5] (unless the arm cannot reach with it). The FK filter runs on the winner
+    (then on the runner-up if it fails). Raises UnreachablePoseError when no solution lies inside the joint limits.
     """
     g = _geometry(model)
     reference = _reference(q_ref)
     weight = _weights(weights)
-    tcp_target, target = _targets(g, pose)
+    tcp_coefficients, target = _targets(g, pose)
+    if not g.calibrated:
+        best = _nearest_branch(g, target, reference, weight)
+        if best is not None and _meets(model, best, tcp_coefficients):
+            return _nearest_joints(g, best, reference)
+    # Calibrated models (Newton on every branch), or a winner the FK filter rejected: rank all candidates.
     candidates = _solution_candidates(g, target, _wrap_float(reference[5]))
     remaining = list(candidates)
     # Nearest first, FK filter only on the winner (usually one FK evaluation); a rejected winner is dropped.
@@ -611,14 +662,14 @@ def ik(model, pose, q_ref, weights=None) -> np.ndarray:
         best = _nearest_candidate(g, remaining, reference, weight)
         if best is None:
             break
-        if _meets(model, best, tcp_target):
+        if _meets(model, best, tcp_coefficients):
             return _nearest_joints(g, best, reference)
         remaining.remove(best)
-    if any(_meets(model, c, tcp_target) for c in candidates):
+    if any(_meets(model, c, tcp_coefficients) for c in candidates):
         raise UnreachablePoseError(f"pose unreachable for {model.name}: outside limits — every solution has a "
                                    "joint outside the joint limits")
     raise UnreachablePoseError(f"pose unreachable for {model.name}: "
-                               f"{_unreachable_reason(g, target, candidates or [[math.nan]])}")
+                               f"{_unreachable_reason(g, target, bool(candidates))}")
 
 
 # ----------------------------------------------------------------------------------------------------- batches
@@ -718,40 +769,31 @@ def _batch_candidates(g: _Geometry, targets: tuple, theta6_ref) -> np.ndarray:
     return columns
 
 
-def _translation_columns(c) -> tuple:
-    """(x, y, z) = vector part of 2·d·r* from the 8 coefficient columns c of unit dual quaternions."""
-    rw, rx, ry, rz, dw, dx, dy, dz = c
-    return (2.0 * (-dw * rx + dx * rw - dy * rz + dz * ry), 2.0 * (-dw * ry + dx * rz + dy * rw - dz * rx),
-            2.0 * (-dw * rz - dx * ry + dy * rx + dz * rw))
-
-
 def _fk_filter(model, columns: np.ndarray, poses: np.ndarray) -> np.ndarray:
-    """(8, N) mask of the branches (6, 8, N) whose FK meets poses (N, 8) (the thesis' filter, eq. 4.45).
-
-    Position: |Δt|² ≤ FK_TOLERANCE_M². Rotation: the chord |r_fk − ±r| = 2 sin(angle/4), so angle ≤ tol exactly
-    when chord ≤ 2 sin(tol/4) — squared sums of differences, no cancellation-prone dot product.
-    """
+    """(8, N) mask of the branches (6, 8, N) whose FK meets poses (N, 8) (the thesis' filter, eq. 4.45)."""
     exists = ~np.isnan(columns).any(axis=0)
     fk = model.fk_batch(np.where(exists, columns, 0.0).reshape(6, -1).T)
-    fk_columns = [fk[:, i].reshape(exists.shape) for i in range(8)]
-    target_columns = [poses[:, i] for i in range(8)]
-    position_error2 = sum((a - b) ** 2 for a, b in zip(_translation_columns(fk_columns),
-                                                      _translation_columns(target_columns)))
-    sign = np.where(sum(a * b for a, b in zip(fk_columns[:4], target_columns[:4])) < 0.0, -1.0, 1.0)
-    chord2 = sum((a - sign * b) ** 2 for a, b in zip(fk_columns[:4], target_columns[:4]))
-    chord_limit = 2.0 * math.sin(0.25 * FK_TOLERANCE_RAD)
-    return exists & (position_error2 <= FK_TOLERANCE_M ** 2) & (chord2 <= chord_limit ** 2)
+    # One transposing copy makes every coefficient a contiguous run: the comparison then runs twice as fast.
+    fk_columns = np.ascontiguousarray(fk.T).reshape((8,) + exists.shape)
+    return exists & _within_fk_tolerance(_ArrayOps, fk_columns, np.ascontiguousarray(poses.T))
 
 
 def _drop_duplicates(columns: np.ndarray, keep: np.ndarray) -> np.ndarray:
-    """``keep`` (8, N) with every branch that repeats (within DUPLICATE_TOLERANCE, mod 2π) a kept earlier one cleared."""
+    """``keep`` (8, N) with every branch that repeats (within DUPLICATE_TOLERANCE, mod 2π) a kept earlier one cleared.
+
+    Joint by joint, only the poses still alike are compared further (most branch pairs differ in θ1 already).
+    """
     keep = keep.copy()
     for later in range(1, 8):
         for earlier in range(later):
-            difference = columns[:, later] - columns[:, earlier]
-            difference -= _TWO_PI * np.rint(difference / _TWO_PI)
-            same = np.all(np.abs(difference) < DUPLICATE_TOLERANCE, axis=0)
-            keep[later] &= ~(same & keep[earlier])
+            alike = np.flatnonzero(keep[later] & keep[earlier])
+            for joint in (0, 4, 2, 1, 3, 5):
+                if alike.size == 0:
+                    break
+                difference = columns[joint, later, alike] - columns[joint, earlier, alike]
+                difference -= _TWO_PI * np.rint(difference / _TWO_PI)
+                alike = alike[np.abs(difference) < DUPLICATE_TOLERANCE]
+            keep[later, alike] = False
     return keep
 
 

@@ -199,8 +199,9 @@ class Robot:
     def movej(self, q, a=None, v=None, expected_pose=None):
         """Move to joint target `q` (rad) on a trapezoid with acceleration a (rad/s²) and speed v (rad/s).
 
-        Blocks until the arm rests at `q`; returns the wall time in seconds. `expected_pose` (DualQuaternion)
-        marks a target that came from IK: the model's FK of `q` must reach it.
+        Blocks until the controller has announced the program's end and the arm rests at `q` (the state stream
+        may show the program running for one more cycle); returns the wall time in seconds. `expected_pose`
+        (DualQuaternion) marks a target that came from IK: the model's FK of `q` must reach it.
         """
         return self.movej_path([q], blend=0.0, a=a, v=v, expected_poses=None if expected_pose is None
                                else [expected_pose])
@@ -229,7 +230,7 @@ class Robot:
         name = script.new_program_name("move")
         program = script.movej_program(name, targets, a, v, blend=float(blend))
         timeout = motion.motion_timeout(duration, status.target_speed_fraction)
-        return self._run_motion(name, program, targets[-1], status.joints, timeout)
+        return self._run_motion(name, program, targets[-1], status.joints, status.program_running, timeout)
 
     def movej_pose(self, pose, a=None, v=None):
         """Move to the TCP `pose` (DualQuaternion) through the IK solution closest to the current joints."""
@@ -277,13 +278,14 @@ class Robot:
             raise ConnectionLostError(f"the primary interface of {self.host} closed: {self._primary.error}")
         return status
 
-    def _run_motion(self, name, program, target, q_start, timeout):
+    def _run_motion(self, name, program, target, q_start, running_at_send, timeout):
         """Send `program`, then watch it to its end; any failure stops the arm before the exception leaves."""
         watcher = self._primary.watch()
         sent = time.monotonic()
         try:
             self._backend.send_program(program)
-            outcome = _MotionWatch(name, target, far_from_target=motion.leading_travel(q_start, target) > 2e-3)
+            outcome = _MotionWatch(name, target, far_from_target=motion.leading_travel(q_start, target) > 2e-3,
+                                   running_at_send=running_at_send)
             while True:
                 for message in _drain(watcher):
                     outcome.note_message(message)
@@ -384,12 +386,15 @@ class Robot:
 class _MotionWatch:
     """What is known about one sent program: started/stopped (key messages or state), and the controller's errors."""
 
-    def __init__(self, name, target, far_from_target):
+    def __init__(self, name, target, far_from_target, running_at_send):
         self.name = name
         self.target = np.asarray(target, dtype=float)
         self.far_from_target = far_from_target  # arriving at the target then proves the program ran
         self.started = False
         self.stopped = False
+        # A program already running when ours was sent (or its stale flag) is not ours: the state's "running"
+        # counts as our start only after the state has shown no program since the send.
+        self._running_is_ours = not running_at_send
         self.last_error_text = None
         self.runtime_error = None  # raised once the state had time to show a safety stop behind it instead
         self._ended_at = None
@@ -423,8 +428,11 @@ class _MotionWatch:
             return False
         # The controller's key message announces the end a state cycle before the state stream agrees; waiting
         # for the stream too would add that cycle to every move.
-        if status.program_running and not self.stopped:
-            self.started, self._ended_at = True, None
+        if not status.program_running:
+            self._running_is_ours = True
+        elif not self.stopped:
+            self.started = self.started or self._running_is_ours
+            self._ended_at = None
             return False
         if state.at_rest_at(status, self.target) and (self.started or self.far_from_target):
             return True

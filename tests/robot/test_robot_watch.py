@@ -1,0 +1,71 @@
+"""The motion watch's decisions from sequences of states and robot messages (pure: no controller needed)."""
+import numpy as np
+import pytest
+
+from ur3dq.errors import ProgramError
+from ur3dq.robot import primary, state
+from ur3dq.robot.robot import SETTLE_TIME, _MotionWatch
+
+TARGET = np.array([0.5, 0, 0, 0, 0, 0])
+
+
+def status(q0, running, moving=False):
+    speeds = np.array([0.3, 0, 0, 0, 0, 0]) if moving else np.zeros(6)
+    return state.RobotStatus(np.array([q0, 0, 0, 0, 0, 0]), speeds, np.zeros(6), 7, 1, running, False, False, 1.0,
+                             1.0, 0.0)
+
+
+def key(title, name="p"):
+    return primary.KeyMessage(0, 0, title, name)
+
+
+def watch(running_at_send=False):
+    return _MotionWatch("p", TARGET, far_from_target=True, running_at_send=running_at_send)
+
+
+def test_done_when_the_program_ended_and_the_arm_rests_on_target():
+    outcome = watch()
+    assert not outcome.finished(status(0.0, running=False), 0.0)  # not started yet
+    assert not outcome.finished(status(0.2, running=True, moving=True), 0.1)
+    assert not outcome.finished(status(0.5, running=True), 0.2)  # still running
+    assert outcome.finished(status(0.5, running=False), 0.21)
+
+
+def test_the_stopped_key_message_ends_the_program_before_the_state_agrees():
+    outcome = watch()
+    outcome.note_message(key("PROGRAM_XXX_STARTED"))
+    outcome.note_message(key("PROGRAM_XXX_STOPPED"))
+    assert outcome.finished(status(0.5, running=True), 1.0)
+
+
+def test_key_messages_of_other_programs_are_ignored():
+    outcome = watch()
+    outcome.note_message(key("PROGRAM_XXX_STOPPED", name="other"))
+    assert not outcome.finished(status(0.5, running=True), 1.0)
+
+
+def test_ending_off_target_is_a_program_error_after_the_settle_time():
+    outcome = watch()
+    outcome.finished(status(0.2, running=True, moving=True), 0.0)
+    assert not outcome.finished(status(0.3, running=False), 0.1)
+    with pytest.raises(ProgramError, match="0.2000 rad from its target: C4A1: joint limit"):
+        outcome.note_message(primary.ErrorCodeMessage(4, 1, 3, "joint limit"))
+        outcome.finished(status(0.3, running=False), 0.1 + SETTLE_TIME + 0.01)
+
+
+def test_a_stale_running_flag_of_the_previous_program_is_not_our_start():
+    outcome = watch(running_at_send=True)
+    outcome.finished(status(0.0, running=True), 0.0)
+    assert not outcome.started
+    outcome.finished(status(0.0, running=False), 0.01)  # the previous program's flag clears
+    assert not outcome.finished(status(0.0, running=False), 0.01 + SETTLE_TIME + 0.1)  # ours not started: wait
+    outcome.finished(status(0.1, running=True, moving=True), 1.0)
+    assert outcome.started
+
+
+def test_a_runtime_exception_is_raised_after_the_settle_time():
+    outcome = watch()
+    outcome.note_message(primary.RuntimeExceptionMessage(2, 3, "compile_error_name_not_found:x:"))
+    assert not outcome.finished(status(0.0, running=False), 0.0)
+    with pytest.raises(ProgramError, match="line 2, column 3: compile_error"):
+        outcome.finished(status(0.0, running=False), SETTLE_TIME + 0.01)
