@@ -53,6 +53,16 @@ def well_conditioned(model, q, margin=1e-3):
     return abs(math.sin(q[4])) > margin and abs(math.sin(q[2])) > margin and abs(shoulder) > margin
 
 
+@settings(max_examples=200, deadline=None)
+@given(angle=st.floats(-1e3, 1e3, allow_nan=False) | st.sampled_from([math.pi, -math.pi, 3 * math.pi, 0.0]))
+def test_wrap_angle_maps_into_minus_pi_exclusive_to_pi_inclusive(angle):
+    wrapped = float(ur_ik.wrap_angle(angle))
+    assert -math.pi < wrapped <= math.pi
+    turns = (angle - wrapped) / (2 * math.pi)
+    assert abs(turns - round(turns)) < 1e-9
+    assert float(ur_ik.wrap_angle(np.array([angle]))[0]) == wrapped
+
+
 # ------------------------------------------------------------------------------------------- round trips
 @pytest.mark.parametrize("name", MODEL_NAMES)
 @settings(max_examples=60, deadline=None)
@@ -101,6 +111,21 @@ def test_near_singular_configurations_round_trip(name, q, theta5, theta3, wrist_
     # ~ε/θ5 and a stretched elbow turns that into √ of it in θ2, θ3 (3e-4 rad at θ5 = 1e-9, the pose still met
     # to 1e-9). What must not happen is a flip to another branch (≥ 0.1 rad away).
     assert np.max(np.abs(nearest[:3] - q[:3])) < 5e-3
+
+
+def test_stretched_elbow_with_a_nearly_singular_wrist_keeps_its_branch():
+    # θ5 = −1e-5 leaves the θ234/θ6 split uncertain by ~1e-10 rad, enough to put the stretched elbow a rounding
+    # error out of reach: the branch is moved back along the wrist family instead of being lost (found by search).
+    model = robot_model("ur16e")
+    q = np.array([-2.411725027493826, 1.3275180419148693, -1e-09, 0.057027735030118265, -1e-05, 2.8639610290870943])
+    pose = model.fk(q)
+    nearest = ur_ik.ik(model, pose, q)
+    assert_fk_matches(model, nearest, pose)
+    assert np.max(np.abs(nearest[:3] - q[:3])) < 5e-3
+    # The batch path rounds differently (numpy vs libm) and this pose amplifies rounding: same branch, pose met.
+    batch = ur_ik.ik_batch(model, pose.to_array()[None], q)[0]
+    assert_fk_matches(model, batch, pose)
+    assert np.max(np.abs(batch[:3] - q[:3])) < 5e-3
 
 
 def shoulder_singular_configuration(model, theta1, theta3, sine234, theta5, theta6):
@@ -381,6 +406,7 @@ def test_calibrated_ik_batch_matches_the_configurations():
     ([1.0, 0, 0, 0, 0, 0, 0], "pose"),
     ([1.0, 0, 0, 0, 0, math.nan, 0, 0], "NaN"),
     ([2.0, 0, 0, 0, 0, 0, 0, 0], "not a unit"),
+    ([1.0, 0, 0, 0, 0.3, 0, 0, 0], "not a unit dual quaternion"),
     ("text", "pose"),
 ])
 def test_bad_pose_raises_value_error_naming_it(pose, message):

@@ -9,7 +9,9 @@ paper's Φ_i = ½·u_i·θ_i, for a prismatic joint the dual log ½·d). The end
 so a rotation of 210° stays φ = 3.6652 as long as the FK keeps r on that sheet. Each pass of the paper's loop
 evaluates e, stops when ‖g − e‖ < tolerance, else steps Δw = Jᵀ(J·Jᵀ + γ²I)⁻¹·α·(g − e).
 
-Paper mode reproduces the paper's numbers exactly, quirks included (checked against its example and tables 1–2):
+Paper mode reproduces the paper's numbers, quirks included: its example and every entry of tables 1–2 to the
+printed digits, but for the one run stopped by the iteration cap (α = 0.1), where the paper prints the error of the
+pass before the last. Its conventions, recovered by that comparison:
 
 * J's orientation rows are ∂log(r)/∂w (the paper's §3.3), half of ∂φ/∂w for the φ = 2·log(r) in e;
 * those rows use the paper's projection ∂σ_l/∂w_k = S((∂r/∂σ_l)*·∂r/∂w_k), which is the exact derivative when the
@@ -264,12 +266,7 @@ def dls_ik(chain, goal, q0, *, mode: str = PAPER, alpha: float | None = None, ga
     if np.any(outside):
         raise ValueError(f"q0: joint {int(np.argmax(outside)) + 1} is outside the joint limits")
     if mode == PAPER:
-        alpha = PAPER_ALPHA if alpha is None else _number(alpha, "alpha")
-        gamma = PAPER_GAMMA if gamma is None else _number(gamma, "gamma")
-        if not 0.0 < alpha <= 1.0:
-            raise ValueError(f"alpha: the step fraction must lie in (0, 1], got {alpha}")
-        if gamma < 0.0:
-            raise ValueError(f"gamma: the damping must be ≥ 0, got {gamma}")
+        alpha, gamma = _paper_parameters(alpha, gamma)
     elif alpha is not None or gamma is not None:
         name = "alpha" if alpha is not None else "gamma"
         raise ValueError(f"{name}: applies to mode='paper' only; the improved mode sizes its own steps")
@@ -280,7 +277,7 @@ def dls_ik(chain, goal, q0, *, mode: str = PAPER, alpha: float | None = None, ga
     if tolerance <= 0.0:
         raise ValueError(f"tolerance: must be > 0, got {tolerance}")
     max_iterations = default_cap if max_iterations is None else _count(max_iterations, "max_iterations")
-    if jacobian not in PAPER_JACOBIANS:
+    if not isinstance(jacobian, str) or jacobian not in PAPER_JACOBIANS:
         raise ValueError(f"jacobian: expected one of {tuple(PAPER_JACOBIANS)}, got {jacobian!r}")
     if mode == PAPER:
         goal_vector = _goal_vector(goal)
@@ -371,7 +368,8 @@ def _damped_step(normal, gradient, damping, q, lower, upper) -> np.ndarray:
     while True:
         step = np.zeros(len(q))
         system = normal[np.ix_(free, free)] + damping * np.eye(int(free.sum()))
-        step[free] = np.linalg.solve(system, gradient[free])
+        # lstsq, not solve: with μ ≈ 0 at a singular solution the system may be singular to working precision.
+        step[free] = np.linalg.lstsq(system, gradient[free], rcond=None)[0]
         blocked = free & (((q <= lower) & (step < 0.0)) | ((q >= upper) & (step > 0.0)))
         if not blocked.any():
             return step
@@ -406,6 +404,17 @@ def _limits(values, n: int, default: float, name: str) -> np.ndarray:
     if np.any(np.isnan(array)):
         raise ValueError(f"{name}: contains NaN")
     return array
+
+
+def _paper_parameters(alpha, gamma) -> tuple[float, float]:
+    """(α, γ) with the paper's defaults for None; ValueError unless 0 < α ≤ 1 and γ ≥ 0."""
+    alpha = PAPER_ALPHA if alpha is None else _number(alpha, "alpha")
+    gamma = PAPER_GAMMA if gamma is None else _number(gamma, "gamma")
+    if not 0.0 < alpha <= 1.0:
+        raise ValueError(f"alpha: the step fraction must lie in (0, 1], got {alpha}")
+    if gamma < 0.0:
+        raise ValueError(f"gamma: the damping must be ≥ 0, got {gamma}")
+    return alpha, gamma
 
 
 def _number(value, name: str) -> float:

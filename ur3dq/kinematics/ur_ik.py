@@ -34,11 +34,19 @@ Values a rounding error outside their domain (|cos θ3| ≤ 1 + DOMAIN_TOLERANCE
 decides whether the pose is met. Unreachable poses raise UnreachablePoseError saying why.
 
 Calibrated models (DH deltas): the nominal geometry (d1, a2, a3, d4, d5, d6 of the calibrated table) gives the
-starting branches, then Newton steps on the calibrated FK converge each to CALIBRATED_TOLERANCE.
+starting branches, then Newton steps on the calibrated FK converge each to CALIBRATED_TOLERANCE; the FK filter
+still decides. Known limit: within ~0.05 rad of a wrist singularity or of the folded elbow, two nominal branches
+can converge to the same calibrated solution, so ik_all may miss a neighbouring one there (whatever it returns
+is FK-verified; ik then picks the nearest of those).
+
+Single poses run in plain floats (no pyquaternion or numpy objects on the hot path); `ik` walks the branches
+θ1 → wrist → elbow cheapest first and stops solving a branch that can no longer be the nearest. Batches run the
+same equations in numpy over every branch of every pose at once (joint-major (6, 8, N) arrays).
 """
 from __future__ import annotations
 
 import math
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -56,9 +64,10 @@ FK_TOLERANCE_RAD = 1e-9
 #: Below this |sin(θ5/2)| (θ5 ≈ 0) or |cos(θ5/2)| (θ5 ≈ π) the wrist is treated as singular: setting θ5 to exactly
 #: 0 (π) turns the flange by ≤ 2e-10 rad and moves it by ≤ d6·2e-10 m, inside the FK filter.
 WRIST_SINGULAR_TOLERANCE = 1e-10
-#: Below this |sin(θ5/2)| (or |cos(θ5/2)|) the θ4/θ6 split carries a rounding error of up to 1e-16/1e-6 rad that
-#: can push a stretched elbow out of reach; such a branch is moved along the θ4 ± θ6 family back into reach.
-WRIST_NEAR_TOLERANCE = 1e-6
+#: Below this |sin(θ5/2)| (or |cos(θ5/2)|) the θ234/θ6 split carries the rounding of θ1 (up to ~1e-14) divided by
+#: it, which can push a stretched elbow out of reach (seen at θ5 = 1e-5); such a branch is moved along the
+#: θ234 ± θ6 family back into reach. Only out-of-reach branches move, and the FK filter judges the result.
+WRIST_NEAR_TOLERANCE = 1e-3
 #: Relative rounding slack for the domains of the square roots / arccosines (shoulder, elbow); the clamped value
 #: moves the wrist by < 1e-10 m, so the FK filter still judges the result.
 DOMAIN_TOLERANCE = 1e-10
@@ -103,6 +112,7 @@ class _Geometry:
 
 _GEOMETRY_CACHE: dict = {}
 _GEOMETRY_CACHE_SIZE = 64
+_GEOMETRY_CACHE_LOCK = threading.Lock()   # drivers solve IK from their own threads
 
 
 def _geometry(model) -> _Geometry:
@@ -111,9 +121,10 @@ def _geometry(model) -> _Geometry:
     if cached is not None and cached[0] is model:
         return cached[1]
     geometry = _build_geometry(model)
-    if len(_GEOMETRY_CACHE) >= _GEOMETRY_CACHE_SIZE:
-        _GEOMETRY_CACHE.pop(next(iter(_GEOMETRY_CACHE)))
-    _GEOMETRY_CACHE[id(model)] = (model, geometry)   # the model is kept alive so its id cannot be reused
+    with _GEOMETRY_CACHE_LOCK:
+        if len(_GEOMETRY_CACHE) >= _GEOMETRY_CACHE_SIZE:
+            _GEOMETRY_CACHE.pop(next(iter(_GEOMETRY_CACHE)))
+        _GEOMETRY_CACHE[id(model)] = (model, geometry)   # the model is kept alive so its id cannot be reused
     return geometry
 
 
@@ -384,9 +395,7 @@ def _dq_product(a, b) -> tuple:
 
 def _pair_of(c) -> tuple:
     """(qw, qx, qy, qz, px, py, pz) — the thesis pair (q, p) — of a unit dual quaternion's 8 floats: p = 2·d·r*."""
-    rw, rx, ry, rz, dw, dx, dy, dz = c
-    return (rw, rx, ry, rz, 2.0 * (-dw * rx + dx * rw - dy * rz + dz * ry),
-            2.0 * (-dw * ry + dx * rz + dy * rw - dz * rx), 2.0 * (-dw * rz - dx * ry + dy * rx + dz * rw))
+    return tuple(c[:4]) + _translation_columns(c)
 
 
 def _pose_coefficients(pose, name: str) -> tuple:
@@ -403,6 +412,9 @@ def _pose_coefficients(pose, name: str) -> tuple:
         raise ValueError(f"{name}: contains NaN or infinite values")
     if abs(norm2 - 1.0) > 2.0 * dqarray.UNIT_TOLERANCE:
         raise ValueError(f"{name}: rotation part is not a unit quaternion (norm² {norm2:.6g})")
+    orthogonality = c[0] * c[4] + c[1] * c[5] + c[2] * c[6] + c[3] * c[7]
+    if abs(orthogonality) > dqarray.UNIT_TOLERANCE:
+        raise ValueError(f"{name}: not a unit dual quaternion (real·dual = {orthogonality:.3g}, must be 0)")
     return c
 
 

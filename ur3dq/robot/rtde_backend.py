@@ -19,7 +19,7 @@ class RTDEBackend:
 
     name = "rtde"
     poll_period = 0.001  # RTDE delivers every 2-8 ms; polling faster than that only burns CPU
-    freeze_timeout = 0.5  # ≥ 60 CB3 cycles without fresh data: the stream is frozen, not just late
+    freeze_timeout = 1.0  # 125 CB3 cycles without fresh data: frozen, not just late (even on a loaded machine)
 
     def __init__(self, host, primary):
         self.host = host

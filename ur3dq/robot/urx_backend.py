@@ -44,7 +44,8 @@ class URXBackend:
         """A RobotStatus from urx's newest joint/cartesian data and the primary reader's robot mode."""
         if not self.connected:
             self._shut(self._robot)  # a dead peer would leave urx's reader spinning on recv
-            raise ConnectionLostError(f"the urx/primary state stream from {self.host} is closed")
+            raise ConnectionLostError(f"the urx/primary state stream from {self.host} stopped (closed, or silent "
+                                      "longer than urx's 0.5 s receive timeout)")
         data = self._robot.secmon.get_all_data()
         mode = self.primary.robot_mode
         if mode is None or "JointData" not in data or "CartesianInfo" not in data:
