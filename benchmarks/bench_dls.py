@@ -87,6 +87,10 @@ def print_ur3_runs(goals: int):
         print(f"  ur3dq {name:26s} to {options.get('tolerance', 1e-10):.0e}: converged {converged}/{goals}, "
               f"passes median {np.median(passes):.0f}, p95 {np.quantile(passes, 0.95):.0f}, max {passes.max()}; "
               f"{timings[name] * 1e3:.2f} ms per solve")
+    anywhere = [dls_ik(model, pose, start, mode=IMPROVED, max_iterations=100)
+                for pose, start in zip(poses, rng.uniform(-np.pi, np.pi, (goals, 6)))]
+    print(f"  ur3dq improved from starts anywhere in ±π (a local method: no global guarantee): converged "
+          f"{sum(r.converged for r in anywhere)}/{goals} within 100 passes")
     matrices = [(pose.to_matrix(),) for pose in poses]
     peer = seconds_per_call(ur_analytic_ik.ur3.inverse_kinematics, matrices)
     print(f"  peer ur-analytic-ik inverse_kinematics (closed form, all solutions): {peer * 1e6:.1f} µs per call")

@@ -25,7 +25,12 @@ single joint moves, so a misaligned base or wrist is corrected in one step inste
 weighted by the chain's reach, damping μ = θ·‖error‖² adapted by the gain ratio, steps projected onto the joint
 limits. The twists differ from the true error Jacobian by O(|error|), so the convergence becomes quadratic.
 
-Units are the chain's: a chain in millimetres (the paper's example) gives errors in millimetres.
+Units are the chain's: a chain in millimetres (the paper's example) gives errors in millimetres. γ is in those
+units too: the paper's 0.22 is negligible against millimetre position rows and dominates metre ones.
+
+Both modes are local: from a far start they may stop in a local minimum or at a saddle (a start where the error's
+gradient vanishes exactly); that, and running out of iterations, is reported as ``converged=False``, never raised.
+At a singular goal the Jacobian loses rank there and the improved mode's convergence slows to linear.
 """
 from __future__ import annotations
 

@@ -29,7 +29,7 @@ import numpy as np
 from ur3dq import dqarray
 from ur3dq.dualquat import DualQuaternion, multiply_coefficients
 from ur3dq.errors import JointLimitError
-from ur3dq.kinematics.chain import SerialChain, evaluate_in_blocks, thesis_to_dh_flange
+from ur3dq.kinematics.chain import SerialChain, thesis_to_dh_flange
 
 JOINT_NAMES = ("base", "shoulder", "elbow", "wrist 1", "wrist 2", "wrist 3")
 NOMINAL_ALPHA = (math.pi / 2, 0.0, 0.0, math.pi / 2, -math.pi / 2, 0.0)
@@ -158,6 +158,123 @@ def _ur_flange(d1, a2, a3, d4, d5, d6, q1, q2, q3, q4, q5, q6, sincos) -> tuple:
     )
 
 
+#: Poses per block in the array kernels: a block's temporaries (a few dozen rows of BLOCK floats) stay in the L2
+#: cache, and each numpy call still covers enough elements to amortise its Python overhead (4096–8192 measured best).
+BLOCK = 4096
+_HALF_SQRT2 = 0.7071067811865476
+
+
+def _stacked_sincos(angles: np.ndarray) -> tuple:
+    """(sin, cos) of an array of angles, in place, from t = tan(angle/2): sin = t·u, cos = u − 1, u = 2/(1+t²).
+
+    One numpy call per step for all angles (numpy's float64 tan is SIMD-vectorised, its sin and cos are not); the
+    identities stay accurate to a few ulp, also where t is huge (angle ≈ π). ``angles`` is overwritten.
+    """
+    angles *= 0.5
+    tangent = np.tan(angles, out=angles)
+    scale = np.multiply(tangent, tangent)
+    scale += 1.0
+    np.divide(2.0, scale, out=scale)
+    sine = np.multiply(tangent, scale, out=tangent)
+    scale -= 1.0
+    return sine, scale
+
+
+def _ur_flange_rows(half_lengths, q1, q2, q3, q4, q5, q6) -> np.ndarray:
+    """(7, *S) rows (rw, rx, ry, rz, ½px, ½py, ½pz): flange rotation and half position of a nominal UR arm.
+
+    The closed form of :func:`_ur_flange` (same symbols) for joint arrays: q2, q3, q4 of shape S, while q1 and
+    q5, q6 may have fewer entries that broadcast to S (configurations sharing a joint value share its sines and
+    cosines). Each step is one numpy call over every row it needs, temporaries reused in place (hot loop).
+    """
+    d1, a2, a3, d4, d5, d6 = half_lengths
+    # Full angles q2, q23 and half angle q234/2 (_stacked_sincos halves once more for its tangent).
+    triple = np.empty((3,) + np.shape(q2))
+    np.add(q2, q3, out=triple[2])
+    np.add(triple[2], q4, out=triple[0])
+    triple[0] *= 0.5
+    triple[1] = q2
+    (sb, sin2, sin23), (cb, cos2, cos23) = _stacked_sincos(triple)
+    s1, c1 = _stacked_sincos(np.multiply(q1, 0.5))
+    wrist = np.empty((2,) + np.broadcast_shapes(np.shape(q5), np.shape(q6)))
+    np.add(q5, q6, out=wrist[0])
+    np.subtract(q5, q6, out=wrist[1])
+    wrist *= 0.5
+    (sp, sm), (cp, cm) = _stacked_sincos(wrist)       # P = (q5 + q6)/2, M = (q5 − q6)/2
+    x = cb * cm
+    x -= sb * sp
+    y = cb * sm
+    y -= sb * cp
+    z = cb * cp
+    z += sb * sm
+    w = cb * sp
+    w += sb * cm
+    # Full angles from the half angles already at hand (double-angle and angle-sum formulas).
+    cos1 = c1 * c1
+    cos1 -= s1 * s1
+    sin1 = s1 * c1
+    sin1 *= 2.0
+    cos234 = cb * cb
+    cos234 -= sb * sb
+    sin234 = sb * cb
+    sin234 *= 2.0
+    offset = cp * cm
+    offset -= sp * sm
+    offset *= d6
+    offset += d4                     # δ = d4 + d6 c5 (halved lengths: ½δ)
+    d6_sin5 = sp * cm
+    d6_sin5 += cp * sm
+    d6_sin5 *= d6
+    c1 *= _HALF_SQRT2
+    s1 *= _HALF_SQRT2
+    rows = np.empty((7,) + x.shape)
+    rw, rx, ry, rz, px, py, pz = rows
+    np.multiply(c1, x, out=rw)
+    rw += s1 * y
+    np.multiply(c1, z, out=rx)
+    rx += s1 * w
+    np.multiply(s1, z, out=ry)
+    ry -= c1 * w
+    np.multiply(s1, x, out=rz)
+    rz -= c1 * y
+    reach = cos2 * a2
+    reach += a3 * cos23
+    reach += d5 * sin234
+    reach -= d6_sin5 * cos234
+    np.multiply(cos1, reach, out=px)
+    px += sin1 * offset
+    np.multiply(sin1, reach, out=py)
+    py -= cos1 * offset
+    np.multiply(sin2, a2, out=pz)
+    pz += a3 * sin23
+    pz -= d5 * cos234
+    pz -= d6_sin5 * sin234
+    pz += d1
+    return rows
+
+
+def _dual_quaternion_rows(rows: np.ndarray) -> np.ndarray:
+    """(8, B) σ = r + ε·½p·r of (7, B) rows (r, ½p) (the dual part of a pure vector times r, written out)."""
+    rw, rx, ry, rz, px, py, pz = rows
+    out = np.empty((8, rows.shape[1]))
+    out[:4] = rows[:4]
+    dw, dx, dy, dz = out[4:]
+    np.multiply(px, rx, out=dw)
+    dw += py * ry
+    dw += pz * rz
+    np.negative(dw, out=dw)
+    np.multiply(px, rw, out=dx)
+    dx += py * rz
+    dx -= pz * ry
+    np.multiply(py, rw, out=dy)
+    dy -= px * rz
+    dy += pz * rx
+    np.multiply(px, ry, out=dz)
+    dz -= py * rx
+    dz += pz * rw
+    return out
+
+
 class URModel:
     """A UR arm: DH, limits, speeds, TCP; ``fk``/``fk_batch`` here, IK delegated to :mod:`ur3dq.kinematics.ur_ik`."""
 
@@ -241,13 +358,15 @@ class URModel:
             raise ValueError(f"joint_matrix: expected shape (N, 6), got {joint_matrix.shape}")
         if not self._closed_form:
             return self.chain.fk_batch(joint_matrix)
-        def tcp_pose(columns):
-            flange = _ur_flange(*self._half_lengths, *columns, dqarray.sincos)
-            if self._tcp_coefficients == _IDENTITY:
-                return flange
-            return multiply_coefficients(flange, self._tcp_coefficients)
-
-        return evaluate_in_blocks(tcp_pose, joint_matrix)
+        out = np.empty((len(joint_matrix), 8))
+        for start in range(0, len(joint_matrix), BLOCK):
+            block = joint_matrix[start:start + BLOCK]
+            coefficients = _dual_quaternion_rows(_ur_flange_rows(self._half_lengths, *block.T.copy()))
+            if self._tcp_coefficients != _IDENTITY:
+                coefficients = multiply_coefficients(coefficients, self._tcp_coefficients)
+            for column, values in enumerate(coefficients):
+                out[start:start + BLOCK, column] = values
+        return out
 
     def frames(self, q) -> np.ndarray:
         """(7, 8) DH frames 0..6 in the base frame at ``q``; the last one includes the TCP offset."""

@@ -53,6 +53,7 @@ import numpy as np
 
 from ur3dq import dqarray
 from ur3dq.errors import UnreachablePoseError
+from ur3dq.kinematics.models import BLOCK, _stacked_sincos, _ur_flange_rows
 
 #: FK filter (thesis eq. 4.45): a branch is a solution when its FK is within these of the pose asked for.
 #: Justification: the closed forms lose a few ulps on metre-sized arms (benchmarks/bench_kinematics.py measures the
@@ -68,6 +69,12 @@ WRIST_SINGULAR_TOLERANCE = 1e-10
 #: it, which can push a stretched elbow out of reach (seen at θ5 = 1e-5); such a branch is moved along the
 #: θ234 ± θ6 family back into reach. Only out-of-reach branches move, and the FK filter judges the result.
 WRIST_NEAR_TOLERANCE = 1e-3
+#: Below this |sin θ3| (elbow nearly stretched or folded) the batch kernel hands a pose to the general equations: θ3
+#: there amplifies the rounding of cos θ3 by 1/sin θ3, and the single-pose solver's rounding is what to reproduce.
+ELBOW_NEAR_TOLERANCE = 1e-3
+#: Poses per block in the batch solver: its branch-level temporaries hold 8 rows per pose, so a block of BLOCK / 4
+#: keeps them in the L2 cache like the FK's (measured best among 512–4096).
+IK_BLOCK = BLOCK // 4
 #: Relative rounding slack for the domains of the square roots / arccosines (shoulder, elbow); the clamped value
 #: moves the wrist by < 1e-10 m, so the FK filter still judges the result.
 DOMAIN_TOLERANCE = 1e-10
@@ -106,6 +113,7 @@ class _Geometry:
     domain_edge: float    # relative margin kept inside the domain when clamping (0: clamp onto the boundary)
     joints: tuple         # per joint (a, d, θ offset, cos α/2, sin α/2): the full table, for FK
     tcp_inverse: tuple    # 8 floats of tcp⁻¹, or None for the identity TCP
+    tcp_offset: tuple     # (rotation 4 floats, half translation 3 floats) of the TCP, or None for the identity
     lower: tuple
     upper: tuple
 
@@ -135,10 +143,11 @@ def _build_geometry(model) -> _Geometry:
     joints = tuple((a[i], d[i], theta[i], math.cos(0.5 * alpha[i]), math.sin(0.5 * alpha[i])) for i in range(6))
     tcp = tuple(float(v) for v in model.tcp.to_array())
     tcp_inverse = None if tcp == (1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0) else _dq_conjugate(tcp)
+    tcp_offset = None if tcp_inverse is None else (tcp[:4], tuple(0.5 * v for v in _translation_columns(tcp)))
     calibrated = not dh.is_nominal_structure()
     slack = CALIBRATED_DOMAIN_SLACK if calibrated else DOMAIN_TOLERANCE
     edge = CALIBRATED_DOMAIN_EDGE if calibrated else 0.0
-    return _Geometry(d[0], a[1], a[2], d[3], d[4], d[5], calibrated, slack, edge, joints, tcp_inverse,
+    return _Geometry(d[0], a[1], a[2], d[3], d[4], d[5], calibrated, slack, edge, joints, tcp_inverse, tcp_offset,
                      tuple(float(v) for v in model.joint_lower), tuple(float(v) for v in model.joint_upper))
 
 
@@ -809,9 +818,170 @@ def _drop_duplicates(columns: np.ndarray, keep: np.ndarray) -> np.ndarray:
     return keep
 
 
-def _as_rows(columns: np.ndarray) -> np.ndarray:
-    """(N, 8, 6) contiguous array of (6, 8, N) columns."""
-    return np.ascontiguousarray(columns.transpose(2, 1, 0))
+def _solved_blocks(model, g: _Geometry, poses: np.ndarray, theta6_ref: np.ndarray):
+    """Per block of poses: (rows slice, branches (6, 8, B) canonical, FK-filter mask (8, B), ambiguous (B,)).
+
+    ``ambiguous`` marks the poses where two branches may coincide (merged θ1, θ5 or θ3 signs) and need the
+    duplicate check. Nominal models take the closed-form kernel, whose poses near a wrist singularity are redone
+    by the general equations; calibrated models take the general equations and Newton throughout.
+    """
+    if g.calibrated:
+        columns = _batch_candidates(g, _batch_flange_targets(g, poses), theta6_ref)
+        yield slice(0, len(poses)), columns, _fk_filter(model, columns, poses), np.ones(len(poses), dtype=bool)
+        return
+    for start in range(0, len(poses), IK_BLOCK):
+        rows = slice(start, start + IK_BLOCK)
+        block = poses[rows]
+        targets = _batch_flange_targets(g, block)
+        with np.errstate(divide="ignore", invalid="ignore"):   # exact singularities: those poses are redone
+            columns, merged, near_singular = _regular_branches(g, np.stack(targets))
+        if near_singular.any():
+            subset = tuple(target[near_singular] for target in targets)
+            columns[:, :, near_singular] = _batch_candidates(g, subset, theta6_ref[rows][near_singular])
+        valid = _regular_fk_filter(g, columns, block)
+        yield rows, columns, valid, merged | near_singular
+
+
+def _regular_branches(g: _Geometry, target: np.ndarray) -> tuple:
+    """(branches (6, 8, B) canonical, merged (B,), near_singular (B,)) of flange pairs (7, B) of a nominal model.
+
+    The equations of _branches with everything shared that can be: θ1's two values once per pose, the wrist and
+    the planar arm once per θ1, both θ5 signs from the same terms (the flip turns θ234 by π and negates θ5, so
+    cos θ234·sin θ5 and sin θ234·sin θ5 stay), and cos θ234, sin θ234, sin θ5 from the reduced rotation's half
+    angles instead of trigonometry. Valid away from the wrist singularity only: ``near_singular`` marks the poses
+    (|sin θ5/2| or |cos θ5/2| < WRIST_NEAR_TOLERANCE for some θ1, or |sin θ3| < ELBOW_NEAR_TOLERANCE) whose
+    branches the caller must redo with _branches. ``merged`` marks poses whose θ1 or θ3 branches coincide within DUPLICATE_TOLERANCE.
+    """
+    qw, qx, qy, qz, px, py, pz = target
+    count = target.shape[1]
+    x5, y5 = _wrist_centre(g, qw, qx, qy, qz, px, py)
+    d4_2 = g.d4 * g.d4
+    reach = x5 * x5
+    reach += y5 * y5
+    reach -= d4_2
+    too_close = reach < -g.domain_slack * d4_2
+    np.maximum(reach, 0.0, out=reach)
+    offset = np.arctan2(np.sqrt(reach, out=reach), g.d4)
+    base = np.arctan2(x5, -y5)
+    theta1 = np.stack((base + offset, base - offset))
+    theta1[:, too_close] = np.nan
+    # cos, sin of θ1/2 scaled by √½ (the Rx(−π/2) factor of the reduced rotation, eq. 4.14 ff.).
+    sin_half1, cos_half1 = _stacked_sincos(0.5 * theta1)
+    cos1 = cos_half1 * cos_half1
+    cos1 -= sin_half1 * sin_half1
+    sin1 = sin_half1 * cos_half1
+    sin1 *= 2.0
+    cos_half1 *= _HALF_SQRT2
+    sin_half1 *= _HALF_SQRT2
+    # r' = Rx(−π/2)·Rz(−θ1)·r as in _reduced_rotation, with Rz(−θ1) = (c, 0, 0, −s).
+    w1 = cos_half1 * qw + sin_half1 * qz
+    x1 = cos_half1 * qx + sin_half1 * qy
+    y1 = cos_half1 * qy - sin_half1 * qx
+    z1 = cos_half1 * qz - sin_half1 * qw
+    w, x, y, z = w1 + x1, x1 - w1, y1 + z1, z1 - y1
+    sin_half5 = np.hypot(x, y)
+    cos_half5 = np.hypot(w, z)
+    near_singular = np.any((sin_half5 < WRIST_NEAR_TOLERANCE) | (cos_half5 < WRIST_NEAR_TOLERANCE), axis=0)
+    half_sum = np.arctan2(z, w)
+    half_diff = np.arctan2(x, -y)
+    theta5 = np.arctan2(sin_half5, cos_half5)
+    theta5 *= 2.0
+    # cos(Σ/2 + Δ/2)·|w,z|·|x,y| and sin(…)·|w,z|·|x,y| (eqs. 4.14–4.17): θ234 = Σ/2 + Δ/2.
+    cos234_scaled = -(w * y + z * x)
+    sin234_scaled = w * x - z * y
+    norm2 = sin_half5 * sin_half5 + cos_half5 * cos_half5
+    product = sin_half5 * cos_half5
+    # sin θ5 = 2·|x,y|·|w,z|/norm², so cos θ234·sin θ5 = 2·cos234_scaled/norm² (likewise sin θ234·sin θ5).
+    np.divide(2.0 * g.d6, norm2, out=norm2)
+    reach_x = cos1 * px + sin1 * py + cos234_scaled * norm2
+    reach_z = sin234_scaled * norm2
+    reach_z += pz - g.d1
+    np.divide(g.d5, product, out=product)
+    wrist_x = sin234_scaled * product    # d5·sin θ234
+    wrist_z = cos234_scaled * product    # d5·cos θ234
+    # Planar arm target (x4, z4) for θ5 ≥ 0 and for the flipped wrist (eq. 4.34): axis 1 is the θ5 sign.
+    x4 = np.stack((reach_x - wrist_x, reach_x + wrist_x), axis=1)
+    z4 = np.stack((reach_z + wrist_z, reach_z - wrist_z), axis=1)
+    cos3 = x4 * x4
+    cos3 += z4 * z4
+    cos3 -= g.a2 * g.a2 + g.a3 * g.a3
+    cos3 *= 1.0 / (2.0 * g.a2 * g.a3)
+    out_of_reach = np.abs(cos3) > 1.0 + g.domain_slack
+    np.clip(cos3, -1.0, 1.0, out=cos3)
+    cos3[out_of_reach] = np.nan
+    sin3 = np.sqrt(1.0 - cos3 * cos3)
+    theta3 = np.arctan2(sin3, cos3)
+    # Near the stretched or folded elbow θ3 carries the rounding of cos θ3 divided by sin θ3: those poses are
+    # redone with the very equations the single-pose solver uses, so both give the same branches there.
+    near_singular |= np.any(sin3 < ELBOW_NEAR_TOLERANCE, axis=(0, 1))
+    along = cos3
+    along *= g.a3
+    along += g.a2
+    across = sin3
+    across *= g.a3
+    near_x, near_z = x4 * along, z4 * along
+    far_x, far_z = x4 * across, z4 * across
+
+    columns = np.empty((6, 2, 2, 2, count))   # joint, θ1 sign, θ5 sign, θ3 sign, pose
+    columns[0] = wrap_angle(theta1)[:, None, None]
+    np.arctan2(near_z - far_x, near_x + far_z, out=columns[1, :, :, 0])
+    np.arctan2(near_z + far_x, near_x - far_z, out=columns[1, :, :, 1])
+    columns[2, :, :, 0] = theta3
+    np.negative(theta3, out=columns[2, :, :, 1])
+    theta234 = half_sum + half_diff
+    theta6 = half_sum - half_diff
+    columns[4, :, 0] = theta5[:, None]
+    columns[4, :, 1] = -theta5[:, None]
+    columns[5, :, 0] = theta6[:, None]
+    columns[5, :, 1] = (theta6 - math.pi)[:, None]
+    columns[3, :, 0] = theta234[:, None]
+    columns[3, :, 1] = (theta234 + math.pi)[:, None]
+    columns[3] -= columns[1]
+    columns[3] -= columns[2]                 # θ4 = θ234 − θ2 − θ3, eq. 4.44
+    for joint in (3, 4, 5):
+        columns[joint] = wrap_angle(columns[joint])
+    merged = (offset < DUPLICATE_TOLERANCE) | np.any(
+        (np.abs(theta3) < DUPLICATE_TOLERANCE) | (np.abs(theta3) > math.pi - DUPLICATE_TOLERANCE), axis=(0, 1))
+    return columns.reshape(6, 8, count), merged, near_singular
+
+
+def _regular_fk_filter(g: _Geometry, columns: np.ndarray, poses: np.ndarray) -> np.ndarray:
+    """(8, B) mask of the branches (6, 8, B) whose FK meets the TCP poses (B, 8): the thesis' filter (eq. 4.45).
+
+    The model's closed-form FK (models._ur_flange_rows) of every branch's final joint angles, composed with the
+    TCP, against the pose asked for, with the tolerances of _within_fk_tolerance (a NaN branch fails).
+    """
+    count = poses.shape[0]
+    flange = _ur_flange_rows(tuple(0.5 * v for v in (g.d1, g.a2, g.a3, g.d4, g.d5, g.d6)),
+                             *columns.reshape(6, -1))
+    rotation, half_position = flange[:4], flange[4:]
+    if g.tcp_offset is not None:
+        rotation, half_position = _tool_rows(rotation, half_position, g.tcp_offset)
+    target = poses.T
+    half_target = dqarray.translation_unchecked(poses).T * 0.5
+    error = half_position.reshape(3, 8, count) - half_target[:, None, :]
+    error *= error
+    position_ok = error.sum(axis=0) <= (0.5 * FK_TOLERANCE_M) ** 2
+    rotation = rotation.reshape(4, 8, count)
+    minus = rotation - target[:4, None, :]
+    plus = rotation + target[:4, None, :]
+    minus *= minus
+    plus *= plus
+    chord2 = np.minimum(minus.sum(axis=0), plus.sum(axis=0))   # the sign of σ ≡ −σ that is nearer
+    return position_ok & (chord2 <= _CHORD_LIMIT ** 2)
+
+
+def _tool_rows(rotation: np.ndarray, half_position: np.ndarray, tool) -> tuple:
+    """(r·r_t, ½(p + r·t_t·r*)) rows of flange rows (r (4, M), ½p (3, M)) and a tool (r_t (4 floats), ½t_t (3))."""
+    (tw, tx, ty, tz), (hx, hy, hz) = tool
+    w, x, y, z = rotation
+    composed = np.stack((w * tw - x * tx - y * ty - z * tz, w * tx + x * tw + y * tz - z * ty,
+                         w * ty - x * tz + y * tw + z * tx, w * tz + x * ty - y * tx + z * tw))
+    # v + 2w(u×v) + 2u×(u×v), u the vector part of r, v = ½t_t.
+    cx, cy, cz = y * hz - z * hy, z * hx - x * hz, x * hy - y * hx
+    moved = np.stack((hx + 2.0 * (w * cx + y * cz - z * cy), hy + 2.0 * (w * cy + z * cx - x * cz),
+                      hz + 2.0 * (w * cz + x * cy - y * cx)))
+    return composed, half_position + moved
 
 
 def ik_all_batch(model, poses, q_ref=None) -> np.ndarray:
@@ -822,10 +992,16 @@ def ik_all_batch(model, poses, q_ref=None) -> np.ndarray:
     """
     g = _geometry(model)
     poses = _batch_poses(poses)
-    theta6_ref = 0.0 if q_ref is None else wrap_angle(_batch_reference(q_ref, len(poses))[:, 5])
-    columns = _batch_candidates(g, _batch_flange_targets(g, poses), theta6_ref)
-    keep = _drop_duplicates(columns, _fk_filter(model, columns, poses))
-    return _as_rows(np.where(keep, columns, np.nan))
+    theta6_ref = np.zeros(len(poses)) if q_ref is None else wrap_angle(_batch_reference(q_ref, len(poses))[:, 5])
+    out = np.empty((len(poses), 8, 6))
+    for rows, columns, valid, ambiguous in _solved_blocks(model, g, poses, theta6_ref):
+        keep = valid
+        if ambiguous.any():   # only poses where two branches can coincide need the pairwise comparison
+            keep = valid.copy()
+            keep[:, ambiguous] = _drop_duplicates(columns[:, :, ambiguous], valid[:, ambiguous])
+        np.copyto(columns, np.nan, where=~keep)
+        out[rows] = columns.transpose(2, 1, 0)
+    return out
 
 
 def _batch_reference(q_ref, count: int) -> np.ndarray:
@@ -859,14 +1035,15 @@ def ik_batch(model, poses, q_ref, weights=None) -> np.ndarray:
     reference = _batch_reference(q_ref, len(poses))
     weight = np.array(_weights(weights))[:, None, None]
     g = _geometry(model)
-    columns = _batch_candidates(g, _batch_flange_targets(g, poses), wrap_angle(reference[:, 5]))
-    # Duplicates cannot change which branch is nearest: only the FK filter is needed here.
-    valid = _fk_filter(model, columns, poses)
-    reference_columns = reference.T[:, None, :]
-    variants = _nearest_variants(g, columns, reference_columns)
-    cost = np.sum(weight * (variants - reference_columns) ** 2, axis=0)
-    cost = np.where(valid & ~np.isnan(cost), cost, np.inf)
-    best = np.argmin(cost, axis=0)
-    chosen = np.take_along_axis(variants, best[None, None, :], axis=1)[:, 0, :].T
-    reachable = np.isfinite(np.take_along_axis(cost, best[None, :], axis=0)[0])
-    return np.where(reachable[:, None], chosen, np.nan)
+    out = np.empty((len(poses), 6))
+    for rows, columns, valid, _ in _solved_blocks(model, g, poses, wrap_angle(reference[:, 5])):
+        # Duplicates cannot change which branch is nearest: only the FK filter is needed here.
+        reference_columns = reference[rows].T[:, None, :]
+        variants = _nearest_variants(g, columns, reference_columns)
+        cost = np.sum(weight * (variants - reference_columns) ** 2, axis=0)
+        cost = np.where(valid & ~np.isnan(cost), cost, np.inf)
+        best = np.argmin(cost, axis=0)
+        chosen = np.take_along_axis(variants, best[None, None, :], axis=1)[:, 0, :].T
+        reachable = np.isfinite(np.take_along_axis(cost, best[None, :], axis=0)[0])
+        out[rows] = np.where(reachable[:, None], chosen, np.nan)
+    return out

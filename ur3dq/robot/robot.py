@@ -187,12 +187,18 @@ class Robot:
         return self._fresh_status().tcp_pose
 
     def _fresh_status(self):
-        """A status no older than the backend's freeze timeout, else ConnectionLostError."""
-        status = self.state()
-        if status.age > self._backend.freeze_timeout:
-            raise ConnectionLostError(
-                f"the state stream from {self.host} is frozen: no fresh data for {status.age:.2f} s")
-        return status
+        """A status no older than the backend's freeze timeout; a late stream gets that long again to catch up
+        (a loaded controller or network can stall it briefly), then ConnectionLostError."""
+        limit = self._backend.freeze_timeout
+        deadline = time.monotonic() + limit
+        while True:
+            status = self.state()
+            if status.age <= limit:
+                return status
+            if time.monotonic() > deadline:
+                raise ConnectionLostError(
+                    f"the state stream from {self.host} is frozen: no fresh data for {status.age:.2f} s")
+            time.sleep(self._backend.poll_period)
 
     # --- motion -----------------------------------------------------------------------------------------------
 

@@ -23,7 +23,7 @@ class URXBackend:
 
     name = "urx"
     poll_period = 0.005  # urx and the primary interface update at 10 Hz
-    freeze_timeout = 1.0  # ten missed 10 Hz packets
+    freeze_timeout = 1.5  # fifteen missed 10 Hz packets (urx itself gives up after a 0.5 s silence)
 
     def __init__(self, host, primary):
         self.host = host
