@@ -180,12 +180,13 @@ def _stacked_sincos(angles: np.ndarray) -> tuple:
     return sine, scale
 
 
-def _ur_flange_rows(half_lengths, q1, q2, q3, q4, q5, q6) -> np.ndarray:
+def _ur_flange_rows(half_lengths, q1, q2, q3, q4, q5, q6, out=None) -> np.ndarray:
     """(7, *S) rows (rw, rx, ry, rz, ½px, ½py, ½pz): flange rotation and half position of a nominal UR arm.
 
     The closed form of :func:`_ur_flange` (same symbols) for joint arrays: q2, q3, q4 of shape S, while q1 and
     q5, q6 may have fewer entries that broadcast to S (configurations sharing a joint value share its sines and
     cosines). Each step is one numpy call over every row it needs, temporaries reused in place (hot loop).
+    ``out`` (7 arrays of shape S, optional) receives the rows.
     """
     d1, a2, a3, d4, d5, d6 = half_lengths
     # Full angles q2, q23 and half angle q234/2 (_stacked_sincos halves once more for its tangent).
@@ -227,7 +228,7 @@ def _ur_flange_rows(half_lengths, q1, q2, q3, q4, q5, q6) -> np.ndarray:
     d6_sin5 *= d6
     c1 *= _HALF_SQRT2
     s1 *= _HALF_SQRT2
-    rows = np.empty((7,) + x.shape)
+    rows = np.empty((7,) + x.shape) if out is None else out
     rw, rx, ry, rz, px, py, pz = rows
     np.multiply(c1, x, out=rw)
     rw += s1 * y
@@ -253,12 +254,10 @@ def _ur_flange_rows(half_lengths, q1, q2, q3, q4, q5, q6) -> np.ndarray:
     return rows
 
 
-def _dual_quaternion_rows(rows: np.ndarray) -> np.ndarray:
-    """(8, B) σ = r + ε·½p·r of (7, B) rows (r, ½p) (the dual part of a pure vector times r, written out)."""
+def _dual_part_rows(rows, out) -> None:
+    """The dual part ½p·r (4 rows into ``out``) of rows (r, ½p) (7 rows): a pure vector times r, written out."""
     rw, rx, ry, rz, px, py, pz = rows
-    out = np.empty((8, rows.shape[1]))
-    out[:4] = rows[:4]
-    dw, dx, dy, dz = out[4:]
+    dw, dx, dy, dz = out
     np.multiply(px, rx, out=dw)
     dw += py * ry
     dw += pz * rz
@@ -272,7 +271,6 @@ def _dual_quaternion_rows(rows: np.ndarray) -> np.ndarray:
     np.multiply(px, ry, out=dz)
     dz -= py * rx
     dz += pz * rw
-    return out
 
 
 class URModel:
@@ -352,21 +350,30 @@ class URModel:
         return DualQuaternion._from_tuple(self._flange(self._joint_floats(q)))
 
     def fk_batch(self, joint_matrix) -> np.ndarray:
-        """TCP poses (N, 8) [rw rx ry rz dw dx dy dz] of N joint configurations (N, 6), vectorised over N."""
+        """TCP poses (N, 8) [rw rx ry rz dw dx dy dz] of N joint configurations (N, 6), vectorised over N.
+
+        Nominal models return the transpose of an (8, N) array (Fortran order): same values, contiguous columns.
+        """
         joint_matrix = dqarray.as_array(joint_matrix, 6, "joint_matrix")
         if joint_matrix.ndim != 2:
             raise ValueError(f"joint_matrix: expected shape (N, 6), got {joint_matrix.shape}")
         if not self._closed_form:
             return self.chain.fk_batch(joint_matrix)
-        out = np.empty((len(joint_matrix), 8))
+        # Coefficient-major storage, returned transposed: each coefficient is one contiguous run that the kernels
+        # write directly (and column consumers such as the IK's FK filter read fast).
+        coefficients = np.empty((8, len(joint_matrix)))
+        half_position = np.empty((3, min(BLOCK, len(joint_matrix))))
         for start in range(0, len(joint_matrix), BLOCK):
-            block = joint_matrix[start:start + BLOCK]
-            coefficients = _dual_quaternion_rows(_ur_flange_rows(self._half_lengths, *block.T.copy()))
+            block = slice(start, start + BLOCK)
+            q = joint_matrix[block].T
+            rows = (*coefficients[:4, block], *half_position[:, :q.shape[1]])
+            _ur_flange_rows(self._half_lengths, *q, out=rows)
+            _dual_part_rows(rows, coefficients[4:, block])
             if self._tcp_coefficients != _IDENTITY:
-                coefficients = multiply_coefficients(coefficients, self._tcp_coefficients)
-            for column, values in enumerate(coefficients):
-                out[start:start + BLOCK, column] = values
-        return out
+                for target, values in zip(coefficients[:, block],
+                                          multiply_coefficients(coefficients[:, block], self._tcp_coefficients)):
+                    target[...] = values
+        return coefficients.T
 
     def frames(self, q) -> np.ndarray:
         """(7, 8) DH frames 0..6 in the base frame at ``q``; the last one includes the TCP offset."""

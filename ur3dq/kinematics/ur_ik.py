@@ -114,6 +114,7 @@ class _Geometry:
     joints: tuple         # per joint (a, d, θ offset, cos α/2, sin α/2): the full table, for FK
     tcp_inverse: tuple    # 8 floats of tcp⁻¹, or None for the identity TCP
     tcp_offset: tuple     # (rotation 4 floats, half translation 3 floats) of the TCP, or None for the identity
+    half_lengths: tuple   # (d1, a2, a3, d4, d5, d6) / 2: what the closed-form FK kernel takes
     lower: tuple
     upper: tuple
 
@@ -147,7 +148,9 @@ def _build_geometry(model) -> _Geometry:
     calibrated = not dh.is_nominal_structure()
     slack = CALIBRATED_DOMAIN_SLACK if calibrated else DOMAIN_TOLERANCE
     edge = CALIBRATED_DOMAIN_EDGE if calibrated else 0.0
+    half_lengths = tuple(0.5 * v for v in (d[0], a[1], a[2], d[3], d[4], d[5]))
     return _Geometry(d[0], a[1], a[2], d[3], d[4], d[5], calibrated, slack, edge, joints, tcp_inverse, tcp_offset,
+                     half_lengths,
                      tuple(float(v) for v in model.joint_lower), tuple(float(v) for v in model.joint_upper))
 
 
@@ -819,27 +822,33 @@ def _drop_duplicates(columns: np.ndarray, keep: np.ndarray) -> np.ndarray:
 
 
 def _solved_blocks(model, g: _Geometry, poses: np.ndarray, theta6_ref: np.ndarray):
-    """Per block of poses: (rows slice, branches (6, 8, B) canonical, FK-filter mask (8, B), ambiguous (B,)).
+    """Per block of poses: (rows, branches (6, 8, B) canonical, FK-filter mask (8, B), ambiguous (B,)).
 
-    ``ambiguous`` marks the poses where two branches may coincide (merged θ1, θ5 or θ3 signs) and need the
-    duplicate check. Nominal models take the closed-form kernel, whose poses near a wrist singularity are redone
-    by the general equations; calibrated models take the general equations and Newton throughout.
+    ``rows`` (slice or index array) says which poses a block holds; ``ambiguous`` marks the poses where two
+    branches may coincide (merged θ1, θ5 or θ3 signs) and need the duplicate check. Nominal models take the
+    closed-form kernel; its poses near a wrist or elbow singularity are collected and redone together, last,
+    by the general equations (whose cost is mostly per call). Calibrated models take the general equations and
+    Newton throughout.
     """
     if g.calibrated:
         columns = _batch_candidates(g, _batch_flange_targets(g, poses), theta6_ref)
         yield slice(0, len(poses)), columns, _fk_filter(model, columns, poses), np.ones(len(poses), dtype=bool)
         return
+    redo = []
     for start in range(0, len(poses), IK_BLOCK):
         rows = slice(start, start + IK_BLOCK)
         block = poses[rows]
-        targets = _batch_flange_targets(g, block)
         with np.errstate(divide="ignore", invalid="ignore"):   # exact singularities: those poses are redone
-            columns, merged, near_singular = _regular_branches(g, np.stack(targets))
-        if near_singular.any():
-            subset = tuple(target[near_singular] for target in targets)
-            columns[:, :, near_singular] = _batch_candidates(g, subset, theta6_ref[rows][near_singular])
+            columns, merged, near_singular = _regular_branches(g, np.stack(_batch_flange_targets(g, block)))
         valid = _regular_fk_filter(g, columns, block)
-        yield rows, columns, valid, merged | near_singular
+        if near_singular.any():
+            valid[:, near_singular] = False
+            redo.append(start + np.flatnonzero(near_singular))
+        yield rows, columns, valid, merged
+    if redo:
+        rows = np.concatenate(redo)
+        columns = _batch_candidates(g, _batch_flange_targets(g, poses[rows]), theta6_ref[rows])
+        yield rows, columns, _regular_fk_filter(g, columns, poses[rows]), np.ones(len(rows), dtype=bool)
 
 
 def _regular_branches(g: _Geometry, target: np.ndarray) -> tuple:
@@ -949,20 +958,26 @@ def _regular_fk_filter(g: _Geometry, columns: np.ndarray, poses: np.ndarray) -> 
     """(8, B) mask of the branches (6, 8, B) whose FK meets the TCP poses (B, 8): the thesis' filter (eq. 4.45).
 
     The model's closed-form FK (models._ur_flange_rows) of every branch's final joint angles, composed with the
-    TCP, against the pose asked for, with the tolerances of _within_fk_tolerance (a NaN branch fails).
+    TCP, against the pose asked for, with the tolerances of _within_fk_tolerance (a NaN branch fails). Branches
+    hold equal θ1 in groups of four and equal θ5, θ6 in pairs (the (θ1, θ5, θ3) sign order): those values enter
+    the FK once per group when they are equal, and per branch otherwise.
     """
     count = poses.shape[0]
-    flange = _ur_flange_rows(tuple(0.5 * v for v in (g.d1, g.a2, g.a3, g.d4, g.d5, g.d6)),
-                             *columns.reshape(6, -1))
+    joints = columns.reshape(6, 2, 2, 2, count)
+    q1, q5, q6 = joints[0, :, :1, :1], joints[4, :, :, :1], joints[5, :, :, :1]
+    if not (np.array_equal(np.broadcast_to(q1, joints.shape[1:]), joints[0], equal_nan=True)
+            and np.array_equal(np.broadcast_to(q5, joints.shape[1:]), joints[4], equal_nan=True)
+            and np.array_equal(np.broadcast_to(q6, joints.shape[1:]), joints[5], equal_nan=True)):
+        q1, q5, q6 = joints[0], joints[4], joints[5]
+    flange = _ur_flange_rows(g.half_lengths, q1, joints[1], joints[2], joints[3], q5, q6).reshape(7, 8, count)
     rotation, half_position = flange[:4], flange[4:]
     if g.tcp_offset is not None:
         rotation, half_position = _tool_rows(rotation, half_position, g.tcp_offset)
     target = poses.T
     half_target = dqarray.translation_unchecked(poses).T * 0.5
-    error = half_position.reshape(3, 8, count) - half_target[:, None, :]
+    error = half_position - half_target[:, None, :]
     error *= error
     position_ok = error.sum(axis=0) <= (0.5 * FK_TOLERANCE_M) ** 2
-    rotation = rotation.reshape(4, 8, count)
     minus = rotation - target[:4, None, :]
     plus = rotation + target[:4, None, :]
     minus *= minus
