@@ -342,15 +342,19 @@ class Controller:
         with self._cycle_changed:
             self._cycle_changed.notify_all()
 
-    def step(self, cycles=1):
+    def step(self, cycles=1, periods=1):
         """Advance `cycles` control cycles synchronously and return the last snapshot (only while the loop is stopped).
 
+        Each cycle covers `periods` control periods, as the loop's cycles do when it catches up after a stall.
         For deterministic tests and hosts that drive simulated time themselves.
         """
         if self._thread is not None:
             raise CommandRefused("step() drives a stopped controller; this one runs its own control loop")
+        periods = int(periods)
+        if periods < 1:
+            raise ValueError(f"periods must be ≥ 1, got {periods}")
         for _ in range(int(cycles)):
-            self._cycle_once()
+            self._cycle_once(periods)
         return self._state
 
     @property
@@ -701,7 +705,8 @@ class Controller:
                              f"{np.round(self.model.max_joint_speed, 4).tolist()} rad/s")
         with self._lock:
             self._require_motion_allowed("speedj")
-            return self._replace_motion(motion.JointSpeed(self._qd, qd, a, t), "speedj", True)
+            start = self._speed_ramp_start("speedj", self._qd)
+            return self._replace_motion(motion.JointSpeed(start, qd, a, t), "speedj", True)
 
     def speedl(self, xd, a=1.2, t=0.0):
         """TCP twist xd [vx vy vz wx wy wz] (base frame, m/s, rad/s) reached at acceleration a; after t s stop."""
@@ -710,7 +715,7 @@ class Controller:
         t = _non_negative(t, "t")
         with self._lock:
             self._require_motion_allowed("speedl")
-            start = np.concatenate([self._state.actual_tcp_speed[:3], self._state.actual_tcp_speed[3:]])
+            start = self._speed_ramp_start("speedl", self._state.actual_tcp_speed)
             segment = motion.CartesianSpeed(start, xd, a, t, self._tcp_matrix, self._solve_ik)
             return self._replace_motion(segment, "speedl", True)
 
@@ -957,6 +962,19 @@ class Controller:
             self._tail = self._active
         self._active = entry
         log.info("%s started (%.3f s planned)", entry.motion.kind, entry.segment.profile.duration)
+
+    def _speed_ramp_start(self, kind, measured):
+        """Where a new speedj/speedl ramp starts: the running command's own ramp when it is the same kind, else
+        the measured speed.
+
+        Clients repeat speed commands every cycle or two (ur_rtde's speed thread does): continuing the commanded
+        ramp keeps them exact, whereas the measured speed already includes the speed slider (each restart would
+        shrink it again) and any measurement error.
+        """
+        active = self._active
+        if active is not None and self._tail is None and active.segment.kind == kind:
+            return active.segment.commanded_speed
+        return np.array(measured, dtype=float)
 
     def _replace_motion(self, segment, kind, follows_slider):
         """Streaming commands (speedj, speedl, servoj) take over at once from whatever runs."""

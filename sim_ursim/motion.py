@@ -84,10 +84,11 @@ def synchronised_joint_profile(delta_q, speed, acceleration, duration, max_speed
     leading = float(travel.max()) if travel.size else 0.0
     if leading == 0.0:
         return Trapezoid(0.0, 0.0, max(acceleration, 1e-9), 0.0, max(duration, 0.0))
-    ratios = travel / leading
-    moving = ratios > 0
-    speed_cap = float(np.min(np.asarray(max_speeds)[moving] / ratios[moving]))
-    accel_cap = float(np.min(np.asarray(max_accelerations)[moving] / ratios[moving]))
+    ratios = travel / leading  # in [0, 1]: joint i moves at ratio_i × the leading axis' speed
+    # The cap is min(limit_i / ratio_i), taken as 1 / max(ratio_i / limit_i): a joint with a tiny travel (ratio
+    # 1e-300) then adds a tiny term instead of overflowing a division, and a still joint adds nothing.
+    speed_cap = 1.0 / float(np.max(ratios / np.asarray(max_speeds, dtype=float)))
+    accel_cap = 1.0 / float(np.max(ratios / np.asarray(max_accelerations, dtype=float)))
     acceleration = min(acceleration, accel_cap)
     if duration > 0:
         profile = timed_trapezoid(leading, duration, acceleration)
@@ -189,6 +190,11 @@ class JointSpeed:
     def finished(self):
         return self.duration > 0 and self.elapsed >= self.duration and not np.any(self.qd)
 
+    @property
+    def commanded_speed(self):
+        """Joint speeds the ramp has reached (rad/s, trajectory time: before the speed slider)."""
+        return self.qd.copy()
+
     def advance(self, dt, q):
         """Joints after dt at the ramped speed."""
         self.elapsed += dt
@@ -214,6 +220,11 @@ class CartesianSpeed:
     @property
     def finished(self):
         return self.duration > 0 and self.elapsed >= self.duration and not np.any(self.xd)
+
+    @property
+    def commanded_speed(self):
+        """TCP twist the ramp has reached ([m/s, rad/s] base frame, trajectory time: before the speed slider)."""
+        return self.xd.copy()
 
     def advance(self, dt, q):
         """Joints after moving the TCP by the ramped twist for dt."""

@@ -72,3 +72,10 @@ def test_clamped_motion_never_exceeds_any_joint_limit(delta, a, v):
 def test_clamp_rejects_bad_a_v(a, v):
     with pytest.raises(SafetyCheckError):
         safety.clamp_movej_speed([1] * 6, a, v, [1] * 6, [1] * 6)
+
+
+def test_pose_vector():
+    assert safety.check_pose_vector([0, 0, 0.1, 0, 0, 3.1]).tolist() == [0, 0, 0.1, 0, 0, 3.1]
+    for bad in ([0, 0, 0.1], [0, 0, math.inf, 0, 0, 0], None):
+        with pytest.raises(SafetyCheckError, match="tcp must be a UR pose vector"):
+            safety.check_pose_vector(bad, "tcp")

@@ -267,6 +267,71 @@ def test_speedl_moves_the_tcp_along_the_twist(stepped):
     assert np.abs(moved[:2]).max() < 1e-6
 
 
+SPEEDL_START = [0.0, -1.2, 1.0, -1.0, -1.5, 0.3]
+SLOW_RISE = [0, 0, 0.02, 0, 0, 0]  # 2 cm/s straight up
+
+
+def test_repeated_speedl_through_late_cycles_stays_a_slow_motion():
+    """A late loop cycle covers several periods: its measured speeds must be over the time it covered. (They were
+    over one period, so the next speedl restarted its ramp from an inflated twist: 'joint 2 speed 5.4 rad/s'.)"""
+    c = stepped_ready(initial_q=SPEEDL_START)
+    fastest = 0.0
+    for call in range(40):
+        c.speedl(SLOW_RISE, 0.25, 0.0)
+        state = c.step(periods=8 if call % 10 == 0 else 1)
+        fastest = max(fastest, float(np.abs(state.actual_qd).max()))
+    assert state.safety_mode == SafetyMode.NORMAL
+    assert fastest < 0.3  # 2 cm/s needs about 0.13 rad/s here
+    assert state.actual_tcp_speed == pytest.approx(SLOW_RISE, abs=1e-9)
+
+
+def test_a_late_cycle_reports_speeds_over_the_time_it_covered(stepped):
+    stepped.speedj([0.1, 0, 0, 0, 0, 0], a=100.0)
+    stepped.step(3)
+    state = stepped.step(periods=10)
+    assert state.actual_qd[0] == pytest.approx(0.1, rel=1e-9)
+    assert np.linalg.norm(state.actual_tcp_speed[:3]) < 0.1 * 0.5  # ω × r with r < 0.5 m on a UR3
+
+
+@pytest.mark.parametrize("slider", [1.0, 0.5, 0.2])
+def test_speedl_repeated_every_cycle_keeps_its_speed_under_the_slider(slider):
+    """ur_rtde's speed thread re-issues speedl every cycle: the ramp must continue, not restart from the measured
+    speed (which the slider has already scaled) each time."""
+    c = stepped_ready(initial_q=SPEEDL_START)
+    c.set_speed_slider(slider)
+    for _ in range(int(0.5 / c.period)):
+        c.speedl(SLOW_RISE, 0.25, 0.0)
+        state = c.step()
+    assert state.actual_tcp_speed == pytest.approx(np.multiply(SLOW_RISE, slider), abs=1e-9)
+
+
+def test_speedj_repeated_every_cycle_keeps_its_speed_under_the_slider(stepped):
+    stepped.set_speed_slider(0.5)
+    for _ in range(int(0.5 / stepped.period)):
+        stepped.speedj([0, 0, 0.2, 0, 0, 0], 1.0, 0.0)
+        state = stepped.step()
+    assert state.actual_qd == pytest.approx([0, 0, 0.1, 0, 0, 0], abs=1e-9)
+
+
+def test_repeated_speedl_on_the_running_loop_never_protective_stops(controller):
+    """The reported scenario, on the real loop: 40 speedl calls 8 ms apart at 2 cm/s."""
+    controller.movej(SPEEDL_START, a=10, v=3).wait(10)
+    fastest = 0.0
+    for _ in range(40):
+        controller.speedl(SLOW_RISE, 0.25, 0.0)
+        time.sleep(0.008)
+        state = controller.state()
+        fastest = max(fastest, float(np.abs(state.actual_qd).max()))
+    controller.stopl(1.0).wait(5)
+    assert state.safety_mode == SafetyMode.NORMAL
+    assert fastest < 0.3
+
+
+def test_step_refuses_fewer_than_one_period_per_cycle(stepped):
+    with pytest.raises(ValueError, match="periods"):
+        stepped.step(periods=0)
+
+
 # ------------------------------------------------------------------------------------------ safety
 class RecordingRunner:
     """A stand-in URScript runner (our own hook interface, not a client library) that records the calls."""

@@ -86,6 +86,31 @@ def test_movej_speed_is_clamped_to_the_slowest_joint_limit():
     assert profile.peak == pytest.approx(math.radians(120))
 
 
+tiny_or_ordinary = st.one_of(st.floats(-3, 3), st.sampled_from([0.0, 5e-324, -1e-310, 1e-300, 1e-200, -1e-17]))
+
+
+@settings(max_examples=200, deadline=None)
+@given(delta=st.lists(tiny_or_ordinary, min_size=6, max_size=6).map(np.array),
+       duration=st.sampled_from([0.0, 0.5, 3.0]))
+def test_movej_profile_is_well_defined_for_tiny_joint_travels(delta, duration):
+    """A joint whose travel is 1e-300 of the leading one's must neither overflow nor cap the leading speed."""
+    model = robot_model("ur3")
+    def profile_of(travels):
+        with np.errstate(over="raise", divide="raise", invalid="raise"):  # underflow to 0 is harmless here
+            return motion.synchronised_joint_profile(travels, 1.05, 1.4, duration, model.max_joint_speed,
+                                                     model.max_joint_acceleration)
+
+    profile = profile_of(delta)
+    assert math.isfinite(profile.duration) and math.isfinite(profile.peak)
+    travel = np.abs(delta)
+    negligible = travel < 1e-12 * travel.max()
+    if travel.max() > 0 and not negligible.all():
+        assert np.all(profile.peak * travel / travel.max() <= model.max_joint_speed * (1 + 1e-9))
+        without_tiny_travels = profile_of(np.where(negligible, 0.0, delta))
+        assert profile.peak == pytest.approx(without_tiny_travels.peak, rel=1e-9)
+        assert profile.duration == pytest.approx(without_tiny_travels.duration, rel=1e-9)
+
+
 def test_movej_time_is_stretched_when_it_would_break_a_speed_limit():
     model = robot_model("ur3")
     delta = np.array([3.0, 0, 0, 0, 0, 0])

@@ -103,13 +103,8 @@ class DHParameters:
         )
 
 
-def _sincos_floats(angle: float) -> tuple:
-    """(sin, cos) of one float angle."""
-    return math.sin(angle), math.cos(angle)
-
-
-def _ur_flange(d1, a2, a3, d4, d5, d6, q1, q2, q3, q4, q5, q6, sincos) -> tuple:
-    """Flange σ (8 coefficients) of a nominal UR arm, given HALF the DH lengths (d1/2, a2/2, …); q floats or arrays.
+def _ur_flange(d1, a2, a3, d4, d5, d6, q1, q2, q3, q4, q5, q6) -> tuple:
+    """Flange σ (8 coefficients) of a nominal UR arm, given HALF the DH lengths (d1/2, a2/2, …); q floats.
 
     Rotation r = [rz(q1)·rx(π/2)]·[rz(q234)·rx(π/2)]·[rz(q5)·rx(−π/2)·rz(q6)]. The first two factors multiply out
     to (−s1 sb, c1 cb, s1 cb, c1 sb) and the third to k(cP, −cM, −sM, sP), k = 1/√2, with half angles
@@ -122,12 +117,14 @@ def _ur_flange(d1, a2, a3, d4, d5, d6, q1, q2, q3, q4, q5, q6, sincos) -> tuple:
     """
     q23 = q2 + q3
     q234 = q23 + q4
-    s1, c1 = sincos(0.5 * q1)
-    sb, cb = sincos(0.5 * q234)
-    sp, cp = sincos(0.5 * (q5 + q6))
-    sm, cm = sincos(0.5 * (q5 - q6))
-    sin2, cos2 = sincos(q2)
-    sin23, cos23 = sincos(q23)
+    sin, cos = math.sin, math.cos
+    half1, half234, half_p, half_m = 0.5 * q1, 0.5 * q234, 0.5 * (q5 + q6), 0.5 * (q5 - q6)
+    s1, c1 = sin(half1), cos(half1)
+    sb, cb = sin(half234), cos(half234)
+    sp, cp = sin(half_p), cos(half_p)
+    sm, cm = sin(half_m), cos(half_m)
+    sin2, cos2 = sin(q2), cos(q2)
+    sin23, cos23 = sin(q23), cos(q23)
     x = cb * cm - sb * sp
     y = cb * sm - sb * cp
     z = cb * cp + sb * sm
@@ -184,7 +181,7 @@ def _ur_flange_rows(half_lengths, q1, q2, q3, q4, q5, q6, out=None) -> np.ndarra
     """(7, *S) rows (rw, rx, ry, rz, ½px, ½py, ½pz): flange rotation and half position of a nominal UR arm.
 
     The closed form of :func:`_ur_flange` (same symbols) for joint arrays: q2, q3, q4 of shape S, while q1 and
-    q5, q6 may have fewer entries that broadcast to S (configurations sharing a joint value share its sines and
+    q5, q6 (these two of one shape) may have fewer entries that broadcast to S (configurations sharing a joint value share its sines and
     cosines). Each step is one numpy call over every row it needs, temporaries reused in place (hot loop).
     ``out`` (7 arrays of shape S, optional) receives the rows.
     """
@@ -197,7 +194,7 @@ def _ur_flange_rows(half_lengths, q1, q2, q3, q4, q5, q6, out=None) -> np.ndarra
     triple[1] = q2
     (sb, sin2, sin23), (cb, cos2, cos23) = _stacked_sincos(triple)
     s1, c1 = _stacked_sincos(np.multiply(q1, 0.5))
-    wrist = np.empty((2,) + np.broadcast_shapes(np.shape(q5), np.shape(q6)))
+    wrist = np.empty((2,) + np.shape(q5))
     np.add(q5, q6, out=wrist[0])
     np.subtract(q5, q6, out=wrist[1])
     wrist *= 0.5
@@ -322,7 +319,10 @@ class URModel:
     def _joint_floats(q, name: str = "q") -> tuple:
         """Six finite floats from ``q``; ValueError naming ``name`` (kept cheap: this is on the single-FK path)."""
         try:
-            values = tuple(float(v) for v in q)
+            if isinstance(q, np.ndarray) and q.dtype == np.float64 and q.ndim == 1:
+                values = tuple(q.tolist())   # Python floats in one call (iterating yields slow numpy scalars)
+            else:
+                values = tuple(map(float, q))
         except (TypeError, ValueError) as exc:
             raise ValueError(f"{name}: expected 6 joint angles (radians), got {q!r}") from exc
         if len(values) != 6:
@@ -335,7 +335,7 @@ class URModel:
     def _flange(self, q: tuple) -> tuple:
         """Flange coefficients for 6 validated floats: the closed form, or the chain of a calibrated arm."""
         if self._closed_form:
-            return _ur_flange(*self._half_lengths, *q, _sincos_floats)
+            return _ur_flange(*self._half_lengths, *q)
         return self._flange_chain.fk_of_floats(q)._c
 
     def fk(self, q) -> DualQuaternion:

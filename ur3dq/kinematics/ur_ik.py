@@ -52,6 +52,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ur3dq import dqarray
+from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import UnreachablePoseError
 from ur3dq.kinematics.models import BLOCK, _stacked_sincos, _ur_flange_rows
 
@@ -412,13 +413,16 @@ def _pair_of(c) -> tuple:
 
 def _pose_coefficients(pose, name: str) -> tuple:
     """8 floats of a unit pose given as a DualQuaternion or 8 numbers; ValueError naming ``name`` otherwise."""
-    try:
-        values = pose.to_array() if hasattr(pose, "to_array") else np.asarray(pose, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name}: expected a DualQuaternion or 8 coefficients, got {pose!r}") from exc
-    if values.shape != (8,):
-        raise ValueError(f"{name}: expected a DualQuaternion or 8 coefficients, got shape {values.shape}")
-    c = tuple(values.tolist())
+    if isinstance(pose, DualQuaternion):
+        c = pose._c   # its 8 floats as they are: no array round trip on the single-pose path
+    else:
+        try:
+            values = np.asarray(pose, dtype=float)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"{name}: expected a DualQuaternion or 8 coefficients, got {pose!r}") from exc
+        if values.shape != (8,):
+            raise ValueError(f"{name}: expected a DualQuaternion or 8 coefficients, got shape {values.shape}")
+        c = tuple(values.tolist())
     norm2 = c[0] * c[0] + c[1] * c[1] + c[2] * c[2] + c[3] * c[3]
     if not math.isfinite(norm2 + c[4] + c[5] + c[6] + c[7]):
         raise ValueError(f"{name}: contains NaN or infinite values")
@@ -459,7 +463,7 @@ def _translation_columns(c) -> tuple:
 
 def _meets(model, q, tcp_coefficients) -> bool:
     """The thesis' FK filter (eq. 4.45): the model's FK(q) within the tolerances of the TCP pose's coefficients."""
-    return _within_fk_tolerance(_ScalarOps, model.fk(q).to_array().tolist(), tcp_coefficients)
+    return _within_fk_tolerance(_ScalarOps, model.fk(q)._c, tcp_coefficients)
 
 
 # ------------------------------------------------------------------------------------------------ single pose
@@ -524,7 +528,7 @@ def _reference(q_ref, name: str = "q_ref") -> tuple:
         if isinstance(q_ref, np.ndarray) and q_ref.dtype == np.float64 and q_ref.ndim == 1:
             values = tuple(q_ref.tolist())   # Python floats in one call (iterating yields slow numpy scalars)
         else:
-            values = tuple(float(v) for v in q_ref)
+            values = tuple(map(float, q_ref))
     except (TypeError, ValueError) as exc:
         raise ValueError(f"{name}: expected 6 joint angles (radians), got {q_ref!r}") from exc
     if len(values) != 6:
@@ -646,8 +650,11 @@ def _nearest_branch(g: _Geometry, target, reference, weights):
 
 def _nearest_joints(g: _Geometry, solution, reference) -> np.ndarray:
     """The joints of ``solution`` moved by ±2π to the in-limit variants nearest ``reference``."""
-    return np.array([_closest_variant(angle, ref, low, high)
-                     for angle, ref, low, high in zip(solution, reference, g.lower, g.upper)])
+    joints = []
+    for angle, ref, low, high in zip(solution, reference, g.lower, g.upper):
+        centre = ref + math.remainder(angle - ref, _TWO_PI)   # the nearest variant of all, usually inside
+        joints.append(centre if low <= centre <= high else _closest_variant(angle, ref, low, high))
+    return np.array(joints)
 
 
 def joint_variants(model, q) -> np.ndarray:
@@ -824,6 +831,8 @@ def _drop_duplicates(columns: np.ndarray, keep: np.ndarray) -> np.ndarray:
 def _solved_blocks(model, g: _Geometry, poses: np.ndarray, theta6_ref: np.ndarray):
     """Per block of poses: (rows, branches (6, 8, B) canonical, FK-filter mask (8, B), ambiguous (B,)).
 
+    Where the mask is False a branch may hold any value (NaN or the clamped values of a branch that does not exist).
+
     ``rows`` (slice or index array) says which poses a block holds; ``ambiguous`` marks the poses where two
     branches may coincide (merged θ1, θ5 or θ3 signs) and need the duplicate check. Nominal models take the
     closed-form kernel; its poses near a wrist or elbow singularity are collected and redone together, last,
@@ -837,10 +846,13 @@ def _solved_blocks(model, g: _Geometry, poses: np.ndarray, theta6_ref: np.ndarra
     redo = []
     for start in range(0, len(poses), IK_BLOCK):
         rows = slice(start, start + IK_BLOCK)
-        block = poses[rows]
+        coefficients = np.ascontiguousarray(poses[rows].T)
+        pair = _pair_rows(coefficients)
+        flange = pair if g.tcp_inverse is None else _pair_rows(_dq_product(coefficients, g.tcp_inverse))
         with np.errstate(divide="ignore", invalid="ignore"):   # exact singularities: those poses are redone
-            columns, merged, near_singular = _regular_branches(g, np.stack(_batch_flange_targets(g, block)))
-        valid = _regular_fk_filter(g, columns, block)
+            columns, exists, merged, near_singular = _regular_branches(g, flange)
+        valid = _regular_fk_filter(g, columns, pair, grouped=True)
+        valid &= exists
         if near_singular.any():
             valid[:, near_singular] = False
             redo.append(start + np.flatnonzero(near_singular))
@@ -848,18 +860,26 @@ def _solved_blocks(model, g: _Geometry, poses: np.ndarray, theta6_ref: np.ndarra
     if redo:
         rows = np.concatenate(redo)
         columns = _batch_candidates(g, _batch_flange_targets(g, poses[rows]), theta6_ref[rows])
-        yield rows, columns, _regular_fk_filter(g, columns, poses[rows]), np.ones(len(rows), dtype=bool)
+        valid = _regular_fk_filter(g, columns, _pair_rows(poses[rows].T), grouped=False)
+        yield rows, columns, valid, np.ones(len(rows), dtype=bool)
+
+
+def _pair_rows(coefficients) -> np.ndarray:
+    """(7, B) thesis pairs (qw, qx, qy, qz, px, py, pz) of unit dual quaternions given as 8 rows of B: p = 2·d·r*."""
+    return np.stack((*coefficients[:4], *_translation_columns(coefficients)))
 
 
 def _regular_branches(g: _Geometry, target: np.ndarray) -> tuple:
-    """(branches (6, 8, B) canonical, merged (B,), near_singular (B,)) of flange pairs (7, B) of a nominal model.
+    """(branches (6, 8, B), exists (8, B), merged (B,), near_singular (B,)) of flange pairs (7, B), nominal model.
 
     The equations of _branches with everything shared that can be: θ1's two values once per pose, the wrist and
     the planar arm once per θ1, both θ5 signs from the same terms (the flip turns θ234 by π and negates θ5, so
     cos θ234·sin θ5 and sin θ234·sin θ5 stay), and cos θ234, sin θ234, sin θ5 from the reduced rotation's half
-    angles instead of trigonometry. Valid away from the wrist singularity only: ``near_singular`` marks the poses
-    (|sin θ5/2| or |cos θ5/2| < WRIST_NEAR_TOLERANCE for some θ1, or |sin θ3| < ELBOW_NEAR_TOLERANCE) whose
-    branches the caller must redo with _branches. ``merged`` marks poses whose θ1 or θ3 branches coincide within DUPLICATE_TOLERANCE.
+    angles instead of trigonometry. Branches are canonical and finite: one that does not exist (shoulder or elbow
+    out of reach) holds its clamped values and ``exists`` is False for it (NaN would send numpy's vectorised tan
+    of the FK filter down a slow path). Valid away from the wrist singularity only: ``near_singular`` marks the
+    poses (|sin θ5/2| or |cos θ5/2| < WRIST_NEAR_TOLERANCE for some θ1, or |sin θ3| < ELBOW_NEAR_TOLERANCE) whose
+    branches the caller must redo with _branches. ``merged``: poses whose θ1 or θ3 branches may coincide.
     """
     qw, qx, qy, qz, px, py, pz = target
     count = target.shape[1]
@@ -868,12 +888,11 @@ def _regular_branches(g: _Geometry, target: np.ndarray) -> tuple:
     reach = x5 * x5
     reach += y5 * y5
     reach -= d4_2
-    too_close = reach < -g.domain_slack * d4_2
+    shoulder_reaches = reach >= -g.domain_slack * d4_2
     np.maximum(reach, 0.0, out=reach)
     offset = np.arctan2(np.sqrt(reach, out=reach), g.d4)
     base = np.arctan2(x5, -y5)
     theta1 = np.stack((base + offset, base - offset))
-    theta1[:, too_close] = np.nan
     # cos, sin of θ1/2 scaled by √½ (the Rx(−π/2) factor of the reduced rotation, eq. 4.14 ff.).
     sin_half1, cos_half1 = _stacked_sincos(0.5 * theta1)
     cos1 = cos_half1 * cos_half1
@@ -888,41 +907,53 @@ def _regular_branches(g: _Geometry, target: np.ndarray) -> tuple:
     y1 = cos_half1 * qy - sin_half1 * qx
     z1 = cos_half1 * qz - sin_half1 * qw
     w, x, y, z = w1 + x1, x1 - w1, y1 + z1, z1 - y1
-    sin_half5 = np.hypot(x, y)
-    cos_half5 = np.hypot(w, z)
+    sin_half5_2 = x * x
+    sin_half5_2 += y * y
+    cos_half5_2 = w * w
+    cos_half5_2 += z * z
+    sin_half5, cos_half5 = np.sqrt(sin_half5_2), np.sqrt(cos_half5_2)
     near_singular = np.any((sin_half5 < WRIST_NEAR_TOLERANCE) | (cos_half5 < WRIST_NEAR_TOLERANCE), axis=0)
-    half_sum = np.arctan2(z, w)
-    half_diff = np.arctan2(x, -y)
+    half_sum = np.arctan2(z, w)          # Σ/2, eqs. 4.14 and 4.16
+    half_diff = np.arctan2(x, -y)        # Δ/2, eqs. 4.15 and 4.17
     theta5 = np.arctan2(sin_half5, cos_half5)
     theta5 *= 2.0
-    # cos(Σ/2 + Δ/2)·|w,z|·|x,y| and sin(…)·|w,z|·|x,y| (eqs. 4.14–4.17): θ234 = Σ/2 + Δ/2.
-    cos234_scaled = -(w * y + z * x)
-    sin234_scaled = w * x - z * y
-    norm2 = sin_half5 * sin_half5 + cos_half5 * cos_half5
-    product = sin_half5 * cos_half5
-    # sin θ5 = 2·|x,y|·|w,z|/norm², so cos θ234·sin θ5 = 2·cos234_scaled/norm² (likewise sin θ234·sin θ5).
+    # θ234 = Σ/2 + Δ/2: its cosine and sine times |w, z|·|x, y| (eqs. 4.14–4.17).
+    cos234_scaled = w * y
+    cos234_scaled += z * x
+    np.negative(cos234_scaled, out=cos234_scaled)
+    sin234_scaled = w * x
+    sin234_scaled -= z * y
+    # sin θ5 = 2·|x,y|·|w,z|/(|x,y|² + |w,z|²), so cos θ234·sin θ5 = 2·cos234_scaled/norm² (likewise for sin).
+    norm2 = sin_half5_2
+    norm2 += cos_half5_2
     np.divide(2.0 * g.d6, norm2, out=norm2)
-    reach_x = cos1 * px + sin1 * py + cos234_scaled * norm2
+    product = sin_half5
+    product *= cos_half5
+    np.divide(g.d5, product, out=product)
+    # Planar arm target (x4, z4) for θ5 ≥ 0 and for the flipped wrist (eq. 4.34): axis 1 is the θ5 sign.
+    reach_x = cos1 * px
+    reach_x += sin1 * py
+    reach_x += cos234_scaled * norm2
     reach_z = sin234_scaled * norm2
     reach_z += pz - g.d1
-    np.divide(g.d5, product, out=product)
     wrist_x = sin234_scaled * product    # d5·sin θ234
     wrist_z = cos234_scaled * product    # d5·cos θ234
-    # Planar arm target (x4, z4) for θ5 ≥ 0 and for the flipped wrist (eq. 4.34): axis 1 is the θ5 sign.
     x4 = np.stack((reach_x - wrist_x, reach_x + wrist_x), axis=1)
     z4 = np.stack((reach_z + wrist_z, reach_z - wrist_z), axis=1)
     cos3 = x4 * x4
     cos3 += z4 * z4
     cos3 -= g.a2 * g.a2 + g.a3 * g.a3
     cos3 *= 1.0 / (2.0 * g.a2 * g.a3)
-    out_of_reach = np.abs(cos3) > 1.0 + g.domain_slack
+    elbow_reaches = np.abs(cos3) <= 1.0 + g.domain_slack
     np.clip(cos3, -1.0, 1.0, out=cos3)
-    cos3[out_of_reach] = np.nan
-    sin3 = np.sqrt(1.0 - cos3 * cos3)
+    sin3 = cos3 * cos3
+    np.subtract(1.0, sin3, out=sin3)
+    np.sqrt(sin3, out=sin3)
     theta3 = np.arctan2(sin3, cos3)
     # Near the stretched or folded elbow θ3 carries the rounding of cos θ3 divided by sin θ3: those poses are
     # redone with the very equations the single-pose solver uses, so both give the same branches there.
-    near_singular |= np.any(sin3 < ELBOW_NEAR_TOLERANCE, axis=(0, 1))
+    near_singular |= np.any((sin3 < ELBOW_NEAR_TOLERANCE) & elbow_reaches, axis=(0, 1))
+    near_singular &= shoulder_reaches
     along = cos3
     along *= g.a3
     along += g.a2
@@ -932,50 +963,64 @@ def _regular_branches(g: _Geometry, target: np.ndarray) -> tuple:
     far_x, far_z = x4 * across, z4 * across
 
     columns = np.empty((6, 2, 2, 2, count))   # joint, θ1 sign, θ5 sign, θ3 sign, pose
-    columns[0] = wrap_angle(theta1)[:, None, None]
+    columns[0] = _wrap_in_place(theta1)[:, None, None]
     np.arctan2(near_z - far_x, near_x + far_z, out=columns[1, :, :, 0])
     np.arctan2(near_z + far_x, near_x - far_z, out=columns[1, :, :, 1])
     columns[2, :, :, 0] = theta3
     np.negative(theta3, out=columns[2, :, :, 1])
-    theta234 = half_sum + half_diff
-    theta6 = half_sum - half_diff
+    # θ5 ∈ (0, π) away from the singularity: both signs are canonical as they are.
     columns[4, :, 0] = theta5[:, None]
-    columns[4, :, 1] = -theta5[:, None]
-    columns[5, :, 0] = theta6[:, None]
-    columns[5, :, 1] = (theta6 - math.pi)[:, None]
+    np.negative(columns[4, :, 0], out=columns[4, :, 1])
+    theta6 = np.stack((half_sum - half_diff, half_sum - half_diff - math.pi), axis=1)
+    columns[5] = _wrap_in_place(theta6)[:, :, None]
+    theta234 = half_sum + half_diff
     columns[3, :, 0] = theta234[:, None]
-    columns[3, :, 1] = (theta234 + math.pi)[:, None]
+    theta234 += math.pi
+    columns[3, :, 1] = theta234[:, None]
     columns[3] -= columns[1]
     columns[3] -= columns[2]                 # θ4 = θ234 − θ2 − θ3, eq. 4.44
-    for joint in (3, 4, 5):
-        columns[joint] = wrap_angle(columns[joint])
-    merged = (offset < DUPLICATE_TOLERANCE) | np.any(
-        (np.abs(theta3) < DUPLICATE_TOLERANCE) | (np.abs(theta3) > math.pi - DUPLICATE_TOLERANCE), axis=(0, 1))
-    return columns.reshape(6, 8, count), merged, near_singular
+    _wrap_in_place(columns[3])
+    exists = np.broadcast_to((elbow_reaches & shoulder_reaches[None, None, :])[:, :, None], (2, 2, 2, count))
+    elbow_merged = (np.abs(theta3) < DUPLICATE_TOLERANCE) | (np.abs(theta3) > math.pi - DUPLICATE_TOLERANCE)
+    merged = (offset < DUPLICATE_TOLERANCE) | np.any(elbow_merged & elbow_reaches, axis=(0, 1))
+    return columns.reshape(6, 8, count), exists.reshape(8, count), merged, near_singular
 
 
-def _regular_fk_filter(g: _Geometry, columns: np.ndarray, poses: np.ndarray) -> np.ndarray:
-    """(8, B) mask of the branches (6, 8, B) whose FK meets the TCP poses (B, 8): the thesis' filter (eq. 4.45).
+def _wrap_in_place(angle: np.ndarray) -> np.ndarray:
+    """Angles mapped into (−π, π] in place, as wrap_angle does (NaN stays NaN); returns ``angle``."""
+    turns = angle * (1.0 / _TWO_PI)
+    np.rint(turns, out=turns)
+    turns *= _TWO_PI
+    angle -= turns
+    # Rounding can land a hair outside [−π, π]: fold the ends back (rarely needed, so tested first).
+    low = angle <= -math.pi
+    if low.any():
+        angle[low] += _TWO_PI
+    high = angle > math.pi
+    if high.any():
+        angle[high] -= _TWO_PI
+    return angle
+
+
+def _regular_fk_filter(g: _Geometry, columns: np.ndarray, target: np.ndarray, grouped: bool) -> np.ndarray:
+    """(8, B) mask of the branches (6, 8, B) whose FK meets the TCP poses, given as pairs (7, B) (see _pair_rows):
+    the thesis' filter (eq. 4.45).
 
     The model's closed-form FK (models._ur_flange_rows) of every branch's final joint angles, composed with the
-    TCP, against the pose asked for, with the tolerances of _within_fk_tolerance (a NaN branch fails). Branches
-    hold equal θ1 in groups of four and equal θ5, θ6 in pairs (the (θ1, θ5, θ3) sign order): those values enter
-    the FK once per group when they are equal, and per branch otherwise.
+    TCP, against the pose asked for, with the tolerances of _within_fk_tolerance (a NaN branch fails).
+    ``grouped``: the caller built the branches with one θ1 value per four (θ1 sign) and one θ5, θ6 per pair
+    (θ1, θ5 signs), as _regular_branches does; those values then enter the FK once per group.
     """
-    count = poses.shape[0]
+    count = target.shape[1]
     joints = columns.reshape(6, 2, 2, 2, count)
-    q1, q5, q6 = joints[0, :, :1, :1], joints[4, :, :, :1], joints[5, :, :, :1]
-    if not (np.array_equal(np.broadcast_to(q1, joints.shape[1:]), joints[0], equal_nan=True)
-            and np.array_equal(np.broadcast_to(q5, joints.shape[1:]), joints[4], equal_nan=True)
-            and np.array_equal(np.broadcast_to(q6, joints.shape[1:]), joints[5], equal_nan=True)):
-        q1, q5, q6 = joints[0], joints[4], joints[5]
+    q1, q5, q6 = joints[0], joints[4], joints[5]
+    if grouped:
+        q1, q5, q6 = q1[:, :1, :1], q5[:, :, :1], q6[:, :, :1]
     flange = _ur_flange_rows(g.half_lengths, q1, joints[1], joints[2], joints[3], q5, q6).reshape(7, 8, count)
     rotation, half_position = flange[:4], flange[4:]
     if g.tcp_offset is not None:
         rotation, half_position = _tool_rows(rotation, half_position, g.tcp_offset)
-    target = poses.T
-    half_target = dqarray.translation_unchecked(poses).T * 0.5
-    error = half_position - half_target[:, None, :]
+    error = half_position - 0.5 * target[4:, None, :]
     error *= error
     position_ok = error.sum(axis=0) <= (0.5 * FK_TOLERANCE_M) ** 2
     minus = rotation - target[:4, None, :]
@@ -1004,19 +1049,20 @@ def ik_all_batch(model, poses, q_ref=None) -> np.ndarray:
 
     Branch k of every pose is the same sign choice (θ1, θ5, θ3) in that order, + first; duplicates are NaN.
     ``q_ref`` ((6,) or (N, 6), optional) only resolves the wrist singularity as in ik_all.
+    The result is the transposed view of a joint-major (6, 8, N) array (each joint of each branch contiguous).
     """
     g = _geometry(model)
     poses = _batch_poses(poses)
     theta6_ref = np.zeros(len(poses)) if q_ref is None else wrap_angle(_batch_reference(q_ref, len(poses))[:, 5])
-    out = np.empty((len(poses), 8, 6))
+    out = np.empty((6, 8, len(poses)))
     for rows, columns, valid, ambiguous in _solved_blocks(model, g, poses, theta6_ref):
         keep = valid
         if ambiguous.any():   # only poses where two branches can coincide need the pairwise comparison
             keep = valid.copy()
             keep[:, ambiguous] = _drop_duplicates(columns[:, :, ambiguous], valid[:, ambiguous])
-        np.copyto(columns, np.nan, where=~keep)
-        out[rows] = columns.transpose(2, 1, 0)
-    return out
+        columns += np.where(keep, 0.0, np.nan)   # + 0 keeps a value, + NaN blanks it (cheaper than a masked copy)
+        out[:, :, rows] = columns
+    return out.transpose(2, 1, 0)
 
 
 def _batch_reference(q_ref, count: int) -> np.ndarray:

@@ -354,7 +354,7 @@ class Robot:
 
     def set_tcp(self, tcp):
         """Set the controller's TCP offset (DualQuaternion or UR pose vector, flange frame); the model follows."""
-        pose = tcp.to_ur_pose() if isinstance(tcp, DualQuaternion) else safety.check_joint_vector(tcp, "tcp")
+        pose = tcp.to_ur_pose() if isinstance(tcp, DualQuaternion) else safety.check_pose_vector(tcp, "tcp")
         name = script.new_program_name("tcp")
         self._backend.send_program(script.program(name, [script.set_tcp_statement(pose)]))
         applied = self._primary.wait_for(

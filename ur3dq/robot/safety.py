@@ -28,6 +28,17 @@ def check_joint_vector(q, name="q"):
     return array
 
 
+def check_pose_vector(pose, name="pose"):
+    """`pose` as a float array [x, y, z, rx, ry, rz] (metres, rotation vector) of six finite values."""
+    try:
+        array = np.asarray(pose, dtype=float)
+    except (TypeError, ValueError):
+        raise SafetyCheckError(f"{name} must be a UR pose vector [x, y, z, rx, ry, rz], got {pose!r}") from None
+    if array.shape != (6,) or not np.all(np.isfinite(array)):
+        raise SafetyCheckError(f"{name} must be a UR pose vector of six finite numbers, got {pose!r}")
+    return array
+
+
 def check_joint_limits(q, lower, upper, name="q"):
     """`q` unchanged if every joint lies within [lower, upper] (radians), else SafetyCheckError naming the joint."""
     q = check_joint_vector(q, name)
