@@ -5,10 +5,14 @@ Prints single-call FK and IK latency, batch (10^5 poses) throughput per pose, an
   batch IK  (all solutions, FK-filtered) ≥ 8× faster per pose than ur-analytic-ik's inverse_kinematics per call
   single FK ≤ 3× ur-analytic-ik's forward_kinematics;  single IK ≤ 2× ur-analytic-ik's time
 Every side is timed on the same random configurations, in its native input form (ur3dq: joint arrays and
-DualQuaternions; ur-analytic-ik: floats and 4×4 matrices; dqrobotics: joint arrays). Per-call numbers are the best
-of several passes (the machine is shared; the best pass is the least disturbed one).
+DualQuaternions; ur-analytic-ik: floats and 4×4 matrices; dqrobotics: joint arrays). Every number, batch and
+per-call alike, is the best of --passes passes that go round-robin over all measurements in one run. A per-call
+pass is SINGLE_CALLS calls; a batch pass is one call on --batch poses. Passes are timed in this process's CPU time
+(time.process_time), not wall time: on a shared machine the wall clock also counts the time other processes hold
+the CPU, which hits a long batch pass (a tenth of a second) far more often than a short per-call pass (a few ms),
+so wall-clock ratios swing with the load; CPU time measures each side's own work alike.
 
-Run:  .venv/bin/python benchmarks/bench_kinematics.py [--model ur3] [--batch 100000]
+Run:  .venv/bin/python benchmarks/bench_kinematics.py [--model ur3] [--batch 100000] [--passes 15]
 """
 from __future__ import annotations
 
@@ -27,21 +31,20 @@ from ur3dq.kinematics import robot_model
 from ur3dq.kinematics import ur_ik
 
 SINGLE_CALLS = 500
-PASSES = 5
 
 
-def seconds_per_pose(measurements: dict) -> dict:
-    """Best-of-PASSES time per pose of each {name: (run, poses per run)}, ``run`` a no-argument callable.
+def seconds_per_pose(measurements: dict, passes: int) -> dict:
+    """Best-of-``passes`` time per pose of each {name: (run, poses per run)}, ``run`` a no-argument callable.
 
     The passes go round-robin over all measurements, so a burst of load from elsewhere on the (shared) machine
     hits every side alike instead of one measurement only.
     """
     best = dict.fromkeys(measurements, math.inf)
-    for _ in range(PASSES):
+    for _ in range(passes):
         for name, (run, count) in measurements.items():
-            start = time.perf_counter()
+            start = time.process_time()
             run()
-            best[name] = min(best[name], (time.perf_counter() - start) / count)
+            best[name] = min(best[name], (time.process_time() - start) / count)
     return best
 
 
@@ -63,7 +66,10 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--model", default="ur3", help="UR model name (default ur3)")
     parser.add_argument("--batch", type=int, default=100_000, help="poses per batch (default 10^5)")
+    parser.add_argument("--passes", type=int, default=15, help="round-robin passes, best one kept (default 15)")
     args = parser.parse_args()
+    if args.passes < 1 or args.batch < 1:
+        parser.error("--passes and --batch must be at least 1")
 
     model = robot_model(args.model)
     oracle = getattr(ur_analytic_ik, model.name)
@@ -93,11 +99,11 @@ def main() -> None:
         "IK  ur3dq ik_all_batch (all, FK-filtered)": (lambda: ur_ik.ik_all_batch(model, batch_poses), args.batch),
         "IK  ur3dq ik_batch (nearest q_ref)": (lambda: ur_ik.ik_batch(model, batch_poses, batch_references),
                                                args.batch),
-    })
+    }, args.passes)
     solutions = ur_ik.ik_all_batch(model, batch_poses)
 
     console = Console()
-    table = Table(title=f"{model.name}: latency per pose (µs), best of {PASSES} interleaved passes")
+    table = Table(title=f"{model.name}: CPU time per pose (µs), best of {args.passes} interleaved passes")
     table.add_column("measurement")
     table.add_column("µs / pose", justify="right")
     for name, seconds in timings.items():

@@ -1,4 +1,7 @@
-"""Which controller robot-facing tests talk to: sim_ursim by default, or the one UR3DQ_TEST_HOST names."""
+"""Which controller robot-facing tests talk to: sim_ursim by default, or the one UR3DQ_TEST_HOST names.
+
+The one place that reads UR3DQ_TEST_HOST; every test module and fixture asks here.
+"""
 import os
 
 import pytest
@@ -11,7 +14,11 @@ def external_robot_host():
     return os.environ.get(ROBOT_HOST_ENV) or None
 
 
-needs_simulator = pytest.mark.skipif(
-    external_robot_host() is not None,
-    reason=f"fault injection needs sim_ursim; {ROBOT_HOST_ENV} names an external controller",
-)
+def simulator_only(why):
+    """A skip mark for tests that need sim_ursim itself (`why`: what they inject or read through its control
+    channel), skipped when UR3DQ_TEST_HOST names an external controller."""
+    return pytest.mark.skipif(external_robot_host() is not None,
+                              reason=f"{why} needs sim_ursim; {ROBOT_HOST_ENV} names an external controller")
+
+
+needs_simulator = simulator_only("fault injection")

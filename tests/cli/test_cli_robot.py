@@ -1,6 +1,5 @@
 """The CLI against a real sim_ursim: record, replay, teach, Ctrl-C, exported programs; checked with ur_rtde."""
 import json
-import os
 import signal
 import socket
 import subprocess
@@ -10,11 +9,10 @@ import numpy as np
 import pytest
 
 from cli_support import UR3DQ, assert_one_line_error, cli_env
+from robot_target import simulator_only
 from ur3dq.store import PoseStore
 
-# The arm is placed by hand through sim_ursim's control channel, so these need sim_ursim, not an external URSim.
-pytestmark = pytest.mark.skipif(bool(os.environ.get("UR3DQ_TEST_HOST")),
-                                reason="places the arm through sim_ursim's control channel")
+pytestmark = simulator_only("placing the arm by hand")
 
 PLACES = [np.array(q) for q in ([0.0, -1.2, 1.0, -1.4, -1.57, 0.0], [0.8, -1.0, 1.3, -1.9, -1.57, 0.5],
                                 [-0.7, -1.6, 1.6, -1.6, -1.57, -0.3])]

@@ -122,8 +122,8 @@ def test_wrap_in_place_equals_wrap_angle(angle):
     assert math.isnan(wrapped[2])
 
 
-def test_stacked_sincos_matches_numpy():
+def test_sincos_of_double_matches_numpy():
     angles = np.concatenate((np.linspace(-20, 20, 20002), np.arange(-8, 9) * math.pi / 2)).reshape(3, -1)
-    sine, cosine = models._stacked_sincos(angles.copy())
+    sine, cosine = models._sincos_of_double(0.5 * angles)
     np.testing.assert_allclose(sine, np.sin(angles), rtol=0, atol=4e-15)
     np.testing.assert_allclose(cosine, np.cos(angles), rtol=0, atol=4e-15)

@@ -7,7 +7,8 @@ Faults are injected through the simulator's control channel; the arm is powered 
 import pytest
 
 import ur3dq.robot
-from robot_test_support import BACKENDS, HOME, external_robot_host, inject, ready, set_speed_slider, simulator_with
+from robot_target import external_robot_host
+from robot_test_support import BACKENDS, HOME, inject, ready, set_speed_slider, simulator_with
 
 
 @pytest.fixture(scope="module", params=BACKENDS)

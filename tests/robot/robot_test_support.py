@@ -10,11 +10,6 @@ BACKENDS = ["rtde", "urx"]
 HOME = np.array([0.0, -1.5707963267948966, 1.2, -1.2, -1.5707963267948966, 0.0])
 
 
-def external_robot_host():
-    """The official URSim / robot named by UR3DQ_TEST_HOST (tests/conftest.py's rule), or None."""
-    return os.environ.get("UR3DQ_TEST_HOST") or None
-
-
 def inject(host, command, **arguments):
     """Send one fault-control request to the simulator at `host`; AssertionError if it is refused."""
     from sim_ursim.control_channel import send_request

@@ -1,16 +1,14 @@
 """The driver reads the controller's calibrated DH, so its FK matches the controller's TCP on a non-nominal arm."""
-import os
-
 import numpy as np
 import pytest
 
 import ur3dq.robot
 from ur3dq.kinematics import robot_model
 
+from robot_target import simulator_only
 from robot_test_support import ready, simulator_with
 
-pytestmark = pytest.mark.skipif(bool(os.environ.get("UR3DQ_TEST_HOST")),
-                                reason="a non-nominal calibration is injected into sim_ursim")
+pytestmark = simulator_only("injecting a non-nominal calibration")
 
 # Deltas of the size a real arm's calibration shows (millimetres, milliradians).
 CALIBRATION = {

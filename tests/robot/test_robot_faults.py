@@ -1,6 +1,5 @@
 """Faults during motion, injected into sim_ursim: each gives its own exception, in bounded time, and the arm stops."""
 import _thread
-import os
 import threading
 import time
 
@@ -12,10 +11,10 @@ from ur3dq.errors import (ConnectionLostError, EmergencyStopError, MotionTimeout
                           ProtectiveStopError, RobotError)
 from ur3dq.robot import motion
 
+from robot_target import needs_simulator
 from robot_test_support import inject, set_speed_slider
 
-pytestmark = pytest.mark.skipif(bool(os.environ.get("UR3DQ_TEST_HOST")),
-                                reason="fault injection needs sim_ursim; UR3DQ_TEST_HOST names another controller")
+pytestmark = needs_simulator
 
 LONG_MOVE = np.array([2.5, 0, 0, 0, 0, 0])  # about 3.4 s at the URScript defaults
 

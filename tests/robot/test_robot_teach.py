@@ -1,5 +1,4 @@
 """Hand-guided recording through teach mode, and an e-series controller, on sim_ursim."""
-import os
 import time
 
 import numpy as np
@@ -8,10 +7,10 @@ import pytest
 import ur3dq.robot
 from ur3dq.errors import RobotError
 
+from robot_target import simulator_only
 from robot_test_support import HOME, inject, ready, simulator_with
 
-pytestmark = pytest.mark.skipif(bool(os.environ.get("UR3DQ_TEST_HOST")),
-                                reason="moving the arm by hand is injected into sim_ursim")
+pytestmark = simulator_only("moving the arm by hand")
 
 
 def test_teach_mode_records_a_hand_guided_pose(sim_host, backend):

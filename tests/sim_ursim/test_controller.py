@@ -146,7 +146,12 @@ def test_movej_follows_the_trapezoid_timing_and_lands_exactly(model):
        speed=st.floats(0.1, 10), acceleration=st.floats(0.5, 20))
 def test_any_movej_lands_exactly_and_respects_every_joint_speed_limit(start, end, speed, acceleration):
     stepped = stepped_ready(initial_q=start)
-    trace = run_and_trace(stepped, stepped.movej(end, a=acceleration, v=speed))
+    # Cycle budget: 3 × the slowest trapezoid these limits allow (6 rad at 0.1 rad/s takes 60 s = 7500 cycles).
+    slowest_speed = min(speed, float(np.min(stepped.model.max_joint_speed)))
+    slowest_acceleration = min(acceleration, float(np.min(stepped.model.max_joint_acceleration)))
+    travel = float(np.max(np.abs(np.subtract(end, start))))
+    budget = 3 * (travel / slowest_speed + slowest_speed / slowest_acceleration) / stepped.period
+    trace = run_and_trace(stepped, stepped.movej(end, a=acceleration, v=speed), max_cycles=int(budget) + 100)
     assert trace[-1].actual_q.tolist() == pytest.approx(end, abs=1e-12)
     peak = np.max(np.abs([s.actual_qd for s in trace]), axis=0)
     assert np.all(peak <= stepped.model.max_joint_speed * (1 + 1e-9))

@@ -1,5 +1,6 @@
 """python-urx 0.11, unmodified, against sim_ursim: what it can and cannot do per emulated version
 (docs/urx-compatibility.md records the same facts)."""
+import contextlib
 import time
 
 import numpy as np
@@ -9,41 +10,55 @@ from urx.urrobot import RobotException
 
 from sim_ursim.testing import running_simulator
 
-pytestmark = pytest.mark.filterwarnings("ignore:notifyAll:DeprecationWarning")  # inside urx 0.11 itself
+pytestmark = [
+    pytest.mark.filterwarnings("ignore:notifyAll:DeprecationWarning"),  # inside urx 0.11 itself
+    # A urx reader thread that dies (its simulator stopped under it) fails the test instead of only warning.
+    pytest.mark.filterwarnings("error::pytest.PytestUnhandledThreadExceptionWarning"),
+]
 
 TARGET = [0.3, -1.2, 1.0, -1.4, -1.5, 0.2]
 FAST = dict(acc=3.0, vel=2.0)
 
 
-def powered(simulator):
-    simulator.controller.power_up()
-    return simulator
+@pytest.fixture
+def urx_robots():
+    """The urx robots a test opened; the simulator fixtures close them while the simulator still serves."""
+    return []
+
+
+@contextlib.contextmanager
+def powered_simulator(urx_robots, **options):
+    """A powered-up simulator that closes every urx robot in `urx_robots` before it stops: a urx monitor that
+    outlives its peer raises TimeoutError in its reader thread (or spins on a closed socket and never joins)."""
+    with running_simulator(model="ur3", **options) as simulator:
+        simulator.controller.power_up()
+        try:
+            yield simulator
+        finally:
+            while urx_robots:
+                urx_robots.pop().close()
 
 
 @pytest.fixture
-def sim_3_15():
-    with running_simulator(model="ur3") as simulator:
-        yield powered(simulator)
+def sim_3_15(urx_robots):
+    with powered_simulator(urx_robots) as simulator:
+        yield simulator
 
 
 @pytest.fixture
-def sim_3_4():
-    with running_simulator(model="ur3", version="3.4.5") as simulator:
-        yield powered(simulator)
+def sim_3_4(urx_robots):
+    with powered_simulator(urx_robots, version="3.4.5") as simulator:
+        yield simulator
 
 
 @pytest.fixture
-def connect():
-    robots = []
-
+def connect(urx_robots):
     def _connect(host, cls=urx.URRobot, **kwargs):
         robot = cls(host, **kwargs)
-        robots.append(robot)
+        urx_robots.append(robot)
         return robot
 
-    yield _connect
-    for robot in robots:
-        robot.close()
+    return _connect
 
 
 def wait_for(predicate, timeout, interval=0.02):
@@ -91,9 +106,8 @@ def test_movej_with_waiting_is_refused_by_urx_on_3_15(sim_3_15, connect):
 
 
 @pytest.mark.parametrize("version, urx_sees", [("3.1.0", (3, 0)), ("3.4.5", (3, 2))])
-def test_movej_with_waiting_returns_at_the_target_on_3_1_and_3_4(connect, version, urx_sees):
-    with running_simulator(model="ur3", version=version) as simulator:
-        powered(simulator)
+def test_movej_with_waiting_returns_at_the_target_on_3_1_and_3_4(urx_robots, connect, version, urx_sees):
+    with powered_simulator(urx_robots, version=version) as simulator:
         robot = connect(simulator.host)
         assert robot.secmon._parser.version == urx_sees and robot.is_running()
         started = time.monotonic()
@@ -101,7 +115,6 @@ def test_movej_with_waiting_returns_at_the_target_on_3_1_and_3_4(connect, versio
         assert time.monotonic() - started > 0.5  # it really waited for the ~1.4 s move
         assert reached == pytest.approx(TARGET, abs=1e-3)
         assert not robot.is_program_running()
-        robot.close()
 
 
 def test_is_program_running_follows_the_interpreter_on_3_4(sim_3_4, connect):

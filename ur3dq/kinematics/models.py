@@ -161,14 +161,14 @@ BLOCK = 4096
 _HALF_SQRT2 = 0.7071067811865476
 
 
-def _stacked_sincos(angles: np.ndarray) -> tuple:
-    """(sin, cos) of an array of angles, in place, from t = tan(angle/2): sin = t·u, cos = u − 1, u = 2/(1+t²).
+def _sincos_of_double(half: np.ndarray) -> tuple:
+    """(sin 2h, cos 2h) of an array of half angles h, in place, from t = tan h: sin = t·u, cos = u − 1, u = 2/(1+t²).
 
     One numpy call per step for all angles (numpy's float64 tan is SIMD-vectorised, its sin and cos are not); the
-    identities stay accurate to a few ulp, also where t is huge (angle ≈ π). ``angles`` is overwritten.
+    identities stay accurate to a few ulp, also where t is huge (2h ≈ π). Callers pass the half angle they can
+    scale for free; ``half`` is overwritten.
     """
-    angles *= 0.5
-    tangent = np.tan(angles, out=angles)
+    tangent = np.tan(half, out=half)
     scale = np.multiply(tangent, tangent)
     scale += 1.0
     np.divide(2.0, scale, out=scale)
@@ -181,24 +181,26 @@ def _ur_flange_rows(half_lengths, q1, q2, q3, q4, q5, q6, out=None) -> np.ndarra
     """(7, *S) rows (rw, rx, ry, rz, ½px, ½py, ½pz): flange rotation and half position of a nominal UR arm.
 
     The closed form of :func:`_ur_flange` (same symbols) for joint arrays: q2, q3, q4 of shape S, while q1 and
-    q5, q6 (these two of one shape) may have fewer entries that broadcast to S (configurations sharing a joint value share its sines and
-    cosines). Each step is one numpy call over every row it needs, temporaries reused in place (hot loop).
+    q5, q6 (these two of one shape) may have fewer entries that broadcast to S (configurations sharing a joint
+    value share its sines and cosines). Each step is one numpy call over every row it needs, temporaries reused
+    in place (hot loop).
     ``out`` (7 arrays of shape S, optional) receives the rows.
     """
     d1, a2, a3, d4, d5, d6 = half_lengths
-    # Full angles q2, q23 and half angle q234/2 (_stacked_sincos halves once more for its tangent).
+    # Half angles q234/2, full angles q2, q23, each halved once more for _sincos_of_double's tangent.
     triple = np.empty((3,) + np.shape(q2))
     np.add(q2, q3, out=triple[2])
     np.add(triple[2], q4, out=triple[0])
-    triple[0] *= 0.5
-    triple[1] = q2
-    (sb, sin2, sin23), (cb, cos2, cos23) = _stacked_sincos(triple)
-    s1, c1 = _stacked_sincos(np.multiply(q1, 0.5))
+    np.multiply(q2, 0.5, out=triple[1])
+    triple[0] *= 0.25
+    triple[2] *= 0.5
+    (sb, sin2, sin23), (cb, cos2, cos23) = _sincos_of_double(triple)
+    s1, c1 = _sincos_of_double(np.multiply(q1, 0.25))
     wrist = np.empty((2,) + np.shape(q5))
     np.add(q5, q6, out=wrist[0])
     np.subtract(q5, q6, out=wrist[1])
-    wrist *= 0.5
-    (sp, sm), (cp, cm) = _stacked_sincos(wrist)       # P = (q5 + q6)/2, M = (q5 − q6)/2
+    wrist *= 0.25
+    (sp, sm), (cp, cm) = _sincos_of_double(wrist)       # P = (q5 + q6)/2, M = (q5 − q6)/2
     x = cb * cm
     x -= sb * sp
     y = cb * sm
@@ -340,10 +342,14 @@ class URModel:
 
     def fk(self, q) -> DualQuaternion:
         """TCP pose in the base frame at joint angles ``q`` (6, radians)."""
-        flange = self._flange(self._joint_floats(q))
+        return DualQuaternion._from_tuple(self._fk_floats(self._joint_floats(q)))
+
+    def _fk_floats(self, q: tuple) -> tuple:
+        """8 floats of the TCP pose at 6 float joint angles, unchecked (for ur_ik's FK filter on its own floats)."""
+        flange = self._flange(q)
         if self._tcp_coefficients != _IDENTITY:
             flange = multiply_coefficients(flange, self._tcp_coefficients)
-        return DualQuaternion._from_tuple(flange)
+        return flange
 
     def fk_flange(self, q) -> DualQuaternion:
         """Flange pose (DH frame 6, TCP offset ignored) in the base frame."""

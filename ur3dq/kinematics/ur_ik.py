@@ -40,8 +40,12 @@ can converge to the same calibrated solution, so ik_all may miss a neighbouring 
 is FK-verified; ik then picks the nearest of those).
 
 Single poses run in plain floats (no pyquaternion or numpy objects on the hot path); `ik` walks the branches
-θ1 → wrist → elbow cheapest first and stops solving a branch that can no longer be the nearest. Batches run the
-same equations in numpy over every branch of every pose at once (joint-major (6, 8, N) arrays).
+θ1 → wrist → elbow cheapest first and stops solving a branch that can no longer be the nearest. Batches of a
+nominal model run a closed-form kernel (_regular_branches) in numpy over blocks of IK_BLOCK poses, all branches
+at once (joint-major (6, 8, B) arrays): what the branches share is computed once (θ1 per pose, the wrist per θ1,
+both θ5 signs from the same terms), and the FK filter evaluates the model's closed-form FK kernel on every
+branch's final joints. Poses near a wrist or elbow singularity are redone by the general equations (_branches)
+that single poses and calibrated models use, so the special cases above behave the same in every path.
 """
 from __future__ import annotations
 
@@ -54,7 +58,7 @@ import numpy as np
 from ur3dq import dqarray
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import UnreachablePoseError
-from ur3dq.kinematics.models import BLOCK, _stacked_sincos, _ur_flange_rows
+from ur3dq.kinematics.models import BLOCK, _sincos_of_double, _ur_flange_rows
 
 #: FK filter (thesis eq. 4.45): a branch is a solution when its FK is within these of the pose asked for.
 #: Justification: the closed forms lose a few ulps on metre-sized arms (benchmarks/bench_kinematics.py measures the
@@ -463,7 +467,7 @@ def _translation_columns(c) -> tuple:
 
 def _meets(model, q, tcp_coefficients) -> bool:
     """The thesis' FK filter (eq. 4.45): the model's FK(q) within the tolerances of the TCP pose's coefficients."""
-    return _within_fk_tolerance(_ScalarOps, model.fk(q)._c, tcp_coefficients)
+    return _within_fk_tolerance(_ScalarOps, model._fk_floats(q), tcp_coefficients)
 
 
 # ------------------------------------------------------------------------------------------------ single pose
@@ -640,9 +644,11 @@ def _nearest_branch(g: _Geometry, target, reference, weights):
                 continue
             cost156 = cost15 + _joint_cost(g, 5, theta6, reference, weights)
             for theta2, theta3 in _shoulder_elbow_pair(_ScalarOps, g, x4, z4, cos3):
+                cost = cost156 + _joint_cost(g, 2, theta3, reference, weights)
+                if cost >= best_cost:
+                    continue
                 theta4 = theta234 - theta2 - theta3   # eq. 4.44
-                cost = (cost156 + _joint_cost(g, 2, theta3, reference, weights)
-                        + _joint_cost(g, 1, theta2, reference, weights) + _joint_cost(g, 3, theta4, reference, weights))
+                cost += _joint_cost(g, 1, theta2, reference, weights) + _joint_cost(g, 3, theta4, reference, weights)
                 if cost < best_cost:
                     best, best_cost = (theta1, theta2, theta3, theta4, wrist[0], theta6), cost
     return best
@@ -894,7 +900,7 @@ def _regular_branches(g: _Geometry, target: np.ndarray) -> tuple:
     base = np.arctan2(x5, -y5)
     theta1 = np.stack((base + offset, base - offset))
     # cos, sin of θ1/2 scaled by √½ (the Rx(−π/2) factor of the reduced rotation, eq. 4.14 ff.).
-    sin_half1, cos_half1 = _stacked_sincos(0.5 * theta1)
+    sin_half1, cos_half1 = _sincos_of_double(0.25 * theta1)
     cos1 = cos_half1 * cos_half1
     cos1 -= sin_half1 * sin_half1
     sin1 = sin_half1 * cos_half1

@@ -2,6 +2,7 @@
 modes and stop flags come from our own primary-interface reader, because urx 0.11 misreads the Robot Mode Data
 of controllers newer than 3.4 (its `is_running()` stays False there), so completion is watched by ur3dq's logic.
 """
+import logging
 import socket
 import threading
 import time
@@ -98,9 +99,36 @@ class URXBackend:
         secmon._s_secondary.close()
 
 
+class _QuietSecondaryMonitor(urx.ursecmon.SecondaryMonitor):
+    """urx's 30002 reader thread, ending quietly when the stream breaks or falls silent (the error kept in `error`):
+    urx's own run() dies there with a traceback on stderr, while the driver reports the loss as ConnectionLostError."""
+
+    error = None  # a class default: the thread starts inside urx's __init__ and may end before it returns
+
+    def run(self):
+        try:
+            super().run()
+        except OSError as error:  # closed, reset, or urx's 0.5 s receive timeout
+            self.error = error
+
+
+class _URRobot(URRobot):
+    """urx's URRobot on a _QuietSecondaryMonitor (URRobot.__init__ hard-codes its monitor class); the monitor's
+    constructor already waits for the first packet, and the 125 Hz real-time monitor stays off as in urx."""
+
+    def __init__(self, host):
+        self.logger = logging.getLogger("urx")
+        self.host = host
+        self.csys = None
+        self.rtmon = None
+        self.joinEpsilon = 0.01
+        self.max_float_length = 6
+        self.secmon = _QuietSecondaryMonitor(host)
+
+
 def _open_urx(host):
     """A connected urx URRobot, or RobotConnectionError."""
     try:
-        return URRobot(host)
+        return _URRobot(host)
     except (OSError, urx.ursecmon.TimeoutException) as error:
         raise RobotConnectionError(f"urx cannot connect to {host}:30002: {error}") from None
