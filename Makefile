@@ -21,7 +21,9 @@ test: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_kinematics.py
+	$(BIN)/python benchmarks/bench_dls.py
 	$(BIN)/python benchmarks/bench_driver.py
+	$(BIN)/python benchmarks/bench_rtde_stream.py
 
 clean:
 	rm -rf $(VENV) .pytest_cache .hypothesis
