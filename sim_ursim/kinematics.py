@@ -8,6 +8,9 @@ import math
 import numpy as np
 
 
+MIN_DAMPING = 1e-7  # smallest damping of the IK's least-squares steps (see inverse_kinematics)
+
+
 class IKError(ValueError):
     """The numeric IK found no joint vector reaching the pose (unreachable, or singular from the given start)."""
 
@@ -144,8 +147,10 @@ def inverse_kinematics(dh, pose, q_near, tcp_offset, tolerance=1e-10, max_iterat
             return q
         jacobian = geometric_jacobian(dh, q, tcp_offset)
         # Damped least squares, the damping shrinking with the error: robust far away, quadratic Newton close in.
+        # The floor keeps J·Jᵀ + λ²I invertible at a singular pose (its rank-deficient J·Jᵀ plus a λ² below the
+        # rounding of its entries would be singular); a 1e-7 damping leaves the convergence near-quadratic.
         error_norm = float(np.linalg.norm(error))
-        lam = min(damping, error_norm)
+        lam = max(min(damping, error_norm), MIN_DAMPING)
         step = jacobian.T @ np.linalg.solve(jacobian @ jacobian.T + lam**2 * np.eye(6), error)
         # Cap the step so a far target is approached along the branch instead of jumping to another one.
         largest = float(np.max(np.abs(step)))

@@ -197,6 +197,17 @@ def test_numeric_ik_returns_joints_reaching_the_pose_from_a_nearby_start(q, nudg
     assert np.allclose(kinematics.tcp_matrix(model.dh, solution, tcp), kinematics.pose_to_matrix(target), atol=1e-8)
 
 
+def test_numeric_ik_converges_onto_a_wrist_singular_pose():
+    """q5 = π puts joints 4 and 6 on one axis: J·Jᵀ is rank-deficient there, and the damping shrinking with the
+    error once made the least-squares solve fail (LinAlgError) one step before convergence (hypothesis found it)."""
+    model = robot_model("ur3")
+    tcp = np.array([0, 0, 0.1, 0, 0, 0])
+    q = np.array([0.0, 0.0, -0.3, -0.625, math.pi, 0.0])
+    target = kinematics.tcp_pose(model.dh, q, tcp)
+    solution = kinematics.inverse_kinematics(model.dh, target, q + [0.0, 0.125, 0.1875, 0.125, 0.0, 0.0], tcp)
+    assert np.allclose(kinematics.tcp_matrix(model.dh, solution, tcp), kinematics.pose_to_matrix(target), atol=1e-8)
+
+
 def test_ik_reports_an_unreachable_pose():
     model = robot_model("ur3")
     with pytest.raises(kinematics.IKError, match="no joint solution"):

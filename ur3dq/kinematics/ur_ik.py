@@ -100,6 +100,9 @@ CALIBRATED_DOMAIN_EDGE = 1e-3
 _TWO_PI = 2.0 * math.pi
 _CHORD_LIMIT = 2.0 * math.sin(0.25 * FK_TOLERANCE_RAD)   # chord |r1 ∓ r2| of a rotation by FK_TOLERANCE_RAD
 _HALF_SQRT2 = math.sqrt(0.5)
+_UNIT_WEIGHTS = (1.0,) * 6
+#: _wrist_pair's flags (singular, near-singular, nearer 0 than π) of a regular wrist: _elbow_for_wrist moves nothing.
+_REGULAR_WRIST = (False, False, False)
 
 
 # ------------------------------------------------------------------------------------------ model geometry
@@ -444,15 +447,15 @@ def _targets(g: _Geometry, pose) -> tuple:
     return c, _pair_of(c if g.tcp_inverse is None else _dq_product(c, g.tcp_inverse))
 
 
-def _within_fk_tolerance(ops, fk, target):
-    """Whether poses fk and target (8 coefficients each, floats or arrays) agree: |Δt| ≤ FK_TOLERANCE_M and the
-    rotation angle ≤ FK_TOLERANCE_RAD. The chord |r_fk ∓ r| = 2 sin(angle/4) decides the angle exactly, from
-    squared differences: no cancellation-prone dot product near 1, no trigonometry per pose."""
+def _within_fk_tolerance(fk, target) -> np.ndarray:
+    """Whether poses fk and target (8 coefficient arrays each) agree: |Δt| ≤ FK_TOLERANCE_M and the rotation
+    angle ≤ FK_TOLERANCE_RAD. The chord |r_fk ∓ r| = 2 sin(angle/4) decides the angle exactly, from squared
+    differences: no cancellation-prone dot product near 1, no trigonometry per pose (_meets: the same for floats)."""
     fx, fy, fz = _translation_columns(fk)
     tx, ty, tz = _translation_columns(target)
     position_error2 = (fx - tx) ** 2 + (fy - ty) ** 2 + (fz - tz) ** 2
-    sign = ops.where(fk[0] * target[0] + fk[1] * target[1] + fk[2] * target[2] + fk[3] * target[3] < 0.0,
-                     -1.0, 1.0)
+    sign = np.where(fk[0] * target[0] + fk[1] * target[1] + fk[2] * target[2] + fk[3] * target[3] < 0.0,
+                    -1.0, 1.0)
     chord2 = ((fk[0] - sign * target[0]) ** 2 + (fk[1] - sign * target[1]) ** 2
               + (fk[2] - sign * target[2]) ** 2 + (fk[3] - sign * target[3]) ** 2)
     return (position_error2 <= FK_TOLERANCE_M ** 2) & (chord2 <= _CHORD_LIMIT ** 2)
@@ -466,8 +469,17 @@ def _translation_columns(c) -> tuple:
 
 
 def _meets(model, q, tcp_coefficients) -> bool:
-    """The thesis' FK filter (eq. 4.45): the model's FK(q) within the tolerances of the TCP pose's coefficients."""
-    return _within_fk_tolerance(_ScalarOps, model._fk_floats(q), tcp_coefficients)
+    """The thesis' FK filter (eq. 4.45) for one pose: the model's FK at the 6 floats ``q`` against the TCP pose's
+    8 coefficients, with the tests of _within_fk_tolerance written out in floats (single-pose hot path)."""
+    fk = model._fk_floats(q)
+    fw, fx, fy, fz = fk[:4]
+    tw, tx, ty, tz = tcp_coefficients[:4]
+    if fw * tw + fx * tx + fy * ty + fz * tz < 0.0:   # σ ≡ −σ: compare with the nearer sign
+        tw, tx, ty, tz = -tw, -tx, -ty, -tz
+    if (fw - tw) ** 2 + (fx - tx) ** 2 + (fy - ty) ** 2 + (fz - tz) ** 2 > _CHORD_LIMIT ** 2:
+        return False
+    (fx, fy, fz), (tx, ty, tz) = _translation_columns(fk), _translation_columns(tcp_coefficients)
+    return (fx - tx) ** 2 + (fy - ty) ** 2 + (fz - tz) ** 2 <= FK_TOLERANCE_M ** 2
 
 
 # ------------------------------------------------------------------------------------------------ single pose
@@ -563,22 +575,30 @@ def ik_all(model, pose, q_ref=None) -> list:
     return [np.array([_wrap_float(v) for v in solution]) for solution in solutions]
 
 
-def _closest_variant(angle: float, reference: float, lower: float, upper: float):
-    """angle + 2πk inside [lower, upper] closest to ``reference``, or None when no variant fits the limits."""
+def _closest_variant(angle: float, reference: float, lower: float, upper: float) -> float:
+    """angle + 2πk inside [lower, upper] closest to ``reference`` (radians); inf when no variant fits the limits.
+
+    Per joint on its own: the cost Σ wᵢ·Δqᵢ² has diagonal weights and the limits are per joint, so the nearest
+    variant of a whole solution is the nearest variant of each joint — no product of variants to enumerate.
+    """
     centre = reference + math.remainder(angle - reference, _TWO_PI)
     if lower <= centre <= upper:
         return centre   # the nearest variant of all: nothing inside the limits can be nearer
-    best = None
-    for candidate in (centre - _TWO_PI, centre + _TWO_PI):
-        if lower <= candidate <= upper and (best is None or abs(candidate - reference) < abs(best - reference)):
-            best = candidate
-    return best
+    # The in-limit variants run from the first above ``lower`` to the last below ``upper``; the nearest variant of
+    # all lies beyond one end, and so does the reference (within π of it): that end is the nearest in-limit one.
+    if centre < lower:
+        end = angle + _TWO_PI * math.ceil((lower - angle) / _TWO_PI)
+        end = end + _TWO_PI if end < lower else end   # rounding of the division
+    else:
+        end = angle + _TWO_PI * math.floor((upper - angle) / _TWO_PI)
+        end = end - _TWO_PI if end > upper else end
+    return end if lower <= end <= upper else math.inf
 
 
 def _weights(weights) -> tuple:
     """Six positive finite joint weights (default all 1); ValueError naming ``weights`` otherwise."""
     if weights is None:
-        return (1.0,) * 6
+        return _UNIT_WEIGHTS
     values = _reference(weights, "weights")
     if any(w <= 0.0 for w in values):
         raise ValueError(f"weights: every joint weight must be > 0, got {list(values)}")
@@ -587,14 +607,8 @@ def _weights(weights) -> tuple:
 
 def _joint_cost(g: _Geometry, joint: int, angle: float, reference, weights) -> float:
     """wⱼ·(v − refⱼ)² for the ±2π variant v of ``angle`` inside joint ``joint``'s limits nearest refⱼ (inf: none)."""
-    ref = reference[joint]
-    offset = math.remainder(angle - ref, _TWO_PI)   # to the nearest variant of all, usually inside the limits
-    if not g.lower[joint] <= ref + offset <= g.upper[joint]:
-        variant = _closest_variant(angle, ref, g.lower[joint], g.upper[joint])
-        if variant is None:
-            return math.inf
-        offset = variant - ref
-    return weights[joint] * offset * offset
+    shift = _closest_variant(angle, reference[joint], g.lower[joint], g.upper[joint]) - reference[joint]
+    return weights[joint] * shift * shift
 
 
 def _nearest_candidate(g: _Geometry, candidates, reference, weights):
@@ -619,48 +633,107 @@ def _nearest_candidate(g: _Geometry, candidates, reference, weights):
 
 
 def _nearest_branch(g: _Geometry, target, reference, weights):
-    """The analytic solution of ``target`` (flange pair) nearest ``reference``, searched branch and bound.
+    """The analytic solution of ``target`` (flange pair, nominal model) nearest ``reference``, as the in-limit
+    ±2π variants of its joints nearest ``reference`` (6 floats); None when nothing fits the limits.
 
-    The same equations as _branches, walked θ1 → wrist → elbow, cheapest first: a θ1 (or wrist) whose own joint
-    costs already reach the best complete cost is not solved further. None when nothing fits the limits.
+    The equations of _branches, walked θ1 → wrist → elbow sign, cheapest first (branch and bound): a θ1, wrist or
+    elbow sign whose own joint costs already reach the best complete cost is not solved further, so usually one
+    branch is solved in full. Written out in plain floats with the very expressions of _theta1_pair,
+    _reduced_rotation, _planar_arm, _elbow_cosine and _shoulder_elbow_pair (each Python call costs as much as
+    the arithmetic here); a (near-)singular wrist, a clamped shoulder or a clamped elbow go through those general
+    functions, so every special case behaves exactly as in _branches (ik_all).
     """
     qw, qx, qy, qz, px, py, pz = target
+    d1, a2, a3, d4, d5, d6 = g.d1, g.a2, g.a3, g.d4, g.d5, g.d6
+    lower, upper = g.lower, g.upper
+    ref1, ref2, ref3, ref4, ref5, ref6 = reference
+    weight1, weight2, weight3, weight4, weight5, weight6 = weights
+    cos, sin, atan2, sqrt = math.cos, math.sin, math.atan2, math.sqrt
     x5, y5 = _wrist_centre(g, qw, qx, qy, qz, px, py)
+    reach = x5 * x5 + y5 * y5 - d4 * d4
+    if reach > g.domain_edge * d4 * d4:
+        base, offset = atan2(x5, -y5), atan2(sqrt(reach), d4)
+        theta1_pair = (base + offset, base - offset)
+    else:   # on or inside the shoulder circle: clamped within the domain slack, NaN beyond
+        theta1_pair = _theta1_pair(_ScalarOps, g, x5, y5)
+        if theta1_pair[0] != theta1_pair[0]:   # NaN: the wrist centre is too close to the base axis
+            return None
+    shoulders = []
+    for theta1 in theta1_pair:
+        variant1 = _closest_variant(theta1, ref1, lower[0], upper[0])
+        shoulders.append((weight1 * (variant1 - ref1) ** 2, theta1, variant1))
+    shoulders.sort()
     best, best_cost = None, math.inf
-    shoulders = [(_joint_cost(g, 0, theta1, reference, weights), theta1)
-                 for theta1 in _theta1_pair(_ScalarOps, g, x5, y5) if theta1 == theta1]   # NaN: no θ1
-    for cost1, theta1 in sorted(shoulders):
+    for cost1, theta1, variant1 in shoulders:
         if cost1 >= best_cost:
             break
-        cos1, sin1, reduced = _reduced_rotation(_ScalarOps, theta1, qw, qx, qy, qz)
-        upper, lower, flags = _wrist_pair(_ScalarOps, reduced, _wrap_float(reference[5]))
-        wrists = sorted(((cost1 + _joint_cost(g, 4, wrist[0], reference, weights), index, wrist)
-                         for index, wrist in enumerate((upper, lower))))
-        for cost15, _, wrist in wrists:
+        # _reduced_rotation: r' = Rx(−π/2)·Rz(−θ1)·r.
+        ch, sh = cos(0.5 * theta1), -sin(0.5 * theta1)
+        w1, x1, y1, z1 = ch * qw - sh * qz, ch * qx - sh * qy, ch * qy + sh * qx, ch * qz + sh * qw
+        h = _HALF_SQRT2
+        w, x, y, z = h * (w1 + x1), h * (x1 - w1), h * (y1 + z1), h * (z1 - y1)
+        cos1, sin1 = ch * ch - sh * sh, -2.0 * ch * sh
+        sin_half5, cos_half5 = sqrt(x * x + y * y), sqrt(w * w + z * z)
+        if sin_half5 < WRIST_NEAR_TOLERANCE or cos_half5 < WRIST_NEAR_TOLERANCE:
+            upper_wrist, lower_wrist, flags = _wrist_pair(_ScalarOps, (w, x, y, z), _wrap_float(ref6))
+        else:   # _wrist_pair's regular case
+            half_sum, half_diff = atan2(z, w), atan2(x, -y)
+            theta5 = 2.0 * atan2(sin_half5, cos_half5)
+            upper_wrist = (theta5, half_sum - half_diff, half_sum + half_diff)
+            lower_wrist = (-theta5, upper_wrist[1] - math.pi, upper_wrist[2] + math.pi)
+            flags = None
+        variant5_upper = _closest_variant(upper_wrist[0], ref5, lower[4], upper[4])
+        variant5_lower = _closest_variant(lower_wrist[0], ref5, lower[4], upper[4])
+        cost_upper = cost1 + weight5 * (variant5_upper - ref5) ** 2
+        cost_lower = cost1 + weight5 * (variant5_lower - ref5) ** 2
+        wrists = ((cost_upper, variant5_upper, upper_wrist), (cost_lower, variant5_lower, lower_wrist))
+        if cost_lower < cost_upper:
+            wrists = wrists[::-1]
+        for cost15, variant5, wrist in wrists:
             if cost15 >= best_cost:
                 break
-            theta6, theta234, x4, z4, cos3 = _elbow_for_wrist(_ScalarOps, g, cos1, sin1, wrist, flags, px, py, pz)
+            theta5, theta6, theta234 = wrist
+            if flags is None:   # _planar_arm and _elbow_cosine
+                c234, s234, s5 = cos(theta234), sin(theta234), sin(theta5)
+                x4 = cos1 * px + sin1 * py - s234 * d5 + c234 * s5 * d6
+                z4 = pz - d1 + c234 * d5 + s234 * s5 * d6
+                cos3 = (x4 * x4 + z4 * z4 - a2 * a2 - a3 * a3) / (2.0 * a2 * a3)
+                if not g.domain_edge - 1.0 <= cos3 <= 1.0 - g.domain_edge:
+                    cos3 = _ScalarOps.clamp_or_nan(cos3, g.domain_edge - 1.0, 1.0 - g.domain_edge, g.domain_slack)
+            else:
+                theta6, theta234, x4, z4, cos3 = _elbow_for_wrist(_ScalarOps, g, cos1, sin1, wrist, flags,
+                                                                  px, py, pz)
             if cos3 != cos3:   # NaN: the elbow cannot reach
                 continue
-            cost156 = cost15 + _joint_cost(g, 5, theta6, reference, weights)
-            for theta2, theta3 in _shoulder_elbow_pair(_ScalarOps, g, x4, z4, cos3):
-                cost = cost156 + _joint_cost(g, 2, theta3, reference, weights)
+            variant6 = _closest_variant(theta6, ref6, lower[5], upper[5])
+            cost156 = cost15 + weight6 * (variant6 - ref6) ** 2
+            if cost156 >= best_cost:
+                continue
+            # _shoulder_elbow_pair, one elbow sign at a time.
+            sin3 = sqrt(1.0 - cos3 * cos3)
+            theta3 = atan2(sin3, cos3)
+            along, across = a2 + a3 * cos3, a3 * sin3
+            near_x, near_z, far_x, far_z = x4 * along, z4 * along, x4 * across, z4 * across
+            for theta3, sign in ((theta3, 1.0), (-theta3, -1.0)):
+                variant3 = _closest_variant(theta3, ref3, lower[2], upper[2])
+                cost = cost156 + weight3 * (variant3 - ref3) ** 2
                 if cost >= best_cost:
                     continue
+                theta2 = atan2(near_z - sign * far_x, near_x + sign * far_z)   # eq. 4.41
                 theta4 = theta234 - theta2 - theta3   # eq. 4.44
-                cost += _joint_cost(g, 1, theta2, reference, weights) + _joint_cost(g, 3, theta4, reference, weights)
+                variant2 = _closest_variant(theta2, ref2, lower[1], upper[1])
+                variant4 = _closest_variant(theta4, ref4, lower[3], upper[3])
+                cost += weight2 * (variant2 - ref2) ** 2 + weight4 * (variant4 - ref4) ** 2
                 if cost < best_cost:
-                    best, best_cost = (theta1, theta2, theta3, theta4, wrist[0], theta6), cost
+                    best_cost = cost
+                    best = (variant1, variant2, variant3, variant4, variant5, variant6)
     return best
 
 
-def _nearest_joints(g: _Geometry, solution, reference) -> np.ndarray:
-    """The joints of ``solution`` moved by ±2π to the in-limit variants nearest ``reference``."""
-    joints = []
-    for angle, ref, low, high in zip(solution, reference, g.lower, g.upper):
-        centre = ref + math.remainder(angle - ref, _TWO_PI)   # the nearest variant of all, usually inside
-        joints.append(centre if low <= centre <= high else _closest_variant(angle, ref, low, high))
-    return np.array(joints)
+def _nearest_joints(g: _Geometry, solution, reference) -> tuple:
+    """The joints of ``solution`` moved by ±2π to the in-limit variants nearest ``reference`` (inf: none fits)."""
+    return tuple(_closest_variant(angle, ref, low, high)
+                 for angle, ref, low, high in zip(solution, reference, g.lower, g.upper))
 
 
 def joint_variants(model, q) -> np.ndarray:
@@ -690,7 +763,7 @@ def ik(model, pose, q_ref, weights=None) -> np.ndarray:
     if not g.calibrated:
         best = _nearest_branch(g, target, reference, weight)
         if best is not None and _meets(model, best, tcp_coefficients):
-            return _nearest_joints(g, best, reference)
+            return np.array(best)
     # Calibrated models (Newton on every branch), or a winner the FK filter rejected: rank all candidates.
     candidates = _solution_candidates(g, target, _wrap_float(reference[5]))
     remaining = list(candidates)
@@ -699,8 +772,9 @@ def ik(model, pose, q_ref, weights=None) -> np.ndarray:
         best = _nearest_candidate(g, remaining, reference, weight)
         if best is None:
             break
-        if _meets(model, best, tcp_coefficients):
-            return _nearest_joints(g, best, reference)
+        joints = _nearest_joints(g, best, reference)
+        if _meets(model, joints, tcp_coefficients):
+            return np.array(joints)
         remaining.remove(best)
     if any(_meets(model, c, tcp_coefficients) for c in candidates):
         raise UnreachablePoseError(f"pose unreachable for {model.name}: outside limits — every solution has a "
@@ -812,7 +886,7 @@ def _fk_filter(model, columns: np.ndarray, poses: np.ndarray) -> np.ndarray:
     fk = model.fk_batch(np.where(exists, columns, 0.0).reshape(6, -1).T)
     # One transposing copy makes every coefficient a contiguous run: the comparison then runs twice as fast.
     fk_columns = np.ascontiguousarray(fk.T).reshape((8,) + exists.shape)
-    return exists & _within_fk_tolerance(_ArrayOps, fk_columns, np.ascontiguousarray(poses.T))
+    return exists & _within_fk_tolerance(fk_columns, np.ascontiguousarray(poses.T))
 
 
 def _drop_duplicates(columns: np.ndarray, keep: np.ndarray) -> np.ndarray:
@@ -1084,15 +1158,19 @@ def _batch_reference(q_ref, count: int) -> np.ndarray:
 
 
 def _nearest_variants(g: _Geometry, columns: np.ndarray, reference: np.ndarray) -> np.ndarray:
-    """(6, 8, N) ±2π variants of the branches nearest ``reference`` (6, 1, N) inside the limits; NaN if none fits."""
+    """(6, 8, N) ±2π variants of the branches nearest ``reference`` (6, 1, N) inside the limits; NaN if none fits.
+
+    As _closest_variant: the nearest variant of all when it is inside, else the end of the in-limit run on its side.
+    """
     centre = columns + _TWO_PI * np.rint((reference - columns) / _TWO_PI)
     lower, upper = np.array(g.lower)[:, None, None], np.array(g.upper)[:, None, None]
-    best = np.where((centre >= lower) & (centre <= upper), centre, np.nan)   # nearest of all, usually inside
-    for shifted in (centre - _TWO_PI, centre + _TWO_PI):
-        inside = (shifted >= lower) & (shifted <= upper)
-        nearer = inside & ~(np.abs(best - reference) <= np.abs(shifted - reference))
-        best = np.where(nearer, shifted, best)
-    return best
+    with np.errstate(invalid="ignore"):   # ±inf limits: their end is never selected
+        first = columns + _TWO_PI * np.ceil((lower - columns) / _TWO_PI)
+        first = np.where(first < lower, first + _TWO_PI, first)
+        last = columns + _TWO_PI * np.floor((upper - columns) / _TWO_PI)
+        last = np.where(last > upper, last - _TWO_PI, last)
+    best = np.where(centre < lower, first, np.where(centre > upper, last, centre))
+    return np.where((best >= lower) & (best <= upper), best, np.nan)
 
 
 def ik_batch(model, poses, q_ref, weights=None) -> np.ndarray:

@@ -1,0 +1,127 @@
+"""The single-pose `ik` path of ur3dq.kinematics.ur_ik: per-joint nearest ±2π variants, the branch-and-bound search
+over the plain-float equations, and the float FK filter, each against an independent brute force.
+
+The brute force for `ik` is the product of every in-limit ±2π variant (joint_variants) of every FK-verified
+solution of ik_all: the search must find the same least weighted cost, also at and near the singular points and
+with limits that exclude some variants or whole branches.
+"""
+import itertools
+import math
+
+import numpy as np
+import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
+
+from ur3dq.dualquat import DualQuaternion
+from ur3dq.errors import UnreachablePoseError
+from ur3dq.kinematics import URModel, robot_model
+from ur3dq.kinematics import ur_ik
+
+ANGLE = st.floats(-math.pi, math.pi, allow_nan=False)
+JOINTS = st.tuples(*(ANGLE,) * 6).map(np.array)
+REFERENCE = st.tuples(*(st.floats(-2 * math.pi, 2 * math.pi, allow_nan=False),) * 6).map(np.array)
+WEIGHTS = st.tuples(*(st.floats(0.1, 10.0),) * 6)
+NEAR_SINGULAR = st.sampled_from([0.0, 1e-15, -1e-12, 1e-9, -1e-6, 1e-4, -2e-3, 0.3])
+
+
+def brute_force_least_cost(model, pose, reference, weights):
+    """Least Σ wᵢ·(qᵢ − refᵢ)² over the full product of in-limit variants of every ik_all solution (inf: none)."""
+    try:
+        solutions = ur_ik.ik_all(model, pose, q_ref=reference)
+    except UnreachablePoseError:
+        return math.inf
+    best = math.inf
+    for solution in solutions:
+        variants = ur_ik.joint_variants(model, solution)
+        # joint_variants lists up to 1e-12 beyond a limit; ik keeps the limits exactly.
+        variants = variants[np.all((variants >= model.joint_lower) & (variants <= model.joint_upper), axis=1)]
+        if len(variants):
+            best = min(best, float(np.min(np.sum(weights * (variants - reference) ** 2, axis=1))))
+    return best
+
+
+@settings(max_examples=300, deadline=None)
+@given(angle=st.floats(-20.0, 20.0), reference=st.floats(-20.0, 20.0), low=st.floats(-15.0, 5.0),
+       width=st.floats(0.0, 20.0), unlimited=st.sampled_from(["", "low", "high", "both"]))
+def test_closest_variant_is_the_nearest_in_limit_variant_by_enumeration(angle, reference, low, width, unlimited):
+    high = math.inf if unlimited in ("high", "both") else low + width
+    low = -math.inf if unlimited in ("low", "both") else low
+    variants = [angle + 2 * math.pi * k for k in range(-8, 9)]
+    assume(all(abs(v - low) > 1e-9 and abs(v - high) > 1e-9 for v in variants))   # no rounding-level edge cases
+    variant = ur_ik._closest_variant(angle, reference, low, high)
+    inside = [v for v in variants if low <= v <= high]
+    if not inside:
+        assert variant == math.inf
+        return
+    assert low <= variant <= high
+    assert math.remainder(variant - angle, 2 * math.pi) == pytest.approx(0.0, abs=1e-9)
+    assert abs(variant - reference) == pytest.approx(min(abs(v - reference) for v in inside), abs=1e-9)
+
+
+@pytest.mark.parametrize("name", ["ur5e", "ur10", "ur16e"])
+@settings(max_examples=40, deadline=None)
+@given(q=JOINTS, reference=REFERENCE, weights=WEIGHTS, theta5=NEAR_SINGULAR, theta3=NEAR_SINGULAR,
+       wrist_at_pi=st.booleans(), elbow_folded=st.booleans())
+def test_ik_finds_the_brute_force_least_cost_near_singular_points(name, q, reference, weights, theta5, theta3,
+                                                                  wrist_at_pi, elbow_folded):
+    model = robot_model(name)
+    q = q.copy()
+    q[4] = theta5 + (math.pi if wrist_at_pi else 0.0)
+    q[2] = theta3 + (math.pi if elbow_folded else 0.0)
+    pose = model.fk(q)
+    weights = np.array(weights)
+    best = brute_force_least_cost(model, pose, reference, weights)
+    try:
+        chosen = ur_ik.ik(model, pose, reference, weights)
+    except UnreachablePoseError:
+        assert best == math.inf   # the folded elbow may be out of reach of this arm's wrist offset
+        return
+    assert np.all(chosen >= model.joint_lower) and np.all(chosen <= model.joint_upper)
+    assert float(np.sum(weights * (chosen - reference) ** 2)) == pytest.approx(best, rel=1e-9, abs=1e-12)
+    metres, radians = model.fk(chosen).distance(pose)
+    assert metres <= ur_ik.FK_TOLERANCE_M and radians <= ur_ik.FK_TOLERANCE_RAD
+
+
+@settings(max_examples=80, deadline=None)
+@given(q=JOINTS, reference=st.tuples(*(st.floats(-1.5, 1.5),) * 6).map(np.array), weights=WEIGHTS)
+def test_ik_with_narrow_limits_and_a_tcp_finds_the_brute_force_least_cost_or_says_outside_limits(q, reference,
+                                                                                               weights):
+    nominal = robot_model("ur3e")
+    narrow = URModel("ur3e", nominal.dh, nominal.max_joint_speed, np.full(6, -1.5), np.full(6, 1.5),
+                     tcp=DualQuaternion.from_ur_pose([0.01, -0.02, 0.12, 0.2, -0.1, 0.3]))
+    pose = narrow.fk(q)
+    weights = np.array(weights)
+    best = brute_force_least_cost(narrow, pose, reference, weights)
+    if best == math.inf:
+        with pytest.raises(UnreachablePoseError, match="outside limits"):
+            ur_ik.ik(narrow, pose, reference, weights)
+        return
+    chosen = ur_ik.ik(narrow, pose, reference, weights)
+    assert float(np.sum(weights * (chosen - reference) ** 2)) == pytest.approx(best, rel=1e-9, abs=1e-12)
+    assert narrow.fk(chosen).is_close(pose, ur_ik.FK_TOLERANCE_M, ur_ik.FK_TOLERANCE_RAD)
+
+
+def test_ik_returns_every_joint_of_the_nearest_branch_in_its_in_limit_variant():
+    # The per-joint choice of the 2π shift (separable cost) is the product search's choice: check one case where
+    # four joints need a shift, against the full 2^k product of shifts.
+    model = robot_model("ur5e")
+    q = np.array([2.9, -2.8, 1.1, 3.0, -2.5, 2.2])
+    reference = q + np.array([-2 * math.pi, 2 * math.pi, 0.0, -2 * math.pi, 2 * math.pi, 0.0]) + 0.01
+    chosen = ur_ik.ik(model, model.fk(q), reference)
+    products = [q + 2 * math.pi * np.array(k) for k in itertools.product((-1, 0, 1), repeat=6)]
+    inside = [p for p in products if np.all(np.abs(p) <= 2 * math.pi)]
+    nearest = min(inside, key=lambda p: float(np.sum((p - reference) ** 2)))
+    assert np.allclose(chosen, nearest, atol=1e-9)
+
+
+def test_float_fk_filter_accepts_the_pose_either_sign_and_rejects_a_nanometre_more():
+    model = robot_model("ur10e").with_tcp([0.0, 0.0, 0.2, 0.0, 0.0, 0.5])
+    q = (0.4, -1.1, 1.3, -0.7, 1.0, 0.2)
+    pose = model.fk(q).to_array()
+    assert ur_ik._meets(model, q, tuple(pose))
+    assert ur_ik._meets(model, q, tuple(-pose))   # σ and −σ are the same pose
+    # A 1e-8 rad turn of the base moves the TCP by ~1e-8 m (> 1 nm); of wrist 3, the TCP on its axis turns only.
+    assert not ur_ik._meets(model, (q[0] + 1e-8,) + q[1:], tuple(pose))
+    assert not ur_ik._meets(model, q[:5] + (q[5] + 1e-8,), tuple(pose))
+    assert ur_ik._meets(model, q[:5] + (q[5] + 1e-11,), tuple(pose))
