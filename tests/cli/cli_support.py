@@ -1,5 +1,7 @@
 """Helpers of the CLI tests: the environment of a `ur3dq` run, error checks, and the simulated arm they drive."""
+import contextlib
 import os
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -16,6 +18,20 @@ def cli_env(tmp_path, **extra):
     env["COLUMNS"] = "200"
     env.update(extra)
     return env
+
+
+@contextlib.contextmanager
+def cli_process(tmp_path, *args, stdin=subprocess.DEVNULL):
+    """A running `ur3dq args` in `tmp_path` with text stdout/stderr pipes (stdin too if stdin=PIPE), for tests that
+    talk to it while it runs; on exit it is killed if still running, and its pipes are closed."""
+    with subprocess.Popen([UR3DQ, *map(str, args)], cwd=tmp_path, env=cli_env(tmp_path), stdin=stdin,
+                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) as process:
+        try:
+            yield process
+        finally:
+            if process.poll() is None:
+                process.kill()
+                process.wait()
 
 
 def assert_one_line_error(result, code, *fragments):

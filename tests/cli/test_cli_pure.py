@@ -1,4 +1,5 @@
 """The CLI's small pure pieces: display text, exit codes, speed clamping, URScript export, plot geometry, sim state."""
+import logging
 import math
 import os
 
@@ -6,7 +7,7 @@ import numpy as np
 import pytest
 
 from ur3dq.cli import display
-from ur3dq.cli.app import Cancelled, exit_code_for, one_line
+from ur3dq.cli.app import Cancelled, exit_code_for, one_line, quiet_client_libraries
 from ur3dq.cli.commands_robot import angular_option, clamp_to_model
 from ur3dq.cli.plan import plan_replay
 from ur3dq.cli.simstate import process_is_simulator, read_state, state_directory
@@ -46,6 +47,14 @@ def test_one_line_joins_lines_and_notes():
     error = RuntimeError("first\nsecond")
     error.add_note("stopj also failed")
     assert one_line(error) == "first second stopj also failed"
+
+
+def test_client_library_warnings_are_quiet_unless_debugging():
+    quiet_client_libraries(debug=False)
+    assert not logging.getLogger("ursecmon").isEnabledFor(logging.WARNING)
+    assert logging.getLogger("urx").isEnabledFor(logging.ERROR)
+    quiet_client_libraries(debug=True)  # back to the default: the root logger's level decides
+    assert logging.getLogger("ursecmon").isEnabledFor(logging.WARNING)
 
 
 def test_clamp_to_model():

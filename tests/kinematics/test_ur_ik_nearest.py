@@ -125,3 +125,24 @@ def test_float_fk_filter_accepts_the_pose_either_sign_and_rejects_a_nanometre_mo
     assert not ur_ik._meets(model, (q[0] + 1e-8,) + q[1:], tuple(pose))
     assert not ur_ik._meets(model, q[:5] + (q[5] + 1e-8,), tuple(pose))
     assert ur_ik._meets(model, q[:5] + (q[5] + 1e-11,), tuple(pose))
+
+
+@pytest.mark.parametrize("name", ["ur3", "ur10e"])
+def test_ik_batch_equals_ik_for_references_far_outside_the_limits(name):
+    # A reference several turns beyond ±2π still has a nearest in-limit variant: the end of the in-limit run on
+    # its side (not only the variants next to the reference's own), in the batch and the single path alike.
+    model = robot_model(name)
+    rng = np.random.default_rng(5)
+    joints = rng.uniform(-math.pi, math.pi, (60, 6))
+    references = joints + rng.choice([-3.0, -2.0, 0.0, 2.0, 3.0], joints.shape) * 2 * math.pi
+    references += rng.normal(0.0, 0.3, joints.shape)
+    poses = model.fk_batch(joints)
+    batch = ur_ik.ik_batch(model, poses, references)
+    assert np.all(np.isfinite(batch))   # ±2π limits leave every joint some variant
+    for pose, reference, row in zip(poses, references, batch):
+        single = ur_ik.ik(model, pose, reference)
+        assert np.max(np.abs(row - single)) < 1e-9
+        assert np.all(single >= model.joint_lower) and np.all(single <= model.joint_upper)
+        best = brute_force_least_cost(model, DualQuaternion.from_array(pose), reference, np.ones(6))
+        if name != "ur3":   # joint_variants lists the UR3's unlimited wrist 3 within ±2π only
+            assert float(np.sum((single - reference) ** 2)) == pytest.approx(best, rel=1e-9)

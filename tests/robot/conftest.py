@@ -35,11 +35,18 @@ def sim_host():
         yield simulator.host
 
 
-@pytest.fixture
-def robot(arm_host, backend):
-    """A Robot on the arm, powered, at HOME; closed after the test."""
+@pytest.fixture(scope="module")
+def module_robot(arm_host, backend):
+    """One Robot connection per module and backend, kept open across its tests as a long-running program keeps it
+    (connecting and closing cost about a second a test)."""
     with ur3dq.robot.connect(arm_host, backend=backend) as connected:
-        yield ready(connected)
+        yield connected
+
+
+@pytest.fixture
+def robot(module_robot):
+    """The module's Robot, powered and at HOME."""
+    return ready(module_robot)
 
 
 @pytest.fixture

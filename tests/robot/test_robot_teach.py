@@ -13,12 +13,12 @@ from robot_test_support import HOME, inject, ready, simulator_with
 pytestmark = simulator_only("moving the arm by hand")
 
 
-def test_teach_mode_records_a_hand_guided_pose(sim_host, backend):
-    with ur3dq.robot.connect(sim_host, backend=backend) as robot:
+def test_teach_mode_records_a_hand_guided_pose(arm_host, backend):
+    with ur3dq.robot.connect(arm_host, backend=backend) as robot:
         ready(robot)
         guided = HOME + np.array([0.3, -0.2, 0.1, 0.0, 0.4, -0.5])
         robot.teach_mode(True)
-        inject(sim_host, "move-by-hand", q=list(guided))
+        inject(arm_host, "move-by-hand", q=list(guided))
         deadline = time.monotonic() + 1.0
         while not np.allclose(robot.joints(), guided, atol=1e-9) and time.monotonic() < deadline:
             time.sleep(0.01)  # the state streams show the hand-guided pose within a cycle (10 Hz for urx)
@@ -32,11 +32,11 @@ def test_teach_mode_records_a_hand_guided_pose(sim_host, backend):
         assert robot.tcp_pose().distance(recorded_pose)[0] < 1e-3
 
 
-def test_hand_guiding_is_refused_outside_teach_mode(sim_host):
-    with ur3dq.robot.connect(sim_host) as robot:
+def test_hand_guiding_is_refused_outside_teach_mode(arm_host):
+    with ur3dq.robot.connect(arm_host) as robot:
         ready(robot)
         with pytest.raises(AssertionError, match="freedrive"):
-            inject(sim_host, "move-by-hand", q=list(HOME + 0.1))
+            inject(arm_host, "move-by-hand", q=list(HOME + 0.1))
 
 
 def test_e_series_controller():

@@ -4,6 +4,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import json
+import logging
 import os
 import sys
 from pathlib import Path
@@ -178,8 +179,20 @@ def exit_code_for(error: BaseException) -> int:
     return EXIT_INTERNAL
 
 
+# urx logs a warning each time its parser retries on a 3.5+ controller's packets; with no handler of ours Python
+# would print those on stderr around the one-line errors.
+CLIENT_LIBRARY_LOGGERS = ("urx", "ursecmon")
+
+
+def quiet_client_libraries(debug):
+    """Let only errors of the client libraries' loggers through, or leave their levels alone when `debug`."""
+    for name in CLIENT_LIBRARY_LOGGERS:
+        logging.getLogger(name).setLevel(logging.NOTSET if debug else logging.ERROR)
+
+
 def main(argv=None) -> None:
     """Entry point of the `ur3dq` command: run the CLI; any error becomes `Error: ...` on stderr and an exit code."""
+    quiet_client_libraries(bool(os.environ.get("UR3DQ_DEBUG")))
     try:
         code = cli.main(args=argv, prog_name="ur3dq", standalone_mode=False)
     except click.ClickException as error:

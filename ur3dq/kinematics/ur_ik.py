@@ -40,7 +40,9 @@ can converge to the same calibrated solution, so ik_all may miss a neighbouring 
 is FK-verified; ik then picks the nearest of those).
 
 Single poses run in plain floats (no pyquaternion or numpy objects on the hot path); `ik` walks the branches
-θ1 → wrist → elbow cheapest first and stops solving a branch that can no longer be the nearest. Batches of a
+θ1 → wrist → elbow cheapest first, with the equations written out for a regular wrist, and stops solving a branch
+that can no longer be the nearest; the ±2π variant nearest q_ref inside the limits is chosen per joint (the cost
+is separable), and the FK filter checks the joints it returns. Batches of a
 nominal model run a closed-form kernel (_regular_branches) in numpy over blocks of IK_BLOCK poses, all branches
 at once (joint-major (6, 8, B) arrays): what the branches share is computed once (θ1 per pose, the wrist per θ1,
 both θ5 signs from the same terms), and the FK filter evaluates the model's closed-form FK kernel on every
@@ -101,8 +103,6 @@ _TWO_PI = 2.0 * math.pi
 _CHORD_LIMIT = 2.0 * math.sin(0.25 * FK_TOLERANCE_RAD)   # chord |r1 ∓ r2| of a rotation by FK_TOLERANCE_RAD
 _HALF_SQRT2 = math.sqrt(0.5)
 _UNIT_WEIGHTS = (1.0,) * 6
-#: _wrist_pair's flags (singular, near-singular, nearer 0 than π) of a regular wrist: _elbow_for_wrist moves nothing.
-_REGULAR_WRIST = (False, False, False)
 
 
 # ------------------------------------------------------------------------------------------ model geometry
@@ -530,8 +530,7 @@ def _is_new(solution, kept) -> bool:
     """True unless some kept solution agrees with ``solution`` within DUPLICATE_TOLERANCE in every joint (mod 2π)."""
     for other in kept:
         for x, y in zip(solution, other):
-            difference = x - y
-            if abs(difference - _TWO_PI * round(difference / _TWO_PI)) >= DUPLICATE_TOLERANCE:
+            if abs(math.remainder(x - y, _TWO_PI)) >= DUPLICATE_TOLERANCE:
                 break
         else:
             return False
