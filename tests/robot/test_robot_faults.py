@@ -16,7 +16,7 @@ from robot_test_support import inject, set_speed_slider
 
 pytestmark = needs_simulator
 
-LONG_MOVE = np.array([2.5, 0, 0, 0, 0, 0])  # about 3.4 s at the URScript defaults
+LONG_MOVE = np.array([3.0, 0, 0, 0, 0, 0])  # about 3.6 s at the URScript defaults: room for a late fault detection
 
 
 def after(seconds, action):
