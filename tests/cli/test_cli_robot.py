@@ -28,6 +28,7 @@ def test_record_several_poses_then_replay_them(arm, run_cli, tmp_path):
         assert "Recorded 'p" in result.stdout and "dual quaternion" in result.stdout
     stored = PoseStore(tmp_path / "poses.json").load()
     assert [p.name for p in stored] == ["p1", "p2", "p3"]
+    assert all(p.robot_model == "ur3" and p.robot_serial is None for p in stored)  # CB3 has no serial command
     for pose, q in zip(stored, PLACES):
         np.testing.assert_allclose(pose.joints, q, atol=1e-9)
 

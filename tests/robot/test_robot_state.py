@@ -4,7 +4,7 @@ import pytest
 
 from ur3dq.errors import RobotError
 from ur3dq.robot import state
-from ur3dq.robot.dashboard import model_from_reply, unlock_refusal
+from ur3dq.robot.dashboard import model_from_reply, serial_from_reply, unlock_refusal
 
 
 def status(joints, speeds=(0,) * 6):
@@ -51,3 +51,13 @@ def test_model_from_an_unexpected_reply():
 def test_unlock_refusal():
     assert unlock_refusal("Protective stop releasing") is None
     assert "5s" in unlock_refusal("Cannot unlock protective stop until 5s after occurrence.")
+
+
+@pytest.mark.parametrize("reply, serial", [
+    ("20235500001", "20235500001"),
+    ("20235500001\r", "20235500001"),
+    ("could not understand: 'get serial number'", None),
+    ("", None),
+])
+def test_serial_from_reply(reply, serial):
+    assert serial_from_reply(reply) == serial

@@ -42,6 +42,7 @@ def test_hand_guiding_is_refused_outside_teach_mode(arm_host):
 def test_e_series_controller():
     with simulator_with(model="ur3e") as simulator, ur3dq.robot.connect(simulator.host) as robot:
         assert robot.model_name == "ur3e" and robot.controller_version[0] == 5
+        assert robot.serial_number is not None and robot.serial_number.isdigit()  # PolyScope 5.6+ tells it
         ready(robot)
         assert robot.model.fk(robot.joints()).distance(robot.tcp_pose())[0] < 1e-6
         with pytest.raises(RobotError, match="requested but the controller is a ur3e"):

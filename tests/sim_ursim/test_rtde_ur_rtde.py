@@ -183,6 +183,26 @@ def pose_matrix(pose):
     return matrix
 
 
+def path_parameter_of_pose(pose, start_q, travel, tcp_offset, low, high):
+    """The s in [low, high] whose FK(start_q + s·travel) lies nearest `pose` in position (grid, then golden section)."""
+    target = np.asarray(pose[:3])
+
+    def gap(s):
+        return np.linalg.norm(dh_fk(start_q + s * travel, tcp_offset)[:3, 3] - target)
+
+    grid = np.linspace(low, high, 201)
+    best = int(np.argmin([gap(s) for s in grid]))
+    a, b = grid[max(best - 1, 0)], grid[min(best + 1, len(grid) - 1)]
+    ratio = (np.sqrt(5) - 1) / 2
+    for _ in range(80):
+        c, d = b - ratio * (b - a), a + ratio * (b - a)
+        if gap(c) < gap(d):
+            b = d
+        else:
+            a = c
+    return (a + b) / 2
+
+
 def read_recording(path):
     """Rows of a ur_rtde recording as {column: float}."""
     with open(path, newline="") as handle:
@@ -359,15 +379,19 @@ def test_a_movej_is_seen_from_start_to_end_with_tcp_pose_equal_to_dh_fk(robot, t
         return np.allclose(measured[:3, 3], expected[:3, 3], atol=1e-5) and np.allclose(
             measured[:3, :3], expected[:3, :3], atol=1e-5)
 
-    # ur_rtde's recorder thread copies each field under its own lock while the receive thread updates them, so a
-    # row can now and then hold actual_q from one package and actual_TCP_pose from the next (one such row failed
-    # a full-suite run on a loaded box). Such a row must agree with a nearby row's joints (rows may repeat a
-    # package); almost every moving row must agree with its own (a pose lagging its joints by one cycle in the
-    # simulator would fail that for every moving row).
+    # ur_rtde's recorder thread copies each field under its own lock while the receive thread updates them, and it
+    # samples the stream on its own clock, so a row can now and then hold actual_q from one package and
+    # actual_TCP_pose from a later one that no other row shows. A movej is a straight line in joint space,
+    # q(s) = start_q + s·(target_q − start_q), so such a pose must still be the FK of a point of that line between the
+    # rows around it. Almost every moving row must agree with its own joints: a pose lagging its joints by one cycle
+    # in the simulator would fail that for every moving row.
     own = np.array([fk_agrees(q, pose) for q, pose in zip(joints, poses)])
+    travel = target_q - start_q
+    progress = (joints - start_q) @ travel / (travel @ travel)
     for i in np.nonzero(~own)[0]:
-        nearby = joints[max(i - 2, 0):i + 3]
-        assert any(fk_agrees(q, poses[i]) for q in nearby), f"row {i}: TCP pose is not the FK of nearby joints"
+        low, high = progress[max(i - 3, 0)], progress[min(i + 3, len(rows) - 1)]
+        s_best = path_parameter_of_pose(poses[i], start_q, travel, tcp_offset, low, high)
+        assert fk_agrees(start_q + s_best * travel, poses[i]), f"row {i}: TCP pose is not on the movej's path"
     assert own[moving].mean() >= 0.95
 
 

@@ -83,7 +83,7 @@ def read_pose(robot, name: str, note: str = "") -> Pose:
         raise ConnectionLostError(f"the robot's state stream is frozen ({status.age:.1f} s old); pose not recorded")
     return Pose.from_dual_quaternion(
         name, DualQuaternion.from_ur_pose(status.tcp_pose), robot.model_name, joints=status.joints,
-        tcp_offset=robot.model.tcp.to_ur_pose(), note=note)
+        robot_serial=robot.serial_number, tcp_offset=robot.model.tcp.to_ur_pose(), note=note)
 
 
 def pose_rows(robot, pose: Pose, deg: bool) -> list[tuple[str, str]]:

@@ -23,6 +23,12 @@ def model_from_reply(reply, major_version):
     return name
 
 
+def serial_from_reply(reply):
+    """The serial number in a `get serial number` reply (digits, e.g. '20185500000'), or None if it holds none."""
+    text = (reply or "").strip()
+    return text if text.isdigit() else None
+
+
 def unlock_refusal(reply):
     """None if an `unlock protective stop` reply means success, else the controller's reason (str)."""
     if reply.strip().lower().startswith("protective stop releasing"):
@@ -40,6 +46,10 @@ class Dashboard:
     def robot_model_reply(self):
         """The raw reply to `get robot model` (e.g. 'UR3')."""
         return self._call(lambda client: client.getRobotModel())
+
+    def serial_number(self):
+        """The controller's serial number, or None where the dashboard has no such command (before PolyScope 5.6)."""
+        return serial_from_reply(self._call(lambda client: (client.send("get serial number\n"), client.receive())[1]))
 
     def power_on(self):
         """Send `power on` (the caller watches the robot mode reach IDLE)."""

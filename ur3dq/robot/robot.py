@@ -35,6 +35,8 @@ START_TIMEOUT = 5.0  # s for the controller to start a sent program (generous: a
 SETTLE_TIME = 0.3  # s a stopped program may take to show the arm at rest before it counts as failed
 RECONNECT_DELAYS = (0.05, 0.1, 0.2, 0.4, 0.8)  # s between stream reconnection attempts (exponential backoff)
 MODE_CHANGE_TIMEOUT = 15.0  # s for power on / brake release to reach their robot mode
+SERIAL_NUMBER_SINCE = (5, 6)  # the dashboard's `get serial number` exists from PolyScope 5.6
+_UNREAD = object()  # the serial number has not been asked for yet (None is a valid answer: unknown)
 
 
 def dh_deltas(kinematics, nominal_dh):
@@ -79,6 +81,7 @@ class Robot:
         self.max_joint_travel = float(max_joint_travel)
         self._connect_timeout = connect_timeout
         self._primary = self._backend = self._dashboard = None
+        self._serial_number = _UNREAD
         try:
             self._primary = self._open_primary()
             self._dashboard = Dashboard(host)
@@ -109,6 +112,14 @@ class Robot:
         """(major, minor, bugfix, build) of the controller software, from the primary version message."""
         version = self._primary.version
         return (version.major, version.minor, version.bugfix, version.build)
+
+    @property
+    def serial_number(self):
+        """The controller's serial number (dashboard, PolyScope 5.6 and later), or None where it cannot tell."""
+        if self._serial_number is _UNREAD:
+            version = self.controller_version
+            self._serial_number = self._dashboard.serial_number() if version[:2] >= SERIAL_NUMBER_SINCE else None
+        return self._serial_number
 
     def _open_primary(self):
         """A PrimaryClient that has received the version, robot mode, kinematics and configuration."""
