@@ -60,7 +60,7 @@ import numpy as np
 from ur3dq import dqarray
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import UnreachablePoseError
-from ur3dq.kinematics.models import BLOCK, _sincos_of_double, _ur_flange_rows
+from ur3dq.kinematics.models import BLOCK, URModel, _sincos_of_double, _ur_flange_rows
 
 #: FK filter (thesis eq. 4.45): a branch is a solution when its FK is within these of the pose asked for.
 #: Justification: the closed forms lose a few ulps on metre-sized arms (benchmarks/bench_kinematics.py measures the
@@ -538,19 +538,8 @@ def _is_new(solution, kept) -> bool:
 
 
 def _reference(q_ref, name: str = "q_ref") -> tuple:
-    """Six finite floats of a joint reference; ValueError naming ``name`` otherwise."""
-    try:
-        if isinstance(q_ref, np.ndarray) and q_ref.dtype == np.float64 and q_ref.ndim == 1:
-            values = tuple(q_ref.tolist())   # Python floats in one call (iterating yields slow numpy scalars)
-        else:
-            values = tuple(map(float, q_ref))
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name}: expected 6 joint angles (radians), got {q_ref!r}") from exc
-    if len(values) != 6:
-        raise ValueError(f"{name}: expected 6 joint angles, got {len(values)}")
-    if not math.isfinite(sum(values)):   # one sum is finite exactly when every term is (or it overflows: refuse)
-        raise ValueError(f"{name}: contains NaN or infinite values")
-    return values
+    """Six finite floats of a joint reference (or weights); ValueError naming ``name`` otherwise."""
+    return URModel._joint_floats(q_ref, name)
 
 
 def ik_all(model, pose, q_ref=None) -> list:
