@@ -8,6 +8,7 @@ from robot_target import needs_simulator
 from sim_ursim.control_channel import CONTROL_PORT, execute, send_request
 from sim_ursim.controller import RobotMode, SafetyMode
 from sim_ursim.faults import Faults
+from polling import wait_for
 
 pytestmark = needs_simulator
 
@@ -144,13 +145,6 @@ def test_execute_without_a_stop_hook_refuses_shutdown(sim):
 
 
 # ------------------------------------------------------------------------------------------ seen by ur_rtde
-def wait_until(condition, timeout=5.0):
-    deadline = time.monotonic() + timeout
-    while not condition() and time.monotonic() < deadline:
-        time.sleep(0.02)
-    return condition()
-
-
 def test_faults_from_the_command_line_are_seen_by_ur_rtde():
     # ur_rtde's RTDE constructors hold the GIL, hence a simulator process (see sim_ursim.testing).
     import rtde_receive
@@ -161,20 +155,20 @@ def test_faults_from_the_command_line_are_seen_by_ur_rtde():
         receiver = rtde_receive.RTDEReceiveInterface(sim.host)
         try:
             assert send_request(sim.host, "emergency-stop")["ok"]
-            assert wait_until(receiver.isEmergencyStopped) and receiver.getSafetyMode() == SafetyMode.ROBOT_EMERGENCY_STOP
+            assert wait_for(receiver.isEmergencyStopped, timeout=5.0) and receiver.getSafetyMode() == SafetyMode.ROBOT_EMERGENCY_STOP
             assert send_request(sim.host, "release-emergency-stop")["ok"]
-            assert wait_until(lambda: not receiver.isEmergencyStopped())
+            assert wait_for(lambda: not receiver.isEmergencyStopped(), timeout=5.0)
             before = receiver.getTimestamp()
             assert send_request(sim.host, "freeze", seconds=1.0)["ok"]
             time.sleep(0.5)
             frozen_at = receiver.getTimestamp()
             time.sleep(0.3)
             assert receiver.getTimestamp() == frozen_at and receiver.isConnected()  # nothing arrives, link kept
-            assert wait_until(lambda: receiver.getTimestamp() > frozen_at + 0.5)  # streaming again, time moved on
+            assert wait_for(lambda: receiver.getTimestamp() > frozen_at + 0.5, timeout=5.0)  # streaming again, time moved on
             assert frozen_at - before < 0.1
             assert send_request(sim.host, "drop-connections")["ok"]
-            assert wait_until(lambda: not receiver.isConnected())
+            assert wait_for(lambda: not receiver.isConnected(), timeout=5.0)
             receiver.reconnect()
-            assert receiver.isConnected() and wait_until(lambda: receiver.getTimestamp() > frozen_at + 1.0)
+            assert receiver.isConnected() and wait_for(lambda: receiver.getTimestamp() > frozen_at + 1.0, timeout=5.0)
         finally:
             receiver.disconnect()

@@ -17,6 +17,7 @@ from sim_ursim.messages import TextMessage
 from sim_ursim.primary import server as server_module
 from sim_ursim.primary.script_intake import ScriptAssembler
 from sim_ursim.testing import running_simulator, simulator_process
+from polling import wait_for
 
 PRIMARY, SECONDARY, REALTIME, DASHBOARD = 30001, 30002, 30003, 29999
 ROBOT_STATE, ROBOT_MESSAGE = 16, 20
@@ -269,15 +270,6 @@ def test_a_client_that_never_reads_is_discontinued_but_can_still_send_scripts(si
         assert wait_for(lambda: sim.controller.state().output_int_registers[5] == 42, timeout=3)
     finally:
         silent.close()
-
-
-def wait_for(predicate, timeout, interval=0.02):
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(interval)
-    return predicate()
 
 
 # --- URScript from raw sockets --------------------------------------------------------------------------------

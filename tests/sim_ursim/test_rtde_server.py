@@ -9,6 +9,7 @@ from sim_ursim.controller import Controller
 from sim_ursim.rtde import protocol
 from sim_ursim.rtde.protocol import PackageType
 from sim_ursim.rtde.server import RTDEServer
+from polling import wait_for
 
 
 class RawClient:
@@ -114,15 +115,6 @@ def clients(cb3):
         client.close()
 
 
-def _wait_for(condition, timeout=3.0):
-    deadline = time.monotonic() + timeout
-    while not condition():
-        if time.monotonic() > deadline:
-            return False
-        time.sleep(0.01)
-    return True
-
-
 def test_protocol_2_is_accepted_and_3_refused(clients):
     client = clients()
     assert client.negotiate(3) is False
@@ -134,7 +126,7 @@ def test_a_malformed_package_closes_the_connection(cb3, clients):
     client.send(protocol.pack_package(PackageType.REQUEST_PROTOCOL_VERSION, b"\x00"))  # V needs 2 bytes
     with pytest.raises((EOFError, ConnectionResetError)):
         client.receive(timeout=2.0)
-    assert _wait_for(lambda: cb3[1].sessions() == [])
+    assert wait_for(lambda: cb3[1].sessions() == [])
 
 
 def test_controller_version_is_the_emulated_one(cb3, clients):
@@ -265,7 +257,7 @@ def test_a_variable_controlled_by_another_client_is_in_use(clients):
     assert other.setup_inputs(["input_int_register_3", "speed_slider_mask"]) == (0, ["INT32", "IN_USE"])
     assert other.setup_inputs(["input_int_register_3", "no_such_input"]) == (0, ["INT32", "NOT_FOUND"])
     owner.close()
-    assert _wait_for(lambda: other.setup_inputs(["speed_slider_mask"])[0] == 1)
+    assert wait_for(lambda: other.setup_inputs(["speed_slider_mask"])[0] == 1)
 
 
 def test_inputs_take_effect_before_start_and_read_back_as_outputs(cb3, clients):
@@ -275,7 +267,7 @@ def test_inputs_take_effect_before_start_and_read_back_as_outputs(cb3, clients):
     recipe_id, types = writer.setup_inputs(["input_int_register_5", "input_double_register_6",
                                             "input_bit_registers0_to_31"])
     writer.send(protocol.pack_data_package(protocol.recipe_struct(types), recipe_id, [-42, 2.5, 0b1001]))
-    assert _wait_for(lambda: controller.state().input_int_registers[5] == -42)
+    assert wait_for(lambda: controller.state().input_int_registers[5] == -42)
     reader = clients()
     reader.negotiate(2)
     _, out_types = reader.setup_outputs(["input_int_register_5", "input_double_register_6",
@@ -292,9 +284,9 @@ def test_digital_outputs_follow_the_mask(cb3, clients):
                                             "tool_digital_output_mask", "tool_digital_output"])
     layout = protocol.recipe_struct(types)
     client.send(protocol.pack_data_package(layout, recipe_id, [0b111, 0b101, 0b11, 0b10]))
-    assert _wait_for(lambda: controller.state().digital_output_bits == 0b101 | (0b10 << 16))
+    assert wait_for(lambda: controller.state().digital_output_bits == 0b101 | (0b10 << 16))
     client.send(protocol.pack_data_package(layout, recipe_id, [0b001, 0b000, 0, 0]))  # clears DO0 only
-    assert _wait_for(lambda: controller.state().digital_output_bits == 0b100 | (0b10 << 16))
+    assert wait_for(lambda: controller.state().digital_output_bits == 0b100 | (0b10 << 16))
 
 
 def test_speed_slider_is_set_only_with_its_mask(cb3, clients):
@@ -305,7 +297,7 @@ def test_speed_slider_is_set_only_with_its_mask(cb3, clients):
     layout = protocol.recipe_struct(types)
     client.send(protocol.pack_data_package(layout, recipe_id, [0, 0.2]))
     client.send(protocol.pack_data_package(layout, recipe_id, [1, 0.3]))
-    assert _wait_for(lambda: controller.state().target_speed_fraction == 0.3)
+    assert wait_for(lambda: controller.state().target_speed_fraction == 0.3)
     client.send(protocol.pack_data_package(layout, recipe_id, [0, 0.9]))
     time.sleep(0.1)
     assert controller.state().target_speed_fraction == 0.3
@@ -317,7 +309,7 @@ def test_external_force_torque_input_reads_back_as_tcp_force(cb3, clients):
     client.negotiate(2)
     recipe_id, types = client.setup_inputs(["external_force_torque"])
     client.send(protocol.pack_data_package(protocol.recipe_struct(types), recipe_id, [1, 2, 3, 0.1, 0.2, 0.3]))
-    assert _wait_for(lambda: controller.state().actual_tcp_force.tolist() == [1, 2, 3, 0.1, 0.2, 0.3])
+    assert wait_for(lambda: controller.state().actual_tcp_force.tolist() == [1, 2, 3, 0.1, 0.2, 0.3])
     _, out_types = client.setup_outputs(["actual_TCP_force", "tcp_force_scalar"], 125)
     client.start()
     force, scalar = client.data(out_types)[1]
@@ -372,7 +364,7 @@ def test_a_client_that_stops_reading_is_dropped_and_does_not_stall_others(eserie
         gaps = [b - a for a, b in zip(stamps, stamps[1:])]
         assert len(stamps) > 500  # ~1000 expected at 500 Hz; the stalled client costs the steady one nothing
         assert max(gaps) < 0.25
-        assert _wait_for(lambda: len(server.sessions()) == 1, timeout=10)
+        assert wait_for(lambda: len(server.sessions()) == 1, timeout=10)
         with pytest.raises((EOFError, ConnectionResetError)):
             while True:
                 stalled.receive(timeout=1.0)
@@ -419,7 +411,7 @@ def test_drop_generation_closes_every_connection(cb3, clients):
         with pytest.raises((EOFError, ConnectionResetError)):
             while True:
                 client.receive(timeout=2.0)
-    assert _wait_for(lambda: server.sessions() == [])
+    assert wait_for(lambda: server.sessions() == [])
     fresh = clients()
     assert fresh.negotiate(2) is True  # a new connection after the drop is served
 
@@ -456,7 +448,7 @@ def test_control_interface_setup_is_accepted_with_ids_1_to_23(model, offset):
         assert client.start() is True
         recipe_4 = protocol.recipe_struct(["INT32"])
         client.send(protocol.pack_data_package(recipe_4, 4, [255]))  # the stop-script command word
-        assert _wait_for(lambda: controller.state().input_int_registers[offset] == 255)
+        assert wait_for(lambda: controller.state().input_int_registers[offset] == 255)
     finally:
         client.close()
         server.stop()

@@ -11,6 +11,7 @@ import pytest
 from sim_ursim.controller import Controller, RuntimeState
 from sim_ursim.messages import KeyMessage, RuntimeExceptionMessage, TextMessage
 from sim_ursim.urscript.runtime import ProgramRunner
+from polling import wait_for
 
 HOME = [0.0, -1.2, 1.0, -1.0, -1.5, 0.3]
 LONG_MOVE = "movej([1.5, -1.2, 1.0, -1.0, -1.5, 0.3], a=0.5, v=0.2)\n"
@@ -25,16 +26,6 @@ def controller():
     c.power_up()
     yield c
     c.shutdown()
-
-
-def wait_for(predicate, timeout=3.0):
-    """Poll `predicate` every 5 ms until true (returns True) or `timeout` s pass (False)."""
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(0.005)
-    return predicate()
 
 
 def receiver_reaches(read, expected, atol):

@@ -9,6 +9,7 @@ import urx
 from urx.urrobot import RobotException
 
 from sim_ursim.testing import running_simulator
+from polling import wait_for
 
 pytestmark = [
     pytest.mark.filterwarnings("ignore:notifyAll:DeprecationWarning"),  # inside urx 0.11 itself
@@ -64,15 +65,6 @@ def connect(urx_robots):
         return robot
 
     return _connect
-
-
-def wait_for(predicate, timeout, interval=0.02):
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(interval)
-    return predicate()
 
 
 def test_getj_and_getl_match_the_controller_on_the_default_3_15(sim_3_15, connect):
