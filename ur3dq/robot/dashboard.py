@@ -49,7 +49,7 @@ class Dashboard:
 
     def serial_number(self):
         """The controller's serial number, or None where the dashboard has no such command (before PolyScope 5.6)."""
-        return serial_from_reply(self._call(lambda client: (client.send("get serial number\n"), client.receive())[1]))
+        return serial_from_reply(self._ask("get serial number"))
 
     def power_on(self):
         """Send `power on` (the caller watches the robot mode reach IDLE)."""
@@ -61,7 +61,7 @@ class Dashboard:
 
     def unlock_protective_stop(self):
         """Send `unlock protective stop`; ProtectiveStopError with the controller's reason if it refuses."""
-        reply = self._call(lambda client: (client.send("unlock protective stop\n"), client.receive())[1])
+        reply = self._ask("unlock protective stop")
         refusal = unlock_refusal(reply)
         if refusal is not None:
             raise ProtectiveStopError(f"the controller refused to unlock the protective stop: {refusal}")
@@ -72,6 +72,10 @@ class Dashboard:
             self._client.disconnect()
         except RuntimeError:
             pass
+
+    def _ask(self, command):
+        """The reply line to one dashboard `command`, sent as is (for commands ur_rtde gates or interprets itself)."""
+        return self._call(lambda client: (client.send(command + "\n"), client.receive())[1])
 
     def _connected_client(self):
         """A new DashboardClient that has read the server's greeting."""

@@ -5,6 +5,7 @@ target; every fault (protective stop, emergency stop, program error, dropped or 
 its own RobotError subclass within a bounded time, and any error or KeyboardInterrupt during a motion sends
 `stopj` before it leaves the driver. Nothing here ever resends a motion by itself.
 """
+import functools
 import math
 import queue
 import time
@@ -36,7 +37,6 @@ SETTLE_TIME = 0.3  # s a stopped program may take to show the arm at rest before
 RECONNECT_DELAYS = (0.05, 0.1, 0.2, 0.4, 0.8)  # s between stream reconnection attempts (exponential backoff)
 MODE_CHANGE_TIMEOUT = 15.0  # s for power on / brake release to reach their robot mode
 SERIAL_NUMBER_SINCE = (5, 6)  # the dashboard's `get serial number` exists from PolyScope 5.6
-_UNREAD = object()  # the serial number has not been asked for yet (None is a valid answer: unknown)
 
 
 def dh_deltas(kinematics, nominal_dh):
@@ -81,7 +81,6 @@ class Robot:
         self.max_joint_travel = float(max_joint_travel)
         self._connect_timeout = connect_timeout
         self._primary = self._backend = self._dashboard = None
-        self._serial_number = _UNREAD
         try:
             self._primary = self._open_primary()
             self._dashboard = Dashboard(host)
@@ -113,13 +112,12 @@ class Robot:
         version = self._primary.version
         return (version.major, version.minor, version.bugfix, version.build)
 
-    @property
+    @functools.cached_property
     def serial_number(self):
         """The controller's serial number (dashboard, PolyScope 5.6 and later), or None where it cannot tell."""
-        if self._serial_number is _UNREAD:
-            version = self.controller_version
-            self._serial_number = self._dashboard.serial_number() if version[:2] >= SERIAL_NUMBER_SINCE else None
-        return self._serial_number
+        if self.controller_version[:2] < SERIAL_NUMBER_SINCE:
+            return None
+        return self._dashboard.serial_number()
 
     def _open_primary(self):
         """A PrimaryClient that has received the version, robot mode, kinematics and configuration."""
