@@ -16,8 +16,10 @@ $(STAMP): pyproject.toml
 demo: $(STAMP)
 	$(BIN)/ur3dq demo
 
+# Two passes: the suite on two workers, then the timing measurements alone (marker `exclusive`).
 test: $(STAMP)
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest -m "not exclusive"
+	$(BIN)/python -m pytest -m exclusive -n 0
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_kinematics.py

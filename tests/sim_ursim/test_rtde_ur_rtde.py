@@ -257,6 +257,7 @@ def test_default_recipe_on_the_suite_robot_host(robot_host):
     assert -1 <= seen["robot_mode"] <= 8 and seen["timestamp"] > 0
 
 
+@pytest.mark.exclusive  # a rate measurement: run alone, not beside another busy xdist worker on 2 cores
 @pytest.mark.parametrize("robot, rate", [("ur3", 125), ("ur3e", 500)], indirect=["robot"])
 def test_default_rate_is_125_hz_on_cb3_and_500_hz_on_e_series(robot, rate, tmp_path):
     """Rate = 1 / median interval of the data timestamps ur_rtde recorded: the pace of the stream, within 2 %.
