@@ -15,6 +15,9 @@ from ur3dq.kinematics.models import JOINT_NAMES
 from ur3dq.pathcheck import geometry
 from ur3dq.pathcheck.geometry import BODY_NAMES
 
+#: Capsule/box pairs whose cheap lower-bound clearance is more than this beyond the margin are not refined (m).
+EXACT_RANGE = 0.05
+
 CHECKS = ("reach", "branch", "wrist", "elbow", "shoulder", "joint_limit", "joint_speed", "self_collision", "cell",
           "blend")
 
@@ -145,20 +148,28 @@ class StepChecker:
             out["self_collision"] = (clearance - m.self_collision - extra, worst, clearance)
         if self.obstacles:
             clearance = self._cell_clearance(a[:, self.cell_capsules], b[:, self.cell_capsules],
-                                             radius[self.cell_capsules])            # (n, C, K)
+                                             radius[self.cell_capsules], float(extra.max(initial=0.0)))
             flat = clearance.reshape(len(clearance), -1)
             worst = np.argmin(flat, axis=1)
             value = flat[np.arange(len(flat)), worst]
             out["cell"] = (value - self.cell_margin - extra, worst, value)
         return out
 
-    def _cell_clearance(self, a, b, radius) -> np.ndarray:
+    def _cell_clearance(self, a, b, radius, extra_max) -> np.ndarray:
         columns = []
         if self.cell.boxes:
             lo = np.array([box.lo for box in self.cell.boxes])
             hi = np.array([box.hi for box in self.cell.boxes])
-            columns.append(geometry.segment_box_distance(a[:, :, None], b[:, :, None], lo, hi)
-                           - radius[None, :, None])
+            a_, b_ = a[:, :, None], b[:, :, None]
+            distance = geometry.segment_box_bound(a_, b_, lo, hi)
+            # Only capsule/box pairs whose cheap lower bound comes within EXACT_RANGE of the margin need the exact
+            # distance; the others keep the bound (their reported clearance is then a lower bound, > the range).
+            near = distance - radius[None, :, None] < self.cell_margin + extra_max + EXACT_RANGE
+            if near.any():
+                index = np.nonzero(near)
+                distance[index] = geometry.segment_box_distance(a[index[0], index[1]], b[index[0], index[1]],
+                                                                lo[index[2]], hi[index[2]])
+            columns.append(distance - radius[None, :, None])
         if self.cell.floor_z is not None:
             columns.append((np.minimum(a[..., 2], b[..., 2]) - radius - self.cell.floor_z)[..., None])
         if self.cell.keep_in is not None:

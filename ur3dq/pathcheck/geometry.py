@@ -127,6 +127,13 @@ def segment_segment_distance(p0, p1, q0, q1) -> np.ndarray:
     return np.sqrt(np.einsum("...i,...i->...", gap, gap))
 
 
+def segment_box_bound(p0, p1, lo, hi) -> np.ndarray:
+    """A lower bound of the distance from segments p0→p1 to boxes [lo, hi] (broadcast (..., 3)): the gap between
+    the box and the segment's own bounding box (0 where they overlap). Cheap; exact when the gap is along an axis."""
+    gap = np.maximum(np.maximum(lo - np.maximum(p0, p1), np.minimum(p0, p1) - hi), 0.0)
+    return np.sqrt(np.einsum("...i,...i->...", gap, gap))
+
+
 def segment_box_distance(p0, p1, lo, hi) -> np.ndarray:
     """Signed distance from segments p0→p1 (..., 3) to axis-aligned boxes [lo, hi] (broadcast (..., 3)).
 
