@@ -234,9 +234,12 @@ class StepChecker:
             flat, clearance = int(detail[0][k]), float(detail[1][k])
             capsule, obstacle = divmod(flat, len(self.obstacles))
             body = BODY_NAMES[self.capsules.body[self.cell_capsules[capsule]]]
-            return (f"{body} capsule {_clearance_text(clearance, self.obstacles[obstacle])}"
-                    f"{_margin_text(self.cell_margin, extra)}",
-                    "add a waypoint that goes around it, move the targets, or use a linear move there")
+            name = self.obstacles[obstacle]
+            hint = {"the floor": "raise the targets, or add a waypoint that keeps the arm higher",
+                    "the keep-in box": "move the targets inward, or add a waypoint that stays inside"}.get(
+                name, "add a waypoint that goes around it, move the targets, or use a linear move there")
+            return (f"{body} capsule {_clearance_text(clearance, name)}{_margin_text(self.cell_margin, extra)}",
+                    hint)
         raise AssertionError(check)
 
 
