@@ -122,6 +122,8 @@ def segment_segment_distance(p0, p1, q0, q1) -> np.ndarray:
         # t outside [0, 1]: clamp it and recompute s for that end of the second segment.
         s = np.where(t < 0.0, np.where(a > tiny, np.clip(-c / a, 0.0, 1.0), 0.0), s)
         s = np.where(t > 1.0, np.where(a > tiny, np.clip((b - c) / a, 0.0, 1.0), 0.0), s)
+        # The second segment a point: the first segment's point nearest it.
+        s = np.where(e <= tiny, np.where(a > tiny, np.clip(-c / a, 0.0, 1.0), 0.0), s)
     t = np.clip(t, 0.0, 1.0)
     gap = (p0 + d1 * s[..., None]) - (q0 + d2 * t[..., None])
     return np.sqrt(np.einsum("...i,...i->...", gap, gap))
