@@ -1,0 +1,105 @@
+"""End to end: the path the check samples is the path the simulator runs. A URScript program (movel with a turn,
+then movej) goes to a sim_ursim process on its secondary port; ur_rtde's RTDE receive interface records the TCP
+and the joints while it runs; every recorded point must lie within the check's sampling tolerance of its samples,
+the arm must end on the joints the check predicted (same IK branch), and no protective stop may occur."""
+import math
+import socket
+import time
+
+import numpy as np
+import pytest
+
+from polling import wait_for
+from ur3dq import dqarray
+from ur3dq.dualquat import DualQuaternion
+from ur3dq.kinematics import robot_model
+from ur3dq.pathcheck import Margins, PathPlan, PathSegment, check_path
+from ur3dq.pathcheck.geometry import segment_segment_distance
+
+rtde_receive = pytest.importorskip("rtde_receive")
+
+UR3 = robot_model("ur3")
+START = [0.2, -1.3, 1.3, -1.5708, -1.5708, 0.3]
+JOINT_TARGET = np.array([-0.4, -1.5, 1.6, -1.9, -1.3, -0.2])
+SECONDARY_PORT = 30002
+DASHBOARD_PORT = 29999
+NORMAL = 1  # RTDE safety mode
+
+
+def dashboard(host, *commands):
+    with socket.create_connection((host, DASHBOARD_PORT), timeout=5) as sock:
+        reader = sock.makefile("r")
+        reader.readline()
+        for command in commands:
+            sock.sendall(command.encode() + b"\n")
+            reader.readline()
+
+
+@pytest.fixture
+def arm():
+    from sim_ursim.testing import simulator_process
+
+    with simulator_process(model="ur3", initial_q=START) as process:
+        dashboard(process.host, "power on", "brake release")
+        receiver = rtde_receive.RTDEReceiveInterface(process.host)
+        try:
+            assert wait_for(lambda: receiver.getRobotMode() == 7, timeout=10), "the simulator never got RUNNING"
+            yield process.host, receiver
+        finally:
+            receiver.disconnect()
+
+
+def test_the_sampled_path_is_the_path_the_simulator_reports_over_rtde(arm):
+    host, receiver = arm
+    start = np.array(receiver.getActualQ())
+    # The line: 12 cm across and 5 cm down while the tool turns 40° about its own axis.
+    goal = DualQuaternion.from_translation([0.08, 0.09, -0.05]) * UR3.fk(start) * \
+        DualQuaternion.from_axis_angle([0.0, 0.0, 1.0], math.radians(40))
+    plan = PathPlan(start, [PathSegment("line", "linear", target_pose=goal.to_array(), speed=0.1, acceleration=1.2),
+                            PathSegment("swing", "joint", target_joints=JOINT_TARGET, speed=1.0, acceleration=1.4)])
+    margins = Margins()
+    result = check_path(UR3, plan, margins=margins)
+    assert result.ok, result.summary()
+    line, swing = result.steps
+
+    x, y, z, rx, ry, rz = (float(v) for v in goal.to_ur_pose())
+    program = (f"def checked():\n  movel(p[{x!r}, {y!r}, {z!r}, {rx!r}, {ry!r}, {rz!r}], a=1.2, v=0.1)\n"
+               f"  movej([{', '.join(repr(float(v)) for v in JOINT_TARGET)}], a=1.4, v=1.0)\nend\n")
+    tcp, joints = [], []
+    with socket.create_connection((host, SECONDARY_PORT), timeout=5) as sock:
+        sock.sendall(program.encode())
+        assert wait_for(lambda: np.linalg.norm(np.array(receiver.getActualQ()) - start) > 1e-6, timeout=5)
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline:
+            tcp.append(receiver.getActualTCPPose())
+            joints.append(receiver.getActualQ())
+            if np.allclose(joints[-1], JOINT_TARGET, atol=1e-6):
+                break
+            time.sleep(0.002)
+    assert receiver.getSafetyMode() == NORMAL, "the simulator stopped the arm"
+    tcp, joints = np.array(tcp), np.array(joints)
+    assert np.allclose(joints[-1], JOINT_TARGET, atol=1e-6), "the program did not finish"
+
+    # Split the recording at the joints where the line ends: the check predicted them (IK continuity).
+    end_of_line = int(np.argmin(np.linalg.norm(joints - line.end_joints, axis=1)))
+    assert np.linalg.norm(joints[end_of_line] - line.end_joints) < 1e-4
+    line_tcp, swing_joints = tcp[:end_of_line + 1], joints[end_of_line:]
+    assert len(line_tcp) > 50 and len(swing_joints) > 20    # the recording covers both moves
+
+    positions = dqarray.translation_unchecked(dqarray.from_ur_pose(line_tcp))
+    nearest = np.min(np.linalg.norm(positions[:, None] - line.tcp[None], axis=2), axis=1)
+    print(f"line: {len(positions)} RTDE samples, farthest {nearest.max() * 1000:.3f} mm from a check sample")
+    assert nearest.max() <= margins.tcp_resolution
+    # And on the sampled polyline itself (point to segment distance): the simulator runs the same line.
+    to_polyline = np.min(segment_segment_distance(positions[:, None], positions[:, None], line.tcp[None, :-1],
+                                                  line.tcp[None, 1:]), axis=1)
+    print(f"line: farthest {to_polyline.max() * 1e6:.2f} µm from the sampled polyline")
+    assert to_polyline.max() <= 1e-5
+    # Orientation: each recorded pose against the sample nearest in position (SLERP about one fixed axis).
+    index = np.argmin(np.linalg.norm(positions[:, None] - line.tcp[None], axis=2), axis=1)
+    _, turn = dqarray.pose_distance(dqarray.from_ur_pose(line_tcp), UR3.fk_batch(line.joints[index]))
+    assert turn.max() <= math.radians(40) * margins.tcp_resolution / 0.1 + 1e-6
+    # The joint move: every recorded joint vector within the joint resolution of the sampled joint line.
+    gap = np.min(np.max(np.abs(swing_joints[:, None] - swing.joints[None]), axis=2), axis=1)
+    print(f"swing: {len(swing_joints)} RTDE samples, farthest {math.degrees(gap.max()):.4f}° from a check sample")
+    assert gap.max() <= margins.joint_resolution
