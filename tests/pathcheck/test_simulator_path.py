@@ -23,7 +23,11 @@ START = [0.2, -1.3, 1.3, -1.5708, -1.5708, 0.3]
 JOINT_TARGET = np.array([-0.4, -1.5, 1.6, -1.9, -1.3, -0.2])
 SECONDARY_PORT = 30002
 DASHBOARD_PORT = 29999
-NORMAL = 1  # RTDE safety mode
+NORMAL, PROTECTIVE_STOP = 1, 3  # RTDE safety modes
+# A line across the arm's plane through θ5 = 0.01 (tool nearly parallel to wrist 1's axis), from these joints.
+NEAR_SINGULAR_MIDDLE = np.array([0.0, -1.3, 1.9, -2.2, 0.01, 0.5])
+NEAR_SINGULAR_START = UR3.ik(DualQuaternion.from_translation([0.0, 0.05, 0.0]) * UR3.fk(NEAR_SINGULAR_MIDDLE),
+                             NEAR_SINGULAR_MIDDLE)
 
 
 def dashboard(host, *commands):
@@ -36,10 +40,12 @@ def dashboard(host, *commands):
 
 
 @pytest.fixture
-def arm():
+def arm(request):
+    """(host, RTDE receiver) of a powered simulated UR3 starting at START (or the joints of an indirect parameter)."""
     from sim_ursim.testing import simulator_process
 
-    with simulator_process(model="ur3", initial_q=START) as process:
+    initial_q = [float(v) for v in getattr(request, "param", START)]
+    with simulator_process(model="ur3", initial_q=initial_q) as process:
         dashboard(process.host, "power on", "brake release")
         receiver = rtde_receive.RTDEReceiveInterface(process.host)
         try:
@@ -103,3 +109,26 @@ def test_the_sampled_path_is_the_path_the_simulator_reports_over_rtde(arm):
     gap = np.min(np.max(np.abs(swing_joints[:, None] - swing.joints[None]), axis=2), axis=1)
     print(f"swing: {len(swing_joints)} RTDE samples, farthest {math.degrees(gap.max()):.4f}° from a check sample")
     assert gap.max() <= margins.joint_resolution
+
+
+def movel_program(pose, a, v) -> bytes:
+    x, y, z, rx, ry, rz = (float(c) for c in pose.to_ur_pose())
+    return f"def line():\n  movel(p[{x!r}, {y!r}, {z!r}, {rx!r}, {ry!r}, {rz!r}], a={a}, v={v})\nend\n".encode()
+
+
+@pytest.mark.parametrize("arm", [NEAR_SINGULAR_START], indirect=True, ids=["near-singular start"])
+def test_a_line_refused_for_the_wrist_singularity_is_one_the_simulator_stops(arm):
+    host, receiver = arm
+    start = np.array(receiver.getActualQ())
+    goal = DualQuaternion.from_translation([0.0, -0.05, 0.0]) * UR3.fk(NEAR_SINGULAR_MIDDLE)
+    result = check_path(UR3, PathPlan(start, [PathSegment("across", "linear", target_pose=goal.to_array(),
+                                                          speed=0.1)]))
+    checks = {problem.check for problem in result.problems}
+    assert {"wrist", "joint_speed"} <= checks, result.summary()
+    with socket.create_connection((host, SECONDARY_PORT), timeout=5) as sock:
+        sock.sendall(movel_program(goal, 1.2, 0.1))
+        stopped = wait_for(lambda: receiver.getSafetyMode() == PROTECTIVE_STOP, timeout=15)
+    assert stopped, \
+        f"no protective stop: safety mode {receiver.getSafetyMode()}, joints {receiver.getActualQ()}, " \
+        f"started at {start.tolist()}"
+    assert not np.allclose(receiver.getActualQ(), result.steps[0].end_joints, atol=1e-3)
