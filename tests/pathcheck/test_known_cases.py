@@ -172,3 +172,45 @@ def test_margins_are_user_settable():
     assert only(check_path(UR5, plan, margins=Margins(wrist=0.5)), "wrist")
     with pytest.raises(ValueError, match="wrist"):
         Margins(wrist=-1)
+
+
+def test_a_blend_zone_raises_the_clearance_margin_by_the_blend_radius():
+    # The tool passes 5 mm over a box only near the corner between two lines; with a 20 mm blend there the
+    # controller's rounded path may cut the corner, so the 2 mm margin becomes 22 mm inside the blend zone.
+    flange = UR5.fk(DOWN)
+    x, y, z = flange.translation
+    top = z - 0.12 - 0.005
+    corner = shifted(UR5, DOWN, (0.0, 0.08, 0.0))
+    cell = {"margin": 0.002, "boxes": [{"name": "post", "min": [x - 0.02, y + 0.06, top - 0.1],
+                                        "max": [x + 0.02, y + 0.1, top]}],
+            "tool": {"capsule": {"from": [0, 0, 0], "to": [0, 0, 0.1], "radius": 0.02}}}
+    segments = [PathSegment("in", "linear", target_pose=corner, speed=0.1),
+                PathSegment("out", "linear", target_pose=shifted(UR5, DOWN, (0.08, 0.08, 0.05)), speed=0.1)]
+    assert check_path(UR5, PathPlan(DOWN, segments), cell_from_dict(cell)).ok
+    blended = [PathSegment("in", "linear", target_pose=corner, speed=0.1, blend=0.02), segments[1]]
+    result = check_path(UR5, PathPlan(DOWN, blended), cell_from_dict(cell))
+    problem = only(result, "cell")[0]
+    assert problem.step == "in" and "(margin 2 mm + blend 20 mm)" in problem.message
+    too_big = [PathSegment("in", "linear", target_pose=corner, speed=0.1, blend=0.05), segments[1]]
+    blend = only(check_path(UR5, PathPlan(DOWN, too_big)), "blend")
+    assert blend and "more than half" in blend[0].message
+
+
+def test_a_line_ending_on_another_branch_than_planned_is_reported_and_later_steps_start_where_it_ended():
+    target = shifted(UR5, DOWN, (0.0, 0.1, 0.0))
+    reached = UR5.ik(target, DOWN)
+    elsewhere = [s for s in UR5.ik_all(target) if np.max(np.abs(np.angle(np.exp(1j * (s - reached))))) > 0.5][0]
+    plan = PathPlan(DOWN, [PathSegment("line", "linear", target_joints=elsewhere, target_pose=target, speed=0.1),
+                           PathSegment("back", "joint", target_joints=DOWN)])
+    result = check_path(UR5, plan)
+    branch = only(result, "branch")
+    assert branch and branch[0].step == "line" and "another IK branch" in branch[0].message
+    assert np.allclose(result.steps[1].joints[0], reached, atol=1e-6)
+
+
+def test_after_an_unreachable_line_without_planned_joints_the_rest_is_unchecked():
+    q = np.array([0.0, -1.2, 1.2, -1.5708, -1.5708, 0.0])
+    plan = PathPlan(q, [PathSegment("out", "linear", target_pose=shifted(UR5, q, (-0.8, 0, 0))),
+                        PathSegment("next", "joint", target_joints=q)])
+    result = check_path(UR5, plan)
+    assert not result.ok and result.unchecked == ("next",)

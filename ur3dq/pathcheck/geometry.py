@@ -55,8 +55,9 @@ class Capsules:
 
 def link_capsules(model, tool=None) -> Capsules:
     """The capsules of `model` (a URModel; its DH, calibrated or not) plus the ToolShape `tool` if given."""
-    family = model.name if model.name in _LINK_GEOMETRY else model.name.split("-")[0]
-    shoulder, elbow, (r_base, r_shoulder, r_upper, r_forearm, r_wrist) = _LINK_GEOMETRY[family]
+    if model.name not in _LINK_GEOMETRY:
+        raise ValueError(f"model: no link capsules for {model.name!r} (known: {', '.join(_LINK_GEOMETRY)})")
+    shoulder, elbow, (r_base, r_shoulder, r_upper, r_forearm, r_wrist) = _LINK_GEOMETRY[model.name]
     a2, a3 = model.dh.a[1], model.dh.a[2]
     d1, d4, d5, d6 = model.dh.d[0], model.dh.d[3], model.dh.d[4], model.dh.d[5]
     forearm = shoulder + elbow
