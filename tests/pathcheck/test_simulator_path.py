@@ -8,6 +8,8 @@ import time
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import strategies as st
 
 from polling import wait_for
 from ur3dq import dqarray
@@ -132,3 +134,53 @@ def test_a_line_refused_for_the_wrist_singularity_is_one_the_simulator_stops(arm
         f"no protective stop: safety mode {receiver.getSafetyMode()}, joints {receiver.getActualQ()}, " \
         f"started at {start.tolist()}"
     assert not np.allclose(receiver.getActualQ(), result.steps[0].end_joints, atol=1e-3)
+
+
+@pytest.fixture(scope="module")
+def shared_arm():
+    """One simulated UR3 for the property test's examples (each starts where the previous one ended)."""
+    from sim_ursim.testing import simulator_process
+
+    with simulator_process(model="ur3", initial_q=START) as process:
+        dashboard(process.host, "power on", "brake release")
+        receiver = rtde_receive.RTDEReceiveInterface(process.host)
+        try:
+            assert wait_for(lambda: receiver.getRobotMode() == 7, timeout=10), "the simulator never got RUNNING"
+            yield process.host, receiver
+        finally:
+            receiver.disconnect()
+
+
+def urscript_move(segment) -> str:
+    if segment.move == "joint":
+        return f"  movej([{', '.join(repr(float(v)) for v in segment.target_joints)}], a=1.4, v={segment.speed})\n"
+    x, y, z, rx, ry, rz = (float(c) for c in DualQuaternion.from_array(segment.target_pose).to_ur_pose())
+    return f"  movel(p[{x!r}, {y!r}, {z!r}, {rx!r}, {ry!r}, {rz!r}], a=1.2, v={segment.speed})\n"
+
+
+@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(st.lists(st.one_of(
+    st.tuples(st.just("linear"), st.tuples(*[st.floats(-0.08, 0.08)] * 3)),
+    st.tuples(st.just("joint"), st.tuples(*[st.floats(-0.3, 0.3)] * 6))), min_size=1, max_size=3))
+def test_what_the_check_accepts_the_simulator_runs_to_the_predicted_joints_without_a_stop(shared_arm, moves):
+    host, receiver = shared_arm
+    start = np.array(receiver.getActualQ())
+    home = UR3.fk(START)
+    segments = []
+    for i, (move, values) in enumerate(moves):
+        if move == "joint":
+            segments.append(PathSegment(f"j{i}", "joint", target_joints=np.array(START) + values, speed=1.0))
+        else:
+            pose = DualQuaternion.from_translation(values) * home
+            segments.append(PathSegment(f"l{i}", "linear", target_pose=pose.to_array(), speed=0.25))
+    result = check_path(UR3, PathPlan(start, segments))
+    assume(result.ok)
+    end = result.steps[-1].end_joints
+    program = "def accepted():\n" + "".join(urscript_move(s) for s in segments) + "end\n"
+    with socket.create_connection((host, SECONDARY_PORT), timeout=5) as sock:
+        sock.sendall(program.encode())
+        arrived = wait_for(lambda: receiver.getSafetyMode() != NORMAL
+                           or (np.allclose(receiver.getActualQ(), end, atol=1e-5)
+                               and not np.any(receiver.getActualQd())), timeout=20)
+    assert receiver.getSafetyMode() == NORMAL, "the simulator stopped a path the check accepted"
+    assert arrived, f"the arm ended at {receiver.getActualQ()}, the check predicted {end.tolist()}"
