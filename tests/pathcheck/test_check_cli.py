@@ -25,11 +25,11 @@ def run(tmp_path):
     for name, q in JOINTS.items():
         store.add(Pose.from_dual_quaternion(name, UR3.fk(q), "ur3", joints=tuple(q)))
 
-    def run_check(*args, **env):
+    def run_check(*args, command="check", **env):
         environment = {k: v for k, v in os.environ.items() if not k.startswith("UR3DQ_")}
         environment.update(UR3DQ_STATE_DIR=str(tmp_path / "state"), UR3DQ_STORE=str(tmp_path / "poses.json"), **env)
-        return subprocess.run([UR3DQ, "check", *map(str, args)], cwd=tmp_path, env=environment, capture_output=True,
-                              text=True, timeout=60)
+        return subprocess.run([UR3DQ, command, *map(str, args)], cwd=tmp_path, env=environment,
+                              capture_output=True, text=True, timeout=60)
 
     return run_check
 
@@ -88,3 +88,14 @@ def test_a_bad_cell_file_is_one_line_naming_the_file(run, tmp_path, content, cod
     result = run("--cell", "bad.json")
     assert result.returncode == code
     assert result.stderr.strip().count("\n") == 0 and "bad.json" in result.stderr and fragment in result.stderr
+
+
+def test_run_poses_refuses_before_moving_when_the_path_check_fails(run, tmp_path):
+    cell = box_under_the_sweep(tmp_path)
+    result = run("--dry-run", command="run-poses", UR3DQ_CELL=str(cell))
+    assert result.returncode == 4, (result.stdout, result.stderr)
+    assert result.stderr.startswith("Error: path check: step 'right' at")
+    assert 'keep-out box "fixture"' in result.stderr and "Plan on" not in result.stdout
+    assert run("--dry-run", command="run-poses").returncode == 0          # no cell: the same plan passes
+    looped = run("--dry-run", "--loop", "2", "--cell", cell, command="run-poses")
+    assert looped.returncode == 4

@@ -39,6 +39,26 @@ def path_plan_from_replay(steps, start_joints, move: str, speed: float, accelera
                             for i, step in enumerate(steps)])
 
 
+def require_clear_path(model, steps, start_joints, blend: float, cell_path, loops: int = 1) -> None:
+    """The path check of a movej replay before anything moves (run-poses): SafetyCheckError (exit 4, one line)
+    naming the step, where and what failed; `loops` > 1 adds the move from the last pose back to the first."""
+    plan = path_plan_from_replay(steps, start_joints, "joint", DEFAULT_JOINT_SPEED, DEFAULT_JOINT_ACCELERATION,
+                                 blend)
+    segments = list(plan.segments)
+    if loops > 1:
+        segments.append(PathSegment(f"{steps[0].pose.name} (next loop)", "joint", target_joints=steps[0].joints))
+    result = check_path(model, PathPlan(plan.start_joints, segments), load_cell(cell_path) if cell_path else None)
+    if not result.ok:
+        raise SafetyCheckError(f"path check: {result.summary()}")
+
+
+def cell_option(command):
+    """--cell FILE (env UR3DQ_CELL): the cell the path check keeps the arm clear of."""
+    return click.option("--cell", "cell_path", envvar="UR3DQ_CELL", type=click.Path(dir_okay=False, path_type=Path),
+                        help="Cell file (JSON: floor, keep-out boxes, keep-in box, margin, tool; env UR3DQ_CELL). "
+                             "See docs/cell-file.md.")(command)
+
+
 def margins_table(result, title: str) -> Table:
     """Each checked move's smallest margins: how far the worst sample is above the check's limit (negative = failed;
     speed room = the part of the joints' maximum speed left)."""
@@ -57,9 +77,7 @@ def margins_table(result, title: str) -> Table:
 
 @cli.command("check")
 @click.argument("names", nargs=-1)
-@click.option("--cell", "cell_path", envvar="UR3DQ_CELL", type=click.Path(dir_okay=False, path_type=Path),
-              help="Cell file (JSON: floor, keep-out boxes, keep-in box, margin, tool; env UR3DQ_CELL). "
-                   "See docs/cell-file.md.")
+@cell_option
 @click.option("--move", type=click.Choice(MOVE_TYPES), default="joint", show_default=True,
               help="How the arm goes to each pose (joint = movej, linear = movel, process = movep).")
 @click.option("--speed", type=float, default=None,
