@@ -99,3 +99,12 @@ def test_run_poses_refuses_before_moving_when_the_path_check_fails(run, tmp_path
     assert run("--dry-run", command="run-poses").returncode == 0          # no cell: the same plan passes
     looped = run("--dry-run", "--loop", "2", "--cell", cell, command="run-poses")
     assert looped.returncode == 4
+
+
+def test_plot_draws_the_path_check_and_names_its_worst_sample(run, tmp_path):
+    result = run("-o", "path.png", "--cell", box_under_the_sweep(tmp_path), command="plot")
+    assert result.returncode == 0, result.stderr
+    assert "Path check: step 'right' at" in result.stdout and 'keep-out box "fixture"' in result.stdout
+    assert (tmp_path / "path.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    clear = run("-o", "clear.png", command="plot")
+    assert clear.returncode == 0 and "Path check: path clear: 2 moves" in clear.stdout

@@ -39,15 +39,22 @@ def path_plan_from_replay(steps, start_joints, move: str, speed: float, accelera
                             for i, step in enumerate(steps)])
 
 
-def require_clear_path(model, steps, start_joints, blend: float, cell_path, loops: int = 1) -> None:
-    """The path check of a movej replay before anything moves (run-poses): SafetyCheckError (exit 4, one line)
-    naming the step, where and what failed; `loops` > 1 adds the move from the last pose back to the first."""
+def check_replay(model, steps, cell_path, start_joints=None, blend: float = 0.0, loops: int = 1) -> tuple:
+    """(PathCheckResult, Cell or None) of a movej replay of `steps`; `loops` > 1 adds the move from the last pose
+    back to the first."""
     plan = path_plan_from_replay(steps, start_joints, "joint", DEFAULT_JOINT_SPEED, DEFAULT_JOINT_ACCELERATION,
                                  blend)
     segments = list(plan.segments)
     if loops > 1:
         segments.append(PathSegment(f"{steps[0].pose.name} (next loop)", "joint", target_joints=steps[0].joints))
-    result = check_path(model, PathPlan(plan.start_joints, segments), load_cell(cell_path) if cell_path else None)
+    cell = load_cell(cell_path) if cell_path else None
+    return check_path(model, PathPlan(plan.start_joints, segments), cell), cell
+
+
+def require_clear_path(model, steps, start_joints, blend: float, cell_path, loops: int = 1) -> None:
+    """The path check of a movej replay before anything moves (run-poses): SafetyCheckError (exit 4, one line)
+    naming the step, where and what failed."""
+    result, _ = check_replay(model, steps, cell_path, start_joints, blend, loops)
     if not result.ok:
         raise SafetyCheckError(f"path check: {result.summary()}")
 

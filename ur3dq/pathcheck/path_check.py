@@ -29,7 +29,8 @@ class StepReport:
 
     fraction (n,), joints (n, 6), tcp (n, 3) m; margins: {check: smallest margin over the move (≥ 0 passes), in the
     check's unit: m for clearances, |sin| for wrist/elbow, m for shoulder, rad for joint limits, fraction of the
-    maximum for joint speed}; end_joints (6,): where the next move starts (None if this one could not be followed).
+    maximum for joint speed}; worst: {check: index of the sample with that smallest margin}; end_joints (6,): where
+    the next move starts (None if this one could not be followed).
     """
 
     name: str
@@ -38,6 +39,7 @@ class StepReport:
     joints: np.ndarray
     tcp: np.ndarray
     margins: dict
+    worst: dict
     end_joints: np.ndarray | None
 
     @property
@@ -113,8 +115,12 @@ def check_path(model, plan: PathPlan, cell=None, margins: Margins | None = None)
         results = checker.margins_of(segment, move.joints, move.fraction, tcp, extra, scale) if len(tcp) else {}
         problems.extend(checker.problems(index, segment, results, move.fraction, tcp, extra))
         margins_seen = {check: float(np.min(values[0])) for check, values in results.items() if len(values[0])}
+        # Interval checks (joint steps, speeds) name the sample that ends their worst interval.
+        worst = {check: int(np.argmin(values[0])) + (len(values[0]) < len(tcp))
+                 for check, values in results.items() if len(values[0])}
         end = move.joints[-1] if move.unreachable_at is None and len(move.joints) else None
-        steps.append(StepReport(segment.name, segment.move, move.fraction, move.joints, tcp, margins_seen, end))
+        steps.append(StepReport(segment.name, segment.move, move.fraction, move.joints, tcp, margins_seen, worst,
+                                end))
     problems.sort(key=lambda p: (p.step_index, p.fraction))
     return PathCheckResult(tuple(problems), tuple(steps), tuple(unchecked))
 
