@@ -95,8 +95,10 @@ def test_run_poses_refuses_before_moving_when_the_path_check_fails(run, tmp_path
     result = run("--dry-run", command="run-poses", UR3DQ_CELL=str(cell))
     assert result.returncode == 4, (result.stdout, result.stderr)
     assert result.stderr.startswith("Error: path check: step 'right' at")
-    assert 'keep-out box "fixture"' in result.stderr and "Plan on" not in result.stdout
-    assert run("--dry-run", command="run-poses").returncode == 0          # no cell: the same plan passes
+    assert 'keep-out box "fixture"' in result.stderr
+    assert "Path check: smallest margins per move" in result.stdout and "cell mm" in result.stdout
+    clear = run("--dry-run", "--json", command="run-poses")             # no cell: the same plan passes
+    assert clear.returncode == 0 and "Path check" in clear.stderr and json.loads(clear.stdout)["plan"]
     looped = run("--dry-run", "--loop", "2", "--cell", cell, command="run-poses")
     assert looped.returncode == 4
 

@@ -51,10 +51,15 @@ def check_replay(model, steps, cell_path, start_joints=None, blend: float = 0.0,
     return check_path(model, PathPlan(plan.start_joints, segments), cell), cell
 
 
-def require_clear_path(model, steps, start_joints, blend: float, cell_path, loops: int = 1) -> None:
-    """The path check of a movej replay before anything moves (run-poses): SafetyCheckError (exit 4, one line)
-    naming the step, where and what failed."""
+def require_clear_path(settings: Settings, model, steps, start_joints, blend: float, cell_path,
+                       loops: int = 1) -> None:
+    """The path check of a movej replay before anything moves (run-poses): prints each move's smallest margins
+    (on stderr with --json), then SafetyCheckError (exit 4, one line) naming the step, where and what failed."""
     result, _ = check_replay(model, steps, cell_path, start_joints, blend, loops)
+    console = Console(stderr=True, highlight=False, width=None if sys.stderr.isatty() else 160) \
+        if settings.json else settings.out
+    console.print(margins_table(result, "Path check: smallest margins per move" +
+                                (f" (cell {cell_path})" if cell_path else "")))
     if not result.ok:
         raise SafetyCheckError(f"path check: {result.summary()}")
 

@@ -326,8 +326,8 @@ def run_poses(settings: Settings, names, dry_run, yes, speed, acceleration, blen
         model = robot_model(settings.model or poses[0].robot_model)
         a, v = speed_and_acceleration(model, speed, acceleration, err)
         steps = plan_replay(model, poses, None, a, v, replay_joints, max_travel)
-        require_clear_path(model, steps, None, blend, cell_path, loops)
         _show_plan(settings, steps, loops, f"Plan on a nominal {model.name} (no robot: travel from the first pose)")
+        require_clear_path(settings, model, steps, None, blend, cell_path, loops)
         if settings.json:
             emit_json({"plan": plan_to_json(steps)})
         return
@@ -337,8 +337,8 @@ def run_poses(settings: Settings, names, dry_run, yes, speed, acceleration, blen
         if loops > 1 and loop_closing_travel(steps) > max_travel:
             raise SafetyCheckError(f"--loop: going back from {steps[-1].pose.name!r} to {steps[0].pose.name!r} "
                                    f"swings a joint further than --max-travel {max_travel:.3f} rad")
-        require_clear_path(robot.model, steps, robot.joints(), blend, cell_path, loops)
         _show_plan(settings, steps, loops, f"Plan on the {robot.model_name} at {robot.host}")
+        require_clear_path(settings, robot.model, steps, robot.joints(), blend, cell_path, loops)
         if dry_run:
             if settings.json:
                 emit_json({"plan": plan_to_json(steps)})
