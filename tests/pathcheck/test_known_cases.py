@@ -211,6 +211,8 @@ def test_a_line_ending_on_another_branch_than_planned_is_reported_and_later_step
 def test_after_an_unreachable_line_without_planned_joints_the_rest_is_unchecked():
     q = np.array([0.0, -1.2, 1.2, -1.5708, -1.5708, 0.0])
     plan = PathPlan(q, [PathSegment("out", "linear", target_pose=shifted(UR5, q, (-0.8, 0, 0))),
-                        PathSegment("next", "joint", target_joints=q)])
+                        PathSegment("next", "joint", target_joints=q, blend=0.01),
+                        PathSegment("last", "linear", target_pose=shifted(UR5, q, (0, 0.1, 0)))])
     result = check_path(UR5, plan)
-    assert not result.ok and result.unchecked == ("next",)
+    assert not result.ok and result.unchecked == ("next", "last")
+    assert [step.name for step in result.steps] == ["out"]

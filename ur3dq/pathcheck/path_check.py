@@ -90,6 +90,7 @@ def check_path(model, plan: PathPlan, cell=None, margins: Margins | None = None)
     for index, segment in enumerate(plan.segments):
         if q is None:
             unchecked.append(segment.name)
+            sampled.append(None)     # keeps sampled[i] ↔ plan.segments[i]
             continue
         move, target_problem = _sample(model, segment, index, q, margins)
         if target_problem is not None:
