@@ -37,13 +37,21 @@ def test_segment_box_distance_matches_brute_force(p0, p1, lo, size):
     depth = np.min(np.minimum(samples - lo, hi - samples), axis=1)
     exact = float(geometry.segment_box_distance(p0, p1, lo, hi))
     bound = float(geometry.segment_box_bound(p0, p1, lo, hi))
-    spacing = np.linalg.norm(p1 - p0) / 4000
-    if outside.min() > spacing:
+    spacing = np.linalg.norm(p1 - p0) / 4000 + 1e-12
+    if outside.min() > spacing:                  # clearly outside: the exact distance, and the bound below it
         assert exact == pytest.approx(outside.min(), abs=spacing + 1e-9)
         assert bound <= exact + 1e-12
-    elif exact < 0:
-        assert -exact <= depth.max() + spacing + 1e-12    # a lower bound of the depth, never more
-    assert (exact <= 0) == (outside.min() <= 1e-12) or outside.min() < spacing
+    if depth.max() > spacing:                    # clearly inside: reported inside, never deeper than it is
+        assert exact < 0 and -exact <= depth.max() + spacing
+
+
+def test_a_segment_through_a_box_reports_its_depth():
+    lo, hi = np.zeros(3), np.ones(3)
+    assert geometry.segment_box_distance(np.array([-1.0, 0.5, 0.5]), np.array([2.0, 0.5, 0.5]), lo, hi) == -0.5
+    assert geometry.segment_box_distance(np.array([-1.0, 0.5, 0.9]), np.array([2.0, 0.5, 0.9]), lo, hi) \
+        == pytest.approx(-0.1)
+    assert geometry.segment_box_distance(np.array([-1.0, 2.0, 1.5]), np.array([2.0, 2.0, 1.5]), lo, hi) \
+        == pytest.approx(np.hypot(1.0, 0.5))
 
 
 @pytest.mark.parametrize("name", MODEL_NAMES)
