@@ -110,3 +110,16 @@ def test_plot_draws_the_path_check_and_names_its_worst_sample(run, tmp_path):
     assert (tmp_path / "path.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     clear = run("-o", "clear.png", command="plot")
     assert clear.returncode == 0 and "Path check: path clear: 2 moves" in clear.stdout
+
+
+def test_with_a_robot_the_path_starts_at_the_arms_joints(run):
+    from sim_ursim.testing import simulator_process
+
+    arm_at = [0.0, -1.3, 1.3, -1.5708, -1.5708, 0.0]
+    with simulator_process(model="ur3", initial_q=arm_at) as simulator:
+        result = run("--json", UR3DQ_HOST=simulator.host)
+    assert result.returncode == 0, result.stderr
+    assert "from the arm's joints" in result.stderr
+    steps = json.loads(result.stdout)["steps"]
+    assert [step["name"] for step in steps] == ["left", "right"]
+    assert steps[0]["samples"] > 2           # a real move from the arm's joints to the first pose, not a 0-length one
