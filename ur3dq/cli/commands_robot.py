@@ -12,6 +12,7 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from ur3dq.cli.app import Settings, cli, confirm, display_options, emit_json, robot_session
+from ur3dq.cli.commands_check import cell_option, require_clear_path
 from ur3dq.cli.display import (
     angle_text, angles_text, coefficients_text, distance_text, key_value_table, pose_vector_text,
 )
@@ -293,10 +294,11 @@ def _teach(settings: Settings, robot, prefix: str, note: str) -> None:
               help="Run the sequence this many times.")
 @click.option("--joints", "replay_joints", is_flag=True,
               help="Replay the recorded joint angles directly instead of solving IK.")
+@cell_option
 @display_options
 @click.pass_obj
 def run_poses(settings: Settings, names, dry_run, yes, speed, acceleration, blend, loops, replay_joints,
-              max_travel):
+              max_travel, cell_path):
     """Replay stored poses (all, or NAMES in that order) with movej.
 
     For each pose: IK of its dual quaternion (every solution FK-checked), the solution nearest the recorded
@@ -325,6 +327,7 @@ def run_poses(settings: Settings, names, dry_run, yes, speed, acceleration, blen
         a, v = speed_and_acceleration(model, speed, acceleration, err)
         steps = plan_replay(model, poses, None, a, v, replay_joints, max_travel)
         _show_plan(settings, steps, loops, f"Plan on a nominal {model.name} (no robot: travel from the first pose)")
+        require_clear_path(settings, model, steps, None, blend, cell_path, loops)
         if settings.json:
             emit_json({"plan": plan_to_json(steps)})
         return
@@ -335,6 +338,7 @@ def run_poses(settings: Settings, names, dry_run, yes, speed, acceleration, blen
             raise SafetyCheckError(f"--loop: going back from {steps[-1].pose.name!r} to {steps[0].pose.name!r} "
                                    f"swings a joint further than --max-travel {max_travel:.3f} rad")
         _show_plan(settings, steps, loops, f"Plan on the {robot.model_name} at {robot.host}")
+        require_clear_path(settings, robot.model, steps, robot.joints(), blend, cell_path, loops)
         if dry_run:
             if settings.json:
                 emit_json({"plan": plan_to_json(steps)})
