@@ -17,6 +17,8 @@ from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import UnreachablePoseError
 from ur3dq.kinematics import URModel, robot_model
 from ur3dq.kinematics import ur_ik
+from ur3dq.kinematics.ur_ik import fk_filter as ik_fk_filter
+from ur3dq.kinematics.ur_ik import nearest as ik_nearest
 
 ANGLE = st.floats(-math.pi, math.pi, allow_nan=False)
 JOINTS = st.tuples(*(ANGLE,) * 6).map(np.array)
@@ -49,7 +51,7 @@ def test_closest_variant_is_the_nearest_in_limit_variant_by_enumeration(angle, r
     low = -math.inf if unlimited in ("low", "both") else low
     variants = [angle + 2 * math.pi * k for k in range(-8, 9)]
     assume(all(abs(v - low) > 1e-9 and abs(v - high) > 1e-9 for v in variants))   # no rounding-level edge cases
-    variant = ur_ik._closest_variant(angle, reference, low, high)
+    variant = ik_nearest._closest_variant(angle, reference, low, high)
     inside = [v for v in variants if low <= v <= high]
     if not inside:
         assert variant == math.inf
@@ -119,12 +121,12 @@ def test_float_fk_filter_accepts_the_pose_either_sign_and_rejects_a_nanometre_mo
     model = robot_model("ur10e").with_tcp([0.0, 0.0, 0.2, 0.0, 0.0, 0.5])
     q = (0.4, -1.1, 1.3, -0.7, 1.0, 0.2)
     pose = model.fk(q).to_array()
-    assert ur_ik._meets(model, q, tuple(pose))
-    assert ur_ik._meets(model, q, tuple(-pose))   # σ and −σ are the same pose
+    assert ik_fk_filter._meets(model, q, tuple(pose))
+    assert ik_fk_filter._meets(model, q, tuple(-pose))   # σ and −σ are the same pose
     # A 1e-8 rad turn of the base moves the TCP by ~1e-8 m (> 1 nm); of wrist 3, the TCP on its axis turns only.
-    assert not ur_ik._meets(model, (q[0] + 1e-8,) + q[1:], tuple(pose))
-    assert not ur_ik._meets(model, q[:5] + (q[5] + 1e-8,), tuple(pose))
-    assert ur_ik._meets(model, q[:5] + (q[5] + 1e-11,), tuple(pose))
+    assert not ik_fk_filter._meets(model, (q[0] + 1e-8,) + q[1:], tuple(pose))
+    assert not ik_fk_filter._meets(model, q[:5] + (q[5] + 1e-8,), tuple(pose))
+    assert ik_fk_filter._meets(model, q[:5] + (q[5] + 1e-11,), tuple(pose))
 
 
 @pytest.mark.parametrize("name", ["ur3", "ur10e"])
