@@ -35,9 +35,8 @@ def brute_force_least_cost(model, pose, reference, weights):
         return math.inf
     best = math.inf
     for solution in solutions:
-        variants = ur_ik.joint_variants(model, solution)
-        # joint_variants lists up to 1e-12 beyond a limit; ik keeps the limits exactly.
-        variants = variants[np.all((variants >= model.joint_lower) & (variants <= model.joint_upper), axis=1)]
+        variants = ur_ik.joint_variants(model, solution)   # a rounding past a limit is listed at the limit
+        assert np.all((variants >= model.joint_lower) & (variants <= model.joint_upper))
         if len(variants):
             best = min(best, float(np.min(np.sum(weights * (variants - reference) ** 2, axis=1))))
     return best

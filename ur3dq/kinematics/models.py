@@ -124,6 +124,13 @@ class URModel:
         self._closed_form = dh.is_nominal_structure()
         lengths = (dh.d[0], dh.a[1], dh.a[2], dh.d[3], dh.d[4], dh.d[5])
         self._half_lengths = tuple(0.5 * float(length) for length in lengths)  # what ur_fk.flange_coefficients takes
+        # What a calibrated arm's analytic IK starts from before Newton on the full chain: the family's catalogue
+        # lengths. A controller's own table cannot serve: UR's factory calibration moves hundreds of metres into
+        # cancelling d2/d3 offsets across nearly parallel axes (docs/conventions.md), so its a2, a3 mean nothing.
+        # An arm outside the catalogue seeds from its own table.
+        nominal = DHParameters.nominal(name) if name in _FAMILY else dh
+        self.seed_lengths = tuple(float(v) for v in (nominal.d[0], nominal.a[1], nominal.a[2], nominal.d[3],
+                                                     nominal.d[4], nominal.d[5]))
         self._flange_chain = SerialChain.from_dh(dh.a, dh.d, dh.alpha, dh.theta)
         self.chain = self._flange_chain.with_tool(self.tcp)
         self._sealed = True

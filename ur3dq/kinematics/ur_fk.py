@@ -12,6 +12,11 @@ import numpy as np
 
 from ur3dq.dqarray import sincos_of_half
 
+#: No joint angle is this large (even an unlimited wrist 3 would need 160,000 turns); beyond it sums of angles
+#: overflow and sines lose every digit, so such a value is refused by name rather than computed with.
+MAX_JOINT_ANGLE = 1e6
+
+
 def joint_floats(q, name: str = "q") -> tuple:
     """Six finite floats from ``q``; ValueError naming ``name`` (kept cheap: this is on the single-FK path)."""
     try:
@@ -23,9 +28,13 @@ def joint_floats(q, name: str = "q") -> tuple:
         raise ValueError(f"{name}: expected 6 joint angles (radians), got {q!r}") from exc
     if len(values) != 6:
         raise ValueError(f"{name}: expected 6 joint angles, got {len(values)}")
-    # One sum tells "all finite" in the common case; only a NaN/inf (or an overflowing sum) looks closer.
-    if not math.isfinite(sum(values)) and not all(math.isfinite(v) for v in values):
-        raise ValueError(f"{name}: contains NaN or infinite values")
+    if not sum(map(abs, values)) < MAX_JOINT_ANGLE:   # False for NaN and inf too: then look closer
+        if not all(math.isfinite(v) for v in values):
+            raise ValueError(f"{name}: contains NaN or infinite values")
+        for joint, value in enumerate(values):
+            if abs(value) >= MAX_JOINT_ANGLE:
+                raise ValueError(f"{name}: joint {joint + 1} = {value:.6g} rad is not a joint angle "
+                                 f"(|q| must be below {MAX_JOINT_ANGLE:g} rad)")
     return values
 
 

@@ -7,8 +7,9 @@ from ur3dq import dqarray
 from ur3dq.kinematics.ur_ik.batch_kernels import _regular_branches, _regular_fk_filter
 from ur3dq.kinematics.ur_ik.calibrated import _refine_batch
 from ur3dq.kinematics.ur_ik.equations import _ArrayOps, _branches, wrap_angle
-from ur3dq.kinematics.ur_ik.fk_filter import _within_fk_tolerance
+from ur3dq.kinematics.ur_ik.fk_filter import _EXACT_UNIT, _within_fk_tolerance
 from ur3dq.kinematics.ur_ik.geometry import (
+    LIMIT_ROUNDING,
     _flange_of,
     CALIBRATED_TOLERANCE,
     DUPLICATE_TOLERANCE,
@@ -22,11 +23,21 @@ from ur3dq.kinematics.ur_ik.nearest import _weights
 
 
 def _batch_poses(poses) -> np.ndarray:
-    """(N, 8) unit dual quaternions; ValueError naming ``poses`` for a wrong shape, NaN/inf or non-unit rows."""
+    """(N, 8) unit dual quaternions; ValueError naming ``poses`` for a wrong shape, NaN/inf or non-unit rows.
+
+    Rows off unit by more than rounding (but within dqarray.UNIT_TOLERANCE) are normalised, as single poses are
+    (fk_filter._pose_coefficients): the same pose gives the same answer in both paths."""
     array = np.asarray(poses, dtype=float)
     if array.ndim != 2 or array.shape[1] != 8:
         raise ValueError(f"poses: expected shape (N, 8), got {array.shape}")
-    return dqarray.check_unit(array, "poses")
+    array = dqarray.check_unit(array, "poses")
+    norm2 = np.einsum("ij,ij->i", array[:, :4], array[:, :4])
+    orthogonality = np.einsum("ij,ij->i", array[:, :4], array[:, 4:])
+    off = (np.abs(norm2 - 1.0) > _EXACT_UNIT) | (np.abs(orthogonality) > _EXACT_UNIT)
+    if off.any():
+        array = array.copy()
+        array[off] = dqarray.normalise(array[off])
+    return array
 
 
 def _batch_flange_targets(g: _Geometry, poses: np.ndarray) -> tuple:
@@ -176,6 +187,9 @@ def _nearest_variants(g: _Geometry, columns: np.ndarray, reference: np.ndarray) 
         first = np.where(first < lower, first + _TWO_PI, first)
         last = columns + _TWO_PI * np.floor((upper - columns) / _TWO_PI)
         last = np.where(last > upper, last - _TWO_PI, last)
+    # A centre a rounding outside a limit is the limit itself (a joint at exactly ±2π), as in _closest_variant.
+    centre = np.where((centre < lower) & (centre >= lower - LIMIT_ROUNDING), lower, centre)
+    centre = np.where((centre > upper) & (centre <= upper + LIMIT_ROUNDING), upper, centre)
     best = np.where(centre < lower, first, np.where(centre > upper, last, centre))
     return np.where((best >= lower) & (best <= upper), best, np.nan)
 

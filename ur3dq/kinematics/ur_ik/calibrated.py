@@ -7,6 +7,13 @@ from ur3dq import dqarray
 from ur3dq.dualquat import multiply_quaternion_coefficients
 from ur3dq.kinematics.ur_ik.geometry import CALIBRATED_MAX_STEPS, CALIBRATED_TOLERANCE, _Geometry
 
+#: Damping λ of the Newton steps (rad·m): far below any regular singular value of a UR Jacobian (≥ 1e-3 away from
+#: singularities), so a regular step is Newton's to ~1e-12 relative.
+_DAMPING = 1e-9
+#: Below this error a step that does not halve it has hit rounding, not a basin boundary (Newton converges
+#: quadratically from here: one regular step takes 1e-8 to ~1e-16).
+_ROUNDING_CEILING = 1e-8
+
 
 def _rotate(q, v) -> tuple:
     """Vector v rotated by unit quaternion q: v + 2w(u×v) + 2u×(u×v), u = vector part of q."""
@@ -61,18 +68,29 @@ def _geometric_jacobian(frames) -> np.ndarray:
 
 
 def _refine_batch(g: _Geometry, q: np.ndarray, targets: np.ndarray):
-    """Newton steps on the calibrated FK: (refined q (M, 6), final residual norm (M,)); rows of NaN stay NaN."""
+    """Newton steps on the calibrated FK: (refined q (M, 6), final residual norm (M,)); rows of NaN stay NaN.
+
+    A row stops when it is 100× inside CALIBRATED_TOLERANCE, or when, already below _ROUNDING_CEILING, a step no
+    longer halves its error (the rounding floor of its table): iterating on would only stir rounding. Steps solve (JᵀJ + λ²I)·Δq = Jᵀe with a tiny λ, a
+    Newton step wherever J is regular that stays bounded beside a singularity (no SVD per step).
+    """
     q = q.copy()
+    previous = np.full(len(q), np.inf)
+    active = np.ones(len(q), dtype=bool)
+    identity = np.eye(6) * _DAMPING ** 2
     for _ in range(CALIBRATED_MAX_STEPS):
         frames = _chain_frames(g, q)
         error = _pose_residual(frames[-1], targets)
         residual = np.linalg.norm(error, axis=-1)
-        active = residual > 0.1 * CALIBRATED_TOLERANCE
+        stalled = (residual >= 0.5 * previous) & (residual < _ROUNDING_CEILING)
+        active &= (residual > 0.01 * CALIBRATED_TOLERANCE) & ~stalled
         if not np.any(active):
             break
+        previous = np.where(active, residual, previous)
         jacobian = _geometric_jacobian(frames)
-        # The pseudo-inverse keeps a near-singular row from spoiling the others (np.linalg.solve would raise).
-        step = np.einsum("mij,mj->mi", np.linalg.pinv(jacobian, rcond=1e-12), error)
+        transposed = np.swapaxes(jacobian, 1, 2)
+        with np.errstate(invalid="ignore"):   # rows of NaN (branches that do not exist) stay NaN
+            step = np.linalg.solve(transposed @ jacobian + identity, (transposed @ error[..., None]))[..., 0]
         q = q + np.where(active[:, None], step, 0.0)
     residual = np.linalg.norm(_pose_residual(_chain_frames(g, q)[-1], targets), axis=-1)
     return q, residual

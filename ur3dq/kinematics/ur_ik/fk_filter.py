@@ -24,8 +24,13 @@ def _pair_of(c) -> tuple:
     return tuple(c[:4]) + _translation_columns(c)
 
 
+#: A pose whose |r|² − 1 or r·d exceeds this (but passes the unit check) is normalised before solving.
+_EXACT_UNIT = 1e-13
+
+
 def _pose_coefficients(pose, name: str) -> tuple:
-    """8 floats of a unit pose given as a DualQuaternion or 8 numbers; ValueError naming ``name`` otherwise."""
+    """8 floats of a unit pose given as a DualQuaternion or 8 numbers, normalised if it is off unit by more than
+    rounding (within dqarray.UNIT_TOLERANCE); ValueError naming ``name`` for anything that is not a rigid transform."""
     if isinstance(pose, DualQuaternion):
         c = pose._c   # its 8 floats as they are: no array round trip on the single-pose path
     else:
@@ -44,7 +49,20 @@ def _pose_coefficients(pose, name: str) -> tuple:
     orthogonality = c[0] * c[4] + c[1] * c[5] + c[2] * c[6] + c[3] * c[7]
     if abs(orthogonality) > dqarray.UNIT_TOLERANCE:
         raise ValueError(f"{name}: not a unit dual quaternion (real·dual = {orthogonality:.3g}, must be 0)")
+    if abs(norm2 - 1.0) > _EXACT_UNIT or abs(orthogonality) > _EXACT_UNIT:
+        c = _normalised(c, norm2)
     return c
+
+
+def _normalised(c: tuple, norm2: float) -> tuple:
+    """The nearest unit dual quaternion to 8 floats that passed the unit check: r/|r|, the dual part scaled alike and
+    made orthogonal to r. A pose read from a file with 8 significant digits is a pose: solving it unnormalised
+    would leave every branch ~1e-8 off and fail the FK filter (1e-9)."""
+    scale = 1.0 / math.sqrt(norm2)
+    real = tuple(v * scale for v in c[:4])
+    dual = tuple(v * scale for v in c[4:])
+    along = sum(r * d for r, d in zip(real, dual))
+    return real + tuple(d - along * r for r, d in zip(real, dual))
 
 
 def _targets(g: _Geometry, pose) -> tuple:

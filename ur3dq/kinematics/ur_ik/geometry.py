@@ -15,60 +15,40 @@ from ur3dq.kinematics.ur_fk import BLOCK
 #: points the clamped roots stay within 1e-10 (see below); and 1 nm / 1 nrad is four orders below any UR arm's
 #: repeatability, so a branch that misses by more is not a solution of this pose.
 FK_TOLERANCE_M = 1e-9
-
-
 FK_TOLERANCE_RAD = 1e-9
-
-
 #: Below this |sin(θ5/2)| (θ5 ≈ 0) or |cos(θ5/2)| (θ5 ≈ π) the wrist is treated as singular: setting θ5 to exactly
 #: 0 (π) turns the flange by ≤ 2e-10 rad and moves it by ≤ d6·2e-10 m, inside the FK filter.
 WRIST_SINGULAR_TOLERANCE = 1e-10
-
-
 #: Below this |sin(θ5/2)| (or |cos(θ5/2)|) the θ234/θ6 split carries the rounding of θ1 (up to ~1e-14) divided by
 #: it, which can push a stretched elbow out of reach (seen at θ5 = 1e-5); such a branch is moved along the
 #: θ234 ± θ6 family back into reach. Only out-of-reach branches move, and the FK filter judges the result.
 WRIST_NEAR_TOLERANCE = 1e-3
-
-
 #: Below this |sin θ3| (elbow nearly stretched or folded) the batch kernel hands a pose to the general equations: θ3
 #: there amplifies the rounding of cos θ3 by 1/sin θ3, and the single-pose solver's rounding is what to reproduce.
 ELBOW_NEAR_TOLERANCE = 1e-3
-
-
 #: Poses per block in the batch solver: its branch-level temporaries hold 8 rows per pose, so a block of BLOCK / 4
 #: keeps them in the L2 cache like the FK's (measured best among 512–4096).
 IK_BLOCK = BLOCK // 4
-
-
 #: Relative rounding slack for the domains of the square roots / arccosines (shoulder, elbow); the clamped value
 #: moves the wrist by < 1e-10 m, so the FK filter still judges the result.
 DOMAIN_TOLERANCE = 1e-10
-
-
+#: A solved joint angle this far (rad) past a joint limit is taken as the limit: a joint at exactly ±2π comes back
+#: from the equations as ±1e-15 and its 2π variant rounds past the limit. Moves the TCP by < 1e-10 m.
+LIMIT_ROUNDING = 1e-10
 #: Two solutions closer than this in every joint (mod 2π) are the same solution.
 DUPLICATE_TOLERANCE = 1e-9
-
-
-#: Newton refinement on calibrated models stops below this pose error (metres + radians).
-CALIBRATED_TOLERANCE = 1e-12
-
-
+#: Newton refinement on calibrated models accepts a branch below this pose error (metres + radians): 10× under the FK
+#: filter, and above the rounding floor of a factory table (≈ 3e-13 with its ±440 m cancelling d offsets, measured).
+CALIBRATED_TOLERANCE = 1e-10
 CALIBRATED_MAX_STEPS = 12
-
-
 #: Domain slack of the nominal closed form on calibrated models: none — a calibrated arm reaches where its nominal
 #: geometry cannot (near the stretched elbow), so every out-of-domain value is clamped and Newton (with the FK
 #: filter) decides whether the branch exists.
 CALIBRATED_DOMAIN_SLACK = math.inf
-
-
 #: On calibrated models the clamped values stop this far inside the domain (θ3 = ±0.045 rad at the stretched
 #: elbow): the two branches of a ± then start on their own sides of the singular point, beyond the nearby true
 #: solutions, from where Newton on the (locally quadratic) reach runs monotonically to the one on its side.
 CALIBRATED_DOMAIN_EDGE = 1e-3
-
-
 _TWO_PI = 2.0 * math.pi
 
 
@@ -135,8 +115,9 @@ def _build_geometry(model) -> _Geometry:
     calibrated = not dh.is_nominal_structure()
     slack = CALIBRATED_DOMAIN_SLACK if calibrated else DOMAIN_TOLERANCE
     edge = CALIBRATED_DOMAIN_EDGE if calibrated else 0.0
-    half_lengths = tuple(0.5 * v for v in (d[0], a[1], a[2], d[3], d[4], d[5]))
-    return _Geometry(d[0], a[1], a[2], d[3], d[4], d[5], calibrated, slack, edge, joints, tcp_inverse, tcp_offset,
+    lengths = model.seed_lengths if calibrated else (d[0], a[1], a[2], d[3], d[4], d[5])
+    half_lengths = tuple(0.5 * v for v in lengths)
+    return _Geometry(*lengths, calibrated, slack, edge, joints, tcp_inverse, tcp_offset,
                      half_lengths,
                      tuple(float(v) for v in model.joint_lower), tuple(float(v) for v in model.joint_upper))
 

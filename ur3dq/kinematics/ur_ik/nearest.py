@@ -16,6 +16,7 @@ from ur3dq.kinematics.ur_ik.equations import (
 )
 from ur3dq.kinematics.ur_ik.fk_filter import _meets, _reference, _targets
 from ur3dq.kinematics.ur_ik.geometry import (
+    LIMIT_ROUNDING,
     WRIST_NEAR_TOLERANCE,
     _Geometry,
     _HALF_SQRT2,
@@ -35,6 +36,8 @@ def _closest_variant(angle: float, reference: float, lower: float, upper: float)
     centre = reference + math.remainder(angle - reference, _TWO_PI)
     if lower <= centre <= upper:
         return centre   # the nearest variant of all: nothing inside the limits can be nearer
+    if lower - LIMIT_ROUNDING <= centre <= upper + LIMIT_ROUNDING:
+        return min(max(centre, lower), upper)   # a joint at its limit (2π) whose solved angle rounded past it
     # The in-limit variants run from the first above ``lower`` to the last below ``upper``; the nearest variant of
     # all lies beyond one end, and so does the reference (within π of it): that end is the nearest in-limit one.
     if centre < lower:
@@ -188,14 +191,17 @@ def _nearest_joints(g: _Geometry, solution, reference) -> tuple:
 
 
 def joint_variants(model, q) -> np.ndarray:
-    """(M, 6) every q + 2πk (per joint) inside the model's limits; an unlimited joint is listed within ±2π."""
+    """(M, 6) every q + 2πk (per joint) inside the model's limits; an unlimited joint is listed within ±2π.
+
+    A variant within LIMIT_ROUNDING past a limit is listed at the limit, as ``ik`` takes it."""
     g = _geometry(model)
     per_joint = []
     for angle, low, high in zip(_reference(q, "q"), g.lower, g.upper):
         low = -_TWO_PI if math.isinf(low) else low
         high = _TWO_PI if math.isinf(high) else high
-        first = angle + _TWO_PI * math.ceil((low - angle) / _TWO_PI)
-        per_joint.append(np.arange(first, high + 1e-12, _TWO_PI) if first <= high else np.empty(0))
+        first = angle + _TWO_PI * math.ceil((low - LIMIT_ROUNDING - angle) / _TWO_PI)
+        values = np.arange(first, high + LIMIT_ROUNDING, _TWO_PI) if first <= high + LIMIT_ROUNDING else np.empty(0)
+        per_joint.append(np.clip(values, low, high))
     grids = np.meshgrid(*per_joint, indexing="ij")
     return np.stack([grid.ravel() for grid in grids], axis=-1)
 
@@ -216,7 +222,7 @@ def ik(model, pose, q_ref, weights=None) -> np.ndarray:
         if best is not None and _meets(model, best, tcp_coefficients):
             return np.array(best)
     # Calibrated models (Newton on every branch), or a winner the FK filter rejected: rank all candidates.
-    candidates = _solution_candidates(g, target, _wrap_float(reference[5]))
+    candidates = _solution_candidates(g, target, _wrap_float(reference[5]), reference)
     remaining = list(candidates)
     # Nearest first, FK filter only on the winner (usually one FK evaluation); a rejected winner is dropped.
     while remaining:

@@ -49,12 +49,18 @@ def _unreachable_reason(g: _Geometry, target, branches_existed: bool) -> str:
     return "out of reach of every elbow branch for this wrist orientation"
 
 
-def _solution_candidates(g: _Geometry, target, theta6_ref: float) -> list:
-    """Existing analytic branches of ``target`` (flange pair), refined if calibrated; unwrapped, not yet filtered."""
+def _solution_candidates(g: _Geometry, target, theta6_ref: float, reference=None) -> list:
+    """Existing analytic branches of ``target`` (flange pair), refined if calibrated; unwrapped, not yet filtered.
+
+    On a calibrated arm ``reference`` (6 floats, optional) seeds one more Newton solve: near a singularity two
+    nominal branches can converge to the same calibrated solution and miss the one beside the reference, which a
+    solve started at the reference finds (so ``ik(fk(q), q)`` gives q back).
+    """
     candidates = [branch for branch in _branches(_ScalarOps, g, target, theta6_ref)
                   if branch[1] == branch[1] and branch[0] == branch[0]]   # NaN: the branch does not exist
-    if g.calibrated and candidates:
-        return _refine_calibrated(g, candidates, target)
+    if g.calibrated:
+        seeds = candidates + ([tuple(reference)] if reference is not None else [])
+        return _refine_calibrated(g, seeds, target) if seeds else []
     return candidates
 
 
