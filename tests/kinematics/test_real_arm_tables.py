@@ -141,3 +141,12 @@ def test_joints_at_exactly_two_pi_come_back_and_batches_agree(name):
         single = model.ik(pose, q)
         assert np.max(np.abs(single - q)) < 1e-9, (q, single)
         np.testing.assert_allclose(solved, single, atol=1e-9)
+
+
+def test_ur3_and_ur3e_wrist_3_is_unlimited_in_both_packages():
+    """UR's specifications give both the UR3 and the UR3e an infinite wrist 3; ur3dq and sim_ursim agree."""
+    for name in MODEL_NAMES:
+        ours, simulated = robot_model(name), simulated_model(name)
+        np.testing.assert_array_equal(ours.joint_upper, simulated.joint_upper)
+        np.testing.assert_array_equal(ours.joint_lower, simulated.joint_lower)
+    assert math.isinf(robot_model("ur3e").joint_upper[5]) and math.isinf(robot_model("ur3").joint_upper[5])

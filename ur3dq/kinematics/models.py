@@ -9,8 +9,9 @@ Sources of the numbers:
   user manuals): UR3/UR3e 180°/s base-shoulder-elbow and 360°/s wrists; UR5/UR5e 180°/s every joint; UR10/UR10e/
   UR16e 120°/s base and shoulder, 180°/s the others.
 * Joint ranges: ±2π on every joint, as the controller allows (the ROS description's ±π on the elbow is a planning
-  restriction, not a controller limit); the UR3's (CB3) wrist 3 turns without limit: ±inf. The UR3e's wrist 3
-  keeps ±2π, as in the ROS description.
+  restriction, not a controller limit); the wrist 3 of the UR3 and of the UR3e turns without limit: ±inf (UR's
+  technical specifications of both: "Wrist 3: Infinite"; the ROS description's ±360° on the UR3e is, again, a
+  planning choice). sim_ursim emulates the same limits.
 * Maximum joint acceleration: not in the manuals; 40 rad/s² on every joint is what the controller itself reports
   (primary interface Configuration Data, jointMaxAcceleration, URSim dump in docs/protocols.md) and the cap
   ur_rtde puts on ``movej``'s ``a`` (``UR_JOINT_ACCELERATION_MAX``).
@@ -44,7 +45,7 @@ _FAMILY = {
     "ur3": ((0.1519, -0.24365, -0.21325, 0.11235, 0.08535, 0.0819), (180, 180, 180, 360, 360, 360), True),
     "ur5": ((0.089159, -0.425, -0.39225, 0.10915, 0.09465, 0.0823), (180,) * 6, False),
     "ur10": ((0.1273, -0.612, -0.5723, 0.163941, 0.1157, 0.0922), (120, 120, 180, 180, 180, 180), False),
-    "ur3e": ((0.15185, -0.24355, -0.2132, 0.13105, 0.08535, 0.0921), (180, 180, 180, 360, 360, 360), False),
+    "ur3e": ((0.15185, -0.24355, -0.2132, 0.13105, 0.08535, 0.0921), (180, 180, 180, 360, 360, 360), True),
     "ur5e": ((0.1625, -0.425, -0.3922, 0.1333, 0.0997, 0.0996), (180,) * 6, False),
     "ur10e": ((0.1807, -0.6127, -0.57155, 0.17415, 0.11985, 0.11655), (120, 120, 180, 180, 180, 180), False),
     "ur16e": ((0.1807, -0.4784, -0.36, 0.17415, 0.11985, 0.11655), (120, 120, 180, 180, 180, 180), False),
