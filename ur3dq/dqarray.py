@@ -343,8 +343,14 @@ def exp(screw) -> np.ndarray:
 
 def sclerp(a, b, tau) -> np.ndarray:
     """Screw linear interpolation a·(a*·b)^τ of unit (..., 8) poses along the shorter screw; τ broadcasts."""
-    a = as_array(a, 8, "a")
-    b = as_array(b, 8, "b")
+    a = check_unit(a, "a")
+    b = check_unit(b, "b")
     tau = as_array(tau, (), "tau")
+    try:
+        shape = np.broadcast_shapes(a.shape[:-1], b.shape[:-1], np.shape(tau))
+    except ValueError:
+        raise ValueError(f"a, b, tau: shapes {a.shape}, {b.shape} and {np.shape(tau)} do not broadcast "
+                         "(a and b are (..., 8) poses, tau their leading shape or a scalar)") from None
+    a, b = np.broadcast_to(a, shape + (8,)), np.broadcast_to(b, shape + (8,))
     relative = log(multiply_unchecked(conjugate(a), b))
     return multiply_unchecked(a, exp(np.asarray(tau)[..., None] * relative))

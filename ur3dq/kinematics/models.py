@@ -153,7 +153,10 @@ class URModel:
                 raise ValueError("tcp: not a unit dual quaternion (a rigid transform is required)")
             offset = tcp
         else:
-            offset = DualQuaternion.from_ur_pose(tcp)
+            try:
+                offset = DualQuaternion.from_ur_pose(tcp)
+            except ValueError as error:   # from_ur_pose names its argument "pose"; here it is the TCP
+                raise ValueError(f"tcp: {str(error).removeprefix('pose: ')}") from None
         return URModel(self.name, self.dh, self.max_joint_speed, self.joint_lower, self.joint_upper,
                        self.max_joint_acceleration, offset, self.calibrated)
 
