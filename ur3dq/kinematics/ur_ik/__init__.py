@@ -46,8 +46,9 @@ is separable), and the FK filter checks the joints it returns. Batches of a nomi
 kernel (batch_kernels._regular_branches) in numpy over blocks of IK_BLOCK poses, all branches at once
 (joint-major (6, 8, B) arrays): what the branches share is computed once (θ1 per pose, the wrist per θ1, both θ5
 signs from the same terms), and the FK filter evaluates the closed-form FK kernel (ur_fk) on every branch's final
-joints. Poses near a wrist or elbow singularity are redone by the general equations (equations._branches)
-that single poses and calibrated models use, so the special cases above behave the same in every path.
+joints. Poses near a wrist or elbow singularity are redone one by one by ik_all's own scalar code
+(single._branch_table): there rounding noise decides whether a branch pair merges, and only the same float
+operations give the same answer in every path.
 
 The package, one concern a module: ``geometry`` (the model as floats, tolerances), ``equations`` (the thesis'
 equations for floats and arrays), ``fk_filter`` (pose checks, the FK filter, the duplicate rule), ``calibrated``

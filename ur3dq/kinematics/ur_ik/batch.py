@@ -20,6 +20,7 @@ from ur3dq.kinematics.ur_ik.geometry import (
     _translation_columns,
 )
 from ur3dq.kinematics.ur_ik.nearest import _weights
+from ur3dq.kinematics.ur_ik.single import _branch_table
 
 
 def _batch_poses(poses) -> np.ndarray:
@@ -108,8 +109,8 @@ def _solved_blocks(model, g: _Geometry, poses: np.ndarray, theta6_ref: np.ndarra
 
     ``rows`` (slice or index array) says which poses a block holds; ``ambiguous`` marks the poses where two
     branches may coincide (merged θ1, θ5 or θ3 signs) and need the duplicate check. Nominal models take the
-    closed-form kernel; its poses near a wrist or elbow singularity are collected and redone together, last,
-    by the general equations (whose cost is mostly per call). Calibrated models take the general equations and
+    closed-form kernel; its poses near a wrist or elbow singularity are collected and redone last, one by
+    one, by ik_all's own scalar path (single._branch_table), so that both paths merge the same branch pairs. Calibrated models take the general equations and
     Newton throughout.
     """
     if g.calibrated:
@@ -124,7 +125,7 @@ def _solved_blocks(model, g: _Geometry, poses: np.ndarray, theta6_ref: np.ndarra
         flange = pair if g.tcp_inverse is None else _pair_rows(_flange_of(coefficients, g.tcp_inverse))
         with np.errstate(divide="ignore", invalid="ignore"):   # exact singularities: those poses are redone
             columns, exists, merged, near_singular = _regular_branches(g, flange)
-        valid = _regular_fk_filter(g, columns, pair, grouped=True)
+        valid = _regular_fk_filter(g, columns, pair)
         valid &= exists
         if near_singular.any():
             valid[:, near_singular] = False
@@ -132,9 +133,10 @@ def _solved_blocks(model, g: _Geometry, poses: np.ndarray, theta6_ref: np.ndarra
         yield rows, columns, valid, merged
     if redo:
         rows = np.concatenate(redo)
-        columns = _batch_candidates(g, _batch_flange_targets(g, poses[rows]), theta6_ref[rows])
-        valid = _regular_fk_filter(g, columns, _pair_rows(poses[rows].T), grouped=False)
-        yield rows, columns, valid, np.ones(len(rows), dtype=bool)
+        columns, valid = np.empty((6, 8, len(rows))), np.empty((8, len(rows)), dtype=bool)
+        for i, row in enumerate(rows):
+            columns[:, :, i].T[:], valid[:, i] = _branch_table(model, poses[row], float(theta6_ref[row]))
+        yield rows, columns, valid, np.zeros(len(rows), dtype=bool)
 
 
 def _pair_rows(coefficients) -> np.ndarray:

@@ -154,20 +154,18 @@ def _wrap_in_place(angle: np.ndarray) -> np.ndarray:
     return angle
 
 
-def _regular_fk_filter(g: _Geometry, columns: np.ndarray, target: np.ndarray, grouped: bool) -> np.ndarray:
+def _regular_fk_filter(g: _Geometry, columns: np.ndarray, target: np.ndarray) -> np.ndarray:
     """(8, B) mask of the branches (6, 8, B) whose FK meets the TCP poses, given as pairs (7, B) (see _pair_rows):
     the thesis' filter (eq. 4.45).
 
     The model's closed-form FK (ur_fk.flange_rows) of every branch's final joint angles, composed with the
     TCP, against the pose asked for, with the tolerances of _within_fk_tolerance (a NaN branch fails).
-    ``grouped``: the caller built the branches with one θ1 value per four (θ1 sign) and one θ5, θ6 per pair
-    (θ1, θ5 signs), as _regular_branches does; those values then enter the FK once per group.
+    The branches come from _regular_branches, with one θ1 value per four (θ1 sign) and one θ5, θ6 per pair
+    (θ1, θ5 signs): those values enter the FK once per group.
     """
     count = target.shape[1]
     joints = columns.reshape(6, 2, 2, 2, count)
-    q1, q5, q6 = joints[0], joints[4], joints[5]
-    if grouped:
-        q1, q5, q6 = q1[:, :1, :1], q5[:, :, :1], q6[:, :, :1]
+    q1, q5, q6 = joints[0][:, :1, :1], joints[4][:, :, :1], joints[5][:, :, :1]
     flange = flange_rows(g.half_lengths, q1, joints[1], joints[2], joints[3], q5, q6).reshape(7, 8, count)
     rotation, half_position = flange[:4], flange[4:]
     if g.tcp_offset is not None:

@@ -35,8 +35,11 @@ DOMAIN_TOLERANCE = 1e-10
 #: A solved joint angle this far (rad) past a joint limit is taken as the limit: a joint at exactly ±2π comes back
 #: from the equations as ±1e-15 and its 2π variant rounds past the limit. Moves the TCP by < 1e-10 m.
 LIMIT_ROUNDING = 1e-10
-#: Two solutions closer than this in every joint (mod 2π) are the same solution.
-DUPLICATE_TOLERANCE = 1e-9
+#: Two solutions closer than this in every joint (mod 2π) are the same solution (one rule: ik_all_batch takes its
+#: near-singular poses from ik_all's own code, single._branch_table). Near a singularity the two branches of one
+#: configuration come out up to ~1e-8 rad apart (√ε amplification of rounding): at 1e-6, a hundred times that,
+#: they are reported once. Two configurations 1e-6 rad apart in every joint put the TCP within ~1 µm.
+DUPLICATE_TOLERANCE = 1e-6
 #: Newton refinement on calibrated models accepts a branch below this pose error (metres + radians): 10× under the FK
 #: filter, and above the rounding floor of a factory table (≈ 3e-13 with its ±440 m cancelling d offsets, measured).
 CALIBRATED_TOLERANCE = 1e-10

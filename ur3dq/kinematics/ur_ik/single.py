@@ -64,6 +64,35 @@ def _solution_candidates(g: _Geometry, target, theta6_ref: float, reference=None
     return candidates
 
 
+def _verified(model, candidates: list, tcp_coefficients) -> list:
+    """Per candidate (6 floats, NaN where the branch does not exist): kept, i.e. it exists, repeats no earlier kept
+    candidate (DUPLICATE_TOLERANCE) and meets the FK filter. The one merge rule of ik_all and ik_all_batch."""
+    kept, mask = [], []
+    for candidate in candidates:
+        ok = (candidate[0] == candidate[0] and candidate[1] == candidate[1] and _is_new(candidate, kept)
+              and _meets(model, candidate, tcp_coefficients))
+        if ok:
+            kept.append(candidate)
+        mask.append(ok)
+    return mask
+
+
+def _branch_table(model, pose, theta6_ref: float) -> tuple:
+    """(branches (8, 6) in (−π, π], NaN where absent; kept (8,) bools) of one TCP pose on a nominal model, computed
+    exactly as ik_all computes them (same float operations, same merge rule), in branch order.
+
+    ik_all_batch takes its poses near a wrist or elbow singularity from here: there the elbow pair's separation is
+    rounding noise amplified up to ~1e-3 rad (θ6 is ill-conditioned at θ5 ≈ 0 and moves the wrist centre), so two
+    implementations that round differently merge different pairs whatever the tolerance; one implementation cannot.
+    """
+    g = _geometry(model)
+    tcp_coefficients, target = _targets(g, pose)
+    candidates = list(_branches(_ScalarOps, g, target, theta6_ref))
+    kept = _verified(model, candidates, tcp_coefficients)
+    table = np.array([[_wrap_float(v) for v in c] if ok else [math.nan] * 6 for c, ok in zip(candidates, kept)])
+    return table, np.array(kept)
+
+
 def ik_all(model, pose, q_ref=None) -> list:
     """Every FK-verified joint solution (radians, each in (−π, π]) of the TCP ``pose`` (base frame), up to 8.
 
@@ -75,10 +104,7 @@ def ik_all(model, pose, q_ref=None) -> list:
     tcp_coefficients, target = _targets(g, pose)
     theta6_ref = 0.0 if q_ref is None else _wrap_float(_reference(q_ref)[5])
     candidates = _solution_candidates(g, target, theta6_ref)
-    solutions = []
-    for candidate in candidates:
-        if _is_new(candidate, solutions) and _meets(model, candidate, tcp_coefficients):
-            solutions.append(candidate)
+    solutions = [c for c, kept in zip(candidates, _verified(model, candidates, tcp_coefficients)) if kept]
     if not solutions:
         raise UnreachablePoseError(f"pose unreachable for {model.name}: "
                                    f"{_unreachable_reason(g, target, bool(candidates))}")
