@@ -50,6 +50,13 @@ joints. Poses near a wrist or elbow singularity are redone one by one by ik_all'
 (single._branch_table): there rounding noise decides whether a branch pair merges, and only the same float
 operations give the same answer in every path.
 
+Chaining ``ik`` with q_ref = the previous answer (issue 11, item 7, documented behaviour): ``ik`` minimises the
+weighted joint distance to q_ref only, so at an elbow or shoulder crossing (where two branches meet: θ3 = 0, or the
+wrist centre on the shoulder circle) the nearest solution past the crossing can be the mirrored branch, and a chain
+that follows it later meets a ±2π limit where the nearest in-limit variant is a turn away. Paths are checked for
+exactly this before anything moves (ur3dq.pathcheck reports branch flips and limit jumps); scripts that chain ``ik``
+themselves should compare the (θ1, θ5, θ3) signs of consecutive answers.
+
 The package, one concern a module: ``geometry`` (the model as floats, tolerances), ``equations`` (the thesis'
 equations for floats and arrays), ``fk_filter`` (pose checks, the FK filter, the duplicate rule), ``calibrated``
 (Newton on the full DH chain), ``single`` (``ik_all``), ``nearest`` (``ik``), ``batch`` and ``batch_kernels``
