@@ -7,7 +7,8 @@ import sys
 import click
 
 from .control_channel import CONTROL_PORT, FAULT_COMMANDS, send_request
-from .models import MODEL_NAMES
+from .calibration import factory_calibration
+from .models import MODEL_NAMES, robot_model
 
 
 def parse_joint_list(text):
@@ -22,8 +23,13 @@ def parse_joint_list(text):
     return values
 
 
-def load_calibration(path):
-    """DH deltas {a, d, alpha, theta: 6 numbers each} from a JSON file."""
+def load_calibration(path, model):
+    """DH deltas {a, d, alpha, theta: 6 numbers each} from a JSON file, or generated for ``factory[:SEED]``."""
+    if path == "factory" or path.startswith("factory:"):
+        seed = path.partition(":")[2] or "0"
+        if not seed.isdigit():
+            raise ValueError(f"--calibration {path}: the seed after 'factory:' must be a whole number")
+        return factory_calibration(robot_model(model).dh, int(seed))
     with open(path, encoding="utf-8") as calibration_file:
         calibration = json.load(calibration_file)
     if not isinstance(calibration, dict):
@@ -39,8 +45,10 @@ def load_calibration(path):
               help="Loopback address to bind the robot's ports on (e.g. 127.0.0.2 for a second simulator).")
 @click.option("--initial-q", default=None, help="Initial joints in rad: 'a,b,c,d,e,f'.")
 @click.option("--frequency", type=float, default=None, help="Control frequency in Hz (default 125 CB3, 500 e-series).")
-@click.option("--calibration", type=click.Path(exists=True, dir_okay=False), default=None,
-              help="JSON file of DH deltas {a, d, alpha, theta: 6 numbers each}: a calibrated arm.")
+@click.option("--calibration", default=None,
+              help="JSON file of DH deltas {a, d, alpha, theta: 6 numbers each}: a calibrated arm; or "
+                   "'factory[:SEED]': a slightly imperfect arm whose Kinematics Info is a factory-style table "
+                   "(huge cancelling offsets on the parallel joints, as real controllers report).")
 @click.option("--programs-dir", type=click.Path(file_okay=False), default=None,
               help="Where dashboard `load` finds relative program paths (default: current directory).")
 @click.option("--log-level", type=click.Choice(["DEBUG", "INFO", "WARNING"]), default="INFO", show_default=True)
@@ -56,9 +64,9 @@ def main(ctx, model, software_version, host, initial_q, frequency, calibration, 
     try:
         simulator = Simulator(model=model, version=software_version, host=host,
                               initial_q=parse_joint_list(initial_q) if initial_q else None,
-                              calibration=load_calibration(calibration) if calibration else None,
+                              calibration=load_calibration(calibration, model) if calibration else None,
                               frequency=frequency, programs_directory=programs_dir)
-    except ValueError as error:
+    except (ValueError, OSError) as error:   # OSError: a --calibration file that cannot be read
         raise click.BadParameter(str(error)) from None
     try:
         simulator.start()

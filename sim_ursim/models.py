@@ -126,7 +126,7 @@ def robot_model(name="ur3", calibration=None, serial_number=None):
         raise ValueError(f"model {name!r} unknown; choose one of {', '.join(MODEL_NAMES)}")
     d1, a2, a3, d4, d5, d6, robot_type, e_series, speeds_deg = _NOMINAL[key]
     deltas = _checked_deltas(calibration)
-    # UR3 / UR3e wrist 3 turns without limit; every other joint is limited to ±2π (protocols.md §5.2).
+    # UR3 / UR3e wrist 3 turns without limit (UR specifications: "Wrist 3: Infinite"); every other joint ±2π.
     upper = np.full(6, 2 * math.pi)
     if key in ("ur3", "ur3e"):
         upper[5] = math.inf

@@ -181,3 +181,13 @@ def test_sclerp_broadcasts_over_tau():
 def test_bad_input(call, words):
     with pytest.raises(ValueError, match=words):
         call()
+
+
+def test_sclerp_names_its_arguments_for_bad_shapes_and_non_unit_poses():
+    a = dqarray.from_ur_pose(np.zeros((3, 6)))
+    b = dqarray.from_ur_pose(np.zeros((2, 6)))
+    with pytest.raises(ValueError, match=r"a, b, tau: shapes \(3, 8\), \(2, 8\) and \(\) do not broadcast"):
+        dqarray.sclerp(a, b, 0.5)
+    with pytest.raises(ValueError, match="a: not a unit dual quaternion"):
+        dqarray.sclerp(a * 1.1, a, 0.5)
+    assert dqarray.sclerp(a[0], a, np.array([0.1, 0.2, 0.3])).shape == (3, 8)

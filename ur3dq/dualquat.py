@@ -1,6 +1,6 @@
 """DualQuaternion: a rigid transform σ = r + ε·½·t·r whose real and dual parts are ``pyquaternion.Quaternion``s.
 
-Conventions (docs/architecture.md, ../shared/conventions.md): Hamilton quaternions in (w, x, y, z) order; rotate,
+Conventions (docs/conventions.md): Hamilton quaternions in (w, x, y, z) order; rotate,
 then translate in the parent frame; σ_0→2 = σ_0→1 · σ_1→2; σ and −σ are the same pose; metres and radians.
 
 The eight coefficients are kept as plain floats so single operations (composition in forward kinematics) stay
@@ -34,6 +34,19 @@ def _vector(value, size: int, name: str) -> np.ndarray:
     if vector.shape != (size,):
         raise ValueError(f"{name}: expected {size} values, got shape {vector.shape}")
     return vector
+
+
+def multiply_quaternion_coefficients(a: tuple, b: tuple) -> tuple:
+    """Hamilton product a·b of two (w, x, y, z) 4-tuples; floats or broadcastable arrays."""
+    aw, ax, ay, az = a
+    bw, bx, by, bz = b
+    return (aw * bw - ax * bx - ay * by - az * bz, aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx, aw * bz + ax * by - ay * bx + az * bw)
+
+
+def conjugate_coefficients(c: tuple) -> tuple:
+    """r* + ε d* of an 8-tuple (quaternion conjugate of both parts): the inverse of a unit dual quaternion."""
+    return (c[0], -c[1], -c[2], -c[3], c[4], -c[5], -c[6], -c[7])
 
 
 def multiply_coefficients(a: tuple, b: tuple) -> tuple:

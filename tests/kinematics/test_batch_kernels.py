@@ -1,7 +1,7 @@
 """The batch kernels (issue 2's speed work): the closed-form IK block kernel against the general equations it
 shortcuts, the FK filter as a genuine forward-kinematics check, and the batch FK's blocking and layout.
 
-The reference for the IK kernel is the general path that calibrated models still take (ur_ik._branches over numpy
+The reference for the IK kernel is the general path that calibrated models still take (equations._branches over numpy
 arrays, its own FK filter through model.fk_batch, the pairwise duplicate check): branch k of every pose must hold
 the same solution (within DUPLICATE_TOLERANCE, mod 2π) or be absent in both.
 """
@@ -13,8 +13,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from ur3dq import dqarray
+from ur3dq.errors import UnreachablePoseError
 from ur3dq.kinematics import MODEL_NAMES, robot_model
-from ur3dq.kinematics import models, ur_ik
+from ur3dq.kinematics import ur_fk, ur_ik
+from ur3dq.kinematics.ur_ik import batch as ik_batch
+from ur3dq.kinematics.ur_ik import batch_kernels as ik_batch_kernels
+from ur3dq.kinematics.ur_ik import geometry as ik_geometry
 
 ANGLE = st.floats(-math.pi, math.pi, allow_nan=False)
 JOINTS = st.tuples(*(ANGLE,) * 6).map(np.array)
@@ -24,9 +28,9 @@ TCP = [0.01, -0.02, 0.15, 0.1, -0.2, 0.3]
 
 def general_solutions(model, poses):
     """(N, 8, 6) what ik_all_batch returned before the kernel: general equations, FK filter, duplicate check."""
-    g = ur_ik._geometry(model)
-    columns = ur_ik._batch_candidates(g, ur_ik._batch_flange_targets(g, poses), 0.0)
-    keep = ur_ik._drop_duplicates(columns, ur_ik._fk_filter(model, columns, poses))
+    g = ik_geometry._geometry(model)
+    columns = ik_batch._batch_candidates(g, ik_batch._batch_flange_targets(g, poses), 0.0)
+    keep = ik_batch._drop_duplicates(columns, ik_batch._fk_filter(model, columns, poses))
     return np.where(keep, columns, np.nan).transpose(2, 1, 0)
 
 
@@ -51,13 +55,24 @@ def test_kernel_equals_the_general_equations_on_random_poses(name, tcp):
 @settings(max_examples=60, deadline=None)
 @given(q=JOINTS, theta5=NEAR_ZERO, theta3=NEAR_ZERO, wrist_at_pi=st.booleans(), elbow_folded=st.booleans(),
        name=st.sampled_from(MODEL_NAMES))
-def test_kernel_equals_the_general_equations_near_singularities(q, theta5, theta3, wrist_at_pi, elbow_folded, name):
+def test_batch_holds_the_solution_sets_of_ik_all_near_singularities(q, theta5, theta3, wrist_at_pi, elbow_folded,
+                                                                    name):
+    # Near a wrist and elbow singularity at once the elbow pair's separation is rounding noise amplified to ~1e-3
+    # rad, so the batch redoes those poses with ik_all's own scalar path: the same sets, not only similar ones.
     model = robot_model(name)
     q = q.copy()
     q[2] = theta3 + (math.pi if elbow_folded else 0.0)
     q[4] = theta5 + (math.pi if wrist_at_pi else 0.0)
     poses = model.fk_batch(np.stack([q, q * 0.5]))
-    assert_same_branches(ur_ik.ik_all_batch(model, poses), general_solutions(model, poses))
+    for rows, pose in zip(ur_ik.ik_all_batch(model, poses), poses):
+        found = rows[np.isfinite(rows[:, 0])]
+        try:
+            singles = ur_ik.ik_all(model, pose)
+        except UnreachablePoseError:
+            singles = []
+        assert len(found) == len(singles)
+        for single in singles:
+            assert np.min(np.max(np.abs(ur_ik.wrap_angle(found - single)), axis=1)) < 1e-12
 
 
 def test_kernel_equals_the_general_equations_at_the_shoulder_singularity():
@@ -78,29 +93,29 @@ def test_kernel_equals_the_general_equations_at_the_shoulder_singularity():
 def test_fk_filter_evaluates_the_joints_it_is_given():
     # A genuine forward-kinematics check: nudging one joint of a solution by 1e-6 rad must fail it, by 1e-13 not.
     model = robot_model("ur5e").with_tcp(TCP)
-    g = ur_ik._geometry(model)
+    g = ik_geometry._geometry(model)
     poses = model.fk_batch(np.random.default_rng(4).uniform(-math.pi, math.pi, (64, 6)))
-    columns, exists, _, _ = ur_ik._regular_branches(g, np.stack(ur_ik._batch_flange_targets(g, poses)))
-    valid = ur_ik._regular_fk_filter(g, columns, ur_ik._pair_rows(poses.T), grouped=True) & exists
+    columns, exists, _, _ = ik_batch_kernels._regular_branches(g, np.stack(ik_batch._batch_flange_targets(g, poses)))
+    valid = ik_batch_kernels._regular_fk_filter(g, columns, ik_batch._pair_rows(poses.T)) & exists
     assert valid.sum() > 300
     for joint in range(6):
         for nudge, survives in ((1e-6, False), (1e-13, True)):
             moved = columns.copy()
             moved[joint] += nudge
-            again = ur_ik._regular_fk_filter(g, moved, ur_ik._pair_rows(poses.T), grouped=False) & exists
+            again = ik_batch_kernels._regular_fk_filter(g, moved, ik_batch._pair_rows(poses.T)) & exists
             assert np.array_equal(again, valid) == survives, (joint, nudge)
 
 
 def test_fk_filter_rejects_a_solution_of_another_pose():
     model = robot_model("ur10")
-    g = ur_ik._geometry(model)
+    g = ik_geometry._geometry(model)
     poses = model.fk_batch(np.random.default_rng(5).uniform(-math.pi, math.pi, (32, 6)))
-    columns, exists, _, _ = ur_ik._regular_branches(g, np.stack(ur_ik._batch_flange_targets(g, poses)))
-    other_poses = ur_ik._pair_rows(np.roll(poses, 1, axis=0).T)
-    assert not np.any(ur_ik._regular_fk_filter(g, columns, other_poses, grouped=True) & exists)
+    columns, exists, _, _ = ik_batch_kernels._regular_branches(g, np.stack(ik_batch._batch_flange_targets(g, poses)))
+    other_poses = ik_batch._pair_rows(np.roll(poses, 1, axis=0).T)
+    assert not np.any(ik_batch_kernels._regular_fk_filter(g, columns, other_poses) & exists)
 
 
-@pytest.mark.parametrize("count", [1, models.BLOCK - 1, models.BLOCK + 3])
+@pytest.mark.parametrize("count", [1, ur_fk.BLOCK - 1, ur_fk.BLOCK + 3])
 def test_fk_batch_over_block_boundaries_equals_fk(count):
     model = robot_model("ur10e").with_tcp(TCP)
     joints = np.random.default_rng(count).uniform(-2 * math.pi, 2 * math.pi, (count, 6))
@@ -116,7 +131,7 @@ def test_fk_batch_over_block_boundaries_equals_fk(count):
 def test_wrap_in_place_equals_wrap_angle(angle):
     values = np.array([angle, -angle, math.nan])
     expected = ur_ik.wrap_angle(values)
-    wrapped = ur_ik._wrap_in_place(values)
+    wrapped = ik_batch_kernels._wrap_in_place(values)
     assert wrapped is values
     np.testing.assert_array_equal(wrapped[:2], expected[:2])
     assert math.isnan(wrapped[2])
@@ -124,6 +139,6 @@ def test_wrap_in_place_equals_wrap_angle(angle):
 
 def test_sincos_of_double_matches_numpy():
     angles = np.concatenate((np.linspace(-20, 20, 20002), np.arange(-8, 9) * math.pi / 2)).reshape(3, -1)
-    sine, cosine = models._sincos_of_double(0.5 * angles)
+    sine, cosine = dqarray.sincos_of_half(0.5 * angles)
     np.testing.assert_allclose(sine, np.sin(angles), rtol=0, atol=4e-15)
     np.testing.assert_allclose(cosine, np.cos(angles), rtol=0, atol=4e-15)

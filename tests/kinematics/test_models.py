@@ -339,7 +339,7 @@ def test_ik_methods_delegate_to_the_analytic_solver():
         (lambda: robot_model("ur3").fk_batch(np.zeros((4, 5))), ValueError, "joint_matrix"),
         (lambda: robot_model("ur3").fk_batch(np.zeros(6)), ValueError, "joint_matrix"),
         (lambda: robot_model("ur3").fk_batch(np.full((2, 6), np.nan)), ValueError, "joint_matrix"),
-        (lambda: robot_model("ur3").with_tcp([0, 0, 0.1]), ValueError, "pose"),
+        (lambda: robot_model("ur3").with_tcp([0, 0, 0.1]), ValueError, "tcp: expected"),
         (lambda: robot_model("ur3").with_tcp(DualQuaternion.from_array([2, 0, 0, 0, 0, 0, 0, 0])), ValueError, "tcp"),
     ],
 )

@@ -13,10 +13,13 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
+from ik_cost import assert_least_cost
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import UnreachablePoseError
 from ur3dq.kinematics import URModel, robot_model
 from ur3dq.kinematics import ur_ik
+from ur3dq.kinematics.ur_ik import fk_filter as ik_fk_filter
+from ur3dq.kinematics.ur_ik import nearest as ik_nearest
 
 ANGLE = st.floats(-math.pi, math.pi, allow_nan=False)
 JOINTS = st.tuples(*(ANGLE,) * 6).map(np.array)
@@ -33,9 +36,8 @@ def brute_force_least_cost(model, pose, reference, weights):
         return math.inf
     best = math.inf
     for solution in solutions:
-        variants = ur_ik.joint_variants(model, solution)
-        # joint_variants lists up to 1e-12 beyond a limit; ik keeps the limits exactly.
-        variants = variants[np.all((variants >= model.joint_lower) & (variants <= model.joint_upper), axis=1)]
+        variants = ur_ik.joint_variants(model, solution)   # a rounding past a limit is listed at the limit
+        assert np.all((variants >= model.joint_lower) & (variants <= model.joint_upper))
         if len(variants):
             best = min(best, float(np.min(np.sum(weights * (variants - reference) ** 2, axis=1))))
     return best
@@ -49,7 +51,7 @@ def test_closest_variant_is_the_nearest_in_limit_variant_by_enumeration(angle, r
     low = -math.inf if unlimited in ("low", "both") else low
     variants = [angle + 2 * math.pi * k for k in range(-8, 9)]
     assume(all(abs(v - low) > 1e-9 and abs(v - high) > 1e-9 for v in variants))   # no rounding-level edge cases
-    variant = ur_ik._closest_variant(angle, reference, low, high)
+    variant = ik_nearest._closest_variant(angle, reference, low, high)
     inside = [v for v in variants if low <= v <= high]
     if not inside:
         assert variant == math.inf
@@ -78,7 +80,7 @@ def test_ik_finds_the_brute_force_least_cost_near_singular_points(name, q, refer
         assert best == math.inf   # the folded elbow may be out of reach of this arm's wrist offset
         return
     assert np.all(chosen >= model.joint_lower) and np.all(chosen <= model.joint_upper)
-    assert float(np.sum(weights * (chosen - reference) ** 2)) == pytest.approx(best, rel=1e-9, abs=1e-12)
+    assert_least_cost(float(np.sum(weights * (chosen - reference) ** 2)), model, pose, reference, weights)
     metres, radians = model.fk(chosen).distance(pose)
     assert metres <= ur_ik.FK_TOLERANCE_M and radians <= ur_ik.FK_TOLERANCE_RAD
 
@@ -98,7 +100,7 @@ def test_ik_with_narrow_limits_and_a_tcp_finds_the_brute_force_least_cost_or_say
             ur_ik.ik(narrow, pose, reference, weights)
         return
     chosen = ur_ik.ik(narrow, pose, reference, weights)
-    assert float(np.sum(weights * (chosen - reference) ** 2)) == pytest.approx(best, rel=1e-9, abs=1e-12)
+    assert_least_cost(float(np.sum(weights * (chosen - reference) ** 2)), narrow, pose, reference, weights)
     assert narrow.fk(chosen).is_close(pose, ur_ik.FK_TOLERANCE_M, ur_ik.FK_TOLERANCE_RAD)
 
 
@@ -119,12 +121,12 @@ def test_float_fk_filter_accepts_the_pose_either_sign_and_rejects_a_nanometre_mo
     model = robot_model("ur10e").with_tcp([0.0, 0.0, 0.2, 0.0, 0.0, 0.5])
     q = (0.4, -1.1, 1.3, -0.7, 1.0, 0.2)
     pose = model.fk(q).to_array()
-    assert ur_ik._meets(model, q, tuple(pose))
-    assert ur_ik._meets(model, q, tuple(-pose))   # σ and −σ are the same pose
+    assert ik_fk_filter._meets(model, q, tuple(pose))
+    assert ik_fk_filter._meets(model, q, tuple(-pose))   # σ and −σ are the same pose
     # A 1e-8 rad turn of the base moves the TCP by ~1e-8 m (> 1 nm); of wrist 3, the TCP on its axis turns only.
-    assert not ur_ik._meets(model, (q[0] + 1e-8,) + q[1:], tuple(pose))
-    assert not ur_ik._meets(model, q[:5] + (q[5] + 1e-8,), tuple(pose))
-    assert ur_ik._meets(model, q[:5] + (q[5] + 1e-11,), tuple(pose))
+    assert not ik_fk_filter._meets(model, (q[0] + 1e-8,) + q[1:], tuple(pose))
+    assert not ik_fk_filter._meets(model, q[:5] + (q[5] + 1e-8,), tuple(pose))
+    assert ik_fk_filter._meets(model, q[:5] + (q[5] + 1e-11,), tuple(pose))
 
 
 @pytest.mark.parametrize("name", ["ur3", "ur10e"])

@@ -48,3 +48,28 @@ def test_calibrated_fk_matches_the_controller_where_nominal_does_not(calibrated_
         record_property("nominal_vs_calibrated_mm", worst_mm)
         print(f"nominal-vs-calibrated TCP difference avoided: up to {worst_mm:.2f} mm")
         assert worst_mm > 1.0
+
+
+FACTORY_TARGETS = [
+    [0.3, -1.4, 1.3, -1.5, -1.3, 0.4],
+    [-0.5, -1.8, 1.0, -0.7, -1.8, -0.6],
+]
+
+
+def test_factory_calibrated_controller_table_gives_exact_fk_and_ik():
+    """A controller reporting a factory-style table (hundreds of metres of cancelling d offsets on the parallel
+    joints, like UR's documented UR10e table): the driver's model matches the controller's TCP and its IK drives
+    the arm to a pose exactly (on today's nominal-seeded IK this table gave 'unreachable' or wrong branches)."""
+    with simulator_with(model="ur5e", extra_args=("--calibration", "factory:7"),
+                        initial_q=CONFIGURATIONS[0]) as simulator:
+        with ur3dq.robot.connect(simulator.host) as robot:
+            ready(robot)
+            assert abs(robot.model.dh.d[1]) > 10.0 and abs(robot.model.dh.d[2]) > 10.0   # factory form
+            for q in FACTORY_TARGETS:
+                target = robot.model.fk(q)
+                robot.movej_pose(target)
+                joints, reported = robot.joints(), robot.tcp_pose()
+                assert np.max(np.abs(joints - q)) < 1e-6
+                metres, radians = robot.model.fk(joints).distance(reported)
+                assert metres < 1e-6 and radians < 1e-6
+                assert target.distance(reported)[0] < 1e-5

@@ -1,18 +1,19 @@
 """The Universal Robots family: DH parameters, joint limits, maximum joint speeds, calibrated DH, and fast FK.
 
-Frames (../shared/conventions.md): base = the controller's base frame (DH frame 0; ROS ``base_link`` is this frame
+Frames (docs/conventions.md): base = the controller's base frame (DH frame 0; ROS ``base_link`` is this frame
 turned π about z), flange = DH frame 6, TCP = flange · tcp. Metres, radians, seconds.
 
 Sources of the numbers:
-* DH: conventions.md (checked against ``ur_analytic_ik`` for every model).
+* DH: docs/conventions.md (checked against ``ur_analytic_ik`` for every model).
 * Maximum joint speeds: Universal_Robots_ROS2_Description ``config/<model>/joint_limits.yaml`` (taken from the UR
   user manuals): UR3/UR3e 180°/s base-shoulder-elbow and 360°/s wrists; UR5/UR5e 180°/s every joint; UR10/UR10e/
   UR16e 120°/s base and shoulder, 180°/s the others.
 * Joint ranges: ±2π on every joint, as the controller allows (the ROS description's ±π on the elbow is a planning
-  restriction, not a controller limit); the UR3's (CB3) wrist 3 turns without limit: ±inf. The UR3e's wrist 3
-  keeps ±2π, as in the ROS description.
+  restriction, not a controller limit); the wrist 3 of the UR3 and of the UR3e turns without limit: ±inf (UR's
+  technical specifications of both: "Wrist 3: Infinite"; the ROS description's ±360° on the UR3e is, again, a
+  planning choice). sim_ursim emulates the same limits.
 * Maximum joint acceleration: not in the manuals; 40 rad/s² on every joint is what the controller itself reports
-  (primary interface Configuration Data, jointMaxAcceleration, URSim dump in ../shared/protocols.md) and the cap
+  (primary interface Configuration Data, jointMaxAcceleration, URSim dump in docs/protocols.md) and the cap
   ur_rtde puts on ``movej``'s ``a`` (``UR_JOINT_ACCELERATION_MAX``).
 
 FK of a nominal model uses a closed form (joints 2–4 are parallel, so their rotations add up) that costs a few
@@ -29,7 +30,9 @@ import numpy as np
 from ur3dq import dqarray
 from ur3dq.dualquat import DualQuaternion, multiply_coefficients
 from ur3dq.errors import JointLimitError
+from ur3dq.kinematics import ur_ik
 from ur3dq.kinematics.chain import SerialChain, thesis_to_dh_flange
+from ur3dq.kinematics.ur_fk import BLOCK, dual_part_rows, flange_coefficients, flange_rows, joint_floats
 
 JOINT_NAMES = ("base", "shoulder", "elbow", "wrist 1", "wrist 2", "wrist 3")
 NOMINAL_ALPHA = (math.pi / 2, 0.0, 0.0, math.pi / 2, -math.pi / 2, 0.0)
@@ -42,7 +45,7 @@ _FAMILY = {
     "ur3": ((0.1519, -0.24365, -0.21325, 0.11235, 0.08535, 0.0819), (180, 180, 180, 360, 360, 360), True),
     "ur5": ((0.089159, -0.425, -0.39225, 0.10915, 0.09465, 0.0823), (180,) * 6, False),
     "ur10": ((0.1273, -0.612, -0.5723, 0.163941, 0.1157, 0.0922), (120, 120, 180, 180, 180, 180), False),
-    "ur3e": ((0.15185, -0.24355, -0.2132, 0.13105, 0.08535, 0.0921), (180, 180, 180, 360, 360, 360), False),
+    "ur3e": ((0.15185, -0.24355, -0.2132, 0.13105, 0.08535, 0.0921), (180, 180, 180, 360, 360, 360), True),
     "ur5e": ((0.1625, -0.425, -0.3922, 0.1333, 0.0997, 0.0996), (180,) * 6, False),
     "ur10e": ((0.1807, -0.6127, -0.57155, 0.17415, 0.11985, 0.11655), (120, 120, 180, 180, 180, 180), False),
     "ur16e": ((0.1807, -0.4784, -0.36, 0.17415, 0.11985, 0.11655), (120, 120, 180, 180, 180, 180), False),
@@ -103,175 +106,6 @@ class DHParameters:
         )
 
 
-def _ur_flange(d1, a2, a3, d4, d5, d6, q1, q2, q3, q4, q5, q6) -> tuple:
-    """Flange σ (8 coefficients) of a nominal UR arm, given HALF the DH lengths (d1/2, a2/2, …); q floats.
-
-    Rotation r = [rz(q1)·rx(π/2)]·[rz(q234)·rx(π/2)]·[rz(q5)·rx(−π/2)·rz(q6)]. The first two factors multiply out
-    to (−s1 sb, c1 cb, s1 cb, c1 sb) and the third to k(cP, −cM, −sM, sP), k = 1/√2, with half angles
-    1 = q1/2, b = q234/2, P = (q5 + q6)/2, M = (q5 − q6)/2; collecting terms, with X = cb cM − sb sP,
-    Y = cb sM − sb cP, Z = cb cP + sb sM, W = cb sP + sb cM:
-    r = k(c1 X + s1 Y, c1 Z + s1 W, s1 Z − c1 W, s1 X − c1 Y).
-    The position is that of the planar arm (joints 2–4) in frame 1 (full angles):
-    p = (c1 ρ + s1 δ, s1 ρ − c1 δ, d1 + a2 s2 + a3 s23 − d5 c234 − d6 s5 s234),
-    ρ = a2 c2 + a3 c23 + d5 s234 − d6 s5 c234, δ = d4 + d6 c5. Half lengths give ½p directly for the dual ½·p·r.
-    """
-    q23 = q2 + q3
-    q234 = q23 + q4
-    sin, cos = math.sin, math.cos
-    half1, half234, half_p, half_m = 0.5 * q1, 0.5 * q234, 0.5 * (q5 + q6), 0.5 * (q5 - q6)
-    s1, c1 = sin(half1), cos(half1)
-    sb, cb = sin(half234), cos(half234)
-    sp, cp = sin(half_p), cos(half_p)
-    sm, cm = sin(half_m), cos(half_m)
-    sin2, cos2 = sin(q2), cos(q2)
-    sin23, cos23 = sin(q23), cos(q23)
-    x = cb * cm - sb * sp
-    y = cb * sm - sb * cp
-    z = cb * cp + sb * sm
-    w = cb * sp + sb * cm
-    k = 0.7071067811865476
-    kc1, ks1 = k * c1, k * s1
-    rw = kc1 * x + ks1 * y
-    rx = kc1 * z + ks1 * w
-    ry = ks1 * z - kc1 * w
-    rz = ks1 * x - kc1 * y
-    # Full angles from the half angles already at hand (double-angle and angle-sum formulas).
-    cos1, sin1 = c1 * c1 - s1 * s1, 2.0 * s1 * c1
-    cos234, sin234 = cb * cb - sb * sb, 2.0 * sb * cb
-    cos5, sin5 = cp * cm - sp * sm, sp * cm + cp * sm
-    d6_sin5 = d6 * sin5
-    reach = a2 * cos2 + a3 * cos23 + d5 * sin234 - d6_sin5 * cos234
-    offset = d4 + d6 * cos5
-    px = cos1 * reach + sin1 * offset
-    py = sin1 * reach - cos1 * offset
-    pz = d1 + a2 * sin2 + a3 * sin23 - d5 * cos234 - d6_sin5 * sin234
-    # Dual part (0, p/2)·r.
-    return (
-        rw, rx, ry, rz,
-        -px * rx - py * ry - pz * rz,
-        px * rw + py * rz - pz * ry,
-        -px * rz + py * rw + pz * rx,
-        px * ry - py * rx + pz * rw,
-    )
-
-
-#: Poses per block in the array kernels: a block's temporaries (a few dozen rows of BLOCK floats) stay in the L2
-#: cache, and each numpy call still covers enough elements to amortise its Python overhead (4096–8192 measured best).
-BLOCK = 4096
-_HALF_SQRT2 = 0.7071067811865476
-
-
-def _sincos_of_double(half: np.ndarray) -> tuple:
-    """(sin 2h, cos 2h) of an array of half angles h, in place, from t = tan h: sin = t·u, cos = u − 1, u = 2/(1+t²).
-
-    One numpy call per step for all angles (numpy's float64 tan is SIMD-vectorised, its sin and cos are not); the
-    identities stay accurate to a few ulp, also where t is huge (2h ≈ π). Callers pass the half angle they can
-    scale for free; ``half`` is overwritten.
-    """
-    tangent = np.tan(half, out=half)
-    scale = np.multiply(tangent, tangent)
-    scale += 1.0
-    np.divide(2.0, scale, out=scale)
-    sine = np.multiply(tangent, scale, out=tangent)
-    scale -= 1.0
-    return sine, scale
-
-
-def _ur_flange_rows(half_lengths, q1, q2, q3, q4, q5, q6, out=None) -> np.ndarray:
-    """(7, *S) rows (rw, rx, ry, rz, ½px, ½py, ½pz): flange rotation and half position of a nominal UR arm.
-
-    The closed form of :func:`_ur_flange` (same symbols) for joint arrays: q2, q3, q4 of shape S, while q1 and
-    q5, q6 (these two of one shape) may have fewer entries that broadcast to S (configurations sharing a joint
-    value share its sines and cosines). Each step is one numpy call over every row it needs, temporaries reused
-    in place (hot loop).
-    ``out`` (7 arrays of shape S, optional) receives the rows.
-    """
-    d1, a2, a3, d4, d5, d6 = half_lengths
-    # Half angles q234/2, full angles q2, q23, each halved once more for _sincos_of_double's tangent.
-    triple = np.empty((3,) + np.shape(q2))
-    np.add(q2, q3, out=triple[2])
-    np.add(triple[2], q4, out=triple[0])
-    np.multiply(q2, 0.5, out=triple[1])
-    triple[0] *= 0.25
-    triple[2] *= 0.5
-    (sb, sin2, sin23), (cb, cos2, cos23) = _sincos_of_double(triple)
-    s1, c1 = _sincos_of_double(np.multiply(q1, 0.25))
-    wrist = np.empty((2,) + np.shape(q5))
-    np.add(q5, q6, out=wrist[0])
-    np.subtract(q5, q6, out=wrist[1])
-    wrist *= 0.25
-    (sp, sm), (cp, cm) = _sincos_of_double(wrist)       # P = (q5 + q6)/2, M = (q5 − q6)/2
-    x = cb * cm
-    x -= sb * sp
-    y = cb * sm
-    y -= sb * cp
-    z = cb * cp
-    z += sb * sm
-    w = cb * sp
-    w += sb * cm
-    # Full angles from the half angles already at hand (double-angle and angle-sum formulas).
-    cos1 = c1 * c1
-    cos1 -= s1 * s1
-    sin1 = s1 * c1
-    sin1 *= 2.0
-    cos234 = cb * cb
-    cos234 -= sb * sb
-    sin234 = sb * cb
-    sin234 *= 2.0
-    offset = cp * cm
-    offset -= sp * sm
-    offset *= d6
-    offset += d4                     # δ = d4 + d6 c5 (halved lengths: ½δ)
-    d6_sin5 = sp * cm
-    d6_sin5 += cp * sm
-    d6_sin5 *= d6
-    c1 *= _HALF_SQRT2
-    s1 *= _HALF_SQRT2
-    rows = np.empty((7,) + x.shape) if out is None else out
-    rw, rx, ry, rz, px, py, pz = rows
-    np.multiply(c1, x, out=rw)
-    rw += s1 * y
-    np.multiply(c1, z, out=rx)
-    rx += s1 * w
-    np.multiply(s1, z, out=ry)
-    ry -= c1 * w
-    np.multiply(s1, x, out=rz)
-    rz -= c1 * y
-    reach = cos2 * a2
-    reach += a3 * cos23
-    reach += d5 * sin234
-    reach -= d6_sin5 * cos234
-    np.multiply(cos1, reach, out=px)
-    px += sin1 * offset
-    np.multiply(sin1, reach, out=py)
-    py -= cos1 * offset
-    np.multiply(sin2, a2, out=pz)
-    pz += a3 * sin23
-    pz -= d5 * cos234
-    pz -= d6_sin5 * sin234
-    pz += d1
-    return rows
-
-
-def _dual_part_rows(rows, out) -> None:
-    """The dual part ½p·r (4 rows into ``out``) of rows (r, ½p) (7 rows): a pure vector times r, written out."""
-    rw, rx, ry, rz, px, py, pz = rows
-    dw, dx, dy, dz = out
-    np.multiply(px, rx, out=dw)
-    dw += py * ry
-    dw += pz * rz
-    np.negative(dw, out=dw)
-    np.multiply(px, rw, out=dx)
-    dx += py * rz
-    dx -= pz * ry
-    np.multiply(py, rw, out=dy)
-    dy -= px * rz
-    dy += pz * rx
-    np.multiply(px, ry, out=dz)
-    dz -= py * rx
-    dz += pz * rw
-
-
 class URModel:
     """A UR arm: DH, limits, speeds, TCP; ``fk``/``fk_batch`` here, IK delegated to :mod:`ur3dq.kinematics.ur_ik`."""
 
@@ -290,7 +124,14 @@ class URModel:
         self._tcp_coefficients = tuple(float(c) for c in self.tcp.to_array())
         self._closed_form = dh.is_nominal_structure()
         lengths = (dh.d[0], dh.a[1], dh.a[2], dh.d[3], dh.d[4], dh.d[5])
-        self._half_lengths = tuple(0.5 * float(length) for length in lengths)  # what _ur_flange takes
+        self._half_lengths = tuple(0.5 * float(length) for length in lengths)  # what ur_fk.flange_coefficients takes
+        # What a calibrated arm's analytic IK starts from before Newton on the full chain: the family's catalogue
+        # lengths. A controller's own table cannot serve: UR's factory calibration moves hundreds of metres into
+        # cancelling d2/d3 offsets across nearly parallel axes (docs/conventions.md), so its a2, a3 mean nothing.
+        # An arm outside the catalogue seeds from its own table.
+        nominal = DHParameters.nominal(name) if name in _FAMILY else dh
+        self.seed_lengths = tuple(float(v) for v in (nominal.d[0], nominal.a[1], nominal.a[2], nominal.d[3],
+                                                     nominal.d[4], nominal.d[5]))
         self._flange_chain = SerialChain.from_dh(dh.a, dh.d, dh.alpha, dh.theta)
         self.chain = self._flange_chain.with_tool(self.tcp)
         self._sealed = True
@@ -312,37 +153,23 @@ class URModel:
                 raise ValueError("tcp: not a unit dual quaternion (a rigid transform is required)")
             offset = tcp
         else:
-            offset = DualQuaternion.from_ur_pose(tcp)
+            try:
+                offset = DualQuaternion.from_ur_pose(tcp)
+            except ValueError as error:   # from_ur_pose names its argument "pose"; here it is the TCP
+                raise ValueError(f"tcp: {str(error).removeprefix('pose: ')}") from None
         return URModel(self.name, self.dh, self.max_joint_speed, self.joint_lower, self.joint_upper,
                        self.max_joint_acceleration, offset, self.calibrated)
 
     # ------------------------------------------------------------------------------------------------------ FK
-    @staticmethod
-    def _joint_floats(q, name: str = "q") -> tuple:
-        """Six finite floats from ``q``; ValueError naming ``name`` (kept cheap: this is on the single-FK path)."""
-        try:
-            if isinstance(q, np.ndarray) and q.dtype == np.float64 and q.ndim == 1:
-                values = tuple(q.tolist())   # Python floats in one call (iterating yields slow numpy scalars)
-            else:
-                values = tuple(map(float, q))
-        except (TypeError, ValueError) as exc:
-            raise ValueError(f"{name}: expected 6 joint angles (radians), got {q!r}") from exc
-        if len(values) != 6:
-            raise ValueError(f"{name}: expected 6 joint angles, got {len(values)}")
-        # One sum tells "all finite" in the common case; only a NaN/inf (or an overflowing sum) looks closer.
-        if not math.isfinite(sum(values)) and not all(math.isfinite(v) for v in values):
-            raise ValueError(f"{name}: contains NaN or infinite values")
-        return values
-
     def _flange(self, q: tuple) -> tuple:
         """Flange coefficients for 6 validated floats: the closed form, or the chain of a calibrated arm."""
         if self._closed_form:
-            return _ur_flange(*self._half_lengths, *q)
+            return flange_coefficients(*self._half_lengths, *q)
         return self._flange_chain.fk_of_floats(q)._c
 
     def fk(self, q) -> DualQuaternion:
         """TCP pose in the base frame at joint angles ``q`` (6, radians)."""
-        return DualQuaternion._from_tuple(self._fk_floats(self._joint_floats(q)))
+        return DualQuaternion._from_tuple(self._fk_floats(joint_floats(q)))
 
     def _fk_floats(self, q: tuple) -> tuple:
         """8 floats of the TCP pose at 6 float joint angles, unchecked (for ur_ik's FK filter on its own floats)."""
@@ -353,7 +180,7 @@ class URModel:
 
     def fk_flange(self, q) -> DualQuaternion:
         """Flange pose (DH frame 6, TCP offset ignored) in the base frame."""
-        return DualQuaternion._from_tuple(self._flange(self._joint_floats(q)))
+        return DualQuaternion._from_tuple(self._flange(joint_floats(q)))
 
     def fk_batch(self, joint_matrix) -> np.ndarray:
         """TCP poses (N, 8) [rw rx ry rz dw dx dy dz] of N joint configurations (N, 6), vectorised over N.
@@ -373,8 +200,8 @@ class URModel:
             block = slice(start, start + BLOCK)
             q = joint_matrix[block].T
             rows = (*coefficients[:4, block], *half_position[:, :q.shape[1]])
-            _ur_flange_rows(self._half_lengths, *q, out=rows)
-            _dual_part_rows(rows, coefficients[4:, block])
+            flange_rows(self._half_lengths, *q, out=rows)
+            dual_part_rows(rows, coefficients[4:, block])
             if self._tcp_coefficients != _IDENTITY:
                 for target, values in zip(coefficients[:, block],
                                           multiply_coefficients(coefficients[:, block], self._tcp_coefficients)):
@@ -383,11 +210,11 @@ class URModel:
 
     def frames(self, q) -> np.ndarray:
         """(7, 8) DH frames 0..6 in the base frame at ``q``; the last one includes the TCP offset."""
-        return self.chain.frames(self._joint_floats(q))
+        return self.chain.frames(joint_floats(q))
 
     def joint_axes(self, q) -> tuple[np.ndarray, np.ndarray]:
         """(directions, points), each (6, 3): joint axes in the base frame at ``q`` (for Jacobians)."""
-        return self.chain.joint_axes(self._joint_floats(q))
+        return self.chain.joint_axes(joint_floats(q))
 
     def flange_rotation_at_zero(self) -> DualQuaternion:
         """R0: the flange's orientation at q = 0 (pure rotation); the thesis' end frame is σ_DH(q)·R0*."""
@@ -406,26 +233,20 @@ class URModel:
     def ik_all(self, pose, q_ref=None) -> list:
         """Every FK-verified joint solution of a TCP ``pose``; ``q_ref`` settles the wrist-singular family
         (see ur3dq.kinematics.ur_ik.ik_all)."""
-        from ur3dq.kinematics import ur_ik  # imported here: the IK module builds on this one
-
         return ur_ik.ik_all(self, pose, q_ref)
 
     def ik(self, pose, q_ref, weights=None) -> np.ndarray:
         """The solution (±2π variants within limits) closest to ``q_ref`` (see ur3dq.kinematics.ur_ik.ik)."""
-        from ur3dq.kinematics import ur_ik
-
         return ur_ik.ik(self, pose, q_ref, weights)
 
     def ik_batch(self, poses, q_ref, weights=None) -> np.ndarray:
         """(N, 6) solutions closest to ``q_ref``, NaN rows where unreachable (see ur3dq.kinematics.ur_ik.ik_batch)."""
-        from ur3dq.kinematics import ur_ik
-
         return ur_ik.ik_batch(self, poses, q_ref, weights)
 
     # ------------------------------------------------------------------------------------------------- limits
     def check_joints(self, q) -> np.ndarray:
         """Return ``q`` as an array after checking it: ValueError for shape/NaN, JointLimitError outside limits."""
-        values = np.array(self._joint_floats(q))
+        values = np.array(joint_floats(q))
         outside = (values < self.joint_lower) | (values > self.joint_upper)
         if outside.any():
             i = int(np.argmax(outside))

@@ -23,7 +23,7 @@ from ur3dq.errors import (
     RobotError,
     SafetyCheckError,
 )
-from ur3dq.kinematics import robot_model
+from ur3dq.kinematics import robot_model_from_dh
 from ur3dq.robot import motion, primary, safety, script, state
 from ur3dq.robot.dashboard import Dashboard, model_from_reply
 from ur3dq.robot.primary_client import PrimaryClient, send_script
@@ -39,16 +39,9 @@ MODE_CHANGE_TIMEOUT = 15.0  # s for power on / brake release to reach their robo
 SERIAL_NUMBER_SINCE = (5, 6)  # the dashboard's `get serial number` exists from PolyScope 5.6
 
 
-def dh_deltas(kinematics, nominal_dh):
-    """{'a','d','alpha','theta': 6 deltas} = controller Kinematics Info − nominal DH (the model's calibration)."""
-    return {key: np.asarray(getattr(kinematics, key), dtype=float) - np.asarray(nominal_dh[key], dtype=float)
-            for key in ("a", "d", "alpha", "theta")}
-
-
 def calibrated_model(name, kinematics, tcp_offset=None):
     """The ur3dq model `name` with the controller's calibrated DH and (if given) its TCP offset (UR pose vector)."""
-    nominal = robot_model(name)
-    model = robot_model(name, dh_deltas=dh_deltas(kinematics, _dh_dict(nominal.dh)))
+    model = robot_model_from_dh(name, kinematics.a, kinematics.d, kinematics.alpha, kinematics.theta)
     return model.with_tcp(tcp_offset) if tcp_offset is not None else model
 
 
@@ -58,13 +51,6 @@ def effective_speed_limits(model, configuration):
         return np.asarray(model.max_joint_acceleration, float), np.asarray(model.max_joint_speed, float)
     return (np.minimum(model.max_joint_acceleration, configuration.max_joint_acceleration),
             np.minimum(model.max_joint_speed, configuration.max_joint_speed))
-
-
-def _dh_dict(dh):
-    """The model's DH as a dict a, d, alpha, theta (accepts a mapping or an object with those attributes)."""
-    if isinstance(dh, dict):
-        return dh
-    return {key: getattr(dh, key) for key in ("a", "d", "alpha", "theta")}
 
 
 class Robot:
