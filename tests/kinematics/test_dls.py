@@ -9,6 +9,7 @@ from hypothesis import strategies as st
 
 from ur3dq import DualQuaternion, dqarray
 from ur3dq.kinematics import SerialChain, robot_model
+from ur3dq.kinematics import dls as dls_module
 from ur3dq.kinematics.chain import PRISMATIC, REVOLUTE
 from ur3dq.kinematics.dls import (
     IMPROVED,
@@ -413,9 +414,14 @@ def test_paper_method_with_the_exact_jacobian_on_ur3():
 # ----------------------------------------------------------------------------------- limits and the log
 @pytest.mark.parametrize("mode", [PAPER, IMPROVED])
 def test_limits_steer_to_the_allowed_elbow(mode):
-    """The seed goal has an elbow-down (θ2 ≈ −60°) and an elbow-up (θ2 ≈ +60°) solution; θ2 ≥ 0 leaves one."""
+    """The seed goal has an elbow-down (θ2 ≈ −60°) and an elbow-up (θ2 ≈ +60°) solution; θ2 ≥ 0 leaves one.
+
+    The start bends the elbow a little: from the stretched arm (θ2 = θ3 = 0, θ2 on its limit) the first steps
+    lead θ3 back to 0, a stationary point of the projected problem that only rounding noise leaves (the float
+    and numpy forms of the error, equal to 1e-14, end on different sides of it)."""
     lower, upper = [-np.inf, 0.0, -np.inf], [np.inf, math.pi, np.inf]
-    result = dls_ik(PLANAR, GOAL, START, mode=mode, lower=lower, upper=upper, max_iterations=100)
+    start = np.array([0.0, 0.0, 0.3])
+    result = dls_ik(PLANAR, GOAL, start, mode=mode, lower=lower, upper=upper, max_iterations=100)
     assert result.converged
     assert np.all(result.joint_log[:, 1] >= 0.0) and np.all(result.joint_log[:, 1] <= math.pi)
     assert result.q[1] == pytest.approx(math.pi / 3, abs=1e-3)
@@ -519,3 +525,16 @@ def test_bad_input_to_the_building_blocks():
         exp_derivative([0.0, 1.0])
     with pytest.raises(ValueError, match="q"):
         pose_jacobian(PLANAR, [0.0, 0.0])
+
+
+@settings(max_examples=200, deadline=None)
+@given(q=st.tuples(*(st.floats(-3.2, 3.2),) * 6), delta=st.tuples(*(st.floats(-1.0, 1.0),) * 6),
+       tiny=st.sampled_from([1.0, 1e-3, 1e-5, 1e-9, 0.0]), flip=st.booleans())
+def test_float_errors_of_the_improved_loop_equal_the_numpy_forms(q, delta, tiny, flip):
+    # The improved loop's float copy of screw_error and pose_error, at large, small (Taylor branch) and zero
+    # differences, and with the goal given on the other sheet.
+    sigma = UR3.chain.fk(np.array(q)).to_array()
+    goal = UR3.chain.fk(np.array(q) + tiny * np.array(delta)).to_array() * (-1.0 if flip else 1.0)
+    screw, pose = dls_module._errors_of_floats(tuple(sigma), tuple(goal))
+    np.testing.assert_allclose(screw, screw_error(sigma, goal), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(pose, pose_error(sigma, goal), rtol=0, atol=1e-12)

@@ -260,8 +260,12 @@ class SerialChain:
 
     def fk_of_floats(self, q: tuple) -> DualQuaternion:
         """End pose for n finite Python floats already validated by the caller (the single-FK hot path)."""
+        return DualQuaternion._from_tuple(self.end_coefficients(q))
+
+    def end_coefficients(self, q: tuple) -> tuple:
+        """End pose as an 8-tuple of floats (rw rx ry rz dw dx dy dz) for n finite floats validated by the caller."""
         *_, end = self._accumulate(q)
-        return DualQuaternion._from_tuple(end)
+        return end
 
     def fk_batch(self, joint_matrix) -> np.ndarray:
         """End poses (N, 8) of N configurations (N, n), vectorised over N."""
@@ -288,10 +292,12 @@ class SerialChain:
         pose = self._constants[0]
         directions, points = [], []
         for i, value in enumerate(q):
-            # The axis of J_i is the local z axis of the running product just before J_i.
-            matrix = dqarray.to_matrix(np.array(pose))
-            directions.append(matrix[:3, 2])
-            points.append(matrix[:3, 3])
+            # The axis of J_i is the local z axis of the running product just before J_i: r·(0, 0, 0, 1)·r*, and
+            # the frame's origin 2·d·r* lies on it. Written on floats: the DLS loop calls this once per pass.
+            w, x, y, z, dw, dx, dy, dz = pose
+            directions.append((2.0 * (x * z + w * y), 2.0 * (y * z - w * x), 1.0 - 2.0 * (x * x + y * y)))
+            points.append((2.0 * (-dw * x + dx * w - dy * z + dz * y), 2.0 * (-dw * y + dx * z + dy * w - dz * x),
+                           2.0 * (-dw * z - dx * y + dy * x + dz * w)))
             pose = multiply_coefficients(self._after_joint(i, pose, float(value)), self._constants[i + 1])
         return np.array(directions), np.array(points)
 

@@ -38,12 +38,13 @@ At a singular goal the Jacobian loses rank there and the improved mode's converg
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from ur3dq import dqarray
-from ur3dq.dualquat import DualQuaternion
+from ur3dq.dualquat import DualQuaternion, conjugate_coefficients, multiply_coefficients
 from ur3dq.kinematics.chain import REVOLUTE, SerialChain
 
 PAPER = "paper"
@@ -64,6 +65,8 @@ IMPROVED_MAX_ITERATIONS = 50
 IMPROVED_INITIAL_DAMPING = 1e-3
 # Damping this many times the largest diagonal entry of JᵀJ leaves steps ~1e-12 of the gradient step: stalled.
 _STALLED = 1e12
+#: Below this |vec(r)| the screw log uses its Taylor series (as dqarray's _SMALL).
+_SMALL_VECTOR = 1e-4
 
 
 # ----------------------------------------------------------------------------------------- pure building blocks
@@ -73,13 +76,15 @@ def joint_twists(chain: SerialChain, q) -> np.ndarray:
     Revolute: ξ = (0, u) + ε(0, p × u) (u the axis, p a point on it); prismatic: ξ = ε(0, u).
     """
     directions, points = chain.joint_axes(q)
+    revolute = np.array([kind == REVOLUTE for kind in chain.joint_types])
     twists = np.zeros((chain.n_joints, 8))
-    for i, kind in enumerate(chain.joint_types):
-        if kind == REVOLUTE:
-            twists[i, 1:4] = directions[i]
-            twists[i, 5:8] = np.cross(points[i], directions[i])
-        else:
-            twists[i, 5:8] = directions[i]
+    twists[revolute, 1:4] = directions[revolute]
+    p, u = points[revolute], directions[revolute]
+    # p × u written out: np.cross on (6, 3) costs more than the rest of this function.
+    twists[revolute, 5] = p[:, 1] * u[:, 2] - p[:, 2] * u[:, 1]
+    twists[revolute, 6] = p[:, 2] * u[:, 0] - p[:, 0] * u[:, 2]
+    twists[revolute, 7] = p[:, 0] * u[:, 1] - p[:, 1] * u[:, 0]
+    twists[~revolute, 5:8] = directions[~revolute]
     return twists
 
 
@@ -191,6 +196,42 @@ def pose_error(sigma, goal) -> np.ndarray:
         (dqarray.translation_unchecked(goal) - dqarray.translation_unchecked(sigma),
          dqarray.quaternion_to_rotation_vector(relative))
     )
+
+
+def _translation_of(c: tuple) -> tuple:
+    """t = vec(2·d·r*) of an 8-tuple of floats (as dqarray.translation_unchecked)."""
+    rw, rx, ry, rz, dw, dx, dy, dz = c
+    return (2.0 * (-dw * rx + dx * rw - dy * rz + dz * ry), 2.0 * (-dw * ry + dx * rz + dy * rw - dz * rx),
+            2.0 * (-dw * rz - dx * ry + dy * rx + dz * rw))
+
+
+def _errors_of_floats(sigma: tuple, goal: tuple) -> tuple:
+    """(screw_error, pose_error) of 8-tuples of floats, as (6,) arrays: the improved loop's hot path.
+
+    Both from one relative pose goal·σ* on its w ≥ 0 sheet: its screw logarithm (dqarray.log) doubled, and
+    (t_goal − t, its rotation vector), the rotation vector being twice the log's ω. The numpy forms
+    (screw_error, pose_error) are the reference the tests hold this to; ~30 small numpy calls per pass cost
+    the loop more than the step itself.
+    """
+    relative = multiply_coefficients(goal, conjugate_coefficients(sigma))
+    if relative[0] < 0.0:
+        relative = tuple(-v for v in relative)
+    r_w, rx, ry, rz, s_w, sx, sy, sz = relative
+    n = math.sqrt(rx * rx + ry * ry + rz * rz)
+    half_angle = math.atan2(n, r_w)
+    if n < _SMALL_VECTOR:
+        h2 = half_angle * half_angle
+        k, c = 1.0 + h2 / 6.0, -2.0 / 3.0 - h2 / 5.0
+    else:
+        k = half_angle / n
+        c = (r_w - k) / (n * n)
+    along = c * (sx * rx + sy * ry + sz * rz) - s_w
+    omega = (k * rx, k * ry, k * rz)
+    screw = np.array((2.0 * omega[0], 2.0 * omega[1], 2.0 * omega[2],
+                      2.0 * (k * sx + along * rx), 2.0 * (k * sy + along * ry), 2.0 * (k * sz + along * rz)))
+    goal_t, sigma_t = _translation_of(goal), _translation_of(sigma)
+    pose = np.array((goal_t[0] - sigma_t[0], goal_t[1] - sigma_t[1], goal_t[2] - sigma_t[2], *screw[:3]))
+    return screw, pose
 
 
 def characteristic_length(chain: SerialChain, q) -> float:
@@ -328,9 +369,12 @@ def _solve_improved(chain, goal, q0, tolerance, max_iterations, lower, upper) ->
     """
     weights = np.concatenate((np.full(3, characteristic_length(chain, q0)), np.ones(3)))
 
+    goal_floats = tuple(float(v) for v in goal)
+
     def evaluate(q):
-        sigma = chain.fk(q).to_array()
-        return sigma, weights * screw_error(sigma, goal), float(np.linalg.norm(pose_error(sigma, goal)))
+        sigma = chain.end_coefficients(tuple(float(v) for v in q))
+        screw, pose = _errors_of_floats(sigma, goal_floats)
+        return np.array(sigma), weights * screw, float(np.linalg.norm(pose))
 
     q = q0
     sigma, residual, error = evaluate(q)
