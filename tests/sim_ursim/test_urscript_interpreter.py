@@ -549,14 +549,14 @@ poses = st.tuples(finite, finite, finite, rotation, rotation, rotation).map(list
 @settings(max_examples=50, deadline=None)
 @given(poses, poses)
 def test_pose_sub_undoes_pose_add(first, second):
-    from sim_ursim.urscript.builtins import pose_add, pose_sub
+    from sim_ursim.urscript.builtins.poses import pose_add, pose_sub
 
     back = pose_sub(None, pose_add(None, first, second), first)
     np.testing.assert_allclose(kinematics.pose_to_matrix(back), kinematics.pose_to_matrix(second), atol=1e-9)
 
 
 def test_pose_add_composes_rotations_first_then_second():
-    from sim_ursim.urscript.builtins import pose_add
+    from sim_ursim.urscript.builtins.poses import pose_add
 
     quarter_x, quarter_z = [0, 0, 0, math.pi / 2, 0, 0], [0, 0, 0, 0, 0, math.pi / 2]
     expected = kinematics.rotation_vector_to_matrix(quarter_x[3:]) @ kinematics.rotation_vector_to_matrix(quarter_z[3:])
@@ -567,7 +567,7 @@ def test_pose_add_composes_rotations_first_then_second():
 @settings(max_examples=50, deadline=None)
 @given(poses)
 def test_pose_trans_with_pose_inv_is_identity(pose):
-    from sim_ursim.urscript.builtins import pose_inv, pose_trans
+    from sim_ursim.urscript.builtins.poses import pose_inv, pose_trans
 
     np.testing.assert_allclose(pose_trans(None, pose, pose_inv(None, pose)), np.zeros(6), atol=1e-9)
 
@@ -575,20 +575,20 @@ def test_pose_trans_with_pose_inv_is_identity(pose):
 @settings(max_examples=50, deadline=None)
 @given(st.tuples(st.floats(-3.0, 3.0), st.floats(-1.5, 1.5), st.floats(-3.0, 3.0)).map(list))
 def test_rpy_round_trip(rpy):
-    from sim_ursim.urscript.builtins import rotvec2rpy, rpy2rotvec
+    from sim_ursim.urscript.builtins.poses import rotvec2rpy, rpy2rotvec
 
     np.testing.assert_allclose(rotvec2rpy(None, rpy2rotvec(None, rpy)), rpy, atol=1e-9)
 
 
 def test_rpy_convention_is_z_y_x():
-    from sim_ursim.urscript.builtins import rpy2rotvec
+    from sim_ursim.urscript.builtins.poses import rpy2rotvec
 
     np.testing.assert_allclose(rpy2rotvec(None, [0, 0, math.pi / 2]), [0, 0, math.pi / 2], atol=1e-12)
     np.testing.assert_allclose(rpy2rotvec(None, [math.pi / 2, 0, 0]), [math.pi / 2, 0, 0], atol=1e-12)
 
 
 def test_interpolate_pose_end_points_and_middle():
-    from sim_ursim.urscript.builtins import interpolate_pose
+    from sim_ursim.urscript.builtins.poses import interpolate_pose
 
     start, end = [0, 0, 0, 0, 0, 0], [0.2, 0, 0, 0, 0, 1.0]
     np.testing.assert_allclose(interpolate_pose(None, start, end, 0.0), start, atol=1e-12)
