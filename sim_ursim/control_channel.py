@@ -13,11 +13,12 @@ import logging
 import socket
 import threading
 
-from .controller import CommandRefused, RobotMode, SafetyMode
+from .vocabulary import CommandRefused, RobotMode, SafetyMode
 
 log = logging.getLogger("sim_ursim.control")
 
 CONTROL_PORT = 29998
+MAX_REQUEST_BYTES = 64 * 1024  # one JSON request line; the longest real request (move-by-hand) is ~200 bytes
 FAULT_COMMANDS = ("protective-stop", "emergency-stop", "release-emergency-stop", "drop-connections", "freeze",
                   "latency", "reset", "status", "shutdown")
 COMMANDS = FAULT_COMMANDS + ("freedrive", "move-by-hand")
@@ -170,7 +171,16 @@ class ControlChannelServer:
         try:
             connection.settimeout(None)
             reader = connection.makefile("rb")
-            for line in reader:
+            while True:
+                # Bounded: a request longer than MAX_REQUEST_BYTES is answered with an error and the client dropped.
+                line = reader.readline(MAX_REQUEST_BYTES + 1)
+                if not line:
+                    break
+                if len(line) > MAX_REQUEST_BYTES:
+                    reply = {"ok": False, "error": f"request longer than {MAX_REQUEST_BYTES} bytes: connection closed"}
+                    log.warning("control channel: a client sent an over-long request; closing")
+                    connection.sendall((json.dumps(reply) + "\n").encode("utf-8"))
+                    break
                 try:
                     request = json.loads(line)
                 except ValueError:

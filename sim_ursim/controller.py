@@ -1,8 +1,14 @@
-"""The emulated UR controller: robot and safety modes, the control loop, the motion engine, I/O and program hooks.
+"""The emulated UR controller: robot and safety modes, the control loop, commands, I/O and program hooks.
 
-Contract 3 of docs/architecture.md. One thread runs the control loop on a steady clock (time.monotonic, absolute
-deadlines); each cycle advances the active motion and publishes an immutable `ControllerState` snapshot that
-servers read (`state()`) or wait for (`wait_cycle()`).
+Contract 3 of docs/architecture.md. A façade over vocabulary.py (modes, status bits, the `ControllerState` snapshot,
+refusals), motion_queue.py (the motions) and trajectories.py (the segments they run). One thread runs the control
+loop on a steady clock (time.monotonic, absolute deadlines); each cycle advances the active motion and publishes an
+immutable `ControllerState` snapshot that servers read (`state()`) or wait for (`wait_cycle()`).
+
+One way to change state: every command and setter changes the controller's fields under its lock and then calls
+`_commit()`, which republishes the present snapshot with every command-set field recomputed (same cycle number).
+So a command's effect is in `state()` as soon as the command returns; the next control cycle carries it on.
+I/O writes (`controller.io`) commit the same way through IOState's change hook.
 
 Modelling choices (documented where the real controller's rule is not public):
 - Command-time problems raise: `CommandRefused` (not RUNNING/NORMAL, freedrive on, target outside joint limits,
@@ -10,15 +16,12 @@ Modelling choices (documented where the real controller's rule is not public):
 - Joint-limit protection: a movej/movel/servoj target outside the limits is refused before moving; a motion that
   would cross a limit while running (speedj, speedl, a movel through the limit) raises a protective stop.
 - movel / speedl joint speeds above the model's limits (a singularity on the way) raise a protective stop.
-- Blending (r > 0): the Motion counts as done once the TCP is within r of its target; the next move then starts
-  and is superposed on the rest of the current one in joint space (q = q_rest + q_next − q_next_start), so speed
-  stays continuous and the arm ends exactly on the next target. The blend path is not the controller's.
+- Blending (r > 0): see motion_queue.py.
 - Speed slider: planned trajectories (movej, movel) and speed commands advance by dt × slider × speed_scaling;
   stops use real time. Pausing the program ramps speed_scaling to 0 in PAUSE_RAMP_TIME (the arm halts on its path)
   and resuming ramps it back to 1, so a paused move continues where it stopped.
 - Protective stop: decelerate at `PROTECTIVE_STOP_DECELERATION`; emergency stop: the arm halts at once.
 """
-import dataclasses
 import logging
 import math
 import threading
@@ -26,233 +29,25 @@ import time
 
 import numpy as np
 
-from . import kinematics, motion
+from . import kinematics, trajectories
 from .faults import Faults
 from .io import IOState
 from .messages import ErrorCodeMessage, MessageBus, SafetyModeMessage
 from .models import check_version_fits, default_version, parse_version, robot_model
+from .motion_queue import Motion, MotionEntry, MotionFault, MotionQueue
+from .vocabulary import (
+    PROTECTIVE_STOP_DECELERATION, PROTECTIVE_STOP_UNLOCK_DELAY, STATUS_BIT_POWER_ON, STATUS_BIT_PROGRAM_RUNNING,
+    STATUS_BIT_TEACH_BUTTON, CommandRefused, ControllerState, ControlMode, JointMode, RobotMode, SafetyMode,
+    UnlockTooEarly, frozen_array, runtime_state_of, safety_status_bits,
+)
 
 log = logging.getLogger("sim_ursim.controller")
 
-
-class RobotMode:
-    """robot_mode enumeration (protocols.md §1.6)."""
-
-    NO_CONTROLLER, DISCONNECTED, CONFIRM_SAFETY, BOOTING, POWER_OFF, POWER_ON, IDLE, BACKDRIVE, RUNNING = range(-1, 8)
-    NAMES = {-1: "NO_CONTROLLER", 0: "DISCONNECTED", 1: "CONFIRM_SAFETY", 2: "BOOTING", 3: "POWER_OFF",
-             4: "POWER_ON", 5: "IDLE", 6: "BACKDRIVE", 7: "RUNNING", 8: "UPDATING_FIRMWARE"}
-
-
-class SafetyMode:
-    """safety_mode / safety_status enumeration (protocols.md §1.6)."""
-
-    NORMAL, REDUCED, PROTECTIVE_STOP, RECOVERY, SAFEGUARD_STOP = 1, 2, 3, 4, 5
-    SYSTEM_EMERGENCY_STOP, ROBOT_EMERGENCY_STOP, VIOLATION, FAULT = 6, 7, 8, 9
-    NAMES = {1: "NORMAL", 2: "REDUCED", 3: "PROTECTIVE_STOP", 4: "RECOVERY", 5: "SAFEGUARD_STOP",
-             6: "SYSTEM_EMERGENCY_STOP", 7: "ROBOT_EMERGENCY_STOP", 8: "VIOLATION", 9: "FAULT",
-             10: "VALIDATE_JOINT_ID", 11: "UNDEFINED_SAFETY_MODE"}
-
-
-class RuntimeState:
-    """runtime_state enumeration (protocols.md §1.6)."""
-
-    STOPPING, STOPPED, PLAYING, PAUSING, PAUSED, RESUMING = range(6)
-
-
-class JointMode:
-    """joint_mode enumeration (protocols.md §3.5)."""
-
-    BACKDRIVE, POWER_OFF, MOTOR_INITIALISATION, BOOTING, RUNNING, IDLE = 238, 239, 246, 247, 253, 255
-
-
-class ControlMode:
-    """Primary RobotModeData controlMode."""
-
-    POSITION, TEACH, FORCE, TORQUE = range(4)
-
-
-# safety_status_bits (protocols.md §1.4)
-SAFETY_BIT_NORMAL, SAFETY_BIT_REDUCED, SAFETY_BIT_PROTECTIVE_STOPPED = 1 << 0, 1 << 1, 1 << 2
-SAFETY_BIT_ROBOT_EMERGENCY_STOPPED, SAFETY_BIT_EMERGENCY_STOPPED, SAFETY_BIT_STOPPED_DUE_TO_SAFETY = (
-    1 << 6, 1 << 7, 1 << 10)
-# robot_status_bits
-STATUS_BIT_POWER_ON, STATUS_BIT_PROGRAM_RUNNING, STATUS_BIT_TEACH_BUTTON = 1 << 0, 1 << 1, 1 << 2
-
-PROTECTIVE_STOP_UNLOCK_DELAY = 5.0  # s: "Cannot unlock protective stop until 5s after occurrence"
-PROTECTIVE_STOP_DECELERATION = 10.0  # rad/s² on every joint: a controlled (category 2) stop
 DEFAULT_MODE_DELAY = 0.3  # s from `power on` to IDLE and from `brake release` to RUNNING (real arms take seconds)
 PAUSE_RAMP_TIME = 0.3  # s for speed_scaling to fall to 0 on pause (and rise back to 1 on resume)
-JOINT_SPEED_TOLERANCE = 1.05  # movel/speedl may exceed a joint's max speed by 5 % before the protective stop
 AMBIENT_TEMPERATURE = 25.0
 POWERED_TEMPERATURE = 32.0
 MAIN_VOLTAGE = 48.0
-
-
-class CommandRefused(RuntimeError):
-    """The controller refused a command in its present state (the message says why)."""
-
-
-class UnlockTooEarly(CommandRefused):
-    """`unlock protective stop` came less than 5 s after the stop."""
-
-
-def safety_status_bits(safety_mode):
-    """safety_status_bits word for a safety mode (normal, protective stop, robot e-stop; others map to their bit)."""
-    if safety_mode == SafetyMode.NORMAL:
-        return SAFETY_BIT_NORMAL
-    if safety_mode == SafetyMode.PROTECTIVE_STOP:
-        return SAFETY_BIT_PROTECTIVE_STOPPED | SAFETY_BIT_STOPPED_DUE_TO_SAFETY
-    if safety_mode == SafetyMode.ROBOT_EMERGENCY_STOP:
-        return SAFETY_BIT_ROBOT_EMERGENCY_STOPPED | SAFETY_BIT_EMERGENCY_STOPPED | SAFETY_BIT_STOPPED_DUE_TO_SAFETY
-    return (1 << (safety_mode - 1)) | SAFETY_BIT_STOPPED_DUE_TO_SAFETY
-
-
-def runtime_state_of(running, paused):
-    """runtime_state for a program that is (not) running and (not) paused."""
-    if not running:
-        return RuntimeState.STOPPED
-    return RuntimeState.PAUSED if paused else RuntimeState.PLAYING
-
-
-def _frozen(array):
-    """A read-only float copy of `array`, safe to share between snapshots."""
-    result = np.array(array, dtype=float)
-    result.setflags(write=False)
-    return result
-
-
-@dataclasses.dataclass(frozen=True)
-class ControllerState:
-    """Immutable snapshot of one control cycle (arrays are read-only); field names follow RTDE outputs."""
-
-    cycle: int
-    timestamp: float
-    target_q: np.ndarray
-    target_qd: np.ndarray
-    target_qdd: np.ndarray
-    actual_q: np.ndarray
-    actual_qd: np.ndarray
-    actual_current: np.ndarray
-    target_current: np.ndarray
-    target_moment: np.ndarray
-    joint_control_output: np.ndarray
-    actual_tcp_pose: np.ndarray
-    actual_tcp_speed: np.ndarray
-    actual_tcp_force: np.ndarray
-    target_tcp_pose: np.ndarray
-    target_tcp_speed: np.ndarray
-    tcp_offset: np.ndarray
-    flange_pose: np.ndarray
-    elbow_position: np.ndarray
-    elbow_velocity: np.ndarray
-    robot_mode: int
-    control_mode: int
-    safety_mode: int
-    safety_status: int
-    safety_status_bits: int
-    robot_status_bits: int
-    runtime_state: int
-    joint_mode: tuple
-    joint_temperatures: np.ndarray
-    actual_joint_voltage: np.ndarray
-    actual_main_voltage: float
-    actual_robot_voltage: float
-    actual_robot_current: float
-    actual_momentum: float
-    speed_scaling: float
-    target_speed_fraction: float
-    digital_input_bits: int  # bits 0-7 standard, 8-15 configurable, 16-17 tool (as RTDE reports them)
-    configurable_digital_input_bits: int
-    tool_digital_input_bits: int
-    digital_output_bits: int  # bits 0-7 standard, 8-15 configurable, 16-17 tool
-    standard_digital_output_bits: int
-    configurable_digital_output_bits: int
-    tool_digital_output_bits: int
-    analog_io_types: int
-    standard_analog_input0: float
-    standard_analog_input1: float
-    standard_analog_output0: float
-    standard_analog_output1: float
-    tool_analog_input0: float
-    tool_analog_input1: float
-    standard_analog_inputs: np.ndarray
-    standard_analog_outputs: np.ndarray
-    tool_analog_inputs: np.ndarray
-    input_int_registers: np.ndarray
-    output_int_registers: np.ndarray
-    input_double_registers: np.ndarray
-    output_double_registers: np.ndarray
-    input_bit_registers: np.ndarray
-    output_bit_registers: np.ndarray
-    payload: float
-    payload_cog: np.ndarray
-    payload_inertia: np.ndarray
-    program_running: bool
-    program_paused: bool
-    power_on: bool
-    brakes_released: bool
-    protective_stopped: bool
-    emergency_stopped: bool
-    freedrive: bool
-    motion_active: bool
-    execution_time: float  # s the last control cycle's computation took
-    script_control_line: int
-    external_force_torque: np.ndarray
-
-
-class Motion:
-    """Handle of one commanded motion: `wait()` for its end, then read `error` (None when it succeeded)."""
-
-    def __init__(self, kind, blend_radius=0.0):
-        self.kind = kind
-        self.blend_radius = blend_radius
-        self.error = None
-        self._ended = threading.Event()
-
-    @property
-    def done(self):
-        """True once the motion has ended, successfully or not (see `error`)."""
-        return self._ended.is_set()
-
-    @property
-    def succeeded(self):
-        """True once the motion has ended without error."""
-        return self._ended.is_set() and self.error is None
-
-    def wait(self, timeout=None, cancel=None):
-        """Block until the motion ends (True), or `timeout` s pass / `cancel` is set (False). Does not stop the arm."""
-        if cancel is None:
-            return self._ended.wait(timeout)
-        deadline = None if timeout is None else time.monotonic() + timeout
-        while not self._ended.is_set():
-            if cancel.is_set():
-                return False
-            remaining = 0.05 if deadline is None else min(0.05, deadline - time.monotonic())
-            if remaining <= 0:
-                return False
-            self._ended.wait(remaining)
-        return True
-
-    def _finish(self, error=None):
-        if not self._ended.is_set():
-            self.error = error
-            self._ended.set()
-
-    def __repr__(self):
-        status = "running" if not self.done else ("ok" if self.error is None else f"failed: {self.error}")
-        return f"<Motion {self.kind} {status}>"
-
-
-@dataclasses.dataclass
-class _Active:
-    """A segment being executed, the Motion it reports to, and whether trajectory time follows the slider."""
-
-    segment: object
-    motion: Motion
-    follows_slider: bool
-    target_q: np.ndarray = None  # planned moves: where the arm ends (for blending and queued starts)
-    plan: object = None  # planned moves: start_q -> segment, called when the move starts
-    in_blend_zone: bool = False
 
 
 class Controller:
@@ -285,13 +80,13 @@ class Controller:
         self._cycle = 0
         self._sim_time = 0.0
 
-        self._q = _frozen(start_q)
-        self._qd = _frozen(np.zeros(6))
-        self._qdd = _frozen(np.zeros(6))
-        self._tcp_offset = _frozen(np.zeros(6))
+        self._q = frozen_array(start_q)
+        self._qd = frozen_array(np.zeros(6))
+        self._qdd = frozen_array(np.zeros(6))
+        self._tcp_offset = frozen_array(np.zeros(6))
         self._payload = 0.0
-        self._payload_cog = _frozen(np.zeros(3))
-        self._payload_inertia = _frozen(np.zeros(6))
+        self._payload_cog = frozen_array(np.zeros(3))
+        self._payload_inertia = frozen_array(np.zeros(6))
         self._speed_slider = 1.0
         self._speed_scaling = 1.0  # trajectory-time scaling the controller applies itself (pause ramps it to 0)
         self._robot_mode = RobotMode.POWER_OFF
@@ -300,9 +95,7 @@ class Controller:
         self._brakes_released = False
         self._freedrive = False
         self._protective_stop_at = None
-        self._active = None  # _Active
-        self._tail = None  # _Active still finishing underneath a blended successor
-        self._queue = []  # _Active planned moves waiting for the current one
+        self._motions = MotionQueue(self.model, self._tcp_matrix, self._solve_ik)
         self._runner = None
         self._program_running = False
         self._program_paused = False
@@ -314,8 +107,9 @@ class Controller:
         self._idle_signature = (None, None, None)
         self._execution_time = 0.0
         self._script_control_line = 0
-        self._external_force_torque = _frozen(np.zeros(6))
+        self._external_force_torque = frozen_array(np.zeros(6))
         self._state = self._snapshot(self._q, self.period)
+        self.io.on_change = lambda: self._commit(**self._io_fields())
 
     # ---------------------------------------------------------------- lifecycle
     def start(self):
@@ -335,7 +129,7 @@ class Controller:
         if thread is not None:
             thread.join(timeout=2.0)
         with self._lock:
-            self._abort_motions("controller shut down")
+            self._motions.clear("controller shut down")
             runner = self._runner
         if runner is not None and runner.is_running:
             runner.stop()
@@ -398,36 +192,44 @@ class Controller:
                 previous_q, previous_qd = self._q, self._qd
                 new_q = self._advance_motion(dt)
                 qd = (new_q - previous_q) / dt
-                self._qdd = _frozen((qd - previous_qd) / dt)
-                self._qd = _frozen(qd)
+                self._qdd = frozen_array((qd - previous_qd) / dt)
+                self._qd = frozen_array(qd)
                 if not np.array_equal(new_q, previous_q):
-                    self._q = _frozen(new_q)
+                    self._q = frozen_array(new_q)
                 self._execution_time = time.perf_counter() - began
                 state = self._snapshot(previous_q, dt)
             self._idle_signature = (self._changes, self.io.version, self._q)
-            # Stored under the lock so a command's _publish_status never overwrites a newer cycle.
-            with self._cycle_changed:
-                self._state = state
-                self._cycle_changed.notify_all()
+            self._publish(state)
 
     def _at_rest_and_unchanged(self, signature):
         """True when nothing moves or changed since the last snapshot, so it can be reused with a new cycle number."""
         last = self._state
-        return (self._active is None and self._tail is None and signature[0] == self._idle_signature[0]
+        return (not self._motions.busy and signature[0] == self._idle_signature[0]
                 and signature[1] == self._idle_signature[1] and signature[2] is self._idle_signature[2]
                 and not np.any(last.actual_qd) and not np.any(last.target_qdd) and last.actual_q is self._q)
 
     def _next_idle_snapshot(self, began):
         """The last snapshot with this cycle's number and times: an idle cycle costs almost nothing."""
-        state = object.__new__(ControllerState)
-        fields = state.__dict__
-        fields.update(self._state.__dict__)
         self._execution_time = time.perf_counter() - began
-        fields.update(cycle=self._cycle, timestamp=self._sim_time, execution_time=self._execution_time)
-        return state
+        return _replaced(self._state, cycle=self._cycle, timestamp=self._sim_time, execution_time=self._execution_time)
+
+    def _publish(self, state):
+        """Make `state` the snapshot `state()` returns and wake the waiters (called under the lock, so a command's
+        commit never overwrites a newer cycle)."""
+        with self._cycle_changed:
+            self._state = state
+            self._cycle_changed.notify_all()
+
+    def _commit(self, **fields):
+        """THE way a command or setter publishes its effect: the present snapshot with `fields` (recomputed from the
+        controller's own fields by the caller) replaced, same cycle number, visible in state() at once. Noted as
+        a change, so the next control cycle computes a full snapshot again."""
+        with self._lock:
+            self._touch()
+            self._publish(_replaced(self._state, **fields))
 
     def _touch(self):
-        """Note a change the next snapshot must show (commands, settings, hand moves)."""
+        """Note a change the next control cycle must recompute (its idle shortcut reuses an unchanged snapshot)."""
         self._changes += 1
 
     # ---------------------------------------------------------------- snapshots
@@ -448,13 +250,13 @@ class Controller:
             return cached
         frames = kinematics.joint_frames(self._dh, q)
         tcp = frames[-1] @ kinematics.pose_to_matrix(self._tcp_offset)
-        result = (tcp, frames, _frozen(kinematics.matrix_to_pose(tcp)), _frozen(kinematics.matrix_to_pose(frames[-1])))
+        result = (tcp, frames, frozen_array(kinematics.matrix_to_pose(tcp)), frozen_array(kinematics.matrix_to_pose(frames[-1])))
         self._kinematics_cache = ((q, self._tcp_offset), result)
         return result
 
     def _snapshot(self, previous_q, dt):
         """A full snapshot of the present cycle; TCP and elbow speeds by finite difference from previous_q over dt."""
-        tcp, frames, tcp_pose, flange_pose = self._kinematics_of(self._q)
+        tcp, frames, _, _ = self._kinematics_of(self._q)
         if previous_q is self._q:
             tcp_speed = np.zeros(6)
             elbow_velocity = np.zeros(3)
@@ -464,50 +266,25 @@ class Controller:
             tcp_speed = np.concatenate([(tcp[:3, 3] - old_tcp[:3, 3]) / dt,
                                         kinematics.matrix_to_rotation_vector(tcp[:3, :3] @ old_tcp[:3, :3].T) / dt])
             elbow_velocity = (frames[2][:3, 3] - old_frames[2][:3, 3]) / dt
-        powered = self._robot_mode in (RobotMode.POWER_ON, RobotMode.IDLE, RobotMode.RUNNING)
-        io = self.io
         zeros6 = _ZEROS6
         return ControllerState(
-            **self._status_fields(),
+            **self._status_fields(), **self._settings_fields(), **self._io_fields(),
             cycle=self._cycle,
             timestamp=self._sim_time,
             target_q=self._q, target_qd=self._qd, target_qdd=self._qdd,
             actual_q=self._q, actual_qd=self._qd,
             actual_current=zeros6, target_current=zeros6, target_moment=zeros6, joint_control_output=zeros6,
-            actual_tcp_pose=tcp_pose, actual_tcp_speed=_frozen(tcp_speed), actual_tcp_force=self._external_force_torque,
-            target_tcp_pose=tcp_pose, target_tcp_speed=_frozen(tcp_speed),
-            tcp_offset=self._tcp_offset, flange_pose=flange_pose,
-            elbow_position=_frozen(frames[2][:3, 3]), elbow_velocity=_frozen(elbow_velocity),
-            joint_temperatures=_POWERED_TEMPERATURES if powered else _AMBIENT_TEMPERATURES,
-            actual_joint_voltage=_JOINT_VOLTAGES if powered else zeros6,
+            actual_tcp_speed=frozen_array(tcp_speed), target_tcp_speed=frozen_array(tcp_speed),
+            elbow_position=frozen_array(frames[2][:3, 3]), elbow_velocity=frozen_array(elbow_velocity),
             actual_main_voltage=MAIN_VOLTAGE,
-            actual_robot_voltage=MAIN_VOLTAGE if powered else 0.0,
             actual_robot_current=0.0,
             actual_momentum=0.0,
             speed_scaling=self._speed_scaling,
-            digital_input_bits=io.digital_input_bits,
-            configurable_digital_input_bits=io.configurable_digital_inputs,
-            tool_digital_input_bits=io.tool_digital_inputs,
-            digital_output_bits=io.digital_output_bits,
-            standard_digital_output_bits=io.standard_digital_outputs,
-            configurable_digital_output_bits=io.configurable_digital_outputs,
-            tool_digital_output_bits=io.tool_digital_outputs,
-            analog_io_types=io.analog_io_types,
-            standard_analog_input0=float(io.analog_inputs[0]), standard_analog_input1=float(io.analog_inputs[1]),
-            standard_analog_output0=float(io.analog_outputs[0]), standard_analog_output1=float(io.analog_outputs[1]),
-            tool_analog_input0=float(io.tool_analog_inputs[0]), tool_analog_input1=float(io.tool_analog_inputs[1]),
-            standard_analog_inputs=io.analog_inputs, standard_analog_outputs=io.analog_outputs,
-            tool_analog_inputs=io.tool_analog_inputs,
-            input_int_registers=io.input_int_registers, output_int_registers=io.output_int_registers,
-            input_double_registers=io.input_double_registers, output_double_registers=io.output_double_registers,
-            input_bit_registers=io.input_bit_registers, output_bit_registers=io.output_bit_registers,
             execution_time=self._execution_time,
-            script_control_line=self._script_control_line,
-            external_force_torque=self._external_force_torque,
         )
 
     def _status_fields(self):
-        """Snapshot fields that commands change between cycles (modes, status bits, program, settings)."""
+        """Snapshot fields that commands change between cycles: modes, status bits, program, slider, payload."""
         powered = self._robot_mode in (RobotMode.POWER_ON, RobotMode.IDLE, RobotMode.RUNNING)
         status_bits = (STATUS_BIT_POWER_ON if powered else 0) | (
             STATUS_BIT_PROGRAM_RUNNING if self._program_running and not self._program_paused else 0) | (
@@ -525,17 +302,48 @@ class Controller:
             protective_stopped=self._safety_mode == SafetyMode.PROTECTIVE_STOP,
             emergency_stopped=self._safety_mode == SafetyMode.ROBOT_EMERGENCY_STOP,
             freedrive=self._freedrive,
-            motion_active=self._active is not None or self._tail is not None,
+            motion_active=self._motions.busy,
             target_speed_fraction=self._speed_slider,
             payload=self._payload, payload_cog=self._payload_cog, payload_inertia=self._payload_inertia,
+            joint_temperatures=_POWERED_TEMPERATURES if powered else _AMBIENT_TEMPERATURES,
+            actual_joint_voltage=_JOINT_VOLTAGES if powered else _ZEROS6,
+            actual_robot_voltage=MAIN_VOLTAGE if powered else 0.0,
         )
 
-    def _publish_status(self):
-        """Make a command's effect visible in state() at once (same cycle number; motion fields unchanged)."""
-        with self._lock, self._cycle_changed:
-            self._touch()
-            self._state = dataclasses.replace(self._state, **self._status_fields())
-            self._cycle_changed.notify_all()
+    def _settings_fields(self):
+        """Snapshot fields that follow the TCP offset and the fed-in wrench (the TCP poses at the present joints)."""
+        _, _, tcp_pose, flange_pose = self._kinematics_of(self._q)
+        return dict(
+            tcp_offset=self._tcp_offset, actual_tcp_pose=tcp_pose, target_tcp_pose=tcp_pose, flange_pose=flange_pose,
+            actual_tcp_force=self._external_force_torque, external_force_torque=self._external_force_torque,
+            script_control_line=self._script_control_line,
+        )
+
+    def _io_fields(self):
+        """Snapshot fields of `self.io` (digital and analog I/O, registers)."""
+        io = self.io
+        return dict(
+            digital_input_bits=io.digital_input_bits,
+            configurable_digital_input_bits=io.configurable_digital_inputs,
+            tool_digital_input_bits=io.tool_digital_inputs,
+            digital_output_bits=io.digital_output_bits,
+            standard_digital_output_bits=io.standard_digital_outputs,
+            configurable_digital_output_bits=io.configurable_digital_outputs,
+            tool_digital_output_bits=io.tool_digital_outputs,
+            analog_io_types=io.analog_io_types,
+            standard_analog_input0=float(io.analog_inputs[0]), standard_analog_input1=float(io.analog_inputs[1]),
+            standard_analog_output0=float(io.analog_outputs[0]), standard_analog_output1=float(io.analog_outputs[1]),
+            tool_analog_input0=float(io.tool_analog_inputs[0]), tool_analog_input1=float(io.tool_analog_inputs[1]),
+            standard_analog_inputs=io.analog_inputs, standard_analog_outputs=io.analog_outputs,
+            tool_analog_inputs=io.tool_analog_inputs,
+            input_int_registers=io.input_int_registers, output_int_registers=io.output_int_registers,
+            input_double_registers=io.input_double_registers, output_double_registers=io.output_double_registers,
+            input_bit_registers=io.input_bit_registers, output_bit_registers=io.output_bit_registers,
+        )
+
+    def _commit_status(self):
+        """Commit a command that changed modes, status, program state, slider or payload."""
+        self._commit(**self._status_fields())
 
     def _joint_mode(self):
         if self._robot_mode == RobotMode.RUNNING:
@@ -555,7 +363,7 @@ class Controller:
             if self._robot_mode == RobotMode.POWER_OFF:
                 self._set_robot_mode(RobotMode.POWER_ON)
                 self._pending_mode = (self._sim_time + self.mode_delay, RobotMode.IDLE)
-                self._publish_status()
+                self._commit_status()
 
     def brake_release(self):
         """Release the brakes: → RUNNING after mode_delay (powering on first from POWER_OFF, as the controller does)."""
@@ -568,7 +376,7 @@ class Controller:
                 self._set_robot_mode(RobotMode.POWER_ON)
             delay = self.mode_delay * (2 if self._robot_mode == RobotMode.POWER_ON else 1)
             self._pending_mode = (self._sim_time + delay, RobotMode.RUNNING)
-            self._publish_status()
+            self._commit_status()
 
     def power_off(self):
         """Cut power at once: motions and the program stop, brakes engage, robot mode POWER_OFF."""
@@ -578,7 +386,7 @@ class Controller:
             self._brakes_released = False
             self._freedrive = False
             self._set_robot_mode(RobotMode.POWER_OFF)
-            self._publish_status()
+            self._commit_status()
         self._stop_program_for("robot powered off")
 
     def power_up(self, timeout=5.0):
@@ -626,7 +434,7 @@ class Controller:
             if self._safety_mode != SafetyMode.NORMAL:
                 return
             self._protective_stop_locked(reason)
-            self._publish_status()
+            self._commit_status()
         self._stop_program_for(f"protective stop: {reason}")
 
     def _protective_stop_locked(self, reason):
@@ -647,7 +455,7 @@ class Controller:
                 raise UnlockTooEarly("Cannot unlock protective stop until 5s after occurrence. "
                                      "Always inspect cause of protective stop before unlocking")
             self._set_safety_mode(SafetyMode.NORMAL)
-            self._publish_status()
+            self._commit_status()
 
     def emergency_stop(self):
         """Robot emergency stop: the arm halts at once, power is cut, the program stops. Release, then power on."""
@@ -660,7 +468,7 @@ class Controller:
             self._brakes_released = False
             self._freedrive = False
             self._set_robot_mode(RobotMode.POWER_OFF)
-            self._publish_status()
+            self._commit_status()
         self._stop_program_for("emergency stop")
 
     def release_emergency_stop(self):
@@ -668,7 +476,7 @@ class Controller:
         with self._lock:
             if self._safety_mode == SafetyMode.ROBOT_EMERGENCY_STOP:
                 self._set_safety_mode(SafetyMode.NORMAL)
-                self._publish_status()
+                self._commit_status()
 
     # ---------------------------------------------------------------- motion commands
     def movej(self, q, a=1.4, v=1.05, t=0.0, r=0.0):
@@ -679,7 +487,7 @@ class Controller:
         with self._lock:
             self._require_motion_allowed("movej")
             motion = Motion("movej", r)
-            self._enqueue(_Active(None, motion, True, target_q=q), lambda start: self._plan_movej(start, q, a, v, t))
+            self._enqueue(MotionEntry(None, motion, True, target_q=q), lambda start: self._plan_movej(start, q, a, v, t))
             return motion
 
     def movel(self, pose, a=1.2, v=0.25, t=0.0, r=0.0):
@@ -688,10 +496,10 @@ class Controller:
         a, v, t, r = self._checked_move_parameters(a, v, t, r)
         with self._lock:
             self._require_motion_allowed("movel")
-            start_q = self._queued_end_q()
+            start_q = self._motions.end_q(self._q)
             q_end = self._ik_checked(pose, start_q)
             motion = Motion("movel", r)
-            self._enqueue(_Active(None, motion, True, target_q=q_end),
+            self._enqueue(MotionEntry(None, motion, True, target_q=q_end),
                           lambda start: self._plan_movel(start, pose, q_end, a, v, t))
             return motion
 
@@ -705,8 +513,8 @@ class Controller:
                              f"{np.round(self.model.max_joint_speed, 4).tolist()} rad/s")
         with self._lock:
             self._require_motion_allowed("speedj")
-            start = self._speed_ramp_start("speedj", self._qd)
-            return self._replace_motion(motion.JointSpeed(start, qd, a, t), "speedj", True)
+            start = self._motions.speed_ramp_start("speedj", self._qd)
+            return self._replace_motion(trajectories.JointSpeed(start, qd, a, t), "speedj", True)
 
     def speedl(self, xd, a=1.2, t=0.0):
         """TCP twist xd [vx vy vz wx wy wz] (base frame, m/s, rad/s) reached at acceleration a; after t s stop."""
@@ -715,8 +523,8 @@ class Controller:
         t = _non_negative(t, "t")
         with self._lock:
             self._require_motion_allowed("speedl")
-            start = self._speed_ramp_start("speedl", self._state.actual_tcp_speed)
-            segment = motion.CartesianSpeed(start, xd, a, t, self._tcp_matrix, self._solve_ik)
+            start = self._motions.speed_ramp_start("speedl", self._state.actual_tcp_speed)
+            segment = trajectories.CartesianSpeed(start, xd, a, t, self._tcp_matrix, self._solve_ik)
             return self._replace_motion(segment, "speedl", True)
 
     def servoj(self, q, a=0.0, v=0.0, t=0.008, lookahead_time=0.1, gain=300):
@@ -730,7 +538,7 @@ class Controller:
         self._check_within_limits(q, "servoj target")
         with self._lock:
             self._require_motion_allowed("servoj")
-            return self._replace_motion(motion.ServoTarget(q, t, self.model.max_joint_speed), "servoj", False)
+            return self._replace_motion(trajectories.ServoTarget(q, t, self.model.max_joint_speed), "servoj", False)
 
     def stopj(self, a=2.0):
         """Decelerate every joint to rest at a [rad/s²] (path kept); the current and queued motions end."""
@@ -755,10 +563,8 @@ class Controller:
         with self._lock:
             if not self._freedrive:
                 raise CommandRefused("the arm can be moved by hand only in freedrive (teach) mode")
-            self._q = _frozen(q)
-            self._touch()
-            with self._cycle_changed:
-                self._state = self._snapshot(self._q, self.period)
+            self._q = frozen_array(q)
+            self._commit(**vars(self._snapshot(self._q, self.period)))
 
     def set_freedrive(self, on):
         """Freedrive / teach mode on or off (on needs RUNNING + NORMAL; motions are refused while it is on)."""
@@ -769,7 +575,7 @@ class Controller:
             if bool(on) != self._freedrive:
                 log.info("freedrive %s", "on" if on else "off")
             self._freedrive = bool(on)
-            self._publish_status()
+            self._commit_status()
 
     # ---------------------------------------------------------------- settings
     def set_speed_slider(self, fraction):
@@ -779,14 +585,25 @@ class Controller:
             raise ValueError(f"speed slider fraction must be 0..1, got {fraction!r}")
         with self._lock:
             self._speed_slider = fraction
-            self._publish_status()
+            self._commit_status()
 
     def set_tcp(self, pose):
         """TCP offset as a UR pose vector in the flange frame."""
-        pose = _frozen(kinematics.checked_vector(pose, 6, "tcp pose"))
+        pose = frozen_array(kinematics.checked_vector(pose, 6, "tcp pose"))
         with self._lock:
             self._tcp_offset = pose
-            self._touch()
+            self._commit(**self._settings_fields())
+
+    @property
+    def tcp_offset(self):
+        """The active TCP offset (pose vector in the flange frame), as set by the last set_tcp."""
+        return self._tcp_offset
+
+    @property
+    def payload(self):
+        """(mass [kg], centre of gravity [m] (3,), inertia (6,)) as set by the last set_payload."""
+        with self._lock:
+            return self._payload, self._payload_cog, self._payload_inertia
 
     def set_payload(self, mass, cog=None, inertia=None):
         """Payload mass [kg] (≥ 0), centre of gravity [m] in the flange frame, inertia [Ixx Iyy Izz Ixy Ixz Iyz]."""
@@ -794,23 +611,23 @@ class Controller:
         with self._lock:
             self._payload = mass
             if cog is not None:
-                self._payload_cog = _frozen(kinematics.checked_vector(cog, 3, "cog"))
+                self._payload_cog = frozen_array(kinematics.checked_vector(cog, 3, "cog"))
             if inertia is not None:
-                self._payload_inertia = _frozen(kinematics.checked_vector(inertia, 6, "inertia"))
-            self._publish_status()
+                self._payload_inertia = frozen_array(kinematics.checked_vector(inertia, 6, "inertia"))
+            self._commit_status()
 
     def set_external_force_torque(self, wrench):
         """Wrench [Fx Fy Fz Tx Ty Tz] an RTDE client feeds in (external_force_torque); reported as actual_TCP_force."""
-        wrench = _frozen(kinematics.checked_vector(wrench, 6, "external_force_torque"))
+        wrench = frozen_array(kinematics.checked_vector(wrench, 6, "external_force_torque"))
         with self._lock:
             self._external_force_torque = wrench
-            self._touch()
+            self._commit(**self._settings_fields())
 
     def set_script_control_line(self, line):
         """The URScript line being executed (RTDE script_control_line); set by the runner."""
         with self._lock:
             self._script_control_line = max(0, int(line))
-            self._touch()
+            self._commit(script_control_line=self._script_control_line)
 
     # ---------------------------------------------------------------- kinematics helpers
     def fk(self, q):
@@ -857,7 +674,7 @@ class Controller:
             self._program_paused = bool(running) and bool(paused)
             if not running:
                 self._speed_scaling = 1.0  # a stopped program leaves no pause ramp behind
-            self._publish_status()
+            self._commit_status()
 
     def run_program(self, source, origin="dashboard"):
         """Hand URScript `source` to the runner; its answer (False: refused) is returned. CommandRefused if none."""
@@ -917,138 +734,56 @@ class Controller:
             raise error(f"{what}: joint {i} at {q[i]:.4f} rad is outside its limits "
                         f"[{self.model.joint_lower[i]:.4f}, {self.model.joint_upper[i]:.4f}]")
 
-    def _queued_end_q(self):
-        """Where the arm will be when a newly queued move starts: the last queued/active target, else now."""
-        for entry in reversed(self._queue):
-            return entry.target_q
-        if self._active is not None and self._active.target_q is not None:
-            return self._active.target_q
-        return np.array(self._q)
-
     def _plan_movej(self, start_q, q, a, v, t):
-        profile = motion.synchronised_joint_profile(q - start_q, v, a, t, self.model.max_joint_speed,
-                                                    self.model.max_joint_acceleration)
-        return motion.JointMove(start_q, q, profile)
+        profile = trajectories.synchronised_joint_profile(q - start_q, v, a, t, self.model.max_joint_speed,
+                                                          self.model.max_joint_acceleration)
+        return trajectories.JointMove(start_q, q, profile)
 
     def _plan_movel(self, start_q, pose, q_end, a, v, t):
         start_matrix = self._tcp_matrix(start_q)
         end_matrix = kinematics.pose_to_matrix(pose)
-        distance = motion.linear_distance(start_matrix, end_matrix)
-        profile = motion.timed_trapezoid(distance, t, a) if t > 0 else motion.trapezoid(distance, v, a)
-        return motion.LinearMove(start_matrix, end_matrix, start_q, q_end, profile, self._solve_ik)
+        distance = trajectories.linear_distance(start_matrix, end_matrix)
+        profile = trajectories.timed_trapezoid(distance, t, a) if t > 0 else trajectories.trapezoid(distance, v, a)
+        return trajectories.LinearMove(start_matrix, end_matrix, start_q, q_end, profile, self._solve_ik)
 
     def _enqueue(self, entry, plan):
-        """Queue a planned move; `plan(start_q)` builds its segment when it starts."""
-        entry.plan = plan
-        streaming = self._active is not None and self._active.target_q is None
-        if streaming:
-            # A speed/servo command is running: bring it to rest first, then the move starts.
-            self._stop_with(PROTECTIVE_STOP_DECELERATION, entry.motion.kind, end_queue=False)
-        self._queue.append(entry)
-        if self._active is None:
-            self._start_next(np.array(self._q), blended=False)
-        self._publish_status()
-
-    def _start_next(self, start_q, blended):
-        """Start the first queued move from start_q (superposed on the current one when blended)."""
-        entry = self._queue.pop(0)
-        try:
-            entry.segment = entry.plan(start_q)
-        except (ValueError, kinematics.IKError) as error:
-            entry.motion._finish(str(error))
-            self._end_all(lambda queued: f"not started: an earlier move failed ({error})")
-            return
-        if blended:
-            self._tail = self._active
-        self._active = entry
-        log.info("%s started (%.3f s planned)", entry.motion.kind, entry.segment.profile.duration)
-
-    def _speed_ramp_start(self, kind, measured):
-        """Where a new speedj/speedl ramp starts: the running command's own ramp when it is the same kind, else
-        the measured speed.
-
-        Clients repeat speed commands every cycle or two (ur_rtde's speed thread does): continuing the commanded
-        ramp keeps them exact, whereas the measured speed already includes the speed slider (each restart would
-        shrink it again) and any measurement error.
-        """
-        active = self._active
-        if active is not None and self._tail is None and active.segment.kind == kind:
-            return active.segment.commanded_speed
-        return np.array(measured, dtype=float)
+        """Queue a planned move (`plan(start_q)` builds its segment when it starts) and commit."""
+        self._motions.enqueue(entry, plan, self._q, self._qd)
+        self._commit_status()
 
     def _replace_motion(self, segment, kind, follows_slider):
-        """Streaming commands (speedj, speedl, servoj) take over at once from whatever runs."""
-        self._end_all(lambda entry: None if entry.motion.kind == kind else f"interrupted by {kind}")
-        self._tail = None
-        entry = _Active(segment, Motion(kind), follows_slider)
-        self._active = entry
-        self._publish_status()
-        return entry.motion
+        """A streaming command (speedj, speedl, servoj) takes over at once; commit and return its Motion."""
+        motion = self._motions.replace(segment, kind, follows_slider)
+        self._commit_status()
+        return motion
 
-    def _stop_with(self, deceleration, kind, end_queue=True):
-        """Replace every motion by a deceleration to rest; returns the stop's Motion."""
-        if end_queue:
-            self._end_all(lambda entry: f"stopped by {kind}")
-        else:
-            self._end_active(f"stopped by {kind}")
-        entry = _Active(motion.Stop(self._qd, deceleration), Motion(kind), False)
-        self._active = entry
-        self._tail = None
-        self._publish_status()
-        return entry.motion
+    def _stop_with(self, deceleration, kind):
+        """Replace every motion by a deceleration to rest; commit and return the stop's Motion."""
+        motion = self._motions.stop(self._qd, deceleration, kind)
+        self._commit_status()
+        return motion
 
     def _decelerate(self, deceleration, error):
         """Safety stop: the motions fail with `error`; the arm decelerates to rest."""
-        self._end_all(lambda entry: error)
-        self._active = _Active(motion.Stop(self._qd, deceleration), Motion("stop"), False)
-        self._tail = None
+        self._motions.stop(self._qd, deceleration, "stop", error=error)
 
     def _halt(self, error):
         """Immediate halt (e-stop, power off): speed zero now, every motion fails."""
-        self._end_all(lambda entry: error)
-        self._active = None
-        self._tail = None
-        self._qd = _frozen(np.zeros(6))
-
-    def _abort_motions(self, error):
-        self._end_all(lambda entry: error)
-        self._active = None
-        self._tail = None
-
-    def _end_active(self, error):
-        for entry in (self._tail, self._active):
-            if entry is not None:
-                entry.motion._finish(error)
-
-    def _end_all(self, error_of):
-        for entry in [self._tail, self._active] + self._queue:
-            if entry is not None:
-                entry.motion._finish(error_of(entry))
-        self._queue = []
+        self._motions.clear(error)
+        self._qd = frozen_array(np.zeros(6))
 
     def _advance_motion(self, dt):
-        """Joints after one cycle of the active motion (protective stop on limit or speed violations)."""
+        """Joints after one cycle of the active motion (protective stop on limit, speed or IK failures)."""
         q = np.array(self._q)
-        if self._freedrive or self._active is None:
+        if self._freedrive or self._motions.active is None:
             return q
         planned_dt = dt * self._speed_slider * self._ramp_speed_scaling(dt)
-        active = self._active
         try:
-            new_q = active.segment.advance(planned_dt if active.follows_slider else dt, q)
-            if self._tail is not None:
-                # Blend: the rest of the previous move plus this move's displacement from its own start.
-                tail = self._tail
-                new_q = tail.segment.advance(planned_dt) + (new_q - active.segment.q_start)
-                if tail.segment.finished:
-                    self._tail = None
-        except kinematics.IKError as error:
-            self._protective_stop_locked(f"{active.motion.kind}: {error}")
-            self._request_program_stop(f"{active.motion.kind} failed")
+            return self._motions.advance(q, dt, planned_dt)
+        except MotionFault as fault:
+            self._protective_stop_locked(fault.reason)
+            self._request_program_stop(fault.program_reason)
             return q
-        if not self._motion_step_safe(q, new_q, dt, active):
-            return q
-        self._finish_or_blend(active, new_q)
-        return new_q
 
     def _ramp_speed_scaling(self, dt):
         """speed_scaling after dt: towards 0 while the program is paused, towards 1 otherwise."""
@@ -1058,57 +793,16 @@ class Controller:
             goal, self._speed_scaling - step)
         return self._speed_scaling
 
-    def _motion_step_safe(self, q, new_q, dt, active):
-        """Joint-limit and (for Cartesian motions) joint-speed protection; protective stop when violated."""
-        outside = np.nonzero((new_q < self.model.joint_lower) | (new_q > self.model.joint_upper))[0]
-        reason = None
-        if outside.size:
-            i = int(outside[0])
-            reason = f"joint {i} position limit reached during {active.motion.kind}"
-        elif active.segment.kind in ("movel", "speedl"):
-            speeds = np.abs(new_q - q) / dt
-            too_fast = np.nonzero(speeds > self.model.max_joint_speed * JOINT_SPEED_TOLERANCE)[0]
-            if too_fast.size:
-                i = int(too_fast[0])
-                reason = (f"joint {i} speed {speeds[i]:.2f} rad/s above its limit during {active.motion.kind} "
-                          "(close to a singularity)")
-        if reason is None:
-            return True
-        self._protective_stop_locked(reason)
-        self._request_program_stop(reason)
-        return False
-
     def _request_program_stop(self, reason):
         """From inside the control loop: stop the program on another thread so the loop never waits for it."""
         threading.Thread(target=self._stop_program_for, args=(reason,), name="sim_ursim-program-stop",
                          daemon=True).start()
 
-    def _finish_or_blend(self, active, new_q):
-        """End a finished segment and start the next queued one; with r > 0 start it inside the blend zone."""
-        if active.segment.finished and self._tail is None:
-            active.motion._finish(None)
-            self._active = None
-            if self._queue:
-                self._start_next(new_q, blended=False)
-            return
-        if active.target_q is None or active.motion.blend_radius <= 0:
-            return
-        if not active.in_blend_zone:
-            here = self._tcp_matrix(new_q)[:3, 3]
-            there = self._tcp_matrix(active.target_q)[:3, 3]
-            if float(np.linalg.norm(there - here)) > active.motion.blend_radius:
-                return
-            # Inside the blend zone the program may go on (the URScript move returns) while the arm continues.
-            active.in_blend_zone = True
-            active.motion._finish(None)
-        if self._queue and self._tail is None:
-            self._start_next(active.target_q, blended=True)
 
-
-_ZEROS6 = _frozen(np.zeros(6))
-_AMBIENT_TEMPERATURES = _frozen(np.full(6, AMBIENT_TEMPERATURE))
-_POWERED_TEMPERATURES = _frozen(np.full(6, POWERED_TEMPERATURE))
-_JOINT_VOLTAGES = _frozen(np.full(6, MAIN_VOLTAGE))
+_ZEROS6 = frozen_array(np.zeros(6))
+_AMBIENT_TEMPERATURES = frozen_array(np.full(6, AMBIENT_TEMPERATURE))
+_POWERED_TEMPERATURES = frozen_array(np.full(6, POWERED_TEMPERATURE))
+_JOINT_VOLTAGES = frozen_array(np.full(6, MAIN_VOLTAGE))
 
 
 def _positive(value, name):
@@ -1135,3 +829,12 @@ def _number(value, name):
     if not math.isfinite(number):
         raise ValueError(f"{name} must be finite, got {value!r}")
     return number
+
+
+def _replaced(state, **fields):
+    """A copy of the frozen snapshot `state` with `fields` changed, without re-running the dataclass __init__ (a
+    command commits often: ur_rtde streams servoj and register writes at the control rate)."""
+    copy = object.__new__(ControllerState)
+    copy.__dict__.update(state.__dict__)
+    copy.__dict__.update(fields)
+    return copy

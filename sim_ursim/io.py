@@ -1,9 +1,13 @@
 """The controller's I/O: digital and analog outputs/inputs and the general-purpose registers.
 
 Every setter replaces the stored array (copy-on-write), so a controller snapshot can hold the arrays without
-copying them. Indices are checked: a bad index or value raises ValueError naming it.
+copying them. Indices are checked: a bad index or value raises ValueError naming it. After every write, `on_change`
+(set by the controller to its commit) runs outside the I/O lock, so the write is in the controller's state() when
+the setter returns.
 """
+import contextlib
 import threading
+from collections.abc import Callable, Iterator
 
 import numpy as np
 
@@ -36,6 +40,7 @@ class IOState:
     def __init__(self):
         self._lock = threading.Lock()
         self.version = 0  # bumped by every write, so the controller knows when its snapshot is stale
+        self.on_change: Callable[[], None] | None = None
         self.standard_digital_outputs = 0  # bit n = DO n
         self.configurable_digital_outputs = 0
         self.tool_digital_outputs = 0
@@ -53,32 +58,37 @@ class IOState:
         self.input_bit_registers = _frozen(np.zeros(BIT_REGISTER_COUNT, dtype=bool))
         self.output_bit_registers = _frozen(np.zeros(BIT_REGISTER_COUNT, dtype=bool))
 
+    @contextlib.contextmanager
+    def _writing(self) -> Iterator[None]:
+        """One write: under the lock with the version bumped, then `on_change` once the lock is released."""
+        with self._lock:
+            self.version += 1
+            yield
+        if self.on_change is not None:
+            self.on_change()
+
     # digital outputs ------------------------------------------------------------------------------------------
     def set_standard_digital_out(self, index, value):
         """Standard digital output DO`index` (0..7) on or off."""
         bit = 1 << _checked_index(index, 8, "standard digital output")
-        with self._lock:
-            self.version += 1
+        with self._writing():
             self.standard_digital_outputs = set_bits(self.standard_digital_outputs, bit, bit if value else 0)
 
     def set_configurable_digital_out(self, index, value):
         """Configurable digital output CO`index` (0..7) on or off."""
         bit = 1 << _checked_index(index, 8, "configurable digital output")
-        with self._lock:
-            self.version += 1
+        with self._writing():
             self.configurable_digital_outputs = set_bits(self.configurable_digital_outputs, bit, bit if value else 0)
 
     def set_tool_digital_out(self, index, value):
         """Tool digital output TO`index` (0..1) on or off."""
         bit = 1 << _checked_index(index, 2, "tool digital output")
-        with self._lock:
-            self.version += 1
+        with self._writing():
             self.tool_digital_outputs = set_bits(self.tool_digital_outputs, bit, bit if value else 0)
 
     def apply_digital_output_masks(self, standard=(0, 0), configurable=(0, 0), tool=(0, 0)):
         """Write (mask, values) pairs to the three digital output groups at once, as an RTDE input package does."""
-        with self._lock:
-            self.version += 1
+        with self._writing():
             self.standard_digital_outputs = set_bits(self.standard_digital_outputs, *standard) & 0xFF
             self.configurable_digital_outputs = set_bits(self.configurable_digital_outputs, *configurable) & 0xFF
             self.tool_digital_outputs = set_bits(self.tool_digital_outputs, *tool) & 0x3
@@ -86,8 +96,7 @@ class IOState:
     def set_standard_digital_in(self, index, value):
         """Simulated wiring: standard digital input DI`index` (0..7) high or low (for tests)."""
         bit = 1 << _checked_index(index, 8, "standard digital input")
-        with self._lock:
-            self.version += 1
+        with self._writing():
             self.standard_digital_inputs = set_bits(self.standard_digital_inputs, bit, bit if value else 0)
 
     @property
@@ -109,8 +118,7 @@ class IOState:
         value = float(value)
         if not 0.0 <= value <= 1.0:
             raise ValueError(f"analog output {index} value must be a ratio 0..1, got {value}")
-        with self._lock:
-            self.version += 1
+        with self._writing():
             outputs = self.analog_outputs.copy()
             outputs[index] = value
             self.analog_outputs = _frozen(outputs)
@@ -147,8 +155,7 @@ class IOState:
         if first not in (0, 32):
             raise ValueError(f"bit register word must start at 0 or 32, got {first!r}")
         name = f"{_checked_bank(bank)}_bit_registers"
-        with self._lock:
-            self.version += 1
+        with self._writing():
             bits = getattr(self, name).copy()
             bits[first:first + 32] = [(int(word) >> n) & 1 for n in range(32)]
             setattr(self, name, _frozen(bits))
@@ -161,8 +168,7 @@ class IOState:
         return int(np.dot(bits.astype(np.uint64), (np.uint64(1) << np.arange(32, dtype=np.uint64))))
 
     def _replace(self, name, index, value):
-        with self._lock:
-            self.version += 1
+        with self._writing():
             array = getattr(self, name).copy()
             array[index] = value
             setattr(self, name, _frozen(array))

@@ -82,7 +82,7 @@ def realtime_package_size(version):
 
 
 def realtime_values(state):
-    """Every field realtime_fields can name, from a controller snapshot (sim_ursim.controller.ControllerState)."""
+    """Every field realtime_fields can name, from a controller snapshot (sim_ursim.vocabulary.ControllerState)."""
     return {
         "time": state.timestamp,
         "q_target": state.target_q,

@@ -21,10 +21,10 @@ import socket
 import threading
 import time
 
-from sim_ursim.controller import CommandRefused
+from sim_ursim.vocabulary import CommandRefused
 from sim_ursim.models import build_date
 from sim_ursim.primary import packets, realtime
-from sim_ursim.primary.script_intake import ScriptAssembler
+from sim_ursim.primary.script_intake import IntakeOverflow, ScriptAssembler
 
 log = logging.getLogger(__name__)
 
@@ -38,13 +38,28 @@ RECEIVE_SIZE = 65536
 
 
 class _Connection:
-    """One accepted client socket (non-blocking) and the drop generation it belongs to."""
+    """One accepted client socket (non-blocking) and the drop generation it belongs to.
+
+    Only the reader (after the client's end of stream, having processed everything received), a deliberate drop
+    or the server's stop closes the socket. A writer that finds the client gone only stops sending
+    (`sending_ended`): bytes the client sent before closing are still in the socket and the reader takes them.
+    """
 
     def __init__(self, sock, peer, generation):
         self.sock = sock
         self.peer = peer
         self.generation = generation
         self.closed = threading.Event()
+        self.sending_ended = threading.Event()
+
+    def stop_sending(self):
+        """The client no longer takes data (it closed or reset): writers stop; reading goes on to the end."""
+        self.sending_ended.set()
+
+    @property
+    def can_send(self):
+        """False once the connection is closed or its writer gave up."""
+        return not (self.closed.is_set() or self.sending_ended.is_set())
 
     def close(self):
         """Close the socket once; both directions' threads notice through `closed`."""
@@ -64,7 +79,7 @@ def send_all(connection, data, timeout):
     view = memoryview(data)
     deadline = time.monotonic() + timeout
     while view:
-        if connection.closed.is_set():
+        if not connection.can_send:
             return False
         try:
             sent = connection.sock.send(view)
@@ -72,8 +87,8 @@ def send_all(connection, data, timeout):
             continue
         except BlockingIOError:
             pass
-        except OSError:
-            connection.close()
+        except OSError:  # the client closed or reset: what it sent before is still read by the reader
+            connection.stop_sending()
             return False
         remaining = deadline - time.monotonic()
         if remaining <= 0:
@@ -83,7 +98,7 @@ def send_all(connection, data, timeout):
         try:
             select.select([], [connection.sock], [], min(remaining, POLL_INTERVAL))
         except (OSError, ValueError):
-            connection.close()
+            connection.stop_sending()
             return False
     return True
 
@@ -192,6 +207,12 @@ class _InterfaceServer:
             self._connections.discard(connection)
 
     def _read_scripts(self, connection):
+        """Read the client's URScript to its end of stream, whatever the writer does, and run each program.
+
+        The kernel keeps what a client sent before closing (even before a reset) readable until the reader takes
+        it, so every program received before the close runs. A client that sends more than the intake holds
+        without completing a program is dropped with a logged reason (script_intake.IntakeOverflow).
+        """
         assembler = ScriptAssembler()
         while not connection.closed.is_set() and not self._stopping.is_set():
             try:
@@ -208,7 +229,12 @@ class _InterfaceServer:
                 break
             if not data:
                 break
-            for program in assembler.feed(data):
+            try:
+                programs = assembler.feed(data)
+            except IntakeOverflow as overflow:
+                log.warning("port %s: %s dropped: %s", self.port, connection.peer, overflow)
+                break
+            for program in programs:
                 self._submit(program)
         self._forget(connection)
 
@@ -281,7 +307,7 @@ class PrimaryServer(_InterfaceServer):
             )
             delayed.put(greeting, time.monotonic() + faults.latency)
             next_state = time.monotonic()
-            while not self._stopping.is_set() and not connection.closed.is_set():
+            while not self._stopping.is_set() and connection.can_send:
                 now = time.monotonic()
                 if faults.streams_frozen:
                     # Nothing is produced or sent; robot messages wait in the subscription queue.
@@ -309,7 +335,7 @@ class PrimaryServer(_InterfaceServer):
         finally:
             if subscription is not None:
                 controller.messages.unsubscribe(subscription)
-            self._forget(connection)
+            connection.stop_sending()  # the reader closes the connection once it has read everything
 
     def _timestamp_ms(self):
         return int(self.controller.state().timestamp * 1000)
@@ -335,7 +361,7 @@ class _RealtimeClient:
     def offer(self, package, now):
         """Send `package` without waiting; while earlier bytes are still unsent, this package is skipped (as the
         controller skips packages); a client stalled for REALTIME_STALL_LIMIT s is discontinued."""
-        if self.discontinued or self.connection.closed.is_set():
+        if self.discontinued or not self.connection.can_send:
             return
         if self.unsent:
             self.unsent = self._send(self.unsent)
@@ -353,8 +379,8 @@ class _RealtimeClient:
             sent = self.connection.sock.send(data)
         except BlockingIOError:
             return data
-        except OSError:
-            self.connection.close()
+        except OSError:  # the client went away; its reader still takes what it sent
+            self.connection.stop_sending()
             return b""
         return data[sent:]
 

@@ -20,7 +20,7 @@ import operator
 import threading
 from dataclasses import dataclass
 
-from sim_ursim.controller import CommandRefused
+from sim_ursim.vocabulary import CommandRefused
 from sim_ursim.urscript import nodes
 from sim_ursim.urscript.values import Pose, ScriptError, copy_value, to_str, truth
 

@@ -14,7 +14,7 @@ The primary/secondary/realtime servers hand every received script to `submit(sou
 import logging
 import threading
 
-from sim_ursim.controller import PROTECTIVE_STOP_DECELERATION, CommandRefused
+from sim_ursim.vocabulary import PROTECTIVE_STOP_DECELERATION, CommandRefused
 from sim_ursim.messages import KeyMessage, RuntimeExceptionMessage
 from sim_ursim.urscript.builtins import BUILTINS
 from sim_ursim.urscript.interpreter import CompileError, Execution, compile_program

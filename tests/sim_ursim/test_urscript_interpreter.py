@@ -531,6 +531,22 @@ def test_jacobian_matches_finite_differences_of_forward_kinematics(controller):
         np.testing.assert_allclose([row[joint] for row in g["J"][:3]], velocity, atol=1e-5)
 
 
+def test_set_tcp_is_seen_by_the_next_statement(controller):
+    """get_tcp_offset and get_jacobian right after set_tcp use the new TCP, every time (it lagged a cycle before)."""
+    q = [0.3, -1.1, 0.9, -1.2, -1.4, 0.2]
+    lines = []
+    for n in range(60):
+        z = 0.05 + 0.01 * (n % 5)
+        lines.append(f"set_tcp(p[0, 0, {z}, 0, 0, 0])\noffsets[{n}] = get_tcp_offset()\nJ{n} = get_jacobian({q})\n")
+    source = "offsets = [" + ", ".join(["p[0, 0, 0, 0, 0, 0]"] * 60) + "]\n" + "".join(lines)
+    g = run(controller, source + "set_tcp(p[0, 0, 0, 0, 0, 0])\n").globals
+    for n in range(60):
+        z = 0.05 + 0.01 * (n % 5)
+        assert list(g["offsets"][n]) == pytest.approx([0, 0, z, 0, 0, 0])
+        expected = kinematics.geometric_jacobian(controller.model.dh, np.array(q), np.array([0, 0, z, 0, 0, 0]))
+        np.testing.assert_allclose(g[f"J{n}"], expected, atol=1e-12)
+
+
 def test_unsupported_builtin_compiles_but_fails_when_called(controller):
     call = "force_mode(p[0,0,0,0,0,0], [0,0,1,0,0,0], [0,0,0,0,0,0], 2, [0,0,0,0,0,0])"
     outcome = run(controller, f"if False:\n  {call}\nend\n")

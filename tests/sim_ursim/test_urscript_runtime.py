@@ -8,7 +8,8 @@ import time
 import numpy as np
 import pytest
 
-from sim_ursim.controller import Controller, RuntimeState
+from sim_ursim.controller import Controller
+from sim_ursim.vocabulary import RuntimeState
 from sim_ursim.messages import KeyMessage, RuntimeExceptionMessage, TextMessage
 from sim_ursim.urscript.runtime import ProgramRunner
 from polling import wait_for

@@ -56,8 +56,7 @@ def is_within_safety_limits(ctx, pose, qnear=None):
 @builtin
 def get_jacobian(ctx, q=None, tcp=None):
     """6x6 geometric Jacobian (rows: TCP twist [v; ω] in the base frame, columns: joints) as a list of rows."""
-    state = ctx.controller.state()
-    joints = state.actual_q if q is None else np.array(number_list(q, 6, "q"))
-    offset = state.tcp_offset if tcp is None else as_pose_array(tcp, "tcp")
+    joints = ctx.controller.state().actual_q if q is None else np.array(number_list(q, 6, "q"))
+    offset = ctx.controller.tcp_offset if tcp is None else as_pose_array(tcp, "tcp")
     jacobian = kinematics.geometric_jacobian(ctx.controller.model.dh, joints, offset)
     return [to_list(row) for row in jacobian]

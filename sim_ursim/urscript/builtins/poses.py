@@ -45,7 +45,8 @@ def pose_sub(ctx, p_to, p_from):
 @builtin
 def pose_dist(ctx, p_from, p_to):
     """sqrt(Δposition² + Δangle²) between two poses (metres and radians mixed, as URScript defines it)."""
-    a, b = kinematics.pose_to_matrix(as_pose_array(p_from, "p_from")), kinematics.pose_to_matrix(as_pose_array(p_to, "p_to"))
+    a = kinematics.pose_to_matrix(as_pose_array(p_from, "p_from"))
+    b = kinematics.pose_to_matrix(as_pose_array(p_to, "p_to"))
     return math.hypot(float(np.linalg.norm(a[:3, 3] - b[:3, 3])), kinematics.rotation_angle_between(a, b))
 
 
@@ -58,10 +59,9 @@ def point_dist(ctx, p_from, p_to):
 @builtin
 def interpolate_pose(ctx, p_from, p_to, alpha):
     """Pose a fraction alpha (0..1) along the line from p_from to p_to, orientation at a constant angular rate."""
-    matrix = kinematics.interpolate_pose(
-        kinematics.pose_to_matrix(as_pose_array(p_from, "p_from")), kinematics.pose_to_matrix(as_pose_array(p_to, "p_to")),
-        as_number(alpha, "alpha"),
-    )
+    start = kinematics.pose_to_matrix(as_pose_array(p_from, "p_from"))
+    end = kinematics.pose_to_matrix(as_pose_array(p_to, "p_to"))
+    matrix = kinematics.interpolate_pose(start, end, as_number(alpha, "alpha"))
     return to_pose(kinematics.matrix_to_pose(matrix))
 
 

@@ -1,7 +1,8 @@
 """URScript settings and state built-ins: TCP, payload, and the getters of the controller's state.
 
-The getters are table-driven: one row per built-in names the ControllerState field it reads and the URScript value
-it returns. Each call reads the controller when it runs (`controller.state()`), never a copy kept by the program.
+Settings (TCP, payload) are read from the controller's own settings, never from a snapshot field. The state getters
+are table-driven: one row per built-in names the ControllerState field it reads and the URScript value it returns;
+each call reads `controller.state()` when it runs (commands commit to it before they return).
 """
 from collections.abc import Callable
 from typing import Any
@@ -32,7 +33,7 @@ def set_payload_mass(ctx, m):
 @builtin
 def set_payload_cog(ctx, cog):
     """Payload centre of gravity [m] in the flange frame, mass unchanged."""
-    mass = float(ctx.controller.state().payload)
+    mass = float(ctx.controller.payload[0])
     controller_call(ctx.controller.set_payload, mass, number_list(cog, 3, "cog"))
 
 
@@ -65,10 +66,6 @@ _STATE_GETTERS: tuple[tuple[str, str, Callable[[Any], Any], str], ...] = (
     ("get_actual_tool_flange_pose", "flange_pose", to_pose, "Flange (DH frame 6) pose in the base frame."),
     ("get_tcp_force", "actual_tcp_force", to_pose,
      "Wrench at the TCP [N, Nm] in the base frame, as the controller reports it (a pose-typed value)."),
-    ("get_tcp_offset", "tcp_offset", to_pose, "Active TCP offset in the flange frame."),
-    ("get_target_payload", "payload", float, "Payload mass [kg]."),
-    ("get_target_payload_cog", "payload_cog", to_list, "Payload centre of gravity [m]."),
-    ("get_target_payload_inertia", "payload_inertia", to_list, "Payload inertia [Ixx Iyy Izz Ixy Ixz Iyz]."),
 )
 
 
@@ -84,3 +81,27 @@ def _state_getter(name: str, field: str, convert: Callable[[Any], Any], doc: str
 
 for _row in _STATE_GETTERS:
     register(_row[0], _state_getter(*_row))
+
+
+@builtin
+def get_tcp_offset(ctx):
+    """Active TCP offset in the flange frame."""
+    return to_pose(ctx.controller.tcp_offset)
+
+
+@builtin
+def get_target_payload(ctx):
+    """Payload mass [kg]."""
+    return float(ctx.controller.payload[0])
+
+
+@builtin
+def get_target_payload_cog(ctx):
+    """Payload centre of gravity [m]."""
+    return to_list(ctx.controller.payload[1])
+
+
+@builtin
+def get_target_payload_inertia(ctx):
+    """Payload inertia [Ixx Iyy Izz Ixy Ixz Iyz]."""
+    return to_list(ctx.controller.payload[2])
