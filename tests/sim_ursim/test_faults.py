@@ -161,10 +161,10 @@ def test_execute_without_a_stop_hook_refuses_shutdown(sim):
 
 # ------------------------------------------------------------------------------------------ seen by ur_rtde
 def test_faults_from_the_command_line_are_seen_by_ur_rtde():
-    # ur_rtde's RTDE constructors hold the GIL, hence a simulator process (see sim_ursim.testing).
+    # ur_rtde's RTDE constructors hold the GIL, hence a simulator process (see sim_ursim.launch).
     import rtde_receive
 
-    from sim_ursim.testing import simulator_process
+    from sim_ursim.launch import simulator_process
 
     with simulator_process(model="ur3e") as sim:
         receiver = rtde_receive.RTDEReceiveInterface(sim.host)

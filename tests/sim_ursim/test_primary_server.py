@@ -17,7 +17,7 @@ from sim_ursim.messages import TextMessage
 from sim_ursim.primary import server as server_module
 from sim_ursim.primary.script_intake import (MAX_PENDING_BYTES, MAX_PENDING_LINES, IntakeOverflow,
                                               ScriptAssembler)
-from sim_ursim.testing import running_simulator, simulator_process
+from sim_ursim.launch import running_simulator, simulator_process
 from polling import wait_for
 
 PRIMARY, SECONDARY, REALTIME, DASHBOARD = 30001, 30002, 30003, 29999

@@ -195,7 +195,7 @@ def test_program_state_agrees_on_rtde_dashboard_and_primary_views():
     `programState` (ur_rtde DashboardClient) and primary isProgramRunning (urx's parser) agree at every stage."""
     dashboard_client = pytest.importorskip("dashboard_client")
     ursecmon = pytest.importorskip("urx.ursecmon")
-    from sim_ursim.testing import running_simulator
+    from sim_ursim.launch import running_simulator
 
     with running_simulator(model="ur3") as sim:
         sim.controller.power_up()
@@ -242,7 +242,7 @@ def powered_simulator_process(dashboard_client, **options):
 
     A subprocess because ur_rtde's constructors hold the GIL while they wait for the simulator.
     """
-    from sim_ursim.testing import simulator_process
+    from sim_ursim.launch import simulator_process
 
     with simulator_process(**options) as sim:
         dashboard = dashboard_client.DashboardClient(sim.host)

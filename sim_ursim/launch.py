@@ -1,4 +1,5 @@
-"""Context managers that give tests a running simulator on a free loopback address.
+"""Launching simulators: context managers that start one on a free loopback address (in this process or as a
+`python -m sim_ursim` subprocess) and wait until it serves. Used by the tests and by ur3dq's `sim` CLI commands.
 
 UR clients cannot change the robot's ports, so parallel simulators differ by address: every one gets its own
 random 127.a.b.c (all of 127.0.0.0/8 is loopback on Linux) where every standard port is free.
