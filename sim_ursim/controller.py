@@ -12,11 +12,9 @@ I/O writes (`controller.io`) commit the same way through IOState's change hook.
 
 Modelling choices (documented where the real controller's rule is not public):
 - Command-time problems raise: `CommandRefused` (not RUNNING/NORMAL, freedrive on, target outside joint limits,
-  unreachable pose) or ValueError (malformed arguments). Run-time problems end the Motion with `.error` set.
-- Joint-limit protection: a movej/movel/servoj target outside the limits is refused before moving; a motion that
-  would cross a limit while running (speedj, speedl, a movel through the limit) raises a protective stop.
-- movel / speedl joint speeds above the model's limits (a singularity on the way) raise a protective stop.
-- Blending (r > 0): see motion_queue.py.
+  unreachable pose) or ValueError (malformed arguments). Run-time problems end the Motion with `.error` set;
+  a motion crossing a joint limit or a joint speed limit while running raises a protective stop (motion_queue.py).
+- Modes and their delays: modes.py. Blending (r > 0): motion_queue.py.
 - Speed slider: planned trajectories (movej, movel) and speed commands advance by dt × slider × speed_scaling;
   stops use real time. Pausing the program ramps speed_scaling to 0 in PAUSE_RAMP_TIME (the arm halts on its path)
   and resuming ramps it back to 1, so a paused move continues where it stopped.
@@ -32,13 +30,14 @@ import numpy as np
 from . import kinematics, trajectories
 from .faults import Faults
 from .io import IOState
-from .messages import ErrorCodeMessage, MessageBus, SafetyModeMessage
+from .messages import MessageBus
+from .modes import ModeMachine
 from .models import check_version_fits, default_version, parse_version, robot_model
 from .motion_queue import Motion, MotionEntry, MotionFault, MotionQueue
 from .vocabulary import (
     PROTECTIVE_STOP_DECELERATION, PROTECTIVE_STOP_UNLOCK_DELAY, STATUS_BIT_POWER_ON, STATUS_BIT_PROGRAM_RUNNING,
-    STATUS_BIT_TEACH_BUTTON, CommandRefused, ControllerState, ControlMode, JointMode, RobotMode, SafetyMode,
-    UnlockTooEarly, frozen_array, runtime_state_of, safety_status_bits,
+    STATUS_BIT_TEACH_BUTTON, CommandRefused, ControllerState, ControlMode, RobotMode, SafetyMode, frozen_array,
+    runtime_state_of, safety_status_bits,
 )
 
 log = logging.getLogger("sim_ursim.controller")
@@ -64,12 +63,11 @@ class Controller:
                 raise ValueError(f"frequency must be 1..1000 Hz, got {frequency!r}")
             control_frequency = float(frequency)
         self.period = 1.0 / control_frequency
-        self.mode_delay = float(mode_delay)
-        self.unlock_delay = float(unlock_delay)
         self.messages = MessageBus()
+        self._modes = ModeMachine(mode_delay, unlock_delay, self.messages.publish)
         self.faults = Faults()
         self.io = IOState()
-        self._dh = self.model.dh
+        self._arm = kinematics.ArmKinematics(self.model.dh, np.zeros(6))
         start_q = np.zeros(6) if initial_q is None else kinematics.checked_vector(initial_q, 6, "initial_q")
         self._check_within_limits(start_q, "initial_q", refuse=ValueError)
 
@@ -83,33 +81,26 @@ class Controller:
         self._q = frozen_array(start_q)
         self._qd = frozen_array(np.zeros(6))
         self._qdd = frozen_array(np.zeros(6))
-        self._tcp_offset = frozen_array(np.zeros(6))
         self._payload = 0.0
         self._payload_cog = frozen_array(np.zeros(3))
         self._payload_inertia = frozen_array(np.zeros(6))
         self._speed_slider = 1.0
         self._speed_scaling = 1.0  # trajectory-time scaling the controller applies itself (pause ramps it to 0)
-        self._robot_mode = RobotMode.POWER_OFF
-        self._safety_mode = SafetyMode.NORMAL
-        self._pending_mode = None  # (sim time, robot mode) of a power-on / brake-release transition
-        self._brakes_released = False
         self._freedrive = False
-        self._protective_stop_at = None
-        self._motions = MotionQueue(self.model, self._tcp_matrix, self._solve_ik)
+        self._motions = MotionQueue(self.model, self._arm.tcp_matrix, self._solve_ik)
         self._runner = None
         self._program_running = False
         self._program_paused = False
         self.programs_directory = None  # dashboard `load` resolves relative paths here (None: current directory)
         self.loaded_program = None  # path of the program `play` runs
         self.loaded_program_source = None
-        self._kinematics_cache = (None, None)
         self._changes = 0
         self._idle_signature = (None, None, None)
         self._execution_time = 0.0
         self._script_control_line = 0
         self._external_force_torque = frozen_array(np.zeros(6))
         self._state = self._snapshot(self._q, self.period)
-        self.io.on_change = lambda: self._commit(**self._io_fields())
+        self.io.on_change = lambda: self._commit(**self.io.snapshot_fields())
 
     # ---------------------------------------------------------------- lifecycle
     def start(self):
@@ -184,7 +175,8 @@ class Controller:
         with self._lock:
             self._cycle += steps
             self._sim_time += dt
-            self._advance_mode_transition()
+            if self._modes.advance(self._sim_time):
+                self._touch()
             signature = (self._changes, self.io.version, self._q)
             if self._at_rest_and_unchanged(signature):
                 state = self._next_idle_snapshot(began)
@@ -243,32 +235,13 @@ class Controller:
             self._cycle_changed.wait_for(lambda: self._state.cycle > after_cycle or self._stop_loop.is_set(), timeout)
             return self._state
 
-    def _kinematics_of(self, q):
-        """(tcp matrix, joint frames) at q, cached while q and the TCP offset are unchanged (idle costs nothing)."""
-        key, cached = self._kinematics_cache
-        if key is not None and key[0] is q and key[1] is self._tcp_offset:
-            return cached
-        frames = kinematics.joint_frames(self._dh, q)
-        tcp = frames[-1] @ kinematics.pose_to_matrix(self._tcp_offset)
-        result = (tcp, frames, frozen_array(kinematics.matrix_to_pose(tcp)), frozen_array(kinematics.matrix_to_pose(frames[-1])))
-        self._kinematics_cache = ((q, self._tcp_offset), result)
-        return result
-
     def _snapshot(self, previous_q, dt):
         """A full snapshot of the present cycle; TCP and elbow speeds by finite difference from previous_q over dt."""
-        tcp, frames, _, _ = self._kinematics_of(self._q)
-        if previous_q is self._q:
-            tcp_speed = np.zeros(6)
-            elbow_velocity = np.zeros(3)
-        else:
-            old_frames = kinematics.joint_frames(self._dh, previous_q)
-            old_tcp = old_frames[-1] @ kinematics.pose_to_matrix(self._tcp_offset)
-            tcp_speed = np.concatenate([(tcp[:3, 3] - old_tcp[:3, 3]) / dt,
-                                        kinematics.matrix_to_rotation_vector(tcp[:3, :3] @ old_tcp[:3, :3].T) / dt])
-            elbow_velocity = (frames[2][:3, 3] - old_frames[2][:3, 3]) / dt
+        _, frames, _, _ = self._arm.poses_at(self._q)
+        tcp_speed, elbow_velocity = self._arm.speeds_between(previous_q, self._q, dt)
         zeros6 = _ZEROS6
         return ControllerState(
-            **self._status_fields(), **self._settings_fields(), **self._io_fields(),
+            **self._status_fields(), **self._settings_fields(), **self.io.snapshot_fields(),
             cycle=self._cycle,
             timestamp=self._sim_time,
             target_q=self._q, target_qd=self._qd, target_qdd=self._qdd,
@@ -285,22 +258,23 @@ class Controller:
 
     def _status_fields(self):
         """Snapshot fields that commands change between cycles: modes, status bits, program, slider, payload."""
-        powered = self._robot_mode in (RobotMode.POWER_ON, RobotMode.IDLE, RobotMode.RUNNING)
+        modes = self._modes
+        powered = modes.powered
         status_bits = (STATUS_BIT_POWER_ON if powered else 0) | (
             STATUS_BIT_PROGRAM_RUNNING if self._program_running and not self._program_paused else 0) | (
             STATUS_BIT_TEACH_BUTTON if self._freedrive else 0)
         return dict(
-            robot_mode=self._robot_mode,
+            robot_mode=modes.robot_mode,
             control_mode=ControlMode.TEACH if self._freedrive else ControlMode.POSITION,
-            safety_mode=self._safety_mode, safety_status=self._safety_mode,
-            safety_status_bits=safety_status_bits(self._safety_mode),
+            safety_mode=modes.safety_mode, safety_status=modes.safety_mode,
+            safety_status_bits=safety_status_bits(modes.safety_mode),
             robot_status_bits=status_bits,
             runtime_state=runtime_state_of(self._program_running, self._program_paused),
-            joint_mode=(self._joint_mode(),) * 6,
+            joint_mode=(modes.joint_mode,) * 6,
             program_running=self._program_running, program_paused=self._program_paused,
-            power_on=powered, brakes_released=self._brakes_released,
-            protective_stopped=self._safety_mode == SafetyMode.PROTECTIVE_STOP,
-            emergency_stopped=self._safety_mode == SafetyMode.ROBOT_EMERGENCY_STOP,
+            power_on=powered, brakes_released=modes.brakes_released,
+            protective_stopped=modes.safety_mode == SafetyMode.PROTECTIVE_STOP,
+            emergency_stopped=modes.safety_mode == SafetyMode.ROBOT_EMERGENCY_STOP,
             freedrive=self._freedrive,
             motion_active=self._motions.busy,
             target_speed_fraction=self._speed_slider,
@@ -312,80 +286,36 @@ class Controller:
 
     def _settings_fields(self):
         """Snapshot fields that follow the TCP offset and the fed-in wrench (the TCP poses at the present joints)."""
-        _, _, tcp_pose, flange_pose = self._kinematics_of(self._q)
+        _, _, tcp_pose, flange_pose = self._arm.poses_at(self._q)
         return dict(
-            tcp_offset=self._tcp_offset, actual_tcp_pose=tcp_pose, target_tcp_pose=tcp_pose, flange_pose=flange_pose,
+            tcp_offset=self._arm.tcp_offset, actual_tcp_pose=tcp_pose, target_tcp_pose=tcp_pose, flange_pose=flange_pose,
             actual_tcp_force=self._external_force_torque, external_force_torque=self._external_force_torque,
             script_control_line=self._script_control_line,
-        )
-
-    def _io_fields(self):
-        """Snapshot fields of `self.io` (digital and analog I/O, registers)."""
-        io = self.io
-        return dict(
-            digital_input_bits=io.digital_input_bits,
-            configurable_digital_input_bits=io.configurable_digital_inputs,
-            tool_digital_input_bits=io.tool_digital_inputs,
-            digital_output_bits=io.digital_output_bits,
-            standard_digital_output_bits=io.standard_digital_outputs,
-            configurable_digital_output_bits=io.configurable_digital_outputs,
-            tool_digital_output_bits=io.tool_digital_outputs,
-            analog_io_types=io.analog_io_types,
-            standard_analog_input0=float(io.analog_inputs[0]), standard_analog_input1=float(io.analog_inputs[1]),
-            standard_analog_output0=float(io.analog_outputs[0]), standard_analog_output1=float(io.analog_outputs[1]),
-            tool_analog_input0=float(io.tool_analog_inputs[0]), tool_analog_input1=float(io.tool_analog_inputs[1]),
-            standard_analog_inputs=io.analog_inputs, standard_analog_outputs=io.analog_outputs,
-            tool_analog_inputs=io.tool_analog_inputs,
-            input_int_registers=io.input_int_registers, output_int_registers=io.output_int_registers,
-            input_double_registers=io.input_double_registers, output_double_registers=io.output_double_registers,
-            input_bit_registers=io.input_bit_registers, output_bit_registers=io.output_bit_registers,
         )
 
     def _commit_status(self):
         """Commit a command that changed modes, status, program state, slider or payload."""
         self._commit(**self._status_fields())
 
-    def _joint_mode(self):
-        if self._robot_mode == RobotMode.RUNNING:
-            return JointMode.RUNNING
-        if self._robot_mode == RobotMode.IDLE:
-            return JointMode.IDLE
-        if self._robot_mode == RobotMode.POWER_ON:
-            return JointMode.MOTOR_INITIALISATION
-        return JointMode.POWER_OFF
-
-    # ---------------------------------------------------------------- power, brakes, safety
+    # ---------------------------------------------------------------- power, brakes, safety (modes.py)
     def power_on(self):
         """POWER_OFF → POWER_ON → (after mode_delay) IDLE. Refused during an emergency stop."""
         with self._lock:
-            if self._safety_mode == SafetyMode.ROBOT_EMERGENCY_STOP:
-                raise CommandRefused("cannot power on: the emergency stop is active (release it first)")
-            if self._robot_mode == RobotMode.POWER_OFF:
-                self._set_robot_mode(RobotMode.POWER_ON)
-                self._pending_mode = (self._sim_time + self.mode_delay, RobotMode.IDLE)
-                self._commit_status()
+            self._modes.power_on(self._sim_time)
+            self._commit_status()
 
     def brake_release(self):
         """Release the brakes: → RUNNING after mode_delay (powering on first from POWER_OFF, as the controller does)."""
         with self._lock:
-            if self._safety_mode == SafetyMode.ROBOT_EMERGENCY_STOP:
-                raise CommandRefused("cannot release brakes: the emergency stop is active")
-            if self._robot_mode == RobotMode.RUNNING:
-                return
-            if self._robot_mode == RobotMode.POWER_OFF:
-                self._set_robot_mode(RobotMode.POWER_ON)
-            delay = self.mode_delay * (2 if self._robot_mode == RobotMode.POWER_ON else 1)
-            self._pending_mode = (self._sim_time + delay, RobotMode.RUNNING)
+            self._modes.brake_release(self._sim_time)
             self._commit_status()
 
     def power_off(self):
         """Cut power at once: motions and the program stop, brakes engage, robot mode POWER_OFF."""
         with self._lock:
             self._halt("robot powered off")
-            self._pending_mode = None
-            self._brakes_released = False
             self._freedrive = False
-            self._set_robot_mode(RobotMode.POWER_OFF)
+            self._modes.power_off()
             self._commit_status()
         self._stop_program_for("robot powered off")
 
@@ -400,38 +330,10 @@ class Controller:
             self.wait_cycle(self._state.cycle, timeout=0.1)
         return self._state
 
-    def _advance_mode_transition(self):
-        if self._pending_mode is None or self._sim_time < self._pending_mode[0]:
-            return
-        _, target = self._pending_mode
-        self._pending_mode = None
-        if self._robot_mode == RobotMode.POWER_ON and target == RobotMode.RUNNING:
-            # brake release from power-off goes through IDLE like the controller's own sequence
-            self._set_robot_mode(RobotMode.IDLE)
-            self._pending_mode = (self._sim_time + self.mode_delay, RobotMode.RUNNING)
-            return
-        if target == RobotMode.RUNNING:
-            self._brakes_released = True
-        self._set_robot_mode(target)
-        self._touch()
-
-    def _set_robot_mode(self, mode):
-        if mode != self._robot_mode:
-            log.info("robot mode %s -> %s", RobotMode.NAMES[self._robot_mode], RobotMode.NAMES[mode])
-            self._robot_mode = mode
-            self._touch()
-
-    def _set_safety_mode(self, mode):
-        if mode != self._safety_mode:
-            log.info("safety mode %s -> %s", SafetyMode.NAMES[self._safety_mode], SafetyMode.NAMES[mode])
-            self._safety_mode = mode
-            self._touch()
-            self.messages.publish(SafetyModeMessage(code=0, argument=0, safety_mode_type=mode))
-
     def protective_stop(self, reason="protective stop requested"):
         """Enter PROTECTIVE_STOP: decelerate the arm, fail the motions, stop the program. Unlock ≥ 5 s later."""
         with self._lock:
-            if self._safety_mode != SafetyMode.NORMAL:
+            if self._modes.safety_mode != SafetyMode.NORMAL:
                 return
             self._protective_stop_locked(reason)
             self._commit_status()
@@ -439,43 +341,30 @@ class Controller:
 
     def _protective_stop_locked(self, reason):
         """Protective stop from inside the control loop or a locked command (program stop left to the caller)."""
-        log.warning("protective stop: %s", reason)
-        self._protective_stop_at = time.monotonic()
-        self._set_safety_mode(SafetyMode.PROTECTIVE_STOP)
-        self.messages.publish(ErrorCodeMessage(code=209, argument=0, report_level=3, data_type=0, data=0,
-                                               text=f"Protective stop: {reason}"))
+        self._modes.enter_protective_stop(reason)
+        self._touch()
         self._decelerate(PROTECTIVE_STOP_DECELERATION, f"protective stop: {reason}")
 
     def unlock_protective_stop(self):
         """Back to NORMAL; raises UnlockTooEarly within 5 s of the stop, CommandRefused if not protective-stopped."""
         with self._lock:
-            if self._safety_mode != SafetyMode.PROTECTIVE_STOP:
-                raise CommandRefused(f"not in protective stop (safety mode {SafetyMode.NAMES[self._safety_mode]})")
-            if time.monotonic() - self._protective_stop_at < self.unlock_delay:
-                raise UnlockTooEarly("Cannot unlock protective stop until 5s after occurrence. "
-                                     "Always inspect cause of protective stop before unlocking")
-            self._set_safety_mode(SafetyMode.NORMAL)
+            self._modes.unlock_protective_stop()
             self._commit_status()
 
     def emergency_stop(self):
         """Robot emergency stop: the arm halts at once, power is cut, the program stops. Release, then power on."""
         with self._lock:
-            if self._safety_mode == SafetyMode.ROBOT_EMERGENCY_STOP:
+            if not self._modes.emergency_stop():
                 return
-            self._set_safety_mode(SafetyMode.ROBOT_EMERGENCY_STOP)
             self._halt("emergency stop")
-            self._pending_mode = None
-            self._brakes_released = False
             self._freedrive = False
-            self._set_robot_mode(RobotMode.POWER_OFF)
             self._commit_status()
         self._stop_program_for("emergency stop")
 
     def release_emergency_stop(self):
         """Release the emergency-stop button: safety NORMAL again, the arm stays powered off."""
         with self._lock:
-            if self._safety_mode == SafetyMode.ROBOT_EMERGENCY_STOP:
-                self._set_safety_mode(SafetyMode.NORMAL)
+            if self._modes.release_emergency_stop():
                 self._commit_status()
 
     # ---------------------------------------------------------------- motion commands
@@ -506,8 +395,8 @@ class Controller:
     def speedj(self, qd, a=1.4, t=0.0):
         """Joint speeds qd [rad/s] reached at acceleration a; after t s (t > 0) decelerate to rest."""
         qd = kinematics.checked_vector(qd, 6, "qd")
-        a = _positive(a, "a")
-        t = _non_negative(t, "t")
+        a = kinematics.checked_positive(a, "a")
+        t = kinematics.checked_non_negative(t, "t")
         if np.any(np.abs(qd) > self.model.max_joint_speed * 1.0000001):
             raise ValueError(f"qd {np.round(qd, 4).tolist()} exceeds the joint speed limits "
                              f"{np.round(self.model.max_joint_speed, 4).tolist()} rad/s")
@@ -519,18 +408,18 @@ class Controller:
     def speedl(self, xd, a=1.2, t=0.0):
         """TCP twist xd [vx vy vz wx wy wz] (base frame, m/s, rad/s) reached at acceleration a; after t s stop."""
         xd = kinematics.checked_vector(xd, 6, "xd")
-        a = _positive(a, "a")
-        t = _non_negative(t, "t")
+        a = kinematics.checked_positive(a, "a")
+        t = kinematics.checked_non_negative(t, "t")
         with self._lock:
             self._require_motion_allowed("speedl")
             start = self._motions.speed_ramp_start("speedl", self._state.actual_tcp_speed)
-            segment = trajectories.CartesianSpeed(start, xd, a, t, self._tcp_matrix, self._solve_ik)
+            segment = trajectories.CartesianSpeed(start, xd, a, t, self._arm.tcp_matrix, self._solve_ik)
             return self._replace_motion(segment, "speedl", True)
 
     def servoj(self, q, a=0.0, v=0.0, t=0.008, lookahead_time=0.1, gain=300):
         """Servo towards q, arriving t s from now (a, v accepted; lookahead_time 0.03..0.2 and gain 100..2000 checked)."""
         q = kinematics.checked_vector(q, 6, "q")
-        t = _positive(t, "t")
+        t = kinematics.checked_positive(t, "t")
         if not 0.03 <= float(lookahead_time) <= 0.2:
             raise ValueError(f"lookahead_time must be 0.03..0.2 s, got {lookahead_time!r}")
         if not 100 <= float(gain) <= 2000:
@@ -542,13 +431,13 @@ class Controller:
 
     def stopj(self, a=2.0):
         """Decelerate every joint to rest at a [rad/s²] (path kept); the current and queued motions end."""
-        a = _positive(a, "a")
+        a = kinematics.checked_positive(a, "a")
         with self._lock:
             return self._stop_with(a, "stopj")
 
     def stopl(self, a=1.2):
         """Decelerate the TCP to rest at a [m/s²] (joint-space deceleration taking the TCP's stopping time)."""
-        a = _positive(a, "a")
+        a = kinematics.checked_positive(a, "a")
         with self._lock:
             tcp_speed = float(np.linalg.norm(self._state.actual_tcp_speed[:3]))
             joint_speed = float(np.max(np.abs(self._qd)))
@@ -570,7 +459,7 @@ class Controller:
         """Freedrive / teach mode on or off (on needs RUNNING + NORMAL; motions are refused while it is on)."""
         with self._lock:
             if on:
-                self._require_running_normal("freedrive")
+                self._modes.require_running_normal("freedrive")
                 self._halt("freedrive started")
             if bool(on) != self._freedrive:
                 log.info("freedrive %s", "on" if on else "off")
@@ -591,13 +480,13 @@ class Controller:
         """TCP offset as a UR pose vector in the flange frame."""
         pose = frozen_array(kinematics.checked_vector(pose, 6, "tcp pose"))
         with self._lock:
-            self._tcp_offset = pose
+            self._arm.tcp_offset = pose
             self._commit(**self._settings_fields())
 
     @property
     def tcp_offset(self):
         """The active TCP offset (pose vector in the flange frame), as set by the last set_tcp."""
-        return self._tcp_offset
+        return self._arm.tcp_offset
 
     @property
     def payload(self):
@@ -607,7 +496,7 @@ class Controller:
 
     def set_payload(self, mass, cog=None, inertia=None):
         """Payload mass [kg] (≥ 0), centre of gravity [m] in the flange frame, inertia [Ixx Iyy Izz Ixy Ixz Iyz]."""
-        mass = _non_negative(mass, "mass")
+        mass = kinematics.checked_non_negative(mass, "mass")
         with self._lock:
             self._payload = mass
             if cog is not None:
@@ -632,20 +521,17 @@ class Controller:
     # ---------------------------------------------------------------- kinematics helpers
     def fk(self, q):
         """TCP pose vector (base frame, current TCP offset) at joints q."""
-        return kinematics.tcp_pose(self._dh, kinematics.checked_vector(q, 6, "q"), self._tcp_offset)
+        return self._arm.tcp_pose(kinematics.checked_vector(q, 6, "q"))
 
     def ik(self, pose, q_near=None):
         """Joints reaching TCP `pose` nearest to q_near (default: the current joints); kinematics.IKError if none."""
         pose = kinematics.checked_vector(pose, 6, "pose")
         start = self._q if q_near is None else kinematics.checked_vector(q_near, 6, "q_near")
-        return kinematics.inverse_kinematics(self._dh, pose, start, self._tcp_offset)
-
-    def _tcp_matrix(self, q):
-        return kinematics.tcp_matrix(self._dh, q, self._tcp_offset)
+        return self._arm.solve_ik(pose, start)
 
     def _solve_ik(self, pose, q_near):
-        return kinematics.inverse_kinematics(self._dh, pose, q_near, self._tcp_offset, tolerance=1e-11,
-                                             max_iterations=50)
+        """IK for planned motions: tighter and shorter than `ik` (it runs every cycle of a movel/speedl)."""
+        return self._arm.solve_ik(pose, q_near, tolerance=1e-11, max_iterations=50)
 
     def _ik_checked(self, pose, q_near):
         try:
@@ -711,20 +597,13 @@ class Controller:
         self.set_program_state(False)
 
     # ---------------------------------------------------------------- motion engine internals
-    def _require_running_normal(self, what):
-        if self._robot_mode != RobotMode.RUNNING:
-            raise CommandRefused(f"{what} refused: robot mode is {RobotMode.NAMES[self._robot_mode]}, "
-                                 "not RUNNING (power on and release the brakes)")
-        if self._safety_mode != SafetyMode.NORMAL:
-            raise CommandRefused(f"{what} refused: safety mode is {SafetyMode.NAMES[self._safety_mode]}")
-
     def _require_motion_allowed(self, what):
-        self._require_running_normal(what)
+        self._modes.require_running_normal(what)
         if self._freedrive:
             raise CommandRefused(f"{what} refused: freedrive (teach) mode is on")
 
     def _checked_move_parameters(self, a, v, t, r):
-        return _positive(a, "a"), _positive(v, "v"), _non_negative(t, "t"), _non_negative(r, "r")
+        return kinematics.checked_positive(a, "a"), kinematics.checked_positive(v, "v"), kinematics.checked_non_negative(t, "t"), kinematics.checked_non_negative(r, "r")
 
     def _check_within_limits(self, q, what, refuse=None):
         outside = np.nonzero((q < self.model.joint_lower) | (q > self.model.joint_upper))[0]
@@ -740,7 +619,7 @@ class Controller:
         return trajectories.JointMove(start_q, q, profile)
 
     def _plan_movel(self, start_q, pose, q_end, a, v, t):
-        start_matrix = self._tcp_matrix(start_q)
+        start_matrix = self._arm.tcp_matrix(start_q)
         end_matrix = kinematics.pose_to_matrix(pose)
         distance = trajectories.linear_distance(start_matrix, end_matrix)
         profile = trajectories.timed_trapezoid(distance, t, a) if t > 0 else trajectories.trapezoid(distance, v, a)
@@ -803,32 +682,6 @@ _ZEROS6 = frozen_array(np.zeros(6))
 _AMBIENT_TEMPERATURES = frozen_array(np.full(6, AMBIENT_TEMPERATURE))
 _POWERED_TEMPERATURES = frozen_array(np.full(6, POWERED_TEMPERATURE))
 _JOINT_VOLTAGES = frozen_array(np.full(6, MAIN_VOLTAGE))
-
-
-def _positive(value, name):
-    """`value` as a finite float > 0; ValueError naming `name` otherwise."""
-    number = _number(value, name)
-    if number <= 0:
-        raise ValueError(f"{name} must be > 0, got {value!r}")
-    return number
-
-
-def _non_negative(value, name):
-    """`value` as a finite float ≥ 0; ValueError naming `name` otherwise."""
-    number = _number(value, name)
-    if number < 0:
-        raise ValueError(f"{name} must be ≥ 0, got {value!r}")
-    return number
-
-
-def _number(value, name):
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number, got {value!r}") from None
-    if not math.isfinite(number):
-        raise ValueError(f"{name} must be finite, got {value!r}")
-    return number
 
 
 def _replaced(state, **fields):

@@ -111,6 +111,28 @@ class IOState:
         return (self.standard_digital_inputs | (self.configurable_digital_inputs << 8)
                 | (self.tool_digital_inputs << 16))
 
+    def snapshot_fields(self) -> dict:
+        """The controller snapshot's I/O fields (ControllerState names), read now."""
+        return dict(
+            digital_input_bits=self.digital_input_bits,
+            configurable_digital_input_bits=self.configurable_digital_inputs,
+            tool_digital_input_bits=self.tool_digital_inputs,
+            digital_output_bits=self.digital_output_bits,
+            standard_digital_output_bits=self.standard_digital_outputs,
+            configurable_digital_output_bits=self.configurable_digital_outputs,
+            tool_digital_output_bits=self.tool_digital_outputs,
+            analog_io_types=self.analog_io_types,
+            standard_analog_input0=float(self.analog_inputs[0]), standard_analog_input1=float(self.analog_inputs[1]),
+            standard_analog_output0=float(self.analog_outputs[0]),
+            standard_analog_output1=float(self.analog_outputs[1]),
+            tool_analog_input0=float(self.tool_analog_inputs[0]), tool_analog_input1=float(self.tool_analog_inputs[1]),
+            standard_analog_inputs=self.analog_inputs, standard_analog_outputs=self.analog_outputs,
+            tool_analog_inputs=self.tool_analog_inputs,
+            input_int_registers=self.input_int_registers, output_int_registers=self.output_int_registers,
+            input_double_registers=self.input_double_registers, output_double_registers=self.output_double_registers,
+            input_bit_registers=self.input_bit_registers, output_bit_registers=self.output_bit_registers,
+        )
+
     # analog ---------------------------------------------------------------------------------------------------
     def set_analog_out(self, index, value, voltage=None):
         """Standard analog output AO`index` (0..1) to `value` (ratio 0..1); optionally switch it to voltage/current."""

@@ -117,6 +117,33 @@ def checked_vector(values, length, name):
     return array
 
 
+def checked_number(value, name):
+    """`value` as a finite float; ValueError naming `name` otherwise."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a number, got {value!r}") from None
+    if not math.isfinite(number):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    return number
+
+
+def checked_positive(value, name):
+    """`value` as a finite float > 0; ValueError naming `name` otherwise."""
+    number = checked_number(value, name)
+    if number <= 0:
+        raise ValueError(f"{name} must be > 0, got {value!r}")
+    return number
+
+
+def checked_non_negative(value, name):
+    """`value` as a finite float ≥ 0; ValueError naming `name` otherwise."""
+    number = checked_number(value, name)
+    if number < 0:
+        raise ValueError(f"{name} must be ≥ 0, got {value!r}")
+    return number
+
+
 def geometric_jacobian(dh, q, tcp_offset):
     """6x6 Jacobian mapping joint speeds to the TCP twist [v; ω] in the base frame (revolute joints about z_{i-1})."""
     frames = joint_frames(dh, q)
@@ -177,3 +204,56 @@ def interpolate_pose(start, end, fraction):
 def rotation_angle_between(start, end):
     """Angle (rad, 0..π) of the rotation taking `start`'s orientation to `end`'s."""
     return float(np.linalg.norm(matrix_to_rotation_vector(start[:3, :3].T @ end[:3, :3])))
+
+
+def _read_only(array):
+    array = np.array(array, dtype=float)
+    array.setflags(write=False)
+    return array
+
+
+class ArmKinematics:
+    """One arm's kinematics with its active TCP offset (a read-only pose vector in the flange frame).
+
+    Replacing `tcp_offset` changes every answer at once. `poses_at(q)` is cached while q and the offset are the same
+    objects, so an idle control cycle costs nothing.
+    """
+
+    def __init__(self, dh, tcp_offset):
+        self.dh = dh
+        self.tcp_offset = _read_only(tcp_offset)
+        self._cache = (None, None)
+
+    def tcp_matrix(self, q):
+        """Base→TCP transform at joints q."""
+        return tcp_matrix(self.dh, q, self.tcp_offset)
+
+    def tcp_pose(self, q):
+        """TCP pose vector in the base frame at joints q."""
+        return tcp_pose(self.dh, q, self.tcp_offset)
+
+    def solve_ik(self, pose, q_near, **options):
+        """Joints reaching TCP `pose` nearest to q_near (options as `inverse_kinematics`); IKError if none."""
+        return inverse_kinematics(self.dh, pose, q_near, self.tcp_offset, **options)
+
+    def poses_at(self, q):
+        """(TCP matrix, the 7 joint frames, TCP pose, flange pose) at q; the poses read-only."""
+        key, cached = self._cache
+        if key is not None and key[0] is q and key[1] is self.tcp_offset:
+            return cached
+        frames = joint_frames(self.dh, q)
+        tcp = frames[-1] @ pose_to_matrix(self.tcp_offset)
+        result = (tcp, frames, _read_only(matrix_to_pose(tcp)), _read_only(matrix_to_pose(frames[-1])))
+        self._cache = ((q, self.tcp_offset), result)
+        return result
+
+    def speeds_between(self, previous_q, q, dt):
+        """(TCP twist [v; ω] (6,), elbow velocity (3,)) by finite difference from previous_q to q over dt."""
+        tcp, frames, _, _ = self.poses_at(q)
+        if previous_q is q:
+            return np.zeros(6), np.zeros(3)
+        old_frames = joint_frames(self.dh, previous_q)
+        old_tcp = old_frames[-1] @ pose_to_matrix(self.tcp_offset)
+        twist = np.concatenate([(tcp[:3, 3] - old_tcp[:3, 3]) / dt,
+                                matrix_to_rotation_vector(tcp[:3, :3] @ old_tcp[:3, :3].T) / dt])
+        return twist, (frames[2][:3, 3] - old_frames[2][:3, 3]) / dt
