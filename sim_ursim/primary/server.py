@@ -5,7 +5,7 @@ into programs by `script_intake` and handed to the controller's program runner (
 one).  Every server honours `controller.faults`: frozen streams send nothing, latency delays each send, and a new
 drop generation closes every connection accepted before it.
 
-Sockets are non-blocking; each connection has a reader thread (URScript intake).  Primary/secondary connections
+Listening, accepting, connections and drops: tcp_server.TCPServer. Each connection has a reader thread (URScript intake).  Primary/secondary connections
 have a writer thread each (version message, 10 Hz robot state, robot messages on 30001) that gives up on a client
 that has not taken its data for SEND_TIMEOUT seconds.  The realtime server has one writer for all clients, paced by
 `controller.wait_cycle`, that never waits for a client: a client that stops reading stops receiving ("Sending
@@ -16,7 +16,6 @@ import collections
 import logging
 import math
 import queue
-import select
 import socket
 import threading
 import time
@@ -25,6 +24,7 @@ from sim_ursim.vocabulary import CommandRefused
 from sim_ursim.models import build_date
 from sim_ursim.primary import packets, realtime
 from sim_ursim.primary.script_intake import IntakeOverflow, ScriptAssembler
+from sim_ursim.tcp_server import POLL_INTERVAL, TCPServer
 
 log = logging.getLogger(__name__)
 
@@ -33,210 +33,31 @@ SEND_TIMEOUT = 2.0  # a primary client that takes nothing for this long is disco
 REALTIME_STALL_LIMIT = 1.0  # a realtime client whose unsent bytes have not drained for this long is discontinued
 PRIMARY_SEND_BUFFER = 64 * 1024  # kernel send buffer of a 30001/30002 connection: several seconds of state
 REALTIME_SEND_BUFFER = 64 * 1024  # kernel send buffer of a 30003 connection: about half a second of packages
-POLL_INTERVAL = 0.2  # how often idle threads look at the stop flag
-RECEIVE_SIZE = 65536
 
 
-class _Connection:
-    """One accepted client socket (non-blocking) and the drop generation it belongs to.
+class _InterfaceServer(TCPServer):
+    """URScript intake shared by the three ports; a subclass names its `origin` (passed with each program) and says
+    what a new client is sent (`_on_connect`)."""
 
-    Only the reader (after the client's end of stream, having processed everything received), a deliberate drop
-    or the server's stop closes the socket. A writer that finds the client gone only stops sending
-    (`sending_ended`): bytes the client sent before closing are still in the socket and the reader takes them.
-    """
-
-    def __init__(self, sock, peer, generation):
-        self.sock = sock
-        self.peer = peer
-        self.generation = generation
-        self.closed = threading.Event()
-        self.sending_ended = threading.Event()
-
-    def stop_sending(self):
-        """The client no longer takes data (it closed or reset): writers stop; reading goes on to the end."""
-        self.sending_ended.set()
-
-    @property
-    def can_send(self):
-        """False once the connection is closed or its writer gave up."""
-        return not (self.closed.is_set() or self.sending_ended.is_set())
-
-    def close(self):
-        """Close the socket once; both directions' threads notice through `closed`."""
-        if self.closed.is_set():
-            return
-        self.closed.set()
-        try:
-            self.sock.shutdown(socket.SHUT_RDWR)
-        except OSError:
-            pass
-        self.sock.close()
-
-
-def send_all(connection, data, timeout):
-    """Write all of `data` to a non-blocking socket, waiting at most `timeout` s for the client to take it;
-    False (the connection is closed) when it does not."""
-    view = memoryview(data)
-    deadline = time.monotonic() + timeout
-    while view:
-        if not connection.can_send:
-            return False
-        try:
-            sent = connection.sock.send(view)
-            view = view[sent:]
-            continue
-        except BlockingIOError:
-            pass
-        except OSError:  # the client closed or reset: what it sent before is still read by the reader
-            connection.stop_sending()
-            return False
-        remaining = deadline - time.monotonic()
-        if remaining <= 0:
-            log.info("%s did not read for %.1f s: disconnected", connection.peer, timeout)
-            connection.close()
-            return False
-        try:
-            select.select([], [connection.sock], [], min(remaining, POLL_INTERVAL))
-        except (OSError, ValueError):
-            connection.stop_sending()
-            return False
-    return True
-
-
-class _InterfaceServer:
-    """Listening socket, accept loop, drop-generation watcher and URScript intake shared by the three ports; a
-    subclass names its `origin` (passed with each program) and says what a new client is sent."""
-
-    def __init__(self, controller, host, port):
-        self.controller = controller
-        self.host = host
-        self.port = port
-        self._listener = None
-        self._stopping = threading.Event()
-        self._connections = set()
-        self._lock = threading.Lock()
-        self._threads = []
-
-    # lifecycle ---------------------------------------------------------------------------------------------------
-    def start(self):
-        """Bind host:port and start serving (SO_REUSEADDR, so a restarted simulator can bind at once)."""
-        listener = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-        listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-        try:
-            listener.bind((self.host, self.port))
-            listener.listen(16)
-        except OSError:
-            listener.close()
-            raise
-        listener.setblocking(False)
-        self.port = listener.getsockname()[1]  # the port the OS chose when asked for port 0
-        self._listener = listener
-        self._spawn(self._accept_loop, "accept")
-        self._spawn(self._watch_drops, "drops")
-
-    def stop(self):
-        """Stop accepting, close every connection and join the server's threads."""
-        self._stopping.set()
-        if self._listener is not None:
-            self._listener.close()
-        self.drop_connections()
-        for thread in list(self._threads):
-            if thread is not threading.current_thread():
-                thread.join(timeout=2.0)
-
-    def drop_connections(self):
-        """Close every current connection (clients see the connection reset, as when the controller restarts)."""
-        with self._lock:
-            connections = list(self._connections)
-            self._connections.clear()
-        for connection in connections:
-            connection.close()
-
-    # threads ------------------------------------------------------------------------------------------------------
-    def _spawn(self, target, role, *args):
-        thread = threading.Thread(target=target, args=args, name=f"{type(self).__name__}:{self.port}:{role}",
-                                  daemon=True)
-        self._threads = [t for t in self._threads if t.is_alive()]
-        self._threads.append(thread)
-        thread.start()
-        return thread
-
-    def _accept_loop(self):
-        while not self._stopping.is_set():
-            try:
-                readable, _, _ = select.select([self._listener], [], [], POLL_INTERVAL)
-            except (OSError, ValueError):
-                return
-            if not readable:
-                continue
-            try:
-                sock, peer = self._listener.accept()
-            except (BlockingIOError, InterruptedError):
-                continue
-            except OSError:
-                return
-            connection = _Connection(sock, peer, self.controller.faults.generation)
-            try:
-                sock.setblocking(False)
-                sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-                self._configure(sock)
-            except OSError:  # the client already went away
-                connection.close()
-                continue
-            with self._lock:
-                self._connections.add(connection)
-            self._on_connect(connection)
-            self._spawn(self._read_scripts, "reader", connection)
-
-    def _watch_drops(self):
-        faults = self.controller.faults
-        seen = faults.generation
-        while not self._stopping.is_set():
-            current = faults.wait_generation(seen, timeout=POLL_INTERVAL)
-            if current > seen:
-                seen = current
-                with self._lock:
-                    stale = [c for c in self._connections if c.generation < current]
-                    self._connections.difference_update(stale)
-                for connection in stale:
-                    connection.close()
-
-    def _forget(self, connection):
-        connection.close()
-        with self._lock:
-            self._connections.discard(connection)
+    def serve(self, connection):
+        self._on_connect(connection)
+        self._read_scripts(connection)
 
     def _read_scripts(self, connection):
         """Read the client's URScript to its end of stream, whatever the writer does, and run each program.
 
-        The kernel keeps what a client sent before closing (even before a reset) readable until the reader takes
-        it, so every program received before the close runs. A client that sends more than the intake holds
-        without completing a program is dropped with a logged reason (script_intake.IntakeOverflow).
+        A client that sends more than the intake holds without completing a program is dropped with a logged reason
+        (script_intake.IntakeOverflow).
         """
         assembler = ScriptAssembler()
-        while not connection.closed.is_set() and not self._stopping.is_set():
-            try:
-                readable, _, _ = select.select([connection.sock], [], [], POLL_INTERVAL)
-            except (OSError, ValueError):
-                break
-            if not readable:
-                continue
-            try:
-                data = connection.sock.recv(RECEIVE_SIZE)
-            except (BlockingIOError, InterruptedError):
-                continue
-            except OSError:
-                break
-            if not data:
-                break
+        for data in self.read_chunks(connection):
             try:
                 programs = assembler.feed(data)
             except IntakeOverflow as overflow:
-                log.warning("port %s: %s dropped: %s", self.port, connection.peer, overflow)
-                break
+                log.warning("port %s: %s dropped: %s", self.port, connection, overflow)
+                return
             for program in programs:
                 self._submit(program)
-        self._forget(connection)
 
     def _submit(self, program):
         try:
@@ -245,9 +66,6 @@ class _InterfaceServer:
             log.warning("port %s: URScript not run: %s", self.port, refusal)
         except Exception:  # noqa: BLE001 - an interpreter bug must not cut the client's connection; log it
             log.exception("port %s: running the received URScript failed", self.port)
-
-    def _configure(self, sock):
-        """Socket options of this port's connections (none beyond TCP_NODELAY by default)."""
 
     def _on_connect(self, connection):
         """Start whatever this port sends to a new client."""
@@ -286,13 +104,13 @@ class PrimaryServer(_InterfaceServer):
         self.robot_messages = robot_messages
         self.origin = "primary" if robot_messages else "secondary"
 
-    def _configure(self, sock):
+    def configure(self, sock):
         # Bounded kernel buffering (Linux would grow it to megabytes): a client that stops reading fills it within
         # seconds of robot state and is then disconnected after SEND_TIMEOUT.
         sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, PRIMARY_SEND_BUFFER)
 
     def _on_connect(self, connection):
-        self._spawn(self._stream, "writer", connection)
+        self.spawn(self._stream, "writer", connection)
 
     def _stream(self, connection):
         controller = self.controller
@@ -319,7 +137,7 @@ class PrimaryServer(_InterfaceServer):
                     delayed.put(packets.robot_state_message(controller.state(), arm, version), now + faults.latency)
                     next_state = max(next_state + STATE_PERIOD, now)
                 for data in delayed.take_due(now):
-                    if not send_all(connection, data, SEND_TIMEOUT):
+                    if not connection.send_all(data, SEND_TIMEOUT):
                         return
                 wait = max(0.0, min(next_state, delayed.next_due) - time.monotonic())
                 if subscription is None:
@@ -395,11 +213,10 @@ class RealtimeServer(_InterfaceServer):
         self._clients = []
         self._clients_lock = threading.Lock()
 
-    def start(self):
-        super().start()
-        self._spawn(self._broadcast, "broadcast")
+    def on_start(self):
+        self.spawn(self._broadcast, "broadcast")
 
-    def _configure(self, sock):
+    def configure(self, sock):
         # A modest kernel send buffer, so a client that stops reading is noticed within a second or two, while a
         # reading client still has its own receive buffer as slack.
         sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, REALTIME_SEND_BUFFER)
