@@ -16,12 +16,12 @@ bounds the CPU a busy loop takes. Inside `enter_critical`/`exit_critical` the su
 other script thread runs in between.
 """
 import itertools
-import operator
 import threading
 from dataclasses import dataclass
 
 from sim_ursim.vocabulary import CommandRefused
 from sim_ursim.urscript import nodes
+from sim_ursim.urscript.operators import BINARY, NUMERIC_FAST_PATH, PLAIN_NUMBERS, require_number
 from sim_ursim.urscript.values import Pose, ScriptError, copy_value, to_str, truth
 
 STATEMENTS_PER_SECOND = 25_000  # computation a script thread may do per second of controller time (see above)
@@ -470,7 +470,7 @@ class Execution:
         try:
             if node.op == "not":
                 return not truth(value)
-            _require_number(value, node.op)
+            require_number(value, node.op)
             return -value if node.op == "-" else value
         except ScriptError as error:
             raise URScriptRuntimeError(node.line, node.column, error.text) from None
@@ -483,10 +483,10 @@ class Execution:
             if op == "or":
                 return truth(self.eval(ctx, node.left)) or truth(self.eval(ctx, node.right))
             left, right = self.eval(ctx, node.left), self.eval(ctx, node.right)
-            fast = _NUMERIC_FAST_PATH.get(op)
-            if fast is not None and type(left) in _PLAIN_NUMBERS and type(right) in _PLAIN_NUMBERS:
+            fast = NUMERIC_FAST_PATH.get(op)
+            if fast is not None and type(left) in PLAIN_NUMBERS and type(right) in PLAIN_NUMBERS:
                 return fast(left, right)
-            return _BINARY[op](left, right)
+            return BINARY[op](left, right)
         except ScriptError as error:
             raise URScriptRuntimeError(node.line, node.column, error.text) from None
 
@@ -571,80 +571,6 @@ class Execution:
         finally:
             ctx.done.set()
             self.scheduler.release()
-
-
-# --- value helpers (pure)
-
-
-def _require_number(value, op):
-    """ScriptError unless value is an int/float (booleans count as numbers, as 0/1)."""
-    if not isinstance(value, (int, float)):
-        raise ScriptError(f"runtime_error:type mismatch:{op} needs a number, got {to_str(value)}:")
-
-
-def _arithmetic(symbol, function):
-    def apply(left, right):
-        if isinstance(left, str) and isinstance(right, str) and symbol == "+":
-            return left + right
-        _require_number(left, symbol)
-        _require_number(right, symbol)
-        return function(left, right)
-
-    return apply
-
-
-def _divide(left, right):
-    if right == 0:
-        raise ScriptError("runtime_error:division by zero:")
-    return left / right
-
-
-def _modulo(left, right):
-    if right == 0:
-        raise ScriptError("runtime_error:division by zero:")
-    return left % right
-
-
-def _ordering(symbol, function):
-    def apply(left, right):
-        _require_number(left, symbol)
-        _require_number(right, symbol)
-        return function(left, right)
-
-    return apply
-
-
-def _equal(left, right):
-    if isinstance(left, (list, tuple)) and isinstance(right, (list, tuple)):
-        return len(left) == len(right) and all(_equal(a, b) for a, b in zip(left, right))
-    return left == right
-
-
-def _xor(left, right):
-    return truth(left) != truth(right)
-
-
-# Numbers on both sides (the common case): the operator itself, no type checks. Not / and %: they check for zero.
-_PLAIN_NUMBERS = (int, float)
-_NUMERIC_FAST_PATH = {
-    "+": operator.add, "-": operator.sub, "*": operator.mul, "<": operator.lt, "<=": operator.le,
-    ">": operator.gt, ">=": operator.ge, "==": operator.eq, "!=": operator.ne,
-}
-
-_BINARY = {
-    "+": _arithmetic("+", lambda a, b: a + b),
-    "-": _arithmetic("-", lambda a, b: a - b),
-    "*": _arithmetic("*", lambda a, b: a * b),
-    "/": _arithmetic("/", _divide),
-    "%": _arithmetic("%", _modulo),
-    "<": _ordering("<", lambda a, b: a < b),
-    "<=": _ordering("<=", lambda a, b: a <= b),
-    ">": _ordering(">", lambda a, b: a > b),
-    ">=": _ordering(">=", lambda a, b: a >= b),
-    "==": _equal,
-    "!=": lambda a, b: not _equal(a, b),
-    "xor": _xor,
-}
 
 
 def _checked_index(container, index, node):
