@@ -16,6 +16,7 @@ from sim_ursim import kinematics
 from sim_ursim.controller import Controller
 from sim_ursim.vocabulary import CommandRefused, JointMode, RobotMode, RuntimeState, SafetyMode, UnlockTooEarly
 from sim_ursim.messages import SafetyModeMessage
+from polling import wait_for
 
 HOME = [0.0, -1.2, 1.2, -1.5, -1.5, 0.0]
 
@@ -410,7 +411,7 @@ def test_protective_stop_decelerates_fails_the_motion_stops_the_program_and_unlo
 
 def test_emergency_stop_halts_at_once_and_needs_release_and_power_on(controller):
     controller.movej(np.array(HOME) + [2.0, 0, 0, 0, 0, 0])
-    time.sleep(0.4)
+    assert wait_for(lambda: controller.state().actual_qd[0] > 0.3)  # well under way
     controller.emergency_stop()
     first = controller.wait_cycle(controller.state().cycle, 1)
     second = controller.wait_cycle(first.cycle, 1)

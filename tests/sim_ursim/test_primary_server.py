@@ -164,11 +164,12 @@ def test_a_primary_client_that_stops_reading_is_disconnected(sim):
     silent.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
     silent.connect((sim.host, PRIMARY))
     try:
-        time.sleep(0.3)  # subscribed to the bus by now
+        silent.settimeout(3.0)
+        assert silent.recv(4)  # the version message has come, and the writer subscribes to the bus before it
         for _ in range(300):  # 2.4 MB of robot messages: far more than the socket buffers hold
             sim.controller.messages.publish(TextMessage("x" * 8000))
-        time.sleep(server_module.SEND_TIMEOUT + 1.0)
-        silent.settimeout(3.0)
+        server = sim.servers["primary"]
+        assert wait_for(lambda: not server.connections(), timeout=server_module.SEND_TIMEOUT + 10.0)
         with pytest.raises((ConnectionError, OSError)):
             deadline = time.monotonic() + 20
             while time.monotonic() < deadline:  # drain what was buffered; the server has hung up behind it

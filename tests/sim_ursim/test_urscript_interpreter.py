@@ -15,16 +15,31 @@ from sim_ursim.messages import TextMessage
 from sim_ursim.urscript.builtins import BUILTINS
 from sim_ursim.urscript.interpreter import CompileError, Execution, compile_program
 from sim_ursim.urscript.parser import parse
+from polling import wait_for
 
 HOME = [0.0, -1.2, 1.0, -1.0, -1.5, 0.3]
 
 
-@pytest.fixture(scope="module")
-def controller():
-    """A started UR3 controller, powered up with the brakes released (shared: tests leave it at rest)."""
+def _powered_controller():
     c = Controller("ur3", initial_q=HOME, mode_delay=0.01)
     c.start()
     c.power_up()
+    return c
+
+
+@pytest.fixture
+def controller():
+    """A started UR3 controller, powered up with the brakes released: one per test, so the TCP, registers, outputs
+    and arm position a test leaves behind never reach another."""
+    c = _powered_controller()
+    yield c
+    c.shutdown()
+
+
+@pytest.fixture(scope="module")
+def arithmetic_controller():
+    """A controller shared by the generated arithmetic examples only: they evaluate expressions and change nothing."""
+    c = _powered_controller()
     yield c
     c.shutdown()
 
@@ -114,9 +129,9 @@ def _expressions():
 
 @settings(max_examples=40, deadline=None)
 @given(_expressions())
-def test_arithmetic_agrees_with_python_precedence(controller, pair):
+def test_arithmetic_agrees_with_python_precedence(arithmetic_controller, pair):
     urscript, python = pair
-    assert value_of(controller, urscript) == eval(python)  # noqa: S307 - our own generated integer arithmetic
+    assert value_of(arithmetic_controller, urscript) == eval(python)  # noqa: S307 - our own generated integer arithmetic
 
 
 def test_functions_defaults_keywords_recursion_and_scopes(controller):
@@ -448,7 +463,7 @@ def test_stop_interrupts_a_blocking_move_within_two_cycles(controller):
     execution = Execution(program, controller, BUILTINS)
     worker = threading.Thread(target=execution.run, daemon=True)
     worker.start()
-    time.sleep(0.3)
+    assert wait_for(lambda: controller.state().actual_q[0] > HOME[0] + 0.005)  # the move is under way
     assert worker.is_alive()
     cancelled_at = time.monotonic()
     execution.cancel()
