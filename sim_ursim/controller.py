@@ -24,6 +24,7 @@ import logging
 import math
 import threading
 import time
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -41,6 +42,8 @@ from .vocabulary import (
 )
 
 log = logging.getLogger("sim_ursim.controller")
+
+Vector = Sequence[float] | np.ndarray  # 6 (or 3) numbers: joints [rad], a pose vector [m, rad], a wrench…
 
 DEFAULT_MODE_DELAY = 0.3  # s from `power on` to IDLE and from `brake release` to RUNNING (real arms take seconds)
 PAUSE_RAMP_TIME = 0.3  # s for speed_scaling to fall to 0 on pause (and rise back to 1 on resume)
@@ -103,7 +106,7 @@ class Controller:
         self.io.on_change = lambda: self._commit(**self.io.snapshot_fields())
 
     # ---------------------------------------------------------------- lifecycle
-    def start(self):
+    def start(self) -> None:
         """Start the control-loop thread (idempotent)."""
         with self._lock:
             if self._thread is not None:
@@ -113,7 +116,7 @@ class Controller:
             self._thread.start()
         log.info("controller %s (%s) started at %.0f Hz", self.model.name, self.version, 1 / self.period)
 
-    def shutdown(self):
+    def shutdown(self) -> None:
         """Stop the control loop, end every motion and the program; waits for the thread."""
         self._stop_loop.set()
         thread, self._thread = self._thread, None
@@ -127,7 +130,7 @@ class Controller:
         with self._cycle_changed:
             self._cycle_changed.notify_all()
 
-    def step(self, cycles=1, periods=1):
+    def step(self, cycles: int = 1, periods: int = 1) -> ControllerState:
         """Advance `cycles` control cycles synchronously and return the last snapshot (only while the loop is stopped).
 
         Each cycle covers `periods` control periods, as the loop's cycles do when it catches up after a stall.
@@ -143,7 +146,7 @@ class Controller:
         return self._state
 
     @property
-    def running(self):
+    def running(self) -> bool:
         """True while the control loop runs."""
         return self._thread is not None
 
@@ -212,7 +215,7 @@ class Controller:
             self._state = state
             self._cycle_changed.notify_all()
 
-    def _commit(self, **fields):
+    def _commit(self, **fields) -> None:
         """THE way a command or setter publishes its effect: the present snapshot with `fields` (recomputed from the
         controller's own fields by the caller) replaced, same cycle number, visible in state() at once. Noted as
         a change, so the next control cycle computes a full snapshot again."""
@@ -225,11 +228,11 @@ class Controller:
         self._changes += 1
 
     # ---------------------------------------------------------------- snapshots
-    def state(self):
+    def state(self) -> ControllerState:
         """The snapshot of the last control cycle."""
         return self._state
 
-    def wait_cycle(self, after_cycle, timeout=None):
+    def wait_cycle(self, after_cycle: int, timeout: float | None = None) -> ControllerState:
         """Block until a cycle newer than `after_cycle` is published (or timeout); returns the latest snapshot."""
         with self._cycle_changed:
             self._cycle_changed.wait_for(lambda: self._state.cycle > after_cycle or self._stop_loop.is_set(), timeout)
@@ -288,7 +291,8 @@ class Controller:
         """Snapshot fields that follow the TCP offset and the fed-in wrench (the TCP poses at the present joints)."""
         _, _, tcp_pose, flange_pose = self._arm.poses_at(self._q)
         return dict(
-            tcp_offset=self._arm.tcp_offset, actual_tcp_pose=tcp_pose, target_tcp_pose=tcp_pose, flange_pose=flange_pose,
+            tcp_offset=self._arm.tcp_offset, actual_tcp_pose=tcp_pose, target_tcp_pose=tcp_pose,
+            flange_pose=flange_pose,
             actual_tcp_force=self._external_force_torque, external_force_torque=self._external_force_torque,
             script_control_line=self._script_control_line,
         )
@@ -298,19 +302,19 @@ class Controller:
         self._commit(**self._status_fields())
 
     # ---------------------------------------------------------------- power, brakes, safety (modes.py)
-    def power_on(self):
+    def power_on(self) -> None:
         """POWER_OFF → POWER_ON → (after mode_delay) IDLE. Refused during an emergency stop."""
         with self._lock:
             self._modes.power_on(self._sim_time)
             self._commit_status()
 
-    def brake_release(self):
+    def brake_release(self) -> None:
         """Release the brakes: → RUNNING after mode_delay (powering on first from POWER_OFF, as the controller does)."""
         with self._lock:
             self._modes.brake_release(self._sim_time)
             self._commit_status()
 
-    def power_off(self):
+    def power_off(self) -> None:
         """Cut power at once: motions and the program stop, brakes engage, robot mode POWER_OFF."""
         with self._lock:
             self._halt("robot powered off")
@@ -319,7 +323,7 @@ class Controller:
             self._commit_status()
         self._stop_program_for("robot powered off")
 
-    def power_up(self, timeout=5.0):
+    def power_up(self, timeout: float = 5.0) -> ControllerState:
         """Convenience for tests and demos: power on, release brakes and wait until RUNNING; TimeoutError if not."""
         self.power_on()
         self.brake_release()
@@ -330,7 +334,7 @@ class Controller:
             self.wait_cycle(self._state.cycle, timeout=0.1)
         return self._state
 
-    def protective_stop(self, reason="protective stop requested"):
+    def protective_stop(self, reason: str = "protective stop requested") -> None:
         """Enter PROTECTIVE_STOP: decelerate the arm, fail the motions, stop the program. Unlock ≥ 5 s later."""
         with self._lock:
             if self._modes.safety_mode != SafetyMode.NORMAL:
@@ -345,13 +349,13 @@ class Controller:
         self._touch()
         self._decelerate(PROTECTIVE_STOP_DECELERATION, f"protective stop: {reason}")
 
-    def unlock_protective_stop(self):
+    def unlock_protective_stop(self) -> None:
         """Back to NORMAL; raises UnlockTooEarly within 5 s of the stop, CommandRefused if not protective-stopped."""
         with self._lock:
             self._modes.unlock_protective_stop()
             self._commit_status()
 
-    def emergency_stop(self):
+    def emergency_stop(self) -> None:
         """Robot emergency stop: the arm halts at once, power is cut, the program stops. Release, then power on."""
         with self._lock:
             if not self._modes.emergency_stop():
@@ -361,14 +365,14 @@ class Controller:
             self._commit_status()
         self._stop_program_for("emergency stop")
 
-    def release_emergency_stop(self):
+    def release_emergency_stop(self) -> None:
         """Release the emergency-stop button: safety NORMAL again, the arm stays powered off."""
         with self._lock:
             if self._modes.release_emergency_stop():
                 self._commit_status()
 
     # ---------------------------------------------------------------- motion commands
-    def movej(self, q, a=1.4, v=1.05, t=0.0, r=0.0):
+    def movej(self, q: Vector, a: float = 1.4, v: float = 1.05, t: float = 0.0, r: float = 0.0) -> Motion:
         """Joint move on synchronised trapezoids (leading axis a [rad/s²], v [rad/s]; t [s] overrides)."""
         q = kinematics.checked_vector(q, 6, "q")
         a, v, t, r = self._checked_move_parameters(a, v, t, r)
@@ -376,10 +380,11 @@ class Controller:
         with self._lock:
             self._require_motion_allowed("movej")
             motion = Motion("movej", r)
-            self._enqueue(MotionEntry(None, motion, True, target_q=q), lambda start: self._plan_movej(start, q, a, v, t))
+            self._enqueue(MotionEntry(None, motion, True, target_q=q),
+                          lambda start: self._plan_movej(start, q, a, v, t))
             return motion
 
-    def movel(self, pose, a=1.2, v=0.25, t=0.0, r=0.0):
+    def movel(self, pose: Vector, a: float = 1.2, v: float = 0.25, t: float = 0.0, r: float = 0.0) -> Motion:
         """Straight-line TCP move to `pose` (a [m/s²], v [m/s]; t [s] overrides); IK from the joints before it."""
         pose = kinematics.checked_vector(pose, 6, "pose")
         a, v, t, r = self._checked_move_parameters(a, v, t, r)
@@ -392,7 +397,7 @@ class Controller:
                           lambda start: self._plan_movel(start, pose, q_end, a, v, t))
             return motion
 
-    def speedj(self, qd, a=1.4, t=0.0):
+    def speedj(self, qd: Vector, a: float = 1.4, t: float = 0.0) -> Motion:
         """Joint speeds qd [rad/s] reached at acceleration a; after t s (t > 0) decelerate to rest."""
         qd = kinematics.checked_vector(qd, 6, "qd")
         a = kinematics.checked_positive(a, "a")
@@ -405,7 +410,7 @@ class Controller:
             start = self._motions.speed_ramp_start("speedj", self._qd)
             return self._replace_motion(trajectories.JointSpeed(start, qd, a, t), "speedj", True)
 
-    def speedl(self, xd, a=1.2, t=0.0):
+    def speedl(self, xd: Vector, a: float = 1.2, t: float = 0.0) -> Motion:
         """TCP twist xd [vx vy vz wx wy wz] (base frame, m/s, rad/s) reached at acceleration a; after t s stop."""
         xd = kinematics.checked_vector(xd, 6, "xd")
         a = kinematics.checked_positive(a, "a")
@@ -416,7 +421,8 @@ class Controller:
             segment = trajectories.CartesianSpeed(start, xd, a, t, self._arm.tcp_matrix, self._solve_ik)
             return self._replace_motion(segment, "speedl", True)
 
-    def servoj(self, q, a=0.0, v=0.0, t=0.008, lookahead_time=0.1, gain=300):
+    def servoj(self, q: Vector, a: float = 0.0, v: float = 0.0, t: float = 0.008, lookahead_time: float = 0.1,
+               gain: float = 300) -> Motion:
         """Servo towards q, arriving t s from now (a, v accepted; lookahead_time 0.03..0.2 and gain 100..2000 checked)."""
         q = kinematics.checked_vector(q, 6, "q")
         t = kinematics.checked_positive(t, "t")
@@ -429,13 +435,13 @@ class Controller:
             self._require_motion_allowed("servoj")
             return self._replace_motion(trajectories.ServoTarget(q, t, self.model.max_joint_speed), "servoj", False)
 
-    def stopj(self, a=2.0):
+    def stopj(self, a: float = 2.0) -> Motion:
         """Decelerate every joint to rest at a [rad/s²] (path kept); the current and queued motions end."""
         a = kinematics.checked_positive(a, "a")
         with self._lock:
             return self._stop_with(a, "stopj")
 
-    def stopl(self, a=1.2):
+    def stopl(self, a: float = 1.2) -> Motion:
         """Decelerate the TCP to rest at a [m/s²] (joint-space deceleration taking the TCP's stopping time)."""
         a = kinematics.checked_positive(a, "a")
         with self._lock:
@@ -445,7 +451,7 @@ class Controller:
             joint_deceleration = joint_speed * a / tcp_speed if tcp_speed > 1e-9 else PROTECTIVE_STOP_DECELERATION
             return self._stop_with(joint_deceleration, "stopl")
 
-    def move_joints_by_hand(self, q):
+    def move_joints_by_hand(self, q: Vector) -> None:
         """Freedrive: the operator pushes the arm to q (must be within limits; freedrive must be on)."""
         q = kinematics.checked_vector(q, 6, "q")
         self._check_within_limits(q, "hand-guided joints")
@@ -455,7 +461,7 @@ class Controller:
             self._q = frozen_array(q)
             self._commit(**vars(self._snapshot(self._q, self.period)))
 
-    def set_freedrive(self, on):
+    def set_freedrive(self, on: bool) -> None:
         """Freedrive / teach mode on or off (on needs RUNNING + NORMAL; motions are refused while it is on)."""
         with self._lock:
             if on:
@@ -467,7 +473,7 @@ class Controller:
             self._commit_status()
 
     # ---------------------------------------------------------------- settings
-    def set_speed_slider(self, fraction):
+    def set_speed_slider(self, fraction: float) -> None:
         """Speed slider 0..1: planned trajectories advance by dt × fraction."""
         fraction = float(fraction)
         if not 0.0 <= fraction <= 1.0 or math.isnan(fraction):
@@ -476,7 +482,7 @@ class Controller:
             self._speed_slider = fraction
             self._commit_status()
 
-    def set_tcp(self, pose):
+    def set_tcp(self, pose: Vector) -> None:
         """TCP offset as a UR pose vector in the flange frame."""
         pose = frozen_array(kinematics.checked_vector(pose, 6, "tcp pose"))
         with self._lock:
@@ -484,17 +490,17 @@ class Controller:
             self._commit(**self._settings_fields())
 
     @property
-    def tcp_offset(self):
+    def tcp_offset(self) -> np.ndarray:
         """The active TCP offset (pose vector in the flange frame), as set by the last set_tcp."""
         return self._arm.tcp_offset
 
     @property
-    def payload(self):
+    def payload(self) -> tuple[float, np.ndarray, np.ndarray]:
         """(mass [kg], centre of gravity [m] (3,), inertia (6,)) as set by the last set_payload."""
         with self._lock:
             return self._payload, self._payload_cog, self._payload_inertia
 
-    def set_payload(self, mass, cog=None, inertia=None):
+    def set_payload(self, mass: float, cog: Vector | None = None, inertia: Vector | None = None) -> None:
         """Payload mass [kg] (≥ 0), centre of gravity [m] in the flange frame, inertia [Ixx Iyy Izz Ixy Ixz Iyz]."""
         mass = kinematics.checked_non_negative(mass, "mass")
         with self._lock:
@@ -505,25 +511,25 @@ class Controller:
                 self._payload_inertia = frozen_array(kinematics.checked_vector(inertia, 6, "inertia"))
             self._commit_status()
 
-    def set_external_force_torque(self, wrench):
+    def set_external_force_torque(self, wrench: Vector) -> None:
         """Wrench [Fx Fy Fz Tx Ty Tz] an RTDE client feeds in (external_force_torque); reported as actual_TCP_force."""
         wrench = frozen_array(kinematics.checked_vector(wrench, 6, "external_force_torque"))
         with self._lock:
             self._external_force_torque = wrench
             self._commit(**self._settings_fields())
 
-    def set_script_control_line(self, line):
+    def set_script_control_line(self, line: int) -> None:
         """The URScript line being executed (RTDE script_control_line); set by the runner."""
         with self._lock:
             self._script_control_line = max(0, int(line))
             self._commit(script_control_line=self._script_control_line)
 
     # ---------------------------------------------------------------- kinematics helpers
-    def fk(self, q):
+    def fk(self, q: Vector) -> np.ndarray:
         """TCP pose vector (base frame, current TCP offset) at joints q."""
         return self._arm.tcp_pose(kinematics.checked_vector(q, 6, "q"))
 
-    def ik(self, pose, q_near=None):
+    def ik(self, pose: Vector, q_near: Vector | None = None) -> np.ndarray:
         """Joints reaching TCP `pose` nearest to q_near (default: the current joints); kinematics.IKError if none."""
         pose = kinematics.checked_vector(pose, 6, "pose")
         start = self._q if q_near is None else kinematics.checked_vector(q_near, 6, "q_near")
@@ -542,7 +548,7 @@ class Controller:
         return q
 
     # ---------------------------------------------------------------- program hooks
-    def attach_program_runner(self, runner):
+    def attach_program_runner(self, runner) -> None:
         """The URScript runner: has submit(source, origin), stop(), pause(), resume(), is_running."""
         self._runner = runner
 
@@ -551,7 +557,7 @@ class Controller:
         """The attached runner (None until attach_program_runner)."""
         return self._runner
 
-    def set_program_state(self, running, paused=False):
+    def set_program_state(self, running: bool, paused: bool = False) -> None:
         """Called by the runner when a program starts / pauses / resumes / ends: runtime_state and status bits."""
         with self._lock:
             if (bool(running), bool(paused)) != (self._program_running, self._program_paused):
@@ -562,13 +568,13 @@ class Controller:
                 self._speed_scaling = 1.0  # a stopped program leaves no pause ramp behind
             self._commit_status()
 
-    def run_program(self, source, origin="dashboard"):
+    def run_program(self, source: str, origin: str = "dashboard") -> bool:
         """Hand URScript `source` to the runner; its answer (False: refused) is returned. CommandRefused if none."""
         if self._runner is None:
             raise CommandRefused("no URScript runner attached")
         return self._runner.submit(source, origin)
 
-    def stop_program(self):
+    def stop_program(self) -> None:
         """Stop the running program and the arm (stopj with the protective deceleration)."""
         if self._runner is not None:
             self._runner.stop()
@@ -576,13 +582,13 @@ class Controller:
             self._stop_with(PROTECTIVE_STOP_DECELERATION, "program stopped")
         self.set_program_state(False)
 
-    def pause_program(self):
+    def pause_program(self) -> None:
         """Pause the running program (the runner decides how its motion pauses)."""
         if self._runner is not None:
             self._runner.pause()
         self.set_program_state(self._program_running, True)
 
-    def resume_program(self):
+    def resume_program(self) -> None:
         """Resume a paused program."""
         if self._runner is not None:
             self._runner.resume()
@@ -603,7 +609,8 @@ class Controller:
             raise CommandRefused(f"{what} refused: freedrive (teach) mode is on")
 
     def _checked_move_parameters(self, a, v, t, r):
-        return kinematics.checked_positive(a, "a"), kinematics.checked_positive(v, "v"), kinematics.checked_non_negative(t, "t"), kinematics.checked_non_negative(r, "r")
+        return (kinematics.checked_positive(a, "a"), kinematics.checked_positive(v, "v"),
+                kinematics.checked_non_negative(t, "t"), kinematics.checked_non_negative(r, "r"))
 
     def _check_within_limits(self, q, what, refuse=None):
         outside = np.nonzero((q < self.model.joint_lower) | (q > self.model.joint_upper))[0]

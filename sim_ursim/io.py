@@ -16,20 +16,20 @@ BIT_REGISTER_COUNT = 128
 INT32_MIN, INT32_MAX = -(2**31), 2**31 - 1
 
 
-def _frozen(array):
+def _frozen(array: object) -> np.ndarray:
     """`array` made read-only, so snapshots can share it safely."""
     array.setflags(write=False)
     return array
 
 
-def _checked_index(index, count, name):
+def _checked_index(index: object, count: int, name: str) -> int:
     """`index` as an int in [0, count); ValueError naming `name` otherwise."""
     if isinstance(index, bool) or not isinstance(index, (int, np.integer)) or not 0 <= index < count:
         raise ValueError(f"{name} index must be an integer 0..{count - 1}, got {index!r}")
     return int(index)
 
 
-def set_bits(bits, mask, values):
+def set_bits(bits: int, mask: int, values: int) -> int:
     """`bits` with the bits selected by `mask` replaced by those of `values` (RTDE mask semantics)."""
     return (bits & ~mask) | (values & mask)
 
@@ -37,7 +37,7 @@ def set_bits(bits, mask, values):
 class IOState:
     """Digital outputs (8 standard, 8 configurable, 2 tool), inputs, 2 analog outs/ins, and the register banks."""
 
-    def __init__(self):
+    def __init__(self) -> None:
         self._lock = threading.Lock()
         self.version = 0  # bumped by every write, so the controller knows when its snapshot is stale
         self.on_change: Callable[[], None] | None = None
@@ -68,45 +68,46 @@ class IOState:
             self.on_change()
 
     # digital outputs ------------------------------------------------------------------------------------------
-    def set_standard_digital_out(self, index, value):
+    def set_standard_digital_out(self, index: int, value: bool) -> None:
         """Standard digital output DO`index` (0..7) on or off."""
         bit = 1 << _checked_index(index, 8, "standard digital output")
         with self._writing():
             self.standard_digital_outputs = set_bits(self.standard_digital_outputs, bit, bit if value else 0)
 
-    def set_configurable_digital_out(self, index, value):
+    def set_configurable_digital_out(self, index: int, value: bool) -> None:
         """Configurable digital output CO`index` (0..7) on or off."""
         bit = 1 << _checked_index(index, 8, "configurable digital output")
         with self._writing():
             self.configurable_digital_outputs = set_bits(self.configurable_digital_outputs, bit, bit if value else 0)
 
-    def set_tool_digital_out(self, index, value):
+    def set_tool_digital_out(self, index: int, value: bool) -> None:
         """Tool digital output TO`index` (0..1) on or off."""
         bit = 1 << _checked_index(index, 2, "tool digital output")
         with self._writing():
             self.tool_digital_outputs = set_bits(self.tool_digital_outputs, bit, bit if value else 0)
 
-    def apply_digital_output_masks(self, standard=(0, 0), configurable=(0, 0), tool=(0, 0)):
+    def apply_digital_output_masks(self, standard: tuple[int, int] = (0, 0), configurable: tuple[int, int] = (0, 0),
+                                   tool: tuple[int, int] = (0, 0)) -> None:
         """Write (mask, values) pairs to the three digital output groups at once, as an RTDE input package does."""
         with self._writing():
             self.standard_digital_outputs = set_bits(self.standard_digital_outputs, *standard) & 0xFF
             self.configurable_digital_outputs = set_bits(self.configurable_digital_outputs, *configurable) & 0xFF
             self.tool_digital_outputs = set_bits(self.tool_digital_outputs, *tool) & 0x3
 
-    def set_standard_digital_in(self, index, value):
+    def set_standard_digital_in(self, index: int, value: bool) -> None:
         """Simulated wiring: standard digital input DI`index` (0..7) high or low (for tests)."""
         bit = 1 << _checked_index(index, 8, "standard digital input")
         with self._writing():
             self.standard_digital_inputs = set_bits(self.standard_digital_inputs, bit, bit if value else 0)
 
     @property
-    def digital_output_bits(self):
+    def digital_output_bits(self) -> int:
         """RTDE actual_digital_output_bits: 0-7 standard, 8-15 configurable, 16-17 tool."""
         return (self.standard_digital_outputs | (self.configurable_digital_outputs << 8)
                 | (self.tool_digital_outputs << 16))
 
     @property
-    def digital_input_bits(self):
+    def digital_input_bits(self) -> int:
         """RTDE actual_digital_input_bits: 0-7 standard, 8-15 configurable, 16-17 tool."""
         return (self.standard_digital_inputs | (self.configurable_digital_inputs << 8)
                 | (self.tool_digital_inputs << 16))
@@ -134,7 +135,7 @@ class IOState:
         )
 
     # analog ---------------------------------------------------------------------------------------------------
-    def set_analog_out(self, index, value, voltage=None):
+    def set_analog_out(self, index: int, value: float, voltage: bool | None = None) -> None:
         """Standard analog output AO`index` (0..1) to `value` (ratio 0..1); optionally switch it to voltage/current."""
         index = _checked_index(index, 2, "standard analog output")
         value = float(value)
@@ -149,12 +150,12 @@ class IOState:
                 self.analog_output_types = set_bits(self.analog_output_types, bit, bit if voltage else 0)
 
     @property
-    def analog_io_types(self):
+    def analog_io_types(self) -> int:
         """RTDE analog_io_types: bits 0-1 AI0/AI1, bits 2-3 AO0/AO1; 1 = voltage (inputs are current here)."""
         return self.analog_output_types << 2
 
     # registers ------------------------------------------------------------------------------------------------
-    def set_int_register(self, bank, index, value):
+    def set_int_register(self, bank: str, index: int, value: int) -> None:
         """Integer register `index` (0..47) of bank "input" or "output" to a signed 32-bit `value`."""
         index = _checked_index(index, REGISTER_COUNT, f"{bank} integer register")
         value = int(value)
@@ -162,17 +163,17 @@ class IOState:
             raise ValueError(f"{bank} integer register {index} value must fit in int32, got {value}")
         self._replace(f"{_checked_bank(bank)}_int_registers", index, value)
 
-    def set_double_register(self, bank, index, value):
+    def set_double_register(self, bank: str, index: int, value: float) -> None:
         """Double register `index` (0..47) of bank "input" or "output"."""
         index = _checked_index(index, REGISTER_COUNT, f"{bank} double register")
         self._replace(f"{_checked_bank(bank)}_double_registers", index, float(value))
 
-    def set_bit_register(self, bank, index, value):
+    def set_bit_register(self, bank: str, index: int, value: bool) -> None:
         """Bit register `index` (0..127) of bank "input" or "output"."""
         index = _checked_index(index, BIT_REGISTER_COUNT, f"{bank} bit register")
         self._replace(f"{_checked_bank(bank)}_bit_registers", index, bool(value))
 
-    def set_bit_register_word(self, bank, first, word):
+    def set_bit_register_word(self, bank: str, first: int, word: int) -> None:
         """32 bit registers first..first+31 (first = 0 or 32) from a UINT32, as RTDE input_bit_registersX_to_Y."""
         if first not in (0, 32):
             raise ValueError(f"bit register word must start at 0 or 32, got {first!r}")
@@ -182,21 +183,21 @@ class IOState:
             bits[first:first + 32] = [(int(word) >> n) & 1 for n in range(32)]
             setattr(self, name, _frozen(bits))
 
-    def bit_register_word(self, bank, first):
+    def bit_register_word(self, bank: str, first: int) -> int:
         """Bit registers first..first+31 (first = 0 or 32) packed into a UINT32, bit n = register first+n."""
         if first not in (0, 32):
             raise ValueError(f"bit register word must start at 0 or 32, got {first!r}")
         bits = getattr(self, f"{_checked_bank(bank)}_bit_registers")[first:first + 32]
         return int(np.dot(bits.astype(np.uint64), (np.uint64(1) << np.arange(32, dtype=np.uint64))))
 
-    def _replace(self, name, index, value):
+    def _replace(self, name: str, index: int, value: object) -> None:
         with self._writing():
             array = getattr(self, name).copy()
             array[index] = value
             setattr(self, name, _frozen(array))
 
 
-def _checked_bank(bank):
+def _checked_bank(bank: str) -> str:
     """"input" or "output"; ValueError otherwise."""
     if bank not in ("input", "output"):
         raise ValueError(f"register bank must be 'input' or 'output', got {bank!r}")

@@ -5,12 +5,12 @@ into programs by `script_intake` and handed to the controller's program runner (
 one).  Every server honours `controller.faults`: frozen streams send nothing, latency delays each send, and a new
 drop generation closes every connection accepted before it.
 
-Listening, accepting, connections and drops: tcp_server.TCPServer. Each connection has a reader thread (URScript intake).  Primary/secondary connections
-have a writer thread each (version message, 10 Hz robot state, robot messages on 30001) that gives up on a client
-that has not taken its data for SEND_TIMEOUT seconds.  The realtime server has one writer for all clients, paced by
-`controller.wait_cycle`, that never waits for a client: a client that stops reading stops receiving ("Sending
-discontinued", as the controller logs) but its connection stays open for scripts — ur_rtde's control interface
-connects to 30003, never reads, and uploads its script there.
+Listening, accepting, connections and drops: tcp_server.TCPServer. Each connection has a reader thread (URScript
+intake). Primary/secondary connections have a writer thread each (version message, 10 Hz robot state, robot
+messages on 30001) that gives up on a client that has not taken its data for SEND_TIMEOUT seconds. The realtime
+server has one writer for all clients, paced by `controller.wait_cycle`, that never waits for a client: a client
+that stops reading stops receiving ("Sending discontinued", as the controller logs) but its connection stays open
+for scripts — ur_rtde's control interface connects to 30003, never reads, and uploads its script there.
 """
 import collections
 import logging
