@@ -64,7 +64,7 @@ class UnlockTooEarly(CommandRefused):
     """`unlock protective stop` came less than 5 s after the stop."""
 
 
-def safety_status_bits(safety_mode):
+def safety_status_bits(safety_mode: int) -> int:
     """safety_status_bits word for a safety mode (normal, protective stop, robot e-stop; others map to their bit)."""
     if safety_mode == SafetyMode.NORMAL:
         return SAFETY_BIT_NORMAL
@@ -75,14 +75,14 @@ def safety_status_bits(safety_mode):
     return (1 << (safety_mode - 1)) | SAFETY_BIT_STOPPED_DUE_TO_SAFETY
 
 
-def runtime_state_of(running, paused):
+def runtime_state_of(running: bool, paused: bool) -> int:
     """runtime_state for a program that is (not) running and (not) paused."""
     if not running:
         return RuntimeState.STOPPED
     return RuntimeState.PAUSED if paused else RuntimeState.PLAYING
 
 
-def frozen_array(array):
+def frozen_array(array: object) -> np.ndarray:
     """A read-only float copy of `array`, safe to share between snapshots."""
     result = np.array(array, dtype=float)
     result.setflags(write=False)

@@ -8,8 +8,8 @@ from typing import Any, TypeVar
 import numpy as np
 
 from sim_ursim import kinematics
-from sim_ursim.vocabulary import CommandRefused
 from sim_ursim.urscript.values import Pose, ScriptError, number_list, to_str
+from sim_ursim.vocabulary import CommandRefused
 
 T = TypeVar("T")
 

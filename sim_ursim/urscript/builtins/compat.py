@@ -6,18 +6,19 @@ when called (`UNSUPPORTED`).
 """
 from sim_ursim.urscript.builtins.arguments import as_number
 from sim_ursim.urscript.builtins.registry import builtin, register
+from sim_ursim.urscript.interpreter import ThreadContext
 from sim_ursim.urscript.values import ScriptError, number_list, to_str
 
 
 @builtin
-def rtde_set_watchdog(ctx, variable_name, min_frequency, action="pause"):
+def rtde_set_watchdog(ctx: ThreadContext, variable_name, min_frequency, action="pause"):
     """Accepted and not enforced: the simulator does not pause or stop a program when RTDE input goes quiet."""
     if not isinstance(variable_name, str):
         raise ScriptError(f"runtime_error:rtde_set_watchdog needs a variable name, got {to_str(variable_name)}:")
 
 
 @builtin("force_mode_set_damping", "force_mode_set_gain_scaling")
-def force_mode_parameter(ctx, value):
+def force_mode_parameter(ctx: ThreadContext, value):
     """Force-mode damping / gain scaling (0..1): checked and accepted; force mode itself is not emulated."""
     value = as_number(value, "value")
     if not 0.0 <= value <= 2.0:
@@ -25,32 +26,32 @@ def force_mode_parameter(ctx, value):
 
 
 @builtin
-def set_gravity(ctx, d):
+def set_gravity(ctx: ThreadContext, d):
     """Gravity direction [m/s²] in the base frame: checked and accepted; the simulator models no dynamics."""
     number_list(d, 3, "d")
 
 
 @builtin
-def tool_contact(ctx, direction):
+def tool_contact(ctx: ThreadContext, direction):
     """Cycles since the tool touched something along `direction`: always 0, the simulated arm never collides."""
     number_list(direction, 6, "direction")
     return 0
 
 
 @builtin
-def zero_ftsensor(ctx):
+def zero_ftsensor(ctx: ThreadContext):
     """Zero the F/T sensor: the simulated sensor always reads zero, so nothing changes."""
 
 
 @builtin
-def end_force_mode(ctx):
+def end_force_mode(ctx: ThreadContext):
     """Leave force mode: force mode is never active in the simulator, so nothing changes."""
 
 
 def _unsupported(name):
     """A built-in that raises a run-time error naming `name`."""
 
-    def refuse(ctx, *args, **kwargs):
+    def refuse(ctx: ThreadContext, *args, **kwargs):
         raise ScriptError(f"runtime_error:{name} is not supported by sim_ursim:")
 
     refuse.__name__ = name

@@ -10,6 +10,7 @@ from typing import Any
 
 from sim_ursim.urscript.builtins.arguments import as_integer, as_number, controller_call
 from sim_ursim.urscript.builtins.registry import builtin, register
+from sim_ursim.urscript.interpreter import ThreadContext
 from sim_ursim.urscript.values import ScriptError
 
 # (local index offset into the flat 0-17 numbering, channel count) of each digital group
@@ -25,7 +26,7 @@ def _digital_out_group(n: Any) -> tuple[str, int]:
     raise ScriptError(f"runtime_error:digital output {index} does not exist (0..17):")
 
 
-def _set_out(ctx, group: str, index: Any, value: Any) -> None:
+def _set_out(ctx: ThreadContext, group: str, index: Any, value: Any) -> None:
     setter = getattr(ctx.controller.io, f"set_{group}_digital_out")
     controller_call(setter, as_integer(index, "n"), bool(value))
 
@@ -38,14 +39,14 @@ def _get_bit(word: int, index: Any, count: int, what: str) -> bool:
 
 
 @builtin
-def set_digital_out(ctx, n, b):
+def set_digital_out(ctx: ThreadContext, n, b):
     """Digital output n (0-7 standard, 8-15 configurable, 16-17 tool) on or off."""
     group, index = _digital_out_group(n)
     _set_out(ctx, group, index, b)
 
 
 def _group_setter(group: str) -> Callable[..., None]:
-    def setter(ctx, n, b):
+    def setter(ctx: ThreadContext, n, b):
         _set_out(ctx, group, n, b)
 
     first, count = _GROUPS[group]
@@ -71,7 +72,7 @@ _BIT_GETTERS: tuple[tuple[str, str, int, str], ...] = (
 
 
 def _bit_getter(name: str, attribute: str, count: int, what: str) -> Callable[..., bool]:
-    def getter(ctx, n):
+    def getter(ctx: ThreadContext, n):
         return _get_bit(getattr(ctx.controller.io, attribute), n, count, what)
 
     getter.__name__, getter.__doc__ = name, f"State of {what} n (0-{count - 1})."
@@ -83,7 +84,7 @@ for _row in _BIT_GETTERS:
 
 
 @builtin("set_standard_analog_out", "set_analog_out")
-def set_standard_analog_out(ctx, n, f):
+def set_standard_analog_out(ctx: ThreadContext, n, f):
     """Standard analog output n (0-1) to the ratio f (0..1)."""
     controller_call(ctx.controller.io.set_analog_out, as_integer(n, "n"), as_number(f, "f"))
 
@@ -100,7 +101,7 @@ def _register_reader(bank: str, kind: str) -> Callable[..., Any]:
     array_name = f"{bank}_{kind}_registers"
     script_kind, convert, _ = _REGISTER_KINDS[kind]
 
-    def read(ctx, address):
+    def read(ctx: ThreadContext, address):
         values = getattr(ctx.controller.io, array_name)
         index = as_integer(address, "address")
         if not 0 <= index < len(values):
@@ -115,7 +116,7 @@ def _register_reader(bank: str, kind: str) -> Callable[..., Any]:
 def _register_writer(kind: str) -> Callable[..., None]:
     script_kind, _, check = _REGISTER_KINDS[kind]
 
-    def write(ctx, address, value):
+    def write(ctx: ThreadContext, address, value):
         setter = getattr(ctx.controller.io, f"set_{kind}_register")
         controller_call(setter, "output", as_integer(address, "address"), check(value))
 

@@ -7,11 +7,12 @@ import numpy as np
 from sim_ursim import kinematics
 from sim_ursim.urscript.builtins.arguments import as_pose_array, controller_call, to_list, to_pose
 from sim_ursim.urscript.builtins.registry import builtin
+from sim_ursim.urscript.interpreter import ThreadContext
 from sim_ursim.urscript.values import Pose, ScriptError, number_list
 
 
 @builtin
-def get_forward_kin(ctx, q=None, tcp=None):
+def get_forward_kin(ctx: ThreadContext, q=None, tcp=None):
     """TCP pose at joints q (default: the actual joints) with the active TCP or `tcp`."""
     joints = ctx.controller.state().actual_q if q is None else number_list(q, 6, "q")
     if tcp is None:
@@ -20,7 +21,7 @@ def get_forward_kin(ctx, q=None, tcp=None):
 
 
 @builtin
-def get_inverse_kin(ctx, x, qnear=None, maxPositionError=1e-10, maxOrientationError=1e-10, tcp=None):
+def get_inverse_kin(ctx: ThreadContext, x, qnear=None, maxPositionError=1e-10, maxOrientationError=1e-10, tcp=None):
     """Joints reaching pose x nearest to qnear (default: the actual joints), with the active TCP or `tcp`."""
     near = ctx.controller.state().actual_q if qnear is None else np.array(number_list(qnear, 6, "qnear"))
     if tcp is None:
@@ -30,7 +31,7 @@ def get_inverse_kin(ctx, x, qnear=None, maxPositionError=1e-10, maxOrientationEr
 
 
 @builtin
-def get_inverse_kin_has_solution(ctx, pose, qnear=None, maxPositionError=1e-10, maxOrientationError=1e-10, tcp=None):
+def get_inverse_kin_has_solution(ctx: ThreadContext, pose, qnear=None, maxPositionError=1e-10, maxOrientationError=1e-10, tcp=None):
     """True when get_inverse_kin would find joints for `pose`."""
     try:
         get_inverse_kin(ctx, pose, qnear, maxPositionError, maxOrientationError, tcp)
@@ -40,7 +41,7 @@ def get_inverse_kin_has_solution(ctx, pose, qnear=None, maxPositionError=1e-10, 
 
 
 @builtin
-def is_within_safety_limits(ctx, pose, qnear=None):
+def is_within_safety_limits(ctx: ThreadContext, pose, qnear=None):
     """True when `pose` (or joint list) is reachable with joints inside the limits."""
     model = ctx.controller.model
     if isinstance(pose, Pose):
@@ -54,7 +55,7 @@ def is_within_safety_limits(ctx, pose, qnear=None):
 
 
 @builtin
-def get_jacobian(ctx, q=None, tcp=None):
+def get_jacobian(ctx: ThreadContext, q=None, tcp=None):
     """6x6 geometric Jacobian (rows: TCP twist [v; ω] in the base frame, columns: joints) as a list of rows."""
     joints = ctx.controller.state().actual_q if q is None else np.array(number_list(q, 6, "q"))
     offset = ctx.controller.tcp_offset if tcp is None else as_pose_array(tcp, "tcp")

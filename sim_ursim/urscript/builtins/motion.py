@@ -6,10 +6,11 @@ import numpy as np
 
 from sim_ursim.urscript.builtins.arguments import as_number, controller_call
 from sim_ursim.urscript.builtins.registry import builtin
+from sim_ursim.urscript.interpreter import ThreadContext
 from sim_ursim.urscript.values import Pose, ScriptError, number_list, to_str
 
 
-def _joint_target(ctx, q):
+def _joint_target(ctx: ThreadContext, q):
     """movej's target: a joint list, or a pose solved by IK near the joints where the queued motion ends."""
     if isinstance(q, Pose):
         state = ctx.controller.state()
@@ -17,7 +18,7 @@ def _joint_target(ctx, q):
     return np.array(number_list(q, 6, "q"))
 
 
-def _pose_target(ctx, pose):
+def _pose_target(ctx: ThreadContext, pose):
     """movel's target: a pose, or a joint list converted by forward kinematics."""
     if isinstance(pose, Pose):
         return np.array(pose)
@@ -25,26 +26,26 @@ def _pose_target(ctx, pose):
 
 
 @builtin
-def movej(ctx, q, a=1.4, v=1.05, t=0, r=0):
+def movej(ctx: ThreadContext, q, a=1.4, v=1.05, t=0, r=0):
     """Joint move (leading axis a [rad/s²], v [rad/s], t [s] overrides); blocks until done, or within r [m]."""
     target = _joint_target(ctx, q)
     ctx.run_motion(lambda: controller_call(ctx.controller.movej, target, a, v, t, r))
 
 
 @builtin
-def movel(ctx, pose, a=1.2, v=0.25, t=0, r=0):
+def movel(ctx: ThreadContext, pose, a=1.2, v=0.25, t=0, r=0):
     """Linear TCP move (a [m/s²], v [m/s], t [s] overrides); blocks until done, or within r [m]."""
     target = _pose_target(ctx, pose)
     ctx.run_motion(lambda: controller_call(ctx.controller.movel, target, a, v, t, r))
 
 
 @builtin
-def movep(ctx, pose, a=1.2, v=0.25, r=0):
+def movep(ctx: ThreadContext, pose, a=1.2, v=0.25, r=0):
     """Process move: modelled as a linear move (the constant-speed circular blends are not emulated)."""
     movel(ctx, pose, a, v, 0, r)
 
 
-def _wait_for(ctx, seconds):
+def _wait_for(ctx: ThreadContext, seconds):
     """Return after `seconds` (at least one control cycle) of controller time, interruptibly."""
     if seconds > 0:
         ctx.sleep(seconds)
@@ -53,7 +54,7 @@ def _wait_for(ctx, seconds):
 
 
 @builtin
-def speedj(ctx, qd, a, t=None):
+def speedj(ctx: ThreadContext, qd, a, t=None):
     """Accelerate the joints to speeds qd [rad/s] at a [rad/s²] and keep them; returns after t [s], or without t
     once the speeds are reached (the ramp time max|Δqd| / a)."""
     qd = np.array(number_list(qd, 6, "qd"))
@@ -66,7 +67,7 @@ def speedj(ctx, qd, a, t=None):
 
 
 @builtin
-def speedl(ctx, xd, a, t=None, aRot=None):
+def speedl(ctx: ThreadContext, xd, a, t=None, aRot=None):
     """Accelerate the TCP to twist xd [m/s, rad/s] at a [m/s²] and keep it; returns after t [s], or without t
     once the linear speed is reached (the ramp time |Δv| / a)."""
     xd = np.array(number_list(xd, 6, "xd"))
@@ -79,7 +80,7 @@ def speedl(ctx, xd, a, t=None, aRot=None):
 
 
 @builtin
-def servoj(ctx, q, a=0, v=0, t=0.008, lookahead_time=0.1, gain=300):
+def servoj(ctx: ThreadContext, q, a=0, v=0, t=0.008, lookahead_time=0.1, gain=300):
     """Servo to joints q, arriving after t [s]; blocks for t, as the controller does."""
     q = number_list(q, 6, "q")
     duration = as_number(t, "t")
@@ -88,21 +89,21 @@ def servoj(ctx, q, a=0, v=0, t=0.008, lookahead_time=0.1, gain=300):
 
 
 @builtin
-def stopj(ctx, a):
+def stopj(ctx: ThreadContext, a):
     """Decelerate the joints to rest at a [rad/s²]; blocks until the arm stands still."""
     deceleration = as_number(a, "a")
     ctx.run_motion(lambda: controller_call(ctx.controller.stopj, deceleration))
 
 
 @builtin
-def stopl(ctx, a, aRot=None):
+def stopl(ctx: ThreadContext, a, aRot=None):
     """Decelerate the TCP to rest at a [m/s²]; blocks until the arm stands still."""
     deceleration = as_number(a, "a")
     ctx.run_motion(lambda: controller_call(ctx.controller.stopl, deceleration))
 
 
 @builtin
-def sleep(ctx, t):
+def sleep(ctx: ThreadContext, t):
     """Wait t seconds."""
     seconds = as_number(t, "t")
     if seconds < 0:
@@ -111,38 +112,38 @@ def sleep(ctx, t):
 
 
 @builtin
-def sync(ctx):
+def sync(ctx: ThreadContext):
     """Wait for the next control cycle (uses up the rest of this thread's physical time slot)."""
     ctx.sync()
 
 
 @builtin
-def is_steady(ctx):
+def is_steady(ctx: ThreadContext):
     """True when the arm stands still and no motion is active."""
     state = ctx.controller.state()
     return bool(not state.motion_active and np.all(np.abs(state.actual_qd) < 1e-6))
 
 
 @builtin("freedrive_mode", "teach_mode")
-def freedrive_mode(ctx, *args):
+def freedrive_mode(ctx: ThreadContext, *args):
     """Freedrive on (the axis/feature constraints of 5.x are accepted and ignored)."""
     controller_call(ctx.controller.set_freedrive, True)
 
 
 @builtin("end_freedrive_mode", "end_teach_mode")
-def end_freedrive_mode(ctx):
+def end_freedrive_mode(ctx: ThreadContext):
     """Freedrive off."""
     controller_call(ctx.controller.set_freedrive, False)
 
 
 @builtin
-def get_freedrive_status(ctx):
+def get_freedrive_status(ctx: ThreadContext):
     """0 when freedrive is off, 1 when on (no singularity/limit reporting)."""
     return 1 if ctx.controller.state().freedrive else 0
 
 
 @builtin
-def protective_stop(ctx):
+def protective_stop(ctx: ThreadContext):
     """Trigger a protective stop (the program then stops)."""
     ctx.controller.protective_stop("protective_stop() called by the program")
     ctx.check()

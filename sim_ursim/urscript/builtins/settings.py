@@ -9,43 +9,44 @@ from typing import Any
 
 from sim_ursim.urscript.builtins.arguments import as_number, as_pose_array, controller_call, to_list, to_pose
 from sim_ursim.urscript.builtins.registry import builtin, register
+from sim_ursim.urscript.interpreter import ThreadContext
 from sim_ursim.urscript.values import number_list
 
 
 @builtin
-def set_tcp(ctx, pose):
+def set_tcp(ctx: ThreadContext, pose):
     """TCP offset in the flange frame."""
     controller_call(ctx.controller.set_tcp, as_pose_array(pose, "pose"))
 
 
 @builtin
-def set_payload(ctx, m, cog=None):
+def set_payload(ctx: ThreadContext, m, cog=None):
     """Payload mass [kg] and optional centre of gravity [m] in the flange frame."""
     controller_call(ctx.controller.set_payload, as_number(m, "m"), None if cog is None else number_list(cog, 3, "cog"))
 
 
 @builtin
-def set_payload_mass(ctx, m):
+def set_payload_mass(ctx: ThreadContext, m):
     """Payload mass [kg], centre of gravity unchanged."""
     controller_call(ctx.controller.set_payload, as_number(m, "m"))
 
 
 @builtin
-def set_payload_cog(ctx, cog):
+def set_payload_cog(ctx: ThreadContext, cog):
     """Payload centre of gravity [m] in the flange frame, mass unchanged."""
     mass = float(ctx.controller.payload[0])
     controller_call(ctx.controller.set_payload, mass, number_list(cog, 3, "cog"))
 
 
 @builtin
-def set_target_payload(ctx, m, cog, inertia=None):
+def set_target_payload(ctx: ThreadContext, m, cog, inertia=None):
     """Payload mass, centre of gravity and optional inertia [Ixx Iyy Izz Ixy Ixz Iyz] (5.10+)."""
     controller_call(ctx.controller.set_payload, as_number(m, "m"), number_list(cog, 3, "cog"),
                      None if inertia is None else number_list(inertia, 6, "inertia"))
 
 
 @builtin
-def get_steptime(ctx):
+def get_steptime(ctx: ThreadContext):
     """One control cycle [s]: 0.008 on CB3, 0.002 on e-series."""
     return float(ctx.controller.period)
 
@@ -72,7 +73,7 @@ _STATE_GETTERS: tuple[tuple[str, str, Callable[[Any], Any], str], ...] = (
 def _state_getter(name: str, field: str, convert: Callable[[Any], Any], doc: str) -> Callable[[Any], Any]:
     """A built-in returning `convert(controller.state().<field>)`."""
 
-    def getter(ctx):
+    def getter(ctx: ThreadContext):
         return convert(getattr(ctx.controller.state(), field))
 
     getter.__name__, getter.__doc__ = name, doc
@@ -84,24 +85,24 @@ for _row in _STATE_GETTERS:
 
 
 @builtin
-def get_tcp_offset(ctx):
+def get_tcp_offset(ctx: ThreadContext):
     """Active TCP offset in the flange frame."""
     return to_pose(ctx.controller.tcp_offset)
 
 
 @builtin
-def get_target_payload(ctx):
+def get_target_payload(ctx: ThreadContext):
     """Payload mass [kg]."""
     return float(ctx.controller.payload[0])
 
 
 @builtin
-def get_target_payload_cog(ctx):
+def get_target_payload_cog(ctx: ThreadContext):
     """Payload centre of gravity [m]."""
     return to_list(ctx.controller.payload[1])
 
 
 @builtin
-def get_target_payload_inertia(ctx):
+def get_target_payload_inertia(ctx: ThreadContext):
     """Payload inertia [Ixx Iyy Izz Ixy Ixz Iyz]."""
     return to_list(ctx.controller.payload[2])
