@@ -12,7 +12,7 @@ import json
 import logging
 import socket
 
-from .tcp_server import TCPServer
+from .tcp_server import Connection, TCPServer
 from .vocabulary import CommandRefused, RobotMode, SafetyMode
 
 log = logging.getLogger("sim_ursim.control")
@@ -25,12 +25,12 @@ FAULT_COMMANDS = ("protective-stop", "emergency-stop", "release-emergency-stop",
 COMMANDS = FAULT_COMMANDS + ("freedrive", "move-by-hand")
 
 
-def encode_request(command, **arguments):
+def encode_request(command: str, **arguments) -> bytes:
     """The request line for `command` with its arguments."""
     return (json.dumps({"command": command, **arguments}) + "\n").encode("utf-8")
 
 
-def execute(request, controller, can_shut_down=False):
+def execute(request: dict, controller, can_shut_down: bool = False) -> dict:
     """Carry out one decoded request on `controller`; returns the reply dict (errors reported, never raised).
 
     `shutdown` is only answered here; the server stops the simulator after sending the reply.
@@ -98,7 +98,7 @@ def status_line(state, faults):
             f"program {'running' if state.program_running else 'stopped'}, q [{joints}], {faults.describe()}")
 
 
-def send_request(host, command, port=CONTROL_PORT, timeout=5.0, **arguments):
+def send_request(host: str, command: str, port: int = CONTROL_PORT, timeout: float = 5.0, **arguments) -> dict:
     """Client side: send one request to a simulator's control channel and return its reply dict."""
     with socket.create_connection((host, port), timeout=timeout) as connection:
         connection.sendall(encode_request(command, **arguments))
@@ -119,7 +119,7 @@ class ControlChannelServer(TCPServer):
         super().__init__(simulator.controller, host, port)
         self.simulator = simulator
 
-    def serve(self, connection):
+    def serve(self, connection: Connection) -> None:
         buffered = b""
         for chunk in self.read_chunks(connection):
             buffered += chunk
@@ -134,7 +134,7 @@ class ControlChannelServer(TCPServer):
                                         "error": f"request longer than {MAX_REQUEST_BYTES} bytes: connection closed"})
                 return
 
-    def _reply(self, connection, line):
+    def _reply(self, connection: Connection, line: bytes) -> bool:
         """Execute one request line and answer it; False when the connection is over."""
         try:
             request = json.loads(line)
@@ -149,5 +149,5 @@ class ControlChannelServer(TCPServer):
         return True
 
     @staticmethod
-    def _send(connection, reply):
+    def _send(connection: Connection, reply: dict) -> bool:
         return connection.send_all((json.dumps(reply) + "\n").encode("utf-8"), SEND_TIMEOUT)

@@ -38,23 +38,23 @@ class MotionFault(Exception):
 class Motion:
     """Handle of one commanded motion: `wait()` for its end, then read `error` (None when it succeeded)."""
 
-    def __init__(self, kind, blend_radius=0.0):
+    def __init__(self, kind: str, blend_radius: float = 0.0):
         self.kind = kind
         self.blend_radius = blend_radius
         self.error = None
         self._ended = threading.Event()
 
     @property
-    def done(self):
+    def done(self) -> bool:
         """True once the motion has ended, successfully or not (see `error`)."""
         return self._ended.is_set()
 
     @property
-    def succeeded(self):
+    def succeeded(self) -> bool:
         """True once the motion has ended without error."""
         return self._ended.is_set() and self.error is None
 
-    def wait(self, timeout=None, cancel=None):
+    def wait(self, timeout: float | None = None, cancel: threading.Event | None = None) -> bool:
         """Block until the motion ends (True), or `timeout` s pass / `cancel` is set (False). Does not stop the arm."""
         if cancel is None:
             return self._ended.wait(timeout)
@@ -68,12 +68,12 @@ class Motion:
             self._ended.wait(remaining)
         return True
 
-    def _finish(self, error=None):
+    def _finish(self, error: str | None = None) -> None:
         if not self._ended.is_set():
             self.error = error
             self._ended.set()
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         status = "running" if not self.done else ("ok" if self.error is None else f"failed: {self.error}")
         return f"<Motion {self.kind} {status}>"
 

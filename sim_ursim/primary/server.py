@@ -24,7 +24,7 @@ from sim_ursim.vocabulary import CommandRefused
 from sim_ursim.models import build_date
 from sim_ursim.primary import packets, realtime
 from sim_ursim.primary.script_intake import IntakeOverflow, ScriptAssembler
-from sim_ursim.tcp_server import POLL_INTERVAL, TCPServer
+from sim_ursim.tcp_server import POLL_INTERVAL, Connection, TCPServer
 
 log = logging.getLogger(__name__)
 
@@ -39,11 +39,11 @@ class _InterfaceServer(TCPServer):
     """URScript intake shared by the three ports; a subclass names its `origin` (passed with each program) and says
     what a new client is sent (`_on_connect`)."""
 
-    def serve(self, connection):
+    def serve(self, connection: Connection) -> None:
         self._on_connect(connection)
         self._read_scripts(connection)
 
-    def _read_scripts(self, connection):
+    def _read_scripts(self, connection: Connection) -> None:
         """Read the client's URScript to its end of stream, whatever the writer does, and run each program.
 
         A client that sends more than the intake holds without completing a program is dropped with a logged reason
@@ -59,7 +59,7 @@ class _InterfaceServer(TCPServer):
             for program in programs:
                 self._submit(program)
 
-    def _submit(self, program):
+    def _submit(self, program: str) -> None:
         try:
             self.controller.run_program(program, self.origin)
         except CommandRefused as refusal:
@@ -67,7 +67,7 @@ class _InterfaceServer(TCPServer):
         except Exception:  # noqa: BLE001 - an interpreter bug must not cut the client's connection; log it
             log.exception("port %s: running the received URScript failed", self.port)
 
-    def _on_connect(self, connection):
+    def _on_connect(self, connection: Connection) -> None:
         """Start whatever this port sends to a new client."""
         raise NotImplementedError
 
@@ -78,11 +78,11 @@ class DelayLine:
     def __init__(self):
         self._items = collections.deque()
 
-    def put(self, data, due):
+    def put(self, data: bytes, due: float) -> None:
         """Queue `data` for sending at monotonic time `due` (items keep their order)."""
         self._items.append((due, data))
 
-    def take_due(self, now):
+    def take_due(self, now: float) -> list[bytes]:
         """Remove and return, in order, every item due at `now`."""
         due = []
         while self._items and self._items[0][0] <= now:
@@ -90,7 +90,7 @@ class DelayLine:
         return due
 
     @property
-    def next_due(self):
+    def next_due(self) -> float:
         """Monotonic time the oldest item is due (infinity when empty)."""
         return self._items[0][0] if self._items else math.inf
 
@@ -104,7 +104,7 @@ class PrimaryServer(_InterfaceServer):
         self.robot_messages = robot_messages
         self.origin = "primary" if robot_messages else "secondary"
 
-    def configure(self, sock):
+    def configure(self, sock: socket.socket) -> None:
         # Bounded kernel buffering (Linux would grow it to megabytes): a client that stops reading fills it within
         # seconds of robot state and is then disconnected after SEND_TIMEOUT.
         sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, PRIMARY_SEND_BUFFER)
@@ -112,7 +112,7 @@ class PrimaryServer(_InterfaceServer):
     def _on_connect(self, connection):
         self.spawn(self._stream, "writer", connection)
 
-    def _stream(self, connection):
+    def _stream(self, connection: Connection) -> None:
         controller = self.controller
         faults = controller.faults
         version = tuple(controller.version)
@@ -155,7 +155,7 @@ class PrimaryServer(_InterfaceServer):
                 controller.messages.unsubscribe(subscription)
             connection.stop_sending()  # the reader closes the connection once it has read everything
 
-    def _timestamp_ms(self):
+    def _timestamp_ms(self) -> int:
         return int(self.controller.state().timestamp * 1000)
 
 
@@ -176,7 +176,7 @@ class _RealtimeClient:
         self.stalled_since = None
         self.discontinued = False
 
-    def offer(self, package, now):
+    def offer(self, package: bytes, now: float) -> None:
         """Send `package` without waiting; while earlier bytes are still unsent, this package is skipped (as the
         controller skips packages); a client stalled for REALTIME_STALL_LIMIT s is discontinued."""
         if self.discontinued or not self.connection.can_send:
@@ -191,7 +191,7 @@ class _RealtimeClient:
         self.unsent = self._send(package)
         self.stalled_since = now if self.unsent else None
 
-    def _send(self, data):
+    def _send(self, data: bytes) -> bytes:
         """Bytes of `data` the kernel did not accept."""
         try:
             sent = self.connection.sock.send(data)
@@ -213,10 +213,10 @@ class RealtimeServer(_InterfaceServer):
         self._clients = []
         self._clients_lock = threading.Lock()
 
-    def on_start(self):
+    def on_start(self) -> None:
         self.spawn(self._broadcast, "broadcast")
 
-    def configure(self, sock):
+    def configure(self, sock: socket.socket) -> None:
         # A modest kernel send buffer, so a client that stops reading is noticed within a second or two, while a
         # reading client still has its own receive buffer as slack.
         sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, REALTIME_SEND_BUFFER)
@@ -225,12 +225,12 @@ class RealtimeServer(_InterfaceServer):
         with self._clients_lock:
             self._clients.append(_RealtimeClient(connection))
 
-    def discontinued_count(self):
+    def discontinued_count(self) -> int:
         """Connected clients the stream has given up on (they still may send scripts)."""
         with self._clients_lock:
             return sum(1 for c in self._clients if c.discontinued and not c.connection.closed.is_set())
 
-    def _broadcast(self):
+    def _broadcast(self) -> None:
         controller = self.controller
         version = tuple(controller.version)
         faults = controller.faults

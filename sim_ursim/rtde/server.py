@@ -81,10 +81,10 @@ class Session:
         self._pending = bytearray()
         self._delayed = deque()  # (due monotonic time, package) while latency is injected
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return f"RTDE client #{self.number} {self.peer[0]}:{self.peer[1]}"
 
-    def send(self, data, due=None):
+    def send(self, data: bytes, due: float | None = None) -> None:
         """Queue bytes (after `due` when latency is injected) and push what the socket takes without blocking."""
         with self._lock:
             if self.closed:
@@ -95,7 +95,7 @@ class Session:
                 self._delayed.append((due or 0.0, data))
             self._flush_locked()
 
-    def flush(self):
+    def flush(self) -> None:
         """Move due delayed packages to the backlog and push the backlog without blocking."""
         with self._lock:
             if not self.closed and (self._pending or self._delayed):
@@ -117,7 +117,7 @@ class Session:
         if len(self._pending) > self.backlog_limit:
             self._close_locked(f"client does not read its data ({len(self._pending)} bytes waiting)")
 
-    def close(self, reason):
+    def close(self, reason: str) -> None:
         """Close the connection once (the reader thread wakes up with EOF and exits)."""
         with self._lock:
             self._close_locked(reason)
@@ -150,14 +150,14 @@ class RTDEServer(TCPServer):
 
     # --- life cycle ---------------------------------------------------------------------------------------------
 
-    def on_start(self):
+    def on_start(self) -> None:
         self.spawn(self._stream_loop, "stream")
         log.info("RTDE version %s, control rate %.0f Hz", ".".join(map(str, self._version)), self._control_rate)
 
-    def configure(self, sock):
+    def configure(self, sock: socket.socket) -> None:
         sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, self.send_buffer)
 
-    def sessions(self):
+    def sessions(self) -> list[Session]:
         """The open sessions (a snapshot)."""
         with self._sessions_lock:
             return list(self._sessions)
@@ -170,7 +170,7 @@ class RTDEServer(TCPServer):
 
     # --- connections --------------------------------------------------------------------------------------------
 
-    def serve(self, connection):
+    def serve(self, connection: Connection) -> None:
         with self._sessions_lock:
             self._session_count += 1
             session = Session(connection, self._session_count, self.backlog_limit)
@@ -198,27 +198,27 @@ class RTDEServer(TCPServer):
             self._forget_session(session)
             log.info("%s disconnected (%s)", session, session.close_reason)
 
-    def _forget_session(self, session):
+    def _forget_session(self, session: Session) -> None:
         with self._sessions_lock:
             if session in self._sessions:
                 self._sessions.remove(session)
             for name in [name for name, owner in self._input_owners.items() if owner is session]:
                 del self._input_owners[name]
 
-    def _reply(self, session, data):
+    def _reply(self, session: Session, data: bytes) -> None:
         latency = self.controller.faults.latency
         session.send(data, due=time.monotonic() + latency if latency > 0 else None)
 
     # --- requests -----------------------------------------------------------------------------------------------
 
-    def _handle(self, session, package_type, payload):
+    def _handle(self, session: Session, package_type: int, payload: bytes) -> None:
         handler = self._handlers.get(package_type)
         if handler is None:
             log.warning("%s sent unknown package type %d (%d bytes); ignored", session, package_type, len(payload))
             return
         handler(self, session, payload)
 
-    def _on_protocol_version(self, session, payload):
+    def _on_protocol_version(self, session: Session, payload: bytes) -> None:
         requested = protocol.parse_protocol_version_request(payload)
         accepted = requested in protocol.SUPPORTED_PROTOCOL_VERSIONS
         if accepted:
@@ -226,10 +226,10 @@ class RTDEServer(TCPServer):
         log.debug("%s asks protocol %d: %s", session, requested, "accepted" if accepted else "refused")
         self._reply(session, protocol.pack_accepted_reply(PackageType.REQUEST_PROTOCOL_VERSION, accepted))
 
-    def _on_controller_version(self, session, payload):
+    def _on_controller_version(self, session: Session, payload: bytes) -> None:
         self._reply(session, protocol.pack_controller_version_reply(*self._version))
 
-    def _on_setup_outputs(self, session, payload):
+    def _on_setup_outputs(self, session: Session, payload: bytes) -> None:
         frequency, names = protocol.parse_setup_outputs_request(payload, session.protocol_version)
         types = [variables.output_type(name, self._version) for name in names]
         # Protocol 1 has no frequency field: it streams every control cycle.
@@ -248,7 +248,7 @@ class RTDEServer(TCPServer):
             log.warning("%s output recipe refused (frequency %r, not found: %s)", session, frequency, missing)
         self._reply(session, protocol.pack_setup_outputs_reply(recipe_id, types, session.protocol_version))
 
-    def _on_setup_inputs(self, session, payload):
+    def _on_setup_inputs(self, session: Session, payload: bytes) -> None:
         names = protocol.parse_setup_inputs_request(payload)
         with self._sessions_lock:
             types = []
@@ -275,7 +275,7 @@ class RTDEServer(TCPServer):
                         [f"{n}={t}" for n, t in zip(names, types) if t in (protocol.NOT_FOUND, protocol.IN_USE)])
         self._reply(session, protocol.pack_setup_inputs_reply(recipe_id, types))
 
-    def _on_start(self, session, payload):
+    def _on_start(self, session: Session, payload: bytes) -> None:
         accepted = session.output_recipe is not None or not session.output_recipe_requested
         if accepted:
             # The reply is queued before streaming is switched on, so no data package can overtake it.
@@ -287,12 +287,12 @@ class RTDEServer(TCPServer):
             self._reply(session, protocol.pack_accepted_reply(PackageType.CONTROL_PACKAGE_START, False))
             log.warning("%s start refused: its output recipe is invalid", session)
 
-    def _on_pause(self, session, payload):
+    def _on_pause(self, session: Session, payload: bytes) -> None:
         session.streaming = False
         self._reply(session, protocol.pack_accepted_reply(PackageType.CONTROL_PACKAGE_PAUSE, True))
         log.info("%s paused", session)
 
-    def _on_data(self, session, payload):
+    def _on_data(self, session: Session, payload: bytes) -> None:
         recipe_id = protocol.data_package_recipe_id(payload)
         recipe = session.input_recipes.get(recipe_id)
         if recipe is None:
@@ -310,7 +310,7 @@ class RTDEServer(TCPServer):
         except ValueError as error:
             self._complain(session, f"input recipe {recipe_id}: {error}")
 
-    def _on_text_message(self, session, payload):
+    def _on_text_message(self, session: Session, payload: bytes) -> None:
         try:
             message, source, level = protocol.parse_text_message(payload)
         except protocol.ProtocolError as error:
@@ -318,7 +318,7 @@ class RTDEServer(TCPServer):
             return
         log.info("%s message from %r (level %d): %s", session, source, level, message)
 
-    def _complain(self, session, text):
+    def _complain(self, session: Session, text: str) -> None:
         """Log a client error; tell the client too, but only while streaming (never during setup, see §1.3)."""
         log.warning("%s: %s", session, text)
         if session.streaming:
@@ -338,7 +338,7 @@ class RTDEServer(TCPServer):
 
     # --- streaming ----------------------------------------------------------------------------------------------
 
-    def _stream_loop(self):
+    def _stream_loop(self) -> None:
         controller = self.controller
         faults = controller.faults
         last_cycle = controller.state().cycle
