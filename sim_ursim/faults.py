@@ -5,11 +5,12 @@ transport faults every server checks before it sends (docs/architecture.md, Cont
 """
 import threading
 import time
+from collections.abc import Callable
 
 class Faults:
     """Transport faults shared by every server of one simulator; thread-safe."""
 
-    def __init__(self, clock=time.monotonic):
+    def __init__(self, clock: Callable[[], float] = time.monotonic):
         self._clock = clock
         self._lock = threading.Lock()
         self._frozen_until = 0.0
@@ -77,7 +78,7 @@ class Faults:
                 f"drop generation {self.generation}")
 
 
-def _non_negative(value, name):
+def _non_negative(value: object, name: str) -> float:
     """`value` as a finite float ≥ 0; ValueError naming `name` otherwise."""
     try:
         number = float(value)

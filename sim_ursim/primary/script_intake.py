@@ -31,23 +31,23 @@ class IntakeOverflow(ValueError):
     """A client sent more than the intake holds without completing a program (the message says how much)."""
 
 
-def _code_of(line):
+def _code_of(line: str) -> str:
     """The line without string literals and comment, for bracket counting and block detection."""
     return _COMMENT.sub("", _STRING.sub('""', line))
 
 
-def _bracket_balance(line):
+def _bracket_balance(line: str) -> int:
     """Open minus closed ( and [ brackets on a line (strings and comments ignored)."""
     code = _code_of(line)
     return code.count("(") + code.count("[") - code.count(")") - code.count("]")
 
 
-def is_block_opener(line):
+def is_block_opener(line: str) -> bool:
     """True for a line that opens a block closed by `end` (def, sec, thread, if, while, for … :)."""
     return bool(_BLOCK_OPENER.match(_code_of(line)))
 
 
-def is_block_end(line):
+def is_block_end(line: str) -> bool:
     """True for a line holding only `end` (and maybe a comment)."""
     return bool(_BLOCK_END.match(line))
 
@@ -55,7 +55,7 @@ def is_block_end(line):
 class ScriptAssembler:
     """Accumulates received bytes; `feed` returns the programs completed by this chunk, in arrival order."""
 
-    def __init__(self):
+    def __init__(self) -> None:
         self._partial_line = ""
         self._block_lines = []
         self._depth = 0
@@ -64,11 +64,11 @@ class ScriptAssembler:
         self._held_bytes = 0  # text held in _block_lines and _statement_lines
 
     @property
-    def pending(self):
+    def pending(self) -> bool:
         """True while an incomplete program or line is buffered."""
         return bool(self._partial_line or self._block_lines or self._statement_lines)
 
-    def feed(self, data):
+    def feed(self, data: bytes) -> list[str]:
         """Add received bytes (ASCII/UTF-8; undecodable bytes replaced) and return the completed program texts."""
         text = self._partial_line + data.decode("utf-8", errors="replace").replace("\r\n", "\n")
         *lines, self._partial_line = text.split("\n")
@@ -81,7 +81,7 @@ class ScriptAssembler:
             programs.extend(self._take_statements())
         return programs
 
-    def _check_bounds(self):
+    def _check_bounds(self) -> None:
         """IntakeOverflow when the incomplete program (or line) exceeds MAX_PENDING_BYTES / MAX_PENDING_LINES."""
         held = self._held_bytes + len(self._partial_line)
         lines = len(self._block_lines) + len(self._statement_lines)
@@ -90,7 +90,7 @@ class ScriptAssembler:
             raise IntakeOverflow(f"{held} bytes in {lines + 1} lines without completing a program ({what}); the "
                                  f"limit is {MAX_PENDING_BYTES} bytes / {MAX_PENDING_LINES} lines")
 
-    def _take_statements(self):
+    def _take_statements(self) -> list[str]:
         """The held statement lines as one program (a list of zero or one program texts)."""
         if not self._statement_lines:
             return []
@@ -99,7 +99,7 @@ class ScriptAssembler:
         self._held_bytes = 0
         return [program]
 
-    def _take_line(self, line):
+    def _take_line(self, line: str) -> list[str]:
         """Process one complete line; returns the programs it completes (statements held before a block, the block)."""
         if self._depth > 0:
             self._block_lines.append(line)
