@@ -17,6 +17,7 @@ other script thread runs in between.
 """
 import itertools
 import threading
+from collections.abc import Callable, Collection, Mapping
 from dataclasses import dataclass
 
 from sim_ursim.vocabulary import CommandRefused
@@ -55,7 +56,7 @@ class Cancelled(Exception):
 
 
 class _Return(Exception):
-    def __init__(self, value):
+    def __init__(self, value: object):
         self.value = value
 
 
@@ -94,7 +95,7 @@ def _walk(node):
             stack.extend(getattr(item, name) for name in item.__dataclass_fields__ if name not in ("line", "column"))
 
 
-def compile_program(script, builtin_names, default_name="Unnamed"):
+def compile_program(script: nodes.Script, builtin_names: Collection[str], default_name: str = "Unnamed") -> "Program":
     """nodes.Script -> Program; CompileError (line, column, controller text) for an unknown function or thread, or a
     variable that is assigned nowhere in the program (scopes are checked only when the program runs).
 
@@ -130,7 +131,7 @@ def compile_program(script, builtin_names, default_name="Unnamed"):
 class ThreadContext:
     """One script thread's state: its cancel event, call frames and critical-section depth. Built-ins receive it."""
 
-    def __init__(self, execution, name):
+    def __init__(self, execution: "Execution", name: str):
         self.execution = execution
         self.controller = execution.controller
         self.name = name
@@ -144,7 +145,7 @@ class ThreadContext:
         self._slice = max(1, int(STATEMENTS_PER_SECOND * execution.controller.period))
 
     # --- scheduling, used by the interpreter and by blocking built-ins
-    def check(self):
+    def check(self) -> None:
         """Raise Cancelled if this thread was killed or its program stopped; block while the program is paused."""
         if self.cancel.is_set():
             raise Cancelled()
@@ -179,19 +180,19 @@ class ThreadContext:
         else:
             self.sync()
 
-    def sleep(self, seconds):
+    def sleep(self, seconds: float) -> None:
         """Wait `seconds` of wall time (the controller runs in real time), interruptibly."""
         with self.waiting():
             self.cancel.wait(seconds)
         self.check()
 
-    def sync(self):
+    def sync(self) -> None:
         """Wait for the next control cycle (the rest of this one is used up)."""
         with self.waiting():
             self._wait_next_frame()
         self.check()
 
-    def _wait_next_frame(self):
+    def _wait_next_frame(self) -> None:
         """Block until the controller publishes a cycle after the current one (or this thread is cancelled)."""
         now = self.controller.state().cycle
         while not self.cancel.is_set() and self.controller.wait_cycle(now, timeout=0.05).cycle <= now:
@@ -199,7 +200,7 @@ class ThreadContext:
                 self.cancel.wait(self.controller.period)
                 return
 
-    def run_motion(self, command):
+    def run_motion(self, command: Callable[[], object]) -> None:
         """Issue a motion with `command()` (returns a Motion) and block until it is done, interruptibly.
 
         ScriptError with the motion's error if it failed. A motion cut short because the program was paused (the
@@ -225,7 +226,7 @@ class ThreadContext:
                 raise ScriptError(motion.error)
             return
 
-    def publish(self, message):
+    def publish(self, message: object) -> None:
         """Send a robot message to the primary interface's subscribers."""
         self.controller.messages.publish(message)
 
@@ -247,7 +248,7 @@ class _Released:
 class Execution:
     """One run of a Program on a controller: globals, the scheduler lock, the main thread and script threads."""
 
-    def __init__(self, program, controller, builtins):
+    def __init__(self, program: "Program", controller, builtins: Mapping[str, Callable]):
         self.program = program
         self.controller = controller
         self.builtins = builtins
@@ -263,18 +264,18 @@ class Execution:
         self._python_threads = set()  # idents of the Python threads running this program's script threads
         self.main = self._new_context(program.name)
 
-    def owns_current_thread(self):
+    def owns_current_thread(self) -> bool:
         """True when called from one of this program's script threads (which must not wait for themselves)."""
         return threading.get_ident() in self._python_threads
 
-    def _new_context(self, name):
+    def _new_context(self, name: str) -> ThreadContext:
         context = ThreadContext(self, name)
         with self._contexts_lock:
             self._contexts.append(context)
         return context
 
     # --- control from the runtime (any Python thread)
-    def cancel(self):
+    def cancel(self) -> None:
         """Stop every thread of this program as soon as it next checks (waits are interrupted at once)."""
         self.unpaused.set()
         with self._contexts_lock:
@@ -282,7 +283,7 @@ class Execution:
         for context in contexts:
             context.cancel.set()
 
-    def run(self):
+    def run(self) -> URScriptRuntimeError | None:
         """Run the main thread to the end in the calling Python thread; returns the URScriptRuntimeError or None.
 
         Threads still running when the main thread ends are killed, as on the controller.
@@ -306,13 +307,13 @@ class Execution:
             self.cancel()
         return self.error
 
-    def _record_error(self, error):
+    def _record_error(self, error: URScriptRuntimeError) -> None:
         if self.error is None:
             self.error = error
         self.cancel()
 
     # --- statements
-    def exec_block(self, ctx, body):
+    def exec_block(self, ctx: ThreadContext, body: list) -> None:
         """Execute statements in order."""
         unpaused = self.unpaused
         for statement in body:
@@ -438,7 +439,7 @@ class Execution:
             raise URScriptRuntimeError(node.line, node.column, error.text) from None
 
     # --- expressions
-    def eval(self, ctx, node):
+    def eval(self, ctx: ThreadContext, node: object) -> object:
         """Value of expression `node`."""
         return _EXPRESSIONS[type(node)](self, ctx, node)
 

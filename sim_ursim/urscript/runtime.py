@@ -13,6 +13,7 @@ The primary/secondary/realtime servers hand every received script to `submit(sou
 """
 import logging
 import threading
+from collections.abc import Callable, Mapping
 
 from sim_ursim.vocabulary import PROTECTIVE_STOP_DECELERATION, CommandRefused
 from sim_ursim.messages import KeyMessage, RuntimeExceptionMessage
@@ -37,7 +38,7 @@ class _Running:
 class ProgramRunner:
     """Runs URScript programs on `controller` (attach with controller.attach_program_runner(runner))."""
 
-    def __init__(self, controller, builtins=None):
+    def __init__(self, controller, builtins: Mapping[str, Callable] | None = None):
         self._controller = controller
         self._builtins = BUILTINS if builtins is None else builtins
         self._lock = threading.RLock()
