@@ -41,6 +41,7 @@ class IOState:
         self._lock = threading.Lock()
         self.version = 0  # bumped by every write, so the controller knows when its snapshot is stale
         self.on_change: Callable[[], None] | None = None
+        self._batches = threading.local()  # per thread: open batch() depth, and whether a write waits to notify
         self.standard_digital_outputs = 0  # bit n = DO n
         self.configurable_digital_outputs = 0
         self.tool_digital_outputs = 0
@@ -60,12 +61,30 @@ class IOState:
 
     @contextlib.contextmanager
     def _writing(self) -> Iterator[None]:
-        """One write: under the lock with the version bumped, then `on_change` once the lock is released."""
+        """One write: under the lock with the version bumped, then `on_change` once the lock is released (at the
+        end of the calling thread's `batch()` when one is open)."""
         with self._lock:
             self.version += 1
             yield
-        if self.on_change is not None:
+        if getattr(self._batches, "depth", 0):
+            self._batches.pending = True
+        elif self.on_change is not None:
             self.on_change()
+
+    @contextlib.contextmanager
+    def batch(self) -> Iterator[None]:
+        """The calling thread's writes inside notify `on_change` once, at the end (an RTDE input package writes many
+        registers; each write alone would commit the controller's snapshot)."""
+        batches = self._batches
+        batches.depth = getattr(batches, "depth", 0) + 1
+        try:
+            yield
+        finally:
+            batches.depth -= 1
+            if batches.depth == 0 and getattr(batches, "pending", False):
+                batches.pending = False
+                if self.on_change is not None:
+                    self.on_change()
 
     # digital outputs ------------------------------------------------------------------------------------------
     def set_standard_digital_out(self, index: int, value: bool) -> None:

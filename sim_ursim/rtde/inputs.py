@@ -59,13 +59,20 @@ def register_writes(values: Mapping[str, Any], changed: Collection[str]) -> list
 def apply_inputs(controller, values: Mapping[str, Any], changed: Collection[str]) -> None:
     """Apply one input package: `values` = the client's latest value of every input, `changed` = names it carried."""
     changed = set(changed)
-    io = controller.io
-    digital = digital_output_writes(values, changed)
-    if digital:
-        io.apply_digital_output_masks(**digital)
     fraction = speed_slider_write(values, changed)
     if fraction is not None:
         controller.set_speed_slider(fraction)
+    with controller.io.batch():  # one commit of the controller's snapshot for the whole package
+        _apply_io(controller.io, values, changed)
+    if "external_force_torque" in changed:
+        controller.set_external_force_torque(values["external_force_torque"])
+
+
+def _apply_io(io, values: Mapping[str, Any], changed: Collection[str]) -> None:
+    """The package's digital/analog outputs and input registers, written to `io`."""
+    digital = digital_output_writes(values, changed)
+    if digital:
+        io.apply_digital_output_masks(**digital)
     for index, ratio, voltage in analog_output_writes(values, changed):
         io.set_analog_out(index, ratio, voltage=voltage)
     for kind, index, value in register_writes(values, changed):
@@ -77,5 +84,3 @@ def apply_inputs(controller, values: Mapping[str, Any], changed: Collection[str]
             io.set_bit_register("input", index, value)
         else:
             io.set_bit_register_word("input", index, value)
-    if "external_force_torque" in changed:
-        controller.set_external_force_torque(values["external_force_torque"])

@@ -223,6 +223,27 @@ def test_every_setter_is_in_state_as_soon_as_it_returns(controller):
     controller.set_tcp([0, 0, 0, 0, 0, 0])
 
 
+def test_io_writes_in_a_batch_commit_once_and_are_all_in_state(controller):
+    """An RTDE input package's many register writes commit the snapshot once (rtde/inputs.py uses io.batch())."""
+    commits = []
+    io = controller.io
+    commit = io.on_change
+    io.on_change = lambda: (commits.append(1), commit())
+    try:
+        with io.batch():
+            for n in range(10):
+                io.set_int_register("input", n, 100 + n)
+            io.set_standard_digital_out(1, True)
+        assert len(commits) == 1
+        state = controller.state()
+        assert state.input_int_registers[:10].tolist() == list(range(100, 110))
+        assert state.standard_digital_output_bits & 2
+        io.set_int_register("input", 0, 7)  # outside a batch: one commit per write
+        assert len(commits) == 2 and controller.state().input_int_registers[0] == 7
+    finally:
+        io.on_change = commit
+
+
 def test_blended_moves_overlap_and_keep_the_speed_continuous(stepped):
     first = np.array(HOME) + [0.6, 0, 0, 0, 0, 0]
     second = first + [0, 0.4, 0, 0, 0, 0]
