@@ -19,7 +19,7 @@ import numpy as np
 import rtde_receive
 
 from sim_ursim.rtde import protocol
-from sim_ursim.testing import simulator_process
+from sim_ursim.launch import simulator_process
 
 CLOCK_TICKS = os.sysconf("SC_CLK_TCK")
 

@@ -11,24 +11,26 @@ This port is not a UR interface: it exists so tests and `python -m sim_ursim fau
 import json
 import logging
 import socket
-import threading
 
-from .controller import CommandRefused, RobotMode, SafetyMode
+from .tcp_server import Connection, TCPServer
+from .vocabulary import CommandRefused, RobotMode, SafetyMode
 
 log = logging.getLogger("sim_ursim.control")
 
 CONTROL_PORT = 29998
+MAX_REQUEST_BYTES = 64 * 1024  # one JSON request line; the longest real request (move-by-hand) is ~200 bytes
+SEND_TIMEOUT = 2.0  # s a client may leave a reply unread before it is disconnected
 FAULT_COMMANDS = ("protective-stop", "emergency-stop", "release-emergency-stop", "drop-connections", "freeze",
                   "latency", "reset", "status", "shutdown")
 COMMANDS = FAULT_COMMANDS + ("freedrive", "move-by-hand")
 
 
-def encode_request(command, **arguments):
+def encode_request(command: str, **arguments) -> bytes:
     """The request line for `command` with its arguments."""
     return (json.dumps({"command": command, **arguments}) + "\n").encode("utf-8")
 
 
-def execute(request, controller, can_shut_down=False):
+def execute(request: dict, controller, can_shut_down: bool = False) -> dict:
     """Carry out one decoded request on `controller`; returns the reply dict (errors reported, never raised).
 
     `shutdown` is only answered here; the server stops the simulator after sending the reply.
@@ -96,7 +98,7 @@ def status_line(state, faults):
             f"program {'running' if state.program_running else 'stopped'}, q [{joints}], {faults.describe()}")
 
 
-def send_request(host, command, port=CONTROL_PORT, timeout=5.0, **arguments):
+def send_request(host: str, command: str, port: int = CONTROL_PORT, timeout: float = 5.0, **arguments) -> dict:
     """Client side: send one request to a simulator's control channel and return its reply dict."""
     with socket.create_connection((host, port), timeout=timeout) as connection:
         connection.sendall(encode_request(command, **arguments))
@@ -107,82 +109,45 @@ def send_request(host, command, port=CONTROL_PORT, timeout=5.0, **arguments):
     return json.loads(line)
 
 
-class ControlChannelServer:
-    """Serves the control channel for one Simulator (its controller and its stop request)."""
+class ControlChannelServer(TCPServer):
+    """Serves the control channel for one Simulator (its controller and its stop request). Exempt from the fault
+    channel's drop generations: it is how faults are injected and cleared."""
+
+    follows_faults = False
 
     def __init__(self, simulator, host, port=CONTROL_PORT):
+        super().__init__(simulator.controller, host, port)
         self.simulator = simulator
-        self.host = host
-        self.port = port
-        self._listener = None
-        self._thread = None
-        self._stopping = threading.Event()
-        self._clients = set()
-        self._lock = threading.Lock()
 
-    def start(self):
-        """Bind and start accepting."""
-        listener = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-        listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-        listener.bind((self.host, self.port))
-        listener.listen(8)
-        listener.settimeout(0.1)
-        self.port = listener.getsockname()[1]
-        self._listener = listener
-        self._stopping.clear()
-        self._thread = threading.Thread(target=self._accept_loop, name=f"control-{self.port}", daemon=True)
-        self._thread.start()
+    def serve(self, connection: Connection) -> None:
+        buffered = b""
+        for chunk in self.read_chunks(connection):
+            buffered += chunk
+            while b"\n" in buffered:
+                line, buffered = buffered.split(b"\n", 1)
+                if not self._reply(connection, line):
+                    return
+            if len(buffered) > MAX_REQUEST_BYTES:
+                # Bounded: an over-long request is answered with an error and the client dropped.
+                log.warning("control channel: %s sent an over-long request; closing", connection)
+                self._send(connection, {"ok": False,
+                                        "error": f"request longer than {MAX_REQUEST_BYTES} bytes: connection closed"})
+                return
 
-    def stop(self):
-        """Stop accepting and close every client."""
-        self._stopping.set()
-        if self._thread is not None:
-            self._thread.join(timeout=2.0)
-            self._thread = None
-        if self._listener is not None:
-            self._listener.close()
-            self._listener = None
-        self.drop_connections()
-
-    def drop_connections(self):
-        """Close every control client (the control channel itself ignores fault generations)."""
-        with self._lock:
-            clients = list(self._clients)
-        for client in clients:
-            try:
-                client.shutdown(socket.SHUT_RDWR)
-            except OSError:
-                pass
-
-    def _accept_loop(self):
-        while not self._stopping.is_set():
-            try:
-                connection, _ = self._listener.accept()
-            except socket.timeout:
-                continue
-            except OSError:
-                break
-            with self._lock:
-                self._clients.add(connection)
-            threading.Thread(target=self._serve, args=(connection,), name="control-client", daemon=True).start()
-
-    def _serve(self, connection):
+    def _reply(self, connection: Connection, line: bytes) -> bool:
+        """Execute one request line and answer it; False when the connection is over."""
         try:
-            connection.settimeout(None)
-            reader = connection.makefile("rb")
-            for line in reader:
-                try:
-                    request = json.loads(line)
-                except ValueError:
-                    reply = {"ok": False, "error": "request is not one line of JSON"}
-                else:
-                    reply = execute(request, self.simulator.controller, can_shut_down=True)
-                connection.sendall((json.dumps(reply) + "\n").encode("utf-8"))
-                if reply["ok"] and request.get("command") == "shutdown":
-                    self.simulator.request_stop()
-        except OSError:
-            pass
-        finally:
-            with self._lock:
-                self._clients.discard(connection)
-            connection.close()
+            request = json.loads(line)
+        except ValueError:
+            reply = {"ok": False, "error": "request is not one line of JSON"}
+        else:
+            reply = execute(request, self.simulator.controller, can_shut_down=True)
+        if not self._send(connection, reply):
+            return False
+        if reply["ok"] and request.get("command") == "shutdown":
+            self.simulator.request_stop()
+        return True
+
+    @staticmethod
+    def _send(connection: Connection, reply: dict) -> bool:
+        return connection.send_all((json.dumps(reply) + "\n").encode("utf-8"), SEND_TIMEOUT)

@@ -4,8 +4,12 @@ Convention throughout: 4x4 homogeneous matrices map child to parent frame; a UR 
 [x, y, z, rx, ry, rz] in metres with a rotation vector (axis * angle, radians); the TCP is flange · tcp_offset.
 """
 import math
+from collections.abc import Sequence
 
 import numpy as np
+
+Vector = Sequence[float] | np.ndarray  # joints [rad] or a pose vector [x, y, z, rx, ry, rz] (m, rad)
+DH = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]  # standard DH columns (a, d, alpha, theta offset)
 
 
 MIN_DAMPING = 1e-7  # smallest damping of the IK's least-squares steps (see inverse_kinematics)
@@ -15,7 +19,7 @@ class IKError(ValueError):
     """The numeric IK found no joint vector reaching the pose (unreachable, or singular from the given start)."""
 
 
-def dh_matrix(a, d, alpha, theta):
+def dh_matrix(a: float, d: float, alpha: float, theta: float) -> np.ndarray:
     """Standard DH transform of one row: Rz(theta) · Tz(d) · Tx(a) · Rx(alpha)."""
     ct, st = math.cos(theta), math.sin(theta)
     ca, sa = math.cos(alpha), math.sin(alpha)
@@ -27,7 +31,7 @@ def dh_matrix(a, d, alpha, theta):
     ])
 
 
-def joint_frames(dh, q):
+def joint_frames(dh: DH, q: Vector) -> list[np.ndarray]:
     """The 7 frames base→frame i (i = 0..6) of a standard-DH chain (a, d, alpha, theta offsets) at joints q."""
     a, d, alpha, theta = dh
     frames = [np.eye(4)]
@@ -36,12 +40,12 @@ def joint_frames(dh, q):
     return frames
 
 
-def flange_matrix(dh, q):
+def flange_matrix(dh: DH, q: Vector) -> np.ndarray:
     """Base→flange (DH frame 6) transform at joints q."""
     return joint_frames(dh, q)[-1]
 
 
-def rotation_vector_to_matrix(rotvec):
+def rotation_vector_to_matrix(rotvec: Vector) -> np.ndarray:
     """Rodrigues: rotation matrix of a rotation vector (axis * angle, radians)."""
     rotvec = np.asarray(rotvec, dtype=float)
     angle = float(np.linalg.norm(rotvec))
@@ -52,7 +56,7 @@ def rotation_vector_to_matrix(rotvec):
     return np.eye(3) + math.sin(angle) * k + (1 - math.cos(angle)) * (k @ k)
 
 
-def matrix_to_rotation_vector(rotation):
+def matrix_to_rotation_vector(rotation: np.ndarray) -> np.ndarray:
     """Rotation vector (angle in [0, π]) of a rotation matrix, robust near 0 and π (via the unit quaternion)."""
     r = np.asarray(rotation, dtype=float)
     trace = r[0, 0] + r[1, 1] + r[2, 2]
@@ -80,7 +84,7 @@ def matrix_to_rotation_vector(rotation):
     return np.array([x, y, z]) * (angle / vector_norm)
 
 
-def pose_to_matrix(pose):
+def pose_to_matrix(pose: Vector) -> np.ndarray:
     """4x4 transform of a UR pose vector [x, y, z, rx, ry, rz]; ValueError unless 6 finite numbers."""
     pose = checked_vector(pose, 6, "pose")
     matrix = np.eye(4)
@@ -89,22 +93,22 @@ def pose_to_matrix(pose):
     return matrix
 
 
-def matrix_to_pose(matrix):
+def matrix_to_pose(matrix: np.ndarray) -> np.ndarray:
     """UR pose vector [x, y, z, rx, ry, rz] of a 4x4 transform."""
     return np.concatenate([matrix[:3, 3], matrix_to_rotation_vector(matrix[:3, :3])])
 
 
-def tcp_matrix(dh, q, tcp_offset):
+def tcp_matrix(dh: DH, q: Vector, tcp_offset: Vector) -> np.ndarray:
     """Base→TCP transform: flange(q) · tcp_offset (a UR pose vector in the flange frame)."""
     return flange_matrix(dh, q) @ pose_to_matrix(tcp_offset)
 
 
-def tcp_pose(dh, q, tcp_offset):
+def tcp_pose(dh: DH, q: Vector, tcp_offset: Vector) -> np.ndarray:
     """Forward kinematics: the UR pose vector of the TCP in the base frame at joints q."""
     return matrix_to_pose(tcp_matrix(dh, q, tcp_offset))
 
 
-def checked_vector(values, length, name):
+def checked_vector(values: object, length: int, name: str) -> np.ndarray:
     """`values` as a float array of `length` finite numbers; ValueError naming `name` otherwise."""
     try:
         array = np.array(values, dtype=float).reshape(-1)
@@ -117,7 +121,34 @@ def checked_vector(values, length, name):
     return array
 
 
-def geometric_jacobian(dh, q, tcp_offset):
+def checked_number(value: object, name: str) -> float:
+    """`value` as a finite float; ValueError naming `name` otherwise."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a number, got {value!r}") from None
+    if not math.isfinite(number):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    return number
+
+
+def checked_positive(value: object, name: str) -> float:
+    """`value` as a finite float > 0; ValueError naming `name` otherwise."""
+    number = checked_number(value, name)
+    if number <= 0:
+        raise ValueError(f"{name} must be > 0, got {value!r}")
+    return number
+
+
+def checked_non_negative(value: object, name: str) -> float:
+    """`value` as a finite float ≥ 0; ValueError naming `name` otherwise."""
+    number = checked_number(value, name)
+    if number < 0:
+        raise ValueError(f"{name} must be ≥ 0, got {value!r}")
+    return number
+
+
+def geometric_jacobian(dh: DH, q: Vector, tcp_offset: Vector) -> np.ndarray:
     """6x6 Jacobian mapping joint speeds to the TCP twist [v; ω] in the base frame (revolute joints about z_{i-1})."""
     frames = joint_frames(dh, q)
     tcp = frames[-1] @ pose_to_matrix(tcp_offset)
@@ -130,14 +161,15 @@ def geometric_jacobian(dh, q, tcp_offset):
     return jacobian
 
 
-def pose_error(target, current):
+def pose_error(target: np.ndarray, current: np.ndarray) -> np.ndarray:
     """6-vector from `current` to `target` transforms: [Δposition; rotation vector of R_target · R_currentᵀ] (base frame)."""
     position_error = target[:3, 3] - current[:3, 3]
     rotation_error = matrix_to_rotation_vector(target[:3, :3] @ current[:3, :3].T)
     return np.concatenate([position_error, rotation_error])
 
 
-def inverse_kinematics(dh, pose, q_near, tcp_offset, tolerance=1e-10, max_iterations=100, damping=1e-3):
+def inverse_kinematics(dh: DH, pose: Vector, q_near: Vector, tcp_offset: Vector, tolerance: float = 1e-10,
+                       max_iterations: int = 100, damping: float = 1e-3) -> np.ndarray:
     """Joints reaching TCP `pose` by damped Newton steps from `q_near` (so the nearest branch); IKError if none."""
     target = pose_to_matrix(pose)
     q = checked_vector(q_near, 6, "q_near").copy()
@@ -164,7 +196,7 @@ def inverse_kinematics(dh, pose, q_near, tcp_offset, tolerance=1e-10, max_iterat
                   f"(residual {residual:.2e}: out of reach or singular)")
 
 
-def interpolate_pose(start, end, fraction):
+def interpolate_pose(start: np.ndarray, end: np.ndarray, fraction: float) -> np.ndarray:
     """Pose `fraction` (0..1) of the way along the straight line start→end, orientation by constant angular rate."""
     relative = start[:3, :3].T @ end[:3, :3]
     step = rotation_vector_to_matrix(matrix_to_rotation_vector(relative) * fraction)
@@ -174,6 +206,59 @@ def interpolate_pose(start, end, fraction):
     return result
 
 
-def rotation_angle_between(start, end):
+def rotation_angle_between(start: np.ndarray, end: np.ndarray) -> float:
     """Angle (rad, 0..π) of the rotation taking `start`'s orientation to `end`'s."""
     return float(np.linalg.norm(matrix_to_rotation_vector(start[:3, :3].T @ end[:3, :3])))
+
+
+def _read_only(array: Vector) -> np.ndarray:
+    array = np.array(array, dtype=float)
+    array.setflags(write=False)
+    return array
+
+
+class ArmKinematics:
+    """One arm's kinematics with its active TCP offset (a read-only pose vector in the flange frame).
+
+    Replacing `tcp_offset` changes every answer at once. `poses_at(q)` is cached while q and the offset are the same
+    objects, so an idle control cycle costs nothing.
+    """
+
+    def __init__(self, dh: DH, tcp_offset: Vector):
+        self.dh = dh
+        self.tcp_offset = _read_only(tcp_offset)
+        self._cache = (None, None)
+
+    def tcp_matrix(self, q: Vector) -> np.ndarray:
+        """Base→TCP transform at joints q."""
+        return tcp_matrix(self.dh, q, self.tcp_offset)
+
+    def tcp_pose(self, q: Vector) -> np.ndarray:
+        """TCP pose vector in the base frame at joints q."""
+        return tcp_pose(self.dh, q, self.tcp_offset)
+
+    def solve_ik(self, pose: Vector, q_near: Vector, **options: float) -> np.ndarray:
+        """Joints reaching TCP `pose` nearest to q_near (options as `inverse_kinematics`); IKError if none."""
+        return inverse_kinematics(self.dh, pose, q_near, self.tcp_offset, **options)
+
+    def poses_at(self, q: np.ndarray) -> tuple[np.ndarray, list[np.ndarray], np.ndarray, np.ndarray]:
+        """(TCP matrix, the 7 joint frames, TCP pose, flange pose) at q; the poses read-only."""
+        key, cached = self._cache
+        if key is not None and key[0] is q and key[1] is self.tcp_offset:
+            return cached
+        frames = joint_frames(self.dh, q)
+        tcp = frames[-1] @ pose_to_matrix(self.tcp_offset)
+        result = (tcp, frames, _read_only(matrix_to_pose(tcp)), _read_only(matrix_to_pose(frames[-1])))
+        self._cache = ((q, self.tcp_offset), result)
+        return result
+
+    def speeds_between(self, previous_q: np.ndarray, q: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        """(TCP twist [v; ω] (6,), elbow velocity (3,)) by finite difference from previous_q to q over dt."""
+        tcp, frames, _, _ = self.poses_at(q)
+        if previous_q is q:
+            return np.zeros(6), np.zeros(3)
+        old_frames = joint_frames(self.dh, previous_q)
+        old_tcp = old_frames[-1] @ pose_to_matrix(self.tcp_offset)
+        twist = np.concatenate([(tcp[:3, 3] - old_tcp[:3, 3]) / dt,
+                                matrix_to_rotation_vector(tcp[:3, :3] @ old_tcp[:3, :3].T) / dt])
+        return twist, (frames[2][:3, 3] - old_frames[2][:3, 3]) / dt

@@ -82,20 +82,20 @@ class MessageBus:
         self._subscribers = []
         self._lock = threading.Lock()
 
-    def subscribe(self):
+    def subscribe(self) -> queue.Queue:
         """A new queue that receives every message published from now on."""
         subscriber = queue.Queue(maxsize=self._queue_size)
         with self._lock:
             self._subscribers.append(subscriber)
         return subscriber
 
-    def unsubscribe(self, subscriber):
+    def unsubscribe(self, subscriber: queue.Queue) -> None:
         """Stop delivering to `subscriber` (unknown queues are ignored)."""
         with self._lock:
             if subscriber in self._subscribers:
                 self._subscribers.remove(subscriber)
 
-    def publish(self, message):
+    def publish(self, message) -> None:
         """Deliver `message` to every subscriber, dropping a full subscriber's oldest message first."""
         with self._lock:
             subscribers = list(self._subscribers)

@@ -39,11 +39,11 @@ class Simulator:
         self._started = False
 
     @property
-    def ports(self):
+    def ports(self) -> dict[str, int]:
         """{server name: port} of every server."""
         return {name: server.port for name, server in self.servers.items()}
 
-    def start(self):
+    def start(self) -> "Simulator":
         """Start the control loop, then every server (a server that fails to bind stops the ones already started)."""
         self.controller.start()
         self._started = True
@@ -62,17 +62,17 @@ class Simulator:
                  self.host, ", ".join(f"{name} {port}" for name, port in self.ports.items()))
         return self
 
-    def request_stop(self):
+    def request_stop(self) -> None:
         """Stop the simulator soon, from any thread (dashboard `shutdown`, control channel, SIGTERM)."""
         log.info("shutdown requested")
         self._stopped.set()
         threading.Thread(target=self.stop, name="sim_ursim-shutdown", daemon=True).start()
 
-    def wait(self, timeout=None):
+    def wait(self, timeout: float | None = None) -> bool:
         """Block until a stop is requested or done (True) or `timeout` passes (False)."""
         return self._stopped.wait(timeout)
 
-    def stop(self):
+    def stop(self) -> None:
         """Stop every server, the program and the control loop (idempotent; a second caller waits for the first)."""
         with self._stop_lock:
             if not self._started:

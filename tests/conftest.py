@@ -7,7 +7,7 @@ from robot_target import external_robot_host
 @pytest.fixture
 def sim():
     """A fresh sim_ursim (UR3, CB3 3.15) on a free loopback address, shut down after the test."""
-    from sim_ursim.testing import running_simulator
+    from sim_ursim.launch import running_simulator
 
     with running_simulator(model="ur3") as simulator:
         yield simulator
@@ -23,7 +23,7 @@ def robot_host():
     if host is not None:
         yield host
         return
-    from sim_ursim.testing import simulator_process
+    from sim_ursim.launch import simulator_process
 
     with simulator_process(model="ur3") as simulator:
         yield simulator.host

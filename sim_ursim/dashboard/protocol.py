@@ -7,7 +7,7 @@ import logging
 import os
 from dataclasses import dataclass
 
-from ..controller import CommandRefused, RobotMode, SafetyMode, UnlockTooEarly
+from ..vocabulary import CommandRefused, RobotMode, SafetyMode, UnlockTooEarly
 from ..models import build_date
 
 log = logging.getLogger("sim_ursim.dashboard")

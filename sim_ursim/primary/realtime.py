@@ -17,19 +17,19 @@ import numpy as np
 _SIZE = struct.Struct(">i")
 
 
-def _since(version, major, minor):
+def _since(version: tuple, major: int, minor: int) -> bool:
     """True when `version` is major.minor or later within the same generation (CB3 3.x or e-series 5.x+)."""
     if (int(version[0]) >= 5) != (major >= 5):
         return False
     return (int(version[0]), int(version[1])) >= (major, minor)
 
 
-def _cb3_or_e_since(version, cb3_minor, e_minor):
+def _cb3_or_e_since(version: tuple, cb3_minor: int, e_minor: int) -> bool:
     """True when a CB3 version is at least 3.cb3_minor or an e-series version at least 5.e_minor."""
     return _since(version, 3, cb3_minor) or _since(version, 5, e_minor)
 
 
-def realtime_fields(version):
+def realtime_fields(version: tuple) -> list[tuple[str, int]]:
     """The realtime package's fields in wire order as (name, number of doubles) for `version`."""
     fields = [
         ("time", 1),
@@ -76,13 +76,13 @@ def realtime_fields(version):
     return fields
 
 
-def realtime_package_size(version):
+def realtime_package_size(version: tuple) -> int:
     """Total bytes of one realtime package (the value of its leading int32) for `version`."""
     return _SIZE.size + 8 * sum(count for _, count in realtime_fields(version))
 
 
-def realtime_values(state):
-    """Every field realtime_fields can name, from a controller snapshot (sim_ursim.controller.ControllerState)."""
+def realtime_values(state) -> dict[str, object]:
+    """Every field realtime_fields can name, from a controller snapshot (sim_ursim.vocabulary.ControllerState)."""
     return {
         "time": state.timestamp,
         "q_target": state.target_q,
@@ -124,7 +124,7 @@ def realtime_values(state):
     }
 
 
-def realtime_package(version, values):
+def realtime_package(version: tuple, values: dict) -> bytes:
     """Bytes of one realtime package: int32 total size, then every field of `version` as big-endian doubles
     (fields missing from `values`, i.e. the reserved ones, are zeros)."""
     doubles = []

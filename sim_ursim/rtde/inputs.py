@@ -5,13 +5,15 @@ earlier values of the partner fields: a package that changes only `standard_digi
 `standard_digital_output_mask` the client sent. Only the groups a package touches are written.
 """
 import re
+from collections.abc import Collection, Mapping
+from typing import Any
 
 _DIGITAL_GROUPS = ("standard", "configurable", "tool")
 _REGISTER = re.compile(r"input_(int|double|bit)_register_(\d+)$")
 _BIT_WORDS = {"input_bit_registers0_to_31": 0, "input_bit_registers32_to_63": 32}
 
 
-def digital_output_writes(values, changed):
+def digital_output_writes(values: Mapping[str, Any], changed: Collection[str]) -> dict[str, tuple[int, int]]:
     """{group: (mask, bits)} for each digital output group (standard/configurable/tool) a package touched."""
     writes = {}
     for group in _DIGITAL_GROUPS:
@@ -21,7 +23,7 @@ def digital_output_writes(values, changed):
     return writes
 
 
-def speed_slider_write(values, changed):
+def speed_slider_write(values: Mapping[str, Any], changed: Collection[str]) -> float | None:
     """The new slider fraction when the package touched the slider and speed_slider_mask is 1, else None."""
     if "speed_slider_mask" not in changed and "speed_slider_fraction" not in changed:
         return None
@@ -30,7 +32,7 @@ def speed_slider_write(values, changed):
     return float(values.get("speed_slider_fraction", 0.0))
 
 
-def analog_output_writes(values, changed):
+def analog_output_writes(values: Mapping[str, Any], changed: Collection[str]) -> list[tuple[int, float, bool]]:
     """[(index, ratio, is_voltage)] for the analog outputs selected by standard_analog_output_mask in a touched group."""
     names = ("standard_analog_output_mask", "standard_analog_output_type", "standard_analog_output_0",
              "standard_analog_output_1")
@@ -42,7 +44,7 @@ def analog_output_writes(values, changed):
             for index in (0, 1) if mask >> index & 1]
 
 
-def register_writes(values, changed):
+def register_writes(values: Mapping[str, Any], changed: Collection[str]) -> list[tuple[str, int, Any]]:
     """[(kind, index, value)] for every input register named in the package (kind: int, double, bit, word)."""
     writes = []
     for name in changed:
@@ -54,16 +56,23 @@ def register_writes(values, changed):
     return writes
 
 
-def apply_inputs(controller, values, changed):
+def apply_inputs(controller, values: Mapping[str, Any], changed: Collection[str]) -> None:
     """Apply one input package: `values` = the client's latest value of every input, `changed` = names it carried."""
     changed = set(changed)
-    io = controller.io
-    digital = digital_output_writes(values, changed)
-    if digital:
-        io.apply_digital_output_masks(**digital)
     fraction = speed_slider_write(values, changed)
     if fraction is not None:
         controller.set_speed_slider(fraction)
+    with controller.io.batch():  # one commit of the controller's snapshot for the whole package
+        _apply_io(controller.io, values, changed)
+    if "external_force_torque" in changed:
+        controller.set_external_force_torque(values["external_force_torque"])
+
+
+def _apply_io(io, values: Mapping[str, Any], changed: Collection[str]) -> None:
+    """The package's digital/analog outputs and input registers, written to `io`."""
+    digital = digital_output_writes(values, changed)
+    if digital:
+        io.apply_digital_output_masks(**digital)
     for index, ratio, voltage in analog_output_writes(values, changed):
         io.set_analog_out(index, ratio, voltage=voltage)
     for kind, index, value in register_writes(values, changed):
@@ -75,5 +84,3 @@ def apply_inputs(controller, values, changed):
             io.set_bit_register("input", index, value)
         else:
             io.set_bit_register_word("input", index, value)
-    if "external_force_torque" in changed:
-        controller.set_external_force_torque(values["external_force_torque"])

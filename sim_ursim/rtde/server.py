@@ -1,6 +1,7 @@
 """RTDE server (port 30004): sockets, one session per client, and one streamer paced by the control cycle.
 
-Transport only; the bytes come from `protocol`, names and values from `variables` and `inputs`.
+Transport only; the bytes come from `protocol`, names and values from `variables` and `inputs`; listening,
+accepting, the connection set and fault drops are tcp_server.TCPServer's.
 Threads: an acceptor, a reader per connection (setup requests and input packages), and ONE streamer that waits
 for each control cycle, packs every distinct output recipe once and queues it on every started session. Sends are
 non-blocking into a bounded per-session buffer, so a client that stops reading never stalls the others; like the
@@ -12,6 +13,7 @@ import threading
 import time
 from collections import deque
 
+from ..tcp_server import Connection, TCPServer
 from . import inputs, protocol, variables
 from .protocol import PackageType
 
@@ -59,11 +61,11 @@ class InputRecipe:
 class Session:
     """One client connection: its negotiated protocol, recipes, input values and outgoing byte backlog."""
 
-    def __init__(self, sock, peer, number, generation, backlog_limit):
-        self.sock = sock
-        self.peer = peer
+    def __init__(self, connection: Connection, number: int, backlog_limit: int):
+        self.connection = connection
+        self.sock = connection.sock
+        self.peer = connection.peer
         self.number = number
-        self.generation = generation
         self.backlog_limit = backlog_limit
         self.protocol_version = 1
         self.output_recipe = None
@@ -75,15 +77,14 @@ class Session:
         self.next_cycle = 0
         self.closed = False
         self.close_reason = None
-        self.reader = None  # the thread reading this connection
         self._lock = threading.Lock()
         self._pending = bytearray()
         self._delayed = deque()  # (due monotonic time, package) while latency is injected
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return f"RTDE client #{self.number} {self.peer[0]}:{self.peer[1]}"
 
-    def send(self, data, due=None):
+    def send(self, data: bytes, due: float | None = None) -> None:
         """Queue bytes (after `due` when latency is injected) and push what the socket takes without blocking."""
         with self._lock:
             if self.closed:
@@ -94,7 +95,7 @@ class Session:
                 self._delayed.append((due or 0.0, data))
             self._flush_locked()
 
-    def flush(self):
+    def flush(self) -> None:
         """Move due delayed packages to the backlog and push the backlog without blocking."""
         with self._lock:
             if not self.closed and (self._pending or self._delayed):
@@ -116,7 +117,7 @@ class Session:
         if len(self._pending) > self.backlog_limit:
             self._close_locked(f"client does not read its data ({len(self._pending)} bytes waiting)")
 
-    def close(self, reason):
+    def close(self, reason: str) -> None:
         """Close the connection once (the reader thread wakes up with EOF and exits)."""
         with self._lock:
             self._close_locked(reason)
@@ -129,29 +130,19 @@ class Session:
         self.close_reason = reason
         self._pending.clear()
         self._delayed.clear()
-        try:
-            self.sock.shutdown(socket.SHUT_RDWR)
-        except OSError:
-            pass
-        self.sock.close()
+        self.connection.close()
 
 
-class RTDEServer:
+class RTDEServer(TCPServer):
     """RTDE interface of one simulated controller, listening on (host, port)."""
 
     def __init__(self, controller, host="127.0.0.1", port=DEFAULT_PORT, backlog_limit=DEFAULT_BACKLOG_LIMIT,
                  send_buffer=DEFAULT_SEND_BUFFER):
-        self.controller = controller
-        self.host = host
-        self.port = port
+        super().__init__(controller, host, port)
         self.backlog_limit = backlog_limit
         self.send_buffer = send_buffer
         self._version = tuple(controller.version)[:4]
         self._control_rate = 1.0 / controller.period
-        self._listener = None
-        self._threads = []
-        self._running = threading.Event()
-        self._stopped = threading.Event()
         self._sessions_lock = threading.Lock()
         self._sessions = []
         self._session_count = 0
@@ -159,47 +150,14 @@ class RTDEServer:
 
     # --- life cycle ---------------------------------------------------------------------------------------------
 
-    def start(self):
-        """Bind, listen, and start the acceptor and the streamer; `port` becomes the bound port (0 picks one)."""
-        listener = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-        listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-        listener.bind((self.host, self.port))
-        listener.listen(16)
-        listener.settimeout(_WAIT_TIMEOUT)
-        self._listener = listener
-        self.port = listener.getsockname()[1]
-        self._stopped.clear()
-        self._running.set()
-        for target, name in ((self._accept_loop, "rtde-accept"), (self._stream_loop, "rtde-stream")):
-            thread = threading.Thread(target=target, name=f"{name}-{self.host}", daemon=True)
-            thread.start()
-            self._threads.append(thread)
-        log.info("RTDE server listening on %s:%d (version %s, control rate %.0f Hz)", self.host, self.port,
-                 ".".join(map(str, self._version)), self._control_rate)
-        return self
+    def on_start(self) -> None:
+        self.spawn(self._stream_loop, "stream")
+        log.info("RTDE version %s, control rate %.0f Hz", ".".join(map(str, self._version)), self._control_rate)
 
-    def stop(self):
-        """Stop accepting, close every connection and join all threads."""
-        self._running.clear()
-        self._stopped.set()
-        if self._listener is not None:
-            try:
-                self._listener.shutdown(socket.SHUT_RDWR)  # wakes the acceptor at once on Linux
-            except OSError:
-                pass
-            self._listener.close()
-        sessions = self.sessions()
-        self.drop_connections("server stopping")
-        for thread in self._threads + [session.reader for session in sessions]:
-            thread.join(timeout=5)
-        self._threads.clear()
+    def configure(self, sock: socket.socket) -> None:
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, self.send_buffer)
 
-    def drop_connections(self, reason="connections dropped"):
-        """Close every client connection now."""
-        for session in self.sessions():
-            session.close(reason)
-
-    def sessions(self):
+    def sessions(self) -> list[Session]:
         """The open sessions (a snapshot)."""
         with self._sessions_lock:
             return list(self._sessions)
@@ -212,73 +170,55 @@ class RTDEServer:
 
     # --- connections --------------------------------------------------------------------------------------------
 
-    def _accept_loop(self):
-        while self._running.is_set():
-            try:
-                sock, peer = self._listener.accept()
-            except socket.timeout:
-                continue
-            except OSError:
-                break
-            sock.settimeout(None)
-            sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-            sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, self.send_buffer)
-            with self._sessions_lock:
-                self._session_count += 1
-                session = Session(sock, peer, self._session_count, self.controller.faults.generation,
-                                  self.backlog_limit)
-                self._sessions.append(session)
-            log.info("%s connected", session)
-            session.reader = threading.Thread(target=self._read_loop, args=(session,),
-                                              name=f"rtde-read-{session.number}", daemon=True)
-            session.reader.start()
-
-    def _read_loop(self, session):
+    def serve(self, connection: Connection) -> None:
+        with self._sessions_lock:
+            self._session_count += 1
+            session = Session(connection, self._session_count, self.backlog_limit)
+            self._sessions.append(session)
+        log.info("%s connected", session)
         buffer = bytearray()
         try:
-            while not session.closed:
-                try:
-                    chunk = session.sock.recv(65536)
-                except OSError:
-                    break
-                if not chunk:
-                    break
+            for chunk in self.read_chunks(connection):
                 buffer += chunk
-                while True:
+                while not session.closed:
                     package = protocol.split_package(buffer)
                     if package is None:
                         break
                     package_type, payload, consumed = package
                     del buffer[:consumed]
                     self._handle(session, package_type, payload)
+                if session.closed:
+                    break
         except protocol.ProtocolError as error:
             log.warning("%s sent a malformed package: %s", session, error)
         finally:
-            session.close(session.close_reason or "client closed the connection")
-            self._forget(session)
+            reason = session.close_reason or ("connections dropped by fault injection or stop"
+                                              if connection.closed.is_set() else "client closed the connection")
+            session.close(reason)
+            self._forget_session(session)
             log.info("%s disconnected (%s)", session, session.close_reason)
 
-    def _forget(self, session):
+    def _forget_session(self, session: Session) -> None:
         with self._sessions_lock:
             if session in self._sessions:
                 self._sessions.remove(session)
             for name in [name for name, owner in self._input_owners.items() if owner is session]:
                 del self._input_owners[name]
 
-    def _reply(self, session, data):
+    def _reply(self, session: Session, data: bytes) -> None:
         latency = self.controller.faults.latency
         session.send(data, due=time.monotonic() + latency if latency > 0 else None)
 
     # --- requests -----------------------------------------------------------------------------------------------
 
-    def _handle(self, session, package_type, payload):
+    def _handle(self, session: Session, package_type: int, payload: bytes) -> None:
         handler = self._handlers.get(package_type)
         if handler is None:
             log.warning("%s sent unknown package type %d (%d bytes); ignored", session, package_type, len(payload))
             return
         handler(self, session, payload)
 
-    def _on_protocol_version(self, session, payload):
+    def _on_protocol_version(self, session: Session, payload: bytes) -> None:
         requested = protocol.parse_protocol_version_request(payload)
         accepted = requested in protocol.SUPPORTED_PROTOCOL_VERSIONS
         if accepted:
@@ -286,10 +226,10 @@ class RTDEServer:
         log.debug("%s asks protocol %d: %s", session, requested, "accepted" if accepted else "refused")
         self._reply(session, protocol.pack_accepted_reply(PackageType.REQUEST_PROTOCOL_VERSION, accepted))
 
-    def _on_controller_version(self, session, payload):
+    def _on_controller_version(self, session: Session, payload: bytes) -> None:
         self._reply(session, protocol.pack_controller_version_reply(*self._version))
 
-    def _on_setup_outputs(self, session, payload):
+    def _on_setup_outputs(self, session: Session, payload: bytes) -> None:
         frequency, names = protocol.parse_setup_outputs_request(payload, session.protocol_version)
         types = [variables.output_type(name, self._version) for name in names]
         # Protocol 1 has no frequency field: it streams every control cycle.
@@ -308,7 +248,7 @@ class RTDEServer:
             log.warning("%s output recipe refused (frequency %r, not found: %s)", session, frequency, missing)
         self._reply(session, protocol.pack_setup_outputs_reply(recipe_id, types, session.protocol_version))
 
-    def _on_setup_inputs(self, session, payload):
+    def _on_setup_inputs(self, session: Session, payload: bytes) -> None:
         names = protocol.parse_setup_inputs_request(payload)
         with self._sessions_lock:
             types = []
@@ -335,7 +275,7 @@ class RTDEServer:
                         [f"{n}={t}" for n, t in zip(names, types) if t in (protocol.NOT_FOUND, protocol.IN_USE)])
         self._reply(session, protocol.pack_setup_inputs_reply(recipe_id, types))
 
-    def _on_start(self, session, payload):
+    def _on_start(self, session: Session, payload: bytes) -> None:
         accepted = session.output_recipe is not None or not session.output_recipe_requested
         if accepted:
             # The reply is queued before streaming is switched on, so no data package can overtake it.
@@ -347,12 +287,12 @@ class RTDEServer:
             self._reply(session, protocol.pack_accepted_reply(PackageType.CONTROL_PACKAGE_START, False))
             log.warning("%s start refused: its output recipe is invalid", session)
 
-    def _on_pause(self, session, payload):
+    def _on_pause(self, session: Session, payload: bytes) -> None:
         session.streaming = False
         self._reply(session, protocol.pack_accepted_reply(PackageType.CONTROL_PACKAGE_PAUSE, True))
         log.info("%s paused", session)
 
-    def _on_data(self, session, payload):
+    def _on_data(self, session: Session, payload: bytes) -> None:
         recipe_id = protocol.data_package_recipe_id(payload)
         recipe = session.input_recipes.get(recipe_id)
         if recipe is None:
@@ -370,7 +310,7 @@ class RTDEServer:
         except ValueError as error:
             self._complain(session, f"input recipe {recipe_id}: {error}")
 
-    def _on_text_message(self, session, payload):
+    def _on_text_message(self, session: Session, payload: bytes) -> None:
         try:
             message, source, level = protocol.parse_text_message(payload)
         except protocol.ProtocolError as error:
@@ -378,7 +318,7 @@ class RTDEServer:
             return
         log.info("%s message from %r (level %d): %s", session, source, level, message)
 
-    def _complain(self, session, text):
+    def _complain(self, session: Session, text: str) -> None:
         """Log a client error; tell the client too, but only while streaming (never during setup, see §1.3)."""
         log.warning("%s: %s", session, text)
         if session.streaming:
@@ -398,23 +338,19 @@ class RTDEServer:
 
     # --- streaming ----------------------------------------------------------------------------------------------
 
-    def _stream_loop(self):
+    def _stream_loop(self) -> None:
         controller = self.controller
         faults = controller.faults
         last_cycle = controller.state().cycle
-        while self._running.is_set():
+        while not self.stopping:
             state = controller.wait_cycle(last_cycle, _WAIT_TIMEOUT)
             if state.cycle <= last_cycle:
                 if not controller.running:
                     # wait_cycle returns at once while the control loop is stopped: do not spin meanwhile.
-                    self._stopped.wait(_WAIT_TIMEOUT)
+                    self._stopping.wait(_WAIT_TIMEOUT)
                 continue
             last_cycle = state.cycle
-            sessions = self.sessions()
-            generation = faults.generation
-            for session in sessions:
-                if session.generation < generation:
-                    session.close("connections dropped by fault injection")
+            sessions = [session for session in self.sessions() if not session.connection.closed.is_set()]
             if faults.streams_frozen:
                 continue
             latency = faults.latency

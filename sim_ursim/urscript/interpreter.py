@@ -16,12 +16,13 @@ bounds the CPU a busy loop takes. Inside `enter_critical`/`exit_critical` the su
 other script thread runs in between.
 """
 import itertools
-import operator
 import threading
+from collections.abc import Callable, Collection, Mapping
 from dataclasses import dataclass
 
-from sim_ursim.controller import CommandRefused
+from sim_ursim.vocabulary import CommandRefused
 from sim_ursim.urscript import nodes
+from sim_ursim.urscript.operators import BINARY, NUMERIC_FAST_PATH, PLAIN_NUMBERS, require_number
 from sim_ursim.urscript.values import Pose, ScriptError, copy_value, to_str, truth
 
 STATEMENTS_PER_SECOND = 25_000  # computation a script thread may do per second of controller time (see above)
@@ -55,7 +56,7 @@ class Cancelled(Exception):
 
 
 class _Return(Exception):
-    def __init__(self, value):
+    def __init__(self, value: object):
         self.value = value
 
 
@@ -94,7 +95,7 @@ def _walk(node):
             stack.extend(getattr(item, name) for name in item.__dataclass_fields__ if name not in ("line", "column"))
 
 
-def compile_program(script, builtin_names, default_name="Unnamed"):
+def compile_program(script: nodes.Script, builtin_names: Collection[str], default_name: str = "Unnamed") -> "Program":
     """nodes.Script -> Program; CompileError (line, column, controller text) for an unknown function or thread, or a
     variable that is assigned nowhere in the program (scopes are checked only when the program runs).
 
@@ -130,7 +131,7 @@ def compile_program(script, builtin_names, default_name="Unnamed"):
 class ThreadContext:
     """One script thread's state: its cancel event, call frames and critical-section depth. Built-ins receive it."""
 
-    def __init__(self, execution, name):
+    def __init__(self, execution: "Execution", name: str):
         self.execution = execution
         self.controller = execution.controller
         self.name = name
@@ -144,7 +145,7 @@ class ThreadContext:
         self._slice = max(1, int(STATEMENTS_PER_SECOND * execution.controller.period))
 
     # --- scheduling, used by the interpreter and by blocking built-ins
-    def check(self):
+    def check(self) -> None:
         """Raise Cancelled if this thread was killed or its program stopped; block while the program is paused."""
         if self.cancel.is_set():
             raise Cancelled()
@@ -179,19 +180,19 @@ class ThreadContext:
         else:
             self.sync()
 
-    def sleep(self, seconds):
+    def sleep(self, seconds: float) -> None:
         """Wait `seconds` of wall time (the controller runs in real time), interruptibly."""
         with self.waiting():
             self.cancel.wait(seconds)
         self.check()
 
-    def sync(self):
+    def sync(self) -> None:
         """Wait for the next control cycle (the rest of this one is used up)."""
         with self.waiting():
             self._wait_next_frame()
         self.check()
 
-    def _wait_next_frame(self):
+    def _wait_next_frame(self) -> None:
         """Block until the controller publishes a cycle after the current one (or this thread is cancelled)."""
         now = self.controller.state().cycle
         while not self.cancel.is_set() and self.controller.wait_cycle(now, timeout=0.05).cycle <= now:
@@ -199,7 +200,7 @@ class ThreadContext:
                 self.cancel.wait(self.controller.period)
                 return
 
-    def run_motion(self, command):
+    def run_motion(self, command: Callable[[], object]) -> None:
         """Issue a motion with `command()` (returns a Motion) and block until it is done, interruptibly.
 
         ScriptError with the motion's error if it failed. A motion cut short because the program was paused (the
@@ -225,7 +226,7 @@ class ThreadContext:
                 raise ScriptError(motion.error)
             return
 
-    def publish(self, message):
+    def publish(self, message: object) -> None:
         """Send a robot message to the primary interface's subscribers."""
         self.controller.messages.publish(message)
 
@@ -247,7 +248,7 @@ class _Released:
 class Execution:
     """One run of a Program on a controller: globals, the scheduler lock, the main thread and script threads."""
 
-    def __init__(self, program, controller, builtins):
+    def __init__(self, program: "Program", controller, builtins: Mapping[str, Callable]):
         self.program = program
         self.controller = controller
         self.builtins = builtins
@@ -263,18 +264,18 @@ class Execution:
         self._python_threads = set()  # idents of the Python threads running this program's script threads
         self.main = self._new_context(program.name)
 
-    def owns_current_thread(self):
+    def owns_current_thread(self) -> bool:
         """True when called from one of this program's script threads (which must not wait for themselves)."""
         return threading.get_ident() in self._python_threads
 
-    def _new_context(self, name):
+    def _new_context(self, name: str) -> ThreadContext:
         context = ThreadContext(self, name)
         with self._contexts_lock:
             self._contexts.append(context)
         return context
 
     # --- control from the runtime (any Python thread)
-    def cancel(self):
+    def cancel(self) -> None:
         """Stop every thread of this program as soon as it next checks (waits are interrupted at once)."""
         self.unpaused.set()
         with self._contexts_lock:
@@ -282,7 +283,7 @@ class Execution:
         for context in contexts:
             context.cancel.set()
 
-    def run(self):
+    def run(self) -> URScriptRuntimeError | None:
         """Run the main thread to the end in the calling Python thread; returns the URScriptRuntimeError or None.
 
         Threads still running when the main thread ends are killed, as on the controller.
@@ -306,13 +307,13 @@ class Execution:
             self.cancel()
         return self.error
 
-    def _record_error(self, error):
+    def _record_error(self, error: URScriptRuntimeError) -> None:
         if self.error is None:
             self.error = error
         self.cancel()
 
     # --- statements
-    def exec_block(self, ctx, body):
+    def exec_block(self, ctx: ThreadContext, body: list) -> None:
         """Execute statements in order."""
         unpaused = self.unpaused
         for statement in body:
@@ -438,7 +439,7 @@ class Execution:
             raise URScriptRuntimeError(node.line, node.column, error.text) from None
 
     # --- expressions
-    def eval(self, ctx, node):
+    def eval(self, ctx: ThreadContext, node: object) -> object:
         """Value of expression `node`."""
         return _EXPRESSIONS[type(node)](self, ctx, node)
 
@@ -470,7 +471,7 @@ class Execution:
         try:
             if node.op == "not":
                 return not truth(value)
-            _require_number(value, node.op)
+            require_number(value, node.op)
             return -value if node.op == "-" else value
         except ScriptError as error:
             raise URScriptRuntimeError(node.line, node.column, error.text) from None
@@ -483,10 +484,10 @@ class Execution:
             if op == "or":
                 return truth(self.eval(ctx, node.left)) or truth(self.eval(ctx, node.right))
             left, right = self.eval(ctx, node.left), self.eval(ctx, node.right)
-            fast = _NUMERIC_FAST_PATH.get(op)
-            if fast is not None and type(left) in _PLAIN_NUMBERS and type(right) in _PLAIN_NUMBERS:
+            fast = NUMERIC_FAST_PATH.get(op)
+            if fast is not None and type(left) in PLAIN_NUMBERS and type(right) in PLAIN_NUMBERS:
                 return fast(left, right)
-            return _BINARY[op](left, right)
+            return BINARY[op](left, right)
         except ScriptError as error:
             raise URScriptRuntimeError(node.line, node.column, error.text) from None
 
@@ -571,80 +572,6 @@ class Execution:
         finally:
             ctx.done.set()
             self.scheduler.release()
-
-
-# --- value helpers (pure)
-
-
-def _require_number(value, op):
-    """ScriptError unless value is an int/float (booleans count as numbers, as 0/1)."""
-    if not isinstance(value, (int, float)):
-        raise ScriptError(f"runtime_error:type mismatch:{op} needs a number, got {to_str(value)}:")
-
-
-def _arithmetic(symbol, function):
-    def apply(left, right):
-        if isinstance(left, str) and isinstance(right, str) and symbol == "+":
-            return left + right
-        _require_number(left, symbol)
-        _require_number(right, symbol)
-        return function(left, right)
-
-    return apply
-
-
-def _divide(left, right):
-    if right == 0:
-        raise ScriptError("runtime_error:division by zero:")
-    return left / right
-
-
-def _modulo(left, right):
-    if right == 0:
-        raise ScriptError("runtime_error:division by zero:")
-    return left % right
-
-
-def _ordering(symbol, function):
-    def apply(left, right):
-        _require_number(left, symbol)
-        _require_number(right, symbol)
-        return function(left, right)
-
-    return apply
-
-
-def _equal(left, right):
-    if isinstance(left, (list, tuple)) and isinstance(right, (list, tuple)):
-        return len(left) == len(right) and all(_equal(a, b) for a, b in zip(left, right))
-    return left == right
-
-
-def _xor(left, right):
-    return truth(left) != truth(right)
-
-
-# Numbers on both sides (the common case): the operator itself, no type checks. Not / and %: they check for zero.
-_PLAIN_NUMBERS = (int, float)
-_NUMERIC_FAST_PATH = {
-    "+": operator.add, "-": operator.sub, "*": operator.mul, "<": operator.lt, "<=": operator.le,
-    ">": operator.gt, ">=": operator.ge, "==": operator.eq, "!=": operator.ne,
-}
-
-_BINARY = {
-    "+": _arithmetic("+", lambda a, b: a + b),
-    "-": _arithmetic("-", lambda a, b: a - b),
-    "*": _arithmetic("*", lambda a, b: a * b),
-    "/": _arithmetic("/", _divide),
-    "%": _arithmetic("%", _modulo),
-    "<": _ordering("<", lambda a, b: a < b),
-    "<=": _ordering("<=", lambda a, b: a <= b),
-    ">": _ordering(">", lambda a, b: a > b),
-    ">=": _ordering(">=", lambda a, b: a >= b),
-    "==": _equal,
-    "!=": lambda a, b: not _equal(a, b),
-    "xor": _xor,
-}
 
 
 def _checked_index(container, index, node):

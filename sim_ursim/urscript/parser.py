@@ -245,7 +245,7 @@ def _source_line(source, line):
     return lines[line - 1].strip() if 0 < line <= len(lines) else ""
 
 
-def parse(source):
+def parse(source: str) -> nodes.Script:
     """URScript text -> nodes.Script; raises URScriptSyntaxError (line, column, controller message) if invalid."""
     if not isinstance(source, str):
         raise ValueError(f"source must be str, got {type(source).__name__}")

@@ -13,8 +13,9 @@ The primary/secondary/realtime servers hand every received script to `submit(sou
 """
 import logging
 import threading
+from collections.abc import Callable, Mapping
 
-from sim_ursim.controller import PROTECTIVE_STOP_DECELERATION, CommandRefused
+from sim_ursim.vocabulary import PROTECTIVE_STOP_DECELERATION, CommandRefused
 from sim_ursim.messages import KeyMessage, RuntimeExceptionMessage
 from sim_ursim.urscript.builtins import BUILTINS
 from sim_ursim.urscript.interpreter import CompileError, Execution, compile_program
@@ -37,7 +38,7 @@ class _Running:
 class ProgramRunner:
     """Runs URScript programs on `controller` (attach with controller.attach_program_runner(runner))."""
 
-    def __init__(self, controller, builtins=None):
+    def __init__(self, controller, builtins: Mapping[str, Callable] | None = None):
         self._controller = controller
         self._builtins = BUILTINS if builtins is None else builtins
         self._lock = threading.RLock()
@@ -48,24 +49,24 @@ class ProgramRunner:
 
     # ----------------------------------------------------------------------------------------------- queries
     @property
-    def is_running(self):
+    def is_running(self) -> bool:
         """True while a main program runs (paused included)."""
         with self._lock:
             return self._main is not None
 
     @property
-    def is_paused(self):
+    def is_paused(self) -> bool:
         """True while the main program is paused."""
         with self._lock:
             return self._main is not None and self._paused
 
     @property
-    def program_name(self):
+    def program_name(self) -> str | None:
         """Name of the running main program (None when idle)."""
         with self._lock:
             return None if self._main is None else self._main.execution.program.name
 
-    def wait_until_stopped(self, timeout):
+    def wait_until_stopped(self, timeout: float | None) -> bool:
         """Block until no main program runs (True) or `timeout` s pass (False)."""
         with self._lock:
             running = self._main
@@ -75,7 +76,7 @@ class ProgramRunner:
         return not running.thread.is_alive()
 
     # ----------------------------------------------------------------------------------------------- commands
-    def submit(self, source, origin="unknown"):
+    def submit(self, source: str, origin: str = "unknown") -> bool:
         """Compile and start `source`; returns True if it started, False if it was refused (error published)."""
         try:
             program = compile_program(parse(source), self._builtins)
@@ -101,7 +102,7 @@ class ProgramRunner:
         log.info("program %s started from %s", program.name, origin)
         return True
 
-    def stop(self):
+    def stop(self) -> None:
         """Stop the main program (and secondary programs); returns once its threads have ended."""
         with self._lock:
             previous = self._detach_main()
@@ -111,7 +112,7 @@ class ProgramRunner:
         if previous is not None:
             self._controller.set_program_state(False)
 
-    def pause(self):
+    def pause(self) -> None:
         """Pause the main program at its next statement; the arm decelerates and the interrupted move is
         commanded again on resume."""
         with self._lock:
@@ -122,7 +123,7 @@ class ProgramRunner:
             self._controller.set_program_state(True, True)
         self._stop_arm(PAUSE_DECELERATION)
 
-    def resume(self):
+    def resume(self) -> None:
         """Resume a paused main program."""
         with self._lock:
             if self._main is None:

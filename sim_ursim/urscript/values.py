@@ -20,7 +20,7 @@ class Pose(list):
         super().__init__(float(v) for v in values)
 
 
-def copy_value(value):
+def copy_value(value: object) -> object:
     """A copy of `value` with URScript value semantics: lists and poses are copied (nested lists too)."""
     if isinstance(value, Pose):
         return Pose(value)
@@ -29,14 +29,14 @@ def copy_value(value):
     return value
 
 
-def truth(value):
+def truth(value: object) -> bool:
     """Boolean value of a condition: booleans and numbers (non-zero is True); ScriptError otherwise."""
     if isinstance(value, (bool, int, float)):
         return bool(value)
     raise ScriptError(f"runtime_error:type mismatch:expected a boolean, got {to_str(value)}:")
 
 
-def _number_text(value):
+def _number_text(value: float) -> str:
     """A number as URScript's to_str prints it: integers without a point, floats in shortest form."""
     if isinstance(value, bool):
         return "True" if value else "False"
@@ -47,7 +47,7 @@ def _number_text(value):
     return repr(value)
 
 
-def to_str(value):
+def to_str(value: object) -> str:
     """URScript text of a value: True/False, numbers, [a, b], p[x, y, z, rx, ry, rz], strings as they are."""
     if isinstance(value, str):
         return value
@@ -62,7 +62,7 @@ def to_str(value):
     return str(value)
 
 
-def number_list(value, length, name):
+def number_list(value: object, length: int, name: str) -> list[float]:
     """`value` (list or pose) as a list of `length` floats; ScriptError naming `name` otherwise."""
     if not isinstance(value, list) or len(value) != length:
         raise ScriptError(f"runtime_error:{name} must be a list of {length} numbers, got {to_str(value)}:")

@@ -47,7 +47,7 @@ def run_in_process(tmp_path, monkeypatch, capsys):
 def arm():
     """One simulated UR3 per test module (a subprocess: ur_rtde in this process holds the GIL while it blocks)."""
     import dashboard_client
-    from sim_ursim.testing import simulator_process
+    from sim_ursim.launch import simulator_process
 
     with simulator_process(model="ur3") as simulator:
         dashboard = dashboard_client.DashboardClient(simulator.host)

@@ -184,7 +184,7 @@ def test_exported_program_runs_on_the_controller(arm, run_cli, tmp_path):
 
 def test_no_robot_configured_or_reachable(run_cli, tmp_path):
     assert_one_line_error(run_cli("status"), 5, "--host", "UR3DQ_HOST", "ur3dq sim start")
-    from sim_ursim.testing import free_loopback_address
+    from sim_ursim.launch import free_loopback_address
 
     nobody = free_loopback_address()
     assert_one_line_error(run_cli("--host", nobody, "record-pose", "--yes"), 5, nobody)

@@ -21,7 +21,7 @@ def inject(host, command, **arguments):
 
 def simulator_with(calibration=None, model="ur3", **options):
     """A context manager running `python -m sim_ursim` (UR3 by default) with an optional DH calibration (deltas)."""
-    from sim_ursim.testing import simulator_process
+    from sim_ursim.launch import simulator_process
 
     if calibration is None:
         return simulator_process(model=model, **options)

@@ -149,9 +149,11 @@ def test_set_tcp_changes_the_controllers_tcp_and_the_model(robot):
 
 
 def test_teach_mode_on_and_off(robot, home):
-    robot.teach_mode(True)
-    robot.teach_mode(False)
-    robot.movej(home + np.array([0.1, 0, 0, 0, 0, 0]))  # moves normally again
+    robot.teach_mode(True)  # raises ProgramError unless the controller reports TEACH control mode within 2 s
+    robot.teach_mode(False)  # ... and POSITION again
+    target = home + np.array([0.1, 0, 0, 0, 0, 0])
+    robot.movej(target)  # moves normally again
+    np.testing.assert_allclose(robot.joints(), target, atol=1e-4)
 
 
 def test_unknown_backend_and_wrong_model_are_refused(arm_host):

@@ -10,7 +10,7 @@ from click.testing import CliRunner
 
 from sim_ursim.__main__ import main, parse_joint_list
 from sim_ursim.control_channel import send_request
-from sim_ursim.testing import free_loopback_address, simulator_process
+from sim_ursim.launch import free_loopback_address, simulator_process
 
 
 def cli(*arguments, timeout=30):

@@ -13,9 +13,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sim_ursim import kinematics
-from sim_ursim.controller import (CommandRefused, Controller, JointMode, RobotMode, RuntimeState, SafetyMode,
-                                  UnlockTooEarly)
+from sim_ursim.controller import Controller
+from sim_ursim.vocabulary import CommandRefused, JointMode, RobotMode, RuntimeState, SafetyMode, UnlockTooEarly
 from sim_ursim.messages import SafetyModeMessage
+from polling import wait_for
 
 HOME = [0.0, -1.2, 1.2, -1.5, -1.5, 0.0]
 
@@ -199,6 +200,48 @@ def test_tcp_pose_is_dh_fk_of_the_joints_with_the_tcp_offset(controller):
     assert state.actual_tcp_pose.tolist() == pytest.approx(expected.tolist(), abs=1e-12)
     assert state.tcp_offset.tolist() == [0, 0, 0.1, 0, 0, 0.5]
     assert controller.ik(state.actual_tcp_pose).tolist() == pytest.approx(state.actual_q.tolist(), abs=1e-8)
+
+
+def test_every_setter_is_in_state_as_soon_as_it_returns(controller):
+    """A command's effect is visible to the next statement: no waiting for the control cycle (issue 9 move 2)."""
+    for n in range(300):
+        offset = [0.0, 0.0, 0.01 * (n % 7 + 1), 0.0, 0.0, 0.1 * (n % 5)]
+        controller.set_tcp(offset)
+        state = controller.state()
+        assert state.tcp_offset.tolist() == offset
+        expected = kinematics.tcp_pose(controller.model.dh, state.actual_q, offset)
+        assert state.actual_tcp_pose.tolist() == pytest.approx(expected.tolist(), abs=1e-12)
+        controller.set_payload(0.1 * (n % 3), [0.0, 0.0, 0.01 * (n % 4)])
+        assert controller.state().payload == pytest.approx(0.1 * (n % 3))
+        assert controller.state().payload_cog.tolist() == pytest.approx([0.0, 0.0, 0.01 * (n % 4)])
+        controller.io.set_int_register("output", 3, n)
+        assert controller.state().output_int_registers[3] == n
+        controller.io.set_standard_digital_out(2, n % 2 == 0)
+        assert bool(controller.state().standard_digital_output_bits & 4) == (n % 2 == 0)
+        controller.set_external_force_torque([float(n), 0, 0, 0, 0, 0])
+        assert controller.state().actual_tcp_force[0] == n
+    controller.set_tcp([0, 0, 0, 0, 0, 0])
+
+
+def test_io_writes_in_a_batch_commit_once_and_are_all_in_state(controller):
+    """An RTDE input package's many register writes commit the snapshot once (rtde/inputs.py uses io.batch())."""
+    commits = []
+    io = controller.io
+    commit = io.on_change
+    io.on_change = lambda: (commits.append(1), commit())
+    try:
+        with io.batch():
+            for n in range(10):
+                io.set_int_register("input", n, 100 + n)
+            io.set_standard_digital_out(1, True)
+        assert len(commits) == 1
+        state = controller.state()
+        assert state.input_int_registers[:10].tolist() == list(range(100, 110))
+        assert state.standard_digital_output_bits & 2
+        io.set_int_register("input", 0, 7)  # outside a batch: one commit per write
+        assert len(commits) == 2 and controller.state().input_int_registers[0] == 7
+    finally:
+        io.on_change = commit
 
 
 def test_blended_moves_overlap_and_keep_the_speed_continuous(stepped):
@@ -389,7 +432,7 @@ def test_protective_stop_decelerates_fails_the_motion_stops_the_program_and_unlo
 
 def test_emergency_stop_halts_at_once_and_needs_release_and_power_on(controller):
     controller.movej(np.array(HOME) + [2.0, 0, 0, 0, 0, 0])
-    time.sleep(0.4)
+    assert wait_for(lambda: controller.state().actual_qd[0] > 0.3)  # well under way
     controller.emergency_stop()
     first = controller.wait_cycle(controller.state().cycle, 1)
     second = controller.wait_cycle(first.cycle, 1)

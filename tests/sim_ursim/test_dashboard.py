@@ -10,7 +10,7 @@ import dashboard_client
 import pytest
 
 from sim_ursim.dashboard import protocol
-from sim_ursim.testing import running_simulator
+from sim_ursim.launch import running_simulator
 
 MODE_TIMEOUT = 30.0  # an official URSim takes seconds to power on; the simulator a fraction of one
 

@@ -1,12 +1,13 @@
 """Fault injection: the Faults object, its effect on a served connection, and the control channel."""
+import json
 import socket
 import time
 
 import pytest
 
 from robot_target import needs_simulator
-from sim_ursim.control_channel import CONTROL_PORT, execute, send_request
-from sim_ursim.controller import RobotMode, SafetyMode
+from sim_ursim.control_channel import CONTROL_PORT, MAX_REQUEST_BYTES, execute, send_request
+from sim_ursim.vocabulary import RobotMode, SafetyMode
 from sim_ursim.faults import Faults
 from polling import wait_for
 
@@ -104,6 +105,20 @@ def test_frozen_controller_answers_only_after_the_window(sim):
 
 
 # ------------------------------------------------------------------------------------------ control channel
+def test_an_over_long_control_request_is_refused_and_the_client_dropped(sim):
+    """What a control-channel connection may buffer is bounded (issue 10 item 8)."""
+    with socket.create_connection((sim.host, CONTROL_PORT), timeout=5.0) as sock:
+        try:
+            sock.sendall(b"x" * (MAX_REQUEST_BYTES + 10))
+        except (BrokenPipeError, ConnectionResetError):
+            pass
+        reader = sock.makefile("rb")
+        reply = json.loads(reader.readline())
+        assert reply["ok"] is False and "longer than" in reply["error"]
+        assert reader.readline() == b""  # dropped
+    assert send_request(sim.host, "status")["ok"]  # others are still served
+
+
 def test_control_channel_injects_safety_faults(sim):
     sim.controller.power_up()
     assert send_request(sim.host, "protective-stop", reason="bumped")["ok"]
@@ -146,10 +161,10 @@ def test_execute_without_a_stop_hook_refuses_shutdown(sim):
 
 # ------------------------------------------------------------------------------------------ seen by ur_rtde
 def test_faults_from_the_command_line_are_seen_by_ur_rtde():
-    # ur_rtde's RTDE constructors hold the GIL, hence a simulator process (see sim_ursim.testing).
+    # ur_rtde's RTDE constructors hold the GIL, hence a simulator process (see sim_ursim.launch).
     import rtde_receive
 
-    from sim_ursim.testing import simulator_process
+    from sim_ursim.launch import simulator_process
 
     with simulator_process(model="ur3e") as sim:
         receiver = rtde_receive.RTDEReceiveInterface(sim.host)

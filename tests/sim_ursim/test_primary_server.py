@@ -15,8 +15,9 @@ from hypothesis import strategies as st
 
 from sim_ursim.messages import TextMessage
 from sim_ursim.primary import server as server_module
-from sim_ursim.primary.script_intake import ScriptAssembler
-from sim_ursim.testing import running_simulator, simulator_process
+from sim_ursim.primary.script_intake import (MAX_PENDING_BYTES, MAX_PENDING_LINES, IntakeOverflow,
+                                              ScriptAssembler)
+from sim_ursim.launch import running_simulator, simulator_process
 from polling import wait_for
 
 PRIMARY, SECONDARY, REALTIME, DASHBOARD = 30001, 30002, 30003, 29999
@@ -163,11 +164,12 @@ def test_a_primary_client_that_stops_reading_is_disconnected(sim):
     silent.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
     silent.connect((sim.host, PRIMARY))
     try:
-        time.sleep(0.3)  # subscribed to the bus by now
+        silent.settimeout(3.0)
+        assert silent.recv(4)  # the version message has come, and the writer subscribes to the bus before it
         for _ in range(300):  # 2.4 MB of robot messages: far more than the socket buffers hold
             sim.controller.messages.publish(TextMessage("x" * 8000))
-        time.sleep(server_module.SEND_TIMEOUT + 1.0)
-        silent.settimeout(3.0)
+        server = sim.servers["primary"]
+        assert wait_for(lambda: not server.connections(), timeout=server_module.SEND_TIMEOUT + 10.0)
         with pytest.raises((ConnectionError, OSError)):
             deadline = time.monotonic() + 20
             while time.monotonic() < deadline:  # drain what was buffered; the server has hung up behind it
@@ -571,3 +573,75 @@ def test_delay_line_releases_items_in_order_when_due():
     assert line.take_due(0.9) == []
     assert line.take_due(1.2) == [b"a"]
     assert line.take_due(2.0) == [b"b"]
+
+
+# ------------------------------------------------------------------------- sent then closed; bounded intake
+
+
+@pytest.mark.parametrize("port", [PRIMARY, SECONDARY, REALTIME])
+def test_a_program_sent_then_closed_at_once_always_runs(sim, port):
+    """Data received before the client closed is processed, whatever the writer thread saw (issue 14 item 2): the
+    client closes without reading the server's greeting/state, so the close is a reset on 30001/30002."""
+    for n in range(1, 61):
+        with socket.create_connection((sim.host, port), timeout=3.0) as sock:
+            sock.sendall(f"write_output_integer_register(7, {n})\n".encode())
+        assert wait_for(lambda: sim.controller.state().output_int_registers[7] == n, timeout=3.0), (
+            f"program {n} sent to {port} then closed did not run")
+
+
+def _flood_until_dropped(host, port, opening, line, limit_bytes):
+    """Send `opening`, then `line` repeatedly; the number of bytes sent when the server dropped the connection
+    (None if it never did within limit_bytes)."""
+    sent = 0
+    with socket.create_connection((host, port), timeout=3.0) as sock:
+        sock.sendall(opening)
+        chunk = line * (65536 // len(line))
+        try:
+            while sent < limit_bytes:
+                sock.sendall(chunk)
+                sent += len(chunk)
+        except (BrokenPipeError, ConnectionResetError):
+            return sent
+        sock.settimeout(5.0)
+        try:  # everything sent: the drop shows as the end of the stream (or a reset) while reading
+            while sock.recv(65536):
+                pass
+        except ConnectionResetError:
+            pass
+        except socket.timeout:
+            return None
+        return sent
+
+
+@pytest.mark.parametrize("port, opening, line", [
+    (SECONDARY, b"textmsg((\n", b"1,\n"),  # an unclosed bracket followed by many lines
+    (REALTIME, b"def never_ends():\n", b"  textmsg(1)\n"),  # an unclosed block
+    (PRIMARY, b"", b"x" * 1024),  # one endless line
+])
+def test_a_client_flooding_an_incomplete_program_is_dropped_and_others_are_served(sim, port, opening, line):
+    """What a 30001-30003 connection may hold is bounded (issue 10 item 8): the offender is dropped, and a
+    well-behaved client's program still runs."""
+    limit = MAX_PENDING_BYTES
+    sent = _flood_until_dropped(sim.host, port, opening, line, 4 * limit)
+    assert sent is not None and sent < 2 * limit, f"not dropped after {sent} bytes"
+    with socket.create_connection((sim.host, SECONDARY), timeout=3.0) as good:
+        good.sendall(b"write_output_integer_register(8, 42)\n")
+    assert wait_for(lambda: sim.controller.state().output_int_registers[8] == 42, timeout=3.0)
+
+
+def test_the_intake_refuses_an_incomplete_program_beyond_its_bounds():
+    bracket = ScriptAssembler()
+    bracket.feed(b"textmsg((\n")
+    with pytest.raises(IntakeOverflow, match="unclosed bracket"):
+        for _ in range(MAX_PENDING_LINES + 1):
+            bracket.feed(b"1,\n")
+    block = ScriptAssembler()
+    with pytest.raises(IntakeOverflow, match="unclosed block"):
+        block.feed(b"def f():\n" + b"  textmsg(1)\n" * (MAX_PENDING_LINES + 1))
+    endless = ScriptAssembler()
+    with pytest.raises(IntakeOverflow, match="one line"):
+        endless.feed(b"x" * (MAX_PENDING_BYTES + 1))
+    big = ScriptAssembler()  # a large but complete program is not refused
+    body = b"  textmsg(\"" + b"y" * 100 + b"\")\n"
+    assert big.feed(b"def big():\n" + body * 20000 + b"end\n") == [
+        "def big():\n" + body.decode() * 20000 + "end\n"]

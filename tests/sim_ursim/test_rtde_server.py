@@ -299,7 +299,7 @@ def test_speed_slider_is_set_only_with_its_mask(cb3, clients):
     client.send(protocol.pack_data_package(layout, recipe_id, [1, 0.3]))
     assert wait_for(lambda: controller.state().target_speed_fraction == 0.3)
     client.send(protocol.pack_data_package(layout, recipe_id, [0, 0.9]))
-    time.sleep(0.1)
+    assert client.negotiate(2)  # answered after the package before it was applied: one reader, in order
     assert controller.state().target_speed_fraction == 0.3
 
 

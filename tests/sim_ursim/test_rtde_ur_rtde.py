@@ -18,7 +18,7 @@ import pytest
 from sim_ursim.controller import Controller
 from sim_ursim.rtde import protocol
 from sim_ursim.rtde.server import RTDEServer
-from sim_ursim.testing import free_loopback_address
+from sim_ursim.launch import free_loopback_address
 
 CLIENT_TIMEOUT = 60
 # UR3 standard DH (conventions.md): d1, a2, a3, d4, d5, d6; alpha = (π/2, 0, 0, π/2, −π/2, 0).

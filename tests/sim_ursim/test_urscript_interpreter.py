@@ -15,16 +15,31 @@ from sim_ursim.messages import TextMessage
 from sim_ursim.urscript.builtins import BUILTINS
 from sim_ursim.urscript.interpreter import CompileError, Execution, compile_program
 from sim_ursim.urscript.parser import parse
+from polling import wait_for
 
 HOME = [0.0, -1.2, 1.0, -1.0, -1.5, 0.3]
 
 
-@pytest.fixture(scope="module")
-def controller():
-    """A started UR3 controller, powered up with the brakes released (shared: tests leave it at rest)."""
+def _powered_controller():
     c = Controller("ur3", initial_q=HOME, mode_delay=0.01)
     c.start()
     c.power_up()
+    return c
+
+
+@pytest.fixture
+def controller():
+    """A started UR3 controller, powered up with the brakes released: one per test, so the TCP, registers, outputs
+    and arm position a test leaves behind never reach another."""
+    c = _powered_controller()
+    yield c
+    c.shutdown()
+
+
+@pytest.fixture(scope="module")
+def arithmetic_controller():
+    """A controller shared by the generated arithmetic examples only: they evaluate expressions and change nothing."""
+    c = _powered_controller()
     yield c
     c.shutdown()
 
@@ -114,9 +129,9 @@ def _expressions():
 
 @settings(max_examples=40, deadline=None)
 @given(_expressions())
-def test_arithmetic_agrees_with_python_precedence(controller, pair):
+def test_arithmetic_agrees_with_python_precedence(arithmetic_controller, pair):
     urscript, python = pair
-    assert value_of(controller, urscript) == eval(python)  # noqa: S307 - our own generated integer arithmetic
+    assert value_of(arithmetic_controller, urscript) == eval(python)  # noqa: S307 - our own generated integer arithmetic
 
 
 def test_functions_defaults_keywords_recursion_and_scopes(controller):
@@ -448,7 +463,7 @@ def test_stop_interrupts_a_blocking_move_within_two_cycles(controller):
     execution = Execution(program, controller, BUILTINS)
     worker = threading.Thread(target=execution.run, daemon=True)
     worker.start()
-    time.sleep(0.3)
+    assert wait_for(lambda: controller.state().actual_q[0] > HOME[0] + 0.005)  # the move is under way
     assert worker.is_alive()
     cancelled_at = time.monotonic()
     execution.cancel()
@@ -531,6 +546,22 @@ def test_jacobian_matches_finite_differences_of_forward_kinematics(controller):
         np.testing.assert_allclose([row[joint] for row in g["J"][:3]], velocity, atol=1e-5)
 
 
+def test_set_tcp_is_seen_by_the_next_statement(controller):
+    """get_tcp_offset and get_jacobian right after set_tcp use the new TCP, every time (it lagged a cycle before)."""
+    q = [0.3, -1.1, 0.9, -1.2, -1.4, 0.2]
+    lines = []
+    for n in range(60):
+        z = 0.05 + 0.01 * (n % 5)
+        lines.append(f"set_tcp(p[0, 0, {z}, 0, 0, 0])\noffsets[{n}] = get_tcp_offset()\nJ{n} = get_jacobian({q})\n")
+    source = "offsets = [" + ", ".join(["p[0, 0, 0, 0, 0, 0]"] * 60) + "]\n" + "".join(lines)
+    g = run(controller, source + "set_tcp(p[0, 0, 0, 0, 0, 0])\n").globals
+    for n in range(60):
+        z = 0.05 + 0.01 * (n % 5)
+        assert list(g["offsets"][n]) == pytest.approx([0, 0, z, 0, 0, 0])
+        expected = kinematics.geometric_jacobian(controller.model.dh, np.array(q), np.array([0, 0, z, 0, 0, 0]))
+        np.testing.assert_allclose(g[f"J{n}"], expected, atol=1e-12)
+
+
 def test_unsupported_builtin_compiles_but_fails_when_called(controller):
     call = "force_mode(p[0,0,0,0,0,0], [0,0,1,0,0,0], [0,0,0,0,0,0], 2, [0,0,0,0,0,0])"
     outcome = run(controller, f"if False:\n  {call}\nend\n")
@@ -549,14 +580,14 @@ poses = st.tuples(finite, finite, finite, rotation, rotation, rotation).map(list
 @settings(max_examples=50, deadline=None)
 @given(poses, poses)
 def test_pose_sub_undoes_pose_add(first, second):
-    from sim_ursim.urscript.builtins import pose_add, pose_sub
+    from sim_ursim.urscript.builtins.poses import pose_add, pose_sub
 
     back = pose_sub(None, pose_add(None, first, second), first)
     np.testing.assert_allclose(kinematics.pose_to_matrix(back), kinematics.pose_to_matrix(second), atol=1e-9)
 
 
 def test_pose_add_composes_rotations_first_then_second():
-    from sim_ursim.urscript.builtins import pose_add
+    from sim_ursim.urscript.builtins.poses import pose_add
 
     quarter_x, quarter_z = [0, 0, 0, math.pi / 2, 0, 0], [0, 0, 0, 0, 0, math.pi / 2]
     expected = kinematics.rotation_vector_to_matrix(quarter_x[3:]) @ kinematics.rotation_vector_to_matrix(quarter_z[3:])
@@ -567,7 +598,7 @@ def test_pose_add_composes_rotations_first_then_second():
 @settings(max_examples=50, deadline=None)
 @given(poses)
 def test_pose_trans_with_pose_inv_is_identity(pose):
-    from sim_ursim.urscript.builtins import pose_inv, pose_trans
+    from sim_ursim.urscript.builtins.poses import pose_inv, pose_trans
 
     np.testing.assert_allclose(pose_trans(None, pose, pose_inv(None, pose)), np.zeros(6), atol=1e-9)
 
@@ -575,20 +606,20 @@ def test_pose_trans_with_pose_inv_is_identity(pose):
 @settings(max_examples=50, deadline=None)
 @given(st.tuples(st.floats(-3.0, 3.0), st.floats(-1.5, 1.5), st.floats(-3.0, 3.0)).map(list))
 def test_rpy_round_trip(rpy):
-    from sim_ursim.urscript.builtins import rotvec2rpy, rpy2rotvec
+    from sim_ursim.urscript.builtins.poses import rotvec2rpy, rpy2rotvec
 
     np.testing.assert_allclose(rotvec2rpy(None, rpy2rotvec(None, rpy)), rpy, atol=1e-9)
 
 
 def test_rpy_convention_is_z_y_x():
-    from sim_ursim.urscript.builtins import rpy2rotvec
+    from sim_ursim.urscript.builtins.poses import rpy2rotvec
 
     np.testing.assert_allclose(rpy2rotvec(None, [0, 0, math.pi / 2]), [0, 0, math.pi / 2], atol=1e-12)
     np.testing.assert_allclose(rpy2rotvec(None, [math.pi / 2, 0, 0]), [math.pi / 2, 0, 0], atol=1e-12)
 
 
 def test_interpolate_pose_end_points_and_middle():
-    from sim_ursim.urscript.builtins import interpolate_pose
+    from sim_ursim.urscript.builtins.poses import interpolate_pose
 
     start, end = [0, 0, 0, 0, 0, 0], [0.2, 0, 0, 0, 0, 1.0]
     np.testing.assert_allclose(interpolate_pose(None, start, end, 0.0), start, atol=1e-12)

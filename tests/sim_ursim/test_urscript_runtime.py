@@ -8,10 +8,12 @@ import time
 import numpy as np
 import pytest
 
-from sim_ursim.controller import Controller, RuntimeState
+from sim_ursim.controller import Controller
+from sim_ursim.vocabulary import RuntimeState
 from sim_ursim.messages import KeyMessage, RuntimeExceptionMessage, TextMessage
 from sim_ursim.urscript.runtime import ProgramRunner
 from polling import wait_for
+from controller_time import wait_cycles
 
 HOME = [0.0, -1.2, 1.0, -1.0, -1.5, 0.3]
 LONG_MOVE = "movej([1.5, -1.2, 1.0, -1.0, -1.5, 0.3], a=0.5, v=0.2)\n"
@@ -115,8 +117,7 @@ def test_a_new_program_replaces_the_running_one(controller):
 def test_stop_interrupts_a_move_and_the_arm_comes_to_rest(controller):
     runner = controller.program_runner
     runner.submit(LONG_MOVE)
-    assert wait_for(lambda: controller.state().motion_active)
-    time.sleep(0.2)
+    assert wait_for(lambda: controller.state().actual_q[0] > HOME[0] + 0.005)  # the arm is moving
     started = time.monotonic()
     controller.stop_program()
     stopped_after = time.monotonic() - started
@@ -145,7 +146,7 @@ def test_pause_holds_the_program_and_resume_continues_it(controller):
     controller.pause_program()
     assert runtime_state(controller) == RuntimeState.PAUSED
     held = controller.io.output_int_registers[3]
-    time.sleep(0.1)
+    wait_cycles(controller, 12)  # 0.1 s of controller time
     assert controller.io.output_int_registers[3] - held <= 1  # at most the statement already under way
     controller.resume_program()
     assert runtime_state(controller) == RuntimeState.PLAYING
@@ -163,7 +164,7 @@ def test_pause_brings_a_moving_arm_to_rest_and_resume_finishes_the_move(controll
     assert wait_for(lambda: not controller.state().motion_active, timeout=2.0)
     held = controller.state().actual_q[0]
     assert held < target[0] - 0.05
-    time.sleep(0.2)
+    wait_cycles(controller, 25)  # 0.2 s of controller time
     assert controller.state().actual_q[0] == held and runner.is_running
     controller.resume_program()
     assert runner.wait_until_stopped(5.0)
@@ -194,7 +195,7 @@ def test_program_state_agrees_on_rtde_dashboard_and_primary_views():
     `programState` (ur_rtde DashboardClient) and primary isProgramRunning (urx's parser) agree at every stage."""
     dashboard_client = pytest.importorskip("dashboard_client")
     ursecmon = pytest.importorskip("urx.ursecmon")
-    from sim_ursim.testing import running_simulator
+    from sim_ursim.launch import running_simulator
 
     with running_simulator(model="ur3") as sim:
         sim.controller.power_up()
@@ -241,7 +242,7 @@ def powered_simulator_process(dashboard_client, **options):
 
     A subprocess because ur_rtde's constructors hold the GIL while they wait for the simulator.
     """
-    from sim_ursim.testing import simulator_process
+    from sim_ursim.launch import simulator_process
 
     with simulator_process(**options) as sim:
         dashboard = dashboard_client.DashboardClient(sim.host)

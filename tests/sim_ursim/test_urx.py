@@ -8,7 +8,7 @@ import pytest
 import urx
 from urx.urrobot import RobotException
 
-from sim_ursim.testing import running_simulator
+from sim_ursim.launch import running_simulator
 from polling import wait_for
 
 pytestmark = [

@@ -128,7 +128,7 @@ def demo(settings: Settings, save, speed, acceleration, tolerance_mm, tolerance_
       ur3dq demo
       ur3dq --model ur5e demo --save demo-poses.json
     """
-    from sim_ursim.testing import simulator_process
+    from sim_ursim.launch import simulator_process
     from ur3dq.robot import connect
 
     # with --json the story goes to stderr, so stdout carries only the JSON result

@@ -75,7 +75,7 @@ def _lock(directory: Path) -> filelock.FileLock:
 def start_simulator(model: str = "ur3", host: str | None = None, version: str | None = None) -> dict:
     """Start `python -m sim_ursim` detached on `host` (default: a free loopback address) and wait until it
     serves every port; returns the recorded state. SimulatorError if one runs already or it does not come up."""
-    from sim_ursim.testing import free_loopback_address, ports_bindable, wait_until_serving
+    from sim_ursim.launch import free_loopback_address, ports_bindable, wait_until_serving
 
     directory = state_directory()
     directory.mkdir(parents=True, exist_ok=True)

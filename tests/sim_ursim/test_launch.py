@@ -1,4 +1,4 @@
-"""The test helpers: free loopback addresses, a simulator per context, clean shutdown."""
+"""Launching simulators (sim_ursim.launch): free loopback addresses, a simulator per context, clean shutdown."""
 import ipaddress
 import random
 import socket
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from sim_ursim.simulator import STANDARD_PORTS, Simulator
-from sim_ursim.testing import (free_loopback_address, ports_bindable, random_loopback_address, running_simulator,
+from sim_ursim.launch import (free_loopback_address, ports_bindable, random_loopback_address, running_simulator,
                                wait_until_serving)
 
 

@@ -7,7 +7,7 @@ import ur_analytic_ik
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sim_ursim import kinematics, motion
+from sim_ursim import kinematics, trajectories
 from sim_ursim.models import MODEL_NAMES, parse_version, robot_model
 
 finite = st.floats(min_value=-math.pi, max_value=math.pi, allow_nan=False)
@@ -16,14 +16,14 @@ joints = st.lists(finite, min_size=6, max_size=6).map(np.array)
 
 # ------------------------------------------------------------------------------------------ trapezoid profiles
 def test_trapezoid_with_cruise_phase_takes_d_over_v_plus_v_over_a():
-    profile = motion.trapezoid(1.0, 1.05, 1.4)
+    profile = trajectories.trapezoid(1.0, 1.05, 1.4)
     assert profile.duration == pytest.approx(1.0 / 1.05 + 1.05 / 1.4)
     assert profile.peak == pytest.approx(1.05)
     assert profile.position(profile.duration) == pytest.approx(1.0)
 
 
 def test_short_trapezoid_becomes_a_triangle():
-    profile = motion.trapezoid(0.1, 1.05, 1.4)
+    profile = trajectories.trapezoid(0.1, 1.05, 1.4)
     assert profile.duration == pytest.approx(2 * math.sqrt(0.1 / 1.4))
     assert profile.peak == pytest.approx(math.sqrt(1.4 * 0.1))
     assert profile.position(profile.duration / 2) == pytest.approx(0.05)
@@ -32,7 +32,7 @@ def test_short_trapezoid_becomes_a_triangle():
 @settings(max_examples=200, deadline=None)
 @given(distance=st.floats(0.001, 10), speed=st.floats(0.01, 5), acceleration=st.floats(0.01, 50))
 def test_trapezoid_is_monotonic_bounded_and_lands_on_the_distance(distance, speed, acceleration):
-    profile = motion.trapezoid(distance, speed, acceleration)
+    profile = trajectories.trapezoid(distance, speed, acceleration)
     times = np.linspace(0, profile.duration, 201)
     positions = np.array([profile.position(t) for t in times])
     speeds = np.array([profile.speed(t) for t in times])
@@ -46,7 +46,7 @@ def test_trapezoid_is_monotonic_bounded_and_lands_on_the_distance(distance, spee
 @settings(max_examples=200, deadline=None)
 @given(distance=st.floats(0.001, 5), duration=st.floats(0.05, 10), acceleration=st.floats(0.01, 50))
 def test_timed_trapezoid_takes_exactly_the_requested_time(distance, duration, acceleration):
-    profile = motion.timed_trapezoid(distance, duration, acceleration)
+    profile = trajectories.timed_trapezoid(distance, duration, acceleration)
     assert profile.duration == pytest.approx(duration)
     assert profile.position(duration) == pytest.approx(distance)
     assert profile.position(duration / 2) == pytest.approx(distance / 2)
@@ -54,18 +54,18 @@ def test_timed_trapezoid_takes_exactly_the_requested_time(distance, duration, ac
 
 def test_bad_profile_arguments_are_named():
     with pytest.raises(ValueError, match="speed > 0"):
-        motion.trapezoid(1.0, 0.0, 1.0)
+        trajectories.trapezoid(1.0, 0.0, 1.0)
     with pytest.raises(ValueError, match="motion time t"):
-        motion.timed_trapezoid(1.0, 0.0, 1.0)
+        trajectories.timed_trapezoid(1.0, 0.0, 1.0)
 
 
 # ------------------------------------------------------------------------------------------ movej synchronisation
 def test_every_joint_of_a_movej_starts_and_stops_with_the_leading_one():
     model = robot_model("ur3")
     start, end = np.zeros(6), np.array([1.0, -0.5, 0.25, 0.0, 2.0, -1.0])
-    profile = motion.synchronised_joint_profile(end - start, 1.05, 1.4, 0.0, model.max_joint_speed,
+    profile = trajectories.synchronised_joint_profile(end - start, 1.05, 1.4, 0.0, model.max_joint_speed,
                                                 model.max_joint_acceleration)
-    segment = motion.JointMove(start, end, profile)
+    segment = trajectories.JointMove(start, end, profile)
     assert profile.distance == pytest.approx(2.0)  # joint 4 leads
     previous = start
     while not segment.finished:
@@ -81,7 +81,7 @@ def test_every_joint_of_a_movej_starts_and_stops_with_the_leading_one():
 def test_movej_speed_is_clamped_to_the_slowest_joint_limit():
     model = robot_model("ur10")  # base limited to 120 deg/s
     delta = np.array([6.0, 0, 0, 0, 0, 0])
-    profile = motion.synchronised_joint_profile(delta, 10.0, 1.4, 0.0, model.max_joint_speed,
+    profile = trajectories.synchronised_joint_profile(delta, 10.0, 1.4, 0.0, model.max_joint_speed,
                                                 model.max_joint_acceleration)
     assert profile.peak == pytest.approx(math.radians(120))
 
@@ -97,7 +97,7 @@ def test_movej_profile_is_well_defined_for_tiny_joint_travels(delta, duration):
     model = robot_model("ur3")
     def profile_of(travels):
         with np.errstate(over="raise", divide="raise", invalid="raise"):  # underflow to 0 is harmless here
-            return motion.synchronised_joint_profile(travels, 1.05, 1.4, duration, model.max_joint_speed,
+            return trajectories.synchronised_joint_profile(travels, 1.05, 1.4, duration, model.max_joint_speed,
                                                      model.max_joint_acceleration)
 
     profile = profile_of(delta)
@@ -114,18 +114,18 @@ def test_movej_profile_is_well_defined_for_tiny_joint_travels(delta, duration):
 def test_movej_time_is_stretched_when_it_would_break_a_speed_limit():
     model = robot_model("ur3")
     delta = np.array([3.0, 0, 0, 0, 0, 0])
-    profile = motion.synchronised_joint_profile(delta, 1.05, 1.4, 0.5, model.max_joint_speed,
+    profile = trajectories.synchronised_joint_profile(delta, 1.05, 1.4, 0.5, model.max_joint_speed,
                                                 model.max_joint_acceleration)
     assert profile.peak <= math.pi + 1e-9
     assert profile.duration > 0.5
-    honoured = motion.synchronised_joint_profile(delta / 10, 1.05, 1.4, 2.0, model.max_joint_speed,
+    honoured = trajectories.synchronised_joint_profile(delta / 10, 1.05, 1.4, 2.0, model.max_joint_speed,
                                                  model.max_joint_acceleration)
     assert honoured.duration == pytest.approx(2.0)
 
 
 # ------------------------------------------------------------------------------------------ streaming segments
 def test_stop_decelerates_all_joints_together_in_speed_over_deceleration():
-    stop = motion.Stop(np.array([1.0, -0.5, 0, 0, 0, 0]), 2.0)
+    stop = trajectories.Stop(np.array([1.0, -0.5, 0, 0, 0, 0]), 2.0)
     q, elapsed = np.zeros(6), 0.0
     while not stop.finished:
         q = stop.advance(0.001, q)
@@ -136,7 +136,7 @@ def test_stop_decelerates_all_joints_together_in_speed_over_deceleration():
 
 
 def test_speedj_ramps_to_the_speed_then_stops_after_its_time():
-    segment = motion.JointSpeed(np.zeros(6), np.array([0.5, 0, 0, 0, 0, 0]), 1.0, 1.0)
+    segment = trajectories.JointSpeed(np.zeros(6), np.array([0.5, 0, 0, 0, 0, 0]), 1.0, 1.0)
     q = np.zeros(6)
     for _ in range(400):
         q = segment.advance(0.002, q)
@@ -147,7 +147,7 @@ def test_speedj_ramps_to_the_speed_then_stops_after_its_time():
 
 
 def test_servo_target_is_reached_within_its_time_and_speed_limited():
-    segment = motion.ServoTarget(np.array([0.01, 0, 0, 0, 0, 0]), 0.008, np.full(6, 1.0))
+    segment = trajectories.ServoTarget(np.array([0.01, 0, 0, 0, 0, 0]), 0.008, np.full(6, 1.0))
     q = segment.advance(0.008, np.zeros(6))
     assert q[0] == pytest.approx(0.008)  # 1 rad/s limit
     q = segment.advance(0.008, q)

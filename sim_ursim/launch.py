@@ -1,4 +1,5 @@
-"""Context managers that give tests a running simulator on a free loopback address.
+"""Launching simulators: context managers that start one on a free loopback address (in this process or as a
+`python -m sim_ursim` subprocess) and wait until it serves. Used by the tests and by ur3dq's `sim` CLI commands.
 
 UR clients cannot change the robot's ports, so parallel simulators differ by address: every one gets its own
 random 127.a.b.c (all of 127.0.0.0/8 is loopback on Linux) where every standard port is free.
@@ -14,6 +15,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable, Iterable, Iterator, Sequence
 
 from .simulator import STANDARD_PORTS, Simulator
 
@@ -21,12 +23,12 @@ ADDRESS_ATTEMPTS = 50
 SERVE_TIMEOUT = 20.0
 
 
-def random_loopback_address(rng=random):
+def random_loopback_address(rng: random.Random = random) -> str:
     """A random 127.a.b.c address, avoiding 127.0.0.1 and the .0 / .255 host parts."""
     return f"127.{rng.randrange(0, 256)}.{rng.randrange(0, 256)}.{rng.randrange(2, 255)}"
 
 
-def ports_bindable(host, ports=STANDARD_PORTS):
+def ports_bindable(host: str, ports: Iterable[int] = STANDARD_PORTS) -> bool:
     """True when every port in `ports` can be bound on `host` right now."""
     for port in ports:
         probe = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
@@ -40,7 +42,7 @@ def ports_bindable(host, ports=STANDARD_PORTS):
     return True
 
 
-def free_loopback_address(ports=STANDARD_PORTS, attempts=ADDRESS_ATTEMPTS):
+def free_loopback_address(ports: Iterable[int] = STANDARD_PORTS, attempts: int = ADDRESS_ATTEMPTS) -> str:
     """A loopback address on which all `ports` are bindable; RuntimeError after `attempts` tries."""
     for _ in range(attempts):
         host = random_loopback_address()
@@ -49,7 +51,8 @@ def free_loopback_address(ports=STANDARD_PORTS, attempts=ADDRESS_ATTEMPTS):
     raise RuntimeError(f"no loopback address with ports {ports} free after {attempts} attempts")
 
 
-def wait_until_serving(host, ports=STANDARD_PORTS, timeout=SERVE_TIMEOUT, alive=None):
+def wait_until_serving(host: str, ports: Iterable[int] = STANDARD_PORTS, timeout: float = SERVE_TIMEOUT,
+                       alive: Callable[[], bool] | None = None) -> None:
     """Block until every port on `host` accepts a TCP connection; TimeoutError naming the ports that do not."""
     deadline = time.monotonic() + timeout
     waiting = list(ports)
@@ -69,7 +72,7 @@ def wait_until_serving(host, ports=STANDARD_PORTS, timeout=SERVE_TIMEOUT, alive=
 
 
 @contextlib.contextmanager
-def running_simulator(model="ur3", version=None, **options):
+def running_simulator(model: str = "ur3", version: str | None = None, **options) -> Iterator[Simulator]:
     """A started Simulator on a free loopback address (`.host`, `.controller`), stopped cleanly on exit."""
     last_error = None
     for _ in range(ADDRESS_ATTEMPTS):
@@ -92,19 +95,20 @@ def running_simulator(model="ur3", version=None, **options):
 class SimulatorProcess:
     """A `python -m sim_ursim` child process: `.host`, `.process`, `.output()` once stopped."""
 
-    def __init__(self, host, process, log_path):
+    def __init__(self, host: str, process: subprocess.Popen, log_path: str):
         self.host = host
         self.process = process
         self.log_path = log_path
 
-    def output(self):
+    def output(self) -> str:
         """Everything the process logged so far."""
         with open(self.log_path, encoding="utf-8", errors="replace") as log_file:
             return log_file.read()
 
 
 @contextlib.contextmanager
-def simulator_process(model="ur3", version=None, extra_args=(), log_path=None, **options):
+def simulator_process(model: str = "ur3", version: str | None = None, extra_args: Sequence[str] = (),
+                      log_path: str | None = None, **options) -> Iterator["SimulatorProcess"]:
     """`python -m sim_ursim` on a free loopback address in a subprocess; terminated (SIGTERM) on exit.
 
     `options` become command-line flags (initial_q=[...] → --initial-q "a,b,..."); the log goes to `log_path`

@@ -4,6 +4,7 @@ Every segment answers `advance(dt, q, qd) -> q_next` once per control cycle; `dt
 slider where the segment is a planned trajectory. Segments know nothing about threads, safety or clients.
 """
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -21,7 +22,7 @@ class Trapezoid:
     accel_time: float
     duration: float
 
-    def position(self, t):
+    def position(self, t: float) -> float:
         """Distance travelled at time t (clamped to [0, duration])."""
         t = min(max(t, 0.0), self.duration)
         if self.duration == 0.0:
@@ -34,7 +35,7 @@ class Trapezoid:
         remaining = self.duration - t
         return self.distance - 0.5 * self.acceleration * remaining * remaining
 
-    def speed(self, t):
+    def speed(self, t: float) -> float:
         """Speed along the profile at time t (0 outside [0, duration])."""
         if t <= 0.0 or t >= self.duration:
             return 0.0
@@ -45,7 +46,7 @@ class Trapezoid:
         return self.peak
 
 
-def trapezoid(distance, speed, acceleration):
+def trapezoid(distance: float, speed: float, acceleration: float) -> Trapezoid:
     """Fastest profile covering `distance` with at most `speed` and `acceleration` (triangular when too short)."""
     if distance < 0 or speed <= 0 or acceleration <= 0:
         raise ValueError(f"trapezoid needs distance ≥ 0, speed > 0, acceleration > 0; got {distance}, {speed}, "
@@ -59,7 +60,7 @@ def trapezoid(distance, speed, acceleration):
     return Trapezoid(distance, acceleration * accel_time, acceleration, accel_time, 2 * accel_time)
 
 
-def timed_trapezoid(distance, duration, acceleration):
+def timed_trapezoid(distance: float, duration: float, acceleration: float) -> Trapezoid:
     """Profile covering `distance` in exactly `duration`: uses `acceleration` when it allows, else a triangle."""
     if duration <= 0:
         raise ValueError(f"motion time t must be > 0, got {duration}")
@@ -75,7 +76,8 @@ def timed_trapezoid(distance, duration, acceleration):
     return Trapezoid(distance, needed * duration / 2, needed, duration / 2, duration)
 
 
-def synchronised_joint_profile(delta_q, speed, acceleration, duration, max_speeds, max_accelerations):
+def synchronised_joint_profile(delta_q: np.ndarray, speed: float, acceleration: float, duration: float,
+                               max_speeds: np.ndarray, max_accelerations: np.ndarray) -> Trapezoid:
     """Leading-axis profile for movej: the longest travel leads with a, v (or time t); slower joints are scaled to it.
 
     `speed` is lowered (and `acceleration` capped) so that no joint exceeds its own limit after scaling.
@@ -103,24 +105,24 @@ class JointMove:
 
     kind = "movej"
 
-    def __init__(self, q_start, q_end, profile):
+    def __init__(self, q_start: np.ndarray, q_end: np.ndarray, profile: Trapezoid):
         self.q_start = np.array(q_start, dtype=float)
         self.q_end = np.array(q_end, dtype=float)
         self.profile = profile
         self.elapsed = 0.0
 
     @property
-    def finished(self):
+    def finished(self) -> bool:
         return self.elapsed >= self.profile.duration
 
-    def sample(self):
+    def sample(self) -> np.ndarray:
         """Joints at the current trajectory time."""
         if self.profile.distance == 0.0:
             return self.q_end.copy() if self.finished else self.q_start.copy()
         fraction = self.profile.position(self.elapsed) / self.profile.distance
         return self.q_start + (self.q_end - self.q_start) * fraction
 
-    def advance(self, dt, q=None):
+    def advance(self, dt: float, q: np.ndarray | None = None) -> np.ndarray:
         """Move trajectory time on by dt (already speed-slider scaled); return the joints there (`q` unused)."""
         self.elapsed = min(self.elapsed + dt, self.profile.duration)
         return self.sample()
@@ -131,7 +133,8 @@ class LinearMove:
 
     kind = "movel"
 
-    def __init__(self, start_matrix, end_matrix, q_start, q_end, profile, solve_ik):
+    def __init__(self, start_matrix: np.ndarray, end_matrix: np.ndarray, q_start: np.ndarray, q_end: np.ndarray, profile: Trapezoid,
+                 solve_ik: Callable[[np.ndarray, np.ndarray], np.ndarray]):
         self.start_matrix = start_matrix
         self.end_matrix = end_matrix
         self.q_start = np.array(q_start, dtype=float)
@@ -142,10 +145,10 @@ class LinearMove:
         self._last_q = self.q_start.copy()
 
     @property
-    def finished(self):
+    def finished(self) -> bool:
         return self.elapsed >= self.profile.duration
 
-    def sample(self):
+    def sample(self) -> np.ndarray:
         """Joints placing the TCP at the current point of the line (IK seeded with the previous cycle's joints)."""
         # At the end too, IK from the previous cycle keeps the joints continuous (q_end is only the planned guess).
         fraction = self.profile.position(self.elapsed) / self.profile.distance if self.profile.distance else 1.0
@@ -153,19 +156,19 @@ class LinearMove:
         self._last_q = self._solve_ik(kinematics.matrix_to_pose(target), self._last_q)
         return self._last_q.copy()
 
-    def advance(self, dt, q=None):
+    def advance(self, dt: float, q: np.ndarray | None = None) -> np.ndarray:
         """Move trajectory time on by dt (already speed-slider scaled); return the joints there (`q` unused)."""
         self.elapsed = min(self.elapsed + dt, self.profile.duration)
         return self.sample()
 
 
-def linear_distance(start_matrix, end_matrix):
+def linear_distance(start_matrix: np.ndarray, end_matrix: np.ndarray) -> float:
     """Leading 'distance' of a movel: the larger of the path length (m) and the rotation angle (rad, read as m)."""
     length = float(np.linalg.norm(end_matrix[:3, 3] - start_matrix[:3, 3]))
     return max(length, kinematics.rotation_angle_between(start_matrix, end_matrix))
 
 
-def ramp_towards(current, target, max_change):
+def ramp_towards(current: np.ndarray, target: np.ndarray, max_change: float) -> np.ndarray:
     """Vector `current` moved towards `target` by at most `max_change` (largest component), direction kept."""
     difference = np.asarray(target, dtype=float) - current
     largest = float(np.max(np.abs(difference))) if difference.size else 0.0
@@ -179,7 +182,7 @@ class JointSpeed:
 
     kind = "speedj"
 
-    def __init__(self, qd_start, qd_target, acceleration, duration):
+    def __init__(self, qd_start: np.ndarray, qd_target: np.ndarray, acceleration: float, duration: float):
         self.qd = np.array(qd_start, dtype=float)
         self.qd_target = np.array(qd_target, dtype=float)
         self.acceleration = acceleration
@@ -187,15 +190,15 @@ class JointSpeed:
         self.elapsed = 0.0
 
     @property
-    def finished(self):
+    def finished(self) -> bool:
         return self.duration > 0 and self.elapsed >= self.duration and not np.any(self.qd)
 
     @property
-    def commanded_speed(self):
+    def commanded_speed(self) -> np.ndarray:
         """Joint speeds the ramp has reached (rad/s, trajectory time: before the speed slider)."""
         return self.qd.copy()
 
-    def advance(self, dt, q):
+    def advance(self, dt: float, q: np.ndarray) -> np.ndarray:
         """Joints after dt at the ramped speed."""
         self.elapsed += dt
         goal = self.qd_target if (self.duration <= 0 or self.elapsed < self.duration) else np.zeros(6)
@@ -208,7 +211,8 @@ class CartesianSpeed:
 
     kind = "speedl"
 
-    def __init__(self, xd_start, xd_target, acceleration, duration, tcp_matrix_of, solve_ik):
+    def __init__(self, xd_start: np.ndarray, xd_target: np.ndarray, acceleration: float, duration: float,
+                 tcp_matrix_of: Callable[[np.ndarray], np.ndarray], solve_ik: Callable[[np.ndarray, np.ndarray], np.ndarray]):
         self.xd = np.array(xd_start, dtype=float)
         self.xd_target = np.array(xd_target, dtype=float)
         self.acceleration = acceleration
@@ -218,15 +222,15 @@ class CartesianSpeed:
         self._solve_ik = solve_ik
 
     @property
-    def finished(self):
+    def finished(self) -> bool:
         return self.duration > 0 and self.elapsed >= self.duration and not np.any(self.xd)
 
     @property
-    def commanded_speed(self):
+    def commanded_speed(self) -> np.ndarray:
         """TCP twist the ramp has reached ([m/s, rad/s] base frame, trajectory time: before the speed slider)."""
         return self.xd.copy()
 
-    def advance(self, dt, q):
+    def advance(self, dt: float, q: np.ndarray) -> np.ndarray:
         """Joints after moving the TCP by the ramped twist for dt."""
         self.elapsed += dt
         goal = self.xd_target if (self.duration <= 0 or self.elapsed < self.duration) else np.zeros(6)
@@ -246,17 +250,17 @@ class ServoTarget:
 
     kind = "servoj"
 
-    def __init__(self, q_target, duration, max_speeds):
+    def __init__(self, q_target: np.ndarray, duration: float, max_speeds: np.ndarray):
         self.q_target = np.array(q_target, dtype=float)
         self.duration = duration
         self.max_speeds = np.asarray(max_speeds, dtype=float)
         self.elapsed = 0.0
 
     @property
-    def finished(self):
+    def finished(self) -> bool:
         return False  # holds its target until the next command replaces it or a stop ends it
 
-    def advance(self, dt, q):
+    def advance(self, dt: float, q: np.ndarray) -> np.ndarray:
         """Joints after dt of linear travel towards the target."""
         remaining = max(self.duration - self.elapsed, dt)
         self.elapsed += dt
@@ -272,15 +276,15 @@ class Stop:
 
     kind = "stop"
 
-    def __init__(self, qd_start, deceleration):
+    def __init__(self, qd_start: np.ndarray, deceleration: float):
         self.qd = np.array(qd_start, dtype=float)
         self.deceleration = deceleration
 
     @property
-    def finished(self):
+    def finished(self) -> bool:
         return not np.any(self.qd)
 
-    def advance(self, dt, q):
+    def advance(self, dt: float, q: np.ndarray) -> np.ndarray:
         """Joints after dt of deceleration."""
         self.qd = ramp_towards(self.qd, np.zeros(6), self.deceleration * dt)
         return q + self.qd * dt

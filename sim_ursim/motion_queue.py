@@ -1,0 +1,255 @@
+"""The motion queue of the simulated arm: the active segment, a blended tail, the planned moves waiting.
+
+Each commanded motion has a `Motion` handle the caller waits on. Planned moves (movej, movel) queue and start one
+after another; a blend radius r > 0 lets the next move start inside the previous one's blend zone, superposed on
+the rest of it in joint space (q = q_rest + q_next − q_next_start), so speed stays continuous and the arm ends
+exactly on the next target (the blend path is not the controller's). Streaming commands (speedj, speedl, servoj)
+replace whatever runs; stops replace every motion by a deceleration to rest.
+
+Not thread-safe on its own: the controller calls it under its lock, once per control cycle (`advance`) and from
+its commands. Segments come from trajectories.py.
+"""
+import dataclasses
+import logging
+import threading
+import time
+from collections.abc import Callable
+
+import numpy as np
+
+from . import kinematics, trajectories
+from .models import RobotModel
+from .vocabulary import PROTECTIVE_STOP_DECELERATION
+
+log = logging.getLogger("sim_ursim.controller")
+
+JOINT_SPEED_TOLERANCE = 1.05  # movel/speedl may exceed a joint's max speed by 5 % before the protective stop
+
+
+class MotionFault(Exception):
+    """A running motion must end in a protective stop: `reason` for the stop, `program_reason` for the program."""
+
+    def __init__(self, reason: str, program_reason: str):
+        super().__init__(reason)
+        self.reason = reason
+        self.program_reason = program_reason
+
+
+class Motion:
+    """Handle of one commanded motion: `wait()` for its end, then read `error` (None when it succeeded)."""
+
+    def __init__(self, kind: str, blend_radius: float = 0.0):
+        self.kind = kind
+        self.blend_radius = blend_radius
+        self.error = None
+        self._ended = threading.Event()
+
+    @property
+    def done(self) -> bool:
+        """True once the motion has ended, successfully or not (see `error`)."""
+        return self._ended.is_set()
+
+    @property
+    def succeeded(self) -> bool:
+        """True once the motion has ended without error."""
+        return self._ended.is_set() and self.error is None
+
+    def wait(self, timeout: float | None = None, cancel: threading.Event | None = None) -> bool:
+        """Block until the motion ends (True), or `timeout` s pass / `cancel` is set (False). Does not stop the arm."""
+        if cancel is None:
+            return self._ended.wait(timeout)
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while not self._ended.is_set():
+            if cancel.is_set():
+                return False
+            remaining = 0.05 if deadline is None else min(0.05, deadline - time.monotonic())
+            if remaining <= 0:
+                return False
+            self._ended.wait(remaining)
+        return True
+
+    def _finish(self, error: str | None = None) -> None:
+        if not self._ended.is_set():
+            self.error = error
+            self._ended.set()
+
+    def __repr__(self) -> str:
+        status = "running" if not self.done else ("ok" if self.error is None else f"failed: {self.error}")
+        return f"<Motion {self.kind} {status}>"
+
+
+@dataclasses.dataclass
+class MotionEntry:
+    """A segment being executed, the Motion it reports to, and whether trajectory time follows the slider."""
+
+    segment: object
+    motion: Motion
+    follows_slider: bool
+    target_q: np.ndarray = None  # planned moves: where the arm ends (for blending and queued starts)
+    plan: object = None  # planned moves: start_q -> segment, called when the move starts
+    in_blend_zone: bool = False
+
+
+
+class MotionQueue:
+    """The arm's motions (see the module docstring). `tcp_matrix(q)` and `solve_ik(pose, q_near)` use the
+    controller's present TCP."""
+
+    def __init__(self, model: RobotModel, tcp_matrix: Callable[[np.ndarray], np.ndarray],
+                 solve_ik: Callable[[np.ndarray, np.ndarray], np.ndarray]):
+        self.model = model
+        self._tcp_matrix = tcp_matrix
+        self._solve_ik = solve_ik
+        self.active: MotionEntry | None = None
+        self.tail: MotionEntry | None = None  # a move still finishing underneath its blended successor
+        self.waiting: list[MotionEntry] = []  # planned moves waiting for the current one
+
+    @property
+    def busy(self) -> bool:
+        """True while a motion (or the rest of a blended one) runs."""
+        return self.active is not None or self.tail is not None
+
+    def end_q(self, q_now: np.ndarray) -> np.ndarray:
+        """Where the arm will be when a newly queued move starts: the last queued/active target, else q_now."""
+        for entry in reversed(self.waiting):
+            return entry.target_q
+        if self.active is not None and self.active.target_q is not None:
+            return self.active.target_q
+        return np.array(q_now)
+
+    def enqueue(self, entry: "MotionEntry", plan: Callable, q_now: np.ndarray, qd_now: np.ndarray) -> None:
+        """Queue a planned move; `plan(start_q)` builds its segment when it starts."""
+        entry.plan = plan
+        streaming = self.active is not None and self.active.target_q is None
+        if streaming:
+            # A speed/servo command is running: bring it to rest first, then the move starts.
+            self.stop(qd_now, PROTECTIVE_STOP_DECELERATION, entry.motion.kind, end_queue=False)
+        self.waiting.append(entry)
+        if self.active is None:
+            self._start_next(np.array(q_now), blended=False)
+
+    def _start_next(self, start_q: np.ndarray, blended: bool) -> None:
+        """Start the first queued move from start_q (superposed on the current one when blended)."""
+        entry = self.waiting.pop(0)
+        try:
+            entry.segment = entry.plan(start_q)
+        except (ValueError, kinematics.IKError) as error:
+            entry.motion._finish(str(error))
+            self.end_all(lambda queued: f"not started: an earlier move failed ({error})")
+            return
+        if blended:
+            self.tail = self.active
+        self.active = entry
+        log.info("%s started (%.3f s planned)", entry.motion.kind, entry.segment.profile.duration)
+
+    def speed_ramp_start(self, kind: str, measured: np.ndarray) -> np.ndarray:
+        """Where a new speedj/speedl ramp starts: the running command's own ramp when it is the same kind, else
+        the measured speed.
+
+        Clients repeat speed commands every cycle or two (ur_rtde's speed thread does): continuing the commanded
+        ramp keeps them exact, whereas the measured speed already includes the speed slider (each restart would
+        shrink it again) and any measurement error.
+        """
+        active = self.active
+        if active is not None and self.tail is None and active.segment.kind == kind:
+            return active.segment.commanded_speed
+        return np.array(measured, dtype=float)
+
+    def replace(self, segment, kind: str, follows_slider: bool) -> Motion:
+        """Streaming commands (speedj, speedl, servoj) take over at once from whatever runs."""
+        self.end_all(lambda entry: None if entry.motion.kind == kind else f"interrupted by {kind}")
+        self.tail = None
+        entry = MotionEntry(segment, Motion(kind), follows_slider)
+        self.active = entry
+        return entry.motion
+
+    def stop(self, qd: np.ndarray, deceleration: float, kind: str, end_queue: bool = True,
+             error: str | None = None) -> Motion:
+        """Replace every motion by a deceleration to rest from joint speeds qd; returns the stop's Motion.
+
+        The ended motions fail with `error` (default "stopped by <kind>"); with end_queue=False the waiting moves
+        stay queued.
+        """
+        error = error or f"stopped by {kind}"
+        if end_queue:
+            self.end_all(lambda entry: error)
+        else:
+            for entry in (self.tail, self.active):
+                if entry is not None:
+                    entry.motion._finish(error)
+        entry = MotionEntry(trajectories.Stop(qd, deceleration), Motion(kind), False)
+        self.active = entry
+        self.tail = None
+        return entry.motion
+
+    def clear(self, error: str) -> None:
+        """Every motion ends with `error` and nothing runs any more (halt, power off, shutdown)."""
+        self.end_all(lambda entry: error)
+        self.active = None
+        self.tail = None
+
+    def end_all(self, error_of: Callable[["MotionEntry"], str | None]) -> None:
+        """End every motion, each with the error `error_of(entry)` (None: succeeded); the queue empties."""
+        for entry in [self.tail, self.active] + self.waiting:
+            if entry is not None:
+                entry.motion._finish(error_of(entry))
+        self.waiting = []
+
+    def advance(self, q: np.ndarray, dt: float, planned_dt: float) -> np.ndarray:
+        """Joints after one cycle of the active motion from q (call only while `active`).
+
+        `planned_dt` is dt scaled by the speed slider and the pause ramp (planned and slider-following motions use
+        it). Raises MotionFault when the step would cross a joint limit, exceed a joint speed limit on a
+        Cartesian motion, or has no IK solution; the arm then stays at q.
+        """
+        active = self.active
+        try:
+            new_q = active.segment.advance(planned_dt if active.follows_slider else dt, q)
+            if self.tail is not None:
+                # Blend: the rest of the previous move plus this move's displacement from its own start.
+                tail = self.tail
+                new_q = tail.segment.advance(planned_dt) + (new_q - active.segment.q_start)
+                if tail.segment.finished:
+                    self.tail = None
+        except kinematics.IKError as error:
+            raise MotionFault(f"{active.motion.kind}: {error}", f"{active.motion.kind} failed") from None
+        reason = self._step_violation(q, new_q, dt, active)
+        if reason is not None:
+            raise MotionFault(reason, reason)
+        self._finish_or_blend(active, new_q)
+        return new_q
+
+    def _step_violation(self, q, new_q, dt, active) -> str | None:
+        """Why a step breaks joint-limit or (Cartesian motions) joint-speed protection; None when it does not."""
+        outside = np.nonzero((new_q < self.model.joint_lower) | (new_q > self.model.joint_upper))[0]
+        if outside.size:
+            return f"joint {int(outside[0])} position limit reached during {active.motion.kind}"
+        if active.segment.kind in ("movel", "speedl"):
+            speeds = np.abs(new_q - q) / dt
+            too_fast = np.nonzero(speeds > self.model.max_joint_speed * JOINT_SPEED_TOLERANCE)[0]
+            if too_fast.size:
+                i = int(too_fast[0])
+                return (f"joint {i} speed {speeds[i]:.2f} rad/s above its limit during {active.motion.kind} "
+                        "(close to a singularity)")
+        return None
+
+    def _finish_or_blend(self, active, new_q) -> None:
+        """End a finished segment and start the next queued one; with r > 0 start it inside the blend zone."""
+        if active.segment.finished and self.tail is None:
+            active.motion._finish(None)
+            self.active = None
+            if self.waiting:
+                self._start_next(new_q, blended=False)
+            return
+        if active.target_q is None or active.motion.blend_radius <= 0:
+            return
+        if not active.in_blend_zone:
+            here = self._tcp_matrix(new_q)[:3, 3]
+            there = self._tcp_matrix(active.target_q)[:3, 3]
+            if float(np.linalg.norm(there - here)) > active.motion.blend_radius:
+                return
+            # Inside the blend zone the program may go on (the URScript move returns) while the arm continues.
+            active.in_blend_zone = True
+            active.motion._finish(None)
+        if self.waiting and self.tail is None:
+            self._start_next(active.target_q, blended=True)

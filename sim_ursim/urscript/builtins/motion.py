@@ -1,0 +1,149 @@
+"""URScript motion built-ins: moves, speed and servo commands, stops, waiting, freedrive, protective stop.
+
+Blocking moves go through `ctx.run_motion`, which returns when this motion has ended (or at its blend radius).
+"""
+import numpy as np
+
+from sim_ursim.urscript.builtins.arguments import as_number, controller_call
+from sim_ursim.urscript.builtins.registry import builtin
+from sim_ursim.urscript.interpreter import ThreadContext
+from sim_ursim.urscript.values import Pose, ScriptError, number_list, to_str
+
+
+def _joint_target(ctx: ThreadContext, q):
+    """movej's target: a joint list, or a pose solved by IK near the joints where the queued motion ends."""
+    if isinstance(q, Pose):
+        state = ctx.controller.state()
+        return controller_call(ctx.controller.ik, np.array(q), state.target_q)
+    return np.array(number_list(q, 6, "q"))
+
+
+def _pose_target(ctx: ThreadContext, pose):
+    """movel's target: a pose, or a joint list converted by forward kinematics."""
+    if isinstance(pose, Pose):
+        return np.array(pose)
+    return controller_call(ctx.controller.fk, number_list(pose, 6, "q"))
+
+
+@builtin
+def movej(ctx: ThreadContext, q, a=1.4, v=1.05, t=0, r=0):
+    """Joint move (leading axis a [rad/s²], v [rad/s], t [s] overrides); blocks until done, or within r [m]."""
+    target = _joint_target(ctx, q)
+    ctx.run_motion(lambda: controller_call(ctx.controller.movej, target, a, v, t, r))
+
+
+@builtin
+def movel(ctx: ThreadContext, pose, a=1.2, v=0.25, t=0, r=0):
+    """Linear TCP move (a [m/s²], v [m/s], t [s] overrides); blocks until done, or within r [m]."""
+    target = _pose_target(ctx, pose)
+    ctx.run_motion(lambda: controller_call(ctx.controller.movel, target, a, v, t, r))
+
+
+@builtin
+def movep(ctx: ThreadContext, pose, a=1.2, v=0.25, r=0):
+    """Process move: modelled as a linear move (the constant-speed circular blends are not emulated)."""
+    movel(ctx, pose, a, v, 0, r)
+
+
+def _wait_for(ctx: ThreadContext, seconds):
+    """Return after `seconds` (at least one control cycle) of controller time, interruptibly."""
+    if seconds > 0:
+        ctx.sleep(seconds)
+    else:
+        ctx.sync()
+
+
+@builtin
+def speedj(ctx: ThreadContext, qd, a, t=None):
+    """Accelerate the joints to speeds qd [rad/s] at a [rad/s²] and keep them; returns after t [s], or without t
+    once the speeds are reached (the ramp time max|Δqd| / a)."""
+    qd = np.array(number_list(qd, 6, "qd"))
+    acceleration = as_number(a, "a")
+    controller_call(ctx.controller.speedj, qd, acceleration, 0.0)
+    if t is None:
+        _wait_for(ctx, float(np.max(np.abs(qd - ctx.controller.state().actual_qd))) / acceleration)
+    else:
+        _wait_for(ctx, as_number(t, "t"))
+
+
+@builtin
+def speedl(ctx: ThreadContext, xd, a, t=None, aRot=None):
+    """Accelerate the TCP to twist xd [m/s, rad/s] at a [m/s²] and keep it; returns after t [s], or without t
+    once the linear speed is reached (the ramp time |Δv| / a)."""
+    xd = np.array(number_list(xd, 6, "xd"))
+    acceleration = as_number(a, "a")
+    controller_call(ctx.controller.speedl, xd, acceleration, 0.0)
+    if t is None:
+        _wait_for(ctx, float(np.linalg.norm(xd[:3] - ctx.controller.state().actual_tcp_speed[:3])) / acceleration)
+    else:
+        _wait_for(ctx, as_number(t, "t"))
+
+
+@builtin
+def servoj(ctx: ThreadContext, q, a=0, v=0, t=0.008, lookahead_time=0.1, gain=300):
+    """Servo to joints q, arriving after t [s]; blocks for t, as the controller does."""
+    q = number_list(q, 6, "q")
+    duration = as_number(t, "t")
+    controller_call(ctx.controller.servoj, q, a, v, duration, lookahead_time, gain)
+    _wait_for(ctx, duration)
+
+
+@builtin
+def stopj(ctx: ThreadContext, a):
+    """Decelerate the joints to rest at a [rad/s²]; blocks until the arm stands still."""
+    deceleration = as_number(a, "a")
+    ctx.run_motion(lambda: controller_call(ctx.controller.stopj, deceleration))
+
+
+@builtin
+def stopl(ctx: ThreadContext, a, aRot=None):
+    """Decelerate the TCP to rest at a [m/s²]; blocks until the arm stands still."""
+    deceleration = as_number(a, "a")
+    ctx.run_motion(lambda: controller_call(ctx.controller.stopl, deceleration))
+
+
+@builtin
+def sleep(ctx: ThreadContext, t):
+    """Wait t seconds."""
+    seconds = as_number(t, "t")
+    if seconds < 0:
+        raise ScriptError(f"runtime_error:sleep time must be ≥ 0, got {to_str(t)}:")
+    ctx.sleep(seconds)
+
+
+@builtin
+def sync(ctx: ThreadContext):
+    """Wait for the next control cycle (uses up the rest of this thread's physical time slot)."""
+    ctx.sync()
+
+
+@builtin
+def is_steady(ctx: ThreadContext):
+    """True when the arm stands still and no motion is active."""
+    state = ctx.controller.state()
+    return bool(not state.motion_active and np.all(np.abs(state.actual_qd) < 1e-6))
+
+
+@builtin("freedrive_mode", "teach_mode")
+def freedrive_mode(ctx: ThreadContext, *args):
+    """Freedrive on (the axis/feature constraints of 5.x are accepted and ignored)."""
+    controller_call(ctx.controller.set_freedrive, True)
+
+
+@builtin("end_freedrive_mode", "end_teach_mode")
+def end_freedrive_mode(ctx: ThreadContext):
+    """Freedrive off."""
+    controller_call(ctx.controller.set_freedrive, False)
+
+
+@builtin
+def get_freedrive_status(ctx: ThreadContext):
+    """0 when freedrive is off, 1 when on (no singularity/limit reporting)."""
+    return 1 if ctx.controller.state().freedrive else 0
+
+
+@builtin
+def protective_stop(ctx: ThreadContext):
+    """Trigger a protective stop (the program then stops)."""
+    ctx.controller.protective_stop("protective_stop() called by the program")
+    ctx.check()
