@@ -24,6 +24,7 @@ import time
 from sim_ursim.controller import CommandRefused
 from sim_ursim.models import build_date
 from sim_ursim.primary import packets, realtime
+from sim_ursim.primary import commands as primary_commands
 from sim_ursim.primary.script_intake import ScriptAssembler
 
 log = logging.getLogger(__name__)
@@ -213,6 +214,8 @@ class _InterfaceServer:
         self._forget(connection)
 
     def _submit(self, program):
+        if self.origin != "realtime" and primary_commands.execute(program, self.controller):
+            return
         try:
             self.controller.run_program(program, self.origin)
         except CommandRefused as refusal:

@@ -14,10 +14,11 @@ import struct
 import pytest
 
 from sim_ursim import messages
-from sim_ursim.controller import Controller
+from sim_ursim.controller import Controller, RobotMode
 from sim_ursim.models import robot_model
 from sim_ursim.primary import packets
 from sim_ursim.testing import running_simulator
+from tests.polling import wait_for
 
 
 class UrclParseError(Exception):
@@ -224,3 +225,43 @@ def test_live_primary_stream_parses_with_urcl_strict_parser(model, version):
     kinds = [kind for message in received for kind, _ in urcl_parse(message)]
     assert kinds[0] == ("message", packets.VERSION_MESSAGE)
     assert ("state", packets.MASTERBOARD_DATA) in kinds and ("state", packets.CONFIGURATION_DATA) in kinds
+
+
+# --- primary-port commands, sent the way URCL's PrimaryClient::sendScript does ("<command>\n") ------------------
+
+def test_primary_commands_power_brakes_unlock_and_stop_like_urcl_primary_client():
+    # One connection kept open, as URCL's PrimaryClient does (a close right after the write is issue 15 item 7).
+    with running_simulator(model="ur5e") as sim, socket.create_connection((sim.host, 30001), timeout=5) as sock:
+        controller = sim.controller
+        controller.unlock_delay = 0.0
+        exceptions = controller.messages.subscribe()
+
+        def _send_primary(_host, text):
+            sock.sendall(text.encode() + b"\n")
+
+        _send_primary(sim.host, "power on")
+        assert wait_for(lambda: controller.state().robot_mode == RobotMode.IDLE, timeout=5)
+        _send_primary(sim.host, "set robotmode run")
+        assert wait_for(lambda: controller.state().robot_mode == RobotMode.RUNNING, timeout=5)
+        controller.run_program("def waiting():\n  sleep(30)\nend\n", "test")
+        assert wait_for(lambda: controller.state().program_running, timeout=5)
+        _send_primary(sim.host, "stop program")
+        assert wait_for(lambda: not controller.state().program_running, timeout=5)
+        controller.protective_stop("test")
+        assert controller.state().protective_stopped
+        _send_primary(sim.host, "set unlock protective stop")
+        assert wait_for(lambda: not controller.state().protective_stopped, timeout=5)
+        _send_primary(sim.host, "power off")
+        assert wait_for(lambda: controller.state().robot_mode == RobotMode.POWER_OFF, timeout=5)
+        received = []
+        while not exceptions.empty():
+            received.append(exceptions.get_nowait())
+    assert not [m for m in received if isinstance(m, messages.RuntimeExceptionMessage)]
+
+
+def test_primary_command_mixed_with_urscript_stays_urscript():
+    from sim_ursim.primary import commands
+
+    assert commands.parse_commands("power on\n\nset robotmode run\n") == ["power on", "set robotmode run"]
+    assert commands.parse_commands("power on\nmovej([0,0,0,0,0,0])\n") is None
+    assert commands.parse_commands("textmsg(\"power on\")\n") is None
