@@ -14,6 +14,7 @@ from collections import deque
 
 from . import inputs, protocol, variables
 from .protocol import PackageType
+from .watchdog import watchdogs_of
 
 log = logging.getLogger("sim_ursim.rtde")
 
@@ -364,6 +365,7 @@ class RTDEServer:
             self._complain(session, f"input recipe {recipe_id}: {error}")
             return
         received = dict(zip(recipe.names, protocol.group_values(recipe.types, flat)))
+        watchdogs_of(self.controller).note_update(received)
         session.input_values.update(received)
         try:
             inputs.apply_inputs(self.controller, session.input_values, received.keys())

@@ -14,6 +14,7 @@ import numpy as np
 from sim_ursim import kinematics
 from sim_ursim.controller import CommandRefused
 from sim_ursim.messages import PopupMessage, TextMessage
+from sim_ursim.rtde.watchdog import watchdogs_of
 from sim_ursim.urscript.values import Pose, ScriptError, number_list, to_str
 
 # ---------------------------------------------------------------------------------------------------- helpers
@@ -617,9 +618,16 @@ def _register_writer(kind):
 
 
 def rtde_set_watchdog(ctx, variable_name, min_frequency, action="pause"):
-    """Accepted and not enforced: the simulator does not pause or stop a program when RTDE input goes quiet."""
+    """Arm the RTDE input watchdog of `variable_name` (sim_ursim.rtde.watchdog): pause/stop/ignore when the input
+    is not updated at `min_frequency` Hz; removed when this program stops."""
     if not isinstance(variable_name, str):
         raise ScriptError(f"runtime_error:rtde_set_watchdog needs a variable name, got {to_str(variable_name)}:")
+    execution = ctx.execution
+    try:
+        watchdogs_of(ctx.controller).arm(variable_name, _number(min_frequency, "min_frequency"), to_str(action),
+                                         lambda: execution.main.done.is_set() or execution.main.cancel.is_set())
+    except ValueError as error:
+        raise ScriptError(f"runtime_error:rtde_set_watchdog: {error}:") from None
 
 
 def get_target_waypoint(ctx):
