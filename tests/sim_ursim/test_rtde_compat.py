@@ -12,6 +12,7 @@ import time
 import pytest
 
 from polling import wait_for
+from sim_ursim import kinematics
 from sim_ursim.rtde import variables
 from sim_ursim.testing import running_simulator
 
@@ -205,3 +206,30 @@ def test_watchdog_bad_action_is_a_runtime_error():
             return any("rtde_set_watchdog" in text and "EXPLODE" in text for text in texts)
 
         assert wait_for(reported, timeout=3)
+
+
+FORWARD_KINEMATICS_CLIENT = """
+import sys, rtde_control
+control = rtde_control.RTDEControlInterface(sys.argv[1])
+print(control.getForwardKinematics([0, -1.57, 1.57, -1.57, -1.57, 0], [0, 0, 0.1, 0, 0, 0]), flush=True)
+control.stopScript()
+control.disconnect()
+"""
+
+
+def test_ur_rtde_forward_kinematics_with_tcp_answers_instead_of_hanging():
+    """Issue 15 §9: ur_rtde 1.6.5 getForwardKinematics(q, tcp) (input recipe 13: one int + 12 doubles)."""
+    import subprocess
+    import sys
+
+    import numpy as np
+
+    with running_simulator(model="ur5e") as sim:
+        done = subprocess.run([sys.executable, "-c", FORWARD_KINEMATICS_CLIENT, sim.host], capture_output=True,
+                              text=True, timeout=60)
+        assert done.returncode == 0, done.stderr[-2000:]
+        pose = [float(v) for v in done.stdout.strip().strip("[]").split(",")]
+        flange = np.array(sim.controller.fk([0, -1.57, 1.57, -1.57, -1.57, 0]))  # no TCP offset set
+    # The flange pose moved 0.1 m along the flange z axis (URScript get_forward_kin(q, tcp)).
+    z_axis = kinematics.rotation_vector_to_matrix(flange[3:])[:, 2]
+    assert len(pose) == 6 and np.linalg.norm(np.array(pose[:3]) - flange[:3] - 0.1 * z_axis) < 1e-6

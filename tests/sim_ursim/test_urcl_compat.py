@@ -265,3 +265,19 @@ def test_primary_command_mixed_with_urscript_stays_urscript():
     assert commands.parse_commands("power on\n\nset robotmode run\n") == ["power on", "set robotmode run"]
     assert commands.parse_commands("power on\nmovej([0,0,0,0,0,0])\n") is None
     assert commands.parse_commands("textmsg(\"power on\")\n") is None
+
+
+def test_protective_stop_flag_goes_out_with_the_safety_mode_message():
+    """URCL reads RobotModeData.is_protective_stopped_ (commandUnlockProtectiveStop waits on it): the state that
+    shows the stop must not trail the safety-mode message by a 10 Hz state period."""
+    with running_simulator(model="ur5e") as sim, socket.create_connection((sim.host, 30001), timeout=5) as sock:
+        sim.controller.power_up()
+        _read_messages(sock, 3)
+        sim.controller.protective_stop("test")
+        stream = []
+        while not any(kind == ("message", packets.SAFETY_MODE_MESSAGE) for kind, _ in stream):
+            for message in _read_messages(sock, 1):
+                stream.extend(urcl_parse(message))
+        safety_at = next(i for i, (kind, _) in enumerate(stream) if kind == ("message", packets.SAFETY_MODE_MESSAGE))
+        modes_before = [fields for kind, fields in stream[:safety_at] if kind == ("state", packets.ROBOT_MODE_DATA)]
+    assert modes_before and modes_before[-1]["protective_stopped"] is True
