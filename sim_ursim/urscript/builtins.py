@@ -15,7 +15,11 @@ from sim_ursim import kinematics
 from sim_ursim.controller import CommandRefused
 from sim_ursim.messages import PopupMessage, TextMessage
 from sim_ursim.rtde.watchdog import watchdogs_of
+from sim_ursim.urscript.builtins_clients import CLIENT_BUILTINS
+from sim_ursim.urscript.builtins_socket import SOCKET_BUILTINS
 from sim_ursim.urscript.values import Pose, ScriptError, number_list, to_str
+
+EXTRA_BUILTINS = {**SOCKET_BUILTINS, **CLIENT_BUILTINS}
 
 # ---------------------------------------------------------------------------------------------------- helpers
 
@@ -325,8 +329,8 @@ def is_steady(ctx):
     return bool(not state.motion_active and np.all(np.abs(state.actual_qd) < 1e-6))
 
 
-def freedrive_mode(ctx, *args):
-    """Freedrive on (the axis/feature constraints of 5.x are accepted and ignored)."""
+def freedrive_mode(ctx, *args, **kwargs):
+    """Freedrive on (the axis/feature constraints of 5.x, positional or freeAxes=/feature=, accepted and ignored)."""
     _controller_call(ctx.controller.set_freedrive, True)
 
 
@@ -711,7 +715,9 @@ def _table():
         "pose_dist": pose_dist, "point_dist": point_dist, "interpolate_pose": interpolate_pose,
         "rotvec2rpy": rotvec2rpy, "rpy2rotvec": rpy2rotvec,
         # motion
-        "movej": movej, "movel": movel, "movep": movep, "speedj": speedj, "speedl": speedl, "servoj": servoj,
+        "movej": movej, "movel": movel, "movep": movep,
+        # optimove*: modelled as movej/movel with the same a/v/r (the controller's time-optimal profile is not)
+        "optimovej": movej, "optimovel": movel, "speedj": speedj, "speedl": speedl, "servoj": servoj,
         "stopj": stopj, "stopl": stopl, "sleep": sleep, "sync": sync, "is_steady": is_steady,
         "freedrive_mode": freedrive_mode, "end_freedrive_mode": end_freedrive_mode,
         "teach_mode": freedrive_mode, "end_teach_mode": end_freedrive_mode,
@@ -722,6 +728,8 @@ def _table():
         "get_target_payload": get_target_payload, "get_target_payload_cog": get_target_payload_cog,
         "get_target_payload_inertia": get_target_payload_inertia,
         "get_actual_joint_positions": get_actual_joint_positions,
+        # used by URCL's External Control script; not in UR's manual: the measured joints, as its name says
+        "get_joint_positions": get_actual_joint_positions,
         "get_target_joint_positions": get_target_joint_positions, "get_actual_joint_speeds": get_actual_joint_speeds,
         "get_target_joint_speeds": get_target_joint_speeds, "get_actual_tcp_pose": get_actual_tcp_pose,
         "get_target_tcp_pose": get_target_tcp_pose, "get_actual_tcp_speed": get_actual_tcp_speed,
@@ -758,6 +766,7 @@ def _table():
     table["write_output_boolean_register"] = _register_writer("bit")
     for name in UNSUPPORTED:
         table[name] = _unsupported(name)
+    table.update(EXTRA_BUILTINS)  # family modules (sockets, client-script built-ins) registered on top
     return table
 
 

@@ -1,0 +1,216 @@
+"""URScript built-ins that UR's client programs reach beyond the core table (sim_ursim.urscript.builtins):
+URCL's External Control script, ur_rtde's control script, urx.  Strings, lists, matrices, analog inputs, tool
+power, movec.  Each follows UR's script manual; where the simulator approximates, the docstring says how.
+"""
+import random as _random
+
+import numpy as np
+
+from sim_ursim import kinematics
+from sim_ursim.controller import CommandRefused
+from sim_ursim.urscript.values import Pose, ScriptError, number_list, to_str
+
+TOOL_VOLTAGES = (0, 12, 24)
+MOVEC_SEGMENTS = 24  # linear pieces of the arc (each 1/24 of the sweep)
+
+
+def _text(value, name):
+    if not isinstance(value, str):
+        raise ScriptError(f"runtime_error:{name} must be a string, got {to_str(value)}:")
+    return value
+
+
+def _index(value, name):
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or int(value) != value:
+        raise ScriptError(f"runtime_error:{name} must be an integer, got {to_str(value)}:")
+    return int(value)
+
+
+def _call(function, *args):
+    try:
+        return function(*args)
+    except (CommandRefused, kinematics.IKError, ValueError) as error:
+        raise ScriptError(f"runtime_error:{error}:") from None
+
+
+# --- strings ----------------------------------------------------------------------------------------------------
+
+def str_len(ctx, text):
+    """Number of characters."""
+    return len(_text(text, "str"))
+
+
+def str_empty(ctx, text):
+    """True for ""."""
+    return len(_text(text, "str")) == 0
+
+
+def str_at(ctx, text, index):
+    """The character at `index` (0-based); ScriptError outside the string."""
+    text, index = _text(text, "str"), _index(index, "index")
+    if not 0 <= index < len(text):
+        raise ScriptError(f"runtime_error:str_at: index {index} is outside a string of {len(text)} characters:")
+    return text[index]
+
+
+def str_find(ctx, text, target, start_from=0):
+    """Index of the first `target` at or after `start_from`, or -1."""
+    return _text(text, "str").find(_text(target, "target"), _index(start_from, "start_from"))
+
+
+def str_sub(ctx, text, index, length=None):
+    """The substring from `index` of `length` characters (to the end without one); "" when index is past it."""
+    text, index = _text(text, "str"), _index(index, "index")
+    if index < 0:
+        raise ScriptError(f"runtime_error:str_sub: negative index {index}:")
+    if length is None:
+        return text[index:]
+    return text[index:index + max(0, _index(length, "length"))]
+
+
+# --- lists and matrices -----------------------------------------------------------------------------------------
+
+def get_list_length(ctx, values):
+    """Number of elements of a list (a pose has 6)."""
+    if not isinstance(values, list):
+        raise ScriptError(f"runtime_error:get_list_length needs a list, got {to_str(values)}:")
+    return len(values)
+
+
+def random(ctx):
+    """A random float in [0, 1)."""
+    return _random.random()
+
+
+def _matrix(value, name):
+    """A URScript matrix (list of equal-length number lists, or a list of numbers as one row) as a 2-D array."""
+    if not isinstance(value, list) or not value:
+        raise ScriptError(f"runtime_error:{name} must be a matrix, got {to_str(value)}:")
+    rows = value if isinstance(value[0], list) else [value]
+    try:
+        matrix = np.array([number_list(row, len(rows[0]), name) for row in rows], dtype=float)
+    except ScriptError:
+        raise ScriptError(f"runtime_error:{name} must have rows of equal length:") from None
+    return matrix
+
+
+def _matrix_value(matrix):
+    return [[float(v) for v in row] for row in matrix]
+
+
+def transpose(ctx, value):
+    """Transposed matrix (a plain list is a row and becomes a column)."""
+    return _matrix_value(_matrix(value, "transpose").T)
+
+
+def inv(ctx, value):
+    """Inverse of a square matrix; ScriptError for a singular one."""
+    matrix = _matrix(value, "inv")
+    if matrix.shape[0] != matrix.shape[1]:
+        raise ScriptError(f"runtime_error:inv needs a square matrix, got {matrix.shape[0]}x{matrix.shape[1]}:")
+    if abs(np.linalg.det(matrix)) < 1e-12:
+        raise ScriptError("runtime_error:inv: the matrix is singular:")
+    return _matrix_value(np.linalg.inv(matrix))
+
+
+def wrench_trans(ctx, T_from_to, w_from):
+    """The wrench w_from [Fx, Fy, Fz, Mx, My, Mz] expressed in the frame T_from_to points to (moments about its
+    origin): F_to = Rᵀ F, M_to = Rᵀ (M − p × F)."""
+    transform = kinematics.pose_to_matrix(np.array(number_list(T_from_to, 6, "T_from_to")))
+    wrench = np.array(number_list(w_from, 6, "w_from"))
+    rotation, origin = transform[:3, :3], transform[:3, 3]
+    force = rotation.T @ wrench[:3]
+    moment = rotation.T @ (wrench[3:] - np.cross(origin, wrench[:3]))
+    return [float(v) for v in np.concatenate([force, moment])]
+
+
+# --- I/O ----------------------------------------------------------------------------------------------------------
+
+def _analog(ctx, prefix, n):
+    n = _index(n, "n")
+    if n not in (0, 1):
+        raise ScriptError(f"runtime_error:analog input {n} does not exist (0 or 1):")
+    return float(getattr(ctx.controller.state(), f"{prefix}{n}"))
+
+
+def get_standard_analog_in(ctx, n):
+    """Control-box analog input n (0, 1) [V or A, as configured]."""
+    return _analog(ctx, "standard_analog_input", n)
+
+
+def get_tool_analog_in(ctx, n):
+    """Tool analog input n (0, 1)."""
+    return _analog(ctx, "tool_analog_input", n)
+
+
+def get_analog_in(ctx, n):
+    """Legacy analog input: 0, 1 the control box, 2, 3 the tool."""
+    n = _index(n, "n")
+    if n in (2, 3):
+        return get_tool_analog_in(ctx, n - 2)
+    return get_standard_analog_in(ctx, n)
+
+
+def set_tool_voltage(ctx, voltage):
+    """Tool power supply 0, 12 or 24 V: checked and accepted; the simulated tool draws no power, so the state keeps
+    reporting the idle tool (tool_output_voltage 0 in RTDE)."""
+    if _index(voltage, "voltage") not in TOOL_VOLTAGES:
+        raise ScriptError(f"runtime_error:set_tool_voltage: {to_str(voltage)} V is not one of 0, 12, 24:")
+
+
+# --- motion ----------------------------------------------------------------------------------------------------
+
+def _arc(start, via, end):
+    """Positions along the circle through three points, from start to end through via (MOVEC_SEGMENTS + 1 points)."""
+    a, b, c = (np.asarray(p, dtype=float) for p in (start, via, end))
+    ab, ac = b - a, c - a
+    normal = np.cross(ab, ac)
+    if np.linalg.norm(normal) < 1e-9:
+        raise ScriptError("runtime_error:movec: the three points are on one line, no circle passes through them:")
+    # Circumcentre of the triangle a, b, c.
+    centre = a + (np.dot(ac, ac) * np.cross(normal, ab) + np.dot(ab, ab) * np.cross(ac, normal)) / (
+        2.0 * np.dot(normal, normal))
+    axis = normal / np.linalg.norm(normal)
+    u = (a - centre) / np.linalg.norm(a - centre)
+    v = np.cross(axis, u)
+    radius = np.linalg.norm(a - centre)
+
+    def angle(point):
+        d = point - centre
+        return np.arctan2(np.dot(d, v), np.dot(d, u)) % (2 * np.pi)
+
+    sweep = angle(c)  # counter-clockwise about the normal of (b - a) × (c - a) passes through b first
+    return [centre + radius * (np.cos(t) * u + np.sin(t) * v) for t in np.linspace(0.0, sweep, MOVEC_SEGMENTS + 1)]
+
+
+def movec(ctx, pose_via, pose_to, a=1.2, v=0.25, r=0, mode=0):
+    """Circular move through pose_via to pose_to (a [m/s²], v [m/s]).  Approximation: the arc is followed as
+    MOVEC_SEGMENTS blended linear moves and the orientation is interpolated from the start pose to pose_to (UR's
+    mode 0); mode 1 (orientation fixed to the arc tangent) is accepted and moves like mode 0."""
+    if _index(mode, "mode") not in (0, 1):
+        raise ScriptError(f"runtime_error:movec: mode must be 0 or 1, got {to_str(mode)}:")
+    controller = ctx.controller
+    start = np.array(controller.state().target_tcp_pose)
+    via = np.array(number_list(pose_via, 6, "pose_via"))
+    to = np.array(number_list(pose_to, 6, "pose_to"))
+    points = _arc(start[:3], via[:3], to[:3])
+    start_matrix, end_matrix = kinematics.pose_to_matrix(start), kinematics.pose_to_matrix(to)
+    step = float(np.linalg.norm(points[1] - points[0]))
+    for index, point in enumerate(points[1:], start=1):
+        last = index == len(points) - 1
+        orientation = kinematics.interpolate_pose(start_matrix, end_matrix, index / (len(points) - 1))
+        matrix = np.array(orientation)
+        matrix[:3, 3] = point
+        target = np.array(kinematics.matrix_to_pose(matrix))
+        blend = float(r) if last else 0.4 * step
+        ctx.run_motion(lambda target=target, blend=blend: _call(controller.movel, target, a, v, 0.0, blend))
+
+
+CLIENT_BUILTINS = {
+    "str_len": str_len, "str_empty": str_empty, "str_at": str_at, "str_find": str_find, "str_sub": str_sub,
+    "get_list_length": get_list_length, "random": random, "transpose": transpose, "inv": inv,
+    "wrench_trans": wrench_trans,
+    "get_standard_analog_in": get_standard_analog_in, "get_tool_analog_in": get_tool_analog_in,
+    "get_analog_in": get_analog_in, "set_tool_voltage": set_tool_voltage,
+    "movec": movec,
+}
