@@ -694,7 +694,7 @@ def _unsupported(name):
 
 
 UNSUPPORTED = (
-    "force_mode", "enable_external_ft_sensor", "ft_rtde_input_enable", "get_joint_torques", "servoc",
+    "force_mode", "enable_external_ft_sensor", "ft_rtde_input_enable", "servoc",
     "get_actual_joint_positions_history", "direct_torque", "get_mass_matrix", "get_coriolis_and_centrifugal_torques",
     "get_jacobian_time_derivative", "teach_mode_set_params", "set_analog_inputrange",
 )

@@ -158,6 +158,18 @@ def set_tool_voltage(ctx, voltage):
         raise ScriptError(f"runtime_error:set_tool_voltage: {to_str(voltage)} V is not one of 0, 12, 24:")
 
 
+# --- dynamics ----------------------------------------------------------------------------------------------------
+
+def get_joint_torques(ctx):
+    """Joint torques [Nm] "corrected by the torque needed to move the robot itself (gravity, friction, etc.)" (UR's
+    script manual): what is left is the external load, τ = Jᵀ·w with w the wrench at the TCP in the base frame
+    (actual_TCP_force, e.g. fed through RTDE external_force_torque).  No contact is modelled, so a free arm reads
+    zeros, as a correctly configured robot at rest does."""
+    state = ctx.controller.state()
+    jacobian = kinematics.geometric_jacobian(ctx.controller.model.dh, state.actual_q, state.tcp_offset)
+    return [float(v) for v in jacobian.T @ np.asarray(state.actual_tcp_force, dtype=float)]
+
+
 # --- motion ----------------------------------------------------------------------------------------------------
 
 def _arc(start, via, end):
@@ -212,5 +224,5 @@ CLIENT_BUILTINS = {
     "wrench_trans": wrench_trans,
     "get_standard_analog_in": get_standard_analog_in, "get_tool_analog_in": get_tool_analog_in,
     "get_analog_in": get_analog_in, "set_tool_voltage": set_tool_voltage,
-    "movec": movec,
+    "movec": movec, "get_joint_torques": get_joint_torques,
 }

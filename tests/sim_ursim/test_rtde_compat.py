@@ -233,3 +233,36 @@ def test_ur_rtde_forward_kinematics_with_tcp_answers_instead_of_hanging():
     # The flange pose moved 0.1 m along the flange z axis (URScript get_forward_kin(q, tcp)).
     z_axis = kinematics.rotation_vector_to_matrix(flange[3:])[:, 2]
     assert len(pose) == 6 and np.linalg.norm(np.array(pose[:3]) - flange[:3] - 0.1 * z_axis) < 1e-6
+
+
+# ur_rtde sends GET_JOINT_TORQUES (38) as a streaming command and reads the output registers without waiting for
+# the script, so a first call returns what the registers held before: the value of interest is the second one.
+JOINT_TORQUES_CLIENT = """
+import sys, time, rtde_control
+control = rtde_control.RTDEControlInterface(sys.argv[1])
+control.getJointTorques()
+time.sleep(0.1)
+print(control.getJointTorques(), flush=True)
+control.stopScript()
+control.disconnect()
+"""
+
+
+def test_ur_rtde_get_joint_torques_answers_from_the_running_script():
+    """Issue 15 §5: getJointTorques() used to return stale registers because get_joint_torques killed the script."""
+    import subprocess
+    import sys
+
+    import numpy as np
+
+    with running_simulator(model="ur5e") as sim:
+        wrench = np.array([0.0, 0.0, -20.0, 0.0, 0.0, 0.0])
+        sim.controller.set_external_force_torque(wrench)
+        assert wait_for(lambda: np.allclose(sim.controller.state().actual_tcp_force, wrench), timeout=2)
+        done = subprocess.run([sys.executable, "-c", JOINT_TORQUES_CLIENT, sim.host], capture_output=True,
+                              text=True, timeout=60)
+        assert done.returncode == 0, done.stderr[-2000:]
+        torques = np.array([float(v) for v in done.stdout.strip().strip("[]").split(",")])
+        state = sim.controller.state()
+        jacobian = kinematics.geometric_jacobian(sim.controller.model.dh, state.actual_q, state.tcp_offset)
+    assert np.allclose(torques, jacobian.T @ wrench, atol=1e-6) and np.linalg.norm(torques) > 1.0

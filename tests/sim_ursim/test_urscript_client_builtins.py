@@ -120,3 +120,26 @@ def test_movec_passes_the_via_point_and_ends_at_the_target(controller):
     assert error is None
     assert min(passed) < 2e-3  # through the via point (within the blend of the arc's pieces)
     assert np.allclose(controller.state().actual_tcp_pose[:3], end[:3], atol=1e-4)
+
+
+def test_joint_torques_are_the_external_load_through_the_jacobian(controller):
+    assert value_of(controller, "get_joint_torques()") == [0.0] * 6  # free arm: nothing beyond its own dynamics
+    wrench = np.array([5.0, -3.0, 10.0, 0.2, 0.1, -0.3])
+    controller.set_external_force_torque(wrench)
+    try:
+        assert wait_for_force(controller, wrench)
+        got = np.array(value_of(controller, "get_joint_torques()"))
+        state = controller.state()
+        jacobian = kinematics.geometric_jacobian(controller.model.dh, state.actual_q, state.tcp_offset)
+        assert np.allclose(got, jacobian.T @ np.array(state.actual_tcp_force)) and np.linalg.norm(got) > 1.0
+    finally:
+        controller.set_external_force_torque(np.zeros(6))
+        wait_for_force(controller, np.zeros(6))
+
+
+def wait_for_force(controller, wrench):
+    for _ in range(100):
+        state = controller.wait_cycle(controller.state().cycle, timeout=0.1)
+        if np.allclose(state.actual_tcp_force, wrench):
+            return True
+    return False
