@@ -368,8 +368,10 @@ def set_payload_cog(ctx, cog):
     _controller_call(ctx.controller.set_payload, mass, number_list(cog, 3, "cog"))
 
 
-def set_target_payload(ctx, m, cog, inertia=None):
-    """Payload mass, centre of gravity and optional inertia [Ixx Iyy Izz Ixy Ixz Iyz] (5.10+)."""
+def set_target_payload(ctx, m, cog, inertia=None, transition_time=0):
+    """Payload mass, centre of gravity and optional inertia [Ixx Iyy Izz Ixy Ixz Iyz] (5.10+); the change is applied
+    at once (transition_time [s], 5.12+, accepted: payload changes have no dynamic effect in the simulator)."""
+    _number(transition_time, "transition_time")
     _controller_call(ctx.controller.set_payload, _number(m, "m"), number_list(cog, 3, "cog"),
                      None if inertia is None else number_list(inertia, 6, "inertia"))
 
@@ -694,7 +696,7 @@ def _unsupported(name):
 
 
 UNSUPPORTED = (
-    "force_mode", "enable_external_ft_sensor", "ft_rtde_input_enable", "servoc",
+    "force_mode", "servoc",
     "get_actual_joint_positions_history", "direct_torque", "get_mass_matrix", "get_coriolis_and_centrifugal_torques",
     "get_jacobian_time_derivative", "teach_mode_set_params", "set_analog_inputrange",
 )

@@ -158,6 +158,23 @@ def set_tool_voltage(ctx, voltage):
         raise ScriptError(f"runtime_error:set_tool_voltage: {to_str(voltage)} V is not one of 0, 12, 24:")
 
 
+def ft_rtde_input_enable(ctx, enable, sensor_mass=0.0, sensor_measuring_offset=None, sensor_cog=None):
+    """Use the RTDE input external_force_torque as the F/T sensor (arguments checked).  The simulator always reports
+    that input as the TCP wrench (actual_TCP_force), enabled or not: there is no other sensor to switch from."""
+    if not isinstance(enable, bool):
+        raise ScriptError(f"runtime_error:ft_rtde_input_enable needs True or False, got {to_str(enable)}:")
+    if isinstance(sensor_mass, bool) or not isinstance(sensor_mass, (int, float)) or sensor_mass < 0:
+        raise ScriptError(f"runtime_error:ft_rtde_input_enable: sensor_mass must be >= 0 kg:")
+    for name, value in (("sensor_measuring_offset", sensor_measuring_offset), ("sensor_cog", sensor_cog)):
+        if value is not None:
+            number_list(value, 3, name)
+
+
+def enable_external_ft_sensor(ctx, enable, sensor_mass=0.0, sensor_measuring_offset=None, sensor_cog=None):
+    """Deprecated name of ft_rtde_input_enable (UR's manual), same behaviour."""
+    ft_rtde_input_enable(ctx, enable, sensor_mass, sensor_measuring_offset, sensor_cog)
+
+
 # --- dynamics ----------------------------------------------------------------------------------------------------
 
 def get_joint_torques(ctx):
@@ -225,4 +242,5 @@ CLIENT_BUILTINS = {
     "get_standard_analog_in": get_standard_analog_in, "get_tool_analog_in": get_tool_analog_in,
     "get_analog_in": get_analog_in, "set_tool_voltage": set_tool_voltage,
     "movec": movec, "get_joint_torques": get_joint_torques,
+    "ft_rtde_input_enable": ft_rtde_input_enable, "enable_external_ft_sensor": enable_external_ft_sensor,
 }

@@ -143,3 +143,13 @@ def wait_for_force(controller, wrench):
         if np.allclose(state.actual_tcp_force, wrench):
             return True
     return False
+
+
+def test_ft_rtde_input_enable_and_set_target_payload_with_transition_time(controller):
+    values, error = run(controller, "ft_rtde_input_enable(True, 0.5, [0, 0, 0.01], [0, 0, 0.02])\n"
+                                    "enable_external_ft_sensor(False)\n"
+                                    "set_target_payload(1.5, [0, 0, 0.05], [0, 0, 0, 0, 0, 0], 0.5)\n"
+                                    "m = get_target_payload()\n")
+    assert error is None and values["m"] == 1.5
+    _, error = run(controller, "ft_rtde_input_enable(1)\n")
+    assert error is not None and "ft_rtde_input_enable" in error.text
