@@ -271,6 +271,11 @@ def speedj(ctx, qd, a, t=None):
     once the speeds are reached (the ramp time max|Δqd| / a)."""
     qd = np.array(number_list(qd, 6, "qd"))
     acceleration = _number(a, "a")
+    if acceleration == 0.0:
+        # Zero acceleration: the speeds cannot change, the joints keep the speeds they have (URCL's spline
+        # interpolation sends a = 0 when consecutive speeds are equal; controllers accept it).
+        qd = np.array(ctx.controller.state().target_qd)
+        acceleration = 1.0
     _controller_call(ctx.controller.speedj, qd, acceleration, 0.0)
     if t is None:
         _wait_for(ctx, float(np.max(np.abs(qd - ctx.controller.state().actual_qd))) / acceleration)

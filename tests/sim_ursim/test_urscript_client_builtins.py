@@ -153,3 +153,11 @@ def test_ft_rtde_input_enable_and_set_target_payload_with_transition_time(contro
     assert error is None and values["m"] == 1.5
     _, error = run(controller, "ft_rtde_input_enable(1)\n")
     assert error is not None and "ft_rtde_input_enable" in error.text
+
+
+def test_speedj_with_zero_acceleration_keeps_the_current_speeds(controller):
+    _, error = run(controller, "speedj([0, 0, 0, 0, 0, 0.1], 0.5, 0.4)\nspeedj([0, 0, 0, 0, 0, 0.1], 0.0, 0.2)\n"
+                               "stopj(2.0)\n")
+    assert error is None
+    _, error = run(controller, "speedj([0, 0, 0, 0, 0, 0.2], 0.0, 0.1)\n")  # a change with a = 0: no change
+    assert error is None and abs(controller.state().target_qd[5]) < 1e-9
