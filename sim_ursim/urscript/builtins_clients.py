@@ -8,7 +8,7 @@ import numpy as np
 
 from sim_ursim import kinematics
 from sim_ursim.controller import CommandRefused
-from sim_ursim.urscript.values import Pose, ScriptError, number_list, to_str
+from sim_ursim.urscript.values import ScriptError, number_list, to_str
 
 TOOL_VOLTAGES = (0, 12, 24)
 MOVEC_SEGMENTS = 24  # linear pieces of the arc (each 1/24 of the sweep)
@@ -164,7 +164,7 @@ def ft_rtde_input_enable(ctx, enable, sensor_mass=0.0, sensor_measuring_offset=N
     if not isinstance(enable, bool):
         raise ScriptError(f"runtime_error:ft_rtde_input_enable needs True or False, got {to_str(enable)}:")
     if isinstance(sensor_mass, bool) or not isinstance(sensor_mass, (int, float)) or sensor_mass < 0:
-        raise ScriptError(f"runtime_error:ft_rtde_input_enable: sensor_mass must be >= 0 kg:")
+        raise ScriptError("runtime_error:ft_rtde_input_enable: sensor_mass must be >= 0 kg:")
     for name, value in (("sensor_measuring_offset", sensor_measuring_offset), ("sensor_cog", sensor_cog)):
         if value is not None:
             number_list(value, 3, name)

@@ -108,7 +108,7 @@ def socket_open(ctx, address, port, socket_name=DEFAULT_SOCKET):
     """Connect to address:port under `socket_name`; False when the connection cannot be made."""
     name = _name(socket_name)
     if not isinstance(address, str) or isinstance(port, bool) or not isinstance(port, (int, float)):
-        raise ScriptError(f"runtime_error:socket_open needs an address string and a port number:")
+        raise ScriptError("runtime_error:socket_open needs an address string and a port number:")
     registry = _registry(ctx)
     with registry.lock:
         old = registry.sockets.pop(name, None)
