@@ -688,10 +688,6 @@ def zero_ftsensor(ctx):
     """Zero the F/T sensor: the simulated sensor always reads zero, so nothing changes."""
 
 
-def end_force_mode(ctx):
-    """Leave force mode: force mode is never active in the simulator, so nothing changes."""
-
-
 def _unsupported(name):
     def builtin(ctx, *args, **kwargs):
         raise ScriptError(f"runtime_error:{name} is not supported by sim_ursim:")
@@ -701,7 +697,7 @@ def _unsupported(name):
 
 
 UNSUPPORTED = (
-    "force_mode", "servoc",
+    "servoc",
     "get_actual_joint_positions_history", "direct_torque", "get_mass_matrix", "get_coriolis_and_centrifugal_torques",
     "get_jacobian_time_derivative", "teach_mode_set_params", "set_analog_inputrange",
 )
@@ -757,9 +753,9 @@ def _table():
         "get_configurable_digital_in": get_configurable_digital_in, "get_tool_digital_in": get_tool_digital_in,
         "set_standard_analog_out": set_standard_analog_out, "set_analog_out": set_standard_analog_out,
         "rtde_set_watchdog": rtde_set_watchdog,
-        # force control: parameters accepted, force mode itself unsupported
+        # force control: parameters accepted (force_mode itself: builtins_clients, free-space approximation)
         "force_mode_set_damping": _force_parameter, "force_mode_set_gain_scaling": _force_parameter,
-        "zero_ftsensor": zero_ftsensor, "end_force_mode": end_force_mode, "set_gravity": set_gravity,
+        "zero_ftsensor": zero_ftsensor, "set_gravity": set_gravity,
         "tool_contact": tool_contact,
         # dynamics-free state
         "get_target_joint_accelerations": get_target_joint_accelerations, "get_jacobian": get_jacobian,

@@ -187,6 +187,39 @@ def get_joint_torques(ctx):
     return [float(v) for v in jacobian.T @ np.asarray(state.actual_tcp_force, dtype=float)]
 
 
+# --- force mode (free-space approximation) -----------------------------------------------------------------------
+
+FORCE_MODE_ACCELERATION = 1.0  # m/s² (rad/s² for rotations) at which the free-space drift reaches its speed limit
+FORCE_MODE_TYPES = (1, 2, 3)
+
+
+def force_mode(ctx, task_frame, selection_vector, wrench, type, limits):
+    """Force mode, approximated for an arm in free space (no contact is modelled): along each compliant axis
+    (selection 1) with a non-zero wrench component nothing resists, so the TCP moves at that axis' speed limit
+    (`limits`, m/s or rad/s) in the direction of the force/torque, in `task_frame`; other axes hold still.  The arm
+    keeps drifting until end_force_mode(), another motion, or a limit stops it (a protective stop, as a real arm
+    pushing into nothing would reach).  Frame types 1–3 are checked; the frame is used as given."""
+    frame = kinematics.pose_to_matrix(np.array(number_list(task_frame, 6, "task_frame")))
+    selection = number_list(selection_vector, 6, "selection_vector")
+    if any(value not in (0, 1) for value in selection):
+        raise ScriptError(f"runtime_error:force_mode: selection_vector must hold 0 or 1, got {to_str(selection)}:")
+    forces = np.array(number_list(wrench, 6, "wrench"))
+    speed_limits = np.array(number_list(limits, 6, "limits"))
+    if _index(type, "type") not in FORCE_MODE_TYPES:
+        raise ScriptError(f"runtime_error:force_mode: type must be 1, 2 or 3, got {to_str(type)}:")
+    if np.any(speed_limits < 0):
+        raise ScriptError(f"runtime_error:force_mode: limits must be >= 0, got {to_str(list(speed_limits))}:")
+    drift = np.where(np.array(selection) == 1, np.sign(forces) * speed_limits, 0.0)
+    rotation = frame[:3, :3]
+    twist = np.concatenate([rotation @ drift[:3], rotation @ drift[3:]])
+    _call(ctx.controller.speedl, twist, FORCE_MODE_ACCELERATION, 0.0)
+
+
+def end_force_mode(ctx):
+    """Leave force mode: the free-space drift decelerates to rest (stopl)."""
+    _call(ctx.controller.stopl, FORCE_MODE_ACCELERATION * 10)
+
+
 # --- motion ----------------------------------------------------------------------------------------------------
 
 def _arc(start, via, end):
@@ -242,5 +275,6 @@ CLIENT_BUILTINS = {
     "get_standard_analog_in": get_standard_analog_in, "get_tool_analog_in": get_tool_analog_in,
     "get_analog_in": get_analog_in, "set_tool_voltage": set_tool_voltage,
     "movec": movec, "get_joint_torques": get_joint_torques,
+    "force_mode": force_mode, "end_force_mode": end_force_mode,
     "ft_rtde_input_enable": ft_rtde_input_enable, "enable_external_ft_sensor": enable_external_ft_sensor,
 }

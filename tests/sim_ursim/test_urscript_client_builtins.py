@@ -161,3 +161,22 @@ def test_speedj_with_zero_acceleration_keeps_the_current_speeds(controller):
     assert error is None
     _, error = run(controller, "speedj([0, 0, 0, 0, 0, 0.2], 0.0, 0.1)\n")  # a change with a = 0: no change
     assert error is None and abs(controller.state().target_qd[5]) < 1e-9
+
+
+def test_force_mode_in_free_space_drifts_along_the_compliant_axis_until_ended(controller):
+    run(controller, f"movej({HOME})\n")
+    start = np.array(controller.state().actual_tcp_pose)
+    values, error = run(controller, "force_mode(p[0, 0, 0, 0, 0, 0], [0, 0, 1, 0, 0, 0], [0, 0, 10, 0, 0, 0], 2, "
+                                    "[0.1, 0.1, 0.05, 0.3, 0.3, 0.3])\n"
+                                    "sleep(0.5)\n"
+                                    "v = get_actual_tcp_speed()\n"
+                                    "end_force_mode()\n"
+                                    "sleep(0.3)\n")
+    assert error is None
+    assert abs(values["v"][2] - 0.05) < 1e-3 and max(abs(values["v"][0]), abs(values["v"][1])) < 1e-3
+    moved = np.array(controller.state().actual_tcp_pose) - start
+    assert moved[2] > 0.01 and np.linalg.norm(controller.state().actual_tcp_speed) < 1e-6
+    _, error = run(controller, "force_mode(p[0, 0, 0, 0, 0, 0], [0, 0, 2, 0, 0, 0], [0, 0, 1, 0, 0, 0], 2, "
+                               "[0.1, 0.1, 0.1, 0.3, 0.3, 0.3])\n")
+    assert error is not None and "selection_vector" in error.text
+    run(controller, f"movej({HOME})\n")
