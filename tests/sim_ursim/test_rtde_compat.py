@@ -132,7 +132,7 @@ def test_unknown_and_too_new_names_answer_not_found_without_closing(client_of):
 # --- rtde_set_watchdog ----------------------------------------------------------------------------------------
 
 WATCHED_PROGRAM = """def watched():
-  rtde_set_watchdog("input_int_register_0", 10, "{action}")
+  rtde_set_watchdog("input_int_register_0", 4, "{action}")
   write_output_integer_register(0, 1)
   while True:
     sync()
@@ -142,7 +142,7 @@ end
 
 
 def _watched_program(sim, client, action):
-    """Start a program that arms a 10 Hz watchdog on input_int_register_0; return the client's input recipe id."""
+    """Start a program that arms a 4 Hz watchdog (250 ms) on input_int_register_0; return the input recipe id."""
     recipe_id, types = client.setup_inputs(["input_int_register_0"])
     assert recipe_id != 0 and types == ["INT32"]
     controller = sim.controller
@@ -168,18 +168,18 @@ def test_watchdog_pause_pauses_the_program_when_inputs_stop(client_of, action):
     with running_simulator(model="ur5e") as sim:
         client = client_of(sim.host)
         recipe_id = _watched_program(sim, client, action)
-        stopped_kicking = _kick_for(client, recipe_id, 0.5)  # 5 watchdog periods kicked in time
+        stopped_kicking = _kick_for(client, recipe_id, 1.0)  # 4 watchdog periods kicked in time
         state = sim.controller.state()
         assert state.program_running and not state.program_paused
         assert wait_for(lambda: sim.controller.state().program_paused, timeout=2)
-        assert time.monotonic() - stopped_kicking >= 0.1  # not before one period without an update
+        assert time.monotonic() - stopped_kicking >= 0.25  # not before one period without an update
 
 
 def test_watchdog_stop_stops_the_program(client_of):
     with running_simulator(model="ur5e") as sim:
         client = client_of(sim.host)
         recipe_id = _watched_program(sim, client, "STOP")
-        _kick_for(client, recipe_id, 0.3)
+        _kick_for(client, recipe_id, 0.6)
         assert sim.controller.state().program_running
         assert wait_for(lambda: not sim.controller.state().program_running, timeout=2)
 
