@@ -226,11 +226,22 @@ def rpy2rotvec(ctx, rpy_vector):
 # ------------------------------------------------------------------------------------------------ motion
 
 
+def _unreachable_stops(ctx, function, *args):
+    """Call a motion command; an unreachable target protective-stops the arm with a robot error code (C209 error
+    message on 30001) and ends the program, as a controller does, instead of a URScript runtime exception."""
+    try:
+        return function(*args)
+    except kinematics.IKError as error:
+        ctx.controller.protective_stop(f"target unreachable: {error}")
+        ctx.check()  # the protective stop stopped this program: Cancelled ends it without a runtime exception
+        raise ScriptError(f"runtime_error:{error}:") from None
+
+
 def _joint_target(ctx, q):
     """movej's target: a joint list, or a pose solved by IK near the joints where the queued motion ends."""
     if isinstance(q, Pose):
         state = ctx.controller.state()
-        return _controller_call(ctx.controller.ik, np.array(q), state.target_q)
+        return _controller_call(_unreachable_stops, ctx, ctx.controller.ik, np.array(q), state.target_q)
     return np.array(number_list(q, 6, "q"))
 
 
@@ -250,6 +261,8 @@ def movej(ctx, q, a=1.4, v=1.05, t=0, r=0):
 def movel(ctx, pose, a=1.2, v=0.25, t=0, r=0):
     """Linear TCP move (a [m/s²], v [m/s], t [s] overrides); blocks until done, or within r [m]."""
     target = _pose_target(ctx, pose)
+    # Reachability first (the controller refuses an unreachable movel like any other refusal): see _unreachable_stops.
+    _controller_call(_unreachable_stops, ctx, ctx.controller.ik, target, ctx.controller.state().target_q)
     ctx.run_motion(lambda: _controller_call(ctx.controller.movel, target, a, v, t, r))
 
 

@@ -281,3 +281,21 @@ def test_protective_stop_flag_goes_out_with_the_safety_mode_message():
         safety_at = next(i for i, (kind, _) in enumerate(stream) if kind == ("message", packets.SAFETY_MODE_MESSAGE))
         modes_before = [fields for kind, fields in stream[:safety_at] if kind == ("state", packets.ROBOT_MODE_DATA)]
     assert modes_before and modes_before[-1]["protective_stopped"] is True
+
+
+@pytest.mark.parametrize("motion", ["movel(p[2.0, 0, 0.3, 0, 3.14, 0])", "movej(p[2.0, 0, 0.3, 0, 3.14, 0])"])
+def test_unreachable_target_is_a_robot_error_with_a_protective_stop(motion):
+    """Issue 15 §11: URCL's clients see an error-code message (ErrorCodeMessage, logged as C209A0 by URCL) and the
+    protective-stop flag, not a URScript runtime exception."""
+    with running_simulator(model="ur5e") as sim:
+        sim.controller.power_up()
+        bus = sim.controller.messages.subscribe()
+        assert sim.controller.run_program(f"def unreachable():\n  {motion}\nend\n", "test")
+        assert wait_for(lambda: sim.controller.state().protective_stopped, timeout=5)
+        assert wait_for(lambda: not sim.controller.state().program_running, timeout=5)
+        received = []
+        while not bus.empty():
+            received.append(bus.get_nowait())
+    errors = [m for m in received if isinstance(m, messages.ErrorCodeMessage)]
+    assert errors and errors[0].code == 209 and "unreachable" in errors[0].text
+    assert not [m for m in received if isinstance(m, messages.RuntimeExceptionMessage)]
