@@ -5,7 +5,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test bench clean
+.PHONY: demo test test-ursim bench clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -20,6 +20,11 @@ demo: $(STAMP)
 test: $(STAMP)
 	$(BIN)/python -m pytest -m "not exclusive"
 	$(BIN)/python -m pytest -m exclusive -n 0
+
+# The same suite against an official URSim or robot: UR3DQ_TEST_HOST=<address> make test-ursim (docs/ursim.md).
+test-ursim: $(STAMP)
+	@test -n "$(UR3DQ_TEST_HOST)" || { echo "test-ursim: set UR3DQ_TEST_HOST to the URSim's address" >&2; exit 2; }
+	UR3DQ_TEST_HOST=$(UR3DQ_TEST_HOST) $(BIN)/python -m pytest -m "not exclusive"
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_kinematics.py

@@ -134,8 +134,9 @@ class MotionQueue:
         try:
             entry.segment = entry.plan(start_q)
         except (ValueError, kinematics.IKError) as error:
-            entry.motion._finish(str(error))
-            self.end_all(lambda queued: f"not started: an earlier move failed ({error})")
+            reason = str(error)   # `error` is unbound once the except block ends; the callback must not need it
+            entry.motion._finish(reason)
+            self.end_all(lambda queued: f"not started: an earlier move failed ({reason})")
             return
         if blended:
             self.tail = self.active

@@ -5,6 +5,9 @@ Commands the emulated software version does not have get the same answer as unkn
 """
 import logging
 import os
+import threading
+import time
+import zipfile
 from dataclasses import dataclass
 
 from ..vocabulary import CommandRefused, RobotMode, SafetyMode, UnlockTooEarly
@@ -52,8 +55,7 @@ def handle(line, controller):
     command, argument = parse_command(line)
     if command is None:
         return unknown(argument)
-    minimum = _MINIMUM_VERSION.get(command)
-    if minimum is not None and not controller.version.at_least(*minimum):
+    if not available(command, controller.version):
         return unknown(line.strip())
     return _HANDLERS[command](controller, argument)
 
@@ -119,15 +121,18 @@ def _try(action, name):
 
 
 def _load(controller, argument):
+    """Load a program: a `.urp` runs the `.script` PolyScope saved beside it; any other file is URScript itself."""
     if not argument:
         return unknown("load")
     path = resolve_program_path(argument, controller.programs_directory)
     if not os.path.isfile(path):
         return Reply(f"File not found: {argument}")
+    script_path = os.path.splitext(path)[0] + ".script" if path.endswith(".urp") else path
     try:
-        with open(path, encoding="utf-8") as program:
+        with open(script_path, encoding="utf-8") as program:
             source = program.read()
     except (OSError, UnicodeDecodeError) as error:
+        # A .urp without its generated script cannot be run by a controller that only executes URScript.
         log.warning("load %s: %s", path, error)
         return Reply(f"Error while loading program: {argument}")
     if controller.state().program_running:
@@ -156,9 +161,11 @@ def _play(controller, argument):
 
 
 def _stop(controller, argument):
-    if not controller.state().program_running:
-        return Reply("Failed to execute: stop")
-    controller.stop_program()
+    # "Stopped" also when nothing runs: the state asked for holds.  ur_rtde's RTDEControlInterface sends `stop`
+    # right after ending a crashed client's script and raises on any other reply; URCL's commandStop expects
+    # "Stopped" and then only checks that programState says STOPPED.
+    if controller.state().program_running:
+        controller.stop_program()
     return Reply("Stopped")
 
 
@@ -207,6 +214,77 @@ def _add_to_log(controller, argument):
     return Reply("Added log message")
 
 
+class _Settings:
+    """What dashboard commands store on a controller: user role (CB3), operational mode (e-series)."""
+
+    def __init__(self):
+        self.user_role = "PROGRAMMER"
+        self.operational_mode = "NONE"  # NONE until a client sets one (no mode password configured)
+
+
+_SETTINGS_LOCK = threading.Lock()
+USER_ROLES = ("programmer", "operator", "none", "locked", "restricted")
+OPERATIONAL_MODES = ("manual", "automatic")
+FLIGHT_REPORT_TYPES = ("controller", "software", "system")
+
+
+def _settings(controller):
+    with _SETTINGS_LOCK:
+        settings = getattr(controller, "_dashboard_settings", None)
+        if settings is None:
+            settings = _Settings()
+            controller._dashboard_settings = settings
+        return settings
+
+
+def _set_user_role(controller, argument):
+    role = argument.strip().lower()
+    if role not in USER_ROLES:
+        return Reply(f"Failed setting user role: {argument}")
+    _settings(controller).user_role = role.upper()
+    return Reply(f"Setting user role: {argument}")
+
+
+def _set_operational_mode(controller, argument):
+    mode = argument.strip().lower()
+    if mode not in OPERATIONAL_MODES:
+        return Reply(f"Failed setting operational mode: {argument}")
+    _settings(controller).operational_mode = mode.upper()
+    return Reply(f"Operational mode '{mode}' is set")
+
+
+def _clear_operational_mode(controller, argument):
+    mode = _settings(controller).operational_mode.lower()
+    return Reply(f"No longer controlling the operational mode. Current operational mode: '{mode}'.")
+
+
+def _flight_report(controller, argument):
+    kind = (argument.strip() or "controller").lower()
+    if kind not in FLIGHT_REPORT_TYPES:
+        return Reply(f"Error: unknown report type: {argument}")
+    report_id = f"{int(time.time() * 1000) & 0xFFFFFFFF:08x}"
+    log.info("flight report (%s) requested: id %s", kind, report_id)
+    return Reply(f"Flight Report generated with id: {report_id}")
+
+
+def _support_file(controller, argument):
+    """Write a small support archive (software version, model, serial, state) into the given directory."""
+    directory = resolve_program_path(argument.strip(), controller.programs_directory) if argument.strip() else None
+    if directory is None or not os.path.isdir(directory):
+        return Reply(f"Error: no such directory: {argument}")
+    state = controller.state()
+    name = f"ur_{controller.model.serial_number}_{time.strftime('%Y-%m-%d_%H-%M-%S')}.zip"
+    try:
+        with zipfile.ZipFile(os.path.join(directory, name), "w") as archive:
+            archive.writestr("version.txt", f"{polyscope_version_reply(controller.version)}\n")
+            archive.writestr("robot.txt", f"{controller.model.display_name} {controller.model.serial_number}\n"
+                                          f"{robot_mode_reply(state.robot_mode)}\n"
+                                          f"{safety_mode_reply(state.safety_mode)}\n")
+    except OSError as error:
+        return Reply(f"Error: {error}")
+    return Reply(f"Completed successfully: {name}")
+
+
 def _loaded_program(controller, argument):
     if controller.loaded_program is None:
         return Reply("No program loaded")
@@ -236,9 +314,13 @@ _HANDLERS = {
     "get serial number": lambda c, a: Reply(c.model.serial_number),
     "get robot model": lambda c, a: Reply(c.model.display_name),
     "is in remote control": _reply("true"),
-    "get operational mode": _reply("NONE"),
-    "getuserrole": _reply("PROGRAMMER"),
-    "setuserrole": lambda c, a: Reply(f"Setting user role: {a}"),
+    "get operational mode": lambda c, a: Reply(_settings(c).operational_mode),
+    "set operational mode": _set_operational_mode,
+    "clear operational mode": _clear_operational_mode,
+    "getuserrole": lambda c, a: Reply(_settings(c).user_role),
+    "setuserrole": _set_user_role,
+    "generate flight report": _flight_report,
+    "generate support file": _support_file,
     "get loaded program": _loaded_program,
     "isprogramsaved": lambda c, a: Reply(f"true {program_name(c.loaded_program)}"),
     "addtolog": _add_to_log,
@@ -247,14 +329,33 @@ _HANDLERS = {
     "quit": _quit,
     "shutdown": _shutdown,
 }
-_TAKES_ARGUMENT = {"load", "popup", "addtolog", "setuserrole", "load installation"}
+_TAKES_ARGUMENT = {"load", "popup", "addtolog", "setuserrole", "load installation", "set operational mode",
+                   "generate flight report", "generate support file"}
 _COMMANDS_LONGEST_FIRST = sorted(_HANDLERS, key=len, reverse=True)
 
-# Commands that only exist from a given software version on (protocols.md §2.3; e-series-only ones need 5.x).
+# Commands that exist only from a given software version on, as (CB3, e-series) minimums; None: never on that
+# platform.  URCL's dashboard command table (src/ur/dashboard_client_implementation_g5.cpp) and protocols.md §2.3.
 _MINIMUM_VERSION = {
-    "safetystatus": (5, 4, 0),
-    "get serial number": (5, 6, 0),
-    "is in remote control": (5, 6, 0),
-    "get operational mode": (5, 6, 0),
-    "restart safety": (3, 7, 0),
+    "safetystatus": (None, (5, 4, 0)),
+    "get serial number": ((3, 12, 0), (5, 6, 0)),
+    "get robot model": ((3, 12, 0), (5, 6, 0)),
+    "is in remote control": (None, (5, 6, 0)),
+    "get operational mode": (None, (5, 6, 0)),
+    "set operational mode": (None, (5, 0, 0)),
+    "clear operational mode": (None, (5, 0, 0)),
+    "restart safety": ((3, 7, 0), (5, 1, 0)),
+    "generate flight report": ((3, 13, 0), (5, 8, 0)),
+    "generate support file": ((3, 13, 0), (5, 8, 0)),
+    "savelog": ((3, 13, 0), (5, 8, 0)),
+    "setuserrole": ((3, 1, 0), None),  # user roles are CB3-only (URCL: up to 5.99 excluded for e-series)
+    "getuserrole": ((3, 1, 0), None),
 }
+
+
+def available(command, version):
+    """True when the controller software `version` has dashboard `command`."""
+    minimums = _MINIMUM_VERSION.get(command)
+    if minimums is None:
+        return True
+    minimum = minimums[1] if version.is_e_series else minimums[0]
+    return minimum is not None and version.at_least(*minimum)

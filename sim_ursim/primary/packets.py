@@ -214,8 +214,14 @@ def tool_data(state):
 
 
 def masterboard_data_size(version):
-    """MasterboardData size without Euromap67: 72 for 3.0–3.1, 74 for 3.2+ CB3, 75 for e-series."""
-    if is_e_series(version):
+    """MasterboardData size without Euromap67: 72 for 3.0–3.1, 74 for 3.2–3.13, 75 for 3.14+ and every e-series.
+
+    75 = ... reserved uint32, operationalModeSelectorInput, threePositionEnablingDeviceInput, reserved uint8: the
+    layout URCL parses (src/primary/robot_state/masterboard_data.cpp) with strict sub-package parsing in its CI
+    against URSim 3.14.3 and 5.9.4; 74 (no trailing byte) is ur_modern_driver's MasterBoardData_V3_2.  The CB3 release
+    that added the trailing byte is not public: 3.14 is the earliest with evidence.
+    """
+    if is_e_series(version) or _since(version, 3, 14):
         return 75
     if _since(version, 3, 2):
         return 74

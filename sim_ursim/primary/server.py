@@ -20,11 +20,13 @@ import socket
 import threading
 import time
 
-from sim_ursim.vocabulary import CommandRefused
+from sim_ursim.messages import SafetyModeMessage
 from sim_ursim.models import build_date
+from sim_ursim.primary import commands as primary_commands
 from sim_ursim.primary import packets, realtime
 from sim_ursim.primary.script_intake import IntakeOverflow, ScriptAssembler
 from sim_ursim.tcp_server import POLL_INTERVAL, Connection, TCPServer
+from sim_ursim.vocabulary import CommandRefused
 
 log = logging.getLogger(__name__)
 
@@ -60,6 +62,8 @@ class _InterfaceServer(TCPServer):
                 self._submit(program)
 
     def _submit(self, program: str) -> None:
+        if self.origin != "realtime" and primary_commands.execute(program, self.controller):
+            return
         try:
             self.controller.run_program(program, self.origin)
         except CommandRefused as refusal:
@@ -148,6 +152,12 @@ class PrimaryServer(_InterfaceServer):
                     message = subscription.get(timeout=wait)
                 except queue.Empty:
                     continue
+                if isinstance(message, SafetyModeMessage):
+                    # A controller's robot-mode data and safety-mode message describe the same instant: send the
+                    # state that already shows the new safety mode right before the message, not up to 100 ms later.
+                    state = _state_showing_safety_mode(controller, message.safety_mode_type)
+                    delayed.put(packets.robot_state_message(state, arm, version), time.monotonic() + faults.latency)
+                    next_state = time.monotonic() + STATE_PERIOD
                 data = packets.encode_robot_message(message, version, self._timestamp_ms())
                 delayed.put(data, time.monotonic() + faults.latency)
         finally:
@@ -157,6 +167,17 @@ class PrimaryServer(_InterfaceServer):
 
     def _timestamp_ms(self) -> int:
         return int(self.controller.state().timestamp * 1000)
+
+
+def _state_showing_safety_mode(controller, safety_mode, cycles=5):
+    """The first snapshot whose safety mode is `safety_mode` (the message is published just before the snapshot
+    that carries it), or the newest one after `cycles` control cycles."""
+    state = controller.state()
+    for _ in range(cycles):
+        if state.safety_mode == safety_mode:
+            break
+        state = controller.wait_cycle(state.cycle, timeout=STATE_PERIOD)
+    return state
 
 
 class SecondaryServer(PrimaryServer):

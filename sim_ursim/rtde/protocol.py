@@ -10,7 +10,6 @@ import struct
 
 HEADER = struct.Struct(">HB")
 MAX_PACKAGE_SIZE = 0xFFFF
-MAX_VARIABLE_LIST_BYTES = 2048  # RTDE guide: "maximum limit of 2048 bytes" for a recipe's name list
 SUPPORTED_PROTOCOL_VERSIONS = (1, 2)
 
 _UINT8 = struct.Struct(">B")
@@ -98,8 +97,9 @@ def join_variable_names(names):
 
 
 def _decode_names(payload):
-    if len(payload) > MAX_VARIABLE_LIST_BYTES:
-        raise ProtocolError(f"variable list of {len(payload)} bytes exceeds the {MAX_VARIABLE_LIST_BYTES}-byte limit")
+    """Names of a setup payload.  No length limit beyond the package's own: UR's guide speaks of "a maximum limit of
+    2048 bytes", but URCL's CI sends its exhaustive output recipe (406 names, 9,173 bytes) to URSim 3.14.3, 5.9.4 and
+    the latest 5.x in one setup package and gets it streamed."""
     try:
         return parse_variable_names(payload.decode("ascii"))
     except UnicodeDecodeError as error:

@@ -16,6 +16,7 @@ from collections import deque
 from ..tcp_server import Connection, TCPServer
 from . import inputs, protocol, variables
 from .protocol import PackageType
+from .watchdog import watchdogs_of
 
 log = logging.getLogger("sim_ursim.rtde")
 
@@ -304,6 +305,7 @@ class RTDEServer(TCPServer):
             self._complain(session, f"input recipe {recipe_id}: {error}")
             return
         received = dict(zip(recipe.names, protocol.group_values(recipe.types, flat)))
+        watchdogs_of(self.controller).note_update(received)
         session.input_values.update(received)
         try:
             inputs.apply_inputs(self.controller, session.input_values, received.keys())

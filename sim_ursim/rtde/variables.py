@@ -3,8 +3,9 @@
 Names, types and versions follow UR's RTDE guide ("Introduced in version" column) and URCL's type list, as
 collected in protocols.md §1.4 / §1.5. A version pair (CB3, e-series) of None means the platform never had it.
 An output reader maps a ControllerState (Contract 3) to the variable's flat values, in wire order.
-Names whose introduction version no source states (URCL-only entries such as `actual_current_window`) are
-deliberately left out: the server answers NOT_FOUND for them rather than claim them for every version.
+Names UR's guide lists without a version get the earliest version a source shows them present (comments below;
+docs/ursim.md); quantities the simulator does not model (TCP acceleration, energy, encoders) read as the constant of
+an idle, contact-free cell.
 """
 from dataclasses import dataclass
 from typing import Callable, Optional, Tuple
@@ -198,6 +199,34 @@ _OUTPUT_LIST = [
     _out("actual_current_as_torque", "VECTOR6D", _vector("target_moment"), (None, (5, 23, 0))),
     _out("target_gravity", "VECTOR3D", _gravity, (None, (5, 26, 0))),
     _out("control_step", "UINT64", _integer("cycle"), (None, (5, 26, 0))),
+    # --- outputs UR's guide lists without an introduction version (docs/ursim.md "RTDE variables" gives the
+    # evidence for each version chosen here) ---
+    # In URCL's exhaustive CI recipe (#213) run against URSim 3.14.3 and 5.9.4; UR's own record_configuration.xml
+    # (2023) requests joint_position_deviation_ratio by default.
+    _out("joint_position_deviation_ratio", "DOUBLE", _constant(0.0), ((3, 14, 0), (5, 9, 0))),
+    _out("actual_current_window", "VECTOR6D", _vector("actual_current"), ((3, 14, 0), (5, 9, 0))),
+    # Listed by UR (RTDE_Python_Client_Library, July 2023) as outputs "the controller can provide": CB3's last line
+    # and the e-series release of that time.
+    _out("actual_configurable_digital_input_bits", "UINT64", _integer("configurable_digital_input_bits"),
+         ((3, 15, 0), (5, 13, 0))),
+    _out("actual_configurable_digital_output_bits", "UINT64", _integer("configurable_digital_output_bits"),
+         ((3, 15, 0), (5, 13, 0))),
+    _out("encoder0_raw", "INT32", _constant(0), ((3, 15, 0), (5, 13, 0))),  # no encoder wired to the simulated box
+    _out("encoder1_raw", "INT32", _constant(0), ((3, 15, 0), (5, 13, 0))),
+    # URCL's version table (#213): e-series only.
+    _out("collision_detection_ratio", "DOUBLE", _constant(0.0), (None, (5, 15, 0))),  # no contact is modelled
+    _out("time_scale_source", "INT32", _constant(0), (None, (5, 17, 0))),
+    # URCL's RTDE client test: "added in 5.23.0 / 10.11.0".
+    _out("actual_robot_energy_consumed", "DOUBLE", _constant(0.0), (None, (5, 23, 0))),
+    _out("actual_robot_braking_energy_dissipated", "DOUBLE", _constant(0.0), (None, (5, 23, 0))),
+    # Added to URCL's list with 5.24-era fields (#380, 2025): e-series only, 5.24 assumed.
+    _out("actual_TCP_acceleration", "VECTOR6D", _constant(*(0.0,) * 6), (None, (5, 24, 0))),
+    _out("target_TCP_acceleration", "VECTOR6D", _constant(*(0.0,) * 6), (None, (5, 24, 0))),
+    _out("target_execution_time", "DOUBLE", _double("execution_time"), (None, (5, 24, 0))),
+    _out("wrench_calc_from_currents", "VECTOR6D", _vector("actual_tcp_force"), (None, (5, 24, 0))),
+    # Between target_gravity and control_step (both 5.26) in the guide's chronological order; URCL #539: 5.26.
+    _out("target_base_acceleration", "VECTOR6D", _constant(*(0.0,) * 6), (None, (5, 26, 0))),  # the base stands still
+    _out("target_base_wrench", "VECTOR6D", _constant(*(0.0,) * 6), (None, (5, 26, 0))),
 ]
 
 for _index in range(64, 128):

@@ -18,11 +18,26 @@ def _arithmetic(symbol, function):
     def apply(left, right):
         if isinstance(left, str) and isinstance(right, str) and symbol == "+":
             return left + right
+        if isinstance(left, list) or isinstance(right, list):
+            return _elementwise(symbol, apply, left, right)
         require_number(left, symbol)
         require_number(right, symbol)
         return function(left, right)
 
     return apply
+
+
+def _elementwise(symbol, apply, left, right):
+    """URScript array arithmetic: list op list (equal lengths) and list op number / number op list, element by
+    element (URCL's External Control script extrapolates joints with `q + qd * steptime`)."""
+    if isinstance(left, list) and isinstance(right, list):
+        if len(left) != len(right):
+            raise ScriptError(f"runtime_error:type mismatch:{symbol} needs lists of equal length, got "
+                              f"{len(left)} and {len(right)}:")
+        return [apply(a, b) for a, b in zip(left, right)]
+    if isinstance(left, list):
+        return [apply(a, right) for a in left]
+    return [apply(left, b) for b in right]
 
 
 def _divide(left, right):

@@ -113,7 +113,7 @@ def test_plot_draws_the_path_check_and_names_its_worst_sample(run, tmp_path):
 
 
 def test_with_a_robot_the_path_starts_at_the_arms_joints(run):
-    from sim_ursim.testing import simulator_process
+    from sim_ursim.launch import simulator_process
 
     arm_at = [0.0, -1.3, 1.3, -1.5708, -1.5708, 0.0]
     with simulator_process(model="ur3", initial_q=arm_at) as simulator:

@@ -44,7 +44,7 @@ def dashboard(host, *commands):
 @pytest.fixture
 def arm(request):
     """(host, RTDE receiver) of a powered simulated UR3 starting at START (or the joints of an indirect parameter)."""
-    from sim_ursim.testing import simulator_process
+    from sim_ursim.launch import simulator_process
 
     initial_q = [float(v) for v in getattr(request, "param", START)]
     with simulator_process(model="ur3", initial_q=initial_q) as process:
@@ -139,7 +139,7 @@ def test_a_line_refused_for_the_wrist_singularity_is_one_the_simulator_stops(arm
 @pytest.fixture(scope="module")
 def shared_arm():
     """One simulated UR3 for the property test's examples (each starts where the previous one ended)."""
-    from sim_ursim.testing import simulator_process
+    from sim_ursim.launch import simulator_process
 
     with simulator_process(model="ur3", initial_q=START) as process:
         dashboard(process.host, "power on", "brake release")

@@ -563,11 +563,11 @@ def test_set_tcp_is_seen_by_the_next_statement(controller):
 
 
 def test_unsupported_builtin_compiles_but_fails_when_called(controller):
-    call = "force_mode(p[0,0,0,0,0,0], [0,0,1,0,0,0], [0,0,0,0,0,0], 2, [0,0,0,0,0,0])"
+    call = "servoc(p[0.3, 0, 0.3, 0, 3.14, 0])"
     outcome = run(controller, f"if False:\n  {call}\nend\n")
     assert outcome.error is None
     outcome = run(controller, call + "\n")
-    assert "force_mode is not supported" in outcome.error.text
+    assert "servoc is not supported" in outcome.error.text
 
 
 # ------------------------------------------------------------------------------------------ pose maths (pure)

@@ -165,7 +165,7 @@ def _end_joints(segment, index, move):
 
 
 def _path_scale(move) -> float:
-    """The controller's path 'distance' of a Cartesian move: max(length m, turn rad) (sim_ursim.motion)."""
+    """The controller's path 'distance' of a Cartesian move: max(length m, turn rad) (sim_ursim.trajectories)."""
     if len(move.poses) < 2 or move.unreachable_at is not None:
         return 0.0
     metres, radians = sampling.line_length(move.poses[0], move.poses[-1])

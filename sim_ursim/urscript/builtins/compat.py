@@ -1,9 +1,11 @@
-"""Built-ins for what the simulator does not model: ur_rtde's watchdog, force control, F/T sensor, dynamics.
+"""Built-ins for what the simulator does not model (force control parameters, F/T sensor, dynamics) and the RTDE
+input watchdog.
 
 Those with a harmless meaning here (accepting a parameter, a sensor that reads zero) are checked and accepted; the
 rest exist so that scripts using them compile, as on the controller, and raise a run-time error naming themselves
 when called (`UNSUPPORTED`).
 """
+from sim_ursim.rtde.watchdog import watchdogs_of
 from sim_ursim.urscript.builtins.arguments import as_number
 from sim_ursim.urscript.builtins.registry import builtin, register
 from sim_ursim.urscript.interpreter import ThreadContext
@@ -12,9 +14,16 @@ from sim_ursim.urscript.values import ScriptError, number_list, to_str
 
 @builtin
 def rtde_set_watchdog(ctx: ThreadContext, variable_name, min_frequency, action="pause"):
-    """Accepted and not enforced: the simulator does not pause or stop a program when RTDE input goes quiet."""
+    """Arm the RTDE input watchdog of `variable_name` (sim_ursim.rtde.watchdog): pause/stop/ignore when the input
+    is not updated at `min_frequency` Hz; removed when this program stops."""
     if not isinstance(variable_name, str):
         raise ScriptError(f"runtime_error:rtde_set_watchdog needs a variable name, got {to_str(variable_name)}:")
+    execution = ctx.execution
+    try:
+        watchdogs_of(ctx.controller).arm(variable_name, as_number(min_frequency, "min_frequency"), to_str(action),
+                                         lambda: execution.main.done.is_set() or execution.main.cancel.is_set())
+    except ValueError as error:
+        raise ScriptError(f"runtime_error:rtde_set_watchdog: {error}:") from None
 
 
 @builtin("force_mode_set_damping", "force_mode_set_gain_scaling")
@@ -43,11 +52,6 @@ def zero_ftsensor(ctx: ThreadContext):
     """Zero the F/T sensor: the simulated sensor always reads zero, so nothing changes."""
 
 
-@builtin
-def end_force_mode(ctx: ThreadContext):
-    """Leave force mode: force mode is never active in the simulator, so nothing changes."""
-
-
 def _unsupported(name):
     """A built-in that raises a run-time error naming `name`."""
 
@@ -59,7 +63,7 @@ def _unsupported(name):
 
 
 UNSUPPORTED = (
-    "force_mode", "enable_external_ft_sensor", "ft_rtde_input_enable", "get_joint_torques", "servoc",
+    "servoc",
     "get_actual_joint_positions_history", "direct_torque", "get_mass_matrix", "get_coriolis_and_centrifugal_torques",
     "get_jacobian_time_derivative", "teach_mode_set_params", "set_analog_inputrange",
 )

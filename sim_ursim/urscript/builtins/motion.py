@@ -4,17 +4,30 @@ Blocking moves go through `ctx.run_motion`, which returns when this motion has e
 """
 import numpy as np
 
+from sim_ursim import kinematics
+
 from sim_ursim.urscript.builtins.arguments import as_number, controller_call
 from sim_ursim.urscript.builtins.registry import builtin
 from sim_ursim.urscript.interpreter import ThreadContext
 from sim_ursim.urscript.values import Pose, ScriptError, number_list, to_str
 
 
+def _unreachable_stops(ctx: ThreadContext, function, *args):
+    """Call a motion command; an unreachable target protective-stops the arm with a robot error code (C209 error
+    message on 30001) and ends the program, as a controller does, instead of a URScript runtime exception."""
+    try:
+        return function(*args)
+    except kinematics.IKError as error:
+        ctx.controller.protective_stop(f"target unreachable: {error}")
+        ctx.check()  # the protective stop stopped this program: Cancelled ends it without a runtime exception
+        raise ScriptError(f"runtime_error:{error}:") from None
+
+
 def _joint_target(ctx: ThreadContext, q):
     """movej's target: a joint list, or a pose solved by IK near the joints where the queued motion ends."""
     if isinstance(q, Pose):
         state = ctx.controller.state()
-        return controller_call(ctx.controller.ik, np.array(q), state.target_q)
+        return controller_call(_unreachable_stops, ctx, ctx.controller.ik, np.array(q), state.target_q)
     return np.array(number_list(q, 6, "q"))
 
 
@@ -25,17 +38,19 @@ def _pose_target(ctx: ThreadContext, pose):
     return controller_call(ctx.controller.fk, number_list(pose, 6, "q"))
 
 
-@builtin
+@builtin("movej", "optimovej")   # optimove*: the same a/v/r; the time-optimal profile is not modelled
 def movej(ctx: ThreadContext, q, a=1.4, v=1.05, t=0, r=0):
     """Joint move (leading axis a [rad/s²], v [rad/s], t [s] overrides); blocks until done, or within r [m]."""
     target = _joint_target(ctx, q)
     ctx.run_motion(lambda: controller_call(ctx.controller.movej, target, a, v, t, r))
 
 
-@builtin
+@builtin("movel", "optimovel")
 def movel(ctx: ThreadContext, pose, a=1.2, v=0.25, t=0, r=0):
     """Linear TCP move (a [m/s²], v [m/s], t [s] overrides); blocks until done, or within r [m]."""
     target = _pose_target(ctx, pose)
+    # Reachability first (the controller refuses an unreachable movel like any other refusal): see _unreachable_stops.
+    controller_call(_unreachable_stops, ctx, ctx.controller.ik, target, ctx.controller.state().target_q)
     ctx.run_motion(lambda: controller_call(ctx.controller.movel, target, a, v, t, r))
 
 
@@ -59,6 +74,11 @@ def speedj(ctx: ThreadContext, qd, a, t=None):
     once the speeds are reached (the ramp time max|Δqd| / a)."""
     qd = np.array(number_list(qd, 6, "qd"))
     acceleration = as_number(a, "a")
+    if acceleration == 0.0:
+        # Zero acceleration: the speeds cannot change, the joints keep the speeds they have (URCL's spline
+        # interpolation sends a = 0 when consecutive speeds are equal; controllers accept it).
+        qd = np.array(ctx.controller.state().target_qd)
+        acceleration = 1.0
     controller_call(ctx.controller.speedj, qd, acceleration, 0.0)
     if t is None:
         _wait_for(ctx, float(np.max(np.abs(qd - ctx.controller.state().actual_qd))) / acceleration)
@@ -125,8 +145,8 @@ def is_steady(ctx: ThreadContext):
 
 
 @builtin("freedrive_mode", "teach_mode")
-def freedrive_mode(ctx: ThreadContext, *args):
-    """Freedrive on (the axis/feature constraints of 5.x are accepted and ignored)."""
+def freedrive_mode(ctx: ThreadContext, *args, **kwargs):
+    """Freedrive on (the axis/feature constraints of 5.x, positional or freeAxes=/feature=, accepted and ignored)."""
     controller_call(ctx.controller.set_freedrive, True)
 
 

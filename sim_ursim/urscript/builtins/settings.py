@@ -39,8 +39,10 @@ def set_payload_cog(ctx: ThreadContext, cog):
 
 
 @builtin
-def set_target_payload(ctx: ThreadContext, m, cog, inertia=None):
-    """Payload mass, centre of gravity and optional inertia [Ixx Iyy Izz Ixy Ixz Iyz] (5.10+)."""
+def set_target_payload(ctx: ThreadContext, m, cog, inertia=None, transition_time=0):
+    """Payload mass, centre of gravity and optional inertia [Ixx Iyy Izz Ixy Ixz Iyz] (5.10+); the change is applied
+    at once (transition_time [s], 5.12+, accepted: payload changes have no dynamic effect in the simulator)."""
+    as_number(transition_time, "transition_time")
     controller_call(ctx.controller.set_payload, as_number(m, "m"), number_list(cog, 3, "cog"),
                      None if inertia is None else number_list(inertia, 6, "inertia"))
 
@@ -54,6 +56,8 @@ def get_steptime(ctx: ThreadContext):
 # built-in name, ControllerState field, URScript value, what it returns
 _STATE_GETTERS: tuple[tuple[str, str, Callable[[Any], Any], str], ...] = (
     ("get_actual_joint_positions", "actual_q", to_list, "Measured joints [rad]."),
+    # Used by URCL's External Control script, not in UR's manual: the measured joints, as its name says.
+    ("get_joint_positions", "actual_q", to_list, "Measured joints [rad] (URCL's name for get_actual_joint_positions)."),
     ("get_target_joint_positions", "target_q", to_list, "Commanded joints [rad]."),
     ("get_actual_joint_speeds", "actual_qd", to_list, "Measured joint speeds [rad/s]."),
     ("get_target_joint_speeds", "target_qd", to_list, "Commanded joint speeds [rad/s]."),
