@@ -6,13 +6,14 @@ from pathlib import Path
 import click
 from rich.console import Console
 
-from ur3dq.cli.app import Settings, cli, confirm, deg_option
-from ur3dq.cli.commands_robot import (
-    DEFAULT_ACCELERATION, DEFAULT_SPEED, angular_option, motion_options, speed_and_acceleration,
+from ur3dq.cli.app import Settings, cli, confirm
+from ur3dq.cli.display import count_text
+from ur3dq.cli.options import (
+    DEFAULT_ACCELERATION, DEFAULT_SPEED, angular_option, deg_option, motion_options, speed_and_acceleration,
 )
-from ur3dq.cli.plan import plan_replay
 from ur3dq.errors import StoreError
 from ur3dq.pose import utc_now_iso
+from ur3dq.replay import plan_replay
 from ur3dq.robot.safety import DEFAULT_MAX_JOINT_TRAVEL
 from ur3dq.store import write_atomically
 from ur3dq.urscript_export import describe_speeds, replay_program
@@ -68,7 +69,7 @@ def export_urscript(settings: Settings, names, output: Path, speed, acceleration
                                       replay_joints, angular_option(max_travel, DEFAULT_MAX_JOINT_TRAVEL, settings.deg))
     offsets = {step.pose.tcp_offset for step in steps}
     header = [
-        f"ur3dq export-urscript: {len(steps)} poses from {settings.store_path} for a {model.name}",
+        f"ur3dq export-urscript: {count_text(len(steps), 'pose')} from {settings.store_path} for a {model.name}",
         f"generated {utc_now_iso()}",
         describe_speeds(a, v, blend),
         "the first move starts wherever the arm is: check it at low speed first",
@@ -80,7 +81,7 @@ def export_urscript(settings: Settings, names, output: Path, speed, acceleration
         return
     _writable_target(output, yes)
     write_atomically(output, program)
-    click.echo(f"Wrote {output}: {len(steps)} poses" + (f" × {loops}" if loops > 1 else "") + ".")
+    click.echo(f"Wrote {output}: {count_text(len(steps), 'pose')}" + (f" × {loops}" if loops > 1 else "") + ".")
 
 
 @cli.command()
@@ -102,5 +103,5 @@ def plot(settings: Settings, names, output: Path, yes):
     model, steps, _, _ = offline_plan(settings, names, DEFAULT_SPEED, DEFAULT_ACCELERATION, False,
                                       float("inf"))
     _writable_target(output, yes)
-    plot_poses(output, model, steps, title=f"{len(steps)} poses from {settings.store_path.name} on a {model.name}")
+    plot_poses(output, model, steps, title=f"{count_text(len(steps), 'pose')} from {settings.store_path.name} on a {model.name}")
     click.echo(f"Wrote {output}.")

@@ -6,17 +6,16 @@ import math
 import click
 import numpy as np
 
-from ur3dq.cli.app import Settings, cli, display_options, emit_json
+from ur3dq.cli.app import Settings, cli, emit_json
 from ur3dq.cli.display import (
     angles_text, coefficients_text, distance_text, joint_solutions_table, key_value_table, pose_vector_text,
 )
+from ur3dq.cli.options import NUMBERS_CONTEXT, display_options, ur_pose_from_input
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.kinematics import robot_model
 from ur3dq.robot import motion
 
 DEFAULT_MODEL = "ur3"
-# Negative numbers such as -90 are values here, not options.
-NUMBERS_CONTEXT = {"ignore_unknown_options": True}
 
 
 def model_for(settings: Settings, fallback: str | None = None):
@@ -32,16 +31,6 @@ def joints_from_input(values, deg: bool, name: str = "joints") -> np.ndarray:
     if not np.all(np.isfinite(q)):
         raise ValueError(f"{name}: every joint angle must be finite, got {list(values)}")
     return q
-
-
-def ur_pose_from_input(values, deg: bool, name: str = "pose") -> np.ndarray:
-    """A UR pose vector typed by the user (rotation vector in degrees when `deg`) in metres and radians."""
-    if len(values) != 6:
-        raise ValueError(f"{name}: expected 6 numbers x y z rx ry rz, got {len(values)}")
-    pose = np.asarray(values, dtype=float)
-    if deg:
-        pose[3:] = np.radians(pose[3:])
-    return pose
 
 
 def pose_from_input(values, deg: bool) -> DualQuaternion:

@@ -1,8 +1,11 @@
 """Text for people: numbers in the units the user asked for, and the rich tables the commands print (pure)."""
 from __future__ import annotations
 
+import contextlib
 import math
 
+from rich.console import Console
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 JOINT_LABELS = ("base", "shoulder", "elbow", "wrist 1", "wrist 2", "wrist 3")
@@ -35,6 +38,11 @@ def distance_text(metres: float, radians: float) -> str:
     return f"{metres * 1000:.3f} mm / {math.degrees(radians):.3f}°"
 
 
+def count_text(count: int, noun: str) -> str:
+    """`1 pose`, `2 poses`: a count with its noun in the right number (regular plurals only)."""
+    return f"{count} {noun}" + ("" if count == 1 else "s")
+
+
 def unit_label(deg: bool) -> str:
     """The angle unit shown in column headers."""
     return "deg" if deg else "rad"
@@ -62,3 +70,56 @@ def joint_solutions_table(title: str, solutions, deg: bool, extra_columns=()) ->
         cells = [angle_text(float(v), deg) for v in q] + [values[index] for _, values in extra_columns]
         table.add_row(str(index + 1), *cells)
     return table
+
+
+def pose_rows(model, pose, deg: bool) -> list[tuple[str, str]]:
+    """What record-pose shows about a reading: joints, TCP pose, dual quaternion, and `model`'s FK check."""
+    metres, radians = model.fk(pose.joints).distance(pose.dq)
+    return [
+        ("joints", angles_text(pose.joints, deg)),
+        ("TCP pose", pose_vector_text(pose.ur_pose, deg)),
+        ("dual quaternion", coefficients_text(pose.dual_quaternion)),
+        ("thesis line", pose.dq.to_thesis_line()),
+        ("TCP offset", pose_vector_text(pose.tcp_offset, deg)),
+        ("model FK check", f"{distance_text(metres, radians)} from the controller's TCP"),
+    ]
+
+
+def plan_table(steps, deg: bool, title: str) -> Table:
+    """The replay plan (ur3dq.replay.PlanStep list): chosen joints, how they were chosen, travel, time, FK residual."""
+    table = Table(title=title, title_justify="left")
+    for header in ("#", "pose", "joints", "chosen by", "travel", "time", "FK check"):
+        table.add_column(header, overflow="fold", no_wrap=header == "joints")
+    for index, step in enumerate(steps, start=1):
+        travel = "—" if step.travel is None else angle_text(step.travel, deg)
+        seconds = "—" if step.duration is None else f"{step.duration:.2f} s"
+        source = step.source + (f" (of {step.solutions})" if step.solutions else "")
+        table.add_row(str(index), step.pose.name, angles_text(step.joints, deg), source, travel, seconds,
+                      distance_text(step.fk_error_m, step.fk_error_rad))
+    return table
+
+
+def reached_table(results, title: str) -> Table:
+    """Where each replayed pose ended (ur3dq.replay.Reached list) vs where it was recorded."""
+    table = Table(title=title, title_justify="left")
+    for header in ("#", "pose", "recorded TCP (x, y, z m)", "error", "move time"):
+        table.add_column(header)
+    for index, result in enumerate(results, start=1):
+        x, y, z = result.step.pose.ur_pose[:3]
+        table.add_row(str(index), result.step.pose.name, f"{x:.4f}, {y:.4f}, {z:.4f}",
+                      distance_text(result.error_m, result.error_rad), f"{result.seconds:.2f} s")
+    return table
+
+
+@contextlib.contextmanager
+def progress_bar(console: Console):
+    """A rich progress bar on `console`; yields the callback ur3dq.replay.execute_plan reports to."""
+    columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
+               TimeElapsedColumn())
+    with Progress(*columns, console=console, transient=False) as progress:
+        task = progress.add_task("moving", total=None)
+
+        def report(description: str, done: int, total: int) -> None:
+            progress.update(task, description=description, completed=done, total=total)
+
+        yield report
