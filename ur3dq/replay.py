@@ -60,6 +60,8 @@ class Reached:
     error_m: float
     error_rad: float
     seconds: float
+    target: DualQuaternion  # where the replay aimed the controller's current TCP
+    target_off_m: float     # how far that target is from the recorded TCP pose (0 unless the TCP changed)
 
 
 def tcp_pose_for(pose: Pose, tcp_now: DualQuaternion) -> DualQuaternion:
@@ -180,6 +182,11 @@ def read_pose(robot, name: str, note: str = "") -> Pose:
         robot_serial=robot.serial_number, tcp_offset=robot.model.tcp.to_ur_pose(), note=note)
 
 
+def _reached(robot, step: PlanStep, target: DualQuaternion, seconds: float) -> Reached:
+    """Where `robot` ended after the move of `step` aimed at `target`."""
+    return Reached(step, *robot.tcp_pose().distance(target), seconds, target, target.distance(step.pose.dq)[0])
+
+
 def _no_progress(description: str, done: int, total: int) -> None:
     """The default progress callback: report nothing."""
 
@@ -201,12 +208,12 @@ def execute_plan(robot, steps: Sequence[PlanStep], a: float, v: float, blend: fl
             seconds = robot.movej_path([s.joints for s in steps] * loops, blend=blend, a=a, v=v,
                                        expected_poses=expected * loops)
             progress("done", total, total)
-            return [Reached(steps[-1], *robot.tcp_pose().distance(expected[-1]), seconds)]
+            return [_reached(robot, steps[-1], expected[-1], seconds)]
         for loop in range(loops):
             for index, (step, pose) in enumerate(zip(steps, expected)):
                 progress(f"pass {loop + 1}/{loops}: {step.pose.name}", loop * len(steps) + index, total)
                 seconds = robot.movej(step.joints, a=a, v=v, expected_pose=pose)
-                results.append(Reached(step, *robot.tcp_pose().distance(pose), seconds))
+                results.append(_reached(robot, step, pose, seconds))
         progress("done", total, total)
     except KeyboardInterrupt:
         robot.stop()  # the driver already stops a motion it was watching; this covers a Ctrl-C between moves

@@ -7,7 +7,7 @@ import sys
 import click
 from rich.console import Console
 
-from ur3dq.cli.app import Settings, cli, confirm, emit_json, robot_session
+from ur3dq.cli.app import Settings, cli, confirm, emit_json, one_line, robot_session
 from ur3dq.cli.background_simulator import running_simulator_host
 from ur3dq.cli.display import (
     angles_text, count_text, key_value_table, plan_table, pose_rows, pose_vector_text, progress_bar, reached_table,
@@ -15,10 +15,12 @@ from ur3dq.cli.display import (
 from ur3dq.cli.options import (
     DEFAULT_ACCELERATION, DEFAULT_SPEED, angular_option, display_options, motion_options, speed_and_acceleration,
 )
-from ur3dq.errors import SafetyCheckError, StoreError
+from ur3dq.errors import RobotError, SafetyCheckError, StoreError
 from ur3dq.kinematics import robot_model
 from ur3dq.pose import next_free_name
-from ur3dq.replay import execute_plan, loop_closing_travel, plan_replay, read_pose
+from ur3dq.replay import (
+    TCP_CURRENT, TCP_RECORDED, execute_plan, loop_closing_travel, plan_replay, read_pose, retarget_to_tcp, tcp_changed,
+)
 from ur3dq.robot.safety import DEFAULT_MAX_JOINT_TRAVEL
 
 
@@ -109,7 +111,8 @@ def record_pose(settings: Settings, name, note, yes, teach):
 
 def _teach(settings: Settings, robot, prefix: str, note: str) -> None:
     """Freedrive on; every line on stdin records a pose (named by the line, else prefix-N) until `q` or end of
-    input; freedrive goes off again whatever happens."""
+    input; `f` switches freedrive on again after another program ended it. Freedrive goes off again at the end
+    (unless another program already ended it: switching it off would replace that program)."""
     err = Console(stderr=True, highlight=False)
     robot.teach_mode(True)
     recorded = []
@@ -120,6 +123,14 @@ def _teach(settings: Settings, robot, prefix: str, note: str) -> None:
             text = line.strip()
             if text.lower() == "q":
                 break
+            if text.lower() == "f":
+                robot.teach_mode(True)
+                err.print("Freedrive is on again.")
+                continue
+            if not robot.freedrive_active():
+                err.print("not recorded: freedrive was switched off by another program sent to the controller; "
+                          "f then Enter switches it on again, q ends")
+                continue
             taken = [pose.name for pose in settings.store.load()]
             try:
                 pose = read_pose(robot, text or next_free_name(prefix, taken), note)
@@ -127,10 +138,14 @@ def _teach(settings: Settings, robot, prefix: str, note: str) -> None:
             except (StoreError, ValueError) as error:  # a taken or bad name: say so and keep teaching
                 err.print(f"not recorded: {error}")
                 continue
+            except RobotError as error:  # e.g. a dropped stream: ur3dq's own message, and the session goes on
+                err.print(f"not recorded: {one_line(error)}; Enter tries again, q ends")
+                continue
             recorded.append(stored.name)
             err.print(f"recorded {stored.name!r}: {pose_vector_text(stored.ur_pose, settings.deg)}")
     finally:
-        robot.teach_mode(False)
+        if robot.freedrive_active():
+            robot.teach_mode(False)
     if settings.json:
         emit_json({"recorded": recorded, "store": str(settings.store_path)})
     else:
@@ -149,10 +164,13 @@ def _teach(settings: Settings, robot, prefix: str, note: str) -> None:
               help="Run the sequence this many times.")
 @click.option("--joints", "replay_joints", is_flag=True,
               help="Replay the recorded joint angles directly instead of solving IK.")
+@click.option("--tcp", "tcp_choice", type=click.Choice([TCP_RECORDED, TCP_CURRENT]),
+              help="When the controller's TCP offset changed since a pose was recorded (required then): "
+                   "`recorded` puts the flange where it was, `current` puts the current TCP on the recorded pose.")
 @display_options
 @click.pass_obj
 def run_poses(settings: Settings, names, dry_run, yes, speed, acceleration, blend, loops, replay_joints,
-              max_travel):
+              max_travel, tcp_choice):
     """Replay stored poses (all, or NAMES in that order) with movej.
 
     For each pose: IK of its dual quaternion (every solution FK-checked), the solution nearest the recorded
@@ -186,6 +204,7 @@ def run_poses(settings: Settings, names, dry_run, yes, speed, acceleration, blen
         return
     with robot_session(settings, max_joint_travel=max_travel) as robot:
         a, v = speed_and_acceleration(robot.model, speed, acceleration, err)
+        poses = _for_the_current_tcp(poses, robot.model.tcp, tcp_choice, replay_joints, err)
         steps = plan_replay(robot.model, poses, robot.joints(), a, v, replay_joints, max_travel)
         if loops > 1 and loop_closing_travel(steps) > max_travel:
             raise SafetyCheckError(f"--loop: going back from {steps[-1].pose.name!r} to {steps[0].pose.name!r} "
@@ -200,10 +219,31 @@ def run_poses(settings: Settings, names, dry_run, yes, speed, acceleration, blen
             results = execute_plan(robot, steps, a, v, blend, loops, progress)
     if settings.json:
         emit_json({"plan": plan_to_json(steps), "reached": [
-            {"pose": r.step.pose.name, "error_m": r.error_m, "error_rad": r.error_rad, "seconds": r.seconds}
+            {"pose": r.step.pose.name, "error_m": r.error_m, "error_rad": r.error_rad, "seconds": r.seconds,
+             "target_ur_pose": r.target.to_ur_pose().tolist(), "target_from_recorded_m": r.target_off_m}
             for r in results]})
     else:
-        settings.out.print(reached_table(results, "Where the arm ended (reported TCP vs recorded pose)"))
+        settings.out.print(reached_table(results, "Where the arm ended (reported TCP vs where it was aimed)"))
+
+
+def _for_the_current_tcp(poses, tcp_now, choice, replay_joints: bool, err: Console):
+    """The poses to plan, given the controller's TCP `tcp_now`: unchanged when every pose was recorded with it;
+    otherwise a warning before anything moves, and the user's --tcp choice (SafetyCheckError without one)."""
+    changed = [pose.name for pose in poses if tcp_changed(pose, tcp_now)]
+    if not changed:
+        return poses
+    current = ", ".join(f"{value:.4f}" for value in tcp_now.to_ur_pose())
+    err.print(f"Warning: the controller's TCP offset (p[{current}]) differs from the one {', '.join(changed)} "
+              "was recorded with.")
+    if choice is None:
+        raise SafetyCheckError(f"the TCP offset changed since {', '.join(changed)} was recorded: choose --tcp "
+                               "recorded (the flange goes where it was) or --tcp current (the current TCP goes on "
+                               "the recorded pose)")
+    if choice == TCP_CURRENT:
+        if replay_joints:
+            raise SafetyCheckError("--tcp current needs IK for the new TCP: drop --joints")
+        return [retarget_to_tcp(pose, tcp_now) for pose in poses]
+    return poses
 
 
 def _show_plan(settings: Settings, steps, loops: int, title: str) -> None:

@@ -100,14 +100,16 @@ def plan_table(steps, deg: bool, title: str) -> Table:
 
 
 def reached_table(results, title: str) -> Table:
-    """Where each replayed pose ended (ur3dq.replay.Reached list) vs where it was recorded."""
+    """Where each replayed pose ended (ur3dq.replay.Reached list) vs where the replay aimed the current TCP: the
+    recorded TCP pose, or — replaying the flange of a pose recorded with another TCP — a point that far from it."""
     table = Table(title=title, title_justify="left")
-    for header in ("#", "pose", "recorded TCP (x, y, z m)", "error", "move time"):
+    for header in ("#", "pose", "aimed at", "error", "move time"):
         table.add_column(header)
     for index, result in enumerate(results, start=1):
-        x, y, z = result.step.pose.ur_pose[:3]
-        table.add_row(str(index), result.step.pose.name, f"{x:.4f}, {y:.4f}, {z:.4f}",
-                      distance_text(result.error_m, result.error_rad), f"{result.seconds:.2f} s")
+        aimed = "recorded TCP pose" if result.target_off_m < 1e-4 else \
+            f"recorded flange: {result.target_off_m * 1000:.1f} mm from the recorded TCP"
+        table.add_row(str(index), result.step.pose.name, aimed, distance_text(result.error_m, result.error_rad),
+                      f"{result.seconds:.2f} s")
     return table
 
 

@@ -425,6 +425,17 @@ class Robot:
         if not self._primary.wait_for(lambda c: c.robot_mode.control_mode == wanted, timeout=2.0):
             raise ProgramError(f"the controller did not switch freedrive {'on' if on else 'off'} within 2 s")
 
+    def freedrive_active(self) -> bool:
+        """True while the controller is in freedrive (primary controlMode TEACH): another program sent to the
+        controller ends ur3dq's freedrive program, so a teach session checks this before each recording."""
+        self._ensure_streams()
+        asked = time.monotonic()  # a state message sent after the question, not one from before a change
+        if not self._primary.wait_for(lambda c: c.last_state_time is not None and c.last_state_time > asked,
+                                      timeout=self._backend.freeze_timeout):
+            raise ConnectionLostError(f"the primary interface of {self.host} sent no robot state for "
+                                      f"{self._backend.freeze_timeout} s")
+        return self._primary.robot_mode.control_mode == 1
+
     def _wait_for_mode(self, modes, action):
         """Wait until the robot mode is one of `modes`; RobotError naming `action` after MODE_CHANGE_TIMEOUT."""
         deadline = time.monotonic() + MODE_CHANGE_TIMEOUT
