@@ -93,7 +93,7 @@ def _closest_variant(angle: float, reference: float, lower: float, upper: float)
     return end if lower <= end <= upper else math.inf
 
 
-def _nearest_variant(model, solutions, reference: np.ndarray) -> np.ndarray:
+def nearest_variant(model, solutions, reference: np.ndarray) -> np.ndarray:
     """Among `solutions` (FK-verified, canonical) and their ±2π variants inside the limits, the one nearest
     `reference` (Σ Δq², per joint since the cost and the limits are per joint); UnreachablePoseError if none fits."""
     best, best_cost = None, math.inf
@@ -137,7 +137,7 @@ def choose_joints(model, pose: Pose, previous, replay_recorded_joints: bool) -> 
         solutions = solver.ik_all(pose.dq, q_ref=reference)  # the one IK solve of this pose
         if not solutions:
             raise UnreachablePoseError("no solution passed the FK check")
-        q = _nearest_variant(solver, solutions, reference)
+        q = nearest_variant(solver, solutions, reference)
     except UnreachablePoseError as error:
         raise UnreachablePoseError(f"pose {pose.name!r} is unreachable on the {model.name}: {error}") from None
     return q, source, len(solutions)

@@ -9,7 +9,8 @@ from rich.console import Console
 from ur3dq.cli.app import Settings, cli, confirm
 from ur3dq.cli.display import count_text
 from ur3dq.cli.options import (
-    DEFAULT_ACCELERATION, DEFAULT_SPEED, angular_option, deg_option, motion_options, speed_and_acceleration,
+    DEFAULT_ACCELERATION, DEFAULT_SPEED, angular_option, check_blend, check_max_travel, deg_option, motion_options,
+    speed_and_acceleration,
 )
 from ur3dq.errors import StoreError
 from ur3dq.pose import utc_now_iso
@@ -62,11 +63,11 @@ def export_urscript(settings: Settings, names, output: Path, speed, acceleration
       ur3dq export-urscript -o cell.script
       ur3dq export-urscript pick place --speed 0.5 --blend 0.01 --loop 10 -o cell.script
     """
-    if blend < 0:
-        raise ValueError(f"--blend must be a radius ≥ 0 in metres, got {blend!r}")
+    check_blend(blend)
     model, steps, a, v = offline_plan(settings, names, angular_option(speed, DEFAULT_SPEED, settings.deg),
                                       angular_option(acceleration, DEFAULT_ACCELERATION, settings.deg),
-                                      replay_joints, angular_option(max_travel, DEFAULT_MAX_JOINT_TRAVEL, settings.deg))
+                                      replay_joints, check_max_travel(angular_option(max_travel, DEFAULT_MAX_JOINT_TRAVEL,
+                                                                                     settings.deg)))
     offsets = {step.pose.tcp_offset for step in steps}
     header = [
         f"ur3dq export-urscript: {count_text(len(steps), 'pose')} from {settings.store_path} for a {model.name}",

@@ -13,7 +13,8 @@ from ur3dq.cli.display import (
     angles_text, count_text, key_value_table, plan_table, pose_rows, pose_vector_text, progress_bar, reached_table,
 )
 from ur3dq.cli.options import (
-    DEFAULT_ACCELERATION, DEFAULT_SPEED, angular_option, display_options, motion_options, speed_and_acceleration,
+    DEFAULT_ACCELERATION, DEFAULT_SPEED, angular_option, check_blend, check_max_travel, display_options, motion_options,
+    speed_and_acceleration,
 )
 from ur3dq.errors import RobotError, SafetyCheckError, StoreError
 from ur3dq.kinematics import robot_model
@@ -188,12 +189,11 @@ def run_poses(settings: Settings, names, dry_run, yes, speed, acceleration, blen
     err = Console(stderr=True, highlight=False)
     speed = angular_option(speed, DEFAULT_SPEED, settings.deg)
     acceleration = angular_option(acceleration, DEFAULT_ACCELERATION, settings.deg)
-    max_travel = angular_option(max_travel, DEFAULT_MAX_JOINT_TRAVEL, settings.deg)
+    max_travel = check_max_travel(angular_option(max_travel, DEFAULT_MAX_JOINT_TRAVEL, settings.deg))
     poses = settings.store.select(names)
     if not poses:
         raise StoreError(f"{settings.store_path} has no poses: record some with `ur3dq record-pose`")
-    if not (math.isfinite(blend) and blend >= 0):
-        raise ValueError(f"--blend must be a radius ≥ 0 in metres, got {blend!r}")
+    check_blend(blend)
     if dry_run and not (settings.host or running_simulator_host()):
         model = robot_model(settings.model or poses[0].robot_model)
         a, v = speed_and_acceleration(model, speed, acceleration, err)

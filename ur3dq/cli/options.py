@@ -9,6 +9,9 @@ from rich.console import Console
 
 from ur3dq.cli.app import Settings
 
+MIN_SPEED = 1e-3           # rad/s: slower than this a move of one degree takes over 17 s; a typo, not a wish
+MIN_ACCELERATION = 1e-3    # rad/s²
+MAX_BLEND_RADIUS = 2.0     # metres, the driver's bound (ur3dq.robot.robot.MAX_BLEND_RADIUS)
 DEFAULT_SPEED = 1.05         # rad/s, URScript's movej default
 DEFAULT_ACCELERATION = 1.4   # rad/s²
 # Negative numbers such as -90 are values here, not options.
@@ -68,20 +71,37 @@ def motion_options(command):
     )(command)
 
 
-def clamp_to_model(value: float, limits, name: str) -> tuple[float, bool]:
-    """(value, clamped?) with `value` lowered to the slowest joint's limit; ValueError unless finite and > 0."""
-    if not (math.isfinite(value) and value > 0):
-        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+def clamp_to_model(value: float, limits, name: str, minimum: float = 0.0) -> tuple[float, bool]:
+    """(value, clamped?) with `value` lowered to the slowest joint's limit; ValueError naming the valid range
+    unless finite and ≥ `minimum` (> 0 when `minimum` is 0)."""
     limit = float(np.min(limits))
+    if not (math.isfinite(value) and value > 0 and value >= minimum):
+        raise ValueError(f"{name} must be a number in [{minimum:g}, {limit:g}] (larger values are lowered to "
+                         f"{limit:g}), got {value!r}")
     return (limit, True) if value > limit else (value, False)
 
 
 def speed_and_acceleration(model, speed: float, acceleration: float, err: Console) -> tuple[float, float]:
     """(a, v): --acceleration and --speed clamped to the model's slowest joint, saying so when they are lowered."""
-    v, v_clamped = clamp_to_model(speed, model.max_joint_speed, "--speed")
-    a, a_clamped = clamp_to_model(acceleration, model.max_joint_acceleration, "--acceleration")
+    v, v_clamped = clamp_to_model(speed, model.max_joint_speed, "--speed (rad/s)", MIN_SPEED)
+    a, a_clamped = clamp_to_model(acceleration, model.max_joint_acceleration, "--acceleration (rad/s²)",
+                                  MIN_ACCELERATION)
     if v_clamped:
         err.print(f"--speed {speed} rad/s exceeds the {model.name}'s limit: using {v:.4f} rad/s")
     if a_clamped:
         err.print(f"--acceleration {acceleration} rad/s² exceeds the {model.name}'s limit: using {a:.4f} rad/s²")
     return a, v
+
+
+def check_max_travel(max_travel: float) -> float:
+    """--max-travel in radians if it is in (0, 2π]; ValueError naming the range (NaN would switch the check off)."""
+    if not (math.isfinite(max_travel) and 0 < max_travel <= 2 * math.pi):
+        raise ValueError(f"--max-travel must be an angle in (0, 2π] rad (0-360° with --deg), got {max_travel!r}")
+    return max_travel
+
+
+def check_blend(blend: float) -> float:
+    """--blend in metres if it is in [0, MAX_BLEND_RADIUS]; ValueError naming the range."""
+    if not (math.isfinite(blend) and 0 <= blend <= MAX_BLEND_RADIUS):
+        raise ValueError(f"--blend must be a radius in [0, {MAX_BLEND_RADIUS:g}] metres, got {blend!r}")
+    return blend
