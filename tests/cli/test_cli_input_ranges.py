@@ -60,3 +60,13 @@ def test_ik_near_marks_the_row_that_would_be_sent_with_its_travel(run_in_process
     travel = float(cells[8])
     assert travel == pytest.approx(np.max(np.abs(chosen - near)), abs=1e-4)
     assert chosen[5] > math.pi  # the row shown is the +2π variant
+
+
+def test_global_options_after_the_command_name(run_in_process, two_poses, tmp_path):
+    result = run_in_process("fk", "0", "-90", "0", "-90", "0", "0", "--deg", "--model", "ur5e", "--json")
+    assert result.returncode == 0, result.stderr
+    import json
+
+    assert json.loads(result.stdout)["model"] == "ur5e"
+    result = run_in_process("poses", "list", "--store", str(tmp_path / "other.json"))
+    assert result.returncode == 0 and "has no poses yet" in result.stdout

@@ -86,7 +86,9 @@ class Settings:
 
 def make_console() -> Console:
     """A console for stdout: the terminal's width, or a wide fixed width when piped so tables stay whole."""
-    return Console(width=None if sys.stdout.isatty() else 160, highlight=False, soft_wrap=False)
+    # COLUMNS set (as a terminal or `COLUMNS=80 ur3dq ...` does) is the width to fit, piped or not
+    fixed = None if sys.stdout.isatty() or os.environ.get("COLUMNS", "").isdigit() else 160
+    return Console(width=fixed, highlight=False, soft_wrap=False)
 
 
 def emit_json(data) -> None:

@@ -9,7 +9,7 @@ from rich.console import Console
 from ur3dq.cli.app import Settings, cli, confirm
 from ur3dq.cli.display import count_text
 from ur3dq.cli.options import (
-    DEFAULT_ACCELERATION, DEFAULT_SPEED, angular_option, check_blend, check_max_travel, deg_option, motion_options,
+    DEFAULT_ACCELERATION, DEFAULT_SPEED, angular_option, check_blend, check_max_travel, deg_option, global_options, motion_options,
     speed_and_acceleration,
 )
 from ur3dq.errors import StoreError
@@ -90,6 +90,7 @@ def export_urscript(settings: Settings, names, output: Path, speed, acceleration
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), default=Path("poses.png"),
               show_default=True, help="The PNG to write.")
 @click.option("--yes", "-y", is_flag=True, help="Overwrite the output file without asking.")
+@global_options
 @click.pass_obj
 def plot(settings: Settings, names, output: Path, yes):
     """A PNG of the recorded TCP path and the arm at each pose (all, or NAMES in order), on the nominal model.

@@ -249,6 +249,8 @@ def _for_the_current_tcp(poses, tcp_now, choice, replay_joints: bool, err: Conso
 def _show_plan(settings: Settings, steps, loops: int, title: str) -> None:
     """Print the plan table (to stderr with --json, so stdout carries exactly one JSON document)."""
     if settings.json:
-        Console(stderr=True, highlight=False).print(plan_table(steps, settings.deg, title))
+        err = Console(stderr=True, highlight=False)
+        err.print(plan_table(steps, settings.deg, title, err.width))
         return
-    settings.out.print(plan_table(steps, settings.deg, title + (f", × {loops}" if loops > 1 else "")))
+    settings.out.print(plan_table(steps, settings.deg, title + (f", × {loops}" if loops > 1 else ""),
+                                  settings.out.width))

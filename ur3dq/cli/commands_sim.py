@@ -158,7 +158,7 @@ def demo(settings: Settings, save, speed, acceleration, tolerance_mm, tolerance_
             robot.movej(np.array(DEMO_PARK), a=a, v=v)
             say("[bold]4.[/bold] Replaying the store as run-poses does (IK of each dual quaternion, FK-checked)")
             steps = plan_replay(robot.model, store.select(recorded), robot.joints(), a, v)
-            say(plan_table(steps, settings.deg, "Plan"))
+            say(plan_table(steps, settings.deg, "Plan", settings.out.width))
             with progress_bar(Console(stderr=True)) as progress:
                 results = execute_plan(robot, steps, a, v, 0.0, 1, progress)
     missed = [r for r in results

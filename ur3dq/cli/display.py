@@ -85,16 +85,36 @@ def pose_rows(model, pose, deg: bool) -> list[tuple[str, str]]:
     ]
 
 
-def plan_table(steps, deg: bool, title: str) -> Table:
-    """The replay plan (ur3dq.replay.PlanStep list): chosen joints, how they were chosen, travel, time, FK residual."""
+NARROW_WIDTH = 120  # below this many columns the tables use compact numbers that wrap between values
+
+
+def compact_angles_text(values, deg: bool) -> str:
+    """Joint angles on a narrow terminal: space-separated (so they wrap between values), 3 decimals (1 in °)."""
+    return " ".join(f"{math.degrees(float(v)):.1f}°" if deg else f"{float(v):.3f}" for v in values)
+
+
+def compact_pose_text(pose, deg: bool) -> str:
+    """A UR pose vector on a narrow terminal: metres with 3 decimals, then the rotation as compact_angles_text."""
+    return " ".join(f"{float(v):.3f}" for v in pose[:3]) + " " + compact_angles_text(pose[3:], deg)
+
+
+def plan_table(steps, deg: bool, title: str, width: int | None = None) -> Table:
+    """The replay plan (ur3dq.replay.PlanStep list): chosen joints, how they were chosen, travel, time, FK residual.
+    Narrower than NARROW_WIDTH columns, the numbers are compact and wrap; the pose name is never cut."""
+    narrow = width is not None and width < NARROW_WIDTH
     table = Table(title=title, title_justify="left")
     for header in ("#", "pose", "joints", "chosen by", "travel", "time", "FK check"):
-        table.add_column(header, overflow="fold", no_wrap=header == "joints")
+        table.add_column(header, overflow="fold", no_wrap=header in ("pose", "#") or (header == "joints"
+                                                                                         and not narrow))
     for index, step in enumerate(steps, start=1):
         travel = "—" if step.travel is None else angle_text(step.travel, deg)
         seconds = "—" if step.duration is None else f"{step.duration:.2f} s"
         source = step.source + (f" (of {step.solutions})" if step.solutions else "")
-        table.add_row(str(index), step.pose.name, angles_text(step.joints, deg), source, travel, seconds,
+        joints = compact_angles_text(step.joints, deg) if narrow else angles_text(step.joints, deg)
+        if narrow:
+            travel = "—" if step.travel is None else (f"{math.degrees(step.travel):.1f}°" if deg
+                                                      else f"{step.travel:.3f}")
+        table.add_row(str(index), step.pose.name, joints, source, travel, seconds,
                       distance_text(step.fk_error_m, step.fk_error_rad))
     return table
 

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import click
 import numpy as np
@@ -24,10 +25,35 @@ def _set_flag(ctx, param, value):
         setattr(ctx.find_object(Settings), param.name, True)
 
 
+def _set_value(ctx, param, value):
+    """Callback of a per-command --host/--model/--backend/--store: given after the command, it counts like a
+    global one (and wins over it, as the later word on the line)."""
+    if value is not None:
+        if param.name == "model":
+            value = value.lower()
+        setattr(ctx.find_object(Settings), param.name, value)
+
+
+def global_options(command):
+    """Accept --host, --model, --backend and --store after the command name too (`ur3dq sim start --model ur5e`)."""
+    from ur3dq.kinematics import MODEL_NAMES
+
+    for flag, name, kind, text in (
+            ("--store", "store_path", click.Path(dir_okay=False, path_type=Path), "The JSON pose store."),
+            ("--backend", "backend", click.Choice(["rtde", "urx"]), "Client library for state and programs."),
+            ("--model", "model", click.Choice(MODEL_NAMES, case_sensitive=False), "Robot model."),
+            ("--host", "host", str, "The robot or URSim to talk to.")):
+        command = click.option(flag, name, type=kind, default=None, expose_value=False, callback=_set_value,
+                               help=f"{text} (as before the command)")(command)
+    return command
+
+
 def deg_option(command):
-    """Add --deg to a command too, so `ur3dq fk ... --deg` works as well as `ur3dq --deg fk ...`."""
-    return click.option("--deg", "deg", is_flag=True, expose_value=False, callback=_set_flag,
-                        help="Angles in degrees (input and display).")(command)
+    """Add --deg to a command too, so `ur3dq fk ... --deg` works as well as `ur3dq --deg fk ...` (and the global
+    options, see global_options)."""
+    command = click.option("--deg", "deg", is_flag=True, expose_value=False, callback=_set_flag,
+                           help="Angles in degrees (input and display).")(command)
+    return global_options(command)
 
 
 def display_options(command):
