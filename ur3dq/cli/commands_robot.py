@@ -81,7 +81,8 @@ def record_pose(settings: Settings, name, note, yes, teach):
     """Record the arm's current pose: shows joints, TCP pose and dual quaternion, asks "Record this pose?".
 
     Each pose keeps its name, time, model, joints, dual quaternion, UR pose vector and TCP offset. Two
-    record-pose at once both keep their poses; a taken --name is refused (the store stays unchanged).
+    record-pose at once both keep their poses; a taken --name is refused (the store stays unchanged). To
+    re-teach a pose: `ur3dq poses rm NAME`, then record it again (it then moves to the end of the replay order).
 
     \b
     Examples:
