@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from ur3dq.cli.plan import (
+from ur3dq.replay import (
     SOURCE_IK_PREVIOUS, SOURCE_IK_RECORDED, SOURCE_IK_ZERO, SOURCE_RECORDED, choose_joints, loop_closing_travel,
     plan_replay, tcp_pose_for,
 )

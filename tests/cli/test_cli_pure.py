@@ -8,9 +8,9 @@ import pytest
 
 from ur3dq.cli import display
 from ur3dq.cli.app import Cancelled, exit_code_for, one_line, quiet_client_libraries
-from ur3dq.cli.commands_robot import angular_option, clamp_to_model
-from ur3dq.cli.plan import plan_replay
-from ur3dq.cli.simstate import process_is_simulator, read_state, state_directory
+from ur3dq.cli.options import angular_option, clamp_to_model
+from ur3dq.replay import plan_replay
+from ur3dq.cli.background_simulator import process_is_simulator, read_state, state_directory
 from ur3dq.errors import (
     ConnectionLostError, JointLimitError, ProtectiveStopError, RobotConnectionError, SafetyCheckError, StoreError,
     UnreachablePoseError,
@@ -61,7 +61,7 @@ def test_clamp_to_model():
     assert clamp_to_model(0.5, UR3.max_joint_speed, "--speed") == (0.5, False)
     assert clamp_to_model(10.0, UR3.max_joint_speed, "--speed") == (pytest.approx(math.pi), True)
     for bad in (0.0, -1.0, math.nan, math.inf):
-        with pytest.raises(ValueError, match="--speed must be a finite number > 0"):
+        with pytest.raises(ValueError, match=r"--speed must be a number in \[0, "):
             clamp_to_model(bad, UR3.max_joint_speed, "--speed")
 
 
@@ -128,3 +128,9 @@ def test_a_stale_state_file_is_no_simulator(tmp_path):
     (tmp_path / "sim.json").write_text("not json")
     assert read_state(tmp_path) is None
     assert read_state(tmp_path / "missing") is None
+
+
+def test_counts_take_the_right_number():
+    assert display.count_text(1, "pose") == "1 pose"   # "Recorded 1 poses" (issue 14 item 12)
+    assert display.count_text(0, "pose") == "0 poses"
+    assert display.count_text(2, "pose") == "2 poses"

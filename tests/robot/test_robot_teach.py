@@ -1,12 +1,11 @@
 """Hand-guided recording through teach mode, and an e-series controller, on sim_ursim."""
-import time
-
 import numpy as np
 import pytest
 
 import ur3dq.robot
 from ur3dq.errors import RobotError
 
+from polling import wait_for
 from robot_target import simulator_only
 from robot_test_support import HOME, inject, ready, simulator_with
 
@@ -19,10 +18,10 @@ def test_teach_mode_records_a_hand_guided_pose(arm_host, backend):
         guided = HOME + np.array([0.3, -0.2, 0.1, 0.0, 0.4, -0.5])
         robot.teach_mode(True)
         inject(arm_host, "move-by-hand", q=list(guided))
-        deadline = time.monotonic() + 1.0
-        while not np.allclose(robot.joints(), guided, atol=1e-9) and time.monotonic() < deadline:
-            time.sleep(0.01)  # the state streams show the hand-guided pose within a cycle (10 Hz for urx)
-        time.sleep(0.15)  # let the TCP of the same cycle arrive too (urx reads it from the next 10 Hz packet)
+        # the state streams show the hand-guided pose within a cycle (10 Hz for urx); its TCP may come a packet later
+        expected_tcp = robot.model.fk(guided)
+        assert wait_for(lambda: np.allclose(robot.joints(), guided, atol=1e-9)
+                        and robot.tcp_pose().distance(expected_tcp)[0] < 1e-6, timeout=2.0)
         recorded_joints, recorded_pose = robot.joints(), robot.tcp_pose()
         robot.teach_mode(False)
         assert np.allclose(recorded_joints, guided, atol=1e-9)

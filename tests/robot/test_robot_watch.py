@@ -20,7 +20,7 @@ def key(title, name="p"):
 
 
 def watch(running_at_send=False):
-    return _MotionWatch("p", TARGET, far_from_target=True, running_at_send=running_at_send)
+    return _MotionWatch("p", TARGET, running_at_send=running_at_send)
 
 
 def test_done_when_the_program_ended_and_the_arm_rests_on_target():
@@ -69,3 +69,22 @@ def test_a_runtime_exception_is_raised_after_the_settle_time():
     assert not outcome.finished(status(0.0, running=False), 0.0)
     with pytest.raises(ProgramError, match="line 2, column 3: compile_error"):
         outcome.finished(status(0.0, running=False), SETTLE_TIME + 0.01)
+
+
+def test_at_rest_on_target_after_the_start_message_is_not_the_end():
+    """Issue 14 item 1: a closed path [B, A] from A starts at its target; the started key message arrives before
+    the state shows the program running, so "at rest on target" then only means the arm has not left yet."""
+    outcome = watch()
+    outcome.note_message(key("PROGRAM_XXX_STARTED"))
+    assert not outcome.finished(status(0.5, running=False), 0.0)   # at the target, program not yet on the stream
+    assert not outcome.finished(status(0.3, running=True, moving=True), 0.5)
+    assert not outcome.finished(status(0.5, running=True), 1.0)
+    assert outcome.finished(status(0.5, running=False), 1.01)    # seen running, then not: it ended
+
+
+def test_at_rest_on_target_without_any_evidence_of_the_program_is_not_the_end():
+    outcome = watch()
+    for tick in range(20):
+        assert not outcome.finished(status(0.5, running=False), tick * SETTLE_TIME)
+    outcome.note_message(key("PROGRAM_XXX_STOPPED"))
+    assert outcome.finished(status(0.5, running=False), 30.0)

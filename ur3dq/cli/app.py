@@ -12,7 +12,7 @@ from pathlib import Path
 import click
 from rich.console import Console
 
-from ur3dq.cli.simstate import SimulatorError, running_simulator_host
+from ur3dq.cli.background_simulator import SimulatorError, running_simulator_host
 from ur3dq.errors import RobotConnectionError, RobotError, SafetyCheckError, StoreError, UR3DQError
 from ur3dq.kinematics import MODEL_NAMES
 from ur3dq.store import DEFAULT_STORE_PATH, PoseStore
@@ -59,7 +59,11 @@ NO_ROBOT_HINT = ("no robot configured: name one with --host ADDRESS (or export U
 
 
 class Cancelled(UR3DQError):
-    """The user answered no (or nothing) to a question."""
+    """The user answered no (or nothing) to a question; `deliberate` when the answer was no (not an error then)."""
+
+    def __init__(self, message: str, deliberate: bool = False):
+        super().__init__(message)
+        self.deliberate = deliberate
 
 
 @dataclasses.dataclass
@@ -82,26 +86,9 @@ class Settings:
 
 def make_console() -> Console:
     """A console for stdout: the terminal's width, or a wide fixed width when piped so tables stay whole."""
-    return Console(width=None if sys.stdout.isatty() else 160, highlight=False, soft_wrap=False)
-
-
-def _set_flag(ctx, param, value):
-    """Callback of the per-command --json/--deg: a flag given after the command counts like a global one."""
-    if value:
-        setattr(ctx.find_object(Settings), param.name, True)
-
-
-def deg_option(command):
-    """Add --deg to a command too, so `ur3dq fk ... --deg` works as well as `ur3dq --deg fk ...`."""
-    return click.option("--deg", "deg", is_flag=True, expose_value=False, callback=_set_flag,
-                        help="Angles in degrees (input and display).")(command)
-
-
-def display_options(command):
-    """Add --json and --deg to a command too (as well as before the command)."""
-    command = click.option("--json", "json", is_flag=True, expose_value=False, callback=_set_flag,
-                           help="Machine-readable JSON on stdout.")(command)
-    return deg_option(command)
+    # COLUMNS set (as a terminal or `COLUMNS=80 ur3dq ...` does) is the width to fit, piped or not
+    fixed = None if sys.stdout.isatty() or os.environ.get("COLUMNS", "").isdigit() else 160
+    return Console(width=fixed, highlight=False, soft_wrap=False)
 
 
 def emit_json(data) -> None:
@@ -109,8 +96,9 @@ def emit_json(data) -> None:
     click.echo(json.dumps(data, indent=2, ensure_ascii=False))
 
 
-def confirm(question: str, assume_yes: bool, default: bool = True) -> None:
-    """Ask `question` unless `assume_yes`; Cancelled if the answer is no or stdin has no answer."""
+def confirm(question: str, assume_yes: bool, default: bool = False) -> None:
+    """Ask `question` unless `assume_yes` (Enter alone means `default`, No unless told: every motion question
+    defaults to No); Cancelled if the answer is no or stdin has no answer."""
     if assume_yes:
         return
     try:
@@ -122,7 +110,7 @@ def confirm(question: str, assume_yes: bool, default: bool = True) -> None:
     if answer is None:
         raise Cancelled(f"no answer to {question!r}: pass --yes to answer yes in scripts")
     if not answer:
-        raise Cancelled(f"answered no to {question!r}; nothing done")
+        raise Cancelled(f"answered no to {question!r}: nothing done.", deliberate=True)
 
 
 @click.group(
@@ -208,6 +196,11 @@ def main(argv=None) -> None:
     except KeyboardInterrupt:
         click.echo("Error: interrupted", err=True)
         code = EXIT_INTERRUPTED
+    except Cancelled as cancelled:
+        # a deliberate "no" is the user's choice, not an error: said plainly; a missing answer stays an error
+        click.echo(str(cancelled)[0].upper() + str(cancelled)[1:] if cancelled.deliberate
+                   else f"Error: {one_line(cancelled)}", err=True)
+        code = EXIT_CANCELLED
     except (UR3DQError, ValueError, OSError) as error:
         click.echo(f"Error: {one_line(error)}", err=True)
         code = exit_code_for(error)

@@ -1,6 +1,6 @@
 """`ur3dq check`: the whole-path check of the stored poses (ur3dq.pathcheck) before anything moves.
 
-The adapter from today's replay plan (ur3dq.cli.plan) to the path check's input is `path_plan_from_replay`: one
+The adapter from today's replay plan (ur3dq.replay) to the path check's input is `path_plan_from_replay`: one
 segment per planned pose, the planned joints as targets, every move of the chosen type.
 """
 from __future__ import annotations
@@ -10,12 +10,16 @@ import sys
 from pathlib import Path
 
 import click
+from rich import box
 from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
 
-from ur3dq.cli.app import Settings, cli, display_options, emit_json, robot_session
-from ur3dq.cli.plan import plan_replay
-from ur3dq.cli.simstate import running_simulator_host
+from ur3dq.cli.app import Settings, cli, emit_json, robot_session
+from ur3dq.cli.display import NARROW_WIDTH
+from ur3dq.cli.options import display_options
+from ur3dq.replay import plan_replay
+from ur3dq.cli.background_simulator import running_simulator_host
 from ur3dq.errors import SafetyCheckError, StoreError
 from ur3dq.kinematics import robot_model
 from ur3dq.pathcheck import MOVE_TYPES, Margins, PathPlan, PathSegment, check_path, load_cell
@@ -24,14 +28,16 @@ DEFAULT_JOINT_SPEED = 1.05     # rad/s (movej's default)
 DEFAULT_LINEAR_SPEED = 0.25    # m/s (movel's default)
 DEFAULT_JOINT_ACCELERATION = 1.4
 DEFAULT_LINEAR_ACCELERATION = 1.2
-MARGIN_COLUMNS = (("wrist", "|sin θ5|", 1.0), ("elbow", "|sin θ3|", 1.0), ("shoulder", "shoulder mm", 1000.0),
-                  ("joint_limit", "limit °", math.degrees(1.0)), ("joint_speed", "speed room", 1.0),
-                  ("self_collision", "self mm", 1000.0), ("cell", "cell mm", 1000.0))
+# (margin key, header, scale, narrow header)
+MARGIN_COLUMNS = (("wrist", "|sin θ5|", 1.0, "wrist"), ("elbow", "|sin θ3|", 1.0, "elbow"),
+                  ("shoulder", "shoulder mm", 1000.0, "shldr mm"),
+                  ("joint_limit", "limit °", math.degrees(1.0), "limit °"), ("joint_speed", "speed room", 1.0, "speed"),
+                  ("self_collision", "self mm", 1000.0, "self mm"), ("cell", "cell mm", 1000.0, "cell mm"))
 
 
 def path_plan_from_replay(steps, start_joints, move: str, speed: float, acceleration: float,
                           blend: float) -> PathPlan:
-    """The PathPlan of replay `steps` (ur3dq.cli.plan.PlanStep) from `start_joints`; without a start (dry run, no
+    """The PathPlan of replay `steps` (ur3dq.replay.PlanStep) from `start_joints`; without a start (dry run, no
     robot) the plan starts at the first pose, whose configuration is then checked as a move of length 0."""
     start = steps[0].joints if start_joints is None else start_joints
     return PathPlan(start, [PathSegment(step.pose.name, move, target_joints=step.joints, speed=speed,
@@ -58,8 +64,9 @@ def require_clear_path(settings: Settings, model, steps, start_joints, blend: fl
     result, _ = check_replay(model, steps, cell_path, start_joints, blend, loops)
     console = Console(stderr=True, highlight=False, width=None if sys.stderr.isatty() else 160) \
         if settings.json else settings.out
-    console.print(margins_table(result, "Path check: smallest margins per move" +
-                                (f" (cell {cell_path})" if cell_path else "")))
+    table = margins_table(result, "Path check: smallest margins per move", console.width)
+    table.caption = f"cell: {escape(str(cell_path))}" if cell_path else None   # a long path wraps here, not the title
+    console.print(table)
     if not result.ok:
         raise SafetyCheckError(f"path check: {result.summary()}")
 
@@ -71,19 +78,25 @@ def cell_option(command):
                              "See docs/cell-file.md.")(command)
 
 
-def margins_table(result, title: str) -> Table:
+def margins_table(result, title: str, width: int | None = None) -> Table:
     """Each checked move's smallest margins: how far the worst sample is above the check's limit (negative = failed;
-    speed room = the part of the joints' maximum speed left)."""
-    table = Table(title=title)
-    for header in ("step", "move", "samples", *(column[1] for column in MARGIN_COLUMNS)):
-        table.add_column(header, justify="left" if header in ("step", "move") else "right", no_wrap=header == "step")
+    speed room = the part of the joints' maximum speed left). Narrower than NARROW_WIDTH columns the headers are
+    short, the sample count is dropped and no vertical rules are drawn (80 columns hold it); the step name is never
+    cut."""
+    narrow = width is not None and width < NARROW_WIDTH
+    table = Table(title=title, title_justify="left", box=box.SIMPLE_HEAD if narrow else box.HEAVY_HEAD,
+                  pad_edge=not narrow, collapse_padding=narrow)
+    headers = [column[3] if narrow else column[1] for column in MARGIN_COLUMNS]
+    for header in ("step", "move", *(() if narrow else ("samples",)), *headers):
+        table.add_column(header, justify="left" if header in ("step", "move") else "right",
+                         no_wrap=header == "step", overflow="fold")
     for step in result.steps:
         cells = []
-        for key, _, scale in MARGIN_COLUMNS:
+        for key, _, scale, _ in MARGIN_COLUMNS:
             value = step.margins.get(key)
             cells.append("—" if value is None else (f"[red]{value * scale:.3g}[/]" if value < 0
                                                     else f"{value * scale:.3g}"))
-        table.add_row(step.name, step.move, str(step.samples), *cells)
+        table.add_row(escape(step.name), step.move, *(() if narrow else (str(step.samples),)), *cells)
     return table
 
 
@@ -142,7 +155,8 @@ def check(settings: Settings, names, cell_path, move, speed, blend, margin, self
     result = check_path(model, path_plan_from_replay(steps, start, move, speed, acceleration, blend), cell, margins)
     err = Console(stderr=True, highlight=False, width=None if sys.stderr.isatty() else 160)
     title = f"Path check on {where}{f', cell {cell_path}' if cell_path else ''}: smallest margins per move"
-    (err if settings.json else settings.out).print(margins_table(result, title))
+    console = err if settings.json else settings.out
+    console.print(margins_table(result, title, console.width))
     if settings.json:
         emit_json(result.to_dict())
     else:

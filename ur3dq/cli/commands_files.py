@@ -6,14 +6,16 @@ from pathlib import Path
 import click
 from rich.console import Console
 
-from ur3dq.cli.app import Settings, cli, confirm, deg_option
+from ur3dq.cli.app import Settings, cli, confirm
 from ur3dq.cli.commands_check import cell_option, check_replay
-from ur3dq.cli.commands_robot import (
-    DEFAULT_ACCELERATION, DEFAULT_SPEED, angular_option, motion_options, speed_and_acceleration,
+from ur3dq.cli.display import count_text
+from ur3dq.cli.options import (
+    DEFAULT_ACCELERATION, DEFAULT_SPEED, angular_option, check_blend, check_max_travel, deg_option, global_options, motion_options,
+    speed_and_acceleration,
 )
-from ur3dq.cli.plan import plan_replay
 from ur3dq.errors import StoreError
 from ur3dq.pose import utc_now_iso
+from ur3dq.replay import plan_replay
 from ur3dq.robot.safety import DEFAULT_MAX_JOINT_TRAVEL
 from ur3dq.store import write_atomically
 from ur3dq.urscript_export import describe_speeds, replay_program
@@ -62,14 +64,14 @@ def export_urscript(settings: Settings, names, output: Path, speed, acceleration
       ur3dq export-urscript -o cell.script
       ur3dq export-urscript pick place --speed 0.5 --blend 0.01 --loop 10 -o cell.script
     """
-    if blend < 0:
-        raise ValueError(f"--blend must be a radius ≥ 0 in metres, got {blend!r}")
+    check_blend(blend)
     model, steps, a, v = offline_plan(settings, names, angular_option(speed, DEFAULT_SPEED, settings.deg),
                                       angular_option(acceleration, DEFAULT_ACCELERATION, settings.deg),
-                                      replay_joints, angular_option(max_travel, DEFAULT_MAX_JOINT_TRAVEL, settings.deg))
+                                      replay_joints, check_max_travel(angular_option(max_travel, DEFAULT_MAX_JOINT_TRAVEL,
+                                                                                     settings.deg)))
     offsets = {step.pose.tcp_offset for step in steps}
     header = [
-        f"ur3dq export-urscript: {len(steps)} poses from {settings.store_path} for a {model.name}",
+        f"ur3dq export-urscript: {count_text(len(steps), 'pose')} from {settings.store_path} for a {model.name}",
         f"generated {utc_now_iso()}",
         describe_speeds(a, v, blend),
         "the first move starts wherever the arm is: check it at low speed first",
@@ -81,7 +83,7 @@ def export_urscript(settings: Settings, names, output: Path, speed, acceleration
         return
     _writable_target(output, yes)
     write_atomically(output, program)
-    click.echo(f"Wrote {output}: {len(steps)} poses" + (f" × {loops}" if loops > 1 else "") + ".")
+    click.echo(f"Wrote {output}: {count_text(len(steps), 'pose')}" + (f" × {loops}" if loops > 1 else "") + ".")
 
 
 @cli.command()
@@ -89,6 +91,7 @@ def export_urscript(settings: Settings, names, output: Path, speed, acceleration
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), default=Path("poses.png"),
               show_default=True, help="The PNG to write.")
 @click.option("--yes", "-y", is_flag=True, help="Overwrite the output file without asking.")
+@global_options
 @cell_option
 @click.pass_obj
 def plot(settings: Settings, names, output: Path, yes, cell_path):
@@ -105,6 +108,6 @@ def plot(settings: Settings, names, output: Path, yes, cell_path):
                                       float("inf"))
     _writable_target(output, yes)
     check, cell = check_replay(model, steps, cell_path)
-    plot_poses(output, model, steps, title=f"{len(steps)} poses from {settings.store_path.name} on a {model.name}",
-               path_check=check, cell=cell)
+    plot_poses(output, model, steps, title=f"{count_text(len(steps), 'pose')} from {settings.store_path.name} on a "
+               f"{model.name}", path_check=check, cell=cell)
     click.echo(f"Wrote {output}. Path check: {check.summary()}")

@@ -6,17 +6,17 @@ import math
 import click
 import numpy as np
 
-from ur3dq.cli.app import Settings, cli, display_options, emit_json
+from ur3dq.cli.app import Settings, cli, emit_json
 from ur3dq.cli.display import (
     angles_text, coefficients_text, distance_text, joint_solutions_table, key_value_table, pose_vector_text,
 )
+from ur3dq.cli.options import NUMBERS_CONTEXT, display_options, ur_pose_from_input
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.kinematics import robot_model
+from ur3dq.replay import nearest_variant
 from ur3dq.robot import motion
 
 DEFAULT_MODEL = "ur3"
-# Negative numbers such as -90 are values here, not options.
-NUMBERS_CONTEXT = {"ignore_unknown_options": True}
 
 
 def model_for(settings: Settings, fallback: str | None = None):
@@ -34,14 +34,17 @@ def joints_from_input(values, deg: bool, name: str = "joints") -> np.ndarray:
     return q
 
 
-def ur_pose_from_input(values, deg: bool, name: str = "pose") -> np.ndarray:
-    """A UR pose vector typed by the user (rotation vector in degrees when `deg`) in metres and radians."""
-    if len(values) != 6:
-        raise ValueError(f"{name}: expected 6 numbers x y z rx ry rz, got {len(values)}")
-    pose = np.asarray(values, dtype=float)
-    if deg:
-        pose[3:] = np.radians(pose[3:])
-    return pose
+def joints_in_limits(model, q: np.ndarray, deg: bool, name: str = "joints") -> np.ndarray:
+    """`q` if inside `model`'s joint limits, else ValueError naming the joint (with a --deg hint when the values
+    were read as radians: `fk 0 -90 0 -90 0 0` is almost always meant in degrees)."""
+    outside = (q < model.joint_lower) | (q > model.joint_upper)
+    if outside.any():
+        i = int(np.argmax(outside))
+        hint = "" if deg else "; did you mean --deg?"
+        shown = f"{math.degrees(q[i]):g}°" if deg else f"{q[i]:g} rad"
+        raise ValueError(f"{name}: joint {i + 1} = {shown} is outside the {model.name}'s limits "
+                         f"[{model.joint_lower[i]:g}, {model.joint_upper[i]:g}] rad{hint}")
+    return q
 
 
 def pose_from_input(values, deg: bool) -> DualQuaternion:
@@ -74,8 +77,8 @@ def fk(settings: Settings, joints, tcp):
       ur3dq fk 0 -90 0 -90 0 0 --deg
       ur3dq --model ur5e fk 0 -90 90 -90 -90 0 --deg --tcp 0 0 0.15 0 0 0 --json
     """
-    q = joints_from_input(joints, settings.deg)
     model = model_for(settings)
+    q = joints_in_limits(model, joints_from_input(joints, settings.deg), settings.deg)
     if tcp:
         model = model.with_tcp(ur_pose_from_input(tcp, settings.deg, "--tcp"))
     pose = model.fk(q)
@@ -115,7 +118,8 @@ def ik(settings: Settings, values, pose_name, tcp, near):
       ur3dq ik --pose pick --json
     """
     model = model_for(settings)
-    reference = joints_from_input(near, settings.deg, "--near") if near else None
+    reference = joints_in_limits(model, joints_from_input(near, settings.deg, "--near"), settings.deg, "--near") \
+        if near else None
     if pose_name:
         if values:
             raise ValueError("give either pose numbers or --pose NAME, not both")
@@ -139,12 +143,17 @@ def ik(settings: Settings, values, pose_name, tcp, near):
                    "chosen": None if chosen is None else chosen.tolist()})
         return
     extra = [("FK error", [distance_text(m, r) for m, r in errors])]
+    sent = solutions
     if reference is not None:
-        travels = [motion.leading_travel(reference, q) for q in solutions]
+        # the travel of what would really be sent: each solution's ±2π variant nearest the reference
+        sent = [nearest_variant(model, [q], reference) if np.all(np.isfinite(q)) else q for q in solutions]
+        travels = [motion.leading_travel(reference, q) for q in sent]
         extra.append(("travel from ref", [f"{math.degrees(t):.1f}°" if settings.deg else f"{t:.4f}"
                                           for t in travels]))
+        extra.append(("chosen", ["◀" if chosen is not None and np.allclose(q, chosen, atol=1e-9) else ""
+                                 for q in sent]))
     settings.out.print(joint_solutions_table(
         f"{len(solutions)} IK solutions on the {model.name} for {pose_vector_text(target.to_ur_pose(), settings.deg)}",
-        solutions, settings.deg, extra))
+        sent if reference is not None else solutions, settings.deg, extra))
     if chosen is not None:
-        settings.out.print(f"Closest to the reference (what a replay moves to): {angles_text(chosen, settings.deg)}")
+        settings.out.print(f"Closest to the reference (◀, what a replay moves to): {angles_text(chosen, settings.deg)}")

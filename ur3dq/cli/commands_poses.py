@@ -6,9 +6,11 @@ from pathlib import Path
 import click
 from rich.table import Table
 
-from ur3dq.cli.app import Settings, cli, confirm, display_options, emit_json
-from ur3dq.cli.commands_kinematics import NUMBERS_CONTEXT, ur_pose_from_input
-from ur3dq.cli.display import angles_text, coefficients_text, key_value_table, pose_vector_text
+from ur3dq.cli.app import Settings, cli, confirm, emit_json
+from ur3dq.cli.options import NUMBERS_CONTEXT, display_options, ur_pose_from_input
+from ur3dq.cli.display import (
+    NARROW_WIDTH, angles_text, coefficients_text, compact_pose_text, count_text, key_value_table, pose_vector_text,
+)
 from ur3dq.errors import StoreError
 from ur3dq.store import format_store, format_thesis_lines, parse_store, pose_to_dict, write_atomically
 
@@ -40,12 +42,15 @@ def list_poses(settings: Settings):
     if not stored:
         settings.out.print(f"{settings.store_path} has no poses yet: record one with `ur3dq record-pose`.")
         return
-    table = Table(title=f"{len(stored)} poses in {settings.store_path}", title_justify="left")
+    table = Table(title=f"{count_text(len(stored), 'pose')} in {settings.store_path}", title_justify="left")
+    narrow = settings.out.width < NARROW_WIDTH
     for header in ("#", "name", "recorded (UTC)", "model", "TCP pose", "joints", "note"):
-        table.add_column(header, overflow="fold")
+        table.add_column(header, overflow="fold", no_wrap=header in ("#", "name"))  # a name is never cut
     for index, pose in enumerate(stored, start=1):
-        table.add_row(str(index), pose.name, pose.time, pose.robot_model,
-                      pose_vector_text(pose.ur_pose, settings.deg), "yes" if pose.joints is not None else "no",
+        # narrow: the time to the minute, the pose vector's numbers compact so they wrap between values
+        table.add_row(str(index), pose.name, pose.time[:16].replace("T", " ") if narrow else pose.time,
+                      pose.robot_model, compact_pose_text(pose.ur_pose, settings.deg) if narrow
+                      else pose_vector_text(pose.ur_pose, settings.deg), "yes" if pose.joints is not None else "no",
                       pose.note)
     settings.out.print(table)
 
@@ -139,7 +144,7 @@ def import_poses(settings: Settings, file: Path, prefix, tcp):
     if settings.json:
         emit_json([pose.name for pose in added])
     else:
-        click.echo(f"Imported {len(added)} poses into {settings.store_path}: {', '.join(p.name for p in added)}")
+        click.echo(f"Imported {count_text(len(added), 'pose')} into {settings.store_path}: {', '.join(p.name for p in added)}")
 
 
 @poses.command("export")
@@ -168,4 +173,4 @@ def export_poses(settings: Settings, file: Path, names, file_format, yes):
     if file.exists():
         confirm(f"Overwrite {file}?", yes, default=False)
     write_atomically(file, text)
-    click.echo(f"Exported {len(selected)} poses to {file} ({file_format}).")
+    click.echo(f"Exported {count_text(len(selected), 'pose')} to {file} ({file_format}).")

@@ -1,129 +1,28 @@
 """The commands that talk to the robot: `status`, `record-pose` (and --teach), `run-poses`."""
 from __future__ import annotations
 
-import dataclasses
-import math
 import sys
 
 import click
-import numpy as np
 from rich.console import Console
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
-from rich.table import Table
 
-from ur3dq.cli.app import Settings, cli, confirm, display_options, emit_json, robot_session
+from ur3dq.cli.app import Settings, cli, confirm, emit_json, one_line, robot_session
+from ur3dq.cli.background_simulator import running_simulator_host
 from ur3dq.cli.commands_check import cell_option, require_clear_path
 from ur3dq.cli.display import (
-    angle_text, angles_text, coefficients_text, distance_text, key_value_table, pose_vector_text,
+    angles_text, count_text, key_value_table, plan_table, pose_rows, pose_vector_text, progress_bar, reached_table,
 )
-from ur3dq.cli.plan import PlanStep, loop_closing_travel, plan_replay, tcp_pose_for
-from ur3dq.cli.simstate import running_simulator_host
-from ur3dq.dualquat import DualQuaternion
-from ur3dq.errors import ConnectionLostError, SafetyCheckError, StoreError
+from ur3dq.cli.options import (
+    DEFAULT_ACCELERATION, DEFAULT_SPEED, angular_option, check_blend, check_max_travel, display_options, motion_options,
+    speed_and_acceleration,
+)
+from ur3dq.errors import RobotError, SafetyCheckError, StoreError
 from ur3dq.kinematics import robot_model
-from ur3dq.pose import Pose, next_free_name
+from ur3dq.pose import next_free_name
+from ur3dq.replay import (
+    TCP_CURRENT, TCP_RECORDED, execute_plan, loop_closing_travel, plan_replay, read_pose, retarget_to_tcp, tcp_changed,
+)
 from ur3dq.robot.safety import DEFAULT_MAX_JOINT_TRAVEL
-
-DEFAULT_SPEED = 1.05         # rad/s, URScript's movej default
-DEFAULT_ACCELERATION = 1.4   # rad/s²
-MAX_STATUS_AGE_S = 1.0       # a reading older than this is a frozen stream, not the arm's pose
-
-
-# ---------------------------------------------------------------- pure helpers
-
-
-def angular_option(value: float | None, default: float, deg: bool) -> float:
-    """An angular option (speed, acceleration, travel) in radians: `default` when not given, else the typed value,
-    read as degrees when `deg` (so `--deg --speed 30` is 30°/s, never 30 rad/s)."""
-    if value is None:
-        return default
-    return math.radians(value) if deg else value
-
-
-def motion_options(command):
-    """--speed, --acceleration and --max-travel, in radians (degrees with --deg); resolve with angular_option."""
-    command = click.option(
-        "--max-travel", type=float, default=None,
-        help="Refuse a plan in which one move swings a joint further than this (rad, ° with --deg) "
-             "[default: π rad].")(command)
-    command = click.option(
-        "--acceleration", type=float, default=None,
-        help=f"Leading joint acceleration, rad/s² (°/s² with --deg), clamped to the model "
-             f"[default: {DEFAULT_ACCELERATION} rad/s²].")(command)
-    return click.option(
-        "--speed", type=float, default=None,
-        help=f"Leading joint speed, rad/s (°/s with --deg), clamped to the model [default: {DEFAULT_SPEED} rad/s]."
-    )(command)
-
-
-def clamp_to_model(value: float, limits, name: str) -> tuple[float, bool]:
-    """(value, clamped?) with `value` lowered to the slowest joint's limit; ValueError unless finite and > 0."""
-    if not (math.isfinite(value) and value > 0):
-        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
-    limit = float(np.min(limits))
-    return (limit, True) if value > limit else (value, False)
-
-
-@dataclasses.dataclass(frozen=True)
-class Reached:
-    """Where one replayed move ended: the TCP the controller reports vs the recorded pose."""
-
-    step: PlanStep
-    error_m: float
-    error_rad: float
-    seconds: float
-
-
-# ---------------------------------------------------------------- robot helpers
-
-
-def read_pose(robot, name: str, note: str = "") -> Pose:
-    """The arm's current TCP pose as a Pose (one status reading, so joints and TCP belong together)."""
-    status = robot.state()
-    if status.age > MAX_STATUS_AGE_S:
-        raise ConnectionLostError(f"the robot's state stream is frozen ({status.age:.1f} s old); pose not recorded")
-    return Pose.from_dual_quaternion(
-        name, DualQuaternion.from_ur_pose(status.tcp_pose), robot.model_name, joints=status.joints,
-        robot_serial=robot.serial_number, tcp_offset=robot.model.tcp.to_ur_pose(), note=note)
-
-
-def pose_rows(robot, pose: Pose, deg: bool) -> list[tuple[str, str]]:
-    """What record-pose shows about a reading: joints, TCP pose, dual quaternion, and the model's FK check."""
-    metres, radians = robot.model.fk(pose.joints).distance(pose.dq)
-    return [
-        ("joints", angles_text(pose.joints, deg)),
-        ("TCP pose", pose_vector_text(pose.ur_pose, deg)),
-        ("dual quaternion", coefficients_text(pose.dual_quaternion)),
-        ("thesis line", pose.dq.to_thesis_line()),
-        ("TCP offset", pose_vector_text(pose.tcp_offset, deg)),
-        ("model FK check", f"{distance_text(metres, radians)} from the controller's TCP"),
-    ]
-
-
-def plan_table(steps, deg: bool, title: str) -> Table:
-    """The replay plan: each pose's chosen joints, how they were chosen, travel and time, FK residual."""
-    table = Table(title=title, title_justify="left")
-    for header in ("#", "pose", "joints", "chosen by", "travel", "time", "FK check"):
-        table.add_column(header, overflow="fold", no_wrap=header == "joints")
-    for index, step in enumerate(steps, start=1):
-        travel = "—" if step.travel is None else angle_text(step.travel, deg)
-        seconds = "—" if step.duration is None else f"{step.duration:.2f} s"
-        source = step.source + (f" (of {step.solutions})" if step.solutions else "")
-        table.add_row(str(index), step.pose.name, angles_text(step.joints, deg), source, travel, seconds,
-                      distance_text(step.fk_error_m, step.fk_error_rad))
-    return table
-
-
-def reached_table(results, title: str) -> Table:
-    """Where each replayed pose ended vs where it was recorded."""
-    table = Table(title=title, title_justify="left")
-    for header in ("#", "pose", "recorded TCP (x, y, z m)", "error", "move time"):
-        table.add_column(header)
-    for index, result in enumerate(results, start=1):
-        x, y, z = result.step.pose.ur_pose[:3]
-        table.add_row(str(index), result.step.pose.name, f"{x:.4f}, {y:.4f}, {z:.4f}",
-                      distance_text(result.error_m, result.error_rad), f"{result.seconds:.2f} s")
-    return table
 
 
 def plan_to_json(steps) -> list[dict]:
@@ -131,47 +30,6 @@ def plan_to_json(steps) -> list[dict]:
     return [{"pose": step.pose.name, "joints": step.joints.tolist(), "source": step.source,
              "solutions": step.solutions, "travel": step.travel, "duration": step.duration,
              "fk_error_m": step.fk_error_m, "fk_error_rad": step.fk_error_rad} for step in steps]
-
-
-def execute_plan(robot, steps, a: float, v: float, blend: float, loops: int, console: Console) -> list[Reached]:
-    """Move through `steps` `loops` times, showing progress; returns where each move ended (with `blend` > 0 the
-    whole run is one blended program, and only its end is measured). Ctrl-C or any fault stops the arm (the
-    driver sends stopj) and propagates."""
-    results = []
-    tcp_now = robot.model.tcp
-    expected = [tcp_pose_for(step.pose, tcp_now) for step in steps]
-    columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
-               TimeElapsedColumn())
-    try:
-        with Progress(*columns, console=console, transient=False) as progress:
-            task = progress.add_task("moving", total=len(steps) * loops)
-            if blend > 0:
-                progress.update(task, description=f"blended path through {len(steps) * loops} poses")
-                seconds = robot.movej_path([s.joints for s in steps] * loops, blend=blend, a=a, v=v,
-                                           expected_poses=expected * loops)
-                progress.advance(task, len(steps) * loops)
-                return [Reached(steps[-1], *robot.tcp_pose().distance(expected[-1]), seconds)]
-            for loop in range(loops):
-                for step, pose in zip(steps, expected):
-                    progress.update(task, description=f"pass {loop + 1}/{loops}: {step.pose.name}")
-                    seconds = robot.movej(step.joints, a=a, v=v, expected_pose=pose)
-                    results.append(Reached(step, *robot.tcp_pose().distance(pose), seconds))
-                    progress.advance(task)
-    except KeyboardInterrupt:
-        robot.stop()  # the driver already stops a motion it was watching; this covers a Ctrl-C between moves
-        raise
-    return results
-
-
-def speed_and_acceleration(model, speed: float, acceleration: float, err: Console) -> tuple[float, float]:
-    """--speed and --acceleration clamped to the model's slowest joint, saying so when they are lowered."""
-    v, v_clamped = clamp_to_model(speed, model.max_joint_speed, "--speed")
-    a, a_clamped = clamp_to_model(acceleration, model.max_joint_acceleration, "--acceleration")
-    if v_clamped:
-        err.print(f"--speed {speed} rad/s exceeds the {model.name}'s limit: using {v:.4f} rad/s")
-    if a_clamped:
-        err.print(f"--acceleration {acceleration} rad/s² exceeds the {model.name}'s limit: using {a:.4f} rad/s²")
-    return a, v
 
 
 # ---------------------------------------------------------------- commands
@@ -223,7 +81,8 @@ def record_pose(settings: Settings, name, note, yes, teach):
     """Record the arm's current pose: shows joints, TCP pose and dual quaternion, asks "Record this pose?".
 
     Each pose keeps its name, time, model, joints, dual quaternion, UR pose vector and TCP offset. Two
-    record-pose at once both keep their poses; a taken --name is refused (the store stays unchanged).
+    record-pose at once both keep their poses; a taken --name is refused (the store stays unchanged). To
+    re-teach a pose: `ur3dq poses rm NAME`, then record it again (it then moves to the end of the replay order).
 
     \b
     Examples:
@@ -242,9 +101,9 @@ def record_pose(settings: Settings, name, note, yes, teach):
             return
         pose = read_pose(robot, name or next_free_name("pose", existing), note)
         if not settings.json:
-            settings.out.print(key_value_table(f"{robot.model_name} at {robot.host}", pose_rows(robot, pose,
+            settings.out.print(key_value_table(f"{robot.model_name} at {robot.host}", pose_rows(robot.model, pose,
                                                                                                  settings.deg)))
-        confirm("Record this pose?", yes)
+        confirm("Record this pose?", yes, default=True)  # not a motion: Enter records
         stored = store.add(pose, number_if_taken=name is None)
     if settings.json:
         emit_json({"recorded": stored.name, "store": str(settings.store_path)})
@@ -254,7 +113,8 @@ def record_pose(settings: Settings, name, note, yes, teach):
 
 def _teach(settings: Settings, robot, prefix: str, note: str) -> None:
     """Freedrive on; every line on stdin records a pose (named by the line, else prefix-N) until `q` or end of
-    input; freedrive goes off again whatever happens."""
+    input; `f` switches freedrive on again after another program ended it. Freedrive goes off again at the end
+    (unless another program already ended it: switching it off would replace that program)."""
     err = Console(stderr=True, highlight=False)
     robot.teach_mode(True)
     recorded = []
@@ -265,6 +125,14 @@ def _teach(settings: Settings, robot, prefix: str, note: str) -> None:
             text = line.strip()
             if text.lower() == "q":
                 break
+            if text.lower() == "f":
+                robot.teach_mode(True)
+                err.print("Freedrive is on again.")
+                continue
+            if not robot.freedrive_active():
+                err.print("not recorded: freedrive was switched off by another program sent to the controller; "
+                          "f then Enter switches it on again, q ends")
+                continue
             taken = [pose.name for pose in settings.store.load()]
             try:
                 pose = read_pose(robot, text or next_free_name(prefix, taken), note)
@@ -272,14 +140,18 @@ def _teach(settings: Settings, robot, prefix: str, note: str) -> None:
             except (StoreError, ValueError) as error:  # a taken or bad name: say so and keep teaching
                 err.print(f"not recorded: {error}")
                 continue
+            except RobotError as error:  # e.g. a dropped stream: ur3dq's own message, and the session goes on
+                err.print(f"not recorded: {one_line(error)}; Enter tries again, q ends")
+                continue
             recorded.append(stored.name)
             err.print(f"recorded {stored.name!r}: {pose_vector_text(stored.ur_pose, settings.deg)}")
     finally:
-        robot.teach_mode(False)
+        if robot.freedrive_active():
+            robot.teach_mode(False)
     if settings.json:
         emit_json({"recorded": recorded, "store": str(settings.store_path)})
     else:
-        click.echo(f"Freedrive off. Recorded {len(recorded)} poses in {settings.store_path}"
+        click.echo(f"Freedrive off. Recorded {count_text(len(recorded), 'pose')} in {settings.store_path}"
                    + (f": {', '.join(recorded)}." if recorded else "."))
 
 
@@ -294,11 +166,14 @@ def _teach(settings: Settings, robot, prefix: str, note: str) -> None:
               help="Run the sequence this many times.")
 @click.option("--joints", "replay_joints", is_flag=True,
               help="Replay the recorded joint angles directly instead of solving IK.")
+@click.option("--tcp", "tcp_choice", type=click.Choice([TCP_RECORDED, TCP_CURRENT]),
+              help="When the controller's TCP offset changed since a pose was recorded (required then): "
+                   "`recorded` puts the flange where it was, `current` puts the current TCP on the recorded pose.")
 @cell_option
 @display_options
 @click.pass_obj
 def run_poses(settings: Settings, names, dry_run, yes, speed, acceleration, blend, loops, replay_joints,
-              max_travel, cell_path):
+              max_travel, tcp_choice, cell_path):
     """Replay stored poses (all, or NAMES in that order) with movej.
 
     For each pose: IK of its dual quaternion (every solution FK-checked), the solution nearest the recorded
@@ -316,12 +191,11 @@ def run_poses(settings: Settings, names, dry_run, yes, speed, acceleration, blen
     err = Console(stderr=True, highlight=False)
     speed = angular_option(speed, DEFAULT_SPEED, settings.deg)
     acceleration = angular_option(acceleration, DEFAULT_ACCELERATION, settings.deg)
-    max_travel = angular_option(max_travel, DEFAULT_MAX_JOINT_TRAVEL, settings.deg)
+    max_travel = check_max_travel(angular_option(max_travel, DEFAULT_MAX_JOINT_TRAVEL, settings.deg))
     poses = settings.store.select(names)
     if not poses:
         raise StoreError(f"{settings.store_path} has no poses: record some with `ur3dq record-pose`")
-    if not (math.isfinite(blend) and blend >= 0):
-        raise ValueError(f"--blend must be a radius ≥ 0 in metres, got {blend!r}")
+    check_blend(blend)
     if dry_run and not (settings.host or running_simulator_host()):
         model = robot_model(settings.model or poses[0].robot_model)
         a, v = speed_and_acceleration(model, speed, acceleration, err)
@@ -333,6 +207,7 @@ def run_poses(settings: Settings, names, dry_run, yes, speed, acceleration, blen
         return
     with robot_session(settings, max_joint_travel=max_travel) as robot:
         a, v = speed_and_acceleration(robot.model, speed, acceleration, err)
+        poses = _for_the_current_tcp(poses, robot.model.tcp, tcp_choice, replay_joints, err)
         steps = plan_replay(robot.model, poses, robot.joints(), a, v, replay_joints, max_travel)
         if loops > 1 and loop_closing_travel(steps) > max_travel:
             raise SafetyCheckError(f"--loop: going back from {steps[-1].pose.name!r} to {steps[0].pose.name!r} "
@@ -343,19 +218,43 @@ def run_poses(settings: Settings, names, dry_run, yes, speed, acceleration, blen
             if settings.json:
                 emit_json({"plan": plan_to_json(steps)})
             return
-        confirm(f"Move the arm through {len(steps)} poses{f' {loops} times' if loops > 1 else ''}?", yes)
-        results = execute_plan(robot, steps, a, v, blend, loops, err)
+        confirm(f"Move the arm through {count_text(len(steps), 'pose')}{f' {loops} times' if loops > 1 else ''}?", yes)
+        with progress_bar(err) as progress:
+            results = execute_plan(robot, steps, a, v, blend, loops, progress)
     if settings.json:
         emit_json({"plan": plan_to_json(steps), "reached": [
-            {"pose": r.step.pose.name, "error_m": r.error_m, "error_rad": r.error_rad, "seconds": r.seconds}
+            {"pose": r.step.pose.name, "error_m": r.error_m, "error_rad": r.error_rad, "seconds": r.seconds,
+             "target_ur_pose": r.target.to_ur_pose().tolist(), "target_from_recorded_m": r.target_off_m}
             for r in results]})
     else:
-        settings.out.print(reached_table(results, "Where the arm ended (reported TCP vs recorded pose)"))
+        settings.out.print(reached_table(results, "Where the arm ended (reported TCP vs where it was aimed)"))
+
+
+def _for_the_current_tcp(poses, tcp_now, choice, replay_joints: bool, err: Console):
+    """The poses to plan, given the controller's TCP `tcp_now`: unchanged when every pose was recorded with it;
+    otherwise a warning before anything moves, and the user's --tcp choice (SafetyCheckError without one)."""
+    changed = [pose.name for pose in poses if tcp_changed(pose, tcp_now)]
+    if not changed:
+        return poses
+    current = ", ".join(f"{value:.4f}" for value in tcp_now.to_ur_pose())
+    err.print(f"Warning: the controller's TCP offset (p[{current}]) differs from the one {', '.join(changed)} "
+              "was recorded with.")
+    if choice is None:
+        raise SafetyCheckError(f"the TCP offset changed since {', '.join(changed)} was recorded: choose --tcp "
+                               "recorded (the flange goes where it was) or --tcp current (the current TCP goes on "
+                               "the recorded pose)")
+    if choice == TCP_CURRENT:
+        if replay_joints:
+            raise SafetyCheckError("--tcp current needs IK for the new TCP: drop --joints")
+        return [retarget_to_tcp(pose, tcp_now) for pose in poses]
+    return poses
 
 
 def _show_plan(settings: Settings, steps, loops: int, title: str) -> None:
     """Print the plan table (to stderr with --json, so stdout carries exactly one JSON document)."""
     if settings.json:
-        Console(stderr=True, highlight=False).print(plan_table(steps, settings.deg, title))
+        err = Console(stderr=True, highlight=False)
+        err.print(plan_table(steps, settings.deg, title, err.width))
         return
-    settings.out.print(plan_table(steps, settings.deg, title + (f", × {loops}" if loops > 1 else "")))
+    settings.out.print(plan_table(steps, settings.deg, title + (f", × {loops}" if loops > 1 else ""),
+                                  settings.out.width))

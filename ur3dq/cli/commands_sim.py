@@ -10,13 +10,11 @@ import click
 import numpy as np
 from rich.console import Console
 
-from ur3dq.cli.app import EXIT_NOT_REACHED, Settings, cli, display_options, emit_json
-from ur3dq.cli.commands_robot import (
-    angular_option, execute_plan, plan_table, read_pose, reached_table, speed_and_acceleration,
-)
-from ur3dq.cli.display import angles_text, pose_vector_text
-from ur3dq.cli.plan import plan_replay
-from ur3dq.cli.simstate import SimulatorError, read_state, start_simulator, state_directory, stop_simulator
+from ur3dq.cli.app import EXIT_NOT_REACHED, Settings, cli, emit_json
+from ur3dq.cli.background_simulator import SimulatorError, read_state, start_simulator, state_directory, stop_simulator
+from ur3dq.cli.display import angles_text, plan_table, pose_vector_text, progress_bar, reached_table
+from ur3dq.cli.options import angular_option, display_options, speed_and_acceleration
+from ur3dq.replay import execute_plan, plan_replay, read_pose
 from ur3dq.store import PoseStore
 
 # Where the demo parks the arm and the places it records (rad): distinct, comfortably reachable, away from the
@@ -160,8 +158,9 @@ def demo(settings: Settings, save, speed, acceleration, tolerance_mm, tolerance_
             robot.movej(np.array(DEMO_PARK), a=a, v=v)
             say("[bold]4.[/bold] Replaying the store as run-poses does (IK of each dual quaternion, FK-checked)")
             steps = plan_replay(robot.model, store.select(recorded), robot.joints(), a, v)
-            say(plan_table(steps, settings.deg, "Plan"))
-            results = execute_plan(robot, steps, a, v, 0.0, 1, Console(stderr=True))
+            say(plan_table(steps, settings.deg, "Plan", settings.out.width))
+            with progress_bar(Console(stderr=True)) as progress:
+                results = execute_plan(robot, steps, a, v, 0.0, 1, progress)
     missed = [r for r in results
               if r.error_m * 1000 > tolerance_mm or math.degrees(r.error_rad) > tolerance_deg]
     if settings.json:

@@ -55,6 +55,10 @@ class Dashboard:
         """Send `power on` (the caller watches the robot mode reach IDLE)."""
         self._call(lambda client: client.powerOn())
 
+    def power_off(self):
+        """Send `power off` (the caller watches the robot mode reach POWER_OFF)."""
+        self._call(lambda client: client.powerOff())
+
     def brake_release(self):
         """Send `brake release` (the caller watches the robot mode reach RUNNING)."""
         self._call(lambda client: client.brakeRelease())

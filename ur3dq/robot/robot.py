@@ -5,10 +5,13 @@ target; every fault (protective stop, emergency stop, program error, dropped or 
 its own RobotError subclass within a bounded time, and any error or KeyboardInterrupt during a motion sends
 `stopj` before it leaves the driver. Nothing here ever resends a motion by itself.
 """
+from __future__ import annotations
+
 import functools
 import math
 import queue
 import time
+from typing import Protocol
 
 import numpy as np
 
@@ -36,7 +39,32 @@ START_TIMEOUT = 5.0  # s for the controller to start a sent program (generous: a
 SETTLE_TIME = 0.3  # s a stopped program may take to show the arm at rest before it counts as failed
 RECONNECT_DELAYS = (0.05, 0.1, 0.2, 0.4, 0.8)  # s between stream reconnection attempts (exponential backoff)
 MODE_CHANGE_TIMEOUT = 15.0  # s for power on / brake release to reach their robot mode
-SERIAL_NUMBER_SINCE = (5, 6)  # the dashboard's `get serial number` exists from PolyScope 5.6
+SERIAL_NUMBER_SINCE = (5, 6)
+ROBOT_MODE_POWER_OFF = 3  # the dashboard's `get serial number` exists from PolyScope 5.6
+
+
+class StateBackend(Protocol):
+    """What Robot needs from a state/program backend (RTDEBackend over ur_rtde, URXBackend over urx).
+
+    `status()` is the newest reading and never blocks on the network; `send_program` hands one URScript program
+    to the controller; `connected` / `reconnect()` let Robot restore a dropped stream; `primary` is the shared
+    PrimaryClient (Robot replaces it after reconnecting it).
+    """
+
+    poll_period: float      # s between two status() polls while watching a motion
+    freeze_timeout: float   # s without fresh data after which the stream counts as frozen
+    primary: PrimaryClient
+
+    @property
+    def connected(self) -> bool: ...
+
+    def reconnect(self) -> None: ...
+
+    def status(self) -> state.RobotStatus: ...
+
+    def send_program(self, script: str) -> None: ...
+
+    def close(self) -> None: ...
 
 
 def calibrated_model(name, kinematics, tcp_offset=None):
@@ -117,7 +145,7 @@ class Robot:
                 f"within {self._connect_timeout} s ({client.error or 'incomplete data'})")
         return client
 
-    def _open_backend(self):
+    def _open_backend(self) -> StateBackend:
         """The state/program backend chosen at connect time."""
         if self.backend_name == "rtde":
             from ur3dq.robot.rtde_backend import RTDEBackend
@@ -200,8 +228,8 @@ class Robot:
     def movej(self, q, a=None, v=None, expected_pose=None):
         """Move to joint target `q` (rad) on a trapezoid with acceleration a (rad/s²) and speed v (rad/s).
 
-        Blocks until the controller has announced the program's end and the arm rests at `q` (the state stream
-        may show the program running for one more cycle); returns the wall time in seconds. `expected_pose`
+        Blocks until there is evidence that this program ran and ended (its own end key message, or the state
+        stream showing it running then not running) and the arm rests at `q`; returns the wall time in seconds. `expected_pose`
         (DualQuaternion) marks a target that came from IK: the model's FK of `q` must reach it.
         """
         return self.movej_path([q], blend=0.0, a=a, v=v, expected_poses=None if expected_pose is None
@@ -262,7 +290,8 @@ class Robot:
         status = self._checked_status(self._fresh_status())
         if status.robot_mode != state.ROBOT_MODE_RUNNING:
             raise RobotError(f"the robot is in mode {status.robot_mode_name}, not RUNNING: "
-                             "power it on and release the brakes first (power_on(), brake_release())")
+                             "power it on and release the brakes first (`ur3dq robot power-on`, `ur3dq robot "
+                             "brake-release`; in Python robot.power_on(), robot.brake_release())")
         return status
 
     def _checked_status(self, status):
@@ -271,8 +300,8 @@ class Robot:
             raise EmergencyStopError(f"{self.host} is emergency-stopped (safety mode {status.safety_mode_name}); "
                                      "release the e-stop and power on again")
         if status.protective_stopped:
-            raise ProtectiveStopError(f"{self.host} is in a protective stop; inspect the cause, then call "
-                                      "unlock_protective_stop()")
+            raise ProtectiveStopError(f"{self.host} is in a protective stop; inspect the cause, then unlock it "
+                                      "(`ur3dq robot unlock`; in Python robot.unlock_protective_stop())")
         if status.age > self._backend.freeze_timeout:
             raise ConnectionLostError(f"the state stream from {self.host} froze: no fresh data for {status.age:.2f} s")
         if not self._primary.alive:
@@ -285,8 +314,7 @@ class Robot:
         sent = time.monotonic()
         try:
             self._backend.send_program(program)
-            outcome = _MotionWatch(name, target, far_from_target=motion.leading_travel(q_start, target) > 2e-3,
-                                   running_at_send=running_at_send)
+            outcome = _MotionWatch(name, target, running_at_send=running_at_send)
             while True:
                 for message in _drain(watcher):
                     outcome.note_message(message)
@@ -329,12 +357,26 @@ class Robot:
     # --- power, safety, TCP, freedrive ------------------------------------------------------------------------
 
     def power_on(self):
-        """Power the arm on and wait until it is IDLE (brakes still held)."""
+        """Power the arm on and wait until it is IDLE (brakes still held); EmergencyStopError if e-stopped."""
+        if self.state().emergency_stopped:
+            raise EmergencyStopError(f"power on refused: {self.host} is emergency-stopped; release the e-stop first")
         self._dashboard.power_on()
         self._wait_for_mode({state.ROBOT_MODE_IDLE, state.ROBOT_MODE_RUNNING}, "power on")
 
+    def power_off(self):
+        """Power the arm off (brakes engage) and wait until it is POWER_OFF."""
+        self._dashboard.power_off()
+        self._wait_for_mode({ROBOT_MODE_POWER_OFF}, "power off")
+
     def brake_release(self):
-        """Release the brakes and wait until the arm is RUNNING."""
+        """Release the brakes and wait until the arm is RUNNING; RobotError at once unless it is powered on (IDLE)
+        or already RUNNING (the controller would not release them)."""
+        mode = self.state().robot_mode
+        if mode == state.ROBOT_MODE_RUNNING:
+            return
+        if mode != state.ROBOT_MODE_IDLE:
+            raise RobotError(f"brake release refused: the robot is in mode {state.ROBOT_MODE_NAMES.get(mode, mode)}, "
+                             "not IDLE; power it on first (`ur3dq robot power-on`)")
         self._dashboard.brake_release()
         self._wait_for_mode({state.ROBOT_MODE_RUNNING}, "brake release")
 
@@ -369,6 +411,17 @@ class Robot:
         if not self._primary.wait_for(lambda c: c.robot_mode.control_mode == wanted, timeout=2.0):
             raise ProgramError(f"the controller did not switch freedrive {'on' if on else 'off'} within 2 s")
 
+    def freedrive_active(self) -> bool:
+        """True while the controller is in freedrive (primary controlMode TEACH): another program sent to the
+        controller ends ur3dq's freedrive program, so a teach session checks this before each recording."""
+        self._ensure_streams()
+        asked = time.monotonic()  # a state message sent after the question, not one from before a change
+        if not self._primary.wait_for(lambda c: c.last_state_time is not None and c.last_state_time > asked,
+                                      timeout=self._backend.freeze_timeout):
+            raise ConnectionLostError(f"the primary interface of {self.host} sent no robot state for "
+                                      f"{self._backend.freeze_timeout} s")
+        return self._primary.robot_mode.control_mode == 1
+
     def _wait_for_mode(self, modes, action):
         """Wait until the robot mode is one of `modes`; RobotError naming `action` after MODE_CHANGE_TIMEOUT."""
         deadline = time.monotonic() + MODE_CHANGE_TIMEOUT
@@ -385,23 +438,29 @@ class Robot:
 
 
 class _MotionWatch:
-    """What is known about one sent program: started/stopped (key messages or state), and the controller's errors."""
+    """What is known about one sent program: started/ended (key messages or state), and the controller's errors.
 
-    def __init__(self, name, target, far_from_target, running_at_send):
+    A motion is done only on evidence that *this* program ran and ended — its own PROGRAM_XXX_STOPPED key message,
+    or the state stream showing it running and then not running — and the arm at rest on the target. Being at rest
+    on the target proves nothing by itself: a closed path [B, A] or a zero-length move starts there.
+    """
+
+    def __init__(self, name: str, target, running_at_send: bool):
         self.name = name
         self.target = np.asarray(target, dtype=float)
-        self.far_from_target = far_from_target  # arriving at the target then proves the program ran
         self.started = False
-        self.stopped = False
+        self.stopped = False  # our STOPPED key message arrived
         # A program already running when ours was sent (or its stale flag) is not ours: the state's "running"
         # counts as our start only after the state has shown no program since the send.
         self._running_is_ours = not running_at_send
+        self._seen_running = False  # the state stream showed our program running
+        self._ended_on_state = False  # ... and then not running
         self.last_error_text = None
         self.runtime_error = None  # raised once the state had time to show a safety stop behind it instead
         self._ended_at = None
         self._error_at = None
 
-    def note_message(self, message):
+    def note_message(self, message) -> None:
         """Update from one robot message (key messages, runtime exceptions, error codes)."""
         if primary.is_program_started(message, self.name):
             self.started = True
@@ -414,11 +473,16 @@ class _MotionWatch:
         elif isinstance(message, primary.ErrorCodeMessage) and message.report_level >= 2:
             self.last_error_text = f"C{message.code}A{message.argument}: {message.text}"
 
-    def distance(self, status):
+    def distance(self, status) -> float:
         """The largest joint distance (rad) from the arm to the target."""
         return float(np.max(np.abs(status.joints - self.target)))
 
-    def finished(self, status, now):
+    @property
+    def ended(self) -> bool:
+        """True once there is evidence that this program ran and ended."""
+        return self.stopped or self._ended_on_state
+
+    def finished(self, status, now: float) -> bool:
         """True when the program has ended with the arm at rest on target; ProgramError if it ended elsewhere or
         the controller reported a runtime error (after SETTLE_TIME, so a safety stop behind it is seen first)."""
         if self.runtime_error is not None:
@@ -429,16 +493,20 @@ class _MotionWatch:
             return False
         # The controller's key message announces the end a state cycle before the state stream agrees; waiting
         # for the stream too would add that cycle to every move.
-        if not status.program_running:
+        if status.program_running:
+            if self._running_is_ours:
+                self.started = self._seen_running = True
+            if not self.stopped:
+                self._ended_at = None
+                return False
+        else:
             self._running_is_ours = True
-        elif not self.stopped:
-            self.started = self.started or self._running_is_ours
-            self._ended_at = None
+            if self._seen_running:
+                self._ended_on_state = True
+        if not self.ended:
             return False
-        if state.at_rest_at(status, self.target) and (self.started or self.far_from_target):
+        if state.at_rest_at(status, self.target):
             return True
-        if not self.started:
-            return False
         if self._ended_at is None:
             self._ended_at = now
         elif now - self._ended_at > SETTLE_TIME:

@@ -1,0 +1,133 @@
+"""Click options and typed-input parsing shared by several command modules (so they never import each other)."""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import click
+import numpy as np
+from rich.console import Console
+
+from ur3dq.cli.app import Settings
+
+MIN_SPEED = 1e-3           # rad/s: slower than this a move of one degree takes over 17 s; a typo, not a wish
+MIN_ACCELERATION = 1e-3    # rad/s²
+MAX_BLEND_RADIUS = 2.0     # metres, the driver's bound (ur3dq.robot.robot.MAX_BLEND_RADIUS)
+DEFAULT_SPEED = 1.05         # rad/s, URScript's movej default
+DEFAULT_ACCELERATION = 1.4   # rad/s²
+# Negative numbers such as -90 are values here, not options.
+NUMBERS_CONTEXT = {"ignore_unknown_options": True}
+
+
+def _set_flag(ctx, param, value):
+    """Callback of the per-command --json/--deg: a flag given after the command counts like a global one."""
+    if value:
+        setattr(ctx.find_object(Settings), param.name, True)
+
+
+def _set_value(ctx, param, value):
+    """Callback of a per-command --host/--model/--backend/--store: given after the command, it counts like a
+    global one (and wins over it, as the later word on the line)."""
+    if value is not None:
+        if param.name == "model":
+            value = value.lower()
+        setattr(ctx.find_object(Settings), param.name, value)
+
+
+def global_options(command):
+    """Accept --host, --model, --backend and --store after the command name too (`ur3dq sim start --model ur5e`)."""
+    from ur3dq.kinematics import MODEL_NAMES
+
+    for flag, name, kind, text in (
+            ("--store", "store_path", click.Path(dir_okay=False, path_type=Path), "The JSON pose store."),
+            ("--backend", "backend", click.Choice(["rtde", "urx"]), "Client library for state and programs."),
+            ("--model", "model", click.Choice(MODEL_NAMES, case_sensitive=False), "Robot model."),
+            ("--host", "host", str, "The robot or URSim to talk to.")):
+        command = click.option(flag, name, type=kind, default=None, expose_value=False, callback=_set_value,
+                               help=f"{text} (as before the command)")(command)
+    return command
+
+
+def deg_option(command):
+    """Add --deg to a command too, so `ur3dq fk ... --deg` works as well as `ur3dq --deg fk ...` (and the global
+    options, see global_options)."""
+    command = click.option("--deg", "deg", is_flag=True, expose_value=False, callback=_set_flag,
+                           help="Angles in degrees (input and display).")(command)
+    return global_options(command)
+
+
+def display_options(command):
+    """Add --json and --deg to a command too (as well as before the command)."""
+    command = click.option("--json", "json", is_flag=True, expose_value=False, callback=_set_flag,
+                           help="Machine-readable JSON on stdout.")(command)
+    return deg_option(command)
+
+
+def ur_pose_from_input(values, deg: bool, name: str = "pose") -> np.ndarray:
+    """A UR pose vector typed by the user (rotation vector in degrees when `deg`) in metres and radians."""
+    if len(values) != 6:
+        raise ValueError(f"{name}: expected 6 numbers x y z rx ry rz, got {len(values)}")
+    pose = np.asarray(values, dtype=float)
+    if deg:
+        pose[3:] = np.radians(pose[3:])
+    return pose
+
+
+def angular_option(value: float | None, default: float, deg: bool) -> float:
+    """An angular option (speed, acceleration, travel) in radians: `default` when not given, else the typed value,
+    read as degrees when `deg` (so `--deg --speed 30` is 30°/s, never 30 rad/s)."""
+    if value is None:
+        return default
+    return math.radians(value) if deg else value
+
+
+def motion_options(command):
+    """--speed, --acceleration and --max-travel, in radians (degrees with --deg); resolve with angular_option."""
+    command = click.option(
+        "--max-travel", type=float, default=None,
+        help="Refuse a plan in which one move swings a joint further than this (rad, ° with --deg) "
+             "[default: π rad].")(command)
+    command = click.option(
+        "--acceleration", type=float, default=None,
+        help=f"Leading joint acceleration, rad/s² (°/s² with --deg), clamped to the model "
+             f"[default: {DEFAULT_ACCELERATION} rad/s²].")(command)
+    return click.option(
+        "--speed", type=float, default=None,
+        help=f"Leading joint speed, rad/s (°/s with --deg), clamped to the model [default: {DEFAULT_SPEED} rad/s]."
+    )(command)
+
+
+def clamp_to_model(value: float, limits, name: str, minimum: float = 0.0) -> tuple[float, bool]:
+    """(value, clamped?) with `value` lowered to the slowest joint's limit; ValueError naming the valid range
+    unless finite and ≥ `minimum` (> 0 when `minimum` is 0)."""
+    limit = float(np.min(limits))
+    if not (math.isfinite(value) and value > 0 and value >= minimum):
+        raise ValueError(f"{name} must be a number in [{minimum:g}, {limit:g}] (larger values are lowered to "
+                         f"{limit:g}), got {value!r}")
+    return (limit, True) if value > limit else (value, False)
+
+
+def speed_and_acceleration(model, speed: float, acceleration: float, err: Console) -> tuple[float, float]:
+    """(a, v): --acceleration and --speed clamped to the model's slowest joint, saying so when they are lowered."""
+    v, v_clamped = clamp_to_model(speed, model.max_joint_speed, "--speed (rad/s)", MIN_SPEED)
+    a, a_clamped = clamp_to_model(acceleration, model.max_joint_acceleration, "--acceleration (rad/s²)",
+                                  MIN_ACCELERATION)
+    if v_clamped:
+        err.print(f"--speed {speed} rad/s exceeds the {model.name}'s limit: using {v:.4f} rad/s")
+    if a_clamped:
+        err.print(f"--acceleration {acceleration} rad/s² exceeds the {model.name}'s limit: using {a:.4f} rad/s²")
+    return a, v
+
+
+def check_max_travel(max_travel: float) -> float:
+    """--max-travel in radians if it is in (0, 2π]; ValueError naming the range (NaN would switch the check off)."""
+    if not (math.isfinite(max_travel) and 0 < max_travel <= 2 * math.pi):
+        raise ValueError(f"--max-travel must be an angle in (0, 2π] rad (0-360° with --deg), got {max_travel!r}")
+    return max_travel
+
+
+def check_blend(blend: float) -> float:
+    """--blend in metres if it is in [0, MAX_BLEND_RADIUS]; ValueError naming the range."""
+    if not (math.isfinite(blend) and 0 <= blend <= MAX_BLEND_RADIUS):
+        raise ValueError(f"--blend must be a radius in [0, {MAX_BLEND_RADIUS:g}] metres, got {blend!r}")
+    return blend

@@ -1,0 +1,221 @@
+"""Record and replay as a library: the joint target for each recorded pose (planned before the arm moves), the
+replay itself on a connected Robot with progress through a callback, and reading the arm's pose as a Pose.
+
+No click or rich here: the CLI (ur3dq/cli) and any script share these functions.
+
+Planning is pure. Each pose is solved with its own recorded TCP offset, so the flange goes where it was when the
+pose was recorded. IK runs once per pose (`ik_all`, every FK-verified solution); among those solutions and their
+±2π variants inside the limits the planner takes the one closest to the pose's recorded joints when it has them,
+else to the previous target (the arm's joints for the first pose) — the same choice as `model.ik`.
+
+Replay (`execute_plan`) moves through the plan with `Robot.movej` (or one blended `movej_path`); every move is
+checked and watched to its end by the driver; Ctrl-C between moves sends stopj too.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable, Sequence
+
+import numpy as np
+
+from ur3dq.dualquat import DualQuaternion
+from ur3dq.errors import ConnectionLostError, JointLimitError, SafetyCheckError, UnreachablePoseError
+from ur3dq.pose import Pose
+from ur3dq.robot import motion
+
+SOURCE_RECORDED = "recorded joints"
+SOURCE_IK_RECORDED = "IK nearest recorded"
+SOURCE_IK_PREVIOUS = "IK nearest previous"
+SOURCE_IK_ZERO = "IK nearest zero"  # no robot joints known (dry run without a robot)
+
+MAX_STATUS_AGE_S = 1.0  # a reading older than this is a frozen stream, not the arm's pose
+
+TCP_RECORDED = "recorded"  # replay puts the flange where it was when recorded (the recorded TCP's pose)
+TCP_CURRENT = "current"    # replay puts the controller's current TCP on the recorded TCP pose
+
+# progress(description, moves done, moves in all): called before each move and once at the end
+ProgressCallback = Callable[[str, int, int], None]
+
+
+@dataclasses.dataclass(frozen=True)
+class PlanStep:
+    """One move of a replay: the pose, its joint target (rad, shape (6,)), how it was chosen, the move's figures."""
+
+    pose: Pose
+    joints: np.ndarray
+    source: str
+    solutions: int           # FK-verified IK solutions of the pose (0 when replaying recorded joints)
+    travel: float | None     # largest joint travel from the previous target (rad); None when the start is unknown
+    duration: float | None   # movej seconds at 100 % speed; None when the start is unknown
+    fk_error_m: float        # model FK of the target vs the recorded pose
+    fk_error_rad: float
+
+
+@dataclasses.dataclass(frozen=True)
+class Reached:
+    """Where one replayed move ended: the TCP the controller reports vs the pose the replay aimed that TCP at."""
+
+    step: PlanStep
+    error_m: float
+    error_rad: float
+    seconds: float
+    target: DualQuaternion  # where the replay aimed the controller's current TCP
+    target_off_m: float     # how far that target is from the recorded TCP pose (0 unless the TCP changed)
+
+
+def tcp_pose_for(pose: Pose, tcp_now: DualQuaternion) -> DualQuaternion:
+    """Where the TCP `tcp_now` (flange frame) is when the flange sits where `pose` put it: σ·tcp_rec⁻¹·tcp_now."""
+    return pose.dq * DualQuaternion.from_ur_pose(pose.tcp_offset).inverse() * tcp_now
+
+
+def tcp_changed(pose: Pose, tcp_now: DualQuaternion, tol_m: float = 1e-4, tol_rad: float = 1e-3) -> bool:
+    """True if `pose` was recorded with a TCP offset other than `tcp_now` (beyond 0.1 mm / 1 mrad)."""
+    metres, radians = DualQuaternion.from_ur_pose(pose.tcp_offset).distance(tcp_now)
+    return metres > tol_m or radians > tol_rad
+
+
+def retarget_to_tcp(pose: Pose, tcp_now: DualQuaternion) -> Pose:
+    """`pose` with the TCP offset `tcp_now`, same TCP pose: replaying it puts the current TCP where the recorded
+    TCP was (the flange ends elsewhere than when recorded). Recorded joints are dropped: they belong to the old TCP."""
+    return dataclasses.replace(pose, tcp_offset=tuple(float(v) for v in tcp_now.to_ur_pose()), joints=None) \
+        if tcp_changed(pose, tcp_now) else pose
+
+
+def _closest_variant(angle: float, reference: float, lower: float, upper: float) -> float:
+    """angle + 2πk inside [lower, upper] closest to `reference` (rad); inf when no variant fits the limits."""
+    centre = reference + math.remainder(angle - reference, 2 * math.pi)
+    if lower <= centre <= upper:
+        return centre
+    # every in-limit variant lies on one side of `centre`: the nearest is the end of the in-limit run on that side
+    step = 2 * math.pi
+    end = angle + step * (math.ceil((lower - angle) / step) if centre < lower else math.floor((upper - angle) / step))
+    return end if lower <= end <= upper else math.inf
+
+
+def nearest_variant(model, solutions, reference: np.ndarray) -> np.ndarray:
+    """Among `solutions` (FK-verified, canonical) and their ±2π variants inside the limits, the one nearest
+    `reference` (Σ Δq², per joint since the cost and the limits are per joint); UnreachablePoseError if none fits."""
+    best, best_cost = None, math.inf
+    for solution in solutions:
+        q = np.array([_closest_variant(float(angle), float(ref), float(low), float(high)) for angle, ref, low, high
+                      in zip(solution, reference, model.joint_lower, model.joint_upper)])
+        if not np.all(np.isfinite(q)):
+            continue
+        cost = float(np.sum((q - reference) ** 2))
+        if cost < best_cost:
+            best, best_cost = q, cost
+    if best is None:
+        raise UnreachablePoseError("outside limits — every solution has a joint outside the joint limits")
+    return best
+
+
+def choose_joints(model, pose: Pose, previous, replay_recorded_joints: bool) -> tuple[np.ndarray, str, int]:
+    """(joint target (6,), source, number of IK solutions) for `pose` on `model` (a robot_model; its TCP is
+    ignored: the pose's recorded TCP offset is used)."""
+    solver = model.with_tcp(pose.tcp_offset)
+    if replay_recorded_joints:
+        if pose.joints is None:
+            raise ValueError(f"pose {pose.name!r} has no recorded joints (imported from thesis lines?); "
+                             "replay it without --joints")
+        if pose.robot_model != model.name:
+            raise ValueError(f"pose {pose.name!r} was recorded on a {pose.robot_model}; its joints mean nothing "
+                             f"on this {model.name}: replay it without --joints")
+        q = np.asarray(pose.joints, dtype=float)
+        try:
+            solver.check_joints(q)
+        except (JointLimitError, ValueError) as error:
+            raise JointLimitError(f"pose {pose.name!r}: {error}") from None
+        return q, SOURCE_RECORDED, 0
+    if pose.joints is not None:
+        reference, source = np.asarray(pose.joints, dtype=float), SOURCE_IK_RECORDED
+    elif previous is not None:
+        reference, source = np.asarray(previous, dtype=float), SOURCE_IK_PREVIOUS
+    else:
+        reference, source = np.zeros(6), SOURCE_IK_ZERO
+    try:
+        solutions = solver.ik_all(pose.dq, q_ref=reference)  # the one IK solve of this pose
+        if not solutions:
+            raise UnreachablePoseError("no solution passed the FK check")
+        q = nearest_variant(solver, solutions, reference)
+    except UnreachablePoseError as error:
+        raise UnreachablePoseError(f"pose {pose.name!r} is unreachable on the {model.name}: {error}") from None
+    return q, source, len(solutions)
+
+
+def plan_replay(model, poses: Sequence[Pose], start_joints=None, a: float = 1.4, v: float = 1.05,
+                replay_recorded_joints: bool = False, max_joint_travel: float | None = None) -> list[PlanStep]:
+    """The replay plan of `poses` from `start_joints` (rad, or None if unknown) with movej a (rad/s²), v (rad/s).
+
+    Raises (naming the pose) if one is unreachable, outside the limits, or (with `max_joint_travel`, rad) would
+    swing a joint further than that in one move: nothing moves unless the whole plan is sound.
+    """
+    steps = []
+    previous = None if start_joints is None else np.asarray(start_joints, dtype=float)
+    for pose in poses:
+        q, source, count = choose_joints(model, pose, previous, replay_recorded_joints)
+        travel = None if previous is None else motion.leading_travel(previous, q)
+        if max_joint_travel is not None and travel is not None and travel > max_joint_travel:
+            raise SafetyCheckError(
+                f"pose {pose.name!r}: a joint would travel {travel:.3f} rad in one move, more than --max-travel "
+                f"{max_joint_travel:.3f} rad (record an intermediate pose, or raise --max-travel)")
+        metres, radians = model.with_tcp(pose.tcp_offset).fk(q).distance(pose.dq)
+        duration = None if previous is None else motion.movej_duration(previous, q, a, v)
+        steps.append(PlanStep(pose, q, source, count, travel, duration, metres, radians))
+        previous = q
+    return steps
+
+
+def loop_closing_travel(steps: Sequence[PlanStep]) -> float:
+    """The largest joint travel (rad) from the plan's last target back to its first, the move between loops."""
+    return motion.leading_travel(steps[-1].joints, steps[0].joints)
+
+
+def read_pose(robot, name: str, note: str = "") -> Pose:
+    """The arm's current TCP pose as a Pose named `name` (one status reading, so joints and TCP belong together);
+    ConnectionLostError if the state stream is frozen."""
+    status = robot.state()
+    if status.age > MAX_STATUS_AGE_S:
+        raise ConnectionLostError(f"the robot's state stream is frozen ({status.age:.1f} s old); pose not recorded")
+    return Pose.from_dual_quaternion(
+        name, DualQuaternion.from_ur_pose(status.tcp_pose), robot.model_name, joints=status.joints,
+        robot_serial=robot.serial_number, tcp_offset=robot.model.tcp.to_ur_pose(), note=note)
+
+
+def _reached(robot, step: PlanStep, target: DualQuaternion, seconds: float) -> Reached:
+    """Where `robot` ended after the move of `step` aimed at `target`."""
+    return Reached(step, *robot.tcp_pose().distance(target), seconds, target, target.distance(step.pose.dq)[0])
+
+
+def _no_progress(description: str, done: int, total: int) -> None:
+    """The default progress callback: report nothing."""
+
+
+def execute_plan(robot, steps: Sequence[PlanStep], a: float, v: float, blend: float = 0.0, loops: int = 1,
+                 progress: ProgressCallback = _no_progress) -> list[Reached]:
+    """Move `robot` through `steps` `loops` times; returns where each move ended (with `blend` > 0, metres, the
+    whole run is one blended program and only its end is measured). `progress(description, done, total)` is
+    called before each move and at the end. Each Reached compares the controller's TCP with where the replay
+    aimed that TCP (the recorded pose when the TCP is unchanged). Ctrl-C or any fault stops the arm (the driver
+    sends stopj) and propagates."""
+    results = []
+    tcp_now = robot.model.tcp
+    expected = [tcp_pose_for(step.pose, tcp_now) for step in steps]
+    total = len(steps) * loops
+    try:
+        if blend > 0:
+            progress(f"blended path through {total} poses", 0, total)
+            seconds = robot.movej_path([s.joints for s in steps] * loops, blend=blend, a=a, v=v,
+                                       expected_poses=expected * loops)
+            progress("done", total, total)
+            return [_reached(robot, steps[-1], expected[-1], seconds)]
+        for loop in range(loops):
+            for index, (step, pose) in enumerate(zip(steps, expected)):
+                progress(f"pass {loop + 1}/{loops}: {step.pose.name}", loop * len(steps) + index, total)
+                seconds = robot.movej(step.joints, a=a, v=v, expected_pose=pose)
+                results.append(_reached(robot, step, pose, seconds))
+        progress("done", total, total)
+    except KeyboardInterrupt:
+        robot.stop()  # the driver already stops a motion it was watching; this covers a Ctrl-C between moves
+        raise
+    return results
