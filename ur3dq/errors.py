@@ -50,3 +50,7 @@ class MotionTimeoutError(RobotError):
 
 class SafetyCheckError(RobotError, ValueError):
     """A motion was refused before sending: it failed a safety check (limits, travel, FK consistency)."""
+
+
+class InvalidStateError(RobotError):
+    """The controller sent state that cannot be true (not finite, implausible magnitude, unknown mode)."""

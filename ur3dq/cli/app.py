@@ -13,6 +13,7 @@ import click
 from rich.console import Console
 
 from ur3dq.cli.background_simulator import SimulatorError, running_simulator_host
+from ur3dq.cli.signals import exit_code_for_interrupt, polite_signals_interrupt, signal_name
 from ur3dq.errors import RobotConnectionError, RobotError, SafetyCheckError, StoreError, UR3DQError
 from ur3dq.kinematics import MODEL_NAMES
 from ur3dq.store import DEFAULT_STORE_PATH, PoseStore
@@ -52,6 +53,7 @@ Exit codes:
   {EXIT_SIMULATOR}  the embedded simulator could not be started or stopped (`ur3dq sim ...`)
   {EXIT_INTERNAL}  internal error (set UR3DQ_DEBUG=1 for the traceback)
   {EXIT_INTERRUPTED}  interrupted (Ctrl-C); a moving arm was stopped with stopj
+  143/129  terminated by SIGTERM / SIGHUP (128 + signal number); handled like Ctrl-C
 """
 
 NO_ROBOT_HINT = ("no robot configured: name one with --host ADDRESS (or export UR3DQ_HOST=ADDRESS), "
@@ -182,20 +184,19 @@ def main(argv=None) -> None:
     """Entry point of the `ur3dq` command: run the CLI; any error becomes `Error: ...` on stderr and an exit code."""
     quiet_client_libraries(bool(os.environ.get("UR3DQ_DEBUG")))
     try:
-        code = cli.main(args=argv, prog_name="ur3dq", standalone_mode=False)
+        with polite_signals_interrupt():
+            code = cli.main(args=argv, prog_name="ur3dq", standalone_mode=False)
     except click.ClickException as error:
         error.show()
         code = error.exit_code
     except click.Abort as error:  # click turns Ctrl-C and end-of-input into Abort
         if isinstance(error.__cause__, KeyboardInterrupt):
-            click.echo("Error: interrupted", err=True)
-            code = EXIT_INTERRUPTED
+            code = _report_interrupt(error.__cause__)
         else:
             click.echo("Error: cancelled (no answer on stdin: pass --yes in scripts)", err=True)
             code = EXIT_CANCELLED
-    except KeyboardInterrupt:
-        click.echo("Error: interrupted", err=True)
-        code = EXIT_INTERRUPTED
+    except KeyboardInterrupt as interrupt:
+        code = _report_interrupt(interrupt)
     except Cancelled as cancelled:
         # a deliberate "no" is the user's choice, not an error: said plainly; a missing answer stays an error
         click.echo(str(cancelled)[0].upper() + str(cancelled)[1:] if cancelled.deliberate
@@ -211,6 +212,13 @@ def main(argv=None) -> None:
                    "(set UR3DQ_DEBUG=1 for the traceback)", err=True)
         code = EXIT_INTERNAL
     sys.exit(code if isinstance(code, int) else EXIT_OK)
+
+
+def _report_interrupt(interrupt):
+    """Print the one-line interruption error; its exit code (130 for Ctrl-C, 128 + n for signal n)."""
+    name = signal_name(interrupt)
+    click.echo(f"Error: interrupted by {name}" if name else "Error: interrupted", err=True)
+    return exit_code_for_interrupt(interrupt)
 
 
 @contextlib.contextmanager

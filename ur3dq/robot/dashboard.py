@@ -86,6 +86,9 @@ class Dashboard:
         client = dashboard_client.DashboardClient(self.host, self.port)
         try:
             client.connect(self._timeout_ms)
+        except UnicodeDecodeError:
+            raise RobotConnectionError(f"the dashboard server at {self.host}:{self.port} sent a greeting that is "
+                                       "not text: is it a UR controller?") from None
         except RuntimeError as error:
             raise RobotConnectionError(f"cannot reach the dashboard server at {self.host}:{self.port}: {error}") \
                 from None
@@ -97,11 +100,19 @@ class Dashboard:
         if self._client.isConnected():
             try:
                 return command(self._client)
+            except UnicodeDecodeError:
+                raise self._garbage_error() from None
             except RuntimeError:
                 pass
         self.close()
         self._client = self._connected_client()
         try:
             return command(self._client)
+        except UnicodeDecodeError:
+            raise self._garbage_error() from None
         except RuntimeError as error:
             raise RobotConnectionError(f"dashboard command to {self.host} failed: {error}") from None
+
+    def _garbage_error(self):
+        """The error for a dashboard reply that is not text (ur_rtde decodes it as UTF-8 and fails)."""
+        return RobotError(f"the dashboard server at {self.host}:{self.port} answered with bytes that are not text")

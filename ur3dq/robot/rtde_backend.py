@@ -6,6 +6,7 @@ import rtde_receive
 
 from ur3dq.errors import ConnectionLostError, RobotConnectionError
 from ur3dq.robot import state
+from ur3dq.robot.probe import probe_rtde
 
 # Only what the driver reads, so no version-gated default variable can make the controller refuse the recipe.
 RTDE_VARIABLES = [
@@ -24,6 +25,7 @@ class RTDEBackend:
     def __init__(self, host, primary):
         self.host = host
         self.primary = primary
+        probe_rtde(host)  # bounded: ur_rtde's own constructor would block without limit on a silent port
         try:
             self._receive = rtde_receive.RTDEReceiveInterface(host, -1.0, RTDE_VARIABLES)
         except RuntimeError as error:
@@ -38,6 +40,7 @@ class RTDEBackend:
 
     def reconnect(self):
         """Re-open the RTDE stream (RobotConnectionError if the controller does not answer)."""
+        probe_rtde(self.host)
         try:
             if not self._receive.reconnect():
                 raise RobotConnectionError(f"RTDE reconnect to {self.host}:30004 was refused")
@@ -56,7 +59,7 @@ class RTDEBackend:
             self._last_timestamp, self._last_fresh = timestamp, now
         safety_mode = receive.getSafetyMode()
         safety_bits = receive.getSafetyStatusBits()
-        return state.RobotStatus(
+        return state.validated(state.RobotStatus(
             joints=np.array(receive.getActualQ()),
             joint_speeds=np.array(receive.getActualQd()),
             tcp_pose=np.array(receive.getActualTCPPose()),
@@ -68,7 +71,7 @@ class RTDEBackend:
             speed_scaling=receive.getSpeedScaling(),
             target_speed_fraction=receive.getTargetSpeedFraction(),
             age=now - self._last_fresh,
-        )
+        ), f"the RTDE stream from {self.host}")
 
     def send_program(self, script):
         """Send URScript on the open primary connection (port 30001)."""

@@ -7,6 +7,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ur3dq.errors import InvalidStateError
+
 ROBOT_MODE_NAMES = {
     -1: "NO_CONTROLLER", 0: "DISCONNECTED", 1: "CONFIRM_SAFETY", 2: "BOOTING", 3: "POWER_OFF", 4: "POWER_ON",
     5: "IDLE", 6: "BACKDRIVE", 7: "RUNNING", 8: "UPDATING_FIRMWARE",
@@ -21,6 +23,13 @@ ROBOT_MODE_RUNNING = 7
 RUNTIME_STATE_PLAYING = 2
 EMERGENCY_SAFETY_MODES = frozenset({6, 7})
 PROTECTIVE_SAFETY_MODES = frozenset({3})
+
+# Bounds no real UR arm exceeds: joints turn at most ±2 turns (±4π; 2π limits on most joints, margin for wrist 3),
+# no joint is faster than 10 rad/s, no TCP is 10 m from the base. Beyond them the data is garbage, not state.
+MAX_PLAUSIBLE_JOINT = 4 * np.pi + 0.1  # rad
+MAX_PLAUSIBLE_JOINT_SPEED = 10.0  # rad/s
+MAX_PLAUSIBLE_REACH = 10.0  # m
+MAX_PLAUSIBLE_SPEED_FRACTION = 2.0
 
 _STATUS_BIT_PROGRAM_RUNNING = 1 << 1
 _SAFETY_BIT_PROTECTIVE_STOPPED = 1 << 2
@@ -88,3 +97,33 @@ def at_rest_at(status, target, position_tolerance=2e-3, speed_tolerance=5e-3):
         np.max(np.abs(status.joints - np.asarray(target, dtype=float))) <= position_tolerance
         and np.max(np.abs(status.joint_speeds)) <= speed_tolerance
     )
+
+
+def validated(status, source, safety_mode_reported=True):
+    """`status` unchanged if it can be true; else InvalidStateError naming `source` (e.g. 'RTDE from 10.0.0.2')
+    and the first implausible field. Called before any state is used or stored. `safety_mode_reported=False`
+    accepts safety mode 0 (the urx backend's "not reported yet")."""
+    vectors = (("joints", status.joints, MAX_PLAUSIBLE_JOINT, 6), ("joint speeds", status.joint_speeds,
+               MAX_PLAUSIBLE_JOINT_SPEED, 6), ("TCP pose", status.tcp_pose, None, 6))
+    for name, values, bound, length in vectors:
+        values = np.asarray(values, dtype=float)
+        if values.shape != (length,) or not np.all(np.isfinite(values)):
+            raise InvalidStateError(f"{source} sent invalid {name} {_shown(values)}: not {length} finite numbers")
+        if bound is not None and np.max(np.abs(values)) > bound:
+            raise InvalidStateError(f"{source} sent implausible {name} {_shown(values)} (beyond ±{bound:.4g})")
+    if np.linalg.norm(status.tcp_pose[:3]) > MAX_PLAUSIBLE_REACH or np.max(np.abs(status.tcp_pose[3:])) > 4 * np.pi:
+        raise InvalidStateError(f"{source} sent an implausible TCP pose {_shown(status.tcp_pose)}")
+    if int(status.robot_mode) not in ROBOT_MODE_NAMES:
+        raise InvalidStateError(f"{source} sent an unknown robot mode {status.robot_mode!r}")
+    if int(status.safety_mode) not in SAFETY_MODE_NAMES and (safety_mode_reported or status.safety_mode != 0):
+        raise InvalidStateError(f"{source} sent an unknown safety mode {status.safety_mode!r}")
+    for name in ("speed_scaling", "target_speed_fraction"):
+        value = float(getattr(status, name))
+        if not (0.0 <= value <= MAX_PLAUSIBLE_SPEED_FRACTION):
+            raise InvalidStateError(f"{source} sent an implausible {name.replace('_', ' ')} {value!r}")
+    return status
+
+
+def _shown(values):
+    """A short text of a vector for an error message."""
+    return np.array2string(np.asarray(values), precision=4, threshold=8)

@@ -54,7 +54,7 @@ class URXBackend:
         joint_data, cartesian = data["JointData"], data["CartesianInfo"]
         now = time.monotonic()
         urx_age = time.time() - self._robot.secmon.lastpacket_timestamp
-        return state.RobotStatus(
+        return state.validated(state.RobotStatus(
             joints=np.array([joint_data[f"q_actual{i}"] for i in range(6)]),
             joint_speeds=np.array([joint_data[f"qd_actual{i}"] for i in range(6)]),
             tcp_pose=np.array([cartesian[key] for key in ("X", "Y", "Z", "Rx", "Ry", "Rz")]),
@@ -66,7 +66,7 @@ class URXBackend:
             speed_scaling=mode.speed_scaling,
             target_speed_fraction=mode.target_speed_fraction,
             age=max(urx_age, now - self.primary.last_state_time),
-        )
+        ), f"the urx/primary state stream from {self.host}", safety_mode_reported=False)
 
     def send_program(self, script):
         """Send URScript through urx (port 30002); ConnectionLostError if urx cannot hand it over in time."""

@@ -1,0 +1,42 @@
+"""SIGTERM and SIGHUP during `run-poses` are handled like Ctrl-C: stopj, one line, exit 128 + n; checked with ur_rtde."""
+import signal
+import time
+
+import numpy as np
+import pytest
+
+from cli_support import cli_process
+from robot_target import simulator_only
+
+pytestmark = simulator_only("placing the arm by hand")
+
+START = np.array([0.8, -1.0, 1.3, -1.9, -1.57, 0.5])
+TARGET = np.array([0.0, -1.2, 1.0, -1.4, -1.57, 0.0])
+SPEED = 0.15  # rad/s: the move takes ~5 s, so the signal surely lands mid-move
+# stopj at 2 rad/s² from SPEED travels SPEED²/(2·2) ≈ 0.006 rad; the signal's own latency (a poll period) adds
+# little. 0.05 rad is far below the 0.86 rad main travelled after a SIGTERM before this was handled.
+TRAVEL_BOUND = 0.05
+
+
+@pytest.mark.parametrize("signum, code", [(signal.SIGTERM, 143), (signal.SIGHUP, 129)])
+def test_a_polite_signal_mid_move_stops_the_arm(arm, run_cli, tmp_path, signum, code):
+    arm.place(TARGET)
+    assert run_cli("--host", arm.host, "record-pose", "--name", "target", "--yes").returncode == 0
+    arm.place(START)
+    with cli_process(tmp_path, "--host", arm.host, "run-poses", "--yes", "--speed", str(SPEED)) as process:
+        deadline = time.monotonic() + 20
+        while np.max(np.abs(arm.joint_speeds())) < 0.05:  # wait until the arm is clearly moving
+            assert time.monotonic() < deadline and process.poll() is None, "the arm never started moving"
+            time.sleep(0.02)
+        at_signal = arm.joints()
+        process.send_signal(signum)
+        _, stderr = process.communicate(timeout=20)
+    assert process.returncode == code, stderr
+    assert stderr.strip().splitlines()[-1] == f"Error: interrupted by {signal.Signals(signum).name}"
+    deadline = time.monotonic() + 5
+    while np.max(np.abs(arm.joint_speeds())) > 1e-6:  # the arm comes to rest by itself
+        assert time.monotonic() < deadline, "the arm still moves after the signal"
+        time.sleep(0.02)
+    travel = np.max(np.abs(arm.joints() - at_signal))
+    assert travel < TRAVEL_BOUND, f"the arm travelled {travel:.4f} rad after {signal.Signals(signum).name}"
+    assert np.max(np.abs(arm.joints() - TARGET)) > 0.1, "the arm reached the target: the signal did not stop it"

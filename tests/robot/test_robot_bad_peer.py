@@ -1,0 +1,152 @@
+"""A fake robot on a loopback address (one small threaded server per port) that stays silent, truncates, or sends
+garbage: every connection step ends within its timeout with one ur3dq error; garbage state is never taken as state."""
+import os
+import random
+import socket
+import subprocess
+import sys
+import threading
+import time
+
+import numpy as np
+import pytest
+
+from ur3dq.errors import InvalidStateError, RobotConnectionError, RobotError
+from ur3dq.robot import state
+
+TIMEOUT = 0.5  # s: UR3DQ_CONNECT_TIMEOUT for these tests
+
+
+class FakePort:
+    """Accepts on host:port, greets every connection with `reply` (bytes, maybe empty), then answers each chunk it
+    receives with `answer` (silent if empty)."""
+
+    def __init__(self, port, reply=b"", answer=b""):
+        self.reply, self.answer = reply, answer
+        for _ in range(20):
+            self.host = f"127.{random.randint(1, 254)}.{random.randint(1, 254)}.{random.randint(1, 254)}"
+            self._listener = socket.socket()
+            try:
+                self._listener.bind((self.host, port))
+                break
+            except OSError:
+                self._listener.close()
+        self._listener.listen()
+        self._connections = []
+        threading.Thread(target=self._serve, daemon=True).start()
+
+    def _serve(self):
+        while True:
+            try:
+                connection, _ = self._listener.accept()
+            except OSError:
+                return
+            self._connections.append(connection)
+            threading.Thread(target=self._talk, args=(connection,), daemon=True).start()
+
+    def _talk(self, connection):
+        try:
+            if self.reply:
+                connection.sendall(self.reply)
+            while connection.recv(4096):
+                if self.answer:
+                    connection.sendall(self.answer)
+        except OSError:
+            pass
+
+    def close(self):
+        self._listener.close()
+        for connection in self._connections:
+            connection.close()
+
+
+@pytest.fixture
+def fake_port():
+    ports = []
+
+    def open_port(port, reply=b"", answer=b""):
+        ports.append(FakePort(port, reply, answer))
+        return ports[-1]
+
+    yield open_port
+    for port in ports:
+        port.close()
+
+
+def construct_rtde_backend(host):
+    """Run RTDEBackend(host) in a subprocess (ur_rtde blocks holding the GIL on a broken port): (rc, stderr, s)."""
+    code = ("from ur3dq.robot.rtde_backend import RTDEBackend\n"
+            "from ur3dq.errors import RobotConnectionError\n"
+            f"try:\n    RTDEBackend({host!r}, None)\nexcept RobotConnectionError as e:\n"
+            "    print(e, file=__import__('sys').stderr); raise SystemExit(5)\n")
+    started = time.monotonic()
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=20,
+                            env={**os.environ, "UR3DQ_CONNECT_TIMEOUT": str(TIMEOUT)})
+    return result.returncode, result.stderr, time.monotonic() - started
+
+
+@pytest.mark.parametrize("reply, expected", [
+    (b"", "did not answer the protocol version request within 0.5 s"),
+    (b"\x00\x04", "did not answer the protocol version request within 0.5 s"),  # truncated
+    (b"\xde\xad\xbe\xef" * 64, "not an RTDE reply"),  # garbage
+    (b"\xff\xffV\x01", "not an RTDE reply"),  # a huge announced size
+])
+def test_a_broken_rtde_port_gives_one_connection_error_in_bounded_time(fake_port, reply, expected):
+    port = fake_port(30004, reply)
+    returncode, stderr, seconds = construct_rtde_backend(port.host)
+    assert returncode == 5, stderr
+    assert expected in stderr and f"{port.host}:30004" in stderr
+    assert seconds < TIMEOUT + 5  # interpreter start-up and imports included
+
+
+def test_nothing_listening_on_the_rtde_port_is_a_connection_error():
+    from ur3dq.robot.probe import probe_rtde
+
+    with pytest.raises(RobotConnectionError, match="cannot reach the RTDE interface"):
+        probe_rtde("127.0.0.1", port=_free_port(), timeout=TIMEOUT)
+
+
+def test_a_bad_connect_timeout_setting_is_refused(monkeypatch):
+    from ur3dq.robot.probe import connect_timeout
+
+    monkeypatch.setenv("UR3DQ_CONNECT_TIMEOUT", "nan")
+    with pytest.raises(RobotConnectionError, match="UR3DQ_CONNECT_TIMEOUT"):
+        connect_timeout()
+
+
+def test_dashboard_garbage_is_a_ur3dq_error_naming_the_dashboard(fake_port):
+    from ur3dq.robot.dashboard import Dashboard
+
+    port = fake_port(29999, b"Connected: Universal Robots Dashboard Server\n", answer=b"\xff\xfe\xfd garbage\n")
+    started = time.monotonic()
+    with pytest.raises(RobotError, match="dashboard server at .*:29999"):
+        Dashboard(port.host, timeout_ms=int(TIMEOUT * 1000)).robot_model_reply()
+    assert time.monotonic() - started < 5 * TIMEOUT + 1
+
+
+GOOD = state.RobotStatus(joints=np.zeros(6), joint_speeds=np.zeros(6), tcp_pose=np.array([0.1, 0.2, 0.3, 0, 0, 0]),
+                         robot_mode=7, safety_mode=1, program_running=False, protective_stopped=False,
+                         emergency_stopped=False, speed_scaling=1.0, target_speed_fraction=1.0, age=0.0)
+
+
+@pytest.mark.parametrize("change, named", [
+    ({"joints": np.full(6, 1e198)}, "implausible joints"),
+    ({"joints": np.array([0, 0, np.nan, 0, 0, 0])}, "invalid joints"),
+    ({"joint_speeds": np.full(6, 50.0)}, "implausible joint speeds"),
+    ({"tcp_pose": np.array([1e9, 0, 0, 0, 0, 0])}, "implausible TCP pose"),
+    ({"robot_mode": 1234}, "unknown robot mode 1234"),
+    ({"safety_mode": 0}, "unknown safety mode 0"),
+    ({"speed_scaling": float("inf")}, "implausible speed scaling"),
+])
+def test_garbage_state_is_refused_with_the_field_named(change, named):
+    import dataclasses
+
+    with pytest.raises(InvalidStateError, match=named):
+        state.validated(dataclasses.replace(GOOD, **change), "the test stream")
+    assert state.validated(GOOD, "the test stream") is GOOD
+
+
+def _free_port():
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return sock.getsockname()[1]

@@ -1,0 +1,49 @@
+"""SIGTERM and SIGHUP handled like Ctrl-C: they raise `Terminated` (a KeyboardInterrupt) in the main thread, so the
+driver's interrupt path sends stopj to a moving arm and the store's atomic writes roll back, exactly as for Ctrl-C.
+
+The exit code follows the shell convention 128 + signal number: 130 for SIGINT, 143 for SIGTERM, 129 for SIGHUP.
+"""
+import contextlib
+import signal
+import threading
+
+# The signals a supervisor, `kill`, or a closed terminal send to end a process politely.
+POLITE_SIGNALS = tuple(sig for sig in (getattr(signal, "SIGTERM", None), getattr(signal, "SIGHUP", None)) if sig)
+
+
+class Terminated(KeyboardInterrupt):
+    """A polite termination signal (SIGTERM, SIGHUP) arrived; `signum` is its number."""
+
+    def __init__(self, signum):
+        super().__init__(f"terminated by {signal.Signals(signum).name}")
+        self.signum = signum
+
+
+def exit_code_for_interrupt(interrupt):
+    """128 + the signal number of a KeyboardInterrupt (SIGINT = 2 unless it is a Terminated)."""
+    return 128 + getattr(interrupt, "signum", signal.SIGINT)
+
+
+def signal_name(interrupt):
+    """'SIGTERM' / 'SIGHUP' for a Terminated, None for a plain Ctrl-C."""
+    signum = getattr(interrupt, "signum", None)
+    return signal.Signals(signum).name if signum is not None else None
+
+
+def _raise_terminated(signum, _frame):
+    raise Terminated(signum)
+
+
+@contextlib.contextmanager
+def polite_signals_interrupt():
+    """While inside, SIGTERM and SIGHUP raise Terminated in the main thread; the old handlers come back after.
+    Does nothing outside the main thread (Python only delivers signals there)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = {sig: signal.signal(sig, _raise_terminated) for sig in POLITE_SIGNALS}
+    try:
+        yield
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
