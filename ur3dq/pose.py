@@ -42,7 +42,7 @@ def name_problem(name) -> str | None:
         return f"pose name {name[:20]!r}... is longer than {MAX_NAME_LENGTH} characters"
     if name != name.strip():
         return f"pose name {name!r} starts or ends with blanks"
-    if any(unicodedata.category(ch).startswith("C") for ch in name):
+    if not (name.isascii() and name.isprintable()) and any(unicodedata.category(ch).startswith("C") for ch in name):
         return f"pose name {name!r} contains control characters"
     return None
 

@@ -21,7 +21,7 @@ from ur3dq.pose import (
 )
 from ur3dq.program.resolve import check_program
 from ur3dq.program.steps import (
-    AnalogOut, DigitalOut, Message, Motion, RelativeWaypoint, Wait, WaitInput, Waypoint,
+    DEFAULT_MOTION, AnalogOut, DigitalOut, Message, Motion, RelativeWaypoint, Wait, WaitInput, Waypoint,
 )
 
 SCHEMA_NAME = "ur3dq.poses"
@@ -160,10 +160,27 @@ def _check_magnitudes(fields_list, who, who_of=None) -> list:
     return rows
 
 
-def poses_from_dicts(entries, who_of) -> list[Pose]:
-    """Poses from many JSON objects, numbers checked in one vectorised pass; ValueError naming the entry."""
+CHUNK = 4096  # poses checked per vectorised pass: big enough for numpy, small enough to bound memory
+
+
+def poses_from_dicts(entries, who_of, indices=None) -> list[Pose]:
+    """Poses from the JSON objects `entries[i]` for i in `indices` (default: all), numbers checked in vectorised
+    passes of CHUNK poses; each converted object is replaced by None in `entries` so a big file's dicts and its
+    Poses are never all in memory at once. ValueError naming the entry (who_of(i))."""
+    indices = list(range(len(entries))) if indices is None else indices
+    poses = []
+    for start in range(0, len(indices), CHUNK):
+        chunk = indices[start:start + CHUNK]
+        poses.extend(_poses_of_chunk(entries, chunk, who_of))
+        for index in chunk:
+            entries[index] = None
+    return poses
+
+
+def _poses_of_chunk(entries, chunk, who_of) -> list[Pose]:
     fields_list = []
-    for index, obj in enumerate(entries):
+    for index in chunk:
+        obj = entries[index]
         _check_pose_fields(obj, who_of(index), extra=("type", *MOTION_FIELDS))
         fields = {key: obj[key] for key in POSE_FIELDS if key in obj}
         if fields.get("tcp_offset") is None:
@@ -172,14 +189,14 @@ def poses_from_dicts(entries, who_of) -> list[Pose]:
         fields_list.append(fields)
     if not fields_list:
         return []
-    rows = _check_magnitudes(fields_list, None, who_of)
+    rows = _check_magnitudes(fields_list, None, lambda k: who_of(chunk[k]))
     poses = []
-    for index, (fields, (dq, ur, tcp, joints)) in enumerate(zip(fields_list, rows)):
+    for k, (fields, (dq, ur, tcp, joints)) in enumerate(zip(fields_list, rows)):
         try:
             check_pose_text_fields(fields["name"], fields["time"], fields["robot_model"],
                                    fields.get("robot_serial"), fields["note"])
         except ValueError as error:
-            raise ValueError(f"{who_of(index)}: {_strip_pose_prefix(str(error))}") from None
+            raise ValueError(f"{who_of(chunk[k])}: {_strip_pose_prefix(str(error))}") from None
         poses.append(Pose.checked(fields["name"], fields["time"], fields["robot_model"], tuple(dq.tolist()),
                                   tuple(ur.tolist()), tuple(tcp.tolist()),
                                   None if joints is None else tuple(joints.tolist()),
@@ -198,6 +215,8 @@ def _strip_pose_prefix(message: str) -> str:
 
 
 def _motion_from(obj, who: str) -> Motion:
+    if not any(key in obj for key in MOTION_FIELDS):
+        return DEFAULT_MOTION
     return Motion(obj.get("move", "joint"), obj.get("speed"), obj.get("acceleration"), obj.get("blend"))
 
 
@@ -348,22 +367,24 @@ def parse_document(text: str, source: str) -> tuple[int, list]:
         raise StoreError(f"{source}:1: {json.dumps(key)} must be a list")
     label = "pose" if version == SCHEMA_VERSION else "step"
 
-    def who_of(index):
-        entry = entries[index]
-        name = entry.get("name") if isinstance(entry, dict) else None
+    names = [e.get("name") if isinstance(e, dict) else None for e in entries]
+
+    def who_of(index):  # entries are released as they are converted: name them from `names`
+        name = names[index]
         return f"{label} #{index + 1}" + (f" {name!r}" if isinstance(name, str) else "")
 
     def fail(index, error):
-        entry = entries[index] if index is not None else None
-        name = entry.get("name") if isinstance(entry, dict) else None
+        name = names[index] if index is not None else None
         return StoreError(f"{_where(text, source, name)}: {error}")
 
     if version == SCHEMA_VERSION:
         waypoint_indices = list(range(len(entries)))
     else:
         waypoint_indices = [i for i, e in enumerate(entries) if isinstance(e, dict) and e.get("type") == "waypoint"]
+    motions = {i: _motion_from(entries[i], who_of(i)) for i in waypoint_indices} \
+        if version != SCHEMA_VERSION else {}
     try:
-        poses = poses_from_dicts([entries[i] for i in waypoint_indices], lambda k: who_of(waypoint_indices[k]))
+        poses = poses_from_dicts(entries, who_of, waypoint_indices)
     except ValueError as error:
         bad = next((i for i in waypoint_indices if str(error).startswith(who_of(i) + ":")), None)
         raise fail(bad, error) from None
@@ -372,7 +393,7 @@ def parse_document(text: str, source: str) -> tuple[int, list]:
     for index, entry in enumerate(entries):
         try:
             if index in pose_at:
-                motion = _motion_from(entry, who_of(index)) if version != SCHEMA_VERSION else Motion()
+                motion = motions.get(index, DEFAULT_MOTION)
                 steps.append(Waypoint(pose_at[index].name, pose_at[index], motion))
             elif not isinstance(entry, dict):
                 raise ValueError(f"{who_of(index)}: must be a JSON object")

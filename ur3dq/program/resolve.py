@@ -35,8 +35,9 @@ def offset_pose(base: DualQuaternion, offset, frame: str) -> DualQuaternion:
     return DualQuaternion.from_rotation_translation(rotation, base.translation + delta.translation)
 
 
-def resolve_targets(steps) -> dict:
-    """{name: Target} for every waypoint of `steps` (in any order); ValueError naming the step when a relative
+def resolve_targets(steps, relative_only: bool = False) -> dict:
+    """{name: Target} for every waypoint of `steps` (only relative ones and their bases when `relative_only`);
+    ValueError naming the step when a relative
     waypoint's base is missing or not a waypoint, or relative waypoints form a cycle."""
     by_name = {step.name: step for step in steps}
     resolved: dict = {}
@@ -64,7 +65,7 @@ def resolve_targets(steps) -> dict:
         return target
 
     for step in steps:
-        if isinstance(step, RelativeWaypoint) or isinstance(step, Waypoint):
+        if is_waypoint(step) and not (relative_only and isinstance(step, Waypoint)):
             resolve(step, [])
     return resolved
 
@@ -76,7 +77,7 @@ def check_program(steps) -> None:
         if step.name in seen:
             raise ValueError(f"{step.who}: the name appears twice in the program")
         seen.add(step.name)
-    resolve_targets(steps)
+    resolve_targets(steps, relative_only=True)
 
 
 def select_range(steps, start: str | None = None, end: str | None = None) -> list:

@@ -79,6 +79,8 @@ class Motion:
 
     def check(self, who: str) -> "Motion":
         """This Motion with numbers normalised; ValueError naming `who` when a value makes no sense."""
+        if self is DEFAULT_MOTION:  # every v1 waypoint: nothing to check (a big store has 10⁵ of them)
+            return self
         if self.move not in MOVE_TYPES:
             raise ValueError(f"{who}: move {self.move!r} is not one of {', '.join(MOVE_TYPES)}")
         blend = self.blend
@@ -93,7 +95,10 @@ class Motion:
     @property
     def is_default(self) -> bool:
         """True for a v1 waypoint: a joint move with the run's speed, acceleration and blend."""
-        return self == Motion()
+        return self == DEFAULT_MOTION
+
+
+DEFAULT_MOTION = Motion()
 
 
 @dataclasses.dataclass(frozen=True)
@@ -120,7 +125,7 @@ class Waypoint(Step):
     """A recorded pose and how to move there."""
 
     pose: Pose = None
-    motion: Motion = Motion()
+    motion: Motion = DEFAULT_MOTION
     kind = "waypoint"
 
     def __post_init__(self):
@@ -140,7 +145,7 @@ class RelativeWaypoint(Step):
     base: str = ""
     offset: tuple = (0.0,) * 6
     frame: str = "tool"
-    motion: Motion = Motion()
+    motion: Motion = DEFAULT_MOTION
     note: str = ""
     kind = "relative waypoint"
 
