@@ -4,6 +4,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import click
+from rich.markup import escape
 from rich.table import Table
 
 from ur3dq.cli.app import Settings, cli, confirm, display_options, emit_json
@@ -11,6 +12,9 @@ from ur3dq.cli.commands_kinematics import NUMBERS_CONTEXT, ur_pose_from_input
 from ur3dq.cli.display import angles_text, coefficients_text, key_value_table, pose_vector_text
 from ur3dq.errors import StoreError
 from ur3dq.store import format_store, format_thesis_lines, parse_store, pose_to_dict, write_atomically
+
+
+PLAIN_LIST_ROWS = 2000
 
 
 @cli.group()
@@ -38,15 +42,20 @@ def list_poses(settings: Settings):
         emit_json([pose_to_dict(pose) for pose in stored])
         return
     if not stored:
-        settings.out.print(f"{settings.store_path} has no poses yet: record one with `ur3dq record-pose`.")
+        click.echo(f"{settings.store_path} has no poses yet: record one with `ur3dq record-pose`.")
         return
-    table = Table(title=f"{len(stored)} poses in {settings.store_path}", title_justify="left")
-    for header in ("#", "name", "recorded (UTC)", "model", "TCP pose", "joints", "note"):
+    rows = [(str(index), pose.name, pose.time, pose.robot_model, pose_vector_text(pose.ur_pose, settings.deg),
+             "yes" if pose.joints is not None else "no", pose.note) for index, pose in enumerate(stored, start=1)]
+    headers = ("#", "name", "recorded (UTC)", "model", "TCP pose", "joints", "note")
+    title = f"{len(stored)} poses in {settings.store_path}"
+    if len(rows) > PLAIN_LIST_ROWS:  # a rich table of 10⁵ rows takes a minute to lay out: tab-separated lines
+        click.echo("\n".join([title, "\t".join(headers), *("\t".join(row) for row in rows)]))
+        return
+    table = Table(title=escape(title), title_justify="left")
+    for header in headers:
         table.add_column(header, overflow="fold")
-    for index, pose in enumerate(stored, start=1):
-        table.add_row(str(index), pose.name, pose.time, pose.robot_model,
-                      pose_vector_text(pose.ur_pose, settings.deg), "yes" if pose.joints is not None else "no",
-                      pose.note)
+    for row in rows:  # user text (names, notes) is shown as typed, never read as rich markup
+        table.add_row(*(escape(cell) for cell in row))
     settings.out.print(table)
 
 
@@ -65,15 +74,15 @@ def show(settings: Settings, name):
     if settings.json:
         emit_json({**pose_to_dict(pose), "thesis_line": pose.dq.to_thesis_line()})
         return
-    settings.out.print(key_value_table(f"Pose {pose.name!r}", [
+    settings.out.print(key_value_table(escape(f"Pose {pose.name!r}"), [
         ("recorded (UTC)", pose.time),
-        ("robot", f"{pose.robot_model}" + (f", serial {pose.robot_serial}" if pose.robot_serial else "")),
+        ("robot", escape(f"{pose.robot_model}" + (f", serial {pose.robot_serial}" if pose.robot_serial else ""))),
         ("joints", angles_text(pose.joints, settings.deg) if pose.joints is not None else "not recorded"),
         ("TCP pose", pose_vector_text(pose.ur_pose, settings.deg)),
         ("dual quaternion", coefficients_text(pose.dual_quaternion)),
         ("thesis line", pose.dq.to_thesis_line()),
         ("TCP offset", pose_vector_text(pose.tcp_offset, settings.deg)),
-        ("note", pose.note),
+        ("note", escape(pose.note)),
     ]))
 
 
