@@ -27,10 +27,17 @@ GOAL_MB = 300.0
 
 
 def write_big_store(path: Path, count: int) -> None:
-    """`count` poses of a UR3: random joints within ±π (wrist 3 ±2π), the pose by the model's batch FK."""
+    """`count` poses of a UR3 along a random walk of its joints (steps ≤ 0.2 rad, within ±π, so a plan passes the
+    travel check), each pose from the model's batch FK."""
     model = robot_model("ur3")
     rng = np.random.default_rng(7)
-    joints = rng.uniform(-np.pi, np.pi, (count, 6))
+    steps = rng.uniform(-0.2, 0.2, (count, 6))
+    joints = np.empty((count, 6))
+    q = np.array([0.0, -1.5, 1.2, -1.2, -1.5, 0.0])
+    for index in range(count):
+        q = q + steps[index]
+        q = np.where(np.abs(q) > np.pi - 0.3, q - 2 * steps[index], q)
+        joints[index] = q
     poses = model.fk_batch(joints)
     vectors = to_ur_pose(poses)
     with path.open("w", encoding="utf-8") as stream:

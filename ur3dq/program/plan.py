@@ -13,6 +13,7 @@ import math
 
 import numpy as np
 
+from ur3dq import dqarray
 from ur3dq.errors import JointLimitError, SafetyCheckError, UnreachablePoseError
 from ur3dq.program.resolve import resolve_targets
 from ur3dq.program.steps import Waypoint, is_waypoint
@@ -22,6 +23,7 @@ MAX_TCP_SPEED = 1.0          # m/s: the pendant's default tool speed limit regio
 MAX_TCP_ACCELERATION = 4.0   # m/s²
 DEFAULT_TCP_SPEED = 0.25     # m/s, URScript movel's default
 DEFAULT_TCP_ACCELERATION = 1.2
+POSE_OBJECTS_UP_TO = 10_000  # plans longer than this carry no DualQuaternion per step (`coefficients` instead)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -44,7 +46,7 @@ class PlannedStep:
 
     step: object
     joints: np.ndarray | None = None
-    pose: object = None
+    pose: object = None             # DualQuaternion of the target (None in plans over POSE_OBJECTS_UP_TO steps)
     tcp_offset: tuple | None = None
     move: str | None = None
     acceleration: float | None = None
@@ -93,6 +95,25 @@ def _joints_for(model, target, previous, replay_recorded_joints: bool):
         raise UnreachablePoseError(f"{who}: unreachable on the {model.name}: {error}") from None
 
 
+def _solve_hinted(model, targets, replay_recorded_joints: bool) -> dict:
+    """{index: joints} for the targets that have joints to prefer, solved in one batch IK per TCP offset (the
+    nearest FK-verified solution to the hint, as `ik` chooses); unreachable rows are left out, for the
+    sequential pass to report with its own error."""
+    groups: dict = {}
+    for index, target in enumerate(targets):
+        if target.joints_hint is not None and not (replay_recorded_joints and isinstance(target.step, Waypoint)):
+            groups.setdefault(target.tcp_offset, []).append(index)
+    solved = {}
+    for tcp_offset, indices in groups.items():
+        poses = np.array([targets[i].coefficients for i in indices])
+        hints = np.array([targets[i].joints_hint for i in indices], dtype=float)
+        joints = model.with_tcp(tcp_offset).ik_batch(poses, hints)
+        for i, q in zip(indices, joints):
+            if np.all(np.isfinite(q)):
+                solved[i] = q
+    return solved
+
+
 def plan_program(model, steps, start_joints=None, defaults: Defaults = Defaults(), speed_scale: float = 1.0,
                  replay_recorded_joints: bool = False, max_joint_travel: float | None = None,
                  resolve_from=None) -> list[PlannedStep]:
@@ -102,23 +123,48 @@ def plan_program(model, steps, start_joints=None, defaults: Defaults = Defaults(
     part still finds bases outside it. `speed_scale` (0 < F ≤ 1) scales every speed. A waypoint's blend is 0
     when it is the last waypoint or an action follows it (the action must happen at the waypoint). Raises,
     naming the step, if a target is unreachable, outside the limits, or swings a joint further than
-    `max_joint_travel` (rad): nothing moves unless the whole plan is sound.
+    `max_joint_travel` (rad): nothing moves unless the whole plan is sound. Waypoints with known joints are
+    solved in one batch (10⁵ poses in well under a second).
     """
     if not (isinstance(speed_scale, (int, float)) and math.isfinite(speed_scale) and 0 < speed_scale <= 1):
         raise ValueError(f"--speed-scale must be a fraction 0 < F ≤ 1, got {speed_scale!r}")
-    targets = resolve_targets(resolve_from if resolve_from is not None else steps)
+    steps = list(steps)
+    resolved = resolve_targets(resolve_from if resolve_from is not None else steps)
+    waypoints = [step for step in steps if is_waypoint(step)]
+    targets = [resolved[step.name] for step in waypoints]
+    batch = _solve_hinted(model, targets, replay_recorded_joints)
     joint_v_limit = float(np.min(model.max_joint_speed))
     joint_a_limit = float(np.min(model.max_joint_acceleration))
-    plan: list[PlannedStep] = []
     previous = None if start_joints is None else np.asarray(start_joints, dtype=float)
-    previous_pose = None if previous is None else model.fk(previous)
-    steps = list(steps)
+    solved = []
+    for index, target in enumerate(targets):
+        q = batch.get(index)
+        if q is None:
+            q = _joints_for(model, target, previous, replay_recorded_joints)
+        solved.append(q)
+        previous = q
+    fk_errors = _fk_errors(model, targets, solved)
+    # travel and TCP path of every move at once: (N, 6) joints and (N, 3) TCP positions, the start prepended
+    joints = np.array(solved).reshape(-1, 6)
+    tcp = dqarray.translation_unchecked(np.array([t.coefficients for t in targets]).reshape(-1, 8))
+    if start_joints is None:
+        travels = np.concatenate([[np.nan], np.max(np.abs(np.diff(joints, axis=0)), axis=1)]) if len(joints) \
+            else np.zeros(0)
+        paths = np.concatenate([[np.nan], np.linalg.norm(np.diff(tcp, axis=0), axis=1)]) if len(tcp) else np.zeros(0)
+    else:
+        start = np.asarray(start_joints, dtype=float)
+        travels = np.max(np.abs(np.diff(np.vstack([start, joints]), axis=0)), axis=1)
+        start_tcp = np.asarray(model.fk(start).translation)
+        paths = np.linalg.norm(np.diff(np.vstack([start_tcp, tcp]), axis=0), axis=1)
+    plan: list[PlannedStep] = []
+    at = 0
     for index, step in enumerate(steps):
         if not is_waypoint(step):
             plan.append(PlannedStep(step))
             continue
-        target = targets[step.name]
-        q = _joints_for(model, target, previous, replay_recorded_joints)
+        target, q, fk_error_m = targets[at], solved[at], fk_errors[at]
+        travel, path = float(travels[at]), float(paths[at])
+        at += 1
         m = step.motion
         clamped: list[str] = []
         if m.move == "joint":
@@ -127,24 +173,36 @@ def plan_program(model, steps, start_joints=None, defaults: Defaults = Defaults(
         else:
             v = _clamp((m.speed or defaults.tcp_speed) * speed_scale, MAX_TCP_SPEED, "speed", clamped)
             a = _clamp(m.acceleration or defaults.tcp_acceleration, MAX_TCP_ACCELERATION, "acceleration", clamped)
-        later = steps[index + 1:]
+        later = steps[index + 1:index + 2]
         ends_here = not later or not is_waypoint(later[0])
         blend = 0.0 if ends_here else (m.blend if m.blend is not None else defaults.blend)
-        travel = duration = None
-        if previous is not None:
-            travel = motion.leading_travel(previous, q)
+        duration = None
+        if math.isnan(travel):
+            travel = None
+        else:
             if max_joint_travel is not None and travel > max_joint_travel:
                 raise SafetyCheckError(
                     f"{step.who}: a joint would travel {travel:.3f} rad in one move, more than --max-travel "
                     f"{max_joint_travel:.3f} rad (add an intermediate waypoint, or raise --max-travel)")
-            if m.move == "joint":
-                duration = motion.movej_duration(previous, q, a, v)
-            else:
-                metres, radians = previous_pose.distance(model.with_tcp(target.tcp_offset).fk(q))
-                duration = motion.trapezoid_duration(max(metres, radians), a, v)
-        fk_error_m, _ = model.with_tcp(target.tcp_offset).fk(q).distance(target.pose)
-        plan.append(PlannedStep(step, q, target.pose, target.tcp_offset, m.move, a, v, blend, travel, duration,
-                                fk_error_m, tuple(clamped)))
-        previous = q
-        previous_pose = model.with_tcp(target.tcp_offset).fk(q)
+            # joint moves: the leading joint's trapezoid; linear/process: the TCP path's (orientation changes
+            # are not timed: an estimate for the table)
+            duration = motion.trapezoid_duration(travel if m.move == "joint" else path, a, v)
+        plan.append(PlannedStep(step, q, target.pose if len(steps) <= POSE_OBJECTS_UP_TO else None,
+                                target.tcp_offset, m.move, a, v, blend, travel, duration, fk_error_m,
+                                tuple(clamped)))
     return plan
+
+
+def _fk_errors(model, targets, solved) -> list[float]:
+    """Metres between each target pose and the model's FK of its joints (per TCP offset, batched)."""
+    errors = [0.0] * len(targets)
+    groups: dict = {}
+    for index, target in enumerate(targets):
+        groups.setdefault(target.tcp_offset, []).append(index)
+    for tcp_offset, indices in groups.items():
+        reached = model.with_tcp(tcp_offset).fk_batch(np.array([solved[i] for i in indices]))
+        wanted = np.array([targets[i].coefficients for i in indices])
+        metres, _ = dqarray.pose_distance(reached, wanted)
+        for i, value in zip(indices, metres):
+            errors[i] = float(value)
+    return errors

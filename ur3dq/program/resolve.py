@@ -15,15 +15,19 @@ from ur3dq.program.steps import RelativeWaypoint, Waypoint, is_waypoint
 
 @dataclasses.dataclass(frozen=True)
 class Target:
-    """A resolved waypoint: the TCP pose to reach (base frame), the TCP offset it was taught with (flange frame,
-    UR pose vector), the model it was taught on, and joints to prefer when solving IK (the root recorded pose's
-    joints, or None)."""
+    """A resolved waypoint: the TCP pose to reach (base frame; its 8 coefficients, `pose` as a DualQuaternion),
+    the TCP offset it was taught with (flange frame, UR pose vector), the model it was taught on, and joints to
+    prefer when solving IK (the root recorded pose's joints, or None)."""
 
     step: object
-    pose: DualQuaternion
+    coefficients: tuple
     tcp_offset: tuple
     robot_model: str
     joints_hint: tuple | None
+
+    @property
+    def pose(self) -> DualQuaternion:
+        return DualQuaternion.from_array(self.coefficients)
 
 
 def offset_pose(base: DualQuaternion, offset, frame: str) -> DualQuaternion:
@@ -47,7 +51,7 @@ def resolve_targets(steps, relative_only: bool = False) -> dict:
             return resolved[step.name]
         if isinstance(step, Waypoint):
             pose = step.pose
-            target = Target(step, pose.dq, pose.tcp_offset, pose.robot_model, pose.joints)
+            target = Target(step, pose.dual_quaternion, pose.tcp_offset, pose.robot_model, pose.joints)
         else:
             if step.name in chain:
                 loop = " → ".join(repr(name) for name in [*chain[chain.index(step.name):], step.name])
@@ -59,8 +63,9 @@ def resolve_targets(steps, relative_only: bool = False) -> dict:
             if not is_waypoint(base):
                 raise ValueError(f"{step.who}: its base {step.base!r} is a {base.kind} step, not a waypoint")
             parent = resolve(base, [*chain, step.name])
-            target = Target(step, offset_pose(parent.pose, step.offset, step.frame), parent.tcp_offset,
-                            parent.robot_model, parent.joints_hint)
+            pose = offset_pose(parent.pose, step.offset, step.frame)
+            target = Target(step, tuple(pose.to_array().tolist()), parent.tcp_offset, parent.robot_model,
+                            parent.joints_hint)
         resolved[step.name] = target
         return target
 
