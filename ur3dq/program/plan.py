@@ -14,6 +14,7 @@ import math
 import numpy as np
 
 from ur3dq import dqarray
+from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import JointLimitError, SafetyCheckError, UnreachablePoseError
 from ur3dq.program.resolve import resolve_targets
 from ur3dq.program.steps import Waypoint, is_waypoint
@@ -23,7 +24,6 @@ MAX_TCP_SPEED = 1.0          # m/s: the pendant's default tool speed limit regio
 MAX_TCP_ACCELERATION = 4.0   # m/s²
 DEFAULT_TCP_SPEED = 0.25     # m/s, URScript movel's default
 DEFAULT_TCP_ACCELERATION = 1.2
-POSE_OBJECTS_UP_TO = 10_000  # plans longer than this carry no DualQuaternion per step (`coefficients` instead)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -46,7 +46,7 @@ class PlannedStep:
 
     step: object
     joints: np.ndarray | None = None
-    pose: object = None             # DualQuaternion of the target (None in plans over POSE_OBJECTS_UP_TO steps)
+    coefficients: tuple | None = None   # the target TCP pose's 8 dual-quaternion coefficients (base frame)
     tcp_offset: tuple | None = None
     move: str | None = None
     acceleration: float | None = None
@@ -60,6 +60,11 @@ class PlannedStep:
     @property
     def name(self) -> str:
         return self.step.name
+
+    @property
+    def pose(self):
+        """The target TCP pose as a DualQuaternion (None for an action step)."""
+        return None if self.coefficients is None else DualQuaternion.from_array(self.coefficients)
 
 
 def _clamp(value: float, limit: float, what: str, clamped: list) -> float:
@@ -187,8 +192,7 @@ def plan_program(model, steps, start_joints=None, defaults: Defaults = Defaults(
             # joint moves: the leading joint's trapezoid; linear/process: the TCP path's (orientation changes
             # are not timed: an estimate for the table)
             duration = motion.trapezoid_duration(travel if m.move == "joint" else path, a, v)
-        plan.append(PlannedStep(step, q, target.pose if len(steps) <= POSE_OBJECTS_UP_TO else None,
-                                target.tcp_offset, m.move, a, v, blend, travel, duration, fk_error_m,
+        plan.append(PlannedStep(step, q, target.coefficients, target.tcp_offset, m.move, a, v, blend, travel, duration, fk_error_m,
                                 tuple(clamped)))
     return plan
 

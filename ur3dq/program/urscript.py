@@ -67,11 +67,13 @@ def _action_lines(step, position: int) -> list[str]:
     raise TypeError(f"no URScript for step {step!r}")
 
 
-def program_script(plan, program_name: str = "ur3dq_program", header=(), first_position: int = 1) -> str:
+def program_script(plan, program_name: str = "ur3dq_program", header=(), first_position: int = 1,
+                   restore_tcp=None) -> str:
     """The `.script` text of `plan` (PlannedStep list from plan_program): `def program_name(): ... end`.
 
     Steps are numbered from `first_position` (a --from part keeps the numbers of the whole program). set_tcp is
-    sent before a waypoint whose taught TCP offset differs from the active one.
+    sent before a waypoint whose taught TCP offset differs from the active one; `restore_tcp` (UR pose vector)
+    is set again at the end, so the controller's TCP is what the driver knows.
     """
     check_identifier(program_name)
     if not plan:
@@ -91,6 +93,8 @@ def program_script(plan, program_name: str = "ur3dq_program", header=(), first_p
             body.extend(_waypoint_lines(planned))
         else:
             body.extend(_action_lines(planned.step, position))
+    if restore_tcp is not None and active_tcp is not None and tuple(restore_tcp) != active_tcp:
+        body.append(set_tcp_statement(restore_tcp))
     body.extend(_report(first_position + len(plan)))
     lines.extend(f"  {line}" for line in body)
     lines.append("end")
