@@ -36,7 +36,12 @@ def poses():
 @display_options
 @click.pass_obj
 def list_poses(settings: Settings):
-    """Every stored pose: name, time, model, TCP position and orientation, whether joints are known."""
+    """Every stored pose: name, time, model, TCP position and orientation, whether joints are known; for a cell
+    program (store version 2) every step with its move type and parameters."""
+    from ur3dq.cli.commands_program import list_program  # that module adds commands to this one's group
+
+    if list_program(settings):
+        return
     stored = settings.store.load()
     if settings.json:
         emit_json([pose_to_dict(pose) for pose in stored])

@@ -12,6 +12,9 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from ur3dq.cli.app import Settings, cli, confirm, display_options, emit_json, robot_session
+from ur3dq.cli.commands_program import (
+    apply_waypoint_options, placement_options, run_program_command, waypoint_motion_options,
+)
 from ur3dq.cli.display import (
     angle_text, angles_text, coefficients_text, distance_text, key_value_table, pose_vector_text,
 )
@@ -216,9 +219,11 @@ def status(settings: Settings):
 @click.option("--yes", "-y", is_flag=True, help="Record without asking.")
 @click.option("--teach", is_flag=True,
               help="Freedrive on; each Enter records a pose (type a name first to name it), q ends.")
+@waypoint_motion_options
+@placement_options
 @display_options
 @click.pass_obj
-def record_pose(settings: Settings, name, note, yes, teach):
+def record_pose(settings: Settings, name, note, yes, teach, move, speed, acceleration, blend, after, before):
     """Record the arm's current pose: shows joints, TCP pose and dual quaternion, asks "Record this pose?".
 
     Each pose keeps its name, time, model, joints, dual quaternion, UR pose vector and TCP offset. Two
@@ -245,6 +250,7 @@ def record_pose(settings: Settings, name, note, yes, teach):
                                                                                                  settings.deg)))
         confirm("Record this pose?", yes)
         stored = store.add(pose, number_if_taken=name is None)
+        apply_waypoint_options(settings, stored.name, move, speed, acceleration, blend, after, before)
     if settings.json:
         emit_json({"recorded": stored.name, "store": str(settings.store_path)})
     else:
@@ -293,10 +299,13 @@ def _teach(settings: Settings, robot, prefix: str, note: str) -> None:
               help="Run the sequence this many times.")
 @click.option("--joints", "replay_joints", is_flag=True,
               help="Replay the recorded joint angles directly instead of solving IK.")
+@click.option("--from", "start", metavar="N", help="Run the program from the step N (resume after a stop).")
+@click.option("--to", "end", metavar="N", help="Run the program up to the step N.")
+@click.option("--speed-scale", type=float, default=None, help="Scale every step's speed by F (0 < F ≤ 1).")
 @display_options
 @click.pass_obj
 def run_poses(settings: Settings, names, dry_run, yes, speed, acceleration, blend, loops, replay_joints,
-              max_travel):
+              max_travel, start, end, speed_scale):
     """Replay stored poses (all, or NAMES in that order) with movej.
 
     For each pose: IK of its dual quaternion (every solution FK-checked), the solution nearest the recorded
@@ -315,6 +324,13 @@ def run_poses(settings: Settings, names, dry_run, yes, speed, acceleration, blen
     speed = angular_option(speed, DEFAULT_SPEED, settings.deg)
     acceleration = angular_option(acceleration, DEFAULT_ACCELERATION, settings.deg)
     max_travel = angular_option(max_travel, DEFAULT_MAX_JOINT_TRAVEL, settings.deg)
+    if start or end or speed_scale is not None or settings.store.version() == 2:  # a cell program
+        if names or loops > 1:
+            raise click.UsageError("a cell program runs as a whole or --from/--to: no NAMES, no --loop")
+        if not (math.isfinite(blend) and blend >= 0):
+            raise ValueError(f"--blend must be a radius ≥ 0 in metres, got {blend!r}")
+        return run_program_command(settings, start, end, 1.0 if speed_scale is None else speed_scale, dry_run,
+                                   yes, speed, acceleration, blend, replay_joints, max_travel)
     poses = settings.store.select(names)
     if not poses:
         raise StoreError(f"{settings.store_path} has no poses: record some with `ur3dq record-pose`")
