@@ -215,6 +215,10 @@ class PoseStore:
         """The pose called `name`; StoreError naming the known poses if there is none."""
         return find_pose(self.load_program(), name, str(self.path))
 
+    def get_step(self, name: str):
+        """The step (waypoint or action) called `name`; StoreError naming the known steps if there is none."""
+        return find_step(self.load_program(), name, str(self.path))
+
     def select(self, names: Iterable[str] | None) -> list[Pose]:
         """The poses called `names`, in that order (all poses, in store order, when `names` is None or empty)."""
         names = list(names or [])

@@ -96,13 +96,13 @@ def show(settings: Settings, name):
 @click.option("--yes", "-y", is_flag=True, help="Do not ask for confirmation.")
 @click.pass_obj
 def rm(settings: Settings, name, yes):
-    """Remove the pose NAME from the store (asks first).
+    """Remove the pose or step NAME from the store (asks first).
 
     \b
     Example:
       ur3dq poses rm pose-3 --yes
     """
-    settings.store.get(name)  # an unknown name fails before the question
+    settings.store.get_step(name)  # an unknown name fails before the question
     confirm(f"Remove pose {name!r} from {settings.store_path}?", yes, default=False)
     removed = settings.store.remove(name)
     click.echo(f"Removed {removed.name!r}.")

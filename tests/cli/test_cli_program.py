@@ -1,0 +1,165 @@
+"""Cell programs through the CLI (in-process `main` for bad input, real subprocesses otherwise): bad steps are one
+line naming the step with the store unchanged, a v1 store plans identically after its upgrade and keeps a backup,
+kill -9 during an upgrade loses nothing, user text is shown as typed, tables fit 80 columns, plot leaves no empty
+PNG."""
+import json
+import random
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from rich.console import Console
+
+from cli_support import assert_one_line_error
+from ur3dq.cli.commands_program import PLAN_HEADERS, plan_rows, print_table
+from ur3dq.kinematics import robot_model
+from ur3dq.program.plan import plan_program
+from ur3dq.store import PoseStore
+
+EXAMPLE = Path(__file__).parents[2] / "poses" / "example-poses.json"
+
+
+@pytest.fixture
+def v1_store(tmp_path):
+    shutil.copy(EXAMPLE, tmp_path / "poses.json")
+    return tmp_path / "poses.json"
+
+
+@pytest.mark.parametrize("args, code, fragments", [
+    (("poses", "add-step", "digital-out", "9", "on"), 4,
+     ["step 'digital-out-1' (digital-out): standard pin 9 is out of range (0..7)"]),
+    (("poses", "add-step", "tool-out", "2", "on"), 4, ["step 'tool-out-1' (digital-out): tool pin 2 is out of range"]),
+    (("poses", "add-step", "wait", "--", "-1"), 4, ["step 'wait-1' (wait): seconds must be a finite number > 0"]),
+    (("poses", "add-step", "wait-input", "3", "on", "--timeout", "nan"), 4, ["step 'wait-input-1' (wait-input)"]),
+    (("poses", "add-step", "--after", "nowhere", "wait", "1"), 3, ["no step named 'nowhere'"]),
+    (("poses", "set", "demo-1", "--speed", "0"), 4, ["step 'demo-1' (waypoint): speed must be a finite number > 0"]),
+    (("poses", "set", "demo-1", "--blend", "1e9"), 4, ["step 'demo-1' (waypoint): blend must be a radius 0..1 m"]),
+    (("poses", "offset", "up", "--from", "gone", "--z", "0.1"), 4,
+     ["step 'up' (relative waypoint): its base waypoint 'gone' is not in the program"]),
+    (("poses", "offset", "far", "--from", "demo-1", "--z", "1e6"), 4, ["step 'far' (relative waypoint): offset"]),
+])
+def test_bad_steps_are_one_line_naming_the_step_and_leave_the_store_unchanged(run_in_process, v1_store, args, code,
+                                                                             fragments):
+    before = v1_store.read_bytes()
+    assert_one_line_error(run_in_process(*args), code, *fragments)
+    assert v1_store.read_bytes() == before
+    assert not v1_store.with_name("poses.json.v1.bak").exists()
+
+
+def test_unknown_step_type_is_refused(run_in_process, v1_store):
+    before = v1_store.read_bytes()
+    result = run_in_process("poses", "add-step", "teleport", "1")
+    assert result.returncode == 2 and "teleport" in result.stderr
+    assert v1_store.read_bytes() == before
+
+
+def test_removing_a_base_and_a_hand_made_cycle_name_the_relative_step(run_in_process, v1_store):
+    assert run_in_process("poses", "offset", "above", "--from", "demo-1", "--z", "-0.05").returncode == 0
+    before = v1_store.read_bytes()
+    assert_one_line_error(run_in_process("poses", "rm", "demo-1", "--yes"), 4,
+                          "step 'above' (relative waypoint): its base waypoint 'demo-1' is not in the program")
+    assert v1_store.read_bytes() == before
+    document = json.loads(before)
+    document["steps"].append({"type": "relative", "name": "loop", "base": "above", "offset": [0] * 6,
+                              "frame": "tool"})
+    for step in document["steps"]:
+        if step["name"] == "above":
+            step["base"] = "loop"
+    v1_store.write_text(json.dumps(document))
+    assert_one_line_error(run_in_process("poses", "list"), 3, "poses.json:1:", "relative waypoints form a cycle")
+
+
+def test_v1_store_plans_identically_after_its_upgrade_and_keeps_a_backup(run_in_process, v1_store):
+    original = v1_store.read_bytes()
+    assert run_in_process("poses", "list").returncode == 0 and v1_store.read_bytes() == original
+    before = run_in_process("run-poses", "--dry-run", "--json")
+    assert before.returncode == 0, before.stderr
+    assert run_in_process("poses", "add-step", "wait", "0.5").returncode == 0
+    assert v1_store.with_name("poses.json.v1.bak").read_bytes() == original
+    assert json.loads(v1_store.read_text())["version"] == 2
+    assert run_in_process("poses", "rm", "wait-1", "--yes").returncode == 0
+    after = run_in_process("run-poses", "--dry-run", "--json")
+    assert after.returncode == 0, after.stderr
+    old_joints = np.array([step["joints"] for step in json.loads(before.stdout)["plan"]])
+    new_joints = np.array([step["joints"] for step in json.loads(after.stdout)["plan"]])
+    # the same IK solution of every pose; the program planner solves them in one batch, whose arithmetic may
+    # differ from the per-pose solver's in the last bit
+    assert old_joints.shape == (4, 6) and np.max(np.abs(new_joints - old_joints)) < 1e-12
+
+
+UPGRADER = """
+import sys
+from ur3dq.program.steps import Wait
+from ur3dq.store import PoseStore
+store = PoseStore(sys.argv[1])
+print("ready", flush=True)
+store.update_program(lambda steps: (steps + [Wait("pause", 1.0)], None))
+"""
+
+
+def test_kill_9_during_an_upgrade_loses_nothing(tmp_path):
+    rng = random.Random(5)
+    original = EXAMPLE.read_bytes()
+    names = [pose.name for pose in PoseStore(EXAMPLE).load()]
+    outcomes = set()
+    for attempt in range(12):
+        directory = tmp_path / str(attempt)
+        directory.mkdir()
+        (directory / "poses.json").write_bytes(original)
+        process = subprocess.Popen([sys.executable, "-c", UPGRADER, str(directory / "poses.json")],
+                                   stdout=subprocess.PIPE, text=True)
+        assert process.stdout.readline().strip() == "ready"
+        subprocess.run(["sleep", f"{rng.uniform(0, 0.02):.4f}"])
+        process.kill()
+        process.wait()
+        process.stdout.close()
+        store = PoseStore(directory / "poses.json")
+        assert [pose.name for pose in store.load()] == names
+        backup = directory / "poses.json.v1.bak"
+        if store.version() == 2:
+            assert backup.read_bytes() == original
+            outcomes.add("upgraded")
+        else:
+            assert (directory / "poses.json").read_bytes() == original
+            outcomes.add("old")
+    assert outcomes  # each run ends in one of the two states; both are checked above
+
+
+def test_rich_markup_in_names_notes_and_paths_is_shown_as_typed(run_cli, tmp_path):
+    store = tmp_path / "[bold]cell.json"
+    shutil.copy(EXAMPLE, store)
+    assert run_cli("--store", store, "poses", "rename", "demo-1", "[/]").returncode == 0
+    assert run_cli("--store", store, "poses", "add-step", "--name", "[red]say", "message", "[bold red]hi").returncode == 0
+    listed = run_cli("--store", store, "poses", "list")
+    assert listed.returncode == 0, listed.stderr
+    for text in ("[/]", "[red]say", "[bold red]hi", "[bold]cell.json"):
+        assert text in listed.stdout
+    shown = run_cli("--store", store, "poses", "show", "[/]")
+    assert shown.returncode == 0 and "Pose '[/]'" in shown.stdout
+
+
+def test_plan_table_fits_80_columns_and_keeps_every_name():
+    from ur3dq.program.steps import Message, Waypoint
+
+    steps = PoseStore(EXAMPLE).load_program()
+    steps = [Waypoint(s.name, s.pose.renamed(s.name), s.motion) for s in steps] + [
+        Message("a-very-long-step-name-that-must-wrap-but-never-vanish", "x" * 120)]
+    plan = plan_program(robot_model("ur3"), steps)
+    console = Console(width=80, record=True)
+    print_table(console, "plan", PLAN_HEADERS, plan_rows(plan, 1))
+    text = console.export_text()
+    assert max(len(line) for line in text.splitlines()) <= 80
+    name_column = "".join(line.split("│")[2].strip() for line in text.splitlines() if line.count("│") > 2)
+    for step in steps:
+        assert step.name in name_column
+
+
+def test_plot_failure_names_the_file_and_leaves_no_empty_png(run_in_process, v1_store, tmp_path):
+    assert_one_line_error(run_in_process("plot", "-o", "missing/out.png"), 3, "missing/out.png", "cannot write")
+    assert not (tmp_path / "missing").exists()
+    (tmp_path / "a-file").write_text("not a directory")
+    assert_one_line_error(run_in_process("plot", "-o", "a-file/out.png"), 3, "a-file/out.png", "cannot write")
+    assert (tmp_path / "a-file").read_text() == "not a directory"
