@@ -14,6 +14,7 @@ from ur3dq.cli.app import EXIT_NOT_REACHED, Settings, cli, display_options, emit
 from ur3dq.cli.commands_robot import (
     angular_option, execute_plan, plan_table, read_pose, reached_table, speed_and_acceleration,
 )
+from ur3dq.cli.demo_program import run_pick_and_place
 from ur3dq.cli.display import angles_text, pose_vector_text
 from ur3dq.cli.plan import plan_replay
 from ur3dq.cli.simstate import SimulatorError, read_state, start_simulator, state_directory, stop_simulator
@@ -162,13 +163,19 @@ def demo(settings: Settings, save, speed, acceleration, tolerance_mm, tolerance_
             steps = plan_replay(robot.model, store.select(recorded), robot.joints(), a, v)
             say(plan_table(steps, settings.deg, "Plan"))
             results = execute_plan(robot, steps, a, v, 0.0, 1, Console(stderr=True))
+            say("[bold]5.[/bold] A cell program from the same store: approach, linear descent, gripper output, "
+                "wait, linear retract, place")
+            program_store = PoseStore(store.path.with_name(store.path.stem + "-program.json"))
+            say(f"   written to {program_store.path} (run it again with `ur3dq --store {program_store.path} "
+                "run-poses`)")
+            run_pick_and_place(robot, store, program_store, recorded[0], recorded[1], say)
     missed = [r for r in results
               if r.error_m * 1000 > tolerance_mm or math.degrees(r.error_rad) > tolerance_deg]
     if settings.json:
         emit_json({"reached": [{"pose": r.step.pose.name, "error_m": r.error_m, "error_rad": r.error_rad}
                                for r in results], "missed": [r.step.pose.name for r in missed]})
     else:
-        say(reached_table(results, "5. Where the arm ended vs where each pose was recorded"))
+        say(reached_table(results, "6. Where the arm ended vs where each pose was recorded"))
     if missed:
         click.echo(f"Error: {len(missed)} of {len(results)} poses missed the tolerance of {tolerance_mm} mm / "
                    f"{tolerance_deg}°: {', '.join(r.step.pose.name for r in missed)}", err=True)
