@@ -101,7 +101,7 @@ def check_pose_text_fields(name, time, robot_model, robot_serial, note) -> None:
     _check_utc_time(time, who)
 
 
-@dataclasses.dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True, slots=True)  # slots: a big store holds 10⁵ of them
 class Pose:
     """One recorded TCP pose in the base frame (metres, radians); validated when built, so a Pose is always sound.
 

@@ -11,6 +11,7 @@ quaternion, UR pose agreeing with it), then the poses are built without repeatin
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 
@@ -113,7 +114,7 @@ def _first_bad(mask: np.ndarray) -> int | None:
 def _check_magnitudes(fields_list, who, who_of=None) -> list:
     """Check the numbers of many pose field dicts at once (vectorised); ValueError naming the pose at fault.
 
-    Returns the rows as (dual_quaternion, ur_pose, tcp_offset, joints-or-None) float arrays."""
+    Returns the rows as (dual_quaternion, ur_pose, tcp_offset, joints-or-None) lists of floats."""
     who_of = who_of or (lambda index: who)
     dq = _vectors(fields_list, "dual_quaternion", 8, who_of)
     ur = _vectors(fields_list, "ur_pose", 6, who_of)
@@ -152,36 +153,24 @@ def _check_magnitudes(fields_list, who, who_of=None) -> list:
     if bad is not None:
         raise ValueError(f"{who_of(bad)}: ur_pose and dual_quaternion disagree by {metres[bad]:.3g} m and "
                          f"{radians[bad]:.3g} rad")
-    rows = []
-    joint_rows = dict(zip(with_joints, joints))
-    for index in range(len(fields_list)):
-        q = joint_rows.get(index)
-        rows.append((dq[index], ur[index], tcp[index], None if q is None else q))
-    return rows
+    dq_rows, ur_rows, tcp_rows = dq.tolist(), ur.tolist(), tcp.tolist()  # one conversion per chunk, not per pose
+    joint_rows = dict(zip(with_joints, joints.tolist()))
+    return [(dq_rows[i], ur_rows[i], tcp_rows[i], joint_rows.get(i)) for i in range(len(fields_list))]
 
 
-CHUNK = 4096  # poses checked per vectorised pass: big enough for numpy, small enough to bound memory
-
-
-def poses_from_dicts(entries, who_of, indices=None) -> list[Pose]:
-    """Poses from the JSON objects `entries[i]` for i in `indices` (default: all), numbers checked in vectorised
-    passes of CHUNK poses; each converted object is replaced by None in `entries` so a big file's dicts and its
-    Poses are never all in memory at once. ValueError naming the entry (who_of(i))."""
-    indices = list(range(len(entries))) if indices is None else indices
-    poses = []
-    for start in range(0, len(indices), CHUNK):
-        chunk = indices[start:start + CHUNK]
-        poses.extend(_poses_of_chunk(entries, chunk, who_of))
-        for index in chunk:
-            entries[index] = None
-    return poses
+_WAYPOINT_KEYS = frozenset(POSE_FIELDS) | {"type"} | frozenset(MOTION_FIELDS)
+_REQUIRED_KEYS = frozenset(REQUIRED_POSE_FIELDS)
+CHUNK = 4096  # entries parsed and checked per vectorised pass: big enough for numpy, small enough to bound memory
 
 
 def _poses_of_chunk(entries, chunk, who_of) -> list[Pose]:
+    """Poses from the JSON objects `entries[i]` for i in `chunk`, numbers checked in one vectorised pass, then
+    the text fields; ValueError naming the entry (who_of(i))."""
     fields_list = []
     for index in chunk:
         obj = entries[index]
-        _check_pose_fields(obj, who_of(index), extra=("type", *MOTION_FIELDS))
+        if not (type(obj) is dict and obj.keys() <= _WAYPOINT_KEYS and _REQUIRED_KEYS <= obj.keys()):
+            _check_pose_fields(obj, who_of(index), extra=("type", *MOTION_FIELDS))  # says what is wrong
         fields = {key: obj[key] for key in POSE_FIELDS if key in obj}
         if fields.get("tcp_offset") is None:
             fields["tcp_offset"] = (0.0,) * 6
@@ -197,10 +186,9 @@ def _poses_of_chunk(entries, chunk, who_of) -> list[Pose]:
                                    fields.get("robot_serial"), fields["note"])
         except ValueError as error:
             raise ValueError(f"{who_of(chunk[k])}: {_strip_pose_prefix(str(error))}") from None
-        poses.append(Pose.checked(fields["name"], fields["time"], fields["robot_model"], tuple(dq.tolist()),
-                                  tuple(ur.tolist()), tuple(tcp.tolist()),
-                                  None if joints is None else tuple(joints.tolist()),
-                                  fields.get("robot_serial"), fields["note"]))
+        poses.append(Pose.checked(fields["name"], fields["time"], fields["robot_model"], tuple(dq), tuple(ur),
+                                  tuple(tcp), None if joints is None else tuple(joints), fields.get("robot_serial"),
+                                  fields["note"]))
     return poses
 
 
@@ -337,8 +325,48 @@ def _too_deep(text: str, source: str) -> StoreError:
     return StoreError(f"{source}:{line}: not a pose store: JSON nested deeper than {MAX_NESTING} levels")
 
 
-def parse_document(text: str, source: str) -> tuple[int, list]:
-    """(version, steps) of a store file's text; StoreError with `source:line` (where known) and what is wrong."""
+class _NotOwnLayout(Exception):
+    """The text is not in the one-entry-per-line layout ur3dq writes: parse it as a whole instead."""
+
+
+_OWN_HEAD = re.compile(r'\{\n  "schema": "ur3dq\.poses",\n  "version": ([12]),\n  "(poses|steps)": \[\n')
+_OWN_TAIL = "\n  ]\n}\n"
+_scan = json.JSONDecoder().scan_once  # (text, index) -> (value, end): json.loads without its per-call overhead
+
+
+def _own_layout(text: str):
+    """(version, key, iterator of (index, line number, entry object)) when `text` has the layout ur3dq writes,
+    reading one line at a time (so a big file's entries are never all parsed at once); _NotOwnLayout otherwise
+    (also raised by the iterator at the first line that does not fit)."""
+    head = _OWN_HEAD.match(text)
+    if not head or not text.endswith(_OWN_TAIL):
+        raise _NotOwnLayout
+    version, key = int(head.group(1)), head.group(2)
+    end = len(text) - len(_OWN_TAIL) + 1  # just after the last entry's line break
+
+    def entries():
+        position, index, line = head.end(), 0, 5
+        while position < end:
+            stop = text.index("\n", position)
+            last = stop + 1 >= end
+            entry = text[position:stop]
+            if not entry.startswith("    {") or entry.endswith(",") == last:
+                raise _NotOwnLayout
+            try:
+                obj, stop_at = _scan(entry, 4)
+            except (ValueError, RecursionError, StopIteration):
+                raise _NotOwnLayout from None
+            if stop_at != len(entry) - (0 if last else 1):
+                raise _NotOwnLayout
+            yield index, line, obj
+            position, index, line = stop + 1, index + 1, line + 1
+
+    return version, key, entries()
+
+
+def _whole_document(text: str, source: str):
+    """(version, key, iterator of (index, None, entry object)) of any JSON store text; StoreError naming
+    `source:line` for invalid JSON or envelope."""
     try:
         document = json.loads(text)
     except json.JSONDecodeError as error:
@@ -365,43 +393,73 @@ def parse_document(text: str, source: str) -> tuple[int, list]:
     entries = document.get(key)
     if not isinstance(entries, list):
         raise StoreError(f"{source}:1: {json.dumps(key)} must be a list")
+    return version, key, ((index, None, entry) for index, entry in enumerate(entries))
+
+
+def parse_document(text: str, source: str) -> tuple[int, list]:
+    """(version, steps) of a store file's text; StoreError with `source:line` (where known) and what is wrong.
+
+    Text in ur3dq's own layout is read line by line in chunks of CHUNK entries (bounded memory for big stores,
+    exact line numbers); anything else (a hand-edited layout) is parsed as one JSON document."""
+    try:
+        version, _, entries = _own_layout(text)
+        return version, _steps_of(version, entries, text, source)
+    except _NotOwnLayout:
+        version, _, entries = _whole_document(text, source)
+        return version, _steps_of(version, entries, text, source)
+
+
+def _steps_of(version: int, entries, text: str, source: str) -> list:
+    """The validated steps of `entries` ((index, line or None, object) in file order), converted CHUNK at a time."""
     label = "pose" if version == SCHEMA_VERSION else "step"
+    names: list = []
+    lines: list = []
 
-    names = [e.get("name") if isinstance(e, dict) else None for e in entries]
-
-    def who_of(index):  # entries are released as they are converted: name them from `names`
+    def who_of(index):
         name = names[index]
         return f"{label} #{index + 1}" + (f" {name!r}" if isinstance(name, str) else "")
 
     def fail(index, error):
-        name = names[index] if index is not None else None
-        return StoreError(f"{_where(text, source, name)}: {error}")
+        if index is not None and lines[index] is not None:
+            return StoreError(f"{source}:{lines[index]}: {error}")
+        return StoreError(f"{_where(text, source, names[index] if index is not None else None)}: {error}")
 
-    if version == SCHEMA_VERSION:
-        waypoint_indices = list(range(len(entries)))
-    else:
-        waypoint_indices = [i for i, e in enumerate(entries) if isinstance(e, dict) and e.get("type") == "waypoint"]
-    motions = {i: _motion_from(entries[i], who_of(i)) for i in waypoint_indices} \
-        if version != SCHEMA_VERSION else {}
-    try:
-        poses = poses_from_dicts(entries, who_of, waypoint_indices)
-    except ValueError as error:
-        bad = next((i for i in waypoint_indices if str(error).startswith(who_of(i) + ":")), None)
-        raise fail(bad, error) from None
-    pose_at = dict(zip(waypoint_indices, poses))
-    steps = []
-    for index, entry in enumerate(entries):
+    steps: list = []
+    chunk: list = []
+
+    def convert(chunk):
+        is_pose = [version == SCHEMA_VERSION or (isinstance(obj, dict) and obj.get("type") == "waypoint")
+                   for _, obj in chunk]
+        pose_indices = [index for (index, _), flag in zip(chunk, is_pose) if flag]
+        pose_objects = [obj for (_, obj), flag in zip(chunk, is_pose) if flag]
         try:
-            if index in pose_at:
-                motion = motions.get(index, DEFAULT_MOTION)
-                steps.append(Waypoint(pose_at[index].name, pose_at[index], motion))
-            elif not isinstance(entry, dict):
-                raise ValueError(f"{who_of(index)}: must be a JSON object")
-            else:
-                steps.append(step_from_dict(entry, who_of(index)))
+            poses = iter(_poses_of_chunk(pose_objects, range(len(pose_objects)),
+                                         lambda k: who_of(pose_indices[k])))
         except ValueError as error:
-            message = str(error)
-            raise fail(index, message if message.startswith(label) else f"{who_of(index)}: {message}") from None
+            bad = next((i for i in pose_indices if str(error).startswith(who_of(i) + ":")), None)
+            raise fail(bad, error) from None
+        for (index, obj), flag in zip(chunk, is_pose):
+            try:
+                if flag:
+                    pose = next(poses)
+                    motion = _motion_from(obj, who_of(index)) if version != SCHEMA_VERSION else DEFAULT_MOTION
+                    steps.append(Waypoint(pose.name, pose, motion))
+                elif not isinstance(obj, dict):
+                    raise ValueError(f"{who_of(index)}: must be a JSON object")
+                else:
+                    steps.append(step_from_dict(obj, who_of(index)))
+            except ValueError as error:
+                message = str(error)
+                raise fail(index, message if message.startswith(label) else f"{who_of(index)}: {message}") from None
+
+    for index, line, obj in entries:
+        names.append(obj.get("name") if isinstance(obj, dict) else None)
+        lines.append(line)
+        chunk.append((index, obj))
+        if len(chunk) == CHUNK:
+            convert(chunk)
+            chunk = []
+    convert(chunk)
     seen: set = set()
     for index, step in enumerate(steps):
         if step.name in seen:
@@ -412,7 +470,7 @@ def parse_document(text: str, source: str) -> tuple[int, list]:
     except ValueError as error:
         bad = next((i for i, step in enumerate(steps) if str(error).startswith(step.who)), None)
         raise fail(bad, error) from None
-    return version, steps
+    return steps
 
 
 def parse_store(text: str, source: str) -> list[Pose]:
