@@ -23,7 +23,7 @@ from ur3dq.program.resolve import check_program
 from ur3dq.program.steps import RelativeWaypoint, Waypoint
 from ur3dq.store_format import (  # noqa: F401  (re-exported: the store's public names)
     PROGRAM_SCHEMA_VERSION, SCHEMA_NAME, SCHEMA_VERSION, format_program, format_program_v2, format_store,
-    needs_version_2,
+    needs_version_2, own_layout_version,
     parse_document, parse_store, pose_from_dict, pose_to_dict,
 )
 
@@ -204,8 +204,18 @@ class PoseStore:
         return self._read()[2]
 
     def version(self) -> int | None:
-        """The schema version of the file on disk (None when it does not exist)."""
-        return self._read()[1]
+        """The schema version of the file on disk (None when it does not exist). A file in ur3dq's own layout is
+        recognised from its first lines without parsing the rest (commands ask this before loading a big store);
+        any other file is parsed (and must be valid)."""
+        try:
+            with open(self.path, "rb") as stream:
+                head = stream.read(256).decode("utf-8", errors="replace")
+        except FileNotFoundError:
+            return None
+        except OSError as error:
+            raise StoreError(f"{self.path}: cannot read the pose store: {error}") from None
+        version = own_layout_version(head)
+        return version if version is not None else self._read()[1]
 
     def load(self) -> list[Pose]:
         """Every recorded pose, in program order; [] when the file does not exist yet."""

@@ -334,6 +334,12 @@ _OWN_TAIL = "\n  ]\n}\n"
 _scan = json.JSONDecoder().scan_once  # (text, index) -> (value, end): json.loads without its per-call overhead
 
 
+def own_layout_version(head: str) -> int | None:
+    """The version written in the first lines of a file in ur3dq's own layout, else None."""
+    match = _OWN_HEAD.match(head)
+    return int(match.group(1)) if match else None
+
+
 def _own_layout(text: str):
     """(version, key, iterator of (index, line number, entry object)) when `text` has the layout ur3dq writes,
     reading one line at a time (so a big file's entries are never all parsed at once); _NotOwnLayout otherwise

@@ -151,16 +151,18 @@ def plan_program(model, steps, start_joints=None, defaults: Defaults = Defaults(
     fk_errors = _fk_errors(model, targets, solved)
     # travel and TCP path of every move at once: (N, 6) joints and (N, 3) TCP positions, the start prepended
     joints = np.array(solved).reshape(-1, 6)
-    tcp = dqarray.translation_unchecked(np.array([t.coefficients for t in targets]).reshape(-1, 8))
-    if start_joints is None:
-        travels = np.concatenate([[np.nan], np.max(np.abs(np.diff(joints, axis=0)), axis=1)]) if len(joints) \
-            else np.zeros(0)
-        paths = np.concatenate([[np.nan], np.linalg.norm(np.diff(tcp, axis=0), axis=1)]) if len(tcp) else np.zeros(0)
-    else:
-        start = np.asarray(start_joints, dtype=float)
-        travels = np.max(np.abs(np.diff(np.vstack([start, joints]), axis=0)), axis=1)
-        start_tcp = np.asarray(model.fk(start).translation)
-        paths = np.linalg.norm(np.diff(np.vstack([start_tcp, tcp]), axis=0), axis=1)
+    poses = np.array([t.coefficients for t in targets]).reshape(-1, 8)
+    if start_joints is not None:
+        joints = np.vstack([np.asarray(start_joints, dtype=float), joints])
+        start_tcp = model.with_tcp(targets[0].tcp_offset).fk(joints[0]) if targets else model.fk(joints[0])
+        poses = np.vstack([start_tcp.to_array(), poses])
+    travels = np.max(np.abs(np.diff(joints, axis=0)), axis=1) if len(joints) > 1 else np.zeros(0)
+    # a linear/process move's leading "distance": the larger of its TCP path (m) and its rotation (rad), as a
+    # controller times movel
+    metres, radians = dqarray.pose_distance(poses[:-1], poses[1:]) if len(poses) > 1 else (np.zeros(0),) * 2
+    paths = np.maximum(metres, radians)
+    if start_joints is None:  # the first move's start is unknown
+        travels, paths = np.concatenate([[np.nan], travels]), np.concatenate([[np.nan], paths])
     plan: list[PlannedStep] = []
     at = 0
     for index, step in enumerate(steps):
@@ -189,8 +191,7 @@ def plan_program(model, steps, start_joints=None, defaults: Defaults = Defaults(
                 raise SafetyCheckError(
                     f"{step.who}: a joint would travel {travel:.3f} rad in one move, more than --max-travel "
                     f"{max_joint_travel:.3f} rad (add an intermediate waypoint, or raise --max-travel)")
-            # joint moves: the leading joint's trapezoid; linear/process: the TCP path's (orientation changes
-            # are not timed: an estimate for the table)
+            # joint moves: the leading joint's trapezoid; linear/process: the TCP's
             duration = motion.trapezoid_duration(travel if m.move == "joint" else path, a, v)
         plan.append(PlannedStep(step, q, target.coefficients, target.tcp_offset, m.move, a, v, blend, travel, duration, fk_error_m,
                                 tuple(clamped)))
