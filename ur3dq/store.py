@@ -148,9 +148,10 @@ def write_atomically(path: Path, content) -> None:
 
 
 def remove_orphan_temporaries(path: Path) -> int:
-    """Delete the temporary files killed writers of the store `path` left (`.<name>.XXXXXXXX.tmp`); call it only
-    while holding the store's lock, when no writer of this store can be mid-write. Returns how many went."""
-    pattern = re.compile(r"^\." + re.escape(path.name) + r"\.[a-z0-9_]{8}\.tmp$")
+    """Delete the temporary files killed writers of the store `path` left (`.<name>.XXXXXXXX.tmp`, and those of
+    its upgrade backup `.<name>.v1.bak[.N].XXXXXXXX.tmp`); call it only while holding the store's lock, when no
+    writer of this store can be mid-write. Returns how many went."""
+    pattern = re.compile(r"^\." + re.escape(path.name) + r"(\.v1\.bak(\.[0-9]+)?)?\.[a-z0-9_]{8}\.tmp$")
     removed = 0
     try:
         entries = list(os.scandir(path.parent))

@@ -163,3 +163,14 @@ def test_plot_failure_names_the_file_and_leaves_no_empty_png(run_in_process, v1_
     (tmp_path / "a-file").write_text("not a directory")
     assert_one_line_error(run_in_process("plot", "-o", "a-file/out.png"), 3, "a-file/out.png", "cannot write")
     assert (tmp_path / "a-file").read_text() == "not a directory"
+
+
+@pytest.mark.parametrize("items", [[], [{"a": [1, 2], "b": {"c": None}}], [{"x": 1}, {"y": [1, "é"]}]])
+def test_streamed_json_list_is_exactly_what_emit_json_prints(items, capsys):
+    from ur3dq.cli.app import emit_json
+    from ur3dq.cli.commands_poses import emit_json_list
+
+    emit_json(items)
+    whole = capsys.readouterr().out
+    emit_json_list(iter(items))
+    assert capsys.readouterr().out == whole

@@ -124,9 +124,10 @@ def test_a_symlinked_store_is_written_through_the_link(tmp_path):
 
 def test_orphan_temporaries_of_killed_writers_are_removed_on_the_next_write(tmp_path):
     store, path = v1_store(tmp_path)
-    orphans = [tmp_path / ".poses.json.abcd1234.tmp", tmp_path / ".poses.json.zz_9y8x7.tmp"]
-    others = [tmp_path / ".other.json.abcd1234.tmp", tmp_path / ".poses.json.v1.bak.abcd1234.tmp",
-              tmp_path / "poses.json.abcd1234.tmp"]
+    orphans = [tmp_path / ".poses.json.abcd1234.tmp", tmp_path / ".poses.json.zz_9y8x7.tmp",
+               tmp_path / ".poses.json.v1.bak.abcd1234.tmp", tmp_path / ".poses.json.v1.bak.2.abcd1234.tmp"]
+    others = [tmp_path / ".other.json.abcd1234.tmp", tmp_path / ".poses.json.abcd12345.tmp",
+              tmp_path / "poses.json.abcd1234.tmp", tmp_path / ".poses.json.v1.bak.x.abcd1234.tmp"]
     for file in orphans + others:
         file.write_text("partial")
     store.add(make_pose("third", 9))

@@ -1,6 +1,7 @@
 """`ur3dq poses ...`: look after the pose store (list, show, rm, rename, import, export)."""
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import click
@@ -15,6 +16,18 @@ from ur3dq.store import format_store, format_thesis_lines, parse_store, pose_to_
 
 
 PLAIN_LIST_ROWS = 2000
+
+
+def emit_json_list(items) -> None:
+    """Print a JSON array of `items` on stdout, as emit_json would (indent 2), one item at a time (a list of 10⁵
+    poses as one string would need hundreds of MB)."""
+    first = True
+    click.echo("[", nl=False)
+    for item in items:
+        text = json.dumps(item, indent=2, ensure_ascii=False).replace("\n", "\n  ")
+        click.echo(("\n  " if first else ",\n  ") + text, nl=False)
+        first = False
+    click.echo("]" if first else "\n]")
 
 
 @cli.group()
@@ -44,7 +57,7 @@ def list_poses(settings: Settings):
         return
     stored = settings.store.load()
     if settings.json:
-        emit_json([pose_to_dict(pose) for pose in stored])
+        emit_json_list(pose_to_dict(pose) for pose in stored)
         return
     if not stored:
         click.echo(f"{settings.store_path} has no poses yet: record one with `ur3dq record-pose`.")

@@ -17,7 +17,7 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from ur3dq.cli.app import Settings, confirm, display_options, emit_json, robot_session
-from ur3dq.cli.commands_poses import poses
+from ur3dq.cli.commands_poses import emit_json_list, poses
 from ur3dq.errors import StoreError
 from ur3dq.pose import next_free_name, utc_now_iso
 from ur3dq.program.plan import Defaults, plan_program
@@ -141,7 +141,7 @@ def list_program(settings: Settings) -> bool:
         return False
     steps = settings.store.load_program()
     if settings.json:
-        emit_json([step_to_dict(step) for step in steps])
+        emit_json_list(step_to_dict(step) for step in steps)
         return True
     print_table(settings.out, f"{len(steps)} steps in {settings.store_path}", ("#", "name", "type", "details"),
                 program_rows(steps))
@@ -462,6 +462,9 @@ def run_program_command(settings: Settings, start, end, speed_scale, dry_run, ye
 def _show_plan(settings: Settings, plan, first: int, title: str) -> None:
     console = Console(stderr=True, highlight=False) if settings.json else settings.out
     print_table(console, title, PLAN_HEADERS, plan_rows(plan, first))
+    for planned in plan:  # say what was lowered to the model's (or the TCP's) limits
+        if planned.clamped:
+            click.echo(f"{planned.step.who}: clamped {', '.join(planned.clamped)}", err=True)
     if settings.json:
         emit_json({"plan": [{"step": p.step.name, "type": p.move or p.step.kind,
                              "joints": None if p.joints is None else p.joints.tolist(), "speed": p.speed,
