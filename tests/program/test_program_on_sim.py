@@ -37,7 +37,7 @@ def setup():
 
 
 class Sampler:
-    """Samples (time, TCP pose vector, digital output bits) through ur_rtde in a thread while a program runs."""
+    """Samples (time, TCP pose vector, digital output bits, joints, joint speeds) through ur_rtde in a thread while a program runs."""
 
     def __init__(self, receive):
         self.receive, self.samples, self._stop = receive, [], threading.Event()
@@ -46,7 +46,8 @@ class Sampler:
     def _run(self):
         while not self._stop.is_set():
             self.samples.append((time.monotonic(), np.array(self.receive.getActualTCPPose()),
-                                 int(self.receive.getActualDigitalOutputBits())))
+                                 int(self.receive.getActualDigitalOutputBits()),
+                                 np.array(self.receive.getActualQ()), np.array(self.receive.getActualQd())))
             time.sleep(0.002)
 
     def __enter__(self):
@@ -97,6 +98,14 @@ def test_pick_and_place_program_runs_as_one_watched_program(setup):
     descent = [s[1][:3] for s in samples if started["pick"] <= s[0] <= started["grip"]]
     assert len(descent) > 20
     assert max(distance_to_segment(p, approach_tcp, pick_tcp) for p in descent) <= 0.5e-3
+    # the joint move to approach follows the joint interpolation: every joint at the same fraction of its travel
+    q_start, q_approach = HOME, plan[0].joints
+    travel = q_approach - q_start
+    moving = np.abs(travel) > 0.05
+    for when, _, _, q, _ in samples:
+        if started["approach"] <= when <= started["pick"]:
+            fractions = (q - q_start)[moving] / travel[moving]
+            assert np.ptp(fractions) <= 0.01, fractions
     # the output turns on with the arm at pick, and the retract starts only after it (and after the input)
     first_on = next(s for s in samples if s[2] & TOOL_OUT_0_BIT)
     assert np.linalg.norm(first_on[1][:3] - pick_tcp) <= 1e-4
@@ -131,3 +140,19 @@ def test_relative_waypoint_follows_its_retouched_base(setup):
         plan, _ = robot.run_program([base, above])
         expected = plan[0].pose.transform_point([0.01, -0.02, -0.04])
         assert np.linalg.norm(np.array(receive.getActualTCPPose())[:3] - expected) <= 1e-4
+
+
+def test_a_joint_move_blends_into_a_linear_one(setup):
+    host, robot, receive = setup
+    robot.movej(HOME)
+    pick = waypoint("pick", Q_PICK, Motion("linear", 0.1, 1.0))
+    steps = [RelativeWaypoint("above", "pick", (0, 0, -0.08, 0, 0, 0), "tool", Motion("joint", 1.0, 2.0, 0.02)),
+             pick]
+    with Sampler(receive) as sampler:
+        plan, _ = robot.run_program(steps)
+    assert plan[0].blend == 0.02
+    above = np.asarray(plan[0].pose.translation)
+    # blended: the arm never stops at "above" (it passes within the radius without resting)
+    near = [s for s in sampler.samples if np.linalg.norm(s[1][:3] - above) <= 0.02]
+    assert near and min(np.linalg.norm(sample[4]) for sample in near) > 0.05
+    np.testing.assert_allclose(np.array(receive.getActualQ()), Q_PICK, atol=1e-4)
