@@ -16,7 +16,7 @@ from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from ur3dq.cli.app import Settings, confirm, display_options, emit_json, robot_session
+from ur3dq.cli.app import Settings, confirm, emit_json, robot_session
 from ur3dq.cli.commands_poses import emit_json_list, poses
 from ur3dq.errors import StoreError
 from ur3dq.pose import next_free_name, utc_now_iso

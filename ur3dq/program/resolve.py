@@ -10,7 +10,7 @@ from __future__ import annotations
 import dataclasses
 
 from ur3dq.dualquat import DualQuaternion
-from ur3dq.program.steps import RelativeWaypoint, Waypoint, is_waypoint
+from ur3dq.program.steps import Waypoint, is_waypoint
 
 
 @dataclasses.dataclass(frozen=True)
