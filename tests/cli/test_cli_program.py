@@ -165,7 +165,8 @@ def test_plot_failure_names_the_file_and_leaves_no_empty_png(run_in_process, v1_
     assert (tmp_path / "a-file").read_text() == "not a directory"
 
 
-@pytest.mark.parametrize("items", [[], [{"a": [1, 2], "b": {"c": None}}], [{"x": 1}, {"y": [1, "é"]}]])
+@pytest.mark.parametrize("items", [[], [{"a": [1, 2], "b": {"c": None}}], [{"x": 1}, {"y": [1, "é"]}],
+                                   [{"n": n} for n in range(2500)]])
 def test_streamed_json_list_is_exactly_what_emit_json_prints(items, capsys):
     from ur3dq.cli.app import emit_json
     from ur3dq.cli.commands_poses import emit_json_list

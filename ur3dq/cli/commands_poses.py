@@ -21,13 +21,16 @@ PLAIN_LIST_ROWS = 2000
 def emit_json_list(items) -> None:
     """Print a JSON array of `items` on stdout, as emit_json would (indent 2), one item at a time (a list of 10⁵
     poses as one string would need hundreds of MB)."""
-    first = True
-    click.echo("[", nl=False)
+    encode = json.JSONEncoder(indent=2, ensure_ascii=False).encode
+    parts, count = ["["], 0
     for item in items:
-        text = json.dumps(item, indent=2, ensure_ascii=False).replace("\n", "\n  ")
-        click.echo(("\n  " if first else ",\n  ") + text, nl=False)
-        first = False
-    click.echo("]" if first else "\n]")
+        parts.append(("\n  " if count == 0 else ",\n  ") + encode(item).replace("\n", "\n  "))
+        count += 1
+        if len(parts) >= 1000:  # write in blocks: one write per item costs more than the encoding
+            click.echo("".join(parts), nl=False)
+            parts = []
+    parts.append("]" if count == 0 else "\n]")
+    click.echo("".join(parts))
 
 
 @cli.group()
