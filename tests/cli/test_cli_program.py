@@ -175,3 +175,11 @@ def test_streamed_json_list_is_exactly_what_emit_json_prints(items, capsys):
     whole = capsys.readouterr().out
     emit_json_list(iter(items))
     assert capsys.readouterr().out == whole
+
+
+def test_markup_in_pose_names_does_not_break_the_replay_plan(run_cli, tmp_path):
+    shutil.copy(EXAMPLE, tmp_path / "poses.json")
+    assert run_cli("poses", "rename", "demo-2", "[bold red]x[/]").returncode == 0
+    result = run_cli("run-poses", "--dry-run")
+    assert result.returncode == 0, result.stderr
+    assert "[bold red]x[/]" in result.stdout

@@ -8,6 +8,7 @@ import sys
 import click
 import numpy as np
 from rich.console import Console
+from rich.markup import escape  # user text (pose names) is shown as typed, never read as markup
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
@@ -111,7 +112,7 @@ def plan_table(steps, deg: bool, title: str) -> Table:
         travel = "—" if step.travel is None else angle_text(step.travel, deg)
         seconds = "—" if step.duration is None else f"{step.duration:.2f} s"
         source = step.source + (f" (of {step.solutions})" if step.solutions else "")
-        table.add_row(str(index), step.pose.name, angles_text(step.joints, deg), source, travel, seconds,
+        table.add_row(str(index), escape(step.pose.name), angles_text(step.joints, deg), source, travel, seconds,
                       distance_text(step.fk_error_m, step.fk_error_rad))
     return table
 
@@ -123,7 +124,7 @@ def reached_table(results, title: str) -> Table:
         table.add_column(header)
     for index, result in enumerate(results, start=1):
         x, y, z = result.step.pose.ur_pose[:3]
-        table.add_row(str(index), result.step.pose.name, f"{x:.4f}, {y:.4f}, {z:.4f}",
+        table.add_row(str(index), escape(result.step.pose.name), f"{x:.4f}, {y:.4f}, {z:.4f}",
                       distance_text(result.error_m, result.error_rad), f"{result.seconds:.2f} s")
     return table
 
@@ -155,7 +156,7 @@ def execute_plan(robot, steps, a: float, v: float, blend: float, loops: int, con
                 return [Reached(steps[-1], *robot.tcp_pose().distance(expected[-1]), seconds)]
             for loop in range(loops):
                 for step, pose in zip(steps, expected):
-                    progress.update(task, description=f"pass {loop + 1}/{loops}: {step.pose.name}")
+                    progress.update(task, description=escape(f"pass {loop + 1}/{loops}: {step.pose.name}"))
                     seconds = robot.movej(step.joints, a=a, v=v, expected_pose=pose)
                     results.append(Reached(step, *robot.tcp_pose().distance(pose), seconds))
                     progress.advance(task)

@@ -9,6 +9,7 @@ from pathlib import Path
 import click
 import numpy as np
 from rich.console import Console
+from rich.markup import escape
 
 from ur3dq.cli.app import EXIT_NOT_REACHED, Settings, cli, display_options, emit_json
 from ur3dq.cli.commands_robot import (
@@ -149,7 +150,8 @@ def demo(settings: Settings, save, speed, acceleration, tolerance_mm, tolerance_
             a, v = speed_and_acceleration(robot.model, angular_option(speed, DEMO_SPEED, settings.deg),
                                           angular_option(acceleration, DEMO_ACCELERATION, settings.deg),
                                           Console(stderr=True))
-            say(f"[bold]2.[/bold] Moving the arm to {len(DEMO_PLACES)} places and recording each into {store.path}")
+            say(f"[bold]2.[/bold] Moving the arm to {len(DEMO_PLACES)} places and recording each into "
+                f"{escape(str(store.path))}")
             recorded = []
             for index, place in enumerate(DEMO_PLACES, start=1):
                 robot.movej(np.array(place), a=a, v=v)
@@ -166,8 +168,8 @@ def demo(settings: Settings, save, speed, acceleration, tolerance_mm, tolerance_
             say("[bold]5.[/bold] A cell program from the same store: approach, linear descent, gripper output, "
                 "wait, linear retract, place")
             program_store = PoseStore(store.path.with_name(store.path.stem + "-program.json"))
-            say(f"   written to {program_store.path} (run it again with `ur3dq --store {program_store.path} "
-                "run-poses`)")
+            say(escape(f"   written to {program_store.path} (run it again with `ur3dq --store {program_store.path} "
+                       "run-poses`)"))
             run_pick_and_place(robot, store, program_store, recorded[0], recorded[1], say)
     missed = [r for r in results
               if r.error_m * 1000 > tolerance_mm or math.degrees(r.error_rad) > tolerance_deg]
@@ -182,4 +184,4 @@ def demo(settings: Settings, save, speed, acceleration, tolerance_mm, tolerance_
         click.get_current_context().exit(EXIT_NOT_REACHED)
     if not settings.json:
         say(f"[green]Every pose reached within {tolerance_mm} mm / {tolerance_deg}°.[/green]"
-            + (f" The poses are in {save}." if save else ""))
+            + (escape(f" The poses are in {save}.") if save else ""))
