@@ -40,6 +40,9 @@ def v1_store(tmp_path):
     (("poses", "offset", "up", "--from", "gone", "--z", "0.1"), 4,
      ["step 'up' (relative waypoint): its base waypoint 'gone' is not in the program"]),
     (("poses", "offset", "far", "--from", "demo-1", "--z", "1e6"), 4, ["step 'far' (relative waypoint): offset"]),
+    (("record-pose", "--name", "x", "--move", "linear", "--speed", "0", "--yes"), 4,
+     ["waypoint 'x': speed must be a finite number > 0"]),
+    (("record-pose", "--name", "x", "--after", "nowhere", "--yes"), 3, ["no step named 'nowhere'"]),
 ])
 def test_bad_steps_are_one_line_naming_the_step_and_leave_the_store_unchanged(run_in_process, v1_store, args, code,
                                                                              fragments):

@@ -97,20 +97,27 @@ def _insert(settings: Settings, make_step, after, before):
     return settings.store.update_program(edit)
 
 
-def apply_waypoint_options(settings: Settings, name: str, move, speed, acceleration, blend, after, before) -> None:
-    """After record-pose stored `name` (appended as a plain waypoint): give it its own motion and put it at
-    --after/--before, in one more store update (no-op when no option was given)."""
-    if all(value is None for value in (move, speed, acceleration, blend, after, before)):
-        return
+def check_waypoint_options(name: str | None, move, speed, acceleration, blend, after, before, steps, source):
+    """record-pose's --move/--speed/--acceleration/--blend/--after/--before checked before the arm is read:
+    ValueError or StoreError naming what is wrong."""
+    Motion(move or "joint", speed, acceleration, blend).check(f"waypoint {name or '(new)'!r}")
+    insertion_index(steps, after, before, source)
+
+
+def record_waypoint(settings: Settings, pose, number_if_taken: bool, move, speed, acceleration, blend, after,
+                    before):
+    """Store `pose` as a waypoint with its own motion at --after/--before (the end by default), in one atomic
+    update (a taken name is refused, or numbered on with `number_if_taken`); returns the pose as stored."""
+    from ur3dq.store import with_added
 
     def edit(steps):
-        step = _find(steps, name, settings.store_path)
-        rest = [s for s in steps if s.name != name]
-        step = Waypoint(step.name, step.pose, motion_from_options(step.motion, move, speed, acceleration, blend))
-        index = insertion_index(rest, after, before, settings.store_path)
-        return rest[:index] + [step] + rest[index:], None
+        index = insertion_index(steps, after, before, settings.store_path)
+        result, (added,) = with_added(steps, [pose], number_if_taken, position=index)
+        motion = motion_from_options(Motion(), move, speed, acceleration, blend)
+        result[index] = Waypoint(added.name, added, motion)
+        return result, added
 
-    settings.store.update_program(edit)
+    return settings.store.update_program(edit)
 
 
 # ---------------------------------------------------------------- display

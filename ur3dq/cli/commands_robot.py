@@ -14,7 +14,7 @@ from rich.table import Table
 
 from ur3dq.cli.app import Settings, cli, confirm, display_options, emit_json, robot_session
 from ur3dq.cli.commands_program import (
-    apply_waypoint_options, placement_options, run_program_command, waypoint_motion_options,
+    check_waypoint_options, placement_options, record_waypoint, run_program_command, waypoint_motion_options,
 )
 from ur3dq.cli.display import (
     angle_text, angles_text, coefficients_text, distance_text, key_value_table, pose_vector_text,
@@ -238,7 +238,9 @@ def record_pose(settings: Settings, name, note, yes, teach, move, speed, acceler
     """
     store = settings.store
     store.require_directory()
-    existing = [pose.name for pose in store.load()]  # also refuses a corrupt store before touching the robot
+    steps = store.load_program()  # also refuses a corrupt store before touching the robot
+    existing = [step.name for step in steps]
+    check_waypoint_options(name, move, speed, acceleration, blend, after, before, steps, settings.store_path)
     if name and not teach and name in existing:
         raise StoreError(f"a pose named {name!r} already exists in {settings.store_path}; choose another --name")
     with robot_session(settings) as robot:
@@ -250,8 +252,7 @@ def record_pose(settings: Settings, name, note, yes, teach, move, speed, acceler
             settings.out.print(key_value_table(f"{robot.model_name} at {robot.host}", pose_rows(robot, pose,
                                                                                                  settings.deg)))
         confirm("Record this pose?", yes)
-        stored = store.add(pose, number_if_taken=name is None)
-        apply_waypoint_options(settings, stored.name, move, speed, acceleration, blend, after, before)
+        stored = record_waypoint(settings, pose, name is None, move, speed, acceleration, blend, after, before)
     if settings.json:
         emit_json({"recorded": stored.name, "store": str(settings.store_path)})
     else:
