@@ -158,6 +158,7 @@ def _check_magnitudes(fields_list, who, who_of=None) -> list:
     return [(dq_rows[i], ur_rows[i], tcp_rows[i], joint_rows.get(i)) for i in range(len(fields_list))]
 
 
+_NO_TCP_OFFSET = (0.0,) * 6
 _WAYPOINT_KEYS = frozenset(POSE_FIELDS) | {"type"} | frozenset(MOTION_FIELDS)
 _REQUIRED_KEYS = frozenset(REQUIRED_POSE_FIELDS)
 CHUNK = 4096  # entries parsed and checked per vectorised pass: big enough for numpy, small enough to bound memory
@@ -168,13 +169,13 @@ def _poses_of_chunk(entries, chunk, who_of) -> list[Pose]:
     the text fields; ValueError naming the entry (who_of(i))."""
     fields_list = []
     for index in chunk:
-        obj = entries[index]
-        if not (type(obj) is dict and obj.keys() <= _WAYPOINT_KEYS and _REQUIRED_KEYS <= obj.keys()):
-            _check_pose_fields(obj, who_of(index), extra=("type", *MOTION_FIELDS))  # says what is wrong
-        fields = {key: obj[key] for key in POSE_FIELDS if key in obj}
+        fields = entries[index]  # a freshly parsed object: completed in place with the defaults
+        if not (type(fields) is dict and fields.keys() <= _WAYPOINT_KEYS and _REQUIRED_KEYS <= fields.keys()):
+            _check_pose_fields(fields, who_of(index), extra=("type", *MOTION_FIELDS))  # says what is wrong
         if fields.get("tcp_offset") is None:
-            fields["tcp_offset"] = (0.0,) * 6
-        fields["note"] = fields.get("note") or ""
+            fields["tcp_offset"] = _NO_TCP_OFFSET
+        if not fields.get("note"):
+            fields["note"] = ""
         fields_list.append(fields)
     if not fields_list:
         return []
@@ -449,7 +450,8 @@ def _steps_of(version: int, entries, text: str, source: str) -> list:
                 if flag:
                     pose = next(poses)
                     motion = _motion_from(obj, who_of(index)) if version != SCHEMA_VERSION else DEFAULT_MOTION
-                    steps.append(Waypoint(pose.name, pose, motion))
+                    steps.append(Waypoint.of_checked_pose(pose) if motion is DEFAULT_MOTION
+                                 else Waypoint(pose.name, pose, motion))
                 elif not isinstance(obj, dict):
                     raise ValueError(f"{who_of(index)}: must be a JSON object")
                 else:

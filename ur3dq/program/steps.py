@@ -135,6 +135,15 @@ class Waypoint(Step):
             raise ValueError(f"{self.who}: the pose is called {self.pose.name!r}")
         object.__setattr__(self, "motion", self.motion.check(self.who))
 
+    @classmethod
+    def of_checked_pose(cls, pose: Pose) -> "Waypoint":
+        """The plain joint waypoint of a validated Pose, built without re-running the checks above (nothing to
+        check: the name is the pose's and the motion the default); a big store has 10⁵ of them."""
+        waypoint = object.__new__(cls)
+        for field, value in (("name", pose.name), ("pose", pose), ("motion", DEFAULT_MOTION)):
+            object.__setattr__(waypoint, field, value)
+        return waypoint
+
 
 @dataclasses.dataclass(frozen=True)
 class RelativeWaypoint(Step):
