@@ -186,3 +186,17 @@ def test_markup_in_pose_names_does_not_break_the_replay_plan(run_cli, tmp_path):
     result = run_cli("run-poses", "--dry-run")
     assert result.returncode == 0, result.stderr
     assert "[bold red]x[/]" in result.stdout
+
+
+def test_the_v1_replay_plan_table_fits_80_columns_with_every_pose_name():
+    from ur3dq.cli.commands_robot import plan_table
+    from ur3dq.cli.plan import plan_replay
+
+    steps = plan_replay(robot_model("ur3"), PoseStore(EXAMPLE).load(), None)
+    console = Console(width=80, record=True)
+    console.print(plan_table(steps, False, "Plan"))
+    text = console.export_text()
+    assert max(len(line) for line in text.splitlines()) <= 80
+    name_column = "".join(line.split("│")[2].strip() for line in text.splitlines() if line.count("│") > 2)
+    for step in steps:
+        assert step.pose.name in name_column

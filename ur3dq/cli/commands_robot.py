@@ -107,7 +107,8 @@ def plan_table(steps, deg: bool, title: str) -> Table:
     """The replay plan: each pose's chosen joints, how they were chosen, travel and time, FK residual."""
     table = Table(title=title, title_justify="left")
     for header in ("#", "pose", "joints", "chosen by", "travel", "time", "FK check"):
-        table.add_column(header, overflow="fold", no_wrap=header == "joints")
+        # every column wraps (joints at their spaces), so an 80-column terminal still shows every pose name
+        table.add_column(header, overflow="fold", min_width=6 if header == "pose" else None)
     for index, step in enumerate(steps, start=1):
         travel = "—" if step.travel is None else angle_text(step.travel, deg)
         seconds = "—" if step.duration is None else f"{step.duration:.2f} s"
