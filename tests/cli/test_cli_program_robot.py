@@ -54,3 +54,28 @@ def test_record_edit_run_and_retouch_a_cell_program(arm, run_cli, tmp_path):
     assert exported.returncode == 0, exported.stderr
     assert "movel(" in exported.stdout and "set_tool_digital_out(1, True)" in exported.stdout
     assert 'textmsg("ur3dq_step:", 2)' in exported.stdout and "ur3dq_step:\", 1)" not in exported.stdout
+
+
+def test_ctrl_c_stops_a_running_cell_program(arm, run_cli, tmp_path):
+    import signal
+
+    from cli_support import cli_process
+    from polling import wait_for
+
+    arm.place(PICK)
+    assert run_cli("--host", arm.host, "record-pose", "--name", "pick", "--yes").returncode == 0
+    assert run_cli("poses", "offset", "far", "--from", "pick", "--z", "-0.15", "--move", "linear",
+                   "--speed", "0.02").returncode == 0
+    assert run_cli("poses", "add-step", "tool-out", "0", "on").returncode == 0
+    assert arm.receive.getActualDigitalOutputBits() & (1 << 16) == 0
+    with cli_process(tmp_path, "--host", arm.host, "run-poses", "--from", "far", "--yes") as process:
+        assert wait_for(lambda: np.max(np.abs(arm.joint_speeds())) > 0.01 or process.poll() is not None, 20)
+        assert process.poll() is None, process.communicate()
+        process.send_signal(signal.SIGINT)
+        _, stderr = process.communicate(timeout=20)
+    assert process.returncode == 130, stderr
+    assert stderr.strip().splitlines()[-1].startswith("Error: interrupted")
+    assert wait_for(lambda: np.max(np.abs(arm.joint_speeds())) < 1e-6, 2.0), "the arm still moves after Ctrl-C"
+    far = PoseStore(tmp_path / "poses.json").get("pick").dq.transform_point([0, 0, -0.15])
+    assert np.linalg.norm(arm.tcp_pose()[:3] - far) > 0.05   # stopped on the way, well short of "far"
+    assert arm.receive.getActualDigitalOutputBits() & (1 << 16) == 0    # the program did not go on to its output
