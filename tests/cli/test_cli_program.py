@@ -200,3 +200,13 @@ def test_the_v1_replay_plan_table_fits_80_columns_with_every_pose_name():
     name_column = "".join(line.split("│")[2].strip() for line in text.splitlines() if line.count("│") > 2)
     for step in steps:
         assert step.pose.name in name_column
+
+
+def test_speed_scale_scales_every_step_and_refuses_nonsense(run_in_process, v1_store):
+    assert run_in_process("poses", "set", "demo-2", "--move", "linear", "--speed", "0.2").returncode == 0
+    full = json.loads(run_in_process("run-poses", "--dry-run", "--json").stdout)["plan"]
+    half = json.loads(run_in_process("run-poses", "--dry-run", "--json", "--speed-scale", "0.5").stdout)["plan"]
+    assert [step["speed"] for step in half] == pytest.approx([step["speed"] / 2 for step in full])
+    assert [step["type"] for step in full] == ["joint", "linear", "joint", "joint"]
+    for bad in ("2", "0", "nan"):
+        assert_one_line_error(run_in_process("run-poses", "--dry-run", "--speed-scale", bad), 4, "--speed-scale")
