@@ -20,9 +20,10 @@ def arm_points(model, joints) -> np.ndarray:
     return np.array([DualQuaternion.from_array(frame).translation for frame in model.frames(joints)])
 
 
-def plot_poses(path, model, steps, title: str = "") -> None:
+def plot_poses(path, model, steps, title: str = "", path_check=None, cell=None) -> None:
     """Write a PNG to `path`: the TCP path through the planned `steps` (PlanStep: .pose, .joints) and the arm at
-    each, labelled with the pose names, on `model` (a robot_model)."""
+    each, labelled with the pose names, on `model` (a robot_model); with `path_check` (a PathCheckResult) also the
+    swept TCP path, the arm's capsules at the worst sample and the obstacles of `cell` (ur3dq.pathcheck.drawing)."""
     import matplotlib
 
     matplotlib.use("Agg")  # no display on a shop-floor PC or in CI
@@ -43,6 +44,10 @@ def plot_poses(path, model, steps, title: str = "") -> None:
         axes.plot(tcp_points[:, 0], tcp_points[:, 1], tcp_points[:, 2], "--", color="crimson", linewidth=1.5,
                   label="TCP path")
         axes.scatter(tcp_points[:, 0], tcp_points[:, 1], tcp_points[:, 2], color="crimson", s=20)
+        if path_check is not None:
+            from ur3dq.pathcheck.drawing import draw_path_check
+
+            drawn.append(draw_path_check(axes, model, path_check, cell))
         _equal_aspect(axes, np.vstack(drawn))
         axes.set_xlabel("x (m)")
         axes.set_ylabel("y (m)")

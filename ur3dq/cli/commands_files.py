@@ -7,6 +7,7 @@ import click
 from rich.console import Console
 
 from ur3dq.cli.app import Settings, cli, confirm, deg_option
+from ur3dq.cli.commands_check import cell_option, check_replay
 from ur3dq.cli.commands_robot import (
     DEFAULT_ACCELERATION, DEFAULT_SPEED, angular_option, motion_options, speed_and_acceleration,
 )
@@ -105,8 +106,9 @@ def _write_program(output: Path, program: str, yes: bool, what: str) -> None:
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), default=Path("poses.png"),
               show_default=True, help="The PNG to write.")
 @click.option("--yes", "-y", is_flag=True, help="Overwrite the output file without asking.")
+@cell_option
 @click.pass_obj
-def plot(settings: Settings, names, output: Path, yes):
+def plot(settings: Settings, names, output: Path, yes, cell_path):
     """A PNG of the recorded TCP path and the arm at each pose (all, or NAMES in order), on the nominal model.
 
     \b
@@ -119,5 +121,7 @@ def plot(settings: Settings, names, output: Path, yes):
     model, steps, _, _ = offline_plan(settings, names, DEFAULT_SPEED, DEFAULT_ACCELERATION, False,
                                       float("inf"))
     _writable_target(output, yes)
-    plot_poses(output, model, steps, title=f"{len(steps)} poses from {settings.store_path.name} on a {model.name}")
-    click.echo(f"Wrote {output}.")
+    check, cell = check_replay(model, steps, cell_path)
+    plot_poses(output, model, steps, title=f"{len(steps)} poses from {settings.store_path.name} on a {model.name}",
+               path_check=check, cell=cell)
+    click.echo(f"Wrote {output}. Path check: {check.summary()}")

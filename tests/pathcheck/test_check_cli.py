@@ -1,0 +1,125 @@
+"""`ur3dq check` on a stored program, in real subprocesses: the margins table, the one-line refusal with exit 4,
+--json, the cell file from --cell and from UR3DQ_CELL, and bad cell files."""
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from ur3dq.kinematics import robot_model
+from ur3dq.pose import Pose
+from ur3dq.store import PoseStore
+
+UR3DQ = str(Path(sys.executable).with_name("ur3dq"))
+UR3 = robot_model("ur3")
+# Two poses with the tool down, the base turning 90° between them: the sweep passes over x > 0, y ≈ 0.
+JOINTS = {"left": [-0.7854, -1.3, 1.3, -1.5708, -1.5708, 0.0], "right": [0.7854, -1.3, 1.3, -1.5708, -1.5708, 0.0]}
+
+
+@pytest.fixture
+def run(tmp_path):
+    store = PoseStore(tmp_path / "poses.json")
+    for name, q in JOINTS.items():
+        store.add(Pose.from_dual_quaternion(name, UR3.fk(q), "ur3", joints=tuple(q)))
+
+    def run_check(*args, command="check", **env):
+        environment = {k: v for k, v in os.environ.items() if not k.startswith("UR3DQ_")}
+        environment.update(UR3DQ_STATE_DIR=str(tmp_path / "state"), UR3DQ_STORE=str(tmp_path / "poses.json"), **env)
+        return subprocess.run([UR3DQ, command, *map(str, args)], cwd=tmp_path, env=environment,
+                              capture_output=True, text=True, timeout=60)
+
+    return run_check
+
+
+def box_under_the_sweep(tmp_path, name="cell.json"):
+    """A box where the tool passes halfway through the sweep (θ1 = 0), far from both stored poses."""
+    middle = np.array(JOINTS["left"])
+    middle[0] = 0.0
+    centre = UR3.fk(middle).translation
+    path = tmp_path / name
+    path.write_text(json.dumps({"floor": {"z": 0.0}, "margin": 0.01,
+                                "boxes": [{"name": "fixture", "min": list(centre - 0.03),
+                                           "max": list(centre + 0.03)}]}))
+    return path
+
+
+def test_check_passes_without_a_cell_and_prints_each_moves_margins(run):
+    result = run()
+    assert result.returncode == 0, result.stderr
+    assert "left" in result.stdout and "right" in result.stdout and "self mm" in result.stdout
+    assert "path clear: 2 moves" in result.stdout
+
+
+def test_check_refuses_a_sweep_through_a_box_with_exit_4_and_one_line(run, tmp_path):
+    result = run("--cell", box_under_the_sweep(tmp_path))
+    assert result.returncode == 4, (result.stdout, result.stderr)
+    errors = [line for line in result.stderr.splitlines() if line.startswith("Error: ")]
+    assert len(errors) == 1
+    assert "step 'right' at" in errors[0] and 'keep-out box "fixture"' in errors[0] and "TCP" in errors[0]
+
+
+def test_the_cell_comes_from_UR3DQ_CELL_and_json_carries_the_problems(run, tmp_path):
+    result = run("--json", UR3DQ_CELL=str(box_under_the_sweep(tmp_path)))
+    assert result.returncode == 4
+    document = json.loads(result.stdout)
+    assert document["ok"] is False
+    problem = document["problems"][0]
+    assert problem["step"] == "right" and problem["check"] == "cell" and 0.2 < problem["fraction"] < 0.8
+    assert [step["name"] for step in document["steps"]] == ["left", "right"]
+
+
+def test_a_linear_check_reports_the_singularity_margins(run):
+    result = run("--move", "linear", "--speed", "0.1", "--json")
+    assert result.returncode == 0, result.stderr
+    margins = json.loads(result.stdout)["steps"][1]["margins"]
+    assert {"wrist", "elbow", "shoulder", "joint_speed"} <= set(margins)
+
+
+@pytest.mark.parametrize("content, code, fragment", [
+    ("{not json", 3, "not valid JSON"),
+    ('{"boxes": [{"name": "b", "min": [0, 0, 1], "max": [1, 1, 0]}]}', 4, "every min must be below its max"),
+    ('{"walls": []}', 4, "unknown key 'walls'"),
+])
+def test_a_bad_cell_file_is_one_line_naming_the_file(run, tmp_path, content, code, fragment):
+    (tmp_path / "bad.json").write_text(content)
+    result = run("--cell", "bad.json")
+    assert result.returncode == code
+    assert result.stderr.strip().count("\n") == 0 and "bad.json" in result.stderr and fragment in result.stderr
+
+
+def test_run_poses_refuses_before_moving_when_the_path_check_fails(run, tmp_path):
+    cell = box_under_the_sweep(tmp_path)
+    result = run("--dry-run", command="run-poses", UR3DQ_CELL=str(cell))
+    assert result.returncode == 4, (result.stdout, result.stderr)
+    assert result.stderr.startswith("Error: path check: step 'right' at")
+    assert 'keep-out box "fixture"' in result.stderr
+    assert "Path check: smallest margins per move" in result.stdout and "cell mm" in result.stdout
+    clear = run("--dry-run", "--json", command="run-poses")             # no cell: the same plan passes
+    assert clear.returncode == 0 and "Path check" in clear.stderr and json.loads(clear.stdout)["plan"]
+    looped = run("--dry-run", "--loop", "2", "--cell", cell, command="run-poses")
+    assert looped.returncode == 4
+
+
+def test_plot_draws_the_path_check_and_names_its_worst_sample(run, tmp_path):
+    result = run("-o", "path.png", "--cell", box_under_the_sweep(tmp_path), command="plot")
+    assert result.returncode == 0, result.stderr
+    assert "Path check: step 'right' at" in result.stdout and 'keep-out box "fixture"' in result.stdout
+    assert (tmp_path / "path.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    clear = run("-o", "clear.png", command="plot")
+    assert clear.returncode == 0 and "Path check: path clear: 2 moves" in clear.stdout
+
+
+def test_with_a_robot_the_path_starts_at_the_arms_joints(run):
+    from sim_ursim.testing import simulator_process
+
+    arm_at = [0.0, -1.3, 1.3, -1.5708, -1.5708, 0.0]
+    with simulator_process(model="ur3", initial_q=arm_at) as simulator:
+        result = run("--json", UR3DQ_HOST=simulator.host)
+    assert result.returncode == 0, result.stderr
+    assert "from the arm's joints" in result.stderr
+    steps = json.loads(result.stdout)["steps"]
+    assert [step["name"] for step in steps] == ["left", "right"]
+    assert steps[0]["samples"] > 2           # a real move from the arm's joints to the first pose, not a 0-length one

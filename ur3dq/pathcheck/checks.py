@@ -1,0 +1,255 @@
+"""The checks run at every sample of a sampled move, and the problems they report.
+
+Each check reduces to a per-sample margin (≥ 0 passes) so a step's smallest margins come out of the same arrays.
+Singularity and joint-speed checks apply to linear/process moves only: a joint move interpolates the joints, so it
+passes through a singular configuration harmlessly, and the controller scales its speed to the joints' limits.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from ur3dq.kinematics.models import JOINT_NAMES
+from ur3dq.pathcheck import geometry
+from ur3dq.pathcheck.geometry import BODY_NAMES
+
+#: Capsule/box pairs whose cheap lower-bound clearance is more than this beyond the margin are not refined (m).
+EXACT_RANGE = 0.05
+
+CHECKS = ("reach", "branch", "wrist", "elbow", "shoulder", "joint_limit", "joint_speed", "self_collision", "cell",
+          "blend")
+
+
+@dataclasses.dataclass(frozen=True)
+class Margins:
+    """Sampling resolutions and the margins of every check (user-settable; defaults near the controller's).
+
+    tcp_resolution (m) and joint_resolution (rad): largest TCP chord / joint change between samples.
+    max_joint_step (rad): a larger joint change between samples after refinement is a flip (branch change).
+    wrist: smallest |sin θ5|; elbow: smallest |sin θ3|; shoulder (m): smallest distance of the wrist centre from the
+    base axis in the arm's plane (√(x5² + y5² − d4²); 0 = shoulder singular).
+    joint_limit (rad): clearance kept from every joint limit. joint_speed: largest fraction of a joint's maximum
+    speed a linear/process move may need at its requested speed (sim_ursim stops at 1.05).
+    self_collision (m): clearance between non-adjacent link capsules. cell (m): clearance to the cell's floor,
+    keep-out boxes and keep-in box; None = the cell file's margin.
+    """
+
+    tcp_resolution: float = 0.001
+    joint_resolution: float = math.radians(0.5)
+    max_joint_step: float = math.radians(2.0)
+    wrist: float = 0.02
+    elbow: float = 0.02
+    shoulder: float = 0.03
+    joint_limit: float = 0.0
+    joint_speed: float = 1.0
+    self_collision: float = 0.0
+    cell: float | None = None
+
+    def __post_init__(self):
+        for field in dataclasses.fields(self):
+            value = getattr(self, field.name)
+            if value is None and field.name == "cell":
+                continue
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+                raise ValueError(f"margin {field.name} must be a number ≥ 0, got {value!r}")
+        if self.tcp_resolution <= 0 or self.joint_resolution <= 0 or self.joint_speed <= 0:
+            raise ValueError("tcp_resolution, joint_resolution and joint_speed must be > 0")
+
+
+@dataclasses.dataclass(frozen=True)
+class Problem:
+    """A failed check: the step (name, index), where (fraction of the move, TCP position (3,) m), what failed."""
+
+    step: str
+    step_index: int
+    check: str
+    fraction: float
+    tcp: tuple
+    message: str
+    hint: str
+
+    def line(self) -> str:
+        """One line naming the step, where along it, what failed and what would fix it."""
+        x, y, z = self.tcp
+        return (f"step {self.step!r} at {self.fraction:.0%} of the move (TCP {x:.3f} {y:.3f} {z:.3f} m): "
+                f"{self.message}; {self.hint}")
+
+    def to_dict(self) -> dict:
+        return {"step": self.step, "step_index": self.step_index, "check": self.check,
+                "fraction": self.fraction, "tcp": list(self.tcp), "message": self.message, "hint": self.hint}
+
+
+class StepChecker:
+    """Runs every check on the samples of one move; holds the model's capsules and the cell (built once)."""
+
+    def __init__(self, model, cell, margins: Margins):
+        self.model = model
+        self.cell = cell
+        self.margins = margins
+        self.cell_margin = margins.cell if margins.cell is not None else (cell.margin if cell else 0.0)
+        self.capsules = geometry.link_capsules(model, cell.tool if cell else None)
+        bodies = self.capsules.body
+        pairs = [(i, j) for a, b in geometry.SELF_PAIRS for i in np.flatnonzero(bodies == a)
+                 for j in np.flatnonzero(bodies == b)]
+        self.pair_a = np.array([p[0] for p in pairs], dtype=int)
+        self.pair_b = np.array([p[1] for p in pairs], dtype=int)
+        self.cell_capsules = np.flatnonzero(bodies != 0)   # the base stands in the cell by design
+        self.obstacles = self._obstacles()
+
+    def _obstacles(self) -> list:
+        if self.cell is None:
+            return []
+        names = [f'keep-out box "{box.name}"' for box in self.cell.boxes]
+        if self.cell.floor_z is not None:
+            names.append("the floor")
+        if self.cell.keep_in is not None:
+            names.append("the keep-in box")
+        return names
+
+    # ------------------------------------------------------------------------------------------- per sample
+    def margins_of(self, segment, joints, fraction, tcp, extra, path_scale) -> dict:
+        """{check: (margin (n,) or (n-1,) per sample/interval, detail arrays)} for one move's samples.
+
+        `extra` (n,) m is added to the clearance margins (blend zones); `path_scale` = the controller's path
+        'distance' of a Cartesian move (m or rad, for the joint speeds)."""
+        m = self.margins
+        out = {}
+        steps = np.abs(np.diff(joints, axis=0))
+        if len(steps):
+            out["branch"] = (m.max_joint_step - steps.max(axis=1), np.argmax(steps, axis=1), steps.max(axis=1))
+        lower = self.model.joint_lower + m.joint_limit
+        upper = self.model.joint_upper - m.joint_limit
+        with np.errstate(invalid="ignore"):   # ±inf limits (UR3 wrist 3)
+            room = np.minimum(joints - lower, upper - joints)
+        out["joint_limit"] = (room.min(axis=1), np.argmin(room, axis=1), joints)
+        frames = geometry.dh_frames(self.model, joints)
+        if segment.cartesian:
+            sin5, sin3 = np.abs(np.sin(joints[:, 4])), np.abs(np.sin(joints[:, 2]))
+            wrist_centre = frames[:, 5, :2, 3]
+            radial = np.einsum("ni,ni->n", wrist_centre, wrist_centre) - self.model.dh.d[3] ** 2
+            shoulder = np.sqrt(np.maximum(radial, 0.0))
+            out["wrist"] = (sin5 - m.wrist, sin5)
+            out["elbow"] = (sin3 - m.elbow, sin3)
+            out["shoulder"] = (shoulder - m.shoulder, shoulder)
+            if len(steps) and path_scale > 0:
+                rate = steps / np.maximum(np.diff(fraction), 1e-300)[:, None] * (segment.speed / path_scale)
+                ratio = rate / self.model.max_joint_speed
+                out["joint_speed"] = (m.joint_speed - ratio.max(axis=1), np.argmax(ratio, axis=1),
+                                      ratio.max(axis=1), rate)
+        a, b = geometry.capsule_points(frames, self.capsules)
+        radius = self.capsules.radius
+        if len(self.pair_a):
+            gap = geometry.segment_segment_distance(a[:, self.pair_a], b[:, self.pair_a], a[:, self.pair_b],
+                                                    b[:, self.pair_b]) - radius[self.pair_a] - radius[self.pair_b]
+            worst = np.argmin(gap, axis=1)
+            clearance = gap[np.arange(len(gap)), worst]
+            out["self_collision"] = (clearance - m.self_collision - extra, worst, clearance)
+        if self.obstacles:
+            clearance = self._cell_clearance(a[:, self.cell_capsules], b[:, self.cell_capsules],
+                                             radius[self.cell_capsules], float(extra.max(initial=0.0)))
+            flat = clearance.reshape(len(clearance), -1)
+            worst = np.argmin(flat, axis=1)
+            value = flat[np.arange(len(flat)), worst]
+            out["cell"] = (value - self.cell_margin - extra, worst, value)
+        return out
+
+    def _cell_clearance(self, a, b, radius, extra_max) -> np.ndarray:
+        columns = []
+        if self.cell.boxes:
+            lo = np.array([box.lo for box in self.cell.boxes])
+            hi = np.array([box.hi for box in self.cell.boxes])
+            a_, b_ = a[:, :, None], b[:, :, None]
+            distance = geometry.segment_box_bound(a_, b_, lo, hi)
+            # Only capsule/box pairs whose cheap lower bound comes within EXACT_RANGE of the margin need the exact
+            # distance; the others keep the bound (their reported clearance is then a lower bound, > the range).
+            near = distance - radius[None, :, None] < self.cell_margin + extra_max + EXACT_RANGE
+            if near.any():
+                index = np.nonzero(near)
+                distance[index] = geometry.segment_box_distance(a[index[0], index[1]], b[index[0], index[1]],
+                                                                lo[index[2]], hi[index[2]])
+            columns.append(distance - radius[None, :, None])
+        if self.cell.floor_z is not None:
+            columns.append((np.minimum(a[..., 2], b[..., 2]) - radius - self.cell.floor_z)[..., None])
+        if self.cell.keep_in is not None:
+            box = self.cell.keep_in
+            room = np.minimum(np.minimum(a, b) - box.lo, box.hi - np.maximum(a, b)).min(axis=-1)
+            columns.append((room - radius)[..., None])
+        return np.concatenate(columns, axis=-1)
+
+    # ------------------------------------------------------------------------------------------- problems
+    def problems(self, index, segment, results, fraction, tcp, extra) -> list:
+        """The failed checks of one move (each at its worst sample) as Problems."""
+        found = []
+        for check, (margin, *detail) in results.items():
+            if not len(margin) or float(np.min(margin)) >= 0:
+                continue
+            k = int(np.argmin(margin))
+            sample = min(k + 1, len(fraction) - 1) if check in ("branch", "joint_speed") else k
+            message, hint = self._describe(check, segment, k, detail, extra[sample])
+            found.append(Problem(segment.name, index, check, float(fraction[sample]),
+                                 tuple(float(v) for v in tcp[sample]), message, hint))
+        return found
+
+    def _describe(self, check, segment, k, detail, extra) -> tuple:
+        m = self.margins
+        if check == "branch":
+            joint, step = int(detail[0][k]), float(detail[1][k])
+            return (f"IK branch change: joint {joint + 1} ({JOINT_NAMES[joint]}) jumps {math.degrees(step):.1f}° "
+                    f"between samples (> {math.degrees(m.max_joint_step):.1f}°)",
+                    "the arm would flip: split the move with a waypoint on one branch, or use a joint move")
+        if check == "joint_limit":
+            joint = int(detail[0][k])
+            value = float(detail[1][k, joint])
+            return (f"joint {joint + 1} ({JOINT_NAMES[joint]}) at {value:.4f} rad passes its limit "
+                    f"[{self.model.joint_lower[joint]:.4f}, {self.model.joint_upper[joint]:.4f}] "
+                    f"(margin {m.joint_limit:.3f} rad)",
+                    "use targets whose joints stay nearer the middle of the range (another ±2π turn)")
+        if check == "wrist":
+            return (f"wrist singular: |sin θ5| = {detail[0][k]:.3f} < {m.wrist:g}",
+                    "tilt the tool so wrist 2 stays away from 0°/180° along the line, or make it a joint move")
+        if check == "elbow":
+            return (f"elbow singular (arm stretched or folded): |sin θ3| = {detail[0][k]:.3f} < {m.elbow:g}",
+                    "keep the line further inside the reach, or make it a joint move")
+        if check == "shoulder":
+            return (f"shoulder singular: wrist centre {1000 * detail[0][k]:.0f} mm from the base axis "
+                    f"< {1000 * m.shoulder:.0f} mm",
+                    "route the line away from above/below the base, or make it a joint move")
+        if check == "joint_speed":
+            joint, ratio = int(detail[0][k]), float(detail[1][k])
+            needed = float(detail[2][k, joint])
+            slower = segment.speed * m.joint_speed / ratio
+            return (f"joint {joint + 1} ({JOINT_NAMES[joint]}) would need {needed:.2f} rad/s at "
+                    f"{segment.speed:g} m/s, over {m.joint_speed:g} × its {self.model.max_joint_speed[joint]:.2f} "
+                    f"rad/s", f"lower the step's speed to ≤ {slower:.3g} m/s or keep away from the singularity")
+        if check == "self_collision":
+            pair, clearance = int(detail[0][k]), float(detail[1][k])
+            first = BODY_NAMES[self.capsules.body[self.pair_a[pair]]]
+            second = BODY_NAMES[self.capsules.body[self.pair_b[pair]]]
+            return (f"self-collision: {first} capsule {_clearance_text(clearance, 'the ' + second + ' capsule')}"
+                    f"{_margin_text(m.self_collision, extra)}",
+                    "change the wrist orientation or the elbow configuration of the target, or add a waypoint")
+        if check == "cell":
+            flat, clearance = int(detail[0][k]), float(detail[1][k])
+            capsule, obstacle = divmod(flat, len(self.obstacles))
+            body = BODY_NAMES[self.capsules.body[self.cell_capsules[capsule]]]
+            name = self.obstacles[obstacle]
+            hint = {"the floor": "raise the targets, or add a waypoint that keeps the arm higher",
+                    "the keep-in box": "move the targets inward, or add a waypoint that stays inside"}.get(
+                name, "add a waypoint that goes around it, move the targets, or use a linear move there")
+            return (f"{body} capsule {_clearance_text(clearance, name)}{_margin_text(self.cell_margin, extra)}",
+                    hint)
+        raise AssertionError(check)
+
+
+def _clearance_text(clearance: float, what: str) -> str:
+    if what == "the keep-in box":
+        return (f"{-1000 * clearance:.0f} mm outside the keep-in box" if clearance < 0
+                else f"{1000 * clearance:.1f} mm inside the keep-in box's walls")
+    return f"{-1000 * clearance:.0f} mm inside {what}" if clearance < 0 else f"{1000 * clearance:.1f} mm from {what}"
+
+
+def _margin_text(margin: float, extra: float) -> str:
+    text = f" (margin {1000 * margin:.0f} mm"
+    return text + (f" + blend {1000 * extra:.0f} mm)" if extra > 0 else ")")

@@ -1,0 +1,194 @@
+"""check_path: sample every move of a plan as the controller would run it and check each sample.
+
+Blend zones are approximated conservatively: the unblended corner path (both moves in full, through the waypoint)
+is checked, and inside the blend zone — the samples whose TCP is within the blend radius r of the waypoint, on the
+incoming and the outgoing move — every clearance margin (self-collision, cell) is raised by r. The controller's
+blended TCP path stays inside the sphere of radius r around the waypoint, between the two moves; the links are
+assumed to deviate from the corner path by no more than r too (an approximation: near the base a link moves less
+than the TCP, so this holds for the usual arm poses). A blend radius larger than half of either move is reported.
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from ur3dq import dqarray
+from ur3dq.errors import UnreachablePoseError
+from ur3dq.kinematics import ur_ik
+from ur3dq.pathcheck import sampling
+from ur3dq.pathcheck.checks import Margins, Problem, StepChecker
+from ur3dq.pathcheck.path_plan import PathPlan
+
+BRANCH_TOLERANCE = 1e-3   # rad: a linear move ending further than this from its planned joints ended elsewhere
+
+
+@dataclasses.dataclass(frozen=True)
+class StepReport:
+    """What the check saw on one move: its samples and its smallest margins.
+
+    fraction (n,), joints (n, 6), tcp (n, 3) m; margins: {check: smallest margin over the move (≥ 0 passes), in the
+    check's unit: m for clearances, |sin| for wrist/elbow, m for shoulder, rad for joint limits, fraction of the
+    maximum for joint speed}; worst: {check: index of the sample with that smallest margin}; end_joints (6,): where
+    the next move starts (None if this one could not be followed).
+    """
+
+    name: str
+    move: str
+    fraction: np.ndarray
+    joints: np.ndarray
+    tcp: np.ndarray
+    margins: dict
+    worst: dict
+    end_joints: np.ndarray | None
+
+    @property
+    def samples(self) -> int:
+        return len(self.fraction)
+
+    def to_dict(self) -> dict:
+        return {"name": self.name, "move": self.move, "samples": self.samples,
+                "margins": {k: round(float(v), 6) for k, v in self.margins.items()},
+                "end_joints": None if self.end_joints is None else [float(v) for v in self.end_joints]}
+
+
+@dataclasses.dataclass(frozen=True)
+class PathCheckResult:
+    """ok: no problem; problems: every failed check (at most one per move and check, at its worst sample);
+    steps: one StepReport per checked move; unchecked: names of moves that could not be checked (no start)."""
+
+    problems: tuple
+    steps: tuple
+    unchecked: tuple = ()
+
+    @property
+    def ok(self) -> bool:
+        return not self.problems and not self.unchecked
+
+    def summary(self) -> str:
+        """One line: the first problem (with how many more), or that the path is clear."""
+        if self.problems:
+            more = len(self.problems) - 1
+            return self.problems[0].line() + (f" (+{more} more problem{'s' * (more > 1)})" if more else "")
+        if self.unchecked:
+            return f"steps {', '.join(map(repr, self.unchecked))} could not be checked (no known start)"
+        samples = sum(step.samples for step in self.steps)
+        return f"path clear: {len(self.steps)} moves, {samples} samples checked"
+
+    def to_dict(self) -> dict:
+        return {"ok": self.ok, "problems": [p.to_dict() for p in self.problems],
+                "steps": [s.to_dict() for s in self.steps], "unchecked": list(self.unchecked)}
+
+
+def check_path(model, plan: PathPlan, cell=None, margins: Margins | None = None) -> PathCheckResult:
+    """Check `plan` (a PathPlan) on `model` (a URModel with its TCP) in `cell` (a Cell, or None: no obstacles,
+    no tool) with `margins` (defaults: Margins()). Never raises for a failed check: read `.ok` / `.problems`."""
+    margins = margins or Margins()
+    checker = StepChecker(model, cell, margins)
+    q = np.array(plan.start_joints)
+    sampled, problems, unchecked = [], [], []
+    for index, segment in enumerate(plan.segments):
+        if q is None:
+            unchecked.append(segment.name)
+            sampled.append(None)     # keeps sampled[i] ↔ plan.segments[i]
+            continue
+        move, target_problem = _sample(model, segment, index, q, margins)
+        if target_problem is not None:
+            problems.append(target_problem)
+            sampled.append(None)
+            q = segment.target_joints
+            continue
+        sampled.append((segment, move))
+        q, end_problem = _end_joints(segment, index, move)
+        if end_problem is not None:
+            problems.append(end_problem)
+    steps = []
+    tcp_of = {i: dqarray.translation_unchecked(entry[1].poses) for i, entry in enumerate(sampled) if entry}
+    for index, entry in enumerate(sampled):
+        if entry is None:
+            continue
+        segment, move = entry
+        tcp = tcp_of[index]
+        extra, blend_problem = _blend_allowance(plan, sampled, tcp_of, index)
+        if blend_problem is not None:
+            problems.append(blend_problem)
+        scale = _path_scale(move) if segment.cartesian else 0.0
+        results = checker.margins_of(segment, move.joints, move.fraction, tcp, extra, scale) if len(tcp) else {}
+        problems.extend(checker.problems(index, segment, results, move.fraction, tcp, extra))
+        margins_seen = {check: float(np.min(values[0])) for check, values in results.items() if len(values[0])}
+        # Interval checks (joint steps, speeds) name the sample that ends their worst interval.
+        worst = {check: int(np.argmin(values[0])) + (len(values[0]) < len(tcp))
+                 for check, values in results.items() if len(values[0])}
+        end = move.joints[-1] if move.unreachable_at is None and len(move.joints) else None
+        steps.append(StepReport(segment.name, segment.move, move.fraction, move.joints, tcp, margins_seen, worst,
+                                end))
+    problems.sort(key=lambda p: (p.step_index, p.fraction))
+    return PathCheckResult(tuple(problems), tuple(steps), tuple(unchecked))
+
+
+def _sample(model, segment, index, q, margins):
+    """(SampledMove, None) or (None, Problem) when the target itself cannot be solved."""
+    if segment.move == "joint":
+        target = segment.target_joints
+        if target is None:
+            try:
+                target = model.ik(segment.target_pose, q)
+            except UnreachablePoseError as error:
+                where = dqarray.translation_unchecked(segment.target_pose)
+                return None, Problem(segment.name, index, "reach", 1.0, tuple(map(float, where)),
+                                     f"target unreachable: {error}", "move the target inside the arm's reach")
+        return sampling.sample_joint_move(model, q, target, margins.tcp_resolution, margins.joint_resolution), None
+    pose = segment.target_pose if segment.target_pose is not None else model.fk(segment.target_joints).to_array()
+    return sampling.sample_linear_move(model, q, pose, margins.tcp_resolution, margins.joint_resolution), None
+
+
+def _end_joints(segment, index, move):
+    """(joints where the next move starts, Problem or None) after a sampled move."""
+    if move.unreachable_at is not None:
+        where = tuple(float(v) for v in dqarray.translation_unchecked(move.unreachable_pose))
+        problem = Problem(segment.name, index, "reach", move.unreachable_at, where,
+                          "the straight line leaves the arm's reach here (no IK solution)",
+                          "keep the line inside the reach (shorter, or via a waypoint), or make it a joint move")
+        return segment.target_joints, problem
+    end = move.joints[-1]
+    planned = segment.target_joints
+    if segment.cartesian and planned is not None:
+        apart = np.abs(ur_ik.wrap_angle(end - planned))
+        if float(apart.max()) > BRANCH_TOLERANCE:
+            tcp = tuple(float(v) for v in dqarray.translation_unchecked(move.poses[-1]))
+            joint = int(np.argmax(apart))
+            return end, Problem(segment.name, index, "branch", 1.0, tcp,
+                                f"the line ends on another IK branch than the planned joints (joint {joint + 1} "
+                                f"differs by {np.degrees(apart[joint]):.1f}°)",
+                                "plan the target on the start's branch, or reach it with a joint move")
+    return end, None
+
+
+def _path_scale(move) -> float:
+    """The controller's path 'distance' of a Cartesian move: max(length m, turn rad) (sim_ursim.motion)."""
+    if len(move.poses) < 2 or move.unreachable_at is not None:
+        return 0.0
+    metres, radians = sampling.line_length(move.poses[0], move.poses[-1])
+    return float(max(metres, radians))
+
+
+def _blend_allowance(plan, sampled, tcp_of, index):
+    """(extra margin (n,) m inside the blend zones of move `index`, Problem if a blend radius is too large)."""
+    tcp = tcp_of[index]
+    extra = np.zeros(len(tcp))
+    problem = None
+    segment = plan.segments[index]
+    lengths = {i: float(np.sum(np.linalg.norm(np.diff(t, axis=0), axis=1))) for i, t in tcp_of.items()
+               if i in (index - 1, index, index + 1)}
+    if segment.blend > 0 and len(tcp) and index + 1 < len(plan.segments):
+        extra = np.maximum(extra, np.where(np.linalg.norm(tcp - tcp[-1], axis=1) < segment.blend, segment.blend, 0))
+        shortest = min(lengths.get(index, 0.0), lengths.get(index + 1, np.inf))
+        if segment.blend > 0.5 * shortest:
+            problem = Problem(segment.name, index, "blend", 1.0, tuple(map(float, tcp[-1])),
+                              f"blend radius {1000 * segment.blend:.0f} mm is more than half of a neighbouring "
+                              f"move ({1000 * shortest:.0f} mm of TCP travel)",
+                              "lower the blend radius to at most half of the shorter move")
+    previous = plan.segments[index - 1] if index > 0 else None
+    if previous is not None and previous.blend > 0 and len(tcp) and sampled[index - 1] is not None:
+        extra = np.maximum(extra, np.where(np.linalg.norm(tcp - tcp[0], axis=1) < previous.blend, previous.blend, 0))
+    return extra, problem

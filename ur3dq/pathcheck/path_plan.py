@@ -1,0 +1,92 @@
+"""The path check's input: a start joint vector and the ordered motion segments of a plan (validated on construction).
+
+This is deliberately small and explicit so any plan (today's replay plan, a cell program) adapts to it in a few
+lines: one :class:`PathSegment` per move, in execution order. Action steps (I/O, waits) do not move the arm and are
+left out. Units: metres, radians, seconds; poses are TCP poses in the base frame as (8,) dual quaternions
+[rw rx ry rz dw dx dy dz] (conventions.md).
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from ur3dq import dqarray
+
+MOVE_TYPES = ("joint", "linear", "process")
+
+
+@dataclasses.dataclass(frozen=True)
+class PathSegment:
+    """One move, from wherever the previous one ended.
+
+    name:          the step's name (shown in every problem found on it).
+    move:          "joint" (movej: synchronised joint interpolation), "linear" (movel: straight TCP line) or
+                   "process" (movep: the same straight line, constant TCP speed).
+    target_joints: (6,) joint target in rad. Required for joint moves unless `target_pose` is given (then the IK
+                   solution nearest the start is used); optional for linear/process moves, where the controller
+                   reaches the pose by IK continuity: a target on another IK branch is reported.
+    target_pose:   (8,) TCP pose; for linear/process moves required unless `target_joints` is given (its FK).
+    speed:         rad/s (joint) or m/s (linear/process); acceleration rad/s² or m/s² (kept for the time figures).
+    blend:         blend radius (m) into the next segment; 0 = stop at the target.
+    """
+
+    name: str
+    move: str = "joint"
+    target_joints: np.ndarray | None = None
+    target_pose: np.ndarray | None = None
+    speed: float = 1.05
+    acceleration: float = 1.4
+    blend: float = 0.0
+
+    def __post_init__(self):
+        if not isinstance(self.name, str) or not self.name:
+            raise ValueError(f"path segment name must be a non-empty string, got {self.name!r}")
+        if self.move not in MOVE_TYPES:
+            raise ValueError(f"segment {self.name!r}: move must be one of {', '.join(MOVE_TYPES)}, got {self.move!r}")
+        joints = None if self.target_joints is None else _finite_vector(self.target_joints, 6, self.name, "joints")
+        pose = None if self.target_pose is None else dqarray.normalise(
+            _finite_vector(self.target_pose, 8, self.name, "pose"))
+        if joints is None and pose is None:
+            raise ValueError(f"segment {self.name!r}: give target_joints or target_pose")
+        for field, value in (("speed", self.speed), ("acceleration", self.acceleration)):
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise ValueError(f"segment {self.name!r}: {field} must be a number > 0, got {value!r}")
+        if not (isinstance(self.blend, (int, float)) and math.isfinite(self.blend) and self.blend >= 0):
+            raise ValueError(f"segment {self.name!r}: blend must be a radius ≥ 0 in metres, got {self.blend!r}")
+        object.__setattr__(self, "target_joints", joints)
+        object.__setattr__(self, "target_pose", pose)
+
+    @property
+    def cartesian(self) -> bool:
+        """True for moves whose TCP follows a straight line (linear, process)."""
+        return self.move != "joint"
+
+
+@dataclasses.dataclass(frozen=True)
+class PathPlan:
+    """start_joints (6,) rad: where the arm is before the first segment; segments: the moves in order."""
+
+    start_joints: np.ndarray
+    segments: tuple
+
+    def __post_init__(self):
+        object.__setattr__(self, "start_joints", _finite_vector(self.start_joints, 6, "start", "joints"))
+        segments = tuple(self.segments)
+        if not segments:
+            raise ValueError("a path plan needs at least one segment")
+        for segment in segments:
+            if not isinstance(segment, PathSegment):
+                raise ValueError(f"path plan segments must be PathSegment, got {type(segment).__name__}")
+        object.__setattr__(self, "segments", segments)
+
+
+def _finite_vector(value, size: int, name: str, what: str) -> np.ndarray:
+    array = np.array(value, dtype=float)
+    if array.shape != (size,):
+        raise ValueError(f"segment {name!r}: {what} must have {size} numbers, got shape {array.shape}")
+    if not np.all(np.isfinite(array)):
+        raise ValueError(f"segment {name!r}: {what} contain NaN or infinite values")
+    array.flags.writeable = False
+    return array
