@@ -210,3 +210,9 @@ def test_speed_scale_scales_every_step_and_refuses_nonsense(run_in_process, v1_s
     assert [step["type"] for step in full] == ["joint", "linear", "joint", "joint"]
     for bad in ("2", "0", "nan"):
         assert_one_line_error(run_in_process("run-poses", "--dry-run", "--speed-scale", bad), 4, "--speed-scale")
+
+
+def test_a_cell_program_is_not_run_unchecked_when_a_path_check_was_asked_for(run_in_process, v1_store, tmp_path):
+    (tmp_path / "cell.json").write_text("{}")
+    result = run_in_process("run-poses", "--from", "demo-1", "--dry-run", "--cell", "cell.json")
+    assert result.returncode == 2 and "does not cover cell programs" in result.stderr

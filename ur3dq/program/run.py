@@ -23,7 +23,8 @@ MAX_STATEMENT_SECONDS = 0.05   # each action's own time on the controller (a few
 
 
 class StepWatch:
-    """Follows the step reports of one running program (positions first_position .. first_position+N−1)."""
+    """Follows the step reports of one running program (positions first_position .. first_position+N−1);
+    `done` once the program reported first_position+N, after its last step."""
 
     def __init__(self, plan, first_position: int = 1, progress=None):
         self.plan = list(plan)
@@ -97,7 +98,8 @@ def run_plan(robot, plan, first_position: int = 1, progress=None) -> float:
     name = script.new_program_name("program")
     text = program_script(plan, program_name=name, first_position=first_position,
                           restore_tcp=tuple(robot.model.tcp.to_ur_pose()))
-    return robot.run_script(name, text, final, expected_seconds(plan), on_message=watch.note)
+    return robot.run_script(name, text, final, expected_seconds(plan), on_message=watch.note,
+                            reached_end=lambda: watch.done)
 
 
 def run_program(robot, steps, defaults=None, speed_scale: float = 1.0, start: str | None = None,
