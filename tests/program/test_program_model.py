@@ -88,3 +88,22 @@ def test_select_range_for_resume():
         select_range(steps, "w2", "w0")
     with pytest.raises(ValueError, match="--from 'nope': no step"):
         select_range(steps, "nope")
+
+
+def test_step_watch_reports_progress_end_and_a_failed_wait_naming_the_step():
+    from ur3dq.errors import ProgramError
+    from ur3dq.program.run import StepWatch, expected_seconds
+    from ur3dq.robot.primary import TextMessage
+
+    steps = [pick_waypoint(), Wait("settle", 0.5), WaitInput("part", "tool", 1, False, 3.0)]
+    plan = plan_program(MODEL, steps, start_joints=Q_PICK + 0.1)
+    seen = []
+    watch = StepWatch(plan, first_position=4, progress=lambda position, step: seen.append((position, step.name)))
+    for text in ("ur3dq_step:4", "ur3dq_step:4", "unrelated", "ur3dq_step:5", "ur3dq_step:6"):
+        watch.note(TextMessage(text))
+    assert seen == [(4, "pick"), (5, "settle"), (6, "part")] and not watch.done
+    watch.note(TextMessage("ur3dq_step:7"))
+    assert watch.done
+    with pytest.raises(ProgramError, match=r"step 'part' \(wait-input\): input tool DI1 did not turn off within 3 s"):
+        watch.note(TextMessage("ur3dq_fail:6"))
+    assert expected_seconds(plan) >= plan[0].duration + 0.5 + 3.0
