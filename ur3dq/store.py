@@ -1,9 +1,12 @@
-"""The pose store: a JSON file of recorded poses (schema in docs/store-schema.md), crash-proof and shared safely.
+"""The pose store: a JSON file of recorded poses or a cell program (schema versions 1 and 2 in
+docs/store-schema.md), crash-proof and shared safely.
 
-Parsing and formatting (pure functions on text) are kept apart from the file transport (`PoseStore`).
-Every write holds an inter-process lock (`<store>.lock`, filelock) across read-modify-write, and replaces the file
-atomically: temporary file in the same directory, fsync, rename over the store, fsync the directory. A crash at
-any moment leaves either the old or the new file, never a mix. A store that does not parse is never overwritten.
+Parsing and formatting (pure functions on text) live in ur3dq/store_format.py, apart from the file transport here
+(`PoseStore`). Every write holds an inter-process lock (`<store>.lock`, filelock) across read-modify-write, and
+replaces the file atomically: temporary file in the same directory, fsync, rename over the store, fsync the
+directory. A crash at any moment leaves either the old or the new file, never a mix. A store that does not parse is
+never overwritten; a store that is a symlink is written through the link; temporaries of killed writers are
+removed by the next write.
 """
 from __future__ import annotations
 
