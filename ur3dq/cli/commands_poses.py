@@ -35,7 +35,8 @@ def emit_json_list(items) -> None:
 
 @cli.group()
 def poses():
-    """Look after the pose store: list, show, rm, rename, import, export.
+    """Look after the pose store: list, show, rm, rename, import, export; and edit it as a cell program: set,
+    retouch, move, copy, offset, add-step (docs/store-schema.md, version 2).
 
     \b
     Examples:
@@ -45,6 +46,9 @@ def poses():
       ur3dq poses import recorded.txt --prefix thesis     # the thesis' 8-coefficient lines
       ur3dq poses export cell.txt pick place             # back to thesis lines
       ur3dq --store other.json poses export all.json --format json
+      ur3dq poses offset approach --from pick --z -0.05 --before pick
+      ur3dq poses set pick --move linear --speed 0.05
+      ur3dq poses add-step --after pick tool-out 0 on
     """
 
 
