@@ -216,3 +216,13 @@ def test_a_cell_program_is_not_run_unchecked_when_a_path_check_was_asked_for(run
     (tmp_path / "cell.json").write_text("{}")
     result = run_in_process("run-poses", "--from", "demo-1", "--dry-run", "--cell", "cell.json")
     assert result.returncode == 2 and "does not cover cell programs" in result.stderr
+
+
+def test_poses_show_of_a_step_shows_its_fields(run_in_process, v1_store):
+    assert run_in_process("poses", "add-step", "wait-input", "2", "off", "--timeout", "4").returncode == 0
+    shown = run_in_process("poses", "show", "wait-input-1", "--json")
+    assert shown.returncode == 0, shown.stderr
+    assert json.loads(shown.stdout) == {"type": "wait-input", "name": "wait-input-1", "input": "standard", "pin": 2,
+                                        "on": False, "timeout": 4.0}
+    assert "Step 'wait-input-1' (wait-input)" in run_in_process("poses", "show", "wait-input-1").stdout
+    assert "Pose 'demo-1'" in run_in_process("poses", "show", "demo-1").stdout

@@ -95,7 +95,18 @@ def show(settings: Settings, name):
     Example:
       ur3dq poses show pick --deg
     """
-    pose = settings.store.get(name)
+    step = settings.store.get_step(name)
+    if not hasattr(step, "pose"):  # a relative waypoint or an action step of a cell program: its stored fields
+        from ur3dq.store_format import step_to_dict
+
+        fields = step_to_dict(step)
+        if settings.json:
+            emit_json(fields)
+            return
+        settings.out.print(key_value_table(escape(f"Step {step.name!r} ({step.kind})"),
+                                           [(key, escape(str(value))) for key, value in fields.items()]))
+        return
+    pose = step.pose
     if settings.json:
         emit_json({**pose_to_dict(pose), "thesis_line": pose.dq.to_thesis_line()})
         return
