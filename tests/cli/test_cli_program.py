@@ -224,5 +224,5 @@ def test_poses_show_of_a_step_shows_its_fields(run_in_process, v1_store):
     assert shown.returncode == 0, shown.stderr
     assert json.loads(shown.stdout) == {"type": "wait-input", "name": "wait-input-1", "input": "standard", "pin": 2,
                                         "on": False, "timeout": 4.0}
-    assert "Step 'wait-input-1' (wait-input)" in run_in_process("poses", "show", "wait-input-1").stdout
+    assert "Step 'wait-input-1'" in run_in_process("poses", "show", "wait-input-1").stdout
     assert "Pose 'demo-1'" in run_in_process("poses", "show", "demo-1").stdout
