@@ -4,6 +4,7 @@ Request  {"command": "protective-stop", "reason": "..."} | {"command": "emergenc
          {"command": "release-emergency-stop"} | {"command": "drop-connections"} |
          {"command": "freeze", "seconds": 2} | {"command": "latency", "seconds": 0.05} | {"command": "reset"} |
          {"command": "freedrive", "on": true} | {"command": "move-by-hand", "q": [6 floats]} |
+         {"command": "set-digital-input", "pin": 0..7, "on": true} |
          {"command": "status"} | {"command": "shutdown"}
 Reply    {"ok": true, "message": "..."} or {"ok": false, "error": "..."}; one line of JSON each.
 This port is not a UR interface: it exists so tests and `python -m sim_ursim fault ...` can inject faults.
@@ -22,7 +23,7 @@ MAX_REQUEST_BYTES = 64 * 1024  # one JSON request line; the longest real request
 SEND_TIMEOUT = 2.0  # s a client may leave a reply unread before it is disconnected
 FAULT_COMMANDS = ("protective-stop", "emergency-stop", "release-emergency-stop", "drop-connections", "freeze",
                   "latency", "reset", "status", "shutdown")
-COMMANDS = FAULT_COMMANDS + ("freedrive", "move-by-hand")
+COMMANDS = FAULT_COMMANDS + ("freedrive", "move-by-hand", "set-digital-input")
 
 
 def encode_request(command: str, **arguments) -> bytes:
@@ -84,6 +85,10 @@ def _run(command, request, controller, can_shut_down):
     if command == "move-by-hand":
         controller.move_joints_by_hand(_argument(request, "q"))
         return "joints moved by hand"
+    if command == "set-digital-input":  # simulated wiring: what a sensor on a standard input would do
+        pin, on = _argument(request, "pin"), bool(_argument(request, "on"))
+        controller.io.set_standard_digital_in(pin, on)
+        return f"standard digital input {pin} {'on' if on else 'off'}"
     if command == "status":
         return status_line(controller.state(), faults)
     if not can_shut_down:

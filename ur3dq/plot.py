@@ -5,9 +5,13 @@ metres.
 """
 from __future__ import annotations
 
+import io
+from pathlib import Path
+
 import numpy as np
 
 from ur3dq.dualquat import DualQuaternion
+from ur3dq.store import write_atomically
 
 
 def arm_points(model, joints) -> np.ndarray:
@@ -50,7 +54,11 @@ def plot_poses(path, model, steps, title: str = "", path_check=None, cell=None) 
         axes.set_zlabel("z (m)")
         axes.set_title(title or f"{len(steps)} poses on a {model.name} (base frame)")
         axes.legend(loc="upper left")
-        figure.savefig(path, format="png")
+        # render in memory, then replace the file atomically: a failure leaves no 0-byte PNG, and the error
+        # (StoreError) names the file
+        buffer = io.BytesIO()
+        figure.savefig(buffer, format="png")
+        write_atomically(Path(path), buffer.getvalue())
     finally:
         pyplot.close(figure)
 

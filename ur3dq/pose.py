@@ -21,6 +21,9 @@ POSE_AGREEMENT_TOLERANCE = 1e-6
 # A unit dual quaternion has |r| = 1 and r·d = 0; 1e-6 accepts any value printed with 7+ significant digits.
 UNIT_TOLERANCE = 1e-6
 MAX_NAME_LENGTH = 100
+# Plausible magnitudes: beyond these a reading or a hand edit went wrong (1e308 would overflow in later maths).
+MAX_JOINT_ABS = 100.0        # rad: the UR3's wrist 3 turns without limit, but no arm is wound up 16 turns
+MAX_TRANSLATION_ABS = 100.0  # m (and rad for rotation-vector components) in ur_pose and tcp_offset
 
 
 def utc_now_iso() -> str:
@@ -39,7 +42,7 @@ def name_problem(name) -> str | None:
         return f"pose name {name[:20]!r}... is longer than {MAX_NAME_LENGTH} characters"
     if name != name.strip():
         return f"pose name {name!r} starts or ends with blanks"
-    if any(unicodedata.category(ch).startswith("C") for ch in name):
+    if not (name.isascii() and name.isprintable()) and any(unicodedata.category(ch).startswith("C") for ch in name):
         return f"pose name {name!r} contains control characters"
     return None
 
@@ -48,12 +51,17 @@ def _finite_vector(value, length: int, field: str, who: str) -> tuple[float, ...
     """`value` as a tuple of `length` finite floats, or ValueError naming `who` and `field`."""
     try:
         array = np.asarray(value, dtype=float)
+    except OverflowError:
+        raise ValueError(f"{who}: {field} holds a number too large for a float") from None
     except (TypeError, ValueError):
         raise ValueError(f"{who}: {field} must be {length} numbers, got {value!r}") from None
     if array.shape != (length,):
         raise ValueError(f"{who}: {field} must be {length} numbers, got {array.size}")
     if not np.all(np.isfinite(array)):
         raise ValueError(f"{who}: {field} contains NaN or infinity: {array.tolist()}")
+    bound = MAX_JOINT_ABS if field == "joints" else MAX_TRANSLATION_ABS
+    if np.any(np.abs(array) > bound):
+        raise ValueError(f"{who}: {field} {array.tolist()} is not plausible (a value beyond ±{bound:g})")
     return tuple(float(x) for x in array)
 
 
@@ -77,7 +85,23 @@ def _check_unit_dual_quaternion(coefficients: tuple[float, ...], who: str) -> No
         raise ValueError(f"{who}: dual_quaternion is not a rigid transform (r·d = {float(real @ dual):.3g}, not 0)")
 
 
-@dataclasses.dataclass(frozen=True)
+def check_pose_text_fields(name, time, robot_model, robot_serial, note) -> None:
+    """ValueError (naming the pose) unless the text fields of a pose are valid: name, UTC time, known model,
+    serial text or null, note text."""
+    problem = name_problem(name)
+    if problem:
+        raise ValueError(problem)
+    who = f"pose {name!r}"
+    if robot_model not in MODEL_NAMES:
+        raise ValueError(f"{who}: robot_model {robot_model!r} is not one of {', '.join(MODEL_NAMES)}")
+    if robot_serial is not None and not isinstance(robot_serial, str):
+        raise ValueError(f"{who}: robot_serial must be text or null")
+    if not isinstance(note, str):
+        raise ValueError(f"{who}: note must be text")
+    _check_utc_time(time, who)
+
+
+@dataclasses.dataclass(frozen=True, slots=True)  # slots: a big store holds 10⁵ of them
 class Pose:
     """One recorded TCP pose in the base frame (metres, radians); validated when built, so a Pose is always sound.
 
@@ -95,9 +119,7 @@ class Pose:
     note: str = ""
 
     def __post_init__(self):
-        problem = name_problem(self.name)
-        if problem:
-            raise ValueError(problem)
+        check_pose_text_fields(self.name, self.time, self.robot_model, self.robot_serial, self.note)
         who = f"pose {self.name!r}"
         set_field = object.__setattr__  # frozen dataclass: normalise fields once, here
         set_field(self, "dual_quaternion", _finite_vector(self.dual_quaternion, 8, "dual_quaternion", who))
@@ -105,13 +127,6 @@ class Pose:
         set_field(self, "tcp_offset", _finite_vector(self.tcp_offset, 6, "tcp_offset", who))
         if self.joints is not None:
             set_field(self, "joints", _finite_vector(self.joints, 6, "joints", who))
-        if self.robot_model not in MODEL_NAMES:
-            raise ValueError(f"{who}: robot_model {self.robot_model!r} is not one of {', '.join(MODEL_NAMES)}")
-        if self.robot_serial is not None and not isinstance(self.robot_serial, str):
-            raise ValueError(f"{who}: robot_serial must be text or null")
-        if not isinstance(self.note, str):
-            raise ValueError(f"{who}: note must be text")
-        _check_utc_time(self.time, who)
         _check_unit_dual_quaternion(self.dual_quaternion, who)
         from_vector = DualQuaternion.from_ur_pose(self.ur_pose)
         if not from_vector.is_close(self.dq, POSE_AGREEMENT_TOLERANCE, POSE_AGREEMENT_TOLERANCE):
@@ -119,6 +134,18 @@ class Pose:
             raise ValueError(
                 f"{who}: ur_pose and dual_quaternion disagree by {metres:.3g} m and {radians:.3g} rad"
             )
+
+    @classmethod
+    def checked(cls, name, time, robot_model, dual_quaternion, ur_pose, tcp_offset, joints, robot_serial, note):
+        """A Pose whose fields the caller has already validated exactly as __post_init__ would (the store checks
+        the numbers of a whole file in one vectorised pass, then the text with check_pose_text_fields); tuples of
+        floats expected. Skips the per-pose checks, which dominate loading a big store."""
+        pose = object.__new__(cls)
+        for field, value in (("name", name), ("time", time), ("robot_model", robot_model),
+                             ("dual_quaternion", dual_quaternion), ("ur_pose", ur_pose), ("tcp_offset", tcp_offset),
+                             ("joints", joints), ("robot_serial", robot_serial), ("note", note)):
+            object.__setattr__(pose, field, value)
+        return pose
 
     @property
     def dq(self) -> DualQuaternion:

@@ -1,14 +1,18 @@
-"""The pose store: a JSON file of recorded poses (schema in docs/store-schema.md), crash-proof and shared safely.
+"""The pose store: a JSON file of recorded poses or a cell program (schema versions 1 and 2 in
+docs/store-schema.md), crash-proof and shared safely.
 
-Parsing and formatting (pure functions on text) are kept apart from the file transport (`PoseStore`).
-Every write holds an inter-process lock (`<store>.lock`, filelock) across read-modify-write, and replaces the file
-atomically: temporary file in the same directory, fsync, rename over the store, fsync the directory. A crash at
-any moment leaves either the old or the new file, never a mix. A store that does not parse is never overwritten.
+Parsing and formatting (pure functions on text) live in ur3dq/store_format.py, apart from the file transport here
+(`PoseStore`). Every write holds an inter-process lock (`<store>.lock`, filelock) across read-modify-write, and
+replaces the file atomically: temporary file in the same directory, fsync, rename over the store, fsync the
+directory. A crash at any moment leaves either the old or the new file, never a mix. A store that does not parse is
+never overwritten; a store that is a symlink is written through the link; temporaries of killed writers are
+removed by the next write.
 """
 from __future__ import annotations
 
-import json
+import dataclasses
 import os
+import re
 import tempfile
 from pathlib import Path
 from typing import Callable, Iterable
@@ -18,126 +22,16 @@ import filelock
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import StoreError
 from ur3dq.pose import Pose, next_free_name, numbering_prefix, utc_now_iso
-
-SCHEMA_NAME = "ur3dq.poses"
-SCHEMA_VERSION = 1
-POSE_FIELDS = (
-    "name", "time", "robot_model", "robot_serial", "joints", "dual_quaternion", "ur_pose", "tcp_offset", "note",
+from ur3dq.program.resolve import check_program
+from ur3dq.program.steps import RelativeWaypoint, Waypoint
+from ur3dq.store_format import (  # noqa: F401  (re-exported: the store's public names)
+    PROGRAM_SCHEMA_VERSION, SCHEMA_NAME, SCHEMA_VERSION, format_program, format_program_v2, format_store,
+    needs_version_2, own_layout_version,
+    parse_document, parse_store, pose_from_dict, pose_to_dict,
 )
-REQUIRED_POSE_FIELDS = ("name", "time", "robot_model", "dual_quaternion", "ur_pose")
+
 LOCK_TIMEOUT_S = 30.0
 DEFAULT_STORE_PATH = "poses.json"
-
-
-# ---------------------------------------------------------------- pure: JSON text <-> poses
-
-
-def pose_to_dict(pose: Pose) -> dict:
-    """The JSON object of one pose, fields in schema order (lists of floats; joints null when unknown)."""
-    return {
-        "name": pose.name,
-        "time": pose.time,
-        "robot_model": pose.robot_model,
-        "robot_serial": pose.robot_serial,
-        "joints": list(pose.joints) if pose.joints is not None else None,
-        "dual_quaternion": list(pose.dual_quaternion),
-        "ur_pose": list(pose.ur_pose),
-        "tcp_offset": list(pose.tcp_offset),
-        "note": pose.note,
-    }
-
-
-def pose_from_dict(obj, who: str) -> Pose:
-    """A Pose from its JSON object; ValueError naming `who` (e.g. "pose #3 'pick'") and the field at fault."""
-    if not isinstance(obj, dict):
-        raise ValueError(f"{who}: must be a JSON object, got {type(obj).__name__}")
-    unknown = sorted(set(obj) - set(POSE_FIELDS))
-    if unknown:
-        raise ValueError(f"{who}: unknown field {unknown[0]!r} (known: {', '.join(POSE_FIELDS)})")
-    missing = [field for field in REQUIRED_POSE_FIELDS if field not in obj]
-    if missing:
-        raise ValueError(f"{who}: missing field {missing[0]!r}")
-    fields = dict(obj)
-    fields["tcp_offset"] = fields.get("tcp_offset") if fields.get("tcp_offset") is not None else (0.0,) * 6
-    fields["note"] = fields.get("note") or ""
-    return Pose(**fields)
-
-
-def format_store(poses: Iterable[Pose]) -> str:
-    """The store file's text: the versioned envelope, one pose per line (so json's line numbers name a pose)."""
-    lines = [json.dumps(pose_to_dict(pose), ensure_ascii=False) for pose in poses]
-    body = ",\n    ".join(lines)
-    poses_text = f"[\n    {body}\n  ]" if lines else "[]"
-    return (
-        "{\n"
-        f'  "schema": {json.dumps(SCHEMA_NAME)},\n'
-        f'  "version": {SCHEMA_VERSION},\n'
-        f'  "poses": {poses_text}\n'
-        "}\n"
-    )
-
-
-def _line_of_pose(text: str, name) -> int | None:
-    """The 1-based line where the pose called `name` starts, when the file has the one-pose-per-line layout."""
-    if not isinstance(name, str):
-        return None
-    needle = f'"name": {json.dumps(name, ensure_ascii=False)}'
-    for number, line in enumerate(text.splitlines(), start=1):
-        if needle in line:
-            return number
-    return None
-
-
-def _where(text: str, source: str, name) -> str:
-    """`source:line` of the pose called `name` when its line can be found, else `source` (only on errors: the
-    search reads the whole text)."""
-    line = _line_of_pose(text, name)
-    return f"{source}:{line}" if line else source
-
-
-def _without_pose_prefix(message: str, who: str, name) -> str:
-    """`message` without the "pose ...: " it may already start with, so the caller names the pose once."""
-    for prefix in (f"{who}: ", f"pose {name!r}: "):
-        if message.startswith(prefix):
-            return message[len(prefix):]
-    return message
-
-
-def parse_store(text: str, source: str) -> list[Pose]:
-    """The poses in a store file's text; StoreError with `source:line` (where known) and what is wrong."""
-    try:
-        document = json.loads(text)
-    except json.JSONDecodeError as error:
-        raise StoreError(f"{source}:{error.lineno}:{error.colno}: not valid JSON: {error.msg}") from None
-    if not isinstance(document, dict):
-        raise StoreError(f"{source}:1: not a pose store: expected a JSON object with \"schema\": \"{SCHEMA_NAME}\"")
-    if document.get("schema") != SCHEMA_NAME:
-        raise StoreError(f"{source}:1: not a pose store: \"schema\" is {document.get('schema')!r}, "
-                         f"expected {SCHEMA_NAME!r}")
-    version = document.get("version")
-    if version != SCHEMA_VERSION:
-        newer = isinstance(version, int) and version > SCHEMA_VERSION
-        raise StoreError(f"{source}:1: store version {version!r} is not supported (this ur3dq reads version "
-                         f"{SCHEMA_VERSION}{'; the file was written by a newer ur3dq' if newer else ''})")
-    entries = document.get("poses")
-    if not isinstance(entries, list):
-        raise StoreError(f"{source}:1: \"poses\" must be a list")
-    poses: list[Pose] = []
-    seen: set[str] = set()
-    for index, entry in enumerate(entries, start=1):
-        name = entry.get("name") if isinstance(entry, dict) else None
-        who = f"pose #{index}" + (f" {name!r}" if isinstance(name, str) else "")
-        try:
-            pose = pose_from_dict(entry, who)
-        except ValueError as error:
-            where = _where(text, source, name)
-            raise StoreError(f"{where}: {who}: {_without_pose_prefix(str(error), who, name)}") from None
-        if pose.name in seen:
-            raise StoreError(f"{_where(text, source, name)}: pose name {pose.name!r} appears twice")
-        seen.add(pose.name)
-        poses.append(pose)
-    return poses
-
 
 # ---------------------------------------------------------------- pure: thesis text lines <-> dual quaternions
 
@@ -163,31 +57,58 @@ def format_thesis_lines(poses: Iterable[DualQuaternion]) -> str:
     return "".join(pose.to_thesis_line() + "\n" for pose in poses)
 
 
-# ---------------------------------------------------------------- pure: edits of a pose list
+# ---------------------------------------------------------------- pure: edits of a program
 
 
-def with_added(poses: list[Pose], new: Iterable[Pose], number_if_taken: bool) -> tuple[list[Pose], list[Pose]]:
-    """(the whole new list, the poses as added): duplicates are an error, or get the next free `-N` name."""
-    result = list(poses)
+def with_added(steps: list, new: Iterable[Pose], number_if_taken: bool, position: int | None = None):
+    """(the whole new step list, the poses as added): each pose becomes a joint waypoint (inserted at `position`,
+    else appended); a taken name is an error, or gets the next free `-N` name."""
+    result = list(steps)
     added = []
+    at = len(result) if position is None else position
     for pose in new:
         taken = {existing.name for existing in result}
         if pose.name in taken:
             if not number_if_taken:
                 raise StoreError(f"a pose named {pose.name!r} already exists; choose another name or remove it first")
             pose = pose.renamed(next_free_name(numbering_prefix(pose.name), taken))
-        result.append(pose)
+        result.insert(at, Waypoint(pose.name, pose))
+        at += 1
         added.append(pose)
     return result, added
 
 
-def find_pose(poses: list[Pose], name: str, source: str) -> Pose:
-    """The pose called `name`, or StoreError listing the names there are."""
-    for pose in poses:
-        if pose.name == name:
-            return pose
-    known = ", ".join(repr(p.name) for p in poses[:10]) + (", ..." if len(poses) > 10 else "")
-    raise StoreError(f"no pose named {name!r} in {source}" + (f" (it has {known})" if poses else " (it is empty)"))
+def find_step(steps: list, name: str, source: str):
+    """The step called `name`, or StoreError listing the names there are."""
+    for step in steps:
+        if step.name == name:
+            return step
+    known = ", ".join(repr(s.name) for s in steps[:10]) + (", ..." if len(steps) > 10 else "")
+    raise StoreError(f"no pose named {name!r} in {source}" + (f" (it has {known})" if steps
+                                                                      else " (it is empty)"))
+
+
+def find_pose(poses: list, name: str, source: str) -> Pose:
+    """The recorded pose called `name` (among Poses or steps), or StoreError listing the names there are."""
+    found = find_step(poses, name, source)
+    if isinstance(found, Waypoint):
+        return found.pose
+    if isinstance(found, Pose):
+        return found
+    raise StoreError(f"{name!r} in {source} is a {found.kind} step, not a recorded pose")
+
+
+def renamed_steps(steps: list, old: str, new: str) -> list:
+    """`steps` with the step `old` called `new`, and relative waypoints based on `old` following it."""
+    result = []
+    for step in steps:
+        if step.name == old:
+            step = (Waypoint(new, step.pose.renamed(new), step.motion) if isinstance(step, Waypoint)
+                    else dataclasses.replace(step, name=new))
+        if isinstance(step, RelativeWaypoint) and step.base == old:
+            step = dataclasses.replace(step, base=new)
+        result.append(step)
+    return result
 
 
 # ---------------------------------------------------------------- transport: the file
@@ -202,67 +123,149 @@ def _fsync_directory(directory: Path) -> None:
         os.close(fd)
 
 
-def write_atomically(path: Path, text: str) -> None:
-    """Replace `path` with `text`: temp file in the same directory, fsync, rename over `path`, fsync the directory."""
+def write_atomically(path: Path, content) -> None:
+    """Replace `path` with `content` (text, or bytes): temp file in the same directory, fsync, rename over `path`,
+    fsync the directory. A symlink is written through (its target is replaced, the link stays). StoreError naming
+    `path` if it cannot be written; nothing is left behind then."""
+    path = Path(os.path.realpath(path))
     directory = path.parent
-    mode = path.stat().st_mode & 0o777 if path.exists() else 0o644
-    fd, temporary = tempfile.mkstemp(dir=directory, prefix=f".{path.name}.", suffix=".tmp")
     try:
-        with os.fdopen(fd, "w", encoding="utf-8") as stream:
-            stream.write(text)
+        mode = path.stat().st_mode & 0o777 if path.exists() else 0o644
+        fd, temporary = tempfile.mkstemp(dir=directory, prefix=f".{path.name}.", suffix=".tmp")
+    except OSError as error:
+        raise StoreError(f"{path}: cannot write: {error.strerror or error}") from None
+    try:
+        with os.fdopen(fd, "wb") as stream:
+            stream.write(content.encode("utf-8") if isinstance(content, str) else content)
             stream.flush()
             os.fsync(stream.fileno())
         os.chmod(temporary, mode)
         os.replace(temporary, path)
-    except BaseException:
-        os.unlink(temporary)
+        _fsync_directory(directory)
+    except BaseException as error:
+        if os.path.exists(temporary):
+            os.unlink(temporary)
+        if isinstance(error, OSError):
+            raise StoreError(f"{path}: cannot write: {error.strerror or error}") from None
         raise
-    _fsync_directory(directory)
+
+
+def remove_orphan_temporaries(path: Path) -> int:
+    """Delete the temporary files killed writers of the store `path` left (`.<name>.XXXXXXXX.tmp`, and those of
+    its upgrade backup `.<name>.v1.bak[.N].XXXXXXXX.tmp`); call it only while holding the store's lock, when no
+    writer of this store can be mid-write. Returns how many went."""
+    pattern = re.compile(r"^\." + re.escape(path.name) + r"(\.v1\.bak(\.[0-9]+)?)?\.[a-z0-9_]{8}\.tmp$")
+    removed = 0
+    try:
+        entries = list(os.scandir(path.parent))
+    except OSError:
+        return 0
+    for entry in entries:
+        if pattern.match(entry.name) and entry.is_file(follow_symlinks=False):
+            try:
+                os.unlink(entry.path)
+                removed += 1
+            except OSError:
+                pass  # another user's file, or gone already: not ours to insist on
+    return removed
+
+
+def backup_path(path: Path) -> Path:
+    """Where the version-1 copy of `path` goes on upgrade: `<path>.v1.bak`, or `.v1.bak.N` if that is taken."""
+    candidate = path.with_name(path.name + ".v1.bak")
+    number = 2
+    while candidate.exists():
+        candidate = path.with_name(f"{path.name}.v1.bak.{number}")
+        number += 1
+    return candidate
 
 
 class PoseStore:
-    """The JSON pose store at `path` (missing file = empty store). Reads need no lock (writes are atomic renames);
-    every write holds `<path>.lock` across read-modify-write."""
+    """The JSON pose store at `path` (missing file = empty store): recorded poses, or a cell program (schema
+    version 2). Reads need no lock (writes are atomic renames); every write holds `<path>.lock` (of the link's
+    target when `path` is a symlink) across read-modify-write."""
 
     def __init__(self, path):
         self.path = Path(path)
-        self._lock = filelock.FileLock(str(self.path) + ".lock", timeout=LOCK_TIMEOUT_S)
+        self._lock = filelock.FileLock(os.path.realpath(self.path) + ".lock", timeout=LOCK_TIMEOUT_S)
 
     def __repr__(self):
         return f"PoseStore({str(self.path)!r})"
 
-    def load(self) -> list[Pose]:
-        """Every stored pose, in recording order; [] when the file does not exist yet."""
+    def _read(self) -> tuple[str | None, int | None, list]:
+        """(file text or None, version or None, steps); ([], None) when the file does not exist yet."""
         try:
             text = self.path.read_text(encoding="utf-8")
         except FileNotFoundError:
-            return []
+            return None, None, []
         except (OSError, UnicodeDecodeError) as error:
             raise StoreError(f"{self.path}: cannot read the pose store: {error}") from None
-        return parse_store(text, str(self.path))
+        version, steps = parse_document(text, str(self.path))
+        return text, version, steps
+
+    def load_program(self) -> list:
+        """Every step (Waypoint, RelativeWaypoint, actions), in program order; [] when there is no file yet."""
+        return self._read()[2]
+
+    def version(self) -> int | None:
+        """The schema version of the file on disk (None when it does not exist). A file in ur3dq's own layout is
+        recognised from its first lines without parsing the rest (commands ask this before loading a big store);
+        any other file is parsed (and must be valid)."""
+        try:
+            with open(self.path, "rb") as stream:
+                head = stream.read(256).decode("utf-8", errors="replace")
+        except FileNotFoundError:
+            return None
+        except OSError as error:
+            raise StoreError(f"{self.path}: cannot read the pose store: {error}") from None
+        version = own_layout_version(head)
+        return version if version is not None else self._read()[1]
+
+    def load(self) -> list[Pose]:
+        """Every recorded pose, in program order; [] when the file does not exist yet."""
+        return [step.pose for step in self.load_program() if isinstance(step, Waypoint)]
 
     def get(self, name: str) -> Pose:
         """The pose called `name`; StoreError naming the known poses if there is none."""
-        return find_pose(self.load(), name, str(self.path))
+        return find_pose(self.load_program(), name, str(self.path))
+
+    def get_step(self, name: str):
+        """The step (waypoint or action) called `name`; StoreError naming the known steps if there is none."""
+        return find_step(self.load_program(), name, str(self.path))
 
     def select(self, names: Iterable[str] | None) -> list[Pose]:
         """The poses called `names`, in that order (all poses, in store order, when `names` is None or empty)."""
-        poses = self.load()
         names = list(names or [])
-        return [find_pose(poses, name, str(self.path)) for name in names] if names else poses
+        if not names:
+            return self.load()
+        steps = self.load_program()
+        return [find_pose(steps, name, str(self.path)) for name in names]
 
     def require_directory(self) -> None:
         """StoreError unless the store's directory exists (checked before work that would end in a write)."""
-        if not self.path.parent.is_dir():
+        if not Path(os.path.realpath(self.path)).parent.is_dir():
             raise StoreError(f"{self.path}: directory {self.path.parent} does not exist")
 
-    def _update(self, edit: Callable[[list[Pose]], tuple[list[Pose], object]]):
-        """Apply `edit(poses) -> (new poses, result)` under the lock and write atomically; returns the result."""
+    def update_program(self, edit: Callable[[list], tuple[list, object]]):
+        """Apply `edit(steps) -> (new steps, result)` under the lock and write atomically; returns the result.
+
+        The new program is checked first (ValueError naming the step; nothing written). It is written as version
+        1 while it fits version 1 and the file is not version 2 already; the first version-2 write over a
+        version-1 file keeps the old file as `<store>.v1.bak` (written, durably, before the store is replaced, so
+        a kill at any moment leaves the old store or the new one with its backup)."""
         self.require_directory()
+        target = Path(os.path.realpath(self.path))
         try:
             with self._lock:
-                poses, result = edit(self.load())
-                write_atomically(self.path, format_store(poses))
+                remove_orphan_temporaries(target)
+                text, version, steps = self._read()
+                steps, result = edit(steps)
+                check_program(steps)
+                upgrade = version == SCHEMA_VERSION and needs_version_2(steps)
+                if upgrade:
+                    write_atomically(backup_path(target), text)
+                keep_version_2 = version == PROGRAM_SCHEMA_VERSION
+                write_atomically(target, format_program_v2(steps) if keep_version_2 else format_program(steps))
         except filelock.Timeout:
             raise StoreError(f"{self.path}: another process has held the store's lock for {LOCK_TIMEOUT_S:.0f} s "
                              f"({self._lock.lock_file})") from None
@@ -278,31 +281,34 @@ class PoseStore:
     def add_many(self, poses: Iterable[Pose], number_if_taken: bool = False) -> list[Pose]:
         """Store several poses in one atomic write (all or none); returns them as stored."""
         new = list(poses)
-        return self._update(lambda existing: with_added(existing, new, number_if_taken))
+        return self.update_program(lambda existing: with_added(existing, new, number_if_taken))
 
-    def remove(self, name: str) -> Pose:
-        """Delete the pose called `name` and return it; StoreError if there is none."""
+    def remove(self, name: str):
+        """Delete the pose or step called `name` and return it; StoreError if there is none, ValueError naming
+        the relative waypoint still based on it."""
 
-        def edit(poses):
-            doomed = find_pose(poses, name, str(self.path))
-            return [pose for pose in poses if pose is not doomed], doomed
+        def edit(steps):
+            doomed = find_step(steps, name, str(self.path))
+            return [step for step in steps if step is not doomed], getattr(doomed, "pose", doomed)
 
-        return self._update(edit)
+        return self.update_program(edit)
 
-    def rename(self, old: str, new: str) -> Pose:
-        """Give the pose called `old` the name `new`; StoreError if `old` is missing or `new` is taken."""
+    def rename(self, old: str, new: str):
+        """Give the pose or step called `old` the name `new` (relative waypoints based on it follow); StoreError
+        if `old` is missing or `new` is taken."""
 
-        def edit(poses):
-            pose = find_pose(poses, old, str(self.path))
-            if new != old and any(p.name == new for p in poses):
+        def edit(steps):
+            find_step(steps, old, str(self.path))
+            if new != old and any(s.name == new for s in steps):
                 raise StoreError(f"a pose named {new!r} already exists")
             try:
-                renamed = pose.renamed(new)
+                result = renamed_steps(steps, old, new)
             except ValueError as error:
                 raise StoreError(str(error)) from None
-            return [renamed if p is pose else p for p in poses], renamed
+            renamed = find_step(result, new, str(self.path))
+            return result, getattr(renamed, "pose", renamed)
 
-        return self._update(edit)
+        return self.update_program(edit)
 
     def import_thesis_lines(self, file, robot_model: str, tcp_offset=(0.0,) * 6, prefix: str | None = None,
                             note: str = "") -> list[Pose]:
@@ -331,8 +337,5 @@ class PoseStore:
         """Write the poses (all, or those named) as thesis text lines to `file`, atomically; returns how many."""
         poses = self.select(names)
         file = Path(file)
-        try:
-            write_atomically(file, format_thesis_lines(pose.dq for pose in poses))
-        except OSError as error:
-            raise StoreError(f"{file}: cannot write: {error}") from None
+        write_atomically(file, format_thesis_lines(pose.dq for pose in poses))
         return len(poses)

@@ -219,3 +219,9 @@ def test_demo_runs_the_whole_job(run_cli, tmp_path):
     assert result.returncode == 0, result.stdout + result.stderr
     assert "Every pose reached" in result.stdout
     assert [p.name for p in PoseStore(tmp_path / "demo.json").load()] == ["demo-1", "demo-2", "demo-3", "demo-4"]
+    # the cell-program part: a pick-and-place run as one program, each step reported as it ran
+    program = PoseStore(tmp_path / "demo-program.json").load_program()
+    assert [step.name for step in program] == ["approach", "demo-1", "close-gripper", "settle", "retract", "demo-2",
+                                               "open-gripper"]
+    for position, step in enumerate(program, start=1):
+        assert f"step {position}: {step.name}" in result.stdout

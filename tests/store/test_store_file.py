@@ -144,7 +144,10 @@ BROKEN_STORES = {
     "truncated JSON": ('{\n  "schema": "ur3dq.poses",\n  "version": 1,\n  "poses": [\n    {"name": "a"', r":5:\d+: not valid JSON"),
     "not an object": ("[1, 2]", r":1: not a pose store"),
     "wrong schema": ('{"schema": "other", "version": 1, "poses": []}', r":1: not a pose store: \"schema\" is 'other'"),
-    "newer version": ('{"schema": "ur3dq.poses", "version": 2, "poses": []}', r":1: store version 2 is not supported .*newer"),
+    "newer version": ('{"schema": "ur3dq.poses", "version": 3, "steps": []}', r":1: store version 3 is not supported .*newer"),
+    "version true": ('{"schema": "ur3dq.poses", "version": true, "poses": []}', r":1: store version True is not supported"),
+    "100,000-deep nesting": ('{"schema": "ur3dq.poses", "version": 1, "poses": [\n' + "[" * 100_000 + "]" * 100_000
+                             + "]}", r":2: not a pose store: JSON nested deeper than"),
     "poses not a list": ('{"schema": "ur3dq.poses", "version": 1, "poses": {}}', r":1: \"poses\" must be a list"),
 }
 

@@ -13,6 +13,7 @@ from ur3dq.cli.options import (
     DEFAULT_ACCELERATION, DEFAULT_SPEED, angular_option, check_blend, check_max_travel, deg_option, global_options, motion_options,
     speed_and_acceleration,
 )
+from ur3dq.cli.commands_program import export_program_text
 from ur3dq.errors import StoreError
 from ur3dq.pose import utc_now_iso
 from ur3dq.replay import plan_replay
@@ -49,10 +50,12 @@ def _writable_target(path: Path, yes: bool) -> None:
               help="Repeat the sequence this many times.")
 @click.option("--joints", "replay_joints", is_flag=True, help="Use the recorded joints instead of solving IK.")
 @click.option("--yes", "-y", is_flag=True, help="Overwrite the output file without asking.")
+@click.option("--from", "start", metavar="N", help="A cell program: start at the step N.")
+@click.option("--to", "end", metavar="N", help="A cell program: end at the step N.")
 @deg_option
 @click.pass_obj
 def export_urscript(settings: Settings, names, output: Path, speed, acceleration, blend, loops, replay_joints,
-                    max_travel, yes):
+                    max_travel, yes, start, end):
     """Write a URScript program (.script) that moves through the stored poses (all, or NAMES in order).
 
     Joint targets are planned as `run-poses` plans them (IK nearest the recorded joints), on the nominal model.
@@ -65,6 +68,15 @@ def export_urscript(settings: Settings, names, output: Path, speed, acceleration
       ur3dq export-urscript pick place --speed 0.5 --blend 0.01 --loop 10 -o cell.script
     """
     check_blend(blend)
+    if start or end or settings.store.version() == 2:  # a cell program: the same program run-poses sends
+        if names or loops > 1:
+            raise click.UsageError("a cell program is exported as a whole or --from/--to: no NAMES, no --loop")
+        program, count = export_program_text(
+            settings, start, end, angular_option(speed, DEFAULT_SPEED, settings.deg),
+            angular_option(acceleration, DEFAULT_ACCELERATION, settings.deg), blend, 1.0, replay_joints,
+            check_max_travel(angular_option(max_travel, DEFAULT_MAX_JOINT_TRAVEL, settings.deg)))
+        _write_program(output, program, yes, count_text(count, "step"))
+        return
     model, steps, a, v = offline_plan(settings, names, angular_option(speed, DEFAULT_SPEED, settings.deg),
                                       angular_option(acceleration, DEFAULT_ACCELERATION, settings.deg),
                                       replay_joints, check_max_travel(angular_option(max_travel, DEFAULT_MAX_JOINT_TRAVEL,
@@ -78,12 +90,17 @@ def export_urscript(settings: Settings, names, output: Path, speed, acceleration
     ]
     program = replay_program(steps, a, v, blend, loops, tcp_offset=offsets.pop() if len(offsets) == 1 else None,
                              header=header)
+    _write_program(output, program, yes, count_text(len(steps), 'pose') + (f" × {loops}" if loops > 1 else ""))
+
+
+def _write_program(output: Path, program: str, yes: bool, what: str) -> None:
+    """The program on stdout (`-`) or into `output` (asking before overwriting), atomically."""
     if str(output) == "-":
         click.echo(program, nl=False)
         return
     _writable_target(output, yes)
     write_atomically(output, program)
-    click.echo(f"Wrote {output}: {count_text(len(steps), 'pose')}" + (f" × {loops}" if loops > 1 else "") + ".")
+    click.echo(f"Wrote {output}: {what}.")
 
 
 @cli.command()

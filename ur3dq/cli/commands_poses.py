@@ -1,10 +1,13 @@
 """`ur3dq poses ...`: look after the pose store (list, show, rm, rename, import, export)."""
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import click
+from rich.markup import escape
 from rich.table import Table
+from rich.text import Text
 
 from ur3dq.cli.app import Settings, cli, confirm, emit_json
 from ur3dq.cli.options import NUMBERS_CONTEXT, display_options, ur_pose_from_input
@@ -15,9 +18,28 @@ from ur3dq.errors import StoreError
 from ur3dq.store import format_store, format_thesis_lines, parse_store, pose_to_dict, write_atomically
 
 
+PLAIN_LIST_ROWS = 2000
+
+
+def emit_json_list(items) -> None:
+    """Print a JSON array of `items` on stdout, as emit_json would (indent 2), one item at a time (a list of 10⁵
+    poses as one string would need hundreds of MB)."""
+    encode = json.JSONEncoder(indent=2, ensure_ascii=False).encode
+    parts, count = ["["], 0
+    for item in items:
+        parts.append(("\n  " if count == 0 else ",\n  ") + encode(item).replace("\n", "\n  "))
+        count += 1
+        if len(parts) >= 1000:  # write in blocks: one write per item costs more than the encoding
+            click.echo("".join(parts), nl=False)
+            parts = []
+    parts.append("]" if count == 0 else "\n]")
+    click.echo("".join(parts))
+
+
 @cli.group()
 def poses():
-    """Look after the pose store: list, show, rm, rename, import, export.
+    """Look after the pose store: list, show, rm, rename, import, export; and edit it as a cell program: set,
+    retouch, move, copy, offset, add-step (docs/store-schema.md, version 2).
 
     \b
     Examples:
@@ -27,6 +49,9 @@ def poses():
       ur3dq poses import recorded.txt --prefix thesis     # the thesis' 8-coefficient lines
       ur3dq poses export cell.txt pick place             # back to thesis lines
       ur3dq --store other.json poses export all.json --format json
+      ur3dq poses offset approach --from pick --z -0.05 --before pick
+      ur3dq poses set pick --move linear --speed 0.05
+      ur3dq poses add-step --after pick tool-out 0 on
     """
 
 
@@ -34,24 +59,38 @@ def poses():
 @display_options
 @click.pass_obj
 def list_poses(settings: Settings):
-    """Every stored pose: name, time, model, TCP position and orientation, whether joints are known."""
+    """Every stored pose: name, time, model, TCP position and orientation, whether joints are known; for a cell
+    program (store version 2) every step with its move type and parameters."""
+    from ur3dq.cli.commands_program import list_program  # that module adds commands to this one's group
+
+    if list_program(settings):
+        return
     stored = settings.store.load()
     if settings.json:
-        emit_json([pose_to_dict(pose) for pose in stored])
+        emit_json_list(pose_to_dict(pose) for pose in stored)
         return
     if not stored:
-        settings.out.print(f"{settings.store_path} has no poses yet: record one with `ur3dq record-pose`.")
+        click.echo(f"{settings.store_path} has no poses yet: record one with `ur3dq record-pose`.")
         return
-    table = Table(title=f"{count_text(len(stored), 'pose')} in {settings.store_path}", title_justify="left")
     narrow = settings.out.width < NARROW_WIDTH
-    for header in ("#", "name", "recorded (UTC)", "model", "TCP pose", "joints", "note"):
+    headers = ("#", "name", "recorded (UTC)", "model", "TCP pose", "joints", "note")
+    title = f"{count_text(len(stored), 'pose')} in {settings.store_path}"
+    if len(stored) > PLAIN_LIST_ROWS:  # a rich table of 10⁵ rows takes a minute to lay out: tab-separated lines
+        rows = ((str(index), pose.name, pose.time, pose.robot_model, pose_vector_text(pose.ur_pose, settings.deg),
+                 "yes" if pose.joints is not None else "no", pose.note) for index, pose in enumerate(stored, start=1))
+        click.echo("\n".join([title, "\t".join(headers), *("\t".join(row) for row in rows)]))
+        return
+    settings.out.print(Text(title, no_wrap=True, overflow="ignore"))   # unwrapped: a table's title would cut the path
+    table = Table()
+    for header in headers:
         table.add_column(header, overflow="fold", no_wrap=header in ("#", "name"))  # a name is never cut
     for index, pose in enumerate(stored, start=1):
-        # narrow: the time to the minute, the pose vector's numbers compact so they wrap between values
-        table.add_row(str(index), pose.name, pose.time[:16].replace("T", " ") if narrow else pose.time,
-                      pose.robot_model, compact_pose_text(pose.ur_pose, settings.deg) if narrow
+        # narrow: the time to the minute, the pose vector's numbers compact so they wrap between values; user text
+        # (names, notes) is shown as typed, never read as rich markup
+        table.add_row(str(index), escape(pose.name), pose.time[:16].replace("T", " ") if narrow else pose.time,
+                      escape(pose.robot_model), compact_pose_text(pose.ur_pose, settings.deg) if narrow
                       else pose_vector_text(pose.ur_pose, settings.deg), "yes" if pose.joints is not None else "no",
-                      pose.note)
+                      escape(pose.note))
     settings.out.print(table)
 
 
@@ -66,19 +105,30 @@ def show(settings: Settings, name):
     Example:
       ur3dq poses show pick --deg
     """
-    pose = settings.store.get(name)
+    step = settings.store.get_step(name)
+    if not hasattr(step, "pose"):  # a relative waypoint or an action step of a cell program: its stored fields
+        from ur3dq.store_format import step_to_dict
+
+        fields = step_to_dict(step)
+        if settings.json:
+            emit_json(fields)
+            return
+        settings.out.print(key_value_table(escape(f"Step {step.name!r} ({step.kind})"),
+                                           [(key, escape(str(value))) for key, value in fields.items()]))
+        return
+    pose = step.pose
     if settings.json:
         emit_json({**pose_to_dict(pose), "thesis_line": pose.dq.to_thesis_line()})
         return
-    settings.out.print(key_value_table(f"Pose {pose.name!r}", [
+    settings.out.print(key_value_table(escape(f"Pose {pose.name!r}"), [
         ("recorded (UTC)", pose.time),
-        ("robot", f"{pose.robot_model}" + (f", serial {pose.robot_serial}" if pose.robot_serial else "")),
+        ("robot", escape(f"{pose.robot_model}" + (f", serial {pose.robot_serial}" if pose.robot_serial else ""))),
         ("joints", angles_text(pose.joints, settings.deg) if pose.joints is not None else "not recorded"),
         ("TCP pose", pose_vector_text(pose.ur_pose, settings.deg)),
         ("dual quaternion", coefficients_text(pose.dual_quaternion)),
         ("thesis line", pose.dq.to_thesis_line()),
         ("TCP offset", pose_vector_text(pose.tcp_offset, settings.deg)),
-        ("note", pose.note),
+        ("note", escape(pose.note)),
     ]))
 
 
@@ -87,13 +137,13 @@ def show(settings: Settings, name):
 @click.option("--yes", "-y", is_flag=True, help="Do not ask for confirmation.")
 @click.pass_obj
 def rm(settings: Settings, name, yes):
-    """Remove the pose NAME from the store (asks first).
+    """Remove the pose or step NAME from the store (asks first).
 
     \b
     Example:
       ur3dq poses rm pose-3 --yes
     """
-    settings.store.get(name)  # an unknown name fails before the question
+    settings.store.get_step(name)  # an unknown name fails before the question
     confirm(f"Remove pose {name!r} from {settings.store_path}?", yes, default=False)
     removed = settings.store.remove(name)
     click.echo(f"Removed {removed.name!r}.")

@@ -9,6 +9,9 @@ from rich.console import Console
 from ur3dq.cli.app import Settings, cli, confirm, emit_json, one_line, robot_session
 from ur3dq.cli.background_simulator import running_simulator_host
 from ur3dq.cli.commands_check import cell_option, require_clear_path
+from ur3dq.cli.commands_program import (
+    check_waypoint_options, placement_options, record_waypoint, run_program_command, waypoint_motion_options,
+)
 from ur3dq.cli.display import (
     angles_text, count_text, key_value_table, plan_table, pose_rows, pose_vector_text, progress_bar, reached_table,
 )
@@ -75,9 +78,11 @@ def status(settings: Settings):
 @click.option("--yes", "-y", is_flag=True, help="Record without asking.")
 @click.option("--teach", is_flag=True,
               help="Freedrive on; each Enter records a pose (type a name first to name it), q ends.")
+@waypoint_motion_options
+@placement_options
 @display_options
 @click.pass_obj
-def record_pose(settings: Settings, name, note, yes, teach):
+def record_pose(settings: Settings, name, note, yes, teach, move, speed, acceleration, blend, after, before):
     """Record the arm's current pose: shows joints, TCP pose and dual quaternion, asks "Record this pose?".
 
     Each pose keeps its name, time, model, joints, dual quaternion, UR pose vector and TCP offset. Two
@@ -92,7 +97,9 @@ def record_pose(settings: Settings, name, note, yes, teach):
     """
     store = settings.store
     store.require_directory()
-    existing = [pose.name for pose in store.load()]  # also refuses a corrupt store before touching the robot
+    steps = store.load_program()  # also refuses a corrupt store before touching the robot
+    existing = [step.name for step in steps]
+    check_waypoint_options(name, move, speed, acceleration, blend, after, before, steps, settings.store_path)
     if name and not teach and name in existing:
         raise StoreError(f"a pose named {name!r} already exists in {settings.store_path}; choose another --name")
     with robot_session(settings) as robot:
@@ -104,7 +111,7 @@ def record_pose(settings: Settings, name, note, yes, teach):
             settings.out.print(key_value_table(f"{robot.model_name} at {robot.host}", pose_rows(robot.model, pose,
                                                                                                  settings.deg)))
         confirm("Record this pose?", yes, default=True)  # not a motion: Enter records
-        stored = store.add(pose, number_if_taken=name is None)
+        stored = record_waypoint(settings, pose, name is None, move, speed, acceleration, blend, after, before)
     if settings.json:
         emit_json({"recorded": stored.name, "store": str(settings.store_path)})
     else:
@@ -169,11 +176,14 @@ def _teach(settings: Settings, robot, prefix: str, note: str) -> None:
 @click.option("--tcp", "tcp_choice", type=click.Choice([TCP_RECORDED, TCP_CURRENT]),
               help="When the controller's TCP offset changed since a pose was recorded (required then): "
                    "`recorded` puts the flange where it was, `current` puts the current TCP on the recorded pose.")
+@click.option("--from", "start", metavar="N", help="Run the program from the step N (resume after a stop).")
+@click.option("--to", "end", metavar="N", help="Run the program up to the step N.")
+@click.option("--speed-scale", type=float, default=None, help="Scale every step's speed by F (0 < F ≤ 1).")
 @cell_option
 @display_options
 @click.pass_obj
 def run_poses(settings: Settings, names, dry_run, yes, speed, acceleration, blend, loops, replay_joints,
-              max_travel, tcp_choice, cell_path):
+              max_travel, tcp_choice, start, end, speed_scale, cell_path):
     """Replay stored poses (all, or NAMES in that order) with movej.
 
     For each pose: IK of its dual quaternion (every solution FK-checked), the solution nearest the recorded
@@ -192,6 +202,15 @@ def run_poses(settings: Settings, names, dry_run, yes, speed, acceleration, blen
     speed = angular_option(speed, DEFAULT_SPEED, settings.deg)
     acceleration = angular_option(acceleration, DEFAULT_ACCELERATION, settings.deg)
     max_travel = check_max_travel(angular_option(max_travel, DEFAULT_MAX_JOINT_TRAVEL, settings.deg))
+    if start or end or speed_scale is not None or settings.store.version() == 2:  # a cell program
+        if names or loops > 1:
+            raise click.UsageError("a cell program runs as a whole or --from/--to: no NAMES, no --loop")
+        check_blend(blend)
+        if cell_path is not None:  # never run what was asked to be checked unchecked
+            raise click.UsageError(f"the path check (--cell / UR3DQ_CELL {cell_path}) does not cover cell programs "
+                                   "yet: run without it, or check the recorded poses with `ur3dq check`")
+        return run_program_command(settings, start, end, 1.0 if speed_scale is None else speed_scale, dry_run,
+                                   yes, speed, acceleration, blend, replay_joints, max_travel)
     poses = settings.store.select(names)
     if not poses:
         raise StoreError(f"{settings.store_path} has no poses: record some with `ur3dq record-pose`")

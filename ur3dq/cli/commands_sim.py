@@ -9,9 +9,11 @@ from pathlib import Path
 import click
 import numpy as np
 from rich.console import Console
+from rich.markup import escape
 
 from ur3dq.cli.app import EXIT_NOT_REACHED, Settings, cli, emit_json
 from ur3dq.cli.background_simulator import SimulatorError, read_state, start_simulator, state_directory, stop_simulator
+from ur3dq.cli.demo_program import run_pick_and_place
 from ur3dq.cli.display import angles_text, plan_table, pose_vector_text, progress_bar, reached_table
 from ur3dq.cli.options import angular_option, display_options, speed_and_acceleration
 from ur3dq.replay import execute_plan, plan_replay, read_pose
@@ -146,7 +148,8 @@ def demo(settings: Settings, save, speed, acceleration, tolerance_mm, tolerance_
             a, v = speed_and_acceleration(robot.model, angular_option(speed, DEMO_SPEED, settings.deg),
                                           angular_option(acceleration, DEMO_ACCELERATION, settings.deg),
                                           Console(stderr=True))
-            say(f"[bold]2.[/bold] Moving the arm to {len(DEMO_PLACES)} places and recording each into {store.path}")
+            say(f"[bold]2.[/bold] Moving the arm to {len(DEMO_PLACES)} places and recording each into "
+                f"{escape(str(store.path))}")
             recorded = []
             for index, place in enumerate(DEMO_PLACES, start=1):
                 robot.movej(np.array(place), a=a, v=v)
@@ -161,17 +164,23 @@ def demo(settings: Settings, save, speed, acceleration, tolerance_mm, tolerance_
             say(plan_table(steps, settings.deg, "Plan", settings.out.width))
             with progress_bar(Console(stderr=True)) as progress:
                 results = execute_plan(robot, steps, a, v, 0.0, 1, progress)
+            say("[bold]5.[/bold] A cell program from the same store: approach, linear descent, gripper output, "
+                "wait, linear retract, place")
+            program_store = PoseStore(store.path.with_name(store.path.stem + "-program.json"))
+            say(escape(f"   written to {program_store.path} (run it again with `ur3dq --store {program_store.path} "
+                       "run-poses`)"))
+            run_pick_and_place(robot, store, program_store, recorded[0], recorded[1], say)
     missed = [r for r in results
               if r.error_m * 1000 > tolerance_mm or math.degrees(r.error_rad) > tolerance_deg]
     if settings.json:
         emit_json({"reached": [{"pose": r.step.pose.name, "error_m": r.error_m, "error_rad": r.error_rad}
                                for r in results], "missed": [r.step.pose.name for r in missed]})
     else:
-        say(reached_table(results, "5. Where the arm ended vs where each pose was recorded"))
+        say(reached_table(results, "6. Where the arm ended vs where each pose was recorded"))
     if missed:
         click.echo(f"Error: {len(missed)} of {len(results)} poses missed the tolerance of {tolerance_mm} mm / "
                    f"{tolerance_deg}°: {', '.join(r.step.pose.name for r in missed)}", err=True)
         click.get_current_context().exit(EXIT_NOT_REACHED)
     if not settings.json:
         say(f"[green]Every pose reached within {tolerance_mm} mm / {tolerance_deg}°.[/green]"
-            + (f" The poses are in {save}." if save else ""))
+            + (escape(f" The poses are in {save}.") if save else ""))

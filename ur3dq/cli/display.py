@@ -5,6 +5,7 @@ import contextlib
 import math
 
 from rich.console import Console
+from rich.markup import escape  # user text (pose names) is shown as typed, never read as markup
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
@@ -114,7 +115,7 @@ def plan_table(steps, deg: bool, title: str, width: int | None = None) -> Table:
         if narrow:
             travel = "—" if step.travel is None else (f"{math.degrees(step.travel):.1f}°" if deg
                                                       else f"{step.travel:.3f}")
-        table.add_row(str(index), step.pose.name, joints, source, travel, seconds,
+        table.add_row(str(index), escape(step.pose.name), joints, source, travel, seconds,
                       distance_text(step.fk_error_m, step.fk_error_rad))
     return table
 
@@ -128,7 +129,7 @@ def reached_table(results, title: str) -> Table:
     for index, result in enumerate(results, start=1):
         aimed = "recorded TCP pose" if result.target_off_m < 1e-4 else \
             f"recorded flange: {result.target_off_m * 1000:.1f} mm from the recorded TCP"
-        table.add_row(str(index), result.step.pose.name, aimed, distance_text(result.error_m, result.error_rad),
+        table.add_row(str(index), escape(result.step.pose.name), aimed, distance_text(result.error_m, result.error_rad),
                       f"{result.seconds:.2f} s")
     return table
 
@@ -142,6 +143,6 @@ def progress_bar(console: Console):
         task = progress.add_task("moving", total=None)
 
         def report(description: str, done: int, total: int) -> None:
-            progress.update(task, description=description, completed=done, total=total)
+            progress.update(task, description=escape(description), completed=done, total=total)
 
         yield report

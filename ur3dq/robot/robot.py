@@ -308,7 +308,29 @@ class Robot:
             raise ConnectionLostError(f"the primary interface of {self.host} closed: {self._primary.error}")
         return status
 
-    def _run_motion(self, name, program, target, q_start, running_at_send, timeout):
+    def run_script(self, name, program, target, duration, on_message=None, reached_end=None):
+        """Run a whole generated `program` (URScript text of `def name(): ... end`, its targets checked by the
+        caller) that ends with the arm at joint `target`, expected to take `duration` s at 100 %; each robot
+        message is also given to `on_message` (which may raise to fail the run), and when `reached_end` is given
+        the run is only done once it returns True (the program's own report that it ran to its end: the arm
+        resting at a target it started from proves nothing). Returns the wall time (s). Used by
+        ur3dq.program.run for cell programs."""
+        status = self._ready_status()
+        target = self._checked_target(target, "target")
+        timeout = motion.motion_timeout(duration, status.target_speed_fraction)
+        return self._run_motion(script.check_identifier(name), program, target, status.joints,
+                                status.program_running, timeout, on_message, reached_end)
+
+    def run_program(self, steps, **options):
+        """Plan the cell program `steps` (ur3dq.program.steps; Waypoint, RelativeWaypoint, actions) from the arm's
+        joints and run it as one URScript program, watched step by step; returns (plan, wall seconds). Options:
+        see ur3dq.program.run.run_program (defaults, speed_scale, start, end, progress)."""
+        from ur3dq.program.run import run_program  # the program package builds on this driver
+
+        return run_program(self, steps, **options)
+
+    def _run_motion(self, name, program, target, q_start, running_at_send, timeout, on_message=None,
+                    reached_end=None):
         """Send `program`, then watch it to its end; any failure stops the arm before the exception leaves."""
         watcher = self._primary.watch()
         sent = time.monotonic()
@@ -318,9 +340,11 @@ class Robot:
             while True:
                 for message in _drain(watcher):
                     outcome.note_message(message)
+                    if on_message is not None:
+                        on_message(message)
                 status = self._checked_status(self._backend.status())
                 now = time.monotonic()
-                if outcome.finished(status, now):
+                if outcome.finished(status, now) and (reached_end is None or reached_end()):
                     return now - sent
                 if not outcome.started and now - sent > START_TIMEOUT:
                     raise ProgramError(f"the controller did not start program {name} within {START_TIMEOUT} s")

@@ -1,0 +1,213 @@
+"""Planning a cell program (pure, no robot): a joint target for every waypoint, clamped speeds, travel, time.
+
+Every waypoint gets an FK-verified IK solution with its own taught TCP offset, nearest its recorded joints (a
+relative waypoint: its root recorded pose's joints), else the previous target. Linear and process moves are sent
+with these joint targets too (URScript's movel/movep accept joints and reach them by FK), so the controller goes
+exactly to the configuration checked here. Speeds: rad/s and rad/s² for joint moves, clamped to the model's
+slowest joint; m/s and m/s² for linear/process moves, clamped to MAX_TCP_SPEED / MAX_TCP_ACCELERATION.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from ur3dq import dqarray
+from ur3dq.dualquat import DualQuaternion
+from ur3dq.errors import JointLimitError, SafetyCheckError, UnreachablePoseError
+from ur3dq.program.resolve import resolve_targets
+from ur3dq.program.steps import Waypoint, is_waypoint
+from ur3dq.robot import motion
+
+MAX_TCP_SPEED = 1.0          # m/s: the pendant's default tool speed limit region; faster is refused by clamping
+MAX_TCP_ACCELERATION = 4.0   # m/s²
+DEFAULT_TCP_SPEED = 0.25     # m/s, URScript movel's default
+DEFAULT_TCP_ACCELERATION = 1.2
+
+
+@dataclasses.dataclass(frozen=True)
+class Defaults:
+    """The run's defaults for waypoints that leave a value unset: joint a (rad/s²), v (rad/s), TCP a (m/s²),
+    v (m/s), blend (m)."""
+
+    joint_acceleration: float = 1.4
+    joint_speed: float = 1.05
+    tcp_acceleration: float = DEFAULT_TCP_ACCELERATION
+    tcp_speed: float = DEFAULT_TCP_SPEED
+    blend: float = 0.0
+
+
+@dataclasses.dataclass(frozen=True)
+class PlannedStep:
+    """One step of a planned program. Waypoints carry their joint target (rad), the TCP pose and offset they
+    aim at, move type, clamped a/v, blend radius (m), travel (rad, largest joint) and time (s, at 100 %; None
+    when the start is unknown). Action steps carry only `step`."""
+
+    step: object
+    joints: np.ndarray | None = None
+    coefficients: tuple | None = None   # the target TCP pose's 8 dual-quaternion coefficients (base frame)
+    tcp_offset: tuple | None = None
+    move: str | None = None
+    acceleration: float | None = None
+    speed: float | None = None
+    blend: float = 0.0
+    travel: float | None = None
+    duration: float | None = None
+    fk_error_m: float = 0.0
+    clamped: tuple = ()
+
+    @property
+    def name(self) -> str:
+        return self.step.name
+
+    @property
+    def pose(self):
+        """The target TCP pose as a DualQuaternion (None for an action step)."""
+        return None if self.coefficients is None else DualQuaternion.from_array(self.coefficients)
+
+
+def _clamp(value: float, limit: float, what: str, clamped: list) -> float:
+    if value > limit:
+        clamped.append(f"{what} {value:g} → {limit:g}")
+        return limit
+    return value
+
+
+def _joints_for(model, target, previous, replay_recorded_joints: bool):
+    """The joint target of a resolved waypoint (see the module docstring); errors name the step."""
+    who = target.step.who
+    solver = model.with_tcp(target.tcp_offset)
+    if replay_recorded_joints and isinstance(target.step, Waypoint):
+        if target.joints_hint is None:
+            raise ValueError(f"{who}: no recorded joints (imported from thesis lines?); replay it without --joints")
+        if target.robot_model != model.name:
+            raise ValueError(f"{who}: recorded on a {target.robot_model}; its joints mean nothing on this "
+                             f"{model.name}: replay it without --joints")
+        try:
+            return solver.check_joints(target.joints_hint)
+        except (JointLimitError, ValueError) as error:
+            raise JointLimitError(f"{who}: {error}") from None
+    if target.joints_hint is not None:
+        reference = np.asarray(target.joints_hint, dtype=float)
+    elif previous is not None:
+        reference = np.asarray(previous, dtype=float)
+    else:
+        reference = np.zeros(6)
+    try:
+        return np.asarray(solver.ik(target.pose, reference), dtype=float)
+    except UnreachablePoseError as error:
+        raise UnreachablePoseError(f"{who}: unreachable on the {model.name}: {error}") from None
+
+
+def _solve_hinted(model, targets, replay_recorded_joints: bool) -> dict:
+    """{index: joints} for the targets that have joints to prefer, solved in one batch IK per TCP offset (the
+    nearest FK-verified solution to the hint, as `ik` chooses); unreachable rows are left out, for the
+    sequential pass to report with its own error."""
+    groups: dict = {}
+    for index, target in enumerate(targets):
+        if target.joints_hint is not None and not (replay_recorded_joints and isinstance(target.step, Waypoint)):
+            groups.setdefault(target.tcp_offset, []).append(index)
+    solved = {}
+    for tcp_offset, indices in groups.items():
+        poses = np.array([targets[i].coefficients for i in indices])
+        hints = np.array([targets[i].joints_hint for i in indices], dtype=float)
+        joints = model.with_tcp(tcp_offset).ik_batch(poses, hints)
+        for i, q in zip(indices, joints):
+            if np.all(np.isfinite(q)):
+                solved[i] = q
+    return solved
+
+
+def plan_program(model, steps, start_joints=None, defaults: Defaults = Defaults(), speed_scale: float = 1.0,
+                 replay_recorded_joints: bool = False, max_joint_travel: float | None = None,
+                 resolve_from=None) -> list[PlannedStep]:
+    """The plan of `steps` on `model` from `start_joints` (rad, or None when unknown).
+
+    `resolve_from` (default `steps`) is the whole program relative waypoints are resolved in, so a --from/--to
+    part still finds bases outside it. `speed_scale` (0 < F ≤ 1) scales every speed. A waypoint's blend is 0
+    when it is the last waypoint or an action follows it (the action must happen at the waypoint). Raises,
+    naming the step, if a target is unreachable, outside the limits, or swings a joint further than
+    `max_joint_travel` (rad): nothing moves unless the whole plan is sound. Waypoints with known joints are
+    solved in one batch (10⁵ poses in well under a second).
+    """
+    if not (isinstance(speed_scale, (int, float)) and math.isfinite(speed_scale) and 0 < speed_scale <= 1):
+        raise ValueError(f"--speed-scale must be a fraction 0 < F ≤ 1, got {speed_scale!r}")
+    steps = list(steps)
+    resolved = resolve_targets(resolve_from if resolve_from is not None else steps)
+    waypoints = [step for step in steps if is_waypoint(step)]
+    targets = [resolved[step.name] for step in waypoints]
+    batch = _solve_hinted(model, targets, replay_recorded_joints)
+    joint_v_limit = float(np.min(model.max_joint_speed))
+    joint_a_limit = float(np.min(model.max_joint_acceleration))
+    previous = None if start_joints is None else np.asarray(start_joints, dtype=float)
+    solved = []
+    for index, target in enumerate(targets):
+        q = batch.get(index)
+        if q is None:
+            q = _joints_for(model, target, previous, replay_recorded_joints)
+        solved.append(q)
+        previous = q
+    fk_errors = _fk_errors(model, targets, solved)
+    # travel and TCP path of every move at once: (N, 6) joints and (N, 3) TCP positions, the start prepended
+    joints = np.array(solved).reshape(-1, 6)
+    poses = np.array([t.coefficients for t in targets]).reshape(-1, 8)
+    if start_joints is not None:
+        joints = np.vstack([np.asarray(start_joints, dtype=float), joints])
+        start_tcp = model.with_tcp(targets[0].tcp_offset).fk(joints[0]) if targets else model.fk(joints[0])
+        poses = np.vstack([start_tcp.to_array(), poses])
+    travels = np.max(np.abs(np.diff(joints, axis=0)), axis=1) if len(joints) > 1 else np.zeros(0)
+    # a linear/process move's leading "distance": the larger of its TCP path (m) and its rotation (rad), as a
+    # controller times movel
+    metres, radians = dqarray.pose_distance(poses[:-1], poses[1:]) if len(poses) > 1 else (np.zeros(0),) * 2
+    paths = np.maximum(metres, radians)
+    if start_joints is None:  # the first move's start is unknown
+        travels, paths = np.concatenate([[np.nan], travels]), np.concatenate([[np.nan], paths])
+    plan: list[PlannedStep] = []
+    at = 0
+    for index, step in enumerate(steps):
+        if not is_waypoint(step):
+            plan.append(PlannedStep(step))
+            continue
+        target, q, fk_error_m = targets[at], solved[at], fk_errors[at]
+        travel, path = float(travels[at]), float(paths[at])
+        at += 1
+        m = step.motion
+        clamped: list[str] = []
+        if m.move == "joint":
+            v = _clamp((m.speed or defaults.joint_speed) * speed_scale, joint_v_limit, "speed", clamped)
+            a = _clamp(m.acceleration or defaults.joint_acceleration, joint_a_limit, "acceleration", clamped)
+        else:
+            v = _clamp((m.speed or defaults.tcp_speed) * speed_scale, MAX_TCP_SPEED, "speed", clamped)
+            a = _clamp(m.acceleration or defaults.tcp_acceleration, MAX_TCP_ACCELERATION, "acceleration", clamped)
+        later = steps[index + 1:index + 2]
+        ends_here = not later or not is_waypoint(later[0])
+        blend = 0.0 if ends_here else (m.blend if m.blend is not None else defaults.blend)
+        duration = None
+        if math.isnan(travel):
+            travel = None
+        else:
+            if max_joint_travel is not None and travel > max_joint_travel:
+                raise SafetyCheckError(
+                    f"{step.who}: a joint would travel {travel:.3f} rad in one move, more than --max-travel "
+                    f"{max_joint_travel:.3f} rad (add an intermediate waypoint, or raise --max-travel)")
+            # joint moves: the leading joint's trapezoid; linear/process: the TCP's
+            duration = motion.trapezoid_duration(travel if m.move == "joint" else path, a, v)
+        plan.append(PlannedStep(step, q, target.coefficients, target.tcp_offset, m.move, a, v, blend, travel, duration, fk_error_m,
+                                tuple(clamped)))
+    return plan
+
+
+def _fk_errors(model, targets, solved) -> list[float]:
+    """Metres between each target pose and the model's FK of its joints (per TCP offset, batched)."""
+    errors = [0.0] * len(targets)
+    groups: dict = {}
+    for index, target in enumerate(targets):
+        groups.setdefault(target.tcp_offset, []).append(index)
+    for tcp_offset, indices in groups.items():
+        reached = model.with_tcp(tcp_offset).fk_batch(np.array([solved[i] for i in indices]))
+        wanted = np.array([targets[i].coefficients for i in indices])
+        metres, _ = dqarray.pose_distance(reached, wanted)
+        for i, value in zip(indices, metres):
+            errors[i] = float(value)
+    return errors

@@ -1,0 +1,116 @@
+"""Running a planned cell program on a Robot as ONE URScript program, watched step by step.
+
+The program (ur3dq.program.urscript) reports each step it starts with a `ur3dq_step:` k key text on the primary
+interface; the driver's motion watch passes every robot message to `StepWatch.note`, which calls `progress(k,
+step)` as steps begin and turns a `ur3dq_fail:` k report (a wait-input timed out) into a ProgramError naming the
+step. Everything else is the driver's: checks before sending, the watch to the end with the arm at the final
+target, stopj on any fault or Ctrl-C, no re-send.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ur3dq.errors import ProgramError, SafetyCheckError
+from ur3dq.program.plan import Defaults, plan_program
+from ur3dq.program.resolve import select_range
+from ur3dq.program.steps import Wait, WaitInput
+from ur3dq.program.urscript import FAIL_KEY, STEP_KEY, program_script
+from ur3dq.robot import safety, script
+
+MAX_STATEMENT_SECONDS = 0.05   # each action's own time on the controller (a few control cycles), for the timeout
+
+
+class StepWatch:
+    """Follows the step reports of one running program (positions first_position .. first_position+N−1);
+    `done` once the program reported first_position+N, after its last step."""
+
+    def __init__(self, plan, first_position: int = 1, progress=None):
+        self.plan = list(plan)
+        self.first = first_position
+        self.progress = progress
+        self.current = None      # index into plan of the step running now
+        self.done = False
+
+    def note(self, message) -> None:
+        """Update from one robot message; ProgramError when the program reports a failed step."""
+        text = getattr(message, "text", None)
+        if not isinstance(text, str):
+            return
+        for key in (STEP_KEY, FAIL_KEY):
+            if text.startswith(key) and text[len(key):].strip().lstrip("-").isdigit():
+                index = int(text[len(key):].strip()) - self.first
+                if key == FAIL_KEY and 0 <= index < len(self.plan):
+                    step = self.plan[index].step
+                    raise ProgramError(f"{step.who}: input {step.input} DI{step.pin} did not turn "
+                                       f"{'on' if step.on else 'off'} within {step.timeout:g} s; the program stopped")
+                if key == STEP_KEY:
+                    if index >= len(self.plan):
+                        self.done = True
+                    elif index >= 0 and index != self.current:
+                        self.current = index
+                        if self.progress is not None:
+                            self.progress(self.first + index, self.plan[index].step)
+
+
+def expected_seconds(plan) -> float:
+    """An upper bound of the program's duration at 100 % speed: moves (each from rest), waits, input timeouts."""
+    total = 0.0
+    for planned in plan:
+        if planned.duration is not None:
+            total += planned.duration
+        elif isinstance(planned.step, Wait):
+            total += planned.step.seconds
+        elif isinstance(planned.step, WaitInput):
+            total += planned.step.timeout
+        total += MAX_STATEMENT_SECONDS
+    return total
+
+
+def check_plan_for_robot(robot, plan, start_joints) -> None:
+    """Every joint target inside the limits, FK-consistent with its target pose, and within the travel limit from
+    the previous one (SafetyCheckError naming the step): the checks every driver motion gets."""
+    previous = np.asarray(start_joints, dtype=float)
+    for planned in plan:
+        if planned.joints is None:
+            continue
+        who = planned.step.who
+        try:
+            safety.check_joint_limits(planned.joints, robot.model.joint_lower, robot.model.joint_upper, who)
+            model = robot.model.with_tcp(planned.tcp_offset)
+            safety.check_fk_consistency(model, planned.joints, planned.pose, name=who)
+            safety.check_travel(previous, planned.joints, robot.max_joint_travel, name=who)
+        except ValueError as error:
+            raise SafetyCheckError(str(error)) from None
+        previous = planned.joints
+
+
+def run_plan(robot, plan, first_position: int = 1, progress=None) -> float:
+    """Run `plan` (PlannedStep list, planned from the arm's current joints) as one program; returns the wall time
+    (s). `progress(position, step)` is called as each step starts."""
+    if not plan:
+        raise ValueError("the program has no steps to run")
+    start = robot.joints()
+    check_plan_for_robot(robot, plan, start)
+    final = next((p.joints for p in reversed(plan) if p.joints is not None), start)
+    watch = StepWatch(plan, first_position, progress)
+    name = script.new_program_name("program")
+    text = program_script(plan, program_name=name, first_position=first_position,
+                          restore_tcp=tuple(robot.model.tcp.to_ur_pose()))
+    return robot.run_script(name, text, final, expected_seconds(plan), on_message=watch.note,
+                            reached_end=lambda: watch.done)
+
+
+def run_program(robot, steps, defaults=None, speed_scale: float = 1.0, start: str | None = None,
+                end: str | None = None, progress=None):
+    """Plan `steps` (a whole program; run the part `start`..`end`, names) from the arm's joints on the robot's
+    model and run it; returns (plan, wall seconds)."""
+    part = select_range(steps, start, end)
+    first = [s.name for s in steps].index(part[0].name) + 1
+    plan = plan_program(robot.model, part, robot.joints(), defaults or Defaults(), speed_scale,
+                        max_joint_travel=robot.max_joint_travel, resolve_from=steps)
+    if not math.isfinite(expected_seconds(plan)):
+        raise ValueError("the program's duration is not finite")
+    return plan, run_plan(robot, plan, first, progress)
+

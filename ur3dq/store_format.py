@@ -1,0 +1,486 @@
+"""The pose store's file format (docs/store-schema.md), pure functions on text: versions 1 and 2 to steps and back.
+
+Version 1 holds recorded poses only (`"poses"`), replayed in order with movej. Version 2 holds a cell program
+(`"steps"`): waypoints (a recorded pose plus move type, speed, acceleration, blend), relative waypoints and
+actions. Both are written one entry per line, so a JSON error's line number names the entry. A store is only
+written as version 2 when it uses a version-2 feature (`needs_version_2`), so today's files keep their form.
+
+Big stores: the numbers of every pose are checked in one vectorised pass (finite, plausible, unit dual
+quaternion, UR pose agreeing with it), then the poses are built without repeating those checks per pose.
+"""
+from __future__ import annotations
+
+import json
+import re
+
+import numpy as np
+
+from ur3dq import dqarray
+from ur3dq.errors import StoreError
+from ur3dq.pose import (
+    MAX_JOINT_ABS, MAX_TRANSLATION_ABS, POSE_AGREEMENT_TOLERANCE, UNIT_TOLERANCE, Pose, check_pose_text_fields,
+)
+from ur3dq.program.resolve import check_program
+from ur3dq.program.steps import (
+    DEFAULT_MOTION, AnalogOut, DigitalOut, Message, Motion, RelativeWaypoint, Wait, WaitInput, Waypoint,
+)
+
+SCHEMA_NAME = "ur3dq.poses"
+SCHEMA_VERSION = 1            # a store of recorded poses only (what every ur3dq writes unless a program needs 2)
+PROGRAM_SCHEMA_VERSION = 2    # a cell program: steps with move types, relative waypoints, actions
+POSE_FIELDS = (
+    "name", "time", "robot_model", "robot_serial", "joints", "dual_quaternion", "ur_pose", "tcp_offset", "note",
+)
+REQUIRED_POSE_FIELDS = ("name", "time", "robot_model", "dual_quaternion", "ur_pose")
+MOTION_FIELDS = ("move", "speed", "acceleration", "blend")
+# Field lists of the version-2 step types (besides "type" and "name"), in the order they are written.
+ACTION_FIELDS = {
+    "digital-out": (DigitalOut, ("output", "pin", "on")),
+    "analog-out": (AnalogOut, ("pin", "value")),
+    "wait": (Wait, ("seconds",)),
+    "wait-input": (WaitInput, ("input", "pin", "on", "timeout")),
+    "message": (Message, ("text",)),
+}
+RELATIVE_FIELDS = ("base", "offset", "frame", "note")
+MAX_NESTING = 20
+
+
+# ---------------------------------------------------------------- one pose
+
+
+def pose_to_dict(pose: Pose) -> dict:
+    """The JSON object of one pose, fields in schema order (lists of floats; joints null when unknown)."""
+    return {
+        "name": pose.name,
+        "time": pose.time,
+        "robot_model": pose.robot_model,
+        "robot_serial": pose.robot_serial,
+        "joints": list(pose.joints) if pose.joints is not None else None,
+        "dual_quaternion": list(pose.dual_quaternion),
+        "ur_pose": list(pose.ur_pose),
+        "tcp_offset": list(pose.tcp_offset),
+        "note": pose.note,
+    }
+
+
+def _check_pose_fields(obj, who: str, extra=()) -> None:
+    if not isinstance(obj, dict):
+        raise ValueError(f"{who}: must be a JSON object, got {type(obj).__name__}")
+    unknown = sorted(set(obj) - set(POSE_FIELDS) - set(extra))
+    if unknown:
+        raise ValueError(f"{who}: unknown field {unknown[0]!r} (known: {', '.join((*POSE_FIELDS, *extra))})")
+    missing = [field for field in REQUIRED_POSE_FIELDS if field not in obj]
+    if missing:
+        raise ValueError(f"{who}: missing field {missing[0]!r}")
+
+
+def pose_from_dict(obj, who: str) -> Pose:
+    """A Pose from its JSON object; ValueError naming `who` (e.g. "pose #3 'pick'") and the field at fault."""
+    _check_pose_fields(obj, who)
+    fields = {key: obj[key] for key in POSE_FIELDS if key in obj}
+    fields["tcp_offset"] = fields.get("tcp_offset") if fields.get("tcp_offset") is not None else (0.0,) * 6
+    fields["note"] = fields.get("note") or ""
+    _check_magnitudes([fields], who)
+    return Pose(**fields)
+
+
+def _vectors(entries, field: str, length: int, who_of) -> np.ndarray:
+    """(N, length) floats of `field` of every entry; ValueError naming the first entry that is not numbers."""
+    try:
+        array = np.array([entry[field] for entry in entries], dtype=float)
+        if array.shape == (len(entries), length):
+            return array
+    except (TypeError, ValueError, OverflowError):
+        pass
+    for index, entry in enumerate(entries):
+        value = entry[field]
+        try:
+            row = np.array(value, dtype=float)
+        except OverflowError:
+            raise ValueError(f"{who_of(index)}: {field} holds a number too large for a float") from None
+        except (TypeError, ValueError):
+            raise ValueError(f"{who_of(index)}: {field} must be {length} numbers, got {value!r}") from None
+        if row.shape != (length,) or any(isinstance(v, bool) for v in value):
+            got = row.size if row.ndim == 1 else repr(value)
+            raise ValueError(f"{who_of(index)}: {field} must be {length} numbers, got {got}")
+    raise ValueError(f"{field}: must be {length} numbers")  # unreachable: some row had to fail above
+
+
+def _first_bad(mask: np.ndarray) -> int | None:
+    rows = np.flatnonzero(mask)
+    return int(rows[0]) if rows.size else None
+
+
+def _check_magnitudes(fields_list, who, who_of=None) -> list:
+    """Check the numbers of many pose field dicts at once (vectorised); ValueError naming the pose at fault.
+
+    Returns the rows as (dual_quaternion, ur_pose, tcp_offset, joints-or-None) lists of floats."""
+    who_of = who_of or (lambda index: who)
+    dq = _vectors(fields_list, "dual_quaternion", 8, who_of)
+    ur = _vectors(fields_list, "ur_pose", 6, who_of)
+    tcp = _vectors(fields_list, "tcp_offset", 6, who_of)
+    with_joints = [i for i, f in enumerate(fields_list) if f.get("joints") is not None]
+    joints = _vectors([fields_list[i] for i in with_joints], "joints", 6,
+                      lambda k: who_of(with_joints[k])) if with_joints else np.zeros((0, 6))
+    for field, array, index_of in (("dual_quaternion", dq, None), ("ur_pose", ur, None), ("tcp_offset", tcp, None),
+                                   ("joints", joints, with_joints)):
+        bad = _first_bad(~np.isfinite(array).all(axis=1))
+        if bad is not None:
+            at = index_of[bad] if index_of else bad
+            raise ValueError(f"{who_of(at)}: {field} contains NaN or infinity: {array[bad].tolist()}")
+    bad = _first_bad((np.abs(joints) > MAX_JOINT_ABS).any(axis=1))
+    if bad is not None:
+        raise ValueError(f"{who_of(with_joints[bad])}: joints {joints[bad].tolist()} are not plausible "
+                         f"(|joint| > {MAX_JOINT_ABS:g} rad)")
+    for field, array in (("ur_pose", ur), ("tcp_offset", tcp)):
+        bad = _first_bad((np.abs(array) > MAX_TRANSLATION_ABS).any(axis=1))
+        if bad is not None:
+            raise ValueError(f"{who_of(bad)}: {field} {array[bad].tolist()} is not plausible "
+                             f"(a coordinate beyond {MAX_TRANSLATION_ABS:g} m or rad)")
+    real, dual = dq[:, :4], dq[:, 4:]
+    norms = np.linalg.norm(real, axis=1)
+    bad = _first_bad(np.abs(norms - 1.0) > UNIT_TOLERANCE)
+    if bad is not None:
+        raise ValueError(f"{who_of(bad)}: dual_quaternion rotation part has norm {norms[bad]:.9g}, not 1 "
+                         "(not a rigid transform)")
+    dots = np.einsum("ij,ij->i", real, dual)
+    bad = _first_bad(np.abs(dots) > UNIT_TOLERANCE)
+    if bad is not None:
+        raise ValueError(f"{who_of(bad)}: dual_quaternion is not a rigid transform (r·d = {dots[bad]:.3g}, not 0)")
+    from_vector = dqarray.from_ur_pose(ur)
+    metres, radians = dqarray.pose_distance(from_vector, dq / norms[:, None])
+    bad = _first_bad((metres > POSE_AGREEMENT_TOLERANCE) | (radians > POSE_AGREEMENT_TOLERANCE))
+    if bad is not None:
+        raise ValueError(f"{who_of(bad)}: ur_pose and dual_quaternion disagree by {metres[bad]:.3g} m and "
+                         f"{radians[bad]:.3g} rad")
+    dq_rows, ur_rows, tcp_rows = dq.tolist(), ur.tolist(), tcp.tolist()  # one conversion per chunk, not per pose
+    joint_rows = dict(zip(with_joints, joints.tolist()))
+    return [(dq_rows[i], ur_rows[i], tcp_rows[i], joint_rows.get(i)) for i in range(len(fields_list))]
+
+
+_NO_TCP_OFFSET = (0.0,) * 6
+_WAYPOINT_KEYS = frozenset(POSE_FIELDS) | {"type"} | frozenset(MOTION_FIELDS)
+_REQUIRED_KEYS = frozenset(REQUIRED_POSE_FIELDS)
+CHUNK = 4096  # entries parsed and checked per vectorised pass: big enough for numpy, small enough to bound memory
+
+
+def _poses_of_chunk(entries, chunk, who_of) -> list[Pose]:
+    """Poses from the JSON objects `entries[i]` for i in `chunk`, numbers checked in one vectorised pass, then
+    the text fields; ValueError naming the entry (who_of(i))."""
+    fields_list = []
+    for index in chunk:
+        fields = entries[index]  # a freshly parsed object: completed in place with the defaults
+        if not (type(fields) is dict and fields.keys() <= _WAYPOINT_KEYS and _REQUIRED_KEYS <= fields.keys()):
+            _check_pose_fields(fields, who_of(index), extra=("type", *MOTION_FIELDS))  # says what is wrong
+        if fields.get("tcp_offset") is None:
+            fields["tcp_offset"] = _NO_TCP_OFFSET
+        if not fields.get("note"):
+            fields["note"] = ""
+        fields_list.append(fields)
+    if not fields_list:
+        return []
+    rows = _check_magnitudes(fields_list, None, lambda k: who_of(chunk[k]))
+    poses = []
+    for k, (fields, (dq, ur, tcp, joints)) in enumerate(zip(fields_list, rows)):
+        try:
+            check_pose_text_fields(fields["name"], fields["time"], fields["robot_model"],
+                                   fields.get("robot_serial"), fields["note"])
+        except ValueError as error:
+            raise ValueError(f"{who_of(chunk[k])}: {_strip_pose_prefix(str(error))}") from None
+        poses.append(Pose.checked(fields["name"], fields["time"], fields["robot_model"], tuple(dq), tuple(ur),
+                                  tuple(tcp), None if joints is None else tuple(joints), fields.get("robot_serial"),
+                                  fields["note"]))
+    return poses
+
+
+def _strip_pose_prefix(message: str) -> str:
+    """`message` without a leading "pose '...': " (the caller names the entry itself)."""
+    if message.startswith("pose ") and "': " in message:
+        return message.split("': ", 1)[1]
+    return message
+
+
+# ---------------------------------------------------------------- one step
+
+
+def _motion_from(obj, who: str) -> Motion:
+    if not any(key in obj for key in MOTION_FIELDS):
+        return DEFAULT_MOTION
+    return Motion(obj.get("move", "joint"), obj.get("speed"), obj.get("acceleration"), obj.get("blend"))
+
+
+def _motion_fields(motion: Motion) -> dict:
+    fields = {"move": motion.move}
+    for key in ("speed", "acceleration", "blend"):
+        if getattr(motion, key) is not None:
+            fields[key] = getattr(motion, key)
+    return fields
+
+
+def step_to_dict(step) -> dict:
+    """The version-2 JSON object of one step."""
+    if isinstance(step, Waypoint):
+        return {"type": "waypoint", **pose_to_dict(step.pose), **_motion_fields(step.motion)}
+    if isinstance(step, RelativeWaypoint):
+        return {"type": "relative", "name": step.name, "base": step.base, "offset": list(step.offset),
+                "frame": step.frame, **_motion_fields(step.motion), "note": step.note}
+    _, fields = ACTION_FIELDS[step.kind]
+    return {"type": step.kind, "name": step.name, **{field: getattr(step, field) for field in fields}}
+
+
+def step_from_dict(obj, who: str):
+    """A non-waypoint step (relative waypoint or action) from its JSON object; ValueError naming `who`."""
+    kind = obj.get("type")
+    name = obj.get("name")
+    if kind == "relative":
+        allowed = {"type", "name", *RELATIVE_FIELDS, *MOTION_FIELDS}
+    elif kind in ACTION_FIELDS:
+        allowed = {"type", "name", *ACTION_FIELDS[kind][1]}
+    else:
+        raise ValueError(f"{who}: unknown step type {kind!r} (known: waypoint, relative, "
+                         f"{', '.join(ACTION_FIELDS)})")
+    unknown = sorted(set(obj) - allowed)
+    if unknown:
+        raise ValueError(f"{who}: unknown field {unknown[0]!r} for a {kind} step")
+    if not isinstance(name, str):
+        raise ValueError(f"{who}: missing or non-text \"name\"")
+    if kind == "relative":
+        return RelativeWaypoint(name, obj.get("base"), obj.get("offset", (0.0,) * 6), obj.get("frame", "tool"),
+                                _motion_from(obj, who), obj.get("note", ""))
+    cls, fields = ACTION_FIELDS[kind]
+    missing = [field for field in fields if field not in obj and field not in ("output", "input", "timeout")]
+    if missing:
+        raise ValueError(f"{who}: missing field {missing[0]!r}")
+    return cls(name, **{field: obj[field] for field in fields if field in obj})
+
+
+def needs_version_2(steps) -> bool:
+    """True when `steps` use anything version 1 cannot hold (a non-waypoint step or a waypoint's own motion)."""
+    return any(not isinstance(step, Waypoint) or not step.motion.is_default for step in steps)
+
+
+# ---------------------------------------------------------------- whole files
+
+
+def format_store(poses) -> str:
+    """A version-1 file's text: the envelope, one pose per line (so json's line numbers name a pose)."""
+    return _envelope(SCHEMA_VERSION, "poses", [pose_to_dict(pose) for pose in poses])
+
+
+def format_program(steps) -> str:
+    """The file text for `steps`: version 1 when they fit it (recorded joint waypoints only), else version 2."""
+    steps = list(steps)
+    if not needs_version_2(steps):
+        return format_store(step.pose for step in steps)
+    return format_program_v2(steps)
+
+
+def format_program_v2(steps) -> str:
+    """A version-2 file's text: one step per line."""
+    return _envelope(PROGRAM_SCHEMA_VERSION, "steps", [step_to_dict(step) for step in steps])
+
+
+def _envelope(version: int, key: str, entries) -> str:
+    lines = [json.dumps(entry, ensure_ascii=False) for entry in entries]
+    body = ",\n    ".join(lines)
+    entries_text = f"[\n    {body}\n  ]" if lines else "[]"
+    return ("{\n" f'  "schema": {json.dumps(SCHEMA_NAME)},\n' f'  "version": {version},\n'
+            f'  {json.dumps(key)}: {entries_text}\n' "}\n")
+
+
+def _line_of_entry(text: str, name) -> int | None:
+    """The 1-based line where the entry called `name` starts, in the one-entry-per-line layout."""
+    if not isinstance(name, str):
+        return None
+    needle = f'"name": {json.dumps(name, ensure_ascii=False)}'
+    for number, line in enumerate(text.splitlines(), start=1):
+        if needle in line:
+            return number
+    return None
+
+
+def _where(text: str, source: str, name) -> str:
+    line = _line_of_entry(text, name)
+    return f"{source}:{line}" if line else source
+
+
+def _too_deep(text: str, source: str) -> StoreError:
+    """The error for JSON nested deeper than Python's parser goes, at the line where MAX_NESTING is passed."""
+    depth, line, in_string, escaped = 0, 1, False, False
+    for char in text:
+        if char == "\n":
+            line += 1
+        if in_string:
+            escaped = char == "\\" and not escaped
+            if char == '"' and not escaped:
+                in_string = False
+            continue
+        if char == '"':
+            in_string = True
+        elif char in "[{":
+            depth += 1
+            if depth > MAX_NESTING:
+                break
+        elif char in "]}":
+            depth -= 1
+    return StoreError(f"{source}:{line}: not a pose store: JSON nested deeper than {MAX_NESTING} levels")
+
+
+class _NotOwnLayout(Exception):
+    """The text is not in the one-entry-per-line layout ur3dq writes: parse it as a whole instead."""
+
+
+_OWN_HEAD = re.compile(r'\{\n  "schema": "ur3dq\.poses",\n  "version": ([12]),\n  "(poses|steps)": \[\n')
+_OWN_TAIL = "\n  ]\n}\n"
+_scan = json.JSONDecoder().scan_once  # (text, index) -> (value, end): json.loads without its per-call overhead
+
+
+def own_layout_version(head: str) -> int | None:
+    """The version written in the first lines of a file in ur3dq's own layout, else None."""
+    match = _OWN_HEAD.match(head)
+    return int(match.group(1)) if match else None
+
+
+def _own_layout(text: str):
+    """(version, key, iterator of (index, line number, entry object)) when `text` has the layout ur3dq writes,
+    reading one line at a time (so a big file's entries are never all parsed at once); _NotOwnLayout otherwise
+    (also raised by the iterator at the first line that does not fit)."""
+    head = _OWN_HEAD.match(text)
+    if not head or not text.endswith(_OWN_TAIL):
+        raise _NotOwnLayout
+    version, key = int(head.group(1)), head.group(2)
+    end = len(text) - len(_OWN_TAIL) + 1  # just after the last entry's line break
+
+    def entries():
+        position, index, line = head.end(), 0, 5
+        while position < end:
+            stop = text.index("\n", position)
+            last = stop + 1 >= end
+            entry = text[position:stop]
+            if not entry.startswith("    {") or entry.endswith(",") == last:
+                raise _NotOwnLayout
+            try:
+                obj, stop_at = _scan(entry, 4)
+            except (ValueError, RecursionError, StopIteration):
+                raise _NotOwnLayout from None
+            if stop_at != len(entry) - (0 if last else 1):
+                raise _NotOwnLayout
+            yield index, line, obj
+            position, index, line = stop + 1, index + 1, line + 1
+
+    return version, key, entries()
+
+
+def _whole_document(text: str, source: str):
+    """(version, key, iterator of (index, None, entry object)) of any JSON store text; StoreError naming
+    `source:line` for invalid JSON or envelope."""
+    try:
+        document = json.loads(text)
+    except json.JSONDecodeError as error:
+        raise StoreError(f"{source}:{error.lineno}:{error.colno}: not valid JSON: {error.msg}") from None
+    except RecursionError:
+        raise _too_deep(text, source) from None
+    except ValueError as error:  # e.g. an integer with more digits than Python converts
+        raise StoreError(f"{source}: not a pose store: {error}") from None
+    if not isinstance(document, dict):
+        raise StoreError(f"{source}:1: not a pose store: expected a JSON object with \"schema\": \"{SCHEMA_NAME}\"")
+    if document.get("schema") != SCHEMA_NAME:
+        raise StoreError(f"{source}:1: not a pose store: \"schema\" is {document.get('schema')!r}, "
+                         f"expected {SCHEMA_NAME!r}")
+    version = document.get("version")
+    if type(version) is not int or version not in (SCHEMA_VERSION, PROGRAM_SCHEMA_VERSION):
+        newer = type(version) is int and version > PROGRAM_SCHEMA_VERSION
+        raise StoreError(f"{source}:1: store version {version!r} is not supported (this ur3dq reads versions "
+                         f"{SCHEMA_VERSION} and {PROGRAM_SCHEMA_VERSION}"
+                         f"{'; the file was written by a newer ur3dq' if newer else ''})")
+    key = "poses" if version == SCHEMA_VERSION else "steps"
+    other = "steps" if key == "poses" else "poses"
+    if other in document:
+        raise StoreError(f"{source}:1: a version {version} store has {key!r}, not {other!r}")
+    entries = document.get(key)
+    if not isinstance(entries, list):
+        raise StoreError(f"{source}:1: {json.dumps(key)} must be a list")
+    return version, key, ((index, None, entry) for index, entry in enumerate(entries))
+
+
+def parse_document(text: str, source: str) -> tuple[int, list]:
+    """(version, steps) of a store file's text; StoreError with `source:line` (where known) and what is wrong.
+
+    Text in ur3dq's own layout is read line by line in chunks of CHUNK entries (bounded memory for big stores,
+    exact line numbers); anything else (a hand-edited layout) is parsed as one JSON document."""
+    try:
+        version, _, entries = _own_layout(text)
+        return version, _steps_of(version, entries, text, source)
+    except _NotOwnLayout:
+        version, _, entries = _whole_document(text, source)
+        return version, _steps_of(version, entries, text, source)
+
+
+def _steps_of(version: int, entries, text: str, source: str) -> list:
+    """The validated steps of `entries` ((index, line or None, object) in file order), converted CHUNK at a time."""
+    label = "pose" if version == SCHEMA_VERSION else "step"
+    names: list = []
+    lines: list = []
+
+    def who_of(index):
+        name = names[index]
+        return f"{label} #{index + 1}" + (f" {name!r}" if isinstance(name, str) else "")
+
+    def fail(index, error):
+        if index is not None and lines[index] is not None:
+            return StoreError(f"{source}:{lines[index]}: {error}")
+        return StoreError(f"{_where(text, source, names[index] if index is not None else None)}: {error}")
+
+    steps: list = []
+    chunk: list = []
+
+    def convert(chunk):
+        is_pose = [version == SCHEMA_VERSION or (isinstance(obj, dict) and obj.get("type") == "waypoint")
+                   for _, obj in chunk]
+        pose_indices = [index for (index, _), flag in zip(chunk, is_pose) if flag]
+        pose_objects = [obj for (_, obj), flag in zip(chunk, is_pose) if flag]
+        try:
+            poses = iter(_poses_of_chunk(pose_objects, range(len(pose_objects)),
+                                         lambda k: who_of(pose_indices[k])))
+        except ValueError as error:
+            bad = next((i for i in pose_indices if str(error).startswith(who_of(i) + ":")), None)
+            raise fail(bad, error) from None
+        for (index, obj), flag in zip(chunk, is_pose):
+            try:
+                if flag:
+                    pose = next(poses)
+                    motion = _motion_from(obj, who_of(index)) if version != SCHEMA_VERSION else DEFAULT_MOTION
+                    steps.append(Waypoint.of_checked_pose(pose) if motion is DEFAULT_MOTION
+                                 else Waypoint(pose.name, pose, motion))
+                elif not isinstance(obj, dict):
+                    raise ValueError(f"{who_of(index)}: must be a JSON object")
+                else:
+                    steps.append(step_from_dict(obj, who_of(index)))
+            except ValueError as error:
+                message = str(error)
+                raise fail(index, message if message.startswith(label) else f"{who_of(index)}: {message}") from None
+
+    for index, line, obj in entries:
+        names.append(obj.get("name") if isinstance(obj, dict) else None)
+        lines.append(line)
+        chunk.append((index, obj))
+        if len(chunk) == CHUNK:
+            convert(chunk)
+            chunk = []
+    convert(chunk)
+    seen: set = set()
+    for index, step in enumerate(steps):
+        if step.name in seen:
+            raise fail(index, f"{label} name {step.name!r} appears twice")
+        seen.add(step.name)
+    try:
+        check_program(steps)
+    except ValueError as error:
+        bad = next((i for i, step in enumerate(steps) if str(error).startswith(step.who)), None)
+        raise fail(bad, error) from None
+    return steps
+
+
+def parse_store(text: str, source: str) -> list[Pose]:
+    """The recorded poses of a store file's text (every version), in program order."""
+    return [step.pose for step in parse_document(text, source)[1] if isinstance(step, Waypoint)]
