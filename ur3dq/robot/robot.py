@@ -29,6 +29,7 @@ from ur3dq.errors import (
 from ur3dq.kinematics import robot_model_from_dh
 from ur3dq.robot import motion, primary, safety, script, state
 from ur3dq.robot.dashboard import Dashboard, model_from_reply
+from ur3dq.robot.heartbeat import Heartbeat, armed
 from ur3dq.robot.primary_client import PrimaryClient, send_script
 
 URSCRIPT_DEFAULT_A = 1.4  # rad/s², URScript movej default
@@ -85,7 +86,7 @@ class Robot:
     """A connection to one UR controller. Use `ur3dq.robot.connect(...)`; close with `close()` or `with`."""
 
     def __init__(self, host, backend="rtde", model=None, max_joint_travel=safety.DEFAULT_MAX_JOINT_TRAVEL,
-                 connect_timeout=3.0):
+                 connect_timeout=3.0, heartbeat=True):
         if backend not in ("rtde", "urx"):
             raise ValueError(f"backend must be 'rtde' or 'urx', got {backend!r}")
         if not (isinstance(max_joint_travel, (int, float)) and max_joint_travel > 0):
@@ -94,7 +95,7 @@ class Robot:
         self.backend_name = backend
         self.max_joint_travel = float(max_joint_travel)
         self._connect_timeout = connect_timeout
-        self._primary = self._backend = self._dashboard = None
+        self._primary = self._backend = self._dashboard = self._heartbeat = None
         try:
             self._primary = self._open_primary()
             self._dashboard = Dashboard(host)
@@ -102,6 +103,8 @@ class Robot:
             self.model = calibrated_model(self.model_name, self._primary.kinematics,
                                           self._controller_tcp_offset())
             self._backend = self._open_backend()
+            # Every motion program stops by itself when ur3dq dies (kill -9, a crash, a hang): ur3dq.robot.heartbeat.
+            self._heartbeat = Heartbeat(host) if heartbeat else None
         except BaseException:
             self.close()
             raise
@@ -115,8 +118,8 @@ class Robot:
         self.close()
 
     def close(self):
-        """Close every connection (idempotent). Never moves or stops the arm."""
-        for part in (self._backend, self._dashboard, self._primary):
+        """Close every connection (idempotent). Never moves or stops the arm (no motion runs between calls)."""
+        for part in (self._heartbeat, self._backend, self._dashboard, self._primary):
             if part is not None:
                 part.close()
 
@@ -171,8 +174,10 @@ class Robot:
         return self._primary.cartesian.tcp_offset
 
     def _ensure_streams(self):
-        """Reconnect dead state streams with exponential backoff; ConnectionLostError if they stay down."""
-        if self._primary.alive and self._backend.connected:
+        """Reconnect dead state streams (and the heartbeat) with exponential backoff; ConnectionLostError if they
+        stay down."""
+        beating = self._heartbeat is None or self._heartbeat.alive
+        if self._primary.alive and self._backend.connected and beating:
             return
         last_error = None
         for delay in RECONNECT_DELAYS:
@@ -183,6 +188,8 @@ class Robot:
                     self._backend.primary = self._primary
                 if not self._backend.connected:
                     self._backend.reconnect()
+                if self._heartbeat is not None and not self._heartbeat.alive:
+                    self._heartbeat.restart()
                 return
             except RobotConnectionError as error:
                 last_error = error
@@ -331,7 +338,13 @@ class Robot:
 
     def _run_motion(self, name, program, target, q_start, running_at_send, timeout, on_message=None,
                     reached_end=None):
-        """Send `program`, then watch it to its end; any failure stops the arm before the exception leaves."""
+        """Send `program` (armed on the heartbeat), then watch it to its end; any failure stops the arm before the
+        exception leaves."""
+        if self._heartbeat is not None:
+            if not self._heartbeat.alive:
+                raise ConnectionLostError(f"the heartbeat to {self.host} stopped: nothing would stop a motion if "
+                                          "ur3dq died, so none is sent (reconnect)")
+            program = armed(program, name)
         watcher = self._primary.watch()
         sent = time.monotonic()
         try:

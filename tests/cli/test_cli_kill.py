@@ -1,0 +1,46 @@
+"""kill -9 (or a hang) of `run-poses` mid-move: ur3dq can send no stopj, so the controller stops the arm by itself,
+on the heartbeat its motion programs watch (ur3dq.robot.heartbeat). Checked from outside with the simulator's state."""
+import signal
+import time
+
+import numpy as np
+import pytest
+
+from cli_support import cli_process
+from robot_target import simulator_only
+from ur3dq.robot.heartbeat import PERIOD, WATCHDOG_FREQUENCY
+
+pytestmark = [simulator_only("placing the arm by hand"), pytest.mark.exclusive]
+
+START = np.array([0.8, -1.0, 1.3, -1.9, -1.57, 0.5])
+TARGET = np.array([0.0, -1.2, 1.0, -1.4, -1.57, 0.0])
+SPEED = 0.15  # rad/s: the move takes ~5 s, so the kill surely lands mid-move
+# The controller stops the program 1/WATCHDOG_FREQUENCY (0.1 s) after the last heartbeat, at most one PERIOD before
+# the kill: ≤ 0.11 s at SPEED is 0.017 rad, and the stop's deceleration adds ~0.01. Without the heartbeat the arm
+# runs on to the target, ~0.8 rad away.
+TRAVEL_BOUND = 0.05
+# From the kill to the arm at rest: the watchdog period, the simulator's check interval and the deceleration.
+REST_BOUND = 1.0 / WATCHDOG_FREQUENCY + PERIOD + 0.5
+
+
+@pytest.mark.parametrize("signum", [signal.SIGKILL, signal.SIGSTOP], ids=["kill-9", "hung"])
+def test_the_arm_stops_by_itself_when_run_poses_dies_mid_move(arm, run_cli, tmp_path, signum):
+    arm.place(TARGET)
+    assert run_cli("--host", arm.host, "record-pose", "--name", "target", "--yes").returncode == 0
+    arm.place(START)
+    with cli_process(tmp_path, "--host", arm.host, "run-poses", "--yes", "--speed", str(SPEED)) as process:
+        deadline = time.monotonic() + 20
+        while np.max(np.abs(arm.joint_speeds())) < 0.05:  # wait until the arm is clearly moving
+            assert time.monotonic() < deadline and process.poll() is None, "the arm never started moving"
+            time.sleep(0.02)
+        at_kill, killed_at = arm.joints(), time.monotonic()
+        process.send_signal(signum)
+        while np.max(np.abs(arm.joint_speeds())) > 1e-6:  # the arm comes to rest by itself
+            assert time.monotonic() - killed_at < 5, "the arm still moves after ur3dq died"
+            time.sleep(0.005)
+        rest_after = time.monotonic() - killed_at
+        process.kill()   # a stopped (hung) process is ended here; a killed one is already gone
+    travel = np.max(np.abs(arm.joints() - at_kill))
+    assert travel < TRAVEL_BOUND, f"the arm travelled {travel:.4f} rad after ur3dq died"
+    assert rest_after < REST_BOUND, f"the arm came to rest {rest_after:.2f} s after ur3dq died"
+    assert np.max(np.abs(arm.joints() - TARGET)) > 0.1, "the arm reached the target: nothing stopped it"

@@ -1,0 +1,113 @@
+"""The heartbeat that stops the arm when ur3dq no longer can: killed, crashed, hung or cut off.
+
+Ctrl-C, SIGTERM and SIGHUP reach ur3dq, which sends `stopj`; kill -9, a crash or a hang do not. For those the
+controller itself must stop: every motion program ur3dq sends first arms the controller's RTDE input watchdog
+(URScript `rtde_set_watchdog(variable, min_frequency, "stop")`, UR script manual) on HEARTBEAT_REGISTER, and the
+thread here writes a new value to that register every PERIOD over RTDE (ur_rtde's RTDEIOInterface). When the
+values stop coming, the controller stops the program, and with it the arm, 1/WATCHDOG_FREQUENCY s after the
+last one. The watchdog is removed when the program ends, so nothing changes between motions.
+
+RTDEIOInterface takes RTDE input registers 18–22 and the I/O inputs it sets for this client; another RTDE client
+that writes them at the same time is refused by the controller, and the heartbeat then says so by name.
+"""
+from __future__ import annotations
+
+import threading
+
+import rtde_io
+
+from ur3dq.errors import RobotConnectionError
+
+#: The RTDE input integer register the heartbeat counts on (ur_rtde's lower range is 18–22).
+HEARTBEAT_REGISTER = 20
+#: The controller stops a motion program this long (1/frequency) after the last heartbeat: 100 ms.
+WATCHDOG_FREQUENCY = 10.0
+#: Seconds between heartbeats: ten per watchdog period, so a loaded machine that delays a few is not a stop.
+PERIOD = 0.01
+
+
+def watchdog_statement() -> str:
+    """The URScript statement that arms the heartbeat watchdog: a motion program's first line."""
+    return f'rtde_set_watchdog("input_int_register_{HEARTBEAT_REGISTER}", {WATCHDOG_FREQUENCY:g}, "stop")'
+
+
+def armed(program: str, name: str) -> str:
+    """`program` (URScript text holding `def name():`) with the watchdog armed as its first statement."""
+    head = f"def {name}():\n"
+    at = program.find(head)
+    if at < 0 or program.count(head) != 1:
+        raise ValueError(f"program {name!r}: expected exactly one line `def {name}():`")
+    at += len(head)
+    return program[:at] + f"  {watchdog_statement()}\n" + program[at:]
+
+
+class Heartbeat:
+    """A thread writing a counter to HEARTBEAT_REGISTER of `host` every PERIOD s until `close()`.
+
+    RobotConnectionError if the RTDE inputs cannot be opened. `alive` turns False when a write fails (the
+    connection dropped): a motion must not start then, since nothing would stop it if ur3dq died.
+    """
+
+    def __init__(self, host: str):
+        self.host = host
+        try:
+            self._io = rtde_io.RTDEIOInterface(host)
+        except RuntimeError as error:
+            raise RobotConnectionError(
+                f"cannot start the heartbeat on {host}:30004 (RTDE input registers 18-22; is another RTDE client "
+                f"writing them?): {error}") from None
+        self._start()
+
+    def _start(self):
+        self._stop = threading.Event()
+        self._failed = threading.Event()
+        written = threading.Event()
+        self._thread = threading.Thread(target=self._beat, args=(self._stop, self._failed, written),
+                                        name="ur3dq-heartbeat", daemon=True)
+        self._thread.start()
+        # The first value is on the wire before any program can arm the watchdog on it.
+        written.wait(1.0)
+
+    def restart(self):
+        """Reconnect after a failed write (the stream dropped) and beat again; RobotConnectionError if refused."""
+        self._halt()
+        try:
+            reconnected = self._io.reconnect()
+        except RuntimeError as error:
+            raise RobotConnectionError(f"the heartbeat to {self.host}:30004 cannot reconnect: {error}") from None
+        if not reconnected:
+            raise RobotConnectionError(f"the heartbeat to {self.host}:30004 cannot reconnect")
+        self._start()
+
+    @property
+    def alive(self) -> bool:
+        """True while the thread runs and its last write went through."""
+        return self._thread.is_alive() and not self._failed.is_set()
+
+    def _beat(self, stop: threading.Event, failed: threading.Event, written: threading.Event):
+        count = 0
+        while True:
+            count = (count + 1) % 2 ** 31
+            try:
+                ok = self._io.setInputIntRegister(HEARTBEAT_REGISTER, count)
+            except RuntimeError:
+                ok = False
+            if not ok:
+                failed.set()
+                return
+            written.set()
+            if stop.wait(PERIOD):
+                return
+
+    def _halt(self):
+        self._stop.set()
+        if self._thread.is_alive() and self._thread is not threading.current_thread():
+            self._thread.join(1.0)
+
+    def close(self):
+        """Stop the beats and disconnect (idempotent). A running program armed on them then stops by itself."""
+        self._halt()
+        try:
+            self._io.disconnect()
+        except RuntimeError:
+            pass
