@@ -4,7 +4,7 @@ Request  {"command": "protective-stop", "reason": "..."} | {"command": "emergenc
          {"command": "release-emergency-stop"} | {"command": "drop-connections"} |
          {"command": "freeze", "seconds": 2} | {"command": "latency", "seconds": 0.05} | {"command": "reset"} |
          {"command": "freedrive", "on": true} | {"command": "move-by-hand", "q": [6 floats]} |
-         {"command": "set-digital-input", "pin": 0..7, "on": true} |
+         {"command": "set-digital-input", "pin": 0..7, "on": true} | {"command": "speed-slider", "fraction": 0..1} |
          {"command": "status"} | {"command": "shutdown"}
 Reply    {"ok": true, "message": "..."} or {"ok": false, "error": "..."}; one line of JSON each.
 This port is not a UR interface: it exists so tests and `python -m sim_ursim fault ...` can inject faults.
@@ -23,7 +23,7 @@ MAX_REQUEST_BYTES = 64 * 1024  # one JSON request line; the longest real request
 SEND_TIMEOUT = 2.0  # s a client may leave a reply unread before it is disconnected
 FAULT_COMMANDS = ("protective-stop", "emergency-stop", "release-emergency-stop", "drop-connections", "freeze",
                   "latency", "reset", "status", "shutdown")
-COMMANDS = FAULT_COMMANDS + ("freedrive", "move-by-hand", "set-digital-input")
+COMMANDS = FAULT_COMMANDS + ("freedrive", "move-by-hand", "set-digital-input", "speed-slider")
 
 
 def encode_request(command: str, **arguments) -> bytes:
@@ -89,6 +89,10 @@ def _run(command, request, controller, can_shut_down):
         pin, on = _argument(request, "pin"), bool(_argument(request, "on"))
         controller.io.set_standard_digital_in(pin, on)
         return f"standard digital input {pin} {'on' if on else 'off'}"
+    if command == "speed-slider":  # the operator's slider on the pendant
+        fraction = float(_argument(request, "fraction"))
+        controller.set_speed_slider(fraction)
+        return f"speed slider {fraction:g}"
     if command == "status":
         return status_line(controller.state(), faults)
     if not can_shut_down:

@@ -22,7 +22,10 @@ def arm_with_a_changed_tcp(run_cli, tmp_path):
     the flange's z and the arm moved elsewhere."""
     from sim_ursim.launch import simulator_process
 
-    with simulator_process(model="ur3") as simulator, ur3dq.robot.connect(simulator.host, backend="urx") as robot:
+    # The fixture places the arm with a connection of its own; the CLI under test moves it with its heartbeat, which
+    # needs the RTDE inputs this connection would otherwise hold after its first motion.
+    with simulator_process(model="ur3") as simulator, \
+            ur3dq.robot.connect(simulator.host, backend="urx", heartbeat=False) as robot:
         robot.power_on()
         robot.brake_release()
         robot.movej(RECORDED_AT, a=3.0, v=2.0)

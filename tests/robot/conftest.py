@@ -38,8 +38,10 @@ def sim_host():
 @pytest.fixture(scope="module")
 def module_robot(arm_host, backend):
     """One Robot connection per module and backend, kept open across its tests as a long-running program keeps it
-    (connecting and closing cost about a second a test)."""
-    with ur3dq.robot.connect(arm_host, backend=backend) as connected:
+    (connecting and closing cost about a second a test). Without the heartbeat: `sim_robot` connects to the same
+    simulator while this one is open, and only one connection at a time can hold the heartbeat's RTDE inputs; the
+    heartbeat is exercised by `sim_robot`, `own_sim_robot` and the CLI tests (tests/cli/test_cli_kill.py)."""
+    with ur3dq.robot.connect(arm_host, backend=backend, heartbeat=False) as connected:
         yield connected
 
 

@@ -57,12 +57,8 @@ def ready(robot):
 
 
 def set_speed_slider(host, fraction):
-    """Set the controller's speed slider through ur_rtde's RTDE IO interface (a real client)."""
-    import rtde_io
-
-    io = rtde_io.RTDEIOInterface(host)
-    try:
-        assert io.setSpeedSlider(fraction)
-    finally:
-        io.disconnect()
+    """Move the speed slider as the operator does on the pendant (the simulator's control channel). Not through RTDE
+    inputs: the driver under test holds them for its heartbeat (ur3dq.robot.heartbeat); ur_rtde's RTDEIOInterface
+    writing the slider is tested on its own in tests/sim_ursim/test_rtde_ur_rtde.py."""
+    inject(host, "speed-slider", fraction=fraction)
 

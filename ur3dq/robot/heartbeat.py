@@ -7,8 +7,9 @@ thread here writes a new value to that register every PERIOD over RTDE (ur_rtde'
 values stop coming, the controller stops the program, and with it the arm, 1/WATCHDOG_FREQUENCY s after the
 last one. The watchdog is removed when the program ends, so nothing changes between motions.
 
-RTDEIOInterface takes RTDE input registers 18–22 and the I/O inputs it sets for this client; another RTDE client
-that writes them at the same time is refused by the controller, and the heartbeat then says so by name.
+The driver starts the heartbeat with its first motion. RTDEIOInterface takes RTDE input registers 18–22 and the I/O
+inputs it sets for this client; another RTDE client holding them (a second ur3dq moving the same arm, a user's own
+RTDEIOInterface) makes the controller refuse it, and the motion is refused with a line that says so.
 """
 from __future__ import annotations
 

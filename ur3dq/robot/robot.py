@@ -96,6 +96,10 @@ class Robot:
         self.max_joint_travel = float(max_joint_travel)
         self._connect_timeout = connect_timeout
         self._primary = self._backend = self._dashboard = self._heartbeat = None
+        # Every motion program stops by itself when ur3dq dies (kill -9, a crash, a hang): ur3dq.robot.heartbeat.
+        # Started with the first motion, so that reading, recording or a second ur3dq watching the same arm never
+        # contend for its RTDE input registers.
+        self._use_heartbeat = bool(heartbeat)
         try:
             self._primary = self._open_primary()
             self._dashboard = Dashboard(host)
@@ -103,8 +107,6 @@ class Robot:
             self.model = calibrated_model(self.model_name, self._primary.kinematics,
                                           self._controller_tcp_offset())
             self._backend = self._open_backend()
-            # Every motion program stops by itself when ur3dq dies (kill -9, a crash, a hang): ur3dq.robot.heartbeat.
-            self._heartbeat = Heartbeat(host) if heartbeat else None
         except BaseException:
             self.close()
             raise
@@ -340,7 +342,9 @@ class Robot:
                     reached_end=None):
         """Send `program` (armed on the heartbeat), then watch it to its end; any failure stops the arm before the
         exception leaves."""
-        if self._heartbeat is not None:
+        if self._use_heartbeat:
+            if self._heartbeat is None:
+                self._heartbeat = Heartbeat(self.host)
             if not self._heartbeat.alive:
                 raise ConnectionLostError(f"the heartbeat to {self.host} stopped: nothing would stop a motion if "
                                           "ur3dq died, so none is sent (reconnect)")
