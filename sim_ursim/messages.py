@@ -1,7 +1,7 @@
 """Robot messages the controller emits (primary interface, port 30001), and the bus that carries them.
 
 The URScript runtime and the controller publish; each primary-interface connection subscribes and serialises.
-Field names follow the primary interface's robot-message layouts (protocols.md §3.4).
+Field names follow the primary interface's robot-message layouts (docs/protocols.md §3.4).
 """
 import queue
 import threading

@@ -1,6 +1,6 @@
 """Emulated UR arm models and controller software versions.
 
-DH rows are the nominal standard-DH tables of ../shared/conventions.md; a calibration adds per-joint deltas, as a
+DH rows are the nominal standard-DH tables of docs/conventions.md; a calibration adds per-joint deltas, as a
 real arm's controller does (its primary interface reports the calibrated table in Kinematics Info).
 """
 import math
@@ -26,7 +26,7 @@ MODEL_NAMES = tuple(_NOMINAL)
 
 ROBOT_TYPE_NAMES = {1: "UR5", 2: "UR10", 3: "UR3", 4: "UR16"}
 
-# PolyScope acceleration ceiling reported in ConfigurationData of a URSim 5.24 dump (protocols.md §5.2).
+# PolyScope acceleration ceiling reported in ConfigurationData of a URSim 5.24 dump (docs/protocols.md §5.2).
 MAX_JOINT_ACCELERATION = 40.0
 
 DH_KEYS = ("a", "d", "alpha", "theta")

@@ -2,7 +2,7 @@
 
 The servers (dashboard, primary, RTDE, control channel), the URScript interpreter and the controller all speak it;
 none of them needs the controller's machinery to name a mode or catch a refusal. Enumeration values are the
-controller's own (protocols.md §1.4–1.6, §3.5).
+controller's own (docs/protocols.md §1 and §5.4).
 """
 import dataclasses
 
@@ -10,7 +10,7 @@ import numpy as np
 
 
 class RobotMode:
-    """robot_mode enumeration (protocols.md §1.6)."""
+    """robot_mode enumeration (docs/protocols.md §1)."""
 
     NO_CONTROLLER, DISCONNECTED, CONFIRM_SAFETY, BOOTING, POWER_OFF, POWER_ON, IDLE, BACKDRIVE, RUNNING = range(-1, 8)
     NAMES = {-1: "NO_CONTROLLER", 0: "DISCONNECTED", 1: "CONFIRM_SAFETY", 2: "BOOTING", 3: "POWER_OFF",
@@ -18,7 +18,7 @@ class RobotMode:
 
 
 class SafetyMode:
-    """safety_mode / safety_status enumeration (protocols.md §1.6)."""
+    """safety_mode / safety_status enumeration (docs/protocols.md §1)."""
 
     NORMAL, REDUCED, PROTECTIVE_STOP, RECOVERY, SAFEGUARD_STOP = 1, 2, 3, 4, 5
     SYSTEM_EMERGENCY_STOP, ROBOT_EMERGENCY_STOP, VIOLATION, FAULT = 6, 7, 8, 9
@@ -28,13 +28,13 @@ class SafetyMode:
 
 
 class RuntimeState:
-    """runtime_state enumeration (protocols.md §1.6)."""
+    """runtime_state enumeration (docs/protocols.md §1)."""
 
     STOPPING, STOPPED, PLAYING, PAUSING, PAUSED, RESUMING = range(6)
 
 
 class JointMode:
-    """joint_mode enumeration (protocols.md §3.5)."""
+    """joint_mode enumeration (docs/protocols.md §1)."""
 
     BACKDRIVE, POWER_OFF, MOTOR_INITIALISATION, BOOTING, RUNNING, IDLE = 238, 239, 246, 247, 253, 255
 
@@ -45,7 +45,7 @@ class ControlMode:
     POSITION, TEACH, FORCE, TORQUE = range(4)
 
 
-# safety_status_bits (protocols.md §1.4)
+# safety_status_bits (docs/protocols.md §5.4)
 SAFETY_BIT_NORMAL, SAFETY_BIT_REDUCED, SAFETY_BIT_PROTECTIVE_STOPPED = 1 << 0, 1 << 1, 1 << 2
 SAFETY_BIT_ROBOT_EMERGENCY_STOPPED, SAFETY_BIT_EMERGENCY_STOPPED, SAFETY_BIT_STOPPED_DUE_TO_SAFETY = (
     1 << 6, 1 << 7, 1 << 10)

@@ -1,6 +1,6 @@
 """Dashboard server protocol (port 29999): command lines in, reply lines out — no sockets here.
 
-Reply strings are the real controller's (protocols.md §2.3, cross-checked with URCL's command list and ur_rtde).
+Reply strings are the real controller's (docs/protocols.md §2, cross-checked with URCL's command list and ur_rtde).
 Commands the emulated software version does not have get the same answer as unknown ones.
 """
 import logging
@@ -334,7 +334,7 @@ _TAKES_ARGUMENT = {"load", "popup", "addtolog", "setuserrole", "load installatio
 _COMMANDS_LONGEST_FIRST = sorted(_HANDLERS, key=len, reverse=True)
 
 # Commands that exist only from a given software version on, as (CB3, e-series) minimums; None: never on that
-# platform.  URCL's dashboard command table (src/ur/dashboard_client_implementation_g5.cpp) and protocols.md §2.3.
+# platform.  URCL's dashboard command table (src/ur/dashboard_client_implementation_g5.cpp) and docs/protocols.md §2.
 _MINIMUM_VERSION = {
     "safetystatus": (None, (5, 4, 0)),
     "get serial number": ((3, 12, 0), (5, 6, 0)),

@@ -2,7 +2,7 @@
 
 Every function turns values (a controller snapshot, an arm description, a robot message) into the exact bytes a
 controller of the emulated software version sends; nothing here touches a socket.  Layouts follow
-../shared/protocols.md §3 (URCL src/primary/**, ur_modern_driver's versioned CB3 layouts, a real 5.24 byte dump).
+docs/protocols.md §3 (URCL src/primary/**, ur_modern_driver's versioned CB3 layouts, a real 5.24 byte dump).
 All integers and floats are big-endian.  `version` is always (major, minor, bugfix, build) of the emulated
 controller software; the layout decisions keyed on it are listed in docs/urx-compatibility.md.
 """
@@ -19,7 +19,7 @@ from sim_ursim.messages import (
     TextMessage,
 )
 
-# Message types (int32 size, uint8 type) — protocols.md §3.1.
+# Message types (int32 size, uint8 type) — docs/protocols.md §3.1.
 ROBOT_STATE = 16
 ROBOT_MESSAGE = 20
 
@@ -46,7 +46,7 @@ RUNTIME_EXCEPTION_MESSAGE = 10
 VERSION_MESSAGE_SOURCE = -2
 PROJECT_NAME = b"URControl"
 
-# Tool modes (protocols.md §3.5).
+# Tool modes (docs/protocols.md §1).
 TOOL_MODE_RUNNING = 253
 TOOL_MODE_POWER_OFF = 239
 

@@ -1,7 +1,7 @@
 """Pure serialiser for the realtime interface (port 30003): one fixed-layout package per control cycle.
 
 A package is `int32 message_size` (total bytes) followed by doubles only; the layout grows with the software
-version (protocols.md §4; ur_modern_driver RTState_V3_*; Danish Technological Institute's `get_rt_packet_size`):
+version (docs/protocols.md §4; ur_modern_driver RTState_V3_*; Danish Technological Institute's `get_rt_packet_size`):
 
     3.0–3.1  1044 bytes                      3.2–3.4  1060 (+ digital outputs, program state)
     3.5–3.9 and 5.0–5.3  1108 (+ elbow position and velocity)

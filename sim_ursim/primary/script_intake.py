@@ -1,6 +1,6 @@
 """Cutting the URScript byte stream of ports 30001–30003 into programs (pure; no sockets).
 
-A controller runs what a client sends as soon as it is complete (protocols.md §3.6):
+A controller runs what a client sends as soon as it is complete (docs/protocols.md §3.6):
 - a `def name():` / `sec name():` … `end` block — complete when its `end` closes it (nested `if`, `while`,
   `thread`, `def`, `for` blocks counted; `elif`/`else` neither open nor close);
 - otherwise one or more top-level statement lines; an expression with unclosed brackets continues on the next line.

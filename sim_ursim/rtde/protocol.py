@@ -1,7 +1,7 @@
 """RTDE wire format (port 30004): pure bytes <-> values, no sockets.
 
 Every package is `uint16 size` (whole package, header included) + `uint8 type` + payload, big-endian
-(protocols.md §1.1). Both directions are here: the server uses the request parsers and reply packers, the tests
+(docs/protocols.md §5.1). Both directions are here: the server uses the request parsers and reply packers, the tests
 (and any raw client) use the request packers and reply parsers, so a round trip exercises both halves.
 """
 import enum

@@ -1,7 +1,7 @@
 """Every RTDE variable: official name, type, the software version that introduced it, and where its value lives.
 
 Names, types and versions follow UR's RTDE guide ("Introduced in version" column) and URCL's type list, as
-collected in protocols.md §1.4 / §1.5. A version pair (CB3, e-series) of None means the platform never had it.
+collected in docs/protocols.md §5.4 / §5.5. A version pair (CB3, e-series) of None means the platform never had it.
 An output reader maps a ControllerState (Contract 3) to the variable's flat values, in wire order.
 Names UR's guide lists without a version get the earliest version a source shows them present (comments below;
 docs/ursim.md); quantities the simulator does not model (TCP acceleration, energy, encoders) read as the constant of

@@ -14,7 +14,7 @@ import pytest
 from rich.console import Console
 
 from cli_support import assert_one_line_error
-from ur3dq.cli.commands_program import PLAN_HEADERS, plan_rows, print_table
+from ur3dq.cli.program_workflow import PLAN_HEADERS, plan_rows, print_table
 from ur3dq.kinematics import robot_model
 from ur3dq.program.plan import plan_program
 from ur3dq.store import PoseStore
@@ -172,7 +172,7 @@ def test_plot_failure_names_the_file_and_leaves_no_empty_png(run_in_process, v1_
                                    [{"n": n} for n in range(2500)]])
 def test_streamed_json_list_is_exactly_what_emit_json_prints(items, capsys):
     from ur3dq.cli.app import emit_json
-    from ur3dq.cli.commands_poses import emit_json_list
+    from ur3dq.cli.app import emit_json_list
 
     emit_json(items)
     whole = capsys.readouterr().out

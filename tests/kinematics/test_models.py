@@ -172,7 +172,7 @@ DELTAS = {
 
 
 def calibrated_matrix_fk(name, q):
-    """Independent oracle: nominal DH table (as conventions.md prints it) + deltas, multiplied as 4×4 matrices."""
+    """Independent oracle: nominal DH table (as docs/conventions.md prints it) + deltas, multiplied as 4×4 matrices."""
     table = {
         "ur3": (0.1519, -0.24365, -0.21325, 0.11235, 0.08535, 0.0819),
         "ur5e": (0.1625, -0.425, -0.3922, 0.1333, 0.0997, 0.0996),
@@ -205,7 +205,7 @@ def test_calibrated_model_equals_the_dh_matrix_product(name):
 
 
 def test_model_from_reported_dh_values():
-    # URSim reports the nominal table in Kinematics Info (protocols.md): that gives the nominal model back.
+    # URSim reports the nominal table in Kinematics Info (docs/protocols.md): that gives the nominal model back.
     ursim = robot_model_from_dh("ur5e", [0, -0.425, -0.3922, 0, 0, 0], [0.1625, 0, 0, 0.1333, 0.0997, 0.0996],
                                 [math.pi / 2, 0, 0, math.pi / 2, -math.pi / 2, 0], [0] * 6)
     assert ursim.calibrated

@@ -1,5 +1,5 @@
 """Primary/secondary interface bytes, parsed by an independent parser: urx 0.11's own ParserUtils, and struct
-layouts written here from the URCL / protocols.md §3 tables (not from sim_ursim's code)."""
+layouts written here from the URCL / docs/protocols.md §3 tables (not from sim_ursim's code)."""
 import dataclasses
 import math
 import struct

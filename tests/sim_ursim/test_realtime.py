@@ -1,5 +1,5 @@
 """Realtime (30003) package bytes: sizes per version, urx 0.11's own unpacking, field offsets of the documented
-layout (protocols.md §4), elbow kinematics checked by hand."""
+layout (docs/protocols.md §4), elbow kinematics checked by hand."""
 import struct
 
 import numpy as np

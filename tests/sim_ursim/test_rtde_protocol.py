@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 from sim_ursim.rtde import inputs, protocol, variables
 from sim_ursim.rtde.protocol import PackageType
 
-# ur_rtde 1.6.5's default receive recipe (protocols.md §2.1), rebuilt here from the client's documented behaviour.
+# ur_rtde 1.6.5's default receive recipe (docs/protocols.md §5.6), rebuilt here from the client's documented behaviour.
 BASE37 = ("timestamp target_q target_qd target_qdd target_current target_moment actual_q actual_qd actual_current "
           "joint_control_output actual_TCP_pose actual_TCP_speed actual_TCP_force target_TCP_pose target_TCP_speed "
           "actual_digital_input_bits joint_temperatures actual_execution_time robot_mode joint_mode safety_mode "

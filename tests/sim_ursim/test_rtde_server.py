@@ -417,7 +417,7 @@ def test_drop_generation_closes_every_connection(cb3, clients):
 
 
 def _control_interface_input_recipes(offset):
-    """The 23 input recipes ur_rtde's RTDEControlInterface sets up, in order (protocols.md §2.4)."""
+    """The 23 input recipes ur_rtde's RTDEControlInterface sets up, in order (docs/protocols.md §5.8)."""
     def ints(*numbers):
         return [f"input_int_register_{n + offset}" for n in numbers]
 

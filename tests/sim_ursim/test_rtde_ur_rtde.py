@@ -21,7 +21,7 @@ from sim_ursim.rtde.server import RTDEServer
 from sim_ursim.launch import free_loopback_address
 
 CLIENT_TIMEOUT = 60
-# UR3 standard DH (conventions.md): d1, a2, a3, d4, d5, d6; alpha = (π/2, 0, 0, π/2, −π/2, 0).
+# UR3 standard DH (docs/conventions.md): d1, a2, a3, d4, d5, d6; alpha = (π/2, 0, 0, π/2, −π/2, 0).
 UR3_A = (0.0, -0.24365, -0.21325, 0.0, 0.0, 0.0)
 UR3_D = (0.1519, 0.0, 0.0, 0.11235, 0.08535, 0.0819)
 UR_ALPHA = (math.pi / 2, 0.0, 0.0, math.pi / 2, -math.pi / 2, 0.0)

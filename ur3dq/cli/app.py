@@ -98,6 +98,21 @@ def emit_json(data) -> None:
     click.echo(json.dumps(data, indent=2, ensure_ascii=False))
 
 
+def emit_json_list(items) -> None:
+    """Print a JSON array of `items` on stdout, as emit_json would (indent 2), one item at a time (a list of 10⁵
+    poses as one string would need hundreds of MB)."""
+    encode = json.JSONEncoder(indent=2, ensure_ascii=False).encode
+    parts, count = ["["], 0
+    for item in items:
+        parts.append(("\n  " if count == 0 else ",\n  ") + encode(item).replace("\n", "\n  "))
+        count += 1
+        if len(parts) >= 1000:  # write in blocks: one write per item costs more than the encoding
+            click.echo("".join(parts), nl=False)
+            parts = []
+    parts.append("]" if count == 0 else "\n]")
+    click.echo("".join(parts))
+
+
 def confirm(question: str, assume_yes: bool, default: bool = False) -> None:
     """Ask `question` unless `assume_yes` (Enter alone means `default`, No unless told: every motion question
     defaults to No); Cancelled if the answer is no or stdin has no answer."""
@@ -237,3 +252,23 @@ def robot_session(settings: Settings, **options):
                                    "or UR3DQ_HOST, or start the embedded simulator with `ur3dq sim start`") from None
     with robot:
         yield robot
+
+
+# Command groups that several command modules add to (a command module never imports another).
+@cli.group()
+def poses():
+    """Look after the pose store: list, show, rm, rename, import, export; and edit it as a cell program: set,
+    retouch, move, copy, offset, add-step (docs/store-schema.md, version 2).
+
+    \b
+    Examples:
+      ur3dq poses list
+      ur3dq poses show pick --deg
+      ur3dq poses rename pose-3 place
+      ur3dq poses import recorded.txt --prefix thesis     # the thesis' 8-coefficient lines
+      ur3dq poses export cell.txt pick place             # back to thesis lines
+      ur3dq --store other.json poses export all.json --format json
+      ur3dq poses offset approach --from pick --z -0.05 --before pick
+      ur3dq poses set pick --move linear --speed 0.05
+      ur3dq poses add-step --after pick tool-out 0 on
+    """

@@ -1,103 +1,24 @@
-"""`ur3dq check`: the whole-path check of the stored poses (ur3dq.pathcheck) before anything moves.
-
-The adapter from today's replay plan (ur3dq.replay) to the path check's input is `path_plan_from_replay`: one
-segment per planned pose, the planned joints as targets, every move of the chosen type.
-"""
+"""`ur3dq check`: the whole-path check of the stored poses (ur3dq.pathcheck) before anything moves; the adapter
+from a replay plan to the check's input and the margins table are in path_report.py."""
 from __future__ import annotations
 
 import math
 import sys
-from pathlib import Path
 
 import click
-from rich import box
 from rich.console import Console
-from rich.markup import escape
-from rich.table import Table
 
 from ur3dq.cli.app import Settings, cli, emit_json, robot_session
-from ur3dq.cli.display import NARROW_WIDTH
-from ur3dq.cli.options import display_options
-from ur3dq.replay import plan_replay
 from ur3dq.cli.background_simulator import running_simulator_host
+from ur3dq.cli.options import cell_option, display_options
+from ur3dq.cli.path_report import (
+    DEFAULT_JOINT_ACCELERATION, DEFAULT_JOINT_SPEED, DEFAULT_LINEAR_ACCELERATION, DEFAULT_LINEAR_SPEED, margins_table,
+    path_plan_from_replay,
+)
 from ur3dq.errors import SafetyCheckError, StoreError
 from ur3dq.kinematics import robot_model
-from ur3dq.pathcheck import MOVE_TYPES, Margins, PathPlan, PathSegment, check_path, load_cell
-
-DEFAULT_JOINT_SPEED = 1.05     # rad/s (movej's default)
-DEFAULT_LINEAR_SPEED = 0.25    # m/s (movel's default)
-DEFAULT_JOINT_ACCELERATION = 1.4
-DEFAULT_LINEAR_ACCELERATION = 1.2
-# (margin key, header, scale, narrow header)
-MARGIN_COLUMNS = (("wrist", "|sin θ5|", 1.0, "wrist"), ("elbow", "|sin θ3|", 1.0, "elbow"),
-                  ("shoulder", "shoulder mm", 1000.0, "shldr mm"),
-                  ("joint_limit", "limit °", math.degrees(1.0), "limit °"), ("joint_speed", "speed room", 1.0, "speed"),
-                  ("self_collision", "self mm", 1000.0, "self mm"), ("cell", "cell mm", 1000.0, "cell mm"))
-
-
-def path_plan_from_replay(steps, start_joints, move: str, speed: float, acceleration: float,
-                          blend: float) -> PathPlan:
-    """The PathPlan of replay `steps` (ur3dq.replay.PlanStep) from `start_joints`; without a start (dry run, no
-    robot) the plan starts at the first pose, whose configuration is then checked as a move of length 0."""
-    start = steps[0].joints if start_joints is None else start_joints
-    return PathPlan(start, [PathSegment(step.pose.name, move, target_joints=step.joints, speed=speed,
-                                        acceleration=acceleration, blend=blend if i + 1 < len(steps) else 0.0)
-                            for i, step in enumerate(steps)])
-
-
-def check_replay(model, steps, cell_path, start_joints=None, blend: float = 0.0, loops: int = 1) -> tuple:
-    """(PathCheckResult, Cell or None) of a movej replay of `steps`; `loops` > 1 adds the move from the last pose
-    back to the first."""
-    plan = path_plan_from_replay(steps, start_joints, "joint", DEFAULT_JOINT_SPEED, DEFAULT_JOINT_ACCELERATION,
-                                 blend)
-    segments = list(plan.segments)
-    if loops > 1:
-        segments.append(PathSegment(f"{steps[0].pose.name} (next loop)", "joint", target_joints=steps[0].joints))
-    cell = load_cell(cell_path) if cell_path else None
-    return check_path(model, PathPlan(plan.start_joints, segments), cell), cell
-
-
-def require_clear_path(settings: Settings, model, steps, start_joints, blend: float, cell_path,
-                       loops: int = 1) -> None:
-    """The path check of a movej replay before anything moves (run-poses): prints each move's smallest margins
-    (on stderr with --json), then SafetyCheckError (exit 4, one line) naming the step, where and what failed."""
-    result, _ = check_replay(model, steps, cell_path, start_joints, blend, loops)
-    console = Console(stderr=True, highlight=False, width=None if sys.stderr.isatty() else 160) \
-        if settings.json else settings.out
-    table = margins_table(result, "Path check: smallest margins per move", console.width)
-    table.caption = f"cell: {escape(str(cell_path))}" if cell_path else None   # a long path wraps here, not the title
-    console.print(table)
-    if not result.ok:
-        raise SafetyCheckError(f"path check: {result.summary()}")
-
-
-def cell_option(command):
-    """--cell FILE (env UR3DQ_CELL): the cell the path check keeps the arm clear of."""
-    return click.option("--cell", "cell_path", envvar="UR3DQ_CELL", type=click.Path(dir_okay=False, path_type=Path),
-                        help="Cell file (JSON: floor, keep-out boxes, keep-in box, margin, tool; env UR3DQ_CELL). "
-                             "See docs/cell-file.md.")(command)
-
-
-def margins_table(result, title: str, width: int | None = None) -> Table:
-    """Each checked move's smallest margins: how far the worst sample is above the check's limit (negative = failed;
-    speed room = the part of the joints' maximum speed left). Narrower than NARROW_WIDTH columns the headers are
-    short, the sample count is dropped and no vertical rules are drawn (80 columns hold it); the step name is never
-    cut."""
-    narrow = width is not None and width < NARROW_WIDTH
-    table = Table(title=title, title_justify="left", box=box.SIMPLE_HEAD if narrow else box.HEAVY_HEAD,
-                  pad_edge=not narrow, collapse_padding=narrow)
-    headers = [column[3] if narrow else column[1] for column in MARGIN_COLUMNS]
-    for header in ("step", "move", *(() if narrow else ("samples",)), *headers):
-        table.add_column(header, justify="left" if header in ("step", "move") else "right",
-                         no_wrap=header == "step", overflow="fold")
-    for step in result.steps:
-        cells = []
-        for key, _, scale, _ in MARGIN_COLUMNS:
-            value = step.margins.get(key)
-            cells.append("—" if value is None else (f"[red]{value * scale:.3g}[/]" if value < 0
-                                                    else f"{value * scale:.3g}"))
-        table.add_row(escape(step.name), step.move, *(() if narrow else (str(step.samples),)), *cells)
-    return table
+from ur3dq.pathcheck import MOVE_TYPES, Margins, check_path, load_cell
+from ur3dq.replay import plan_replay
 
 
 @cli.command("check")

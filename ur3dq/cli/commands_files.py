@@ -7,13 +7,13 @@ import click
 from rich.console import Console
 
 from ur3dq.cli.app import Settings, cli, confirm
-from ur3dq.cli.commands_check import cell_option, check_replay
 from ur3dq.cli.display import count_text
 from ur3dq.cli.options import (
-    DEFAULT_ACCELERATION, DEFAULT_SPEED, angular_option, check_blend, check_max_travel, deg_option, global_options, motion_options,
-    speed_and_acceleration,
+    DEFAULT_ACCELERATION, DEFAULT_SPEED, angular_option, cell_option, check_blend, check_max_travel, deg_option,
+    global_options, motion_options, speed_and_acceleration,
 )
-from ur3dq.cli.commands_program import export_program_text
+from ur3dq.cli.path_report import check_replay
+from ur3dq.cli.program_workflow import export_program_text
 from ur3dq.errors import StoreError
 from ur3dq.pose import utc_now_iso
 from ur3dq.replay import plan_replay

@@ -1,7 +1,6 @@
 """`ur3dq poses ...`: look after the pose store (list, show, rm, rename, import, export)."""
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import click
@@ -9,8 +8,9 @@ from rich.markup import escape
 from rich.table import Table
 from rich.text import Text
 
-from ur3dq.cli.app import Settings, cli, confirm, emit_json
+from ur3dq.cli.app import Settings, confirm, emit_json, emit_json_list, poses
 from ur3dq.cli.options import NUMBERS_CONTEXT, display_options, ur_pose_from_input
+from ur3dq.cli.program_workflow import list_program
 from ur3dq.cli.display import (
     NARROW_WIDTH, angles_text, coefficients_text, compact_pose_text, count_text, key_value_table, pose_vector_text,
 )
@@ -21,48 +21,12 @@ from ur3dq.store import format_store, format_thesis_lines, parse_store, pose_to_
 PLAIN_LIST_ROWS = 2000
 
 
-def emit_json_list(items) -> None:
-    """Print a JSON array of `items` on stdout, as emit_json would (indent 2), one item at a time (a list of 10⁵
-    poses as one string would need hundreds of MB)."""
-    encode = json.JSONEncoder(indent=2, ensure_ascii=False).encode
-    parts, count = ["["], 0
-    for item in items:
-        parts.append(("\n  " if count == 0 else ",\n  ") + encode(item).replace("\n", "\n  "))
-        count += 1
-        if len(parts) >= 1000:  # write in blocks: one write per item costs more than the encoding
-            click.echo("".join(parts), nl=False)
-            parts = []
-    parts.append("]" if count == 0 else "\n]")
-    click.echo("".join(parts))
-
-
-@cli.group()
-def poses():
-    """Look after the pose store: list, show, rm, rename, import, export; and edit it as a cell program: set,
-    retouch, move, copy, offset, add-step (docs/store-schema.md, version 2).
-
-    \b
-    Examples:
-      ur3dq poses list
-      ur3dq poses show pick --deg
-      ur3dq poses rename pose-3 place
-      ur3dq poses import recorded.txt --prefix thesis     # the thesis' 8-coefficient lines
-      ur3dq poses export cell.txt pick place             # back to thesis lines
-      ur3dq --store other.json poses export all.json --format json
-      ur3dq poses offset approach --from pick --z -0.05 --before pick
-      ur3dq poses set pick --move linear --speed 0.05
-      ur3dq poses add-step --after pick tool-out 0 on
-    """
-
-
 @poses.command("list")
 @display_options
 @click.pass_obj
 def list_poses(settings: Settings):
     """Every stored pose: name, time, model, TCP position and orientation, whether joints are known; for a cell
     program (store version 2) every step with its move type and parameters."""
-    from ur3dq.cli.commands_program import list_program  # that module adds commands to this one's group
-
     if list_program(settings):
         return
     stored = settings.store.load()

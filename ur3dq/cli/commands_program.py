@@ -1,187 +1,20 @@
-"""Editing and running the store as a cell program: `poses set/retouch/move/copy/offset/add-step`, the program
-table of `poses list`, and the program paths of `record-pose`, `run-poses` and `export-urscript`.
-
-Every edit is one locked, atomic store update (PoseStore.update_program): the new program is checked first and a
-bad one changes nothing (one line naming the step, exit 4). Speeds are SI: rad/s, rad/s² for joint moves, m/s,
-m/s² for linear/process moves; blend radius and offsets in metres, offset rotations in radians.
+"""`ur3dq poses set/retouch/move/copy/offset/add-step`: editing the store as a cell program
+(docs/store-schema.md, version 2); the workflows they share with other commands are in program_workflow.py.
 """
 from __future__ import annotations
 
 import dataclasses
-import math
 
 import click
-from rich.console import Console
-from rich.markup import escape
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
-from rich.table import Table
-from rich.text import Text
 
-from ur3dq.cli.app import Settings, confirm, emit_json, robot_session
-from ur3dq.cli.commands_poses import emit_json_list, poses
+from ur3dq.cli.app import Settings, confirm, poses, robot_session
+from ur3dq.cli.options import placement_options, waypoint_motion_options
+from ur3dq.cli.program_workflow import add_step_at, find_step, insertion_index, motion_from_options, replace_step
 from ur3dq.errors import StoreError
 from ur3dq.pose import next_free_name, utc_now_iso
-from ur3dq.program.plan import Defaults, plan_program
-from ur3dq.program.resolve import select_range
 from ur3dq.program.steps import (
-    AnalogOut, DigitalOut, Message, Motion, MOVE_TYPES, RelativeWaypoint, Wait, WaitInput, Waypoint, describe,
-    is_waypoint,
+    AnalogOut, DigitalOut, Message, Motion, RelativeWaypoint, Wait, WaitInput, Waypoint, describe, is_waypoint,
 )
-from ur3dq.program.urscript import program_script
-from ur3dq.store_format import PROGRAM_SCHEMA_VERSION, step_to_dict
-
-PLAIN_TABLE_ROWS = 2000  # beyond this, tables are printed as tab-separated lines (rich takes minutes to lay out)
-
-
-# ---------------------------------------------------------------- shared options and edits
-
-
-def placement_options(command):
-    """--after M / --before M: where a new or moved step goes (default: the end)."""
-    command = click.option("--before", metavar="M", help="Put it just before the step M.")(command)
-    return click.option("--after", metavar="M", help="Put it just after the step M.")(command)
-
-
-def waypoint_motion_options(command):
-    """--move, --speed, --acceleration, --blend of a waypoint."""
-    for option in (
-        click.option("--blend", type=float, help="Blend radius (m) into the next waypoint."),
-        click.option("--acceleration", type=float, help="rad/s² (joint) or m/s² (linear/process)."),
-        click.option("--speed", type=float, help="rad/s (joint) or m/s (linear/process); clamped when planned."),
-        click.option("--move", type=click.Choice(MOVE_TYPES), help="joint (movej), linear (movel), process (movep)."),
-    ):
-        command = option(command)
-    return command
-
-
-def motion_from_options(base: Motion, move, speed, acceleration, blend) -> Motion:
-    """`base` with the options that were given replacing its values (validated when the step is built)."""
-    return Motion(move or base.move, base.speed if speed is None else speed,
-                  base.acceleration if acceleration is None else acceleration, base.blend if blend is None else blend)
-
-
-def insertion_index(steps, after: str | None, before: str | None, source) -> int:
-    """Where --after/--before put a step in `steps` (the end by default); StoreError for an unknown name."""
-    if after and before:
-        raise click.UsageError("give --after or --before, not both")
-    anchor = after or before
-    if anchor is None:
-        return len(steps)
-    names = [step.name for step in steps]
-    if anchor not in names:
-        raise StoreError(f"no step named {anchor!r} in {source}")
-    return names.index(anchor) + (1 if after else 0)
-
-
-def _replace_step(steps, name, new, source):
-    """`steps` with the step `name` replaced by `new`."""
-    if name not in [step.name for step in steps]:
-        raise StoreError(f"no step named {name!r} in {source}")
-    return [new if step.name == name else step for step in steps]
-
-
-def _find(steps, name, source):
-    for step in steps:
-        if step.name == name:
-            return step
-    raise StoreError(f"no step named {name!r} in {source}")
-
-
-def _insert(settings: Settings, make_step, after, before):
-    """Insert the step `make_step(steps)` at --after/--before in one store update; returns it."""
-
-    def edit(steps):
-        step = make_step(steps)
-        index = insertion_index(steps, after, before, settings.store_path)
-        return steps[:index] + [step] + steps[index:], step
-
-    return settings.store.update_program(edit)
-
-
-def check_waypoint_options(name: str | None, move, speed, acceleration, blend, after, before, steps, source):
-    """record-pose's --move/--speed/--acceleration/--blend/--after/--before checked before the arm is read:
-    ValueError or StoreError naming what is wrong."""
-    Motion(move or "joint", speed, acceleration, blend).check(f"waypoint {name or '(new)'!r}")
-    insertion_index(steps, after, before, source)
-
-
-def record_waypoint(settings: Settings, pose, number_if_taken: bool, move, speed, acceleration, blend, after,
-                    before):
-    """Store `pose` as a waypoint with its own motion at --after/--before (the end by default), in one atomic
-    update (a taken name is refused, or numbered on with `number_if_taken`); returns the pose as stored."""
-    from ur3dq.store import with_added
-
-    def edit(steps):
-        index = insertion_index(steps, after, before, settings.store_path)
-        result, (added,) = with_added(steps, [pose], number_if_taken, position=index)
-        motion = motion_from_options(Motion(), move, speed, acceleration, blend)
-        result[index] = Waypoint(added.name, added, motion)
-        return result, added
-
-    return settings.store.update_program(edit)
-
-
-# ---------------------------------------------------------------- display
-
-
-def program_rows(steps):
-    """(position, name, type, what it does) text of each step."""
-    return [(str(index), step.name, step.kind, describe(step)) for index, step in enumerate(steps, start=1)]
-
-
-def print_table(console: Console, title: str, headers, rows) -> None:
-    """A rich table whose columns fold to the terminal's width (names are wrapped, never dropped); user text is
-    shown as typed (no markup); very long tables as tab-separated lines."""
-    if len(rows) > PLAIN_TABLE_ROWS:
-        click.echo("\n".join([title, "\t".join(headers), *("\t".join(row) for row in rows)]))
-        return
-    # The title on its own line, unwrapped: a table's title wraps to the table's width, which would cut a store
-    # path (and a Text is never read as markup).
-    console.print(Text(title, no_wrap=True, overflow="ignore"))
-    table = Table()
-    for header in headers:
-        table.add_column(header, overflow="fold")
-    for row in rows:
-        table.add_row(*(escape(cell) for cell in row))
-    console.print(table)
-
-
-def list_program(settings: Settings) -> bool:
-    """`poses list` of a version-2 store: every step; False (nothing printed) for a version-1 store."""
-    if settings.store.version() != PROGRAM_SCHEMA_VERSION:
-        return False
-    steps = settings.store.load_program()
-    if settings.json:
-        emit_json_list(step_to_dict(step) for step in steps)
-        return True
-    print_table(settings.out, f"{len(steps)} steps in {settings.store_path}", ("#", "name", "type", "details"),
-                program_rows(steps))
-    return True
-
-
-def plan_rows(plan, first: int):
-    """The run-poses plan table's rows: #, name, type, target joints (rad, 3 decimals), speed, blend, travel,
-    time."""
-    rows = []
-    for offset, planned in enumerate(plan):
-        step = planned.step
-        if planned.joints is None:
-            rows.append((str(first + offset), step.name, step.kind, describe(step), "", "", "", ""))
-            continue
-        unit = "rad/s" if planned.move == "joint" else "m/s"
-        rows.append((str(first + offset), step.name, planned.move,
-                     " ".join(f"{q:.3f}" for q in planned.joints), f"{planned.speed:.3g} {unit}",
-                     f"{planned.blend:.3g}", "—" if planned.travel is None else f"{planned.travel:.3f}",
-                     "—" if planned.duration is None else f"{planned.duration:.2f} s"))
-    return rows
-
-
-PLAN_HEADERS = ("#", "step", "type", "target (rad) / action", "speed", "blend m", "travel", "time")
-
-
-# ---------------------------------------------------------------- poses set / retouch / move / copy / offset
-
-
 @poses.command("set")
 @click.argument("name")
 @waypoint_motion_options
@@ -198,11 +31,11 @@ def set_waypoint(settings: Settings, name, move, speed, acceleration, blend, cle
     """
 
     def edit(steps):
-        step = _find(steps, name, settings.store_path)
+        step = find_step(steps, name, settings.store_path)
         if not is_waypoint(step):
             raise ValueError(f"{step.who}: not a waypoint; only waypoints have a move, speed and blend")
         base = Motion() if clear else step.motion
-        return _replace_step(steps, name, dataclasses.replace(
+        return replace_step(steps, name, dataclasses.replace(
             step, motion=motion_from_options(base, move, speed, acceleration, blend)), settings.store_path), None
 
     settings.store.update_program(edit)
@@ -223,7 +56,7 @@ def retouch(settings: Settings, name, yes):
     """
     from ur3dq.replay import read_pose
 
-    step = _find(settings.store.load_program(), name, settings.store_path)
+    step = find_step(settings.store.load_program(), name, settings.store_path)
     if not isinstance(step, Waypoint):
         raise ValueError(f"{step.who}: only a recorded waypoint can be re-recorded")
     with robot_session(settings) as robot:
@@ -231,10 +64,10 @@ def retouch(settings: Settings, name, yes):
         confirm(f"Re-record {name!r} at the arm's current pose?", yes, default=False)
 
         def edit(steps):
-            current = _find(steps, name, settings.store_path)
+            current = find_step(steps, name, settings.store_path)
             if not isinstance(current, Waypoint):
                 raise ValueError(f"{current.who}: only a recorded waypoint can be re-recorded")
-            return _replace_step(steps, name, Waypoint(name, pose, current.motion), settings.store_path), None
+            return replace_step(steps, name, Waypoint(name, pose, current.motion), settings.store_path), None
 
         settings.store.update_program(edit)
     click.echo(f"Re-recorded {name!r}.")
@@ -255,7 +88,7 @@ def move_step(settings: Settings, name, after, before):
         raise click.UsageError("give --after M or --before M")
 
     def edit(steps):
-        step = _find(steps, name, settings.store_path)
+        step = find_step(steps, name, settings.store_path)
         rest = [s for s in steps if s is not step]
         index = insertion_index(rest, after, before, settings.store_path)
         return rest[:index] + [step] + rest[index:], None
@@ -280,12 +113,12 @@ def copy_step(settings: Settings, name, new, after, before):
     def make(steps):
         if any(step.name == new for step in steps):
             raise StoreError(f"a step named {new!r} already exists")
-        step = _find(steps, name, settings.store_path)
+        step = find_step(steps, name, settings.store_path)
         if isinstance(step, Waypoint):
             return Waypoint(new, step.pose.renamed(new), step.motion)
         return dataclasses.replace(step, name=new)
 
-    _insert(settings, make, after or (None if before else name), before)
+    add_step_at(settings, make, after or (None if before else name), before)
     click.echo(f"Copied {name!r} to {new!r}.")
 
 
@@ -320,7 +153,7 @@ def offset(settings: Settings, new, base, dx, dy, dz, rx, ry, rz, frame, move, s
         return RelativeWaypoint(new, base, (dx, dy, dz, rx, ry, rz), frame, motion,
                                 note=f"offset from {base} ({frame} frame), {utc_now_iso()}")
 
-    _insert(settings, make, after, before)
+    add_step_at(settings, make, after, before)
     click.echo(f"Added relative waypoint {new!r} ({frame} frame of {base!r}).")
 
 
@@ -357,7 +190,7 @@ def _add_action(build, prefix: str) -> None:
             raise StoreError(f"a step named {name!r} already exists")
         return build(name or next_free_name(prefix, taken))
 
-    step = _insert(settings, make, after, before)
+    step = add_step_at(settings, make, after, before)
     click.echo(f"Added {step.kind} step {step.name!r}: {describe(step)}.")
 
 
@@ -417,84 +250,3 @@ def message(text):
 # ---------------------------------------------------------------- run-poses / export-urscript of a program
 
 
-def program_part(settings: Settings, start, end):
-    """(whole program, the --from/--to part, position of its first step)."""
-    steps = settings.store.load_program()
-    if not steps:
-        raise StoreError(f"{settings.store_path} has no poses: record some with `ur3dq record-pose`")
-    part = select_range(steps, start, end)
-    return steps, part, [s.name for s in steps].index(part[0].name) + 1
-
-
-def run_program_command(settings: Settings, start, end, speed_scale, dry_run, yes, speed, acceleration, blend,
-                        replay_joints, max_travel):
-    """`run-poses` of a cell program (a version-2 store, or --from/--to/--speed-scale): plan, table, ask, run as
-    one URScript program with the running step shown. Joint speeds in rad/s (already converted from --deg)."""
-    from ur3dq.cli.background_simulator import running_simulator_host
-    from ur3dq.kinematics import robot_model
-
-    err = Console(stderr=True, highlight=False)
-    steps, part, first = program_part(settings, start, end)
-    defaults = Defaults(joint_acceleration=acceleration, joint_speed=speed, blend=blend)
-    if not (math.isfinite(speed_scale) and 0 < speed_scale <= 1):
-        raise ValueError(f"--speed-scale must be a fraction 0 < F ≤ 1, got {speed_scale!r}")
-    if dry_run and not (settings.host or running_simulator_host()):
-        first_pose = next((s.pose for s in steps if isinstance(s, Waypoint)), None)
-        model = robot_model(settings.model or (first_pose.robot_model if first_pose else "ur3"))
-        plan = plan_program(model, part, None, defaults, speed_scale, replay_joints, max_travel, resolve_from=steps)
-        _show_plan(settings, plan, first, f"Plan on a nominal {model.name} (no robot: travel from the first step)")
-        return
-    from ur3dq.program.run import run_plan
-
-    with robot_session(settings, max_joint_travel=max_travel) as robot:
-        plan = plan_program(robot.model, part, robot.joints(), defaults, speed_scale, replay_joints, max_travel,
-                            resolve_from=steps)
-        _show_plan(settings, plan, first, f"Plan on the {robot.model_name} at {robot.host}")
-        if dry_run:
-            return
-        confirm(f"Run {len(plan)} steps ({part[0].name!r} to {part[-1].name!r}) on the arm?", yes, default=False)
-        columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
-                   TimeElapsedColumn())
-        with Progress(*columns, console=err, transient=False) as progress:
-            task = progress.add_task("starting", total=len(plan))
-
-            def shown(position, step):
-                progress.update(task, description=escape(f"step {position}: {step.name} ({step.kind})"),
-                                completed=position - first)
-
-            seconds = run_plan(robot, plan, first, shown)
-            progress.update(task, completed=len(plan), description="done")
-    if settings.json:
-        emit_json({"steps": [p.step.name for p in plan], "seconds": seconds})
-    else:
-        click.echo(f"Ran {len(plan)} steps in {seconds:.2f} s.")
-
-
-def _show_plan(settings: Settings, plan, first: int, title: str) -> None:
-    console = Console(stderr=True, highlight=False) if settings.json else settings.out
-    print_table(console, title, PLAN_HEADERS, plan_rows(plan, first))
-    for planned in plan:  # say what was lowered to the model's (or the TCP's) limits
-        if planned.clamped:
-            click.echo(f"{planned.step.who}: clamped {', '.join(planned.clamped)}", err=True)
-    if settings.json:
-        emit_json({"plan": [{"step": p.step.name, "type": p.move or p.step.kind,
-                             "joints": None if p.joints is None else p.joints.tolist(), "speed": p.speed,
-                             "acceleration": p.acceleration, "blend": p.blend, "travel": p.travel,
-                             "duration": p.duration} for p in plan]})
-
-
-def export_program_text(settings: Settings, start, end, speed, acceleration, blend, speed_scale, replay_joints,
-                        max_travel) -> tuple[str, int]:
-    """(the .script text of the program or its --from/--to part on the nominal model, number of steps): the same
-    program run-poses sends."""
-    from ur3dq.kinematics import robot_model
-
-    steps, part, first = program_part(settings, start, end)
-    first_pose = next((s.pose for s in steps if isinstance(s, Waypoint)), None)
-    model = robot_model(settings.model or (first_pose.robot_model if first_pose else "ur3"))
-    defaults = Defaults(joint_acceleration=acceleration, joint_speed=speed, blend=blend)
-    plan = plan_program(model, part, None, defaults, speed_scale, replay_joints, max_travel, resolve_from=steps)
-    header = [f"ur3dq export-urscript: steps {first}..{first + len(plan) - 1} of {settings.store_path} for a "
-              f"{model.name}", f"generated {utc_now_iso()}",
-              "the first move starts wherever the arm is: check it at low speed first"]
-    return program_script(plan, header=header, first_position=first), len(plan)

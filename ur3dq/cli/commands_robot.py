@@ -8,17 +8,15 @@ from rich.console import Console
 
 from ur3dq.cli.app import Settings, cli, confirm, emit_json, one_line, robot_session
 from ur3dq.cli.background_simulator import running_simulator_host
-from ur3dq.cli.commands_check import cell_option, require_clear_path
-from ur3dq.cli.commands_program import (
-    check_waypoint_options, placement_options, record_waypoint, run_program_command, waypoint_motion_options,
-)
 from ur3dq.cli.display import (
     angles_text, count_text, key_value_table, plan_table, pose_rows, pose_vector_text, progress_bar, reached_table,
 )
 from ur3dq.cli.options import (
-    DEFAULT_ACCELERATION, DEFAULT_SPEED, angular_option, check_blend, check_max_travel, display_options, motion_options,
-    speed_and_acceleration,
+    DEFAULT_ACCELERATION, DEFAULT_SPEED, angular_option, cell_option, check_blend, check_max_travel, display_options,
+    motion_options, placement_options, speed_and_acceleration, waypoint_motion_options,
 )
+from ur3dq.cli.path_report import require_clear_path
+from ur3dq.cli.program_workflow import check_waypoint_options, record_waypoint, run_program_command
 from ur3dq.errors import RobotError, SafetyCheckError, StoreError
 from ur3dq.kinematics import robot_model
 from ur3dq.pose import next_free_name

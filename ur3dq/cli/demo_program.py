@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from rich.markup import escape
 
-from ur3dq.cli.commands_program import PLAN_HEADERS, plan_rows, print_table
+from ur3dq.cli.program_workflow import PLAN_HEADERS, plan_rows, print_table
 from ur3dq.errors import RobotError
 from ur3dq.program.steps import DigitalOut, Motion, RelativeWaypoint, Wait, Waypoint
 

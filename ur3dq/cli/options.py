@@ -9,6 +9,7 @@ import numpy as np
 from rich.console import Console
 
 from ur3dq.cli.app import Settings
+from ur3dq.program.steps import MOVE_TYPES
 
 MIN_SPEED = 1e-3           # rad/s: slower than this a move of one degree takes over 17 s; a typo, not a wish
 MIN_ACCELERATION = 1e-3    # rad/s²
@@ -131,3 +132,28 @@ def check_blend(blend: float) -> float:
     if not (math.isfinite(blend) and 0 <= blend <= MAX_BLEND_RADIUS):
         raise ValueError(f"--blend must be a radius in [0, {MAX_BLEND_RADIUS:g}] metres, got {blend!r}")
     return blend
+
+
+def placement_options(command):
+    """--after M / --before M: where a new or moved step goes (default: the end)."""
+    command = click.option("--before", metavar="M", help="Put it just before the step M.")(command)
+    return click.option("--after", metavar="M", help="Put it just after the step M.")(command)
+
+
+def waypoint_motion_options(command):
+    """--move, --speed, --acceleration, --blend of a waypoint."""
+    for option in (
+        click.option("--blend", type=float, help="Blend radius (m) into the next waypoint."),
+        click.option("--acceleration", type=float, help="rad/s² (joint) or m/s² (linear/process)."),
+        click.option("--speed", type=float, help="rad/s (joint) or m/s (linear/process); clamped when planned."),
+        click.option("--move", type=click.Choice(MOVE_TYPES), help="joint (movej), linear (movel), process (movep)."),
+    ):
+        command = option(command)
+    return command
+
+
+def cell_option(command):
+    """--cell FILE (env UR3DQ_CELL): the cell the path check keeps the arm clear of."""
+    return click.option("--cell", "cell_path", envvar="UR3DQ_CELL", type=click.Path(dir_okay=False, path_type=Path),
+                        help="Cell file (JSON: floor, keep-out boxes, keep-in box, margin, tool; env UR3DQ_CELL). "
+                             "See docs/cell-file.md.")(command)

@@ -3,7 +3,7 @@
 This is deliberately small and explicit so any plan (today's replay plan, a cell program) adapts to it in a few
 lines: one :class:`PathSegment` per move, in execution order. Action steps (I/O, waits) do not move the arm and are
 left out. Units: metres, radians, seconds; poses are TCP poses in the base frame as (8,) dual quaternions
-[rw rx ry rz dw dx dy dz] (conventions.md).
+[rw rx ry rz dw dx dy dz] (docs/conventions.md).
 """
 from __future__ import annotations
 

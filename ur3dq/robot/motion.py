@@ -1,7 +1,7 @@
 """Motion timing: the trapezoidal profile of a UR movej and the time a driver may wait for it.
 
 movej moves every joint on one synchronised trapezoidal profile led by the joint with the longest travel
-(conventions.md, "Motion facts"), so its duration is the trapezoid of the largest joint travel.
+(docs/conventions.md, "Motion facts"), so its duration is the trapezoid of the largest joint travel.
 """
 import math
 

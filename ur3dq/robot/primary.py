@@ -1,9 +1,9 @@
 """Pure parsing of the primary/secondary client interface (ports 30001/30002): bytes in, values out, no sockets.
 
-Framing (protocols.md §3.1): `int32 size` (whole message) + `uint8 type` + body, big-endian. A robot-state
+Framing (docs/protocols.md §3.1): `int32 size` (whole message) + `uint8 type` + body, big-endian. A robot-state
 message (16) is a run of sub-packages `int32 size + uint8 type + data`; a robot message (20) starts with
 `uint64 timestamp, int8 source, uint8 robot_message_type`. Layouts follow UR's primary-secondary guide as
-transcribed in protocols.md §3.3-3.4.
+transcribed in docs/protocols.md §3.3-3.4.
 """
 import struct
 from dataclasses import dataclass

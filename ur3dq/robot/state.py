@@ -1,6 +1,6 @@
 """The driver's view of the controller: one immutable snapshot, and pure decoders of the controller's codes.
 
-Enumerations follow protocols.md §1.6 (RTDE) and §3.5 (primary); both interfaces use the same robot-mode and
+Enumerations follow docs/protocols.md §1 (RTDE and primary alike); both interfaces use the same robot-mode and
 safety-mode numbers.
 """
 from dataclasses import dataclass
