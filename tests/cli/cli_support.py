@@ -85,3 +85,18 @@ class SimulatedArm:
                 return
             time.sleep(0.02)
         raise AssertionError(f"the arm is at {self.joints()}, not {list(q)}")
+
+
+@contextlib.contextmanager
+def run_poses_mid_move(arm, run_cli, tmp_path, start, target, speed):
+    """`ur3dq run-poses` (a process) moving the arm from `start` to a pose recorded at `target` at `speed` rad/s,
+    yielded once the arm clearly moves; on exit it is killed if still running."""
+    arm.place(target)
+    assert run_cli("--host", arm.host, "record-pose", "--name", "target", "--yes").returncode == 0
+    arm.place(start)
+    with cli_process(tmp_path, "--host", arm.host, "run-poses", "--yes", "--speed", str(speed)) as process:
+        deadline = time.monotonic() + 20
+        while np.max(np.abs(arm.joint_speeds())) < 0.05:
+            assert time.monotonic() < deadline and process.poll() is None, "the arm never started moving"
+            time.sleep(0.02)
+        yield process

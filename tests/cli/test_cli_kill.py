@@ -6,7 +6,7 @@ import time
 import numpy as np
 import pytest
 
-from cli_support import cli_process
+from cli_support import run_poses_mid_move
 from robot_target import simulator_only
 from ur3dq.robot.heartbeat import PERIOD, WATCHDOG_FREQUENCY
 
@@ -25,14 +25,7 @@ REST_BOUND = 1.0 / WATCHDOG_FREQUENCY + PERIOD + 0.5
 
 @pytest.mark.parametrize("signum", [signal.SIGKILL, signal.SIGSTOP], ids=["kill-9", "hung"])
 def test_the_arm_stops_by_itself_when_run_poses_dies_mid_move(arm, run_cli, tmp_path, signum):
-    arm.place(TARGET)
-    assert run_cli("--host", arm.host, "record-pose", "--name", "target", "--yes").returncode == 0
-    arm.place(START)
-    with cli_process(tmp_path, "--host", arm.host, "run-poses", "--yes", "--speed", str(SPEED)) as process:
-        deadline = time.monotonic() + 20
-        while np.max(np.abs(arm.joint_speeds())) < 0.05:  # wait until the arm is clearly moving
-            assert time.monotonic() < deadline and process.poll() is None, "the arm never started moving"
-            time.sleep(0.02)
+    with run_poses_mid_move(arm, run_cli, tmp_path, START, TARGET, SPEED) as process:
         at_kill, killed_at = arm.joints(), time.monotonic()
         process.send_signal(signum)
         while np.max(np.abs(arm.joint_speeds())) > 1e-6:  # the arm comes to rest by itself

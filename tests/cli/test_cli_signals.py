@@ -5,7 +5,7 @@ import time
 import numpy as np
 import pytest
 
-from cli_support import cli_process
+from cli_support import run_poses_mid_move
 from robot_target import simulator_only
 
 pytestmark = simulator_only("placing the arm by hand")
@@ -20,14 +20,7 @@ TRAVEL_BOUND = 0.05
 
 @pytest.mark.parametrize("signum, code", [(signal.SIGTERM, 143), (signal.SIGHUP, 129)])
 def test_a_polite_signal_mid_move_stops_the_arm(arm, run_cli, tmp_path, signum, code):
-    arm.place(TARGET)
-    assert run_cli("--host", arm.host, "record-pose", "--name", "target", "--yes").returncode == 0
-    arm.place(START)
-    with cli_process(tmp_path, "--host", arm.host, "run-poses", "--yes", "--speed", str(SPEED)) as process:
-        deadline = time.monotonic() + 20
-        while np.max(np.abs(arm.joint_speeds())) < 0.05:  # wait until the arm is clearly moving
-            assert time.monotonic() < deadline and process.poll() is None, "the arm never started moving"
-            time.sleep(0.02)
+    with run_poses_mid_move(arm, run_cli, tmp_path, START, TARGET, SPEED) as process:
         at_signal = arm.joints()
         process.send_signal(signum)
         _, stderr = process.communicate(timeout=20)
