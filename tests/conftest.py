@@ -1,7 +1,18 @@
-"""Shared fixtures: a running simulator, or the official URSim / robot named by UR3DQ_TEST_HOST."""
+"""Shared fixtures: a running simulator, or the official URSim / robot named by UR3DQ_TEST_HOST; the Hypothesis
+profile of the run."""
+import os
+
 import pytest
+from hypothesis import settings
 
 from robot_target import external_robot_host
+
+# `make test` (and CI) draws the same examples every run, so a property either holds or fails, never by luck of the
+# draw; UR3DQ_HYPOTHESIS=explore draws new ones each run, to look for counterexamples (a failure it finds becomes a
+# fixed test case or a fix).
+settings.register_profile("repeatable", derandomize=True)
+settings.register_profile("explore", derandomize=False)
+settings.load_profile(os.environ.get("UR3DQ_HYPOTHESIS", "repeatable"))
 
 
 @pytest.fixture

@@ -184,8 +184,11 @@ def test_rotation_vector_round_trip_including_near_pi(rotvec, angle):
         assert np.allclose(back, vector, atol=1e-8)
 
 
+# "Nearby": within 0.1 rad per joint. From 0.2 rad a damped Newton start lands in a local minimum of the pose error
+# about once in 1000 random cases (3 of 3000, residual 1e-2 even after 1000 steps, measured), which made this
+# property flaky; 0 of 6000 failed at 0.1 rad. movel solves from the previous sample, far closer than that.
 @settings(max_examples=50, deadline=None)
-@given(q=joints, nudge=st.lists(st.floats(-0.2, 0.2), min_size=6, max_size=6))
+@given(q=joints, nudge=st.lists(st.floats(-0.1, 0.1), min_size=6, max_size=6))
 def test_numeric_ik_returns_joints_reaching_the_pose_from_a_nearby_start(q, nudge):
     model = robot_model("ur3")
     tcp = np.array([0, 0, 0.1, 0, 0, 0])
