@@ -15,12 +15,13 @@ pytestmark = [simulator_only("placing the arm by hand"), pytest.mark.exclusive]
 START = np.array([0.8, -1.0, 1.3, -1.9, -1.57, 0.5])
 TARGET = np.array([0.0, -1.2, 1.0, -1.4, -1.57, 0.0])
 SPEED = 0.15  # rad/s: the move takes ~5 s, so the kill surely lands mid-move
-# The controller stops the program 1/WATCHDOG_FREQUENCY (0.1 s) after the last heartbeat, at most one PERIOD before
-# the kill: ≤ 0.11 s at SPEED is 0.017 rad, and the stop's deceleration adds ~0.01. Without the heartbeat the arm
-# runs on to the target, ~0.8 rad away.
-TRAVEL_BOUND = 0.05
-# From the kill to the arm at rest: the watchdog period, the simulator's check interval and the deceleration.
-REST_BOUND = 1.0 / WATCHDOG_FREQUENCY + PERIOD + 0.5
+# The controller stops the program 1/WATCHDOG_FREQUENCY after the last heartbeat, at most one PERIOD before the kill;
+# the simulator checks every 5 ms and the stop decelerates over ~0.01 rad. Without the heartbeat the arm runs on to
+# the target, ~0.8 rad away.
+DETECTION = 1.0 / WATCHDOG_FREQUENCY + PERIOD + 0.005
+TRAVEL_BOUND = SPEED * DETECTION + 0.02
+# From the kill to the arm at rest: the detection and the deceleration (well under 0.5 s from SPEED).
+REST_BOUND = DETECTION + 0.5
 
 
 @pytest.mark.parametrize("signum", [signal.SIGKILL, signal.SIGSTOP], ids=["kill-9", "hung"])

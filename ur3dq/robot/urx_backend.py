@@ -126,9 +126,19 @@ class _URRobot(URRobot):
         self.secmon = _QuietSecondaryMonitor(host)
 
 
+#: Attempts at urx's connection: urx gives the controller a fixed 0.5 s for its first state packet, which a loaded
+#: machine (or controller) can miss once; a refused or unreachable port is not retried.
+URX_CONNECT_ATTEMPTS = 3
+
+
 def _open_urx(host):
     """A connected urx URRobot, or RobotConnectionError."""
-    try:
-        return _URRobot(host)
-    except (OSError, urx.ursecmon.TimeoutException) as error:
-        raise RobotConnectionError(f"urx cannot connect to {host}:30002: {error}") from None
+    for attempt in range(URX_CONNECT_ATTEMPTS):
+        try:
+            return _URRobot(host)
+        except urx.ursecmon.TimeoutException as error:
+            if attempt + 1 == URX_CONNECT_ATTEMPTS:
+                raise RobotConnectionError(f"urx cannot connect to {host}:30002: {error} "
+                                           f"({URX_CONNECT_ATTEMPTS} attempts)") from None
+        except OSError as error:
+            raise RobotConnectionError(f"urx cannot connect to {host}:30002: {error}") from None
