@@ -158,6 +158,10 @@ def urscript_move(segment) -> str:
     return f"  movel(p[{x!r}, {y!r}, {z!r}, {rx!r}, {ry!r}, {rz!r}], a=1.2, v={segment.speed})\n"
 
 
+# Exclusive (run alone after the parallel pass): six programs on one simulator, each waited for up to 20 s; under the
+# parallel pass's load one program in ~300 did not start in a fresh-clone run (the retry passed), so timing is
+# measured here, not behaviour.
+@pytest.mark.exclusive
 @settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(st.lists(st.one_of(
     st.tuples(st.just("linear"), st.tuples(*[st.floats(-0.08, 0.08)] * 3)),
