@@ -2,6 +2,7 @@
 then movej) goes to a sim_ursim process on its secondary port; ur_rtde's RTDE receive interface records the TCP
 and the joints while it runs; every recorded point must lie within the check's sampling tolerance of its samples,
 the arm must end on the joints the check predicted (same IK branch), and no protective stop may occur."""
+import contextlib
 import math
 import socket
 import time
@@ -41,12 +42,11 @@ def dashboard(host, *commands):
             reader.readline()
 
 
-@pytest.fixture
-def arm(request):
-    """(host, RTDE receiver) of a powered simulated UR3 starting at START (or the joints of an indirect parameter)."""
+@contextlib.contextmanager
+def running_arm(initial_q):
+    """(host, RTDE receiver) of a simulated UR3 process at `initial_q`, powered and RUNNING."""
     from sim_ursim.launch import simulator_process
 
-    initial_q = [float(v) for v in getattr(request, "param", START)]
     with simulator_process(model="ur3", initial_q=initial_q) as process:
         dashboard(process.host, "power on", "brake release")
         receiver = rtde_receive.RTDEReceiveInterface(process.host)
@@ -55,6 +55,13 @@ def arm(request):
             yield process.host, receiver
         finally:
             receiver.disconnect()
+
+
+@pytest.fixture
+def arm(request):
+    """(host, RTDE receiver) of a powered simulated UR3 starting at START (or the joints of an indirect parameter)."""
+    with running_arm([float(v) for v in getattr(request, "param", START)]) as arm:
+        yield arm
 
 
 def test_the_sampled_path_is_the_path_the_simulator_reports_over_rtde(arm):
@@ -139,16 +146,8 @@ def test_a_line_refused_for_the_wrist_singularity_is_one_the_simulator_stops(arm
 @pytest.fixture(scope="module")
 def shared_arm():
     """One simulated UR3 for the property test's examples (each starts where the previous one ended)."""
-    from sim_ursim.launch import simulator_process
-
-    with simulator_process(model="ur3", initial_q=START) as process:
-        dashboard(process.host, "power on", "brake release")
-        receiver = rtde_receive.RTDEReceiveInterface(process.host)
-        try:
-            assert wait_for(lambda: receiver.getRobotMode() == 7, timeout=10), "the simulator never got RUNNING"
-            yield process.host, receiver
-        finally:
-            receiver.disconnect()
+    with running_arm(START) as arm:
+        yield arm
 
 
 def urscript_move(segment) -> str:
