@@ -45,6 +45,17 @@ def assert_one_line_error(result, code, *fragments):
         assert fragment in errors[0], (fragment, errors[0])
 
 
+def assert_fits_with_every_name_whole(text, width, names):
+    """Every line of `text` fits `width` columns, nothing was cut with rich's ellipsis, and every name appears whole
+    on one line."""
+    lines = text.splitlines()
+    too_long = [line for line in lines if len(line.rstrip()) > width]
+    assert not too_long, "\n".join(too_long)
+    assert "…" not in text, text
+    for name in names:
+        assert any(name in line for line in lines), (name, text)
+
+
 class SimulatedArm:
     """A sim_ursim subprocess, powered on with brakes released, read and placed through independent clients:
     ur_rtde's RTDE receive interface reads it, the simulator's control channel moves it by hand."""

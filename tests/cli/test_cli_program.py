@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 from rich.console import Console
 
-from cli_support import assert_one_line_error
-from ur3dq.cli.program_workflow import PLAN_HEADERS, plan_rows, print_table
+from cli_support import assert_fits_with_every_name_whole, assert_one_line_error
+from ur3dq.cli.program_workflow import PLAN_COLUMNS, plan_rows, print_table
 from ur3dq.kinematics import robot_model
 from ur3dq.program.plan import plan_program
 from ur3dq.store import PoseStore
@@ -152,12 +152,8 @@ def test_plan_table_fits_80_columns_and_keeps_every_name():
         Message("a-very-long-step-name-that-must-wrap-but-never-vanish", "x" * 120)]
     plan = plan_program(robot_model("ur3"), steps)
     console = Console(width=80, record=True)
-    print_table(console, "plan", PLAN_HEADERS, plan_rows(plan, 1))
-    text = console.export_text()
-    assert max(len(line) for line in text.splitlines()) <= 80
-    name_column = "".join(line.split("│")[2].strip() for line in text.splitlines() if line.count("│") > 2)
-    for step in steps:
-        assert step.name in name_column
+    print_table(console, "plan", PLAN_COLUMNS, plan_rows(plan, 1))
+    assert_fits_with_every_name_whole(console.export_text(), 80, [step.name for step in steps])
 
 
 def test_plot_failure_names_the_file_and_leaves_no_empty_png(run_in_process, v1_store, tmp_path):
@@ -195,11 +191,7 @@ def test_the_v1_replay_plan_table_fits_80_columns_with_every_pose_name():
     steps = plan_replay(robot_model("ur3"), PoseStore(EXAMPLE).load(), None)
     console = Console(width=80, record=True)
     console.print(plan_table(steps, False, "Plan", 80))
-    text = console.export_text()
-    assert max(len(line) for line in text.splitlines()) <= 80
-    name_column = "".join(line.split("│")[2].strip() for line in text.splitlines() if line.count("│") > 2)
-    for step in steps:
-        assert step.pose.name in name_column
+    assert_fits_with_every_name_whole(console.export_text(), 80, [step.pose.name for step in steps])
 
 
 def test_speed_scale_scales_every_step_and_refuses_nonsense(run_in_process, v1_store):

@@ -134,3 +134,18 @@ def test_counts_take_the_right_number():
     assert display.count_text(1, "pose") == "1 pose"   # "Recorded 1 poses" (issue 14 item 12)
     assert display.count_text(0, "pose") == "0 poses"
     assert display.count_text(2, "pose") == "2 poses"
+
+
+@pytest.mark.parametrize("line, shown", [
+    ("RTDEReceiveInterface boost system Exception: (asio.misc:2) End of file", "dropped"),
+    ("RTDEControlInterface: Lost connection to robot...", "dropped"),
+    ("RTDEIOInterface: realtime kernel not found, consider using a realtime kernel for better performance", None),
+    ("Reconnecting...", None),
+    ("Warning! isInRemoteControl() function is not supported on the dashboard server", None),
+    ("Error: pose store unreadable", "Error: pose store unreadable"),  # not ur_rtde's: passes unchanged
+    ("a line of a user's own tool", "a line of a user's own tool"),
+])
+def test_ur_rtde_console_lines_become_ur3dq_words_and_others_pass(line, shown):
+    from ur3dq.cli.library_output import DROPPED_NOTE, translated
+
+    assert translated(line) == (DROPPED_NOTE if shown == "dropped" else shown)

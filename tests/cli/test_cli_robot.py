@@ -115,12 +115,14 @@ def test_teach_records_each_enter_and_ends_freedrive(arm, tmp_path):
         assert "Freedrive is on" in process.stderr.readline()
         process.stdin.write("\n")
         process.stdin.flush()
-        assert "recorded 't-1'" in process.stderr.readline()
+        assert "recorded 't-1':" in process.stderr.readline()
+        assert process.stderr.readline().startswith("  p[")  # the pose vector, on a line of its own
         assert send_request(arm.host, "move-by-hand", q=list(PLACES[1]))["ok"]  # the operator moves the arm
         arm.wait_until_at(PLACES[1])
         process.stdin.write("station\n")
         process.stdin.flush()
-        assert "recorded 'station'" in process.stderr.readline()
+        assert "recorded 'station':" in process.stderr.readline()
+        assert process.stderr.readline().startswith("  p[")  # the pose vector, on a line of its own
         process.stdin.write("station\n")  # a taken name is refused, and teaching goes on
         process.stdin.flush()
         assert "not recorded: a pose named 'station' already exists" in process.stderr.readline()

@@ -56,9 +56,31 @@ def test_freedrive_ended_by_another_program_is_reported_and_recoverable(own_arm,
         assert "Freedrive is on again" in process.stderr.readline()
         process.stdin.write("\n")
         process.stdin.flush()
-        assert "recorded 't-1'" in process.stderr.readline()
+        assert "recorded 't-1':" in process.stderr.readline()
+        assert process.stderr.readline().startswith("  p[")  # the pose vector, on a line of its own
         process.stdin.write("q\n")
         process.stdin.flush()
         stdout, stderr = process.communicate(timeout=20)
     assert process.returncode == 0, stderr
     assert "Recorded 1 pose in" in stdout
+
+
+def test_a_dropped_connection_shows_ur3dqs_own_words_not_ur_rtdes(own_arm, tmp_path):
+    """Issue 14 item 7: ur_rtde prints `RTDEReceiveInterface boost system Exception: ...` from its own thread
+    when the controller drops the connection; the teach screen shows ur3dq's note instead, and goes on."""
+    from sim_ursim.control_channel import send_request
+
+    arm = own_arm
+    with cli_process(tmp_path, "--host", arm.host, "record-pose", "--teach", "--name", "t",
+                     stdin=subprocess.PIPE) as process:
+        assert "Freedrive is on" in process.stderr.readline()
+        assert send_request(arm.host, "drop-connections")["ok"]
+        assert "note: the connection to the controller dropped" in process.stderr.readline()
+        assert wait_for(lambda: arm.receive.isConnected() or arm.receive.reconnect(), timeout=10)
+        assert wait_for(lambda: arm.receive.getRobotMode() == 7, timeout=10)
+        process.stdin.write("q\n")
+        process.stdin.flush()
+        stdout, stderr = process.communicate(timeout=20)
+    assert process.returncode in (0, 6), stderr  # freedrive may have ended with the dropped program: said in words
+    for foreign in ("RTDE", "boost", "Exception", "asio"):
+        assert foreign not in stderr + stdout, stderr

@@ -13,6 +13,7 @@ import click
 from rich.console import Console
 
 from ur3dq.cli.background_simulator import SimulatorError, running_simulator_host
+from ur3dq.cli.library_output import own_output
 from ur3dq.cli.signals import exit_code_for_interrupt, polite_signals_interrupt, signal_name
 from ur3dq.errors import RobotConnectionError, RobotError, SafetyCheckError, StoreError, UR3DQError
 from ur3dq.kinematics import MODEL_NAMES
@@ -245,13 +246,15 @@ def robot_session(settings: Settings, **options):
     host = settings.host or running_simulator_host()
     if not host:
         raise RobotConnectionError(NO_ROBOT_HINT)
-    try:
-        robot = connect(host, backend=settings.backend, model=settings.model, **options)
-    except OSError as error:
-        raise RobotConnectionError(f"cannot reach a UR controller at {host}: {error.strerror or error}; check --host "
-                                   "or UR3DQ_HOST, or start the embedded simulator with `ur3dq sim start`") from None
-    with robot:
-        yield robot
+    with own_output():
+        try:
+            robot = connect(host, backend=settings.backend, model=settings.model, **options)
+        except OSError as error:
+            raise RobotConnectionError(f"cannot reach a UR controller at {host}: {error.strerror or error}; check "
+                                       "--host or UR3DQ_HOST, or start the embedded simulator with `ur3dq sim start`"
+                                       ) from None
+        with robot:
+            yield robot
 
 
 # Command groups that several command modules add to (a command module never imports another).

@@ -8,7 +8,7 @@ import numpy as np
 
 from ur3dq.cli.app import Settings, cli, emit_json
 from ur3dq.cli.display import (
-    angles_text, coefficients_text, distance_text, joint_solutions_table, key_value_table, pose_vector_text,
+    NARROW_WIDTH, Column, angles_text, coefficients_text, distance_text, joint_solutions_table, key_value_table, pose_vector_text,
 )
 from ur3dq.cli.options import NUMBERS_CONTEXT, display_options, ur_pose_from_input
 from ur3dq.dualquat import DualQuaternion
@@ -142,18 +142,19 @@ def ik(settings: Settings, values, pose_name, tcp, near):
                    "reference": None if reference is None else reference.tolist(),
                    "chosen": None if chosen is None else chosen.tolist()})
         return
-    extra = [("FK error", [distance_text(m, r) for m, r in errors])]
+    extra = [(Column("FK error", justify="right", drop_order=1), [distance_text(m, r) for m, r in errors])]
     sent = solutions
     if reference is not None:
         # the travel of what would really be sent: each solution's ±2π variant nearest the reference
         sent = [nearest_variant(model, [q], reference) if np.all(np.isfinite(q)) else q for q in solutions]
         travels = [motion.leading_travel(reference, q) for q in sent]
-        extra.append(("travel from ref", [f"{math.degrees(t):.1f}°" if settings.deg else f"{t:.4f}"
-                                          for t in travels]))
-        extra.append(("chosen", ["◀" if chosen is not None and np.allclose(q, chosen, atol=1e-9) else ""
-                                 for q in sent]))
+        extra.append((Column("travel from ref", narrow_header="travel", justify="right", drop_order=2),
+                      [f"{math.degrees(t):.1f}°" if settings.deg else f"{t:.4f}" for t in travels]))
+        extra.append((Column("chosen", narrow_header="◀"), ["◀" if chosen is not None and
+                                                            np.allclose(q, chosen, atol=1e-9) else "" for q in sent]))
     settings.out.print(joint_solutions_table(
-        f"{len(solutions)} IK solutions on the {model.name} for {pose_vector_text(target.to_ur_pose(), settings.deg)}",
-        sent if reference is not None else solutions, settings.deg, extra))
+        f"{len(solutions)} IK solutions on the {model.name} for" + (" " if settings.out.width >= NARROW_WIDTH else "\n")
+        + pose_vector_text(target.to_ur_pose(), settings.deg),
+        sent if reference is not None else solutions, settings.deg, extra, settings.out.width))
     if chosen is not None:
-        settings.out.print(f"Closest to the reference (◀, what a replay moves to): {angles_text(chosen, settings.deg)}")
+        settings.out.print(f"Closest to the reference (◀, what a replay moves to):\n  {angles_text(chosen, settings.deg)}")

@@ -5,14 +5,14 @@ from pathlib import Path
 
 import click
 from rich.markup import escape
-from rich.table import Table
 from rich.text import Text
 
 from ur3dq.cli.app import Settings, confirm, emit_json, emit_json_list, poses
 from ur3dq.cli.options import NUMBERS_CONTEXT, display_options, ur_pose_from_input
 from ur3dq.cli.program_workflow import list_program
 from ur3dq.cli.display import (
-    NARROW_WIDTH, angles_text, coefficients_text, compact_pose_text, count_text, key_value_table, pose_vector_text,
+    NARROW_WIDTH, Column, angles_text, coefficients_text, compact_pose_text, count_text, fitted_table,
+    key_value_table, pose_vector_text,
 )
 from ur3dq.errors import StoreError
 from ur3dq.store import format_store, format_thesis_lines, parse_store, pose_to_dict, write_atomically
@@ -45,17 +45,17 @@ def list_poses(settings: Settings):
         click.echo("\n".join([title, "\t".join(headers), *("\t".join(row) for row in rows)]))
         return
     settings.out.print(Text(title, no_wrap=True, overflow="ignore"))   # unwrapped: a table's title would cut the path
-    table = Table()
-    for header in headers:
-        table.add_column(header, overflow="fold", no_wrap=header in ("#", "name"))  # a name is never cut
-    for index, pose in enumerate(stored, start=1):
-        # narrow: the time to the minute, the pose vector's numbers compact so they wrap between values; user text
-        # (names, notes) is shown as typed, never read as rich markup
-        table.add_row(str(index), escape(pose.name), pose.time[:16].replace("T", " ") if narrow else pose.time,
-                      escape(pose.robot_model), compact_pose_text(pose.ur_pose, settings.deg) if narrow
-                      else pose_vector_text(pose.ur_pose, settings.deg), "yes" if pose.joints is not None else "no",
-                      escape(pose.note))
-    settings.out.print(table)
+    columns = [Column("#", justify="right", no_wrap=True), Column("name", no_wrap=True),  # a name is never cut
+               Column("recorded (UTC)", narrow_header="recorded", drop_order=2), Column("model", drop_order=3),
+               Column("TCP pose", min_width=len(compact_pose_text([-0.9999] * 3, False)) if narrow else None),
+               Column("joints", drop_order=1), Column("note", drop_order=4)]
+    # narrow: the time to the minute, the pose vector's numbers compact so they wrap between values; user text
+    # (names, notes) is shown as typed, never read as rich markup
+    rows = [[str(index), escape(pose.name), pose.time[:16].replace("T", " ") if narrow else pose.time,
+             escape(pose.robot_model), compact_pose_text(pose.ur_pose, settings.deg) if narrow
+             else pose_vector_text(pose.ur_pose, settings.deg), "yes" if pose.joints is not None else "no",
+             escape(pose.note)] for index, pose in enumerate(stored, start=1)]
+    settings.out.print(fitted_table(None, columns, rows, settings.out.width))
 
 
 @poses.command()

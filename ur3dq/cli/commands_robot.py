@@ -149,7 +149,7 @@ def _teach(settings: Settings, robot, prefix: str, note: str) -> None:
                 err.print(f"not recorded: {one_line(error)}; Enter tries again, q ends")
                 continue
             recorded.append(stored.name)
-            err.print(f"recorded {stored.name!r}: {pose_vector_text(stored.ur_pose, settings.deg)}")
+            err.print(f"recorded {stored.name!r}:\n  {pose_vector_text(stored.ur_pose, settings.deg)}")
     finally:
         if robot.freedrive_active():
             robot.teach_mode(False)
@@ -244,7 +244,8 @@ def run_poses(settings: Settings, names, dry_run, yes, speed, acceleration, blen
              "target_ur_pose": r.target.to_ur_pose().tolist(), "target_from_recorded_m": r.target_off_m}
             for r in results]})
     else:
-        settings.out.print(reached_table(results, "Where the arm ended (reported TCP vs where it was aimed)"))
+        settings.out.print(reached_table(results, "Where the arm ended (reported TCP vs where it was aimed)",
+                                          settings.out.width))
 
 
 def _for_the_current_tcp(poses, tcp_now, choice, replay_joints: bool, err: Console):

@@ -15,6 +15,7 @@ from ur3dq.cli.app import EXIT_NOT_REACHED, Settings, cli, emit_json
 from ur3dq.cli.background_simulator import SimulatorError, read_state, start_simulator, state_directory, stop_simulator
 from ur3dq.cli.demo_program import run_pick_and_place
 from ur3dq.cli.display import angles_text, plan_table, pose_vector_text, progress_bar, reached_table
+from ur3dq.cli.library_output import own_output
 from ur3dq.cli.options import angular_option, display_options, speed_and_acceleration
 from ur3dq.replay import execute_plan, plan_replay, read_pose
 from ur3dq.store import PoseStore
@@ -71,8 +72,8 @@ def sim_start(settings: Settings, address, software_version, powered_off):
     if settings.json:
         emit_json(state)
     else:
-        click.echo(f"Simulated {state['model']} serving on {state['host']} (pid {state['pid']}, log {state['log']}).")
-        click.echo(f"Robot commands now use it; or point other tools at it: export UR3DQ_HOST={state['host']}")
+        click.echo(f"Simulated {state['model']} serving on {state['host']} (pid {state['pid']})\n  log {state['log']}")
+        click.echo(f"Robot commands now use it. For other tools, copy:\n  export UR3DQ_HOST={state['host']}")
 
 
 @sim.command("stop")
@@ -98,8 +99,8 @@ def sim_status(settings: Settings):
     if settings.json:
         emit_json({"running": state is not None, **(state or {})})
     elif state:
-        click.echo(f"Running: simulated {state['model']} on {state['host']} (pid {state['pid']}, since "
-                   f"{state['started']}, log {state['log']}).")
+        click.echo(f"Running: simulated {state['model']} on {state['host']} (pid {state['pid']})\n"
+                   f"  since {state['started']}\n  log {state['log']}")
     else:
         click.echo("Not running (start it with `ur3dq sim start`).")
 
@@ -141,6 +142,7 @@ def demo(settings: Settings, save, speed, acceleration, tolerance_mm, tolerance_
             simulator = stack.enter_context(simulator_process(model=model_name))
         except (RuntimeError, TimeoutError) as error:
             raise SimulatorError(f"the embedded simulator did not start: {error}") from None
+        stack.enter_context(own_output())
         with connect(simulator.host, model=model_name) as robot:
             say(f"   serving on {simulator.host}; powering on and releasing the brakes")
             robot.power_on()
@@ -176,7 +178,7 @@ def demo(settings: Settings, save, speed, acceleration, tolerance_mm, tolerance_
         emit_json({"reached": [{"pose": r.step.pose.name, "error_m": r.error_m, "error_rad": r.error_rad}
                                for r in results], "missed": [r.step.pose.name for r in missed]})
     else:
-        say(reached_table(results, "6. Where the arm ended vs where each pose was recorded"))
+        say(reached_table(results, "6. Where the arm ended vs where each pose was recorded", settings.out.width))
     if missed:
         click.echo(f"Error: {len(missed)} of {len(results)} poses missed the tolerance of {tolerance_mm} mm / "
                    f"{tolerance_deg}°: {', '.join(r.step.pose.name for r in missed)}", err=True)

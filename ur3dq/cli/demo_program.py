@@ -2,9 +2,10 @@
 program (approach above the part, a linear descent, close the gripper, wait, a linear retract, place, open)."""
 from __future__ import annotations
 
+from rich.console import Console
 from rich.markup import escape
 
-from ur3dq.cli.program_workflow import PLAN_HEADERS, plan_rows, print_table
+from ur3dq.cli.program_workflow import PLAN_COLUMNS, plan_rows, print_table
 from ur3dq.errors import RobotError
 from ur3dq.program.steps import DigitalOut, Motion, RelativeWaypoint, Wait, Waypoint
 
@@ -42,7 +43,7 @@ def run_pick_and_place(robot, store, program_store, pick: str, place: str, say) 
         console_print(escape(f"   step {position}: {step.name} ({step.kind})"))
 
     plan, seconds = robot.run_program(steps, progress=progress)
-    print_table(_Printer(say), "Pick-and-place plan (one URScript program)", PLAN_HEADERS, plan_rows(plan, 1))
+    print_table(_Printer(say), "Pick-and-place plan (one URScript program)", PLAN_COLUMNS, plan_rows(plan, 1))
     error_m, _ = robot.tcp_pose().distance(plan[-2].pose)
     if error_m > 5e-4:
         raise RobotError(f"the pick-and-place ended {error_m * 1000:.2f} mm from {place!r}")
@@ -51,7 +52,8 @@ def run_pick_and_place(robot, store, program_store, pick: str, place: str, say) 
 
 
 class _Printer:
-    """A console-like wrapper so print_table can print through the demo's `say`."""
+    """A console-like wrapper so print_table can print through the demo's `say` (at the terminal's width)."""
 
     def __init__(self, say):
         self.print = say
+        self.width = Console().width

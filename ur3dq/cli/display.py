@@ -2,12 +2,16 @@
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import math
 
+from rich import box
 from rich.console import Console
 from rich.markup import escape  # user text (pose names) is shown as typed, never read as markup
+from rich.measure import Measurement
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
+from rich.text import Text
 
 JOINT_LABELS = ("base", "shoulder", "elbow", "wrist 1", "wrist 2", "wrist 3")
 
@@ -49,27 +53,150 @@ def unit_label(deg: bool) -> str:
     return "deg" if deg else "rad"
 
 
+class VectorCell:
+    """A bracketed 6-number text (joints, a UR pose vector) that, when its cell is too narrow for one line, breaks
+    between its halves (x y z | rx ry rz, base-shoulder-elbow | wrists) instead of wherever the width ends."""
+
+    def __init__(self, text: str):
+        parts = text.split(", ")
+        self.one_line = text
+        self.halves = text if len(parts) != 6 else ", ".join(parts[:3]) + ",\n" + ", ".join(parts[3:])
+
+    def __rich_console__(self, console, options):
+        fits = len(self.one_line) <= options.max_width
+        yield Text(self.one_line if fits else self.halves, overflow="fold")
+
+    def __rich_measure__(self, console, options):
+        return Measurement(max(len(line) for line in self.halves.splitlines()), len(self.one_line))
+
+
 def key_value_table(title: str, rows) -> Table:
-    """A two-column table of (label, value) rows."""
+    """A two-column table of (label, value) rows; a 6-number value breaks between its halves when narrow."""
     table = Table(title=title, show_header=False, title_justify="left")
-    table.add_column("what", style="bold")
+    table.add_column("what", style="bold", no_wrap=True)
     table.add_column("value", overflow="fold")
     for label, value in rows:
-        table.add_row(label, value)
+        table.add_row(label, VectorCell(value) if value.count(", ") == 5 and value.endswith("]") else value)
     return table
 
 
-def joint_solutions_table(title: str, solutions, deg: bool, extra_columns=()) -> Table:
-    """A table with one row per joint vector; `extra_columns` = [(header, [text per row])]."""
-    table = Table(title=title, title_justify="left")
-    table.add_column("#", justify="right")
-    for label in JOINT_LABELS:
-        table.add_column(f"{label} ({unit_label(deg)})", justify="right")
-    for header, _ in extra_columns:
-        table.add_column(header, justify="right")
+@dataclasses.dataclass(frozen=True)
+class Column:
+    """A column of `fitted_table`: its header (and a shorter one for narrow terminals), how its cells align, whether
+    they may wrap between words, and when it is left out on a narrow terminal (1 = first; None = never)."""
+
+    header: str
+    narrow_header: str | None = None
+    justify: str = "left"
+    no_wrap: bool = False
+    drop_order: int | None = None
+    min_width: int | None = None
+
+
+def fitted_table(title: str | None, columns, rows, width: int | None) -> Table:
+    """A rich table of `rows` (lists of cells, one per Column) that reads at `width` columns (None: unlimited).
+
+    Below NARROW_WIDTH it is drawn without vertical rules and with the narrow headers; columns are then left out
+    in their drop_order while the table's narrowest layout (every word whole) is still wider than `width`, and a
+    caption names what was left out. The space left is shared out by ur3dq, not rich, whose squeezing can cut a
+    short column to nothing. A no-wrap column (names) keeps every cell whole on one line, unless even the table of
+    its never-dropped columns is too wide: then its cells fold over lines, but are never cut.
+    """
+    narrow = width is not None and width < NARROW_WIDTH
+    kept = list(range(len(columns)))
+    while True:
+        shown, cells = [columns[i] for i in kept], [[row[i] for i in kept] for row in rows]
+        droppable = [i for i in kept if columns[i].drop_order is not None]
+        if width is None or not droppable or _table_width(_column_widths(shown, cells, narrow, 0), narrow) <= width:
+            break
+        kept.remove(min(droppable, key=lambda i: columns[i].drop_order))
+    if width is not None and _table_width(_column_widths(shown, cells, narrow, 0), narrow) > width:
+        # only the never-dropped columns are left and a name alone is longer than the room: it folds, whole
+        shown = [dataclasses.replace(column, no_wrap=False) for column in shown]
+    widths = None
+    if width is not None and _table_width(_column_widths(shown, cells, narrow, 1), narrow) > width:
+        widths = _shared_widths(_column_widths(shown, cells, narrow, 0), _column_widths(shown, cells, narrow, 1),
+                                width - _table_width([0] * len(shown), narrow))
+    table = _table(title, shown, cells, narrow, widths)
+    left_out = [columns[i].header for i in range(len(columns)) if i not in kept]
+    if left_out:
+        table.caption = f"not shown at {width} columns: {', '.join(left_out)}"
+        table.caption_justify = "left"
+    return table
+
+
+def _table(title, columns, rows, narrow: bool, widths) -> Table:
+    table = Table(title=title, title_justify="left", box=box.SIMPLE_HEAD if narrow else box.HEAVY_HEAD,
+                  show_edge=not narrow, pad_edge=not narrow, collapse_padding=narrow)
+    for index, column in enumerate(columns):
+        table.add_column(_header(column, narrow), justify=column.justify, no_wrap=column.no_wrap, overflow="fold",
+                         min_width=column.min_width, width=None if widths is None else widths[index])
+    for row in rows:
+        table.add_row(*row)
+    return table
+
+
+def _header(column: Column, narrow: bool) -> str:
+    return column.narrow_header if narrow and column.narrow_header else column.header
+
+
+def _table_width(column_widths, narrow: bool) -> int:
+    """The drawn width of columns this wide: two spaces between narrow columns; rules, padding and edges else."""
+    count = len(column_widths)
+    return sum(column_widths) + (2 * (count - 1) if narrow else 3 * (count - 1) + 4)
+
+
+def _column_widths(columns, rows, narrow: bool, widest: int) -> list[int]:
+    """Each column's narrowest width that cuts no word (`widest` 0) or its natural width (`widest` 1)."""
+    widths = []
+    for index, column in enumerate(columns):
+        cells = [_header(column, narrow), *(row[index] for row in rows)]
+        widths.append(max([column.min_width or 0, *(_cell_widths(cell, column.no_wrap)[widest] for cell in cells)]))
+    return widths
+
+
+def _cell_widths(cell, no_wrap: bool) -> tuple[int, int]:
+    """(longest unbreakable piece, longest line) of a cell: a str with rich markup, or a VectorCell."""
+    if isinstance(cell, VectorCell):
+        return max(len(line) for line in cell.halves.splitlines()), len(cell.one_line)
+    lines = Text.from_markup(cell).plain.splitlines() or [""]
+    longest = max(len(line) for line in lines)
+    return (longest if no_wrap else max(len(word) for line in lines for word in line.split() or [""])), longest
+
+
+def _shared_widths(minimum, natural, room: int) -> list[int]:
+    """Column widths within `room`: every column its minimum, the rest shared in proportion to what each still
+    wants, never beyond its natural width; when the minimums do not fit, the widest column gives up the excess."""
+    spare, wanted = room - sum(minimum), [n - m for m, n in zip(minimum, natural)]
+    if spare < 0:  # a folding name wider than the room: it gives up the excess (its cells fold, whole)
+        widest = max(range(len(minimum)), key=lambda i: minimum[i])
+        return [max(8, m + spare) if i == widest else m for i, m in enumerate(minimum)]
+    if not sum(wanted):
+        return list(minimum)
+    widths = [m + w * spare // sum(wanted) for m, w in zip(minimum, wanted)]
+    for index in sorted(range(len(widths)), key=lambda i: natural[i] - widths[i], reverse=True):  # rounding left
+        if sum(widths) < room and widths[index] < natural[index]:
+            widths[index] += 1
+    return widths
+
+
+def joint_solutions_table(title: str, solutions, deg: bool, extra_columns=(), width: int | None = None) -> Table:
+    """A table with one row per joint vector; `extra_columns` = [(Column, [text per row])]. Narrower than
+    NARROW_WIDTH the angles have 4 decimals (2 in degrees) so the six joints fit 80 columns."""
+    narrow = width is not None and width < NARROW_WIDTH
+    unit = unit_label(deg)
+    columns = [Column("#", justify="right")]
+    columns += [Column(f"{label} ({unit})", narrow_header=label, justify="right") for label in JOINT_LABELS]
+    columns += [column for column, _ in extra_columns]
+    rows = []
     for index, q in enumerate(solutions):
-        cells = [angle_text(float(v), deg) for v in q] + [values[index] for _, values in extra_columns]
-        table.add_row(str(index + 1), *cells)
+        angles = [(f"{math.degrees(float(v)):.2f}" if deg else f"{float(v):.4f}") if narrow
+                  else angle_text(float(v), deg) for v in q]
+        rows.append([str(index + 1), *angles, *(values[index] for _, values in extra_columns)])
+    table = fitted_table(title, columns, rows, width)
+    if narrow:  # the unit leaves the headers for the caption
+        table.caption = "; ".join(filter(None, [f"joints in {unit}", table.caption]))
+        table.caption_justify = "left"
     return table
 
 
@@ -101,37 +228,45 @@ def compact_pose_text(pose, deg: bool) -> str:
 
 def plan_table(steps, deg: bool, title: str, width: int | None = None) -> Table:
     """The replay plan (ur3dq.replay.PlanStep list): chosen joints, how they were chosen, travel, time, FK residual.
-    Narrower than NARROW_WIDTH columns, the numbers are compact and wrap; the pose name is never cut."""
+    Narrower than NARROW_WIDTH columns, the joints are compact and wrap three per line, and the FK check, the time
+    and how the joints were chosen are left out in that order while the table would not fit; the pose name is
+    never cut."""
     narrow = width is not None and width < NARROW_WIDTH
-    table = Table(title=title, title_justify="left")
-    for header in ("#", "pose", "joints", "chosen by", "travel", "time", "FK check"):
-        table.add_column(header, overflow="fold", no_wrap=header in ("pose", "#") or (header == "joints"
-                                                                                         and not narrow))
+    unit = unit_label(deg)
+    joints_width = len(compact_angles_text([-3.14159] * 3, deg)) if narrow else None
+    columns = [Column("#", justify="right", no_wrap=True), Column("pose", no_wrap=True),
+               Column(f"joints ({unit})", min_width=joints_width), Column("chosen by", drop_order=3),
+               Column("travel", justify="right", no_wrap=True, drop_order=4),
+               Column("time", justify="right", no_wrap=True, drop_order=2),
+               Column("FK check", drop_order=1)]
+    rows = []
     for index, step in enumerate(steps, start=1):
-        travel = "—" if step.travel is None else angle_text(step.travel, deg)
-        seconds = "—" if step.duration is None else f"{step.duration:.2f} s"
-        source = step.source + (f" (of {step.solutions})" if step.solutions else "")
-        joints = compact_angles_text(step.joints, deg) if narrow else angles_text(step.joints, deg)
         if narrow:
+            joints = compact_angles_text(step.joints, deg)
             travel = "—" if step.travel is None else (f"{math.degrees(step.travel):.1f}°" if deg
                                                       else f"{step.travel:.3f}")
-        table.add_row(str(index), escape(step.pose.name), joints, source, travel, seconds,
-                      distance_text(step.fk_error_m, step.fk_error_rad))
-    return table
+        else:
+            joints, travel = angles_text(step.joints, deg), "—" if step.travel is None else angle_text(step.travel,
+                                                                                                       deg)
+        rows.append([str(index), escape(step.pose.name), joints,
+                     step.source + (f" (of {step.solutions})" if step.solutions else ""), travel,
+                     "—" if step.duration is None else f"{step.duration:.2f} s",
+                     distance_text(step.fk_error_m, step.fk_error_rad)])
+    return fitted_table(title, columns, rows, width)
 
 
-def reached_table(results, title: str) -> Table:
+def reached_table(results, title: str, width: int | None = None) -> Table:
     """Where each replayed pose ended (ur3dq.replay.Reached list) vs where the replay aimed the current TCP: the
     recorded TCP pose, or — replaying the flange of a pose recorded with another TCP — a point that far from it."""
-    table = Table(title=title, title_justify="left")
-    for header in ("#", "pose", "aimed at", "error", "move time"):
-        table.add_column(header)
+    columns = [Column("#", justify="right", no_wrap=True), Column("pose", no_wrap=True), Column("aimed at"),
+               Column("error"), Column("move time", narrow_header="time", justify="right", drop_order=1)]
+    rows = []
     for index, result in enumerate(results, start=1):
         aimed = "recorded TCP pose" if result.target_off_m < 1e-4 else \
             f"recorded flange: {result.target_off_m * 1000:.1f} mm from the recorded TCP"
-        table.add_row(str(index), escape(result.step.pose.name), aimed, distance_text(result.error_m, result.error_rad),
-                      f"{result.seconds:.2f} s")
-    return table
+        rows.append([str(index), escape(result.step.pose.name), aimed,
+                     distance_text(result.error_m, result.error_rad), f"{result.seconds:.2f} s"])
+    return fitted_table(title, columns, rows, width)
 
 
 @contextlib.contextmanager

@@ -7,13 +7,12 @@ from __future__ import annotations
 import math
 import sys
 
-from rich import box
 from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
 from ur3dq.cli.app import Settings
-from ur3dq.cli.display import NARROW_WIDTH
+from ur3dq.cli.display import NARROW_WIDTH, Column, fitted_table
 from ur3dq.errors import SafetyCheckError
 from ur3dq.pathcheck import PathPlan, PathSegment, check_path, load_cell
 
@@ -21,11 +20,11 @@ DEFAULT_JOINT_SPEED = 1.05     # rad/s (movej's default)
 DEFAULT_LINEAR_SPEED = 0.25    # m/s (movel's default)
 DEFAULT_JOINT_ACCELERATION = 1.4
 DEFAULT_LINEAR_ACCELERATION = 1.2
-# (margin key, header, scale, narrow header)
-MARGIN_COLUMNS = (("wrist", "|sin θ5|", 1.0, "wrist"), ("elbow", "|sin θ3|", 1.0, "elbow"),
-                  ("shoulder", "shoulder mm", 1000.0, "shldr mm"),
-                  ("joint_limit", "limit °", math.degrees(1.0), "limit °"), ("joint_speed", "speed room", 1.0, "speed"),
-                  ("self_collision", "self mm", 1000.0, "self mm"), ("cell", "cell mm", 1000.0, "cell mm"))
+# (margin key, header, scale, narrow header, narrow drop order: the speed room first, the collisions last)
+MARGIN_COLUMNS = (("wrist", "|sin θ5|", 1.0, "wrist", 5), ("elbow", "|sin θ3|", 1.0, "elbow", 4),
+                  ("shoulder", "shoulder mm", 1000.0, "shldr", 3),
+                  ("joint_limit", "limit °", math.degrees(1.0), "limit", 2), ("joint_speed", "speed room", 1.0, "speed", 1),
+                  ("self_collision", "self mm", 1000.0, "self", 7), ("cell", "cell mm", 1000.0, "cell", 6))
 
 
 def path_plan_from_replay(steps, start_joints, move: str, speed: float, acceleration: float,
@@ -67,20 +66,24 @@ def require_clear_path(settings: Settings, model, steps, start_joints, blend: fl
 def margins_table(result, title: str, width: int | None = None) -> Table:
     """Each checked move's smallest margins: how far the worst sample is above the check's limit (negative = failed;
     speed room = the part of the joints' maximum speed left). Narrower than NARROW_WIDTH columns the headers are
-    short, the sample count is dropped and no vertical rules are drawn (80 columns hold it); the step name is never
-    cut."""
+    short and the sample count is left out, then margins in MARGIN_COLUMNS' drop order while the table would not
+    fit (the caption names them; `check --json` has them all); the step name is never cut."""
     narrow = width is not None and width < NARROW_WIDTH
-    table = Table(title=title, title_justify="left", box=box.SIMPLE_HEAD if narrow else box.HEAVY_HEAD,
-                  pad_edge=not narrow, collapse_padding=narrow)
-    headers = [column[3] if narrow else column[1] for column in MARGIN_COLUMNS]
-    for header in ("step", "move", *(() if narrow else ("samples",)), *headers):
-        table.add_column(header, justify="left" if header in ("step", "move") else "right",
-                         no_wrap=header == "step", overflow="fold")
+    columns = [Column("step", no_wrap=True), Column("move", no_wrap=True),
+               Column("samples", justify="right", drop_order=0)]
+    columns += [Column(header, narrow_header=short, justify="right", no_wrap=True, drop_order=order)
+                for _, header, _, short, order in MARGIN_COLUMNS]
+    rows = []
     for step in result.steps:
         cells = []
-        for key, _, scale, _ in MARGIN_COLUMNS:
+        for key, _, scale, _, _ in MARGIN_COLUMNS:
             value = step.margins.get(key)
             cells.append("—" if value is None else (f"[red]{value * scale:.3g}[/]" if value < 0
                                                     else f"{value * scale:.3g}"))
-        table.add_row(escape(step.name), step.move, *(() if narrow else (str(step.samples),)), *cells)
+        rows.append([escape(step.name), step.move, str(step.samples), *cells])
+    if narrow:  # the sample count first: it says how fine the check was, not how safe the path is
+        columns, rows = columns[:2] + columns[3:], [row[:2] + row[3:] for row in rows]
+    table = fitted_table(title, columns, rows, width)
+    if narrow:
+        table.caption = "; ".join(filter(None, ["shldr, self, cell in mm; limit in °", table.caption]))
     return table

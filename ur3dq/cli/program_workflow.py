@@ -13,10 +13,10 @@ import click
 from rich.console import Console
 from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
-from rich.table import Table
 from rich.text import Text
 
 from ur3dq.cli.app import Settings, confirm, emit_json, emit_json_list, robot_session
+from ur3dq.cli.display import Column, fitted_table
 from ur3dq.errors import StoreError
 from ur3dq.pose import utc_now_iso
 from ur3dq.program.plan import Defaults, plan_program
@@ -106,21 +106,17 @@ def program_rows(steps):
     return [(str(index), step.name, step.kind, describe(step)) for index, step in enumerate(steps, start=1)]
 
 
-def print_table(console: Console, title: str, headers, rows) -> None:
-    """A rich table whose columns fold to the terminal's width (names are wrapped, never dropped); user text is
+def print_table(console: Console, title: str, columns, rows) -> None:
+    """A table of Columns that reads at the terminal's width (names are never cut or dropped); user text is
     shown as typed (no markup); very long tables as tab-separated lines."""
     if len(rows) > PLAIN_TABLE_ROWS:
-        click.echo("\n".join([title, "\t".join(headers), *("\t".join(row) for row in rows)]))
+        click.echo("\n".join([title, "\t".join(column.header for column in columns),
+                              *("\t".join(row) for row in rows)]))
         return
     # The title on its own line, unwrapped: a table's title wraps to the table's width, which would cut a store
     # path (and a Text is never read as markup).
     console.print(Text(title, no_wrap=True, overflow="ignore"))
-    table = Table()
-    for header in headers:
-        table.add_column(header, overflow="fold")
-    for row in rows:
-        table.add_row(*(escape(cell) for cell in row))
-    console.print(table)
+    console.print(fitted_table(None, columns, [[escape(cell) for cell in row] for row in rows], console.width))
 
 
 def list_program(settings: Settings) -> bool:
@@ -131,7 +127,7 @@ def list_program(settings: Settings) -> bool:
     if settings.json:
         emit_json_list(step_to_dict(step) for step in steps)
         return True
-    print_table(settings.out, f"{len(steps)} steps in {settings.store_path}", ("#", "name", "type", "details"),
+    print_table(settings.out, f"{len(steps)} steps in {settings.store_path}", LIST_COLUMNS,
                 program_rows(steps))
     return True
 
@@ -153,7 +149,13 @@ def plan_rows(plan, first: int):
     return rows
 
 
-PLAN_HEADERS = ("#", "step", "type", "target (rad) / action", "speed", "blend m", "travel", "time")
+PLAN_COLUMNS = (Column("#", justify="right", no_wrap=True), Column("step", no_wrap=True), Column("type"),
+                Column("target (rad) / action", min_width=len("-3.142 -3.142 -3.142")),
+                Column("speed", drop_order=3), Column("blend m", narrow_header="blend", drop_order=1),
+                Column("travel", justify="right", no_wrap=True, drop_order=2),
+                Column("time", justify="right", no_wrap=True, drop_order=4))
+LIST_COLUMNS = (Column("#", justify="right", no_wrap=True), Column("name", no_wrap=True), Column("type"),
+                Column("details"))
 
 
 # ---------------------------------------------------------------- poses set / retouch / move / copy / offset
@@ -214,7 +216,7 @@ def run_program_command(settings: Settings, start, end, speed_scale, dry_run, ye
 
 def _show_plan(settings: Settings, plan, first: int, title: str) -> None:
     console = Console(stderr=True, highlight=False) if settings.json else settings.out
-    print_table(console, title, PLAN_HEADERS, plan_rows(plan, first))
+    print_table(console, title, PLAN_COLUMNS, plan_rows(plan, first))
     for planned in plan:  # say what was lowered to the model's (or the TCP's) limits
         if planned.clamped:
             click.echo(f"{planned.step.who}: clamped {', '.join(planned.clamped)}", err=True)
