@@ -34,7 +34,7 @@ from .io import IOState
 from .messages import MessageBus
 from .modes import ModeMachine
 from .models import check_version_fits, default_version, parse_version, robot_model
-from .motion_queue import Motion, MotionEntry, MotionFault, MotionQueue
+from .motion_queue import DEFAULT_STOP_CODE, Motion, MotionEntry, MotionFault, MotionQueue
 from .vocabulary import (
     PROTECTIVE_STOP_DECELERATION, PROTECTIVE_STOP_UNLOCK_DELAY, STATUS_BIT_POWER_ON, STATUS_BIT_PROGRAM_RUNNING,
     STATUS_BIT_TEACH_BUTTON, CommandRefused, ControllerState, ControlMode, RobotMode, SafetyMode, frozen_array,
@@ -343,9 +343,9 @@ class Controller:
             self._commit_status()
         self._stop_program_for(f"protective stop: {reason}")
 
-    def _protective_stop_locked(self, reason):
-        """Protective stop from inside the control loop or a locked command (program stop left to the caller)."""
-        self._modes.enter_protective_stop(reason)
+    def _protective_stop_locked(self, reason, code=DEFAULT_STOP_CODE):
+        """Protective stop from the control loop or a locked command (program stop left to the caller), C<code>."""
+        self._modes.enter_protective_stop(reason, code)
         self._touch()
         self._decelerate(PROTECTIVE_STOP_DECELERATION, f"protective stop: {reason}")
 
@@ -667,7 +667,7 @@ class Controller:
         try:
             return self._motions.advance(q, dt, planned_dt)
         except MotionFault as fault:
-            self._protective_stop_locked(fault.reason)
+            self._protective_stop_locked(fault.reason, fault.code)
             self._request_program_stop(fault.program_reason)
             return q
 

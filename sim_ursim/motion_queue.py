@@ -26,13 +26,24 @@ log = logging.getLogger("sim_ursim.controller")
 JOINT_SPEED_TOLERANCE = 1.05  # movel/speedl may exceed a joint's max speed by 5 % before the protective stop
 
 
-class MotionFault(Exception):
-    """A running motion must end in a protective stop: `reason` for the stop, `program_reason` for the program."""
+# The robot error code of a protective stop: (code, argument) of the primary port's error-code message, shown as
+# C<code>A<argument>. A Cartesian move whose joints would outrun their speed limit (the arm near a singularity)
+# stops with C204, the controller's "path sanity check" family (UR forum: C204A1 "sudden change in target
+# position", C204A6 blending failures; C204A3 is what a UR3 reported when its trajectories stopped in
+# ros-industrial/universal_robot#345). UR does not publish which sub-code is "close to singularity"; A3 is ours.
+SINGULARITY_STOP_CODE = (204, 3)
+DEFAULT_STOP_CODE = (209, 0)
 
-    def __init__(self, reason: str, program_reason: str):
+
+class MotionFault(Exception):
+    """A running motion must end in a protective stop: `reason` for the stop, `program_reason` for the program,
+    `code` the (code, argument) of the robot error message."""
+
+    def __init__(self, reason: str, program_reason: str, code: tuple = DEFAULT_STOP_CODE):
         super().__init__(reason)
         self.reason = reason
         self.program_reason = program_reason
+        self.code = code
 
 
 class Motion:
@@ -214,24 +225,26 @@ class MotionQueue:
                     self.tail = None
         except kinematics.IKError as error:
             raise MotionFault(f"{active.motion.kind}: {error}", f"{active.motion.kind} failed") from None
-        reason = self._step_violation(q, new_q, dt, active)
-        if reason is not None:
-            raise MotionFault(reason, reason)
+        violation = self._step_violation(q, new_q, dt, active)
+        if violation is not None:
+            reason, code = violation
+            raise MotionFault(reason, reason, code)
         self._finish_or_blend(active, new_q)
         return new_q
 
-    def _step_violation(self, q, new_q, dt, active) -> str | None:
-        """Why a step breaks joint-limit or (Cartesian motions) joint-speed protection; None when it does not."""
+    def _step_violation(self, q, new_q, dt, active) -> tuple | None:
+        """(why, error code) when a step breaks joint-limit or (Cartesian motions) joint-speed protection; None
+        when it does not."""
         outside = np.nonzero((new_q < self.model.joint_lower) | (new_q > self.model.joint_upper))[0]
         if outside.size:
-            return f"joint {int(outside[0])} position limit reached during {active.motion.kind}"
+            return f"joint {int(outside[0])} position limit reached during {active.motion.kind}", DEFAULT_STOP_CODE
         if active.segment.kind in ("movel", "speedl"):
             speeds = np.abs(new_q - q) / dt
             too_fast = np.nonzero(speeds > self.model.max_joint_speed * JOINT_SPEED_TOLERANCE)[0]
             if too_fast.size:
                 i = int(too_fast[0])
-                return (f"joint {i} speed {speeds[i]:.2f} rad/s above its limit during {active.motion.kind} "
-                        "(close to a singularity)")
+                return (f"close to singularity: joint {i} speed {speeds[i]:.2f} rad/s above its limit during "
+                        f"{active.motion.kind}", SINGULARITY_STOP_CODE)
         return None
 
     def _finish_or_blend(self, active, new_q) -> None:

@@ -204,10 +204,11 @@ def test_speed_scale_scales_every_step_and_refuses_nonsense(run_in_process, v1_s
         assert_one_line_error(run_in_process("run-poses", "--dry-run", "--speed-scale", bad), 4, "--speed-scale")
 
 
-def test_a_cell_program_is_not_run_unchecked_when_a_path_check_was_asked_for(run_in_process, v1_store, tmp_path):
-    (tmp_path / "cell.json").write_text("{}")
+def test_a_cell_program_runs_its_path_check_in_the_cell_it_was_given(run_in_process, v1_store, tmp_path):
+    (tmp_path / "cell.json").write_text('{"floor": {"z": 0.0}}')
     result = run_in_process("run-poses", "--from", "demo-1", "--dry-run", "--cell", "cell.json")
-    assert result.returncode == 2 and "does not cover cell programs" in result.stderr
+    assert result.returncode == 0, result.stderr
+    assert "Path check: smallest margins per move" in result.stdout and "cell: cell.json" in result.stdout
 
 
 def test_poses_show_of_a_step_shows_its_fields(run_in_process, v1_store):

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from ur3dq.dualquat import DualQuaternion
 from ur3dq.kinematics import robot_model
 from ur3dq.pose import Pose
 from ur3dq.store import PoseStore
@@ -27,7 +28,8 @@ def run(tmp_path):
 
     def run_check(*args, command="check", **env):
         environment = {k: v for k, v in os.environ.items() if not k.startswith("UR3DQ_")}
-        environment.update(UR3DQ_STATE_DIR=str(tmp_path / "state"), UR3DQ_STORE=str(tmp_path / "poses.json"), **env)
+        environment.update(UR3DQ_STATE_DIR=str(tmp_path / "state"), UR3DQ_STORE=str(tmp_path / "poses.json"),
+                           COLUMNS="200", **env)  # a wide terminal: the full headers
         return subprocess.run([UR3DQ, command, *map(str, args)], cwd=tmp_path, env=environment,
                               capture_output=True, text=True, timeout=60)
 
@@ -123,3 +125,34 @@ def test_with_a_robot_the_path_starts_at_the_arms_joints(run):
     steps = json.loads(result.stdout)["steps"]
     assert [step["name"] for step in steps] == ["left", "right"]
     assert steps[0]["samples"] > 2           # a real move from the arm's joints to the first pose, not a 0-length one
+
+
+def test_a_cell_program_is_checked_with_its_own_moves_by_run_poses_and_check(run, tmp_path):
+    """A version-2 store (cell program): the joint move through the box is refused by run-poses --dry-run and by
+    check, naming the step and the box; the same program passes without the cell."""
+    assert run("set", "right", "--speed", "0.5", command="poses").returncode == 0   # the store becomes a program
+    cell = box_under_the_sweep(tmp_path)
+    for command in ("run-poses", "check"):
+        result = run(*(("--dry-run",) if command == "run-poses" else ()), "--cell", cell, command=command)
+        assert result.returncode == 4, (command, result.stdout, result.stderr)
+        assert "step 'right' at" in result.stderr and 'keep-out box "fixture"' in result.stderr, result.stderr
+        assert run(*(("--dry-run",) if command == "run-poses" else ()), command=command).returncode == 0
+
+
+def test_a_cell_programs_linear_move_through_the_wrist_singularity_is_refused(run, tmp_path):
+    """The program's own move type is checked: a linear step whose line crosses θ5 = 0 (the base-joint direction
+    at constant orientation: θ1 changes through the line, θ5 = acos(z1·z6) crosses 0) is refused as a line, and
+    the same targets as joint moves pass."""
+    middle = np.array([0.0, -1.2, 1.5, -1.8, 0.0, 0.5])
+    z1 = np.array([np.sin(middle[0]), -np.cos(middle[0]), 0.0])
+    store = PoseStore(tmp_path / "poses.json")
+    for name in list(JOINTS):
+        store.remove(name)
+    for name, offset in (("before", -0.06), ("after", 0.06)):
+        pose = DualQuaternion.from_translation(offset * z1) * UR3.fk(middle)
+        store.add(Pose.from_dual_quaternion(name, pose, "ur3", joints=tuple(UR3.ik(pose, middle))))
+    assert run("--dry-run", command="run-poses").returncode == 0
+    assert run("set", "after", "--move", "linear", "--speed", "0.05", command="poses").returncode == 0
+    result = run("--dry-run", command="run-poses")
+    assert result.returncode == 4, (result.stdout, result.stderr)
+    assert "step 'after' at" in result.stderr and "wrist singular" in result.stderr, result.stderr

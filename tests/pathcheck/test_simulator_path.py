@@ -5,6 +5,7 @@ the arm must end on the joints the check predicted (same IK branch), and no prot
 import contextlib
 import math
 import socket
+import struct
 import time
 
 import numpy as np
@@ -24,7 +25,8 @@ rtde_receive = pytest.importorskip("rtde_receive")
 UR3 = robot_model("ur3")
 START = [0.2, -1.3, 1.3, -1.5708, -1.5708, 0.3]
 JOINT_TARGET = np.array([-0.4, -1.5, 1.6, -1.9, -1.3, -0.2])
-SECONDARY_PORT = 30002
+PRIMARY_PORT, SECONDARY_PORT = 30001, 30002
+ROBOT_MESSAGE, ERROR_CODE_MESSAGE = 20, 6   # primary-port package type, robot message sub-type
 DASHBOARD_PORT = 29999
 NORMAL, PROTECTIVE_STOP = 1, 3  # RTDE safety modes
 # A line across the arm's plane through θ5 = 0.01 (tool nearly parallel to wrist 1's axis), from these joints.
@@ -134,13 +136,37 @@ def test_a_line_refused_for_the_wrist_singularity_is_one_the_simulator_stops(arm
                                                           speed=0.1)]))
     checks = {problem.check for problem in result.problems}
     assert {"wrist", "joint_speed"} <= checks, result.summary()
-    with socket.create_connection((host, SECONDARY_PORT), timeout=5) as sock:
+    with socket.create_connection((host, PRIMARY_PORT), timeout=5) as primary, \
+            socket.create_connection((host, SECONDARY_PORT), timeout=5) as sock:
         sock.sendall(movel_program(goal, 1.2, 0.1))
         stopped = wait_for(lambda: receiver.getSafetyMode() == PROTECTIVE_STOP, timeout=15)
+        errors = error_code_messages(primary, until=lambda found: found, timeout=5)
     assert stopped, \
         f"no protective stop: safety mode {receiver.getSafetyMode()}, joints {receiver.getActualQ()}, " \
         f"started at {start.tolist()}"
     assert not np.allclose(receiver.getActualQ(), result.steps[0].end_joints, atol=1e-3)
+    # as a controller reports it: a C204 (path sanity check) error on the primary port naming the singularity
+    assert errors and errors[0][:2] == (204, 3) and "close to singularity" in errors[0][2], errors
+
+
+def error_code_messages(sock, until, timeout):
+    """[(code, argument, text)] of the error-code robot messages (type 20, sub-type 6) read from a primary-port
+    socket until `until(found)` or `timeout` s (docs/protocols.md: robot messages)."""
+    buffer, found = b"", []
+    deadline = time.monotonic() + timeout
+    sock.settimeout(0.2)
+    while time.monotonic() < deadline and not until(found):
+        try:
+            buffer += sock.recv(65536)
+        except socket.timeout:
+            continue
+        while len(buffer) >= 5 and len(buffer) >= int.from_bytes(buffer[:4], "big"):
+            size = int.from_bytes(buffer[:4], "big")
+            packet, buffer = buffer[:size], buffer[size:]
+            if packet[4] == ROBOT_MESSAGE and packet[14] == ERROR_CODE_MESSAGE:
+                code, argument = struct.unpack_from(">ii", packet, 15)
+                found.append((code, argument, packet[15 + 17:].decode("utf-8", "replace")))
+    return found
 
 
 @pytest.fixture(scope="module")

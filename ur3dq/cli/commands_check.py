@@ -18,7 +18,10 @@ from ur3dq.cli.path_report import (
 from ur3dq.errors import SafetyCheckError, StoreError
 from ur3dq.kinematics import robot_model
 from ur3dq.pathcheck import MOVE_TYPES, Margins, check_path, load_cell
+from ur3dq.program.path import path_plan_of
+from ur3dq.program.plan import plan_program
 from ur3dq.replay import plan_replay
+from ur3dq.store_format import PROGRAM_SCHEMA_VERSION
 
 
 @cli.command("check")
@@ -47,6 +50,8 @@ def check(settings: Settings, names, cell_path, move, speed, blend, margin, self
     sample is checked: reachable, no IK branch flip, singularity margins (lines only), joint limits and speeds,
     self-collision of the link capsules and the tool, and the cell's floor and boxes. With a robot (--host, or the
     embedded simulator running) the path starts at the arm's joints; without one, at the first pose.
+    A cell program (a version-2 store, no NAMES) is checked as run-poses runs it: each waypoint's own move type,
+    speed, blend and TCP (--move, --speed and --blend then only apply to NAMES).
     Exit code 4 when a check fails, with one line naming the step, where, what failed and a fix.
 
     \b
@@ -72,8 +77,15 @@ def check(settings: Settings, names, cell_path, move, speed, blend, margin, self
     else:
         model, start = robot_model(settings.model or poses[0].robot_model), None
         where = f"a nominal {model.name} (no robot: from the first pose)"
-    steps = plan_replay(model, poses, start, replay_recorded_joints=replay_joints)
-    result = check_path(model, path_plan_from_replay(steps, start, move, speed, acceleration, blend), cell, margins)
+    if settings.store.version() == PROGRAM_SCHEMA_VERSION and not names:  # a cell program: its own moves
+        plan = plan_program(model, settings.store.load_program(), start, replay_recorded_joints=replay_joints)
+        path = path_plan_of(plan, start)
+        if path is None:
+            raise StoreError(f"the cell program in {settings.store_path} has no waypoint: nothing moves")
+    else:
+        steps = plan_replay(model, poses, start, replay_recorded_joints=replay_joints)
+        path = path_plan_from_replay(steps, start, move, speed, acceleration, blend)
+    result = check_path(model, path, cell, margins)
     err = Console(stderr=True, highlight=False, width=None if sys.stderr.isatty() else 160)
     title = f"Path check on {where}{f', cell {cell_path}' if cell_path else ''}: smallest margins per move"
     console = err if settings.json else settings.out

@@ -12,13 +12,15 @@ from ur3dq.cli.options import (
     DEFAULT_ACCELERATION, DEFAULT_SPEED, angular_option, cell_option, check_blend, check_max_travel, deg_option,
     global_options, motion_options, speed_and_acceleration,
 )
-from ur3dq.cli.path_report import check_replay
+from ur3dq.cli.path_report import check_program, check_replay
 from ur3dq.cli.program_workflow import export_program_text
 from ur3dq.errors import StoreError
 from ur3dq.pose import utc_now_iso
+from ur3dq.program.plan import plan_program
 from ur3dq.replay import plan_replay
 from ur3dq.robot.safety import DEFAULT_MAX_JOINT_TRAVEL
 from ur3dq.store import write_atomically
+from ur3dq.store_format import PROGRAM_SCHEMA_VERSION
 from ur3dq.urscript_export import describe_speeds, replay_program
 
 
@@ -124,7 +126,11 @@ def plot(settings: Settings, names, output: Path, yes, cell_path):
     model, steps, _, _ = offline_plan(settings, names, DEFAULT_SPEED, DEFAULT_ACCELERATION, False,
                                       float("inf"))
     _writable_target(output, yes)
-    check, cell = check_replay(model, steps, cell_path)
+    check = None
+    if settings.store.version() == PROGRAM_SCHEMA_VERSION and not names:  # the program's own moves are checked
+        check, cell = check_program(model, plan_program(model, settings.store.load_program()), cell_path)
+    if check is None:
+        check, cell = check_replay(model, steps, cell_path)
     plot_poses(output, model, steps, title=f"{count_text(len(steps), 'pose')} from {settings.store_path.name} on a "
                f"{model.name}", path_check=check, cell=cell)
     click.echo(f"Wrote {output}. Path check: {check.summary()}")

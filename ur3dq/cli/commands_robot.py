@@ -204,11 +204,8 @@ def run_poses(settings: Settings, names, dry_run, yes, speed, acceleration, blen
         if names or loops > 1:
             raise click.UsageError("a cell program runs as a whole or --from/--to: no NAMES, no --loop")
         check_blend(blend)
-        if cell_path is not None:  # never run what was asked to be checked unchecked
-            raise click.UsageError(f"the path check (--cell / UR3DQ_CELL {cell_path}) does not cover cell programs "
-                                   "yet: run without it, or check the recorded poses with `ur3dq check`")
         return run_program_command(settings, start, end, 1.0 if speed_scale is None else speed_scale, dry_run,
-                                   yes, speed, acceleration, blend, replay_joints, max_travel)
+                                   yes, speed, acceleration, blend, replay_joints, max_travel, cell_path)
     poses = settings.store.select(names)
     if not poses:
         raise StoreError(f"{settings.store_path} has no poses: record some with `ur3dq record-pose`")

@@ -15,6 +15,7 @@ from ur3dq.cli.app import Settings
 from ur3dq.cli.display import NARROW_WIDTH, Column, fitted_table
 from ur3dq.errors import SafetyCheckError
 from ur3dq.pathcheck import PathPlan, PathSegment, check_path, load_cell
+from ur3dq.program.path import path_plan_of
 
 DEFAULT_JOINT_SPEED = 1.05     # rad/s (movej's default)
 DEFAULT_LINEAR_SPEED = 0.25    # m/s (movel's default)
@@ -54,11 +55,33 @@ def require_clear_path(settings: Settings, model, steps, start_joints, blend: fl
     """The path check of a movej replay before anything moves (run-poses): prints each move's smallest margins
     (on stderr with --json), then SafetyCheckError (exit 4, one line) naming the step, where and what failed."""
     result, _ = check_replay(model, steps, cell_path, start_joints, blend, loops)
+    report_path_check(settings, result, cell_path)
+
+
+def check_program(model, plan, cell_path, start_joints=None) -> tuple:
+    """(PathCheckResult or None when no step moves the arm, Cell or None) of a cell program
+    (ur3dq.program.plan.PlannedStep list): every joint, linear and process move with its own speed, blend and
+    taught TCP."""
+    cell = load_cell(cell_path) if cell_path else None
+    path = path_plan_of(plan, start_joints)
+    return (None if path is None else check_path(model, path, cell)), cell
+
+
+def require_clear_program_path(settings: Settings, model, plan, start_joints, cell_path) -> None:
+    """The check of require_clear_path for a cell program (see check_program)."""
+    result, _ = check_program(model, plan, cell_path, start_joints)
+    if result is not None:
+        report_path_check(settings, result, cell_path)
+
+
+def report_path_check(settings: Settings, result, cell_path) -> None:
+    """Print the margins table (stderr with --json); SafetyCheckError with the check's summary if it failed."""
     console = Console(stderr=True, highlight=False, width=None if sys.stderr.isatty() else 160) \
         if settings.json else settings.out
     table = margins_table(result, "Path check: smallest margins per move", console.width)
-    table.caption = f"cell: {escape(str(cell_path))}" if cell_path else None   # a long path wraps here, not the title
-    console.print(table)
+    table.caption = "; ".join(filter(None, [table.caption, f"cell: {escape(str(cell_path))}" if cell_path else None]))
+    table.caption_justify = "left"
+    console.print(table)   # a long cell path wraps in the caption, not in the title
     if not result.ok:
         raise SafetyCheckError(f"path check: {result.summary()}")
 
@@ -86,4 +109,5 @@ def margins_table(result, title: str, width: int | None = None) -> Table:
     table = fitted_table(title, columns, rows, width)
     if narrow:
         table.caption = "; ".join(filter(None, ["shldr, self, cell in mm; limit in °", table.caption]))
+        table.caption_justify = "left"
     return table

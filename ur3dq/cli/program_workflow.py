@@ -17,6 +17,7 @@ from rich.text import Text
 
 from ur3dq.cli.app import Settings, confirm, emit_json, emit_json_list, robot_session
 from ur3dq.cli.display import Column, fitted_table
+from ur3dq.cli.path_report import require_clear_program_path
 from ur3dq.errors import StoreError
 from ur3dq.pose import utc_now_iso
 from ur3dq.program.plan import Defaults, plan_program
@@ -171,9 +172,10 @@ def program_part(settings: Settings, start, end):
 
 
 def run_program_command(settings: Settings, start, end, speed_scale, dry_run, yes, speed, acceleration, blend,
-                        replay_joints, max_travel):
-    """`run-poses` of a cell program (a version-2 store, or --from/--to/--speed-scale): plan, table, ask, run as
-    one URScript program with the running step shown. Joint speeds in rad/s (already converted from --deg)."""
+                        replay_joints, max_travel, cell_path=None):
+    """`run-poses` of a cell program (a version-2 store, or --from/--to/--speed-scale): plan, table, the whole-path
+    check (in `cell_path`'s cell if given), ask, run as one URScript program with the running step shown. Joint
+    speeds in rad/s (already converted from --deg)."""
     from ur3dq.cli.background_simulator import running_simulator_host
     from ur3dq.kinematics import robot_model
 
@@ -187,6 +189,7 @@ def run_program_command(settings: Settings, start, end, speed_scale, dry_run, ye
         model = robot_model(settings.model or (first_pose.robot_model if first_pose else "ur3"))
         plan = plan_program(model, part, None, defaults, speed_scale, replay_joints, max_travel, resolve_from=steps)
         _show_plan(settings, plan, first, f"Plan on a nominal {model.name} (no robot: travel from the first step)")
+        require_clear_program_path(settings, model, plan, None, cell_path)
         return
     from ur3dq.program.run import run_plan
 
@@ -194,6 +197,7 @@ def run_program_command(settings: Settings, start, end, speed_scale, dry_run, ye
         plan = plan_program(robot.model, part, robot.joints(), defaults, speed_scale, replay_joints, max_travel,
                             resolve_from=steps)
         _show_plan(settings, plan, first, f"Plan on the {robot.model_name} at {robot.host}")
+        require_clear_program_path(settings, robot.model, plan, robot.joints(), cell_path)
         if dry_run:
             return
         confirm(f"Run {len(plan)} steps ({part[0].name!r} to {part[-1].name!r}) on the arm?", yes, default=False)

@@ -1,9 +1,12 @@
 """Capsule model of the UR links, batched DH frames, and the distance kernels of the path check.
 
 The link capsules (segment + radius, each in one DH frame) come from UR's published geometry:
-* the lateral offsets of the arm's planes, as in ROS-Industrial's ur_description (``shoulder_offset``,
-  ``elbow_offset``, "measured from the model"): the upper arm runs at `shoulder` along the shoulder axis from the
-  base axis, the forearm at `shoulder + elbow`, the wrist 1 axis ends at d4 (the DH model folds these into d4);
+* the lateral offsets of the arm's planes, from UR's own ROS description (UniversalRobots/
+  Universal_Robots_ROS2_Description, config/<model>/physical_parameters.yaml, `offsets`: "measured from model"):
+  the upper arm runs at `shoulder_offset` along the shoulder axis from the base axis, the forearm at
+  `elbow_offset` (the forearm plane's own offset there; ROS-Industrial's older ur_description gave the same
+  plane as shoulder_offset + a negative elbow_offset, e.g. UR10 0.220941 − 0.1719 = 0.049042 in both), and the
+  wrist 1 axis ends at d4 (the DH model folds these into d4);
 * the radii: half the joint-housing / tube diameters of UR's dimension drawings (base ∅128/149/190 mm for the
   3/5/10 sizes), rounded up, then kept below the planes' spacing so that neighbouring links' capsules do not touch
   in any configuration the real arm can take. They are envelopes, not meshes: the check is conservative by a few
@@ -26,15 +29,16 @@ import numpy as np
 BODY_NAMES = ("base", "shoulder", "upper arm", "forearm", "wrist 1", "wrist 2", "wrist 3", "tool")
 TOOL = 7
 
-# model: (shoulder offset, elbow offset (signed), radii of base, shoulder, upper arm, forearm, wrist), metres.
+# model: (shoulder_offset, elbow_offset = the forearm plane's offset, radii of base, shoulder, upper arm, forearm,
+# wrist), metres; the offsets exactly as UR's description gives them (module docstring).
 _LINK_GEOMETRY = {
-    "ur3": (0.1198, -0.0925, (0.064, 0.045, 0.045, 0.038, 0.032)),
-    "ur3e": (0.120, -0.093, (0.064, 0.045, 0.045, 0.038, 0.032)),
-    "ur5": (0.13585, -0.1197, (0.075, 0.060, 0.055, 0.045, 0.040)),
-    "ur5e": (0.138, -0.131, (0.075, 0.060, 0.055, 0.045, 0.040)),
-    "ur10": (0.220941, -0.1719, (0.095, 0.075, 0.070, 0.055, 0.045)),
-    "ur10e": (0.176, -0.137, (0.095, 0.075, 0.070, 0.055, 0.045)),
-    "ur16e": (0.176, -0.137, (0.095, 0.075, 0.070, 0.055, 0.045)),
+    "ur3": (0.1198, 0.0275, (0.064, 0.045, 0.045, 0.038, 0.032)),
+    "ur3e": (0.120, 0.027, (0.064, 0.045, 0.045, 0.038, 0.032)),
+    "ur5": (0.13585, 0.0165, (0.075, 0.060, 0.055, 0.045, 0.040)),
+    "ur5e": (0.138, 0.007, (0.075, 0.060, 0.055, 0.045, 0.040)),
+    "ur10": (0.220941, 0.049042, (0.095, 0.075, 0.070, 0.055, 0.045)),
+    "ur10e": (0.1762, 0.0393, (0.095, 0.075, 0.070, 0.055, 0.045)),
+    "ur16e": (0.176, 0.040, (0.095, 0.075, 0.070, 0.055, 0.045)),
 }
 
 SELF_PAIRS = tuple((a, b) for a in (0, 1) for b in (3, 4, 5, 6, TOOL)) + \
@@ -57,10 +61,9 @@ def link_capsules(model, tool=None) -> Capsules:
     """The capsules of `model` (a URModel; its DH, calibrated or not) plus the ToolShape `tool` if given."""
     if model.name not in _LINK_GEOMETRY:
         raise ValueError(f"model: no link capsules for {model.name!r} (known: {', '.join(_LINK_GEOMETRY)})")
-    shoulder, elbow, (r_base, r_shoulder, r_upper, r_forearm, r_wrist) = _LINK_GEOMETRY[model.name]
+    shoulder, forearm, (r_base, r_shoulder, r_upper, r_forearm, r_wrist) = _LINK_GEOMETRY[model.name]
     a2, a3 = model.dh.a[1], model.dh.a[2]
     d1, d4, d5, d6 = model.dh.d[0], model.dh.d[3], model.dh.d[4], model.dh.d[5]
-    forearm = shoulder + elbow
     rows = [  # body, frame, a, b, radius
         (0, 0, (0, 0, 0), (0, 0, d1), r_base),
         (1, 1, (0, 0, 0), (0, 0, shoulder), r_shoulder),

@@ -81,10 +81,18 @@ class PathCheckResult:
 
 
 def check_path(model, plan: PathPlan, cell=None, margins: Margins | None = None) -> PathCheckResult:
-    """Check `plan` (a PathPlan) on `model` (a URModel with its TCP) in `cell` (a Cell, or None: no obstacles,
-    no tool) with `margins` (defaults: Margins()). Never raises for a failed check: read `.ok` / `.problems`."""
+    """Check `plan` (a PathPlan) on `model` (a URModel with its TCP; a segment with its own `tcp_offset` runs with
+    that one instead) in `cell` (a Cell, or None: no obstacles, no tool) with `margins` (defaults: Margins()).
+    Never raises for a failed check: read `.ok` / `.problems`."""
     margins = margins or Margins()
-    checker = StepChecker(model, cell, margins)
+    by_tcp = {}   # tcp_offset -> (model with that TCP, its StepChecker): built once per TCP the plan uses
+
+    def arm_for(segment):
+        if segment.tcp_offset not in by_tcp:
+            arm = model if segment.tcp_offset is None else model.with_tcp(segment.tcp_offset)
+            by_tcp[segment.tcp_offset] = arm, StepChecker(arm, cell, margins)
+        return by_tcp[segment.tcp_offset]
+
     q = np.array(plan.start_joints)
     sampled, problems, unchecked = [], [], []
     for index, segment in enumerate(plan.segments):
@@ -92,7 +100,7 @@ def check_path(model, plan: PathPlan, cell=None, margins: Margins | None = None)
             unchecked.append(segment.name)
             sampled.append(None)     # keeps sampled[i] ↔ plan.segments[i]
             continue
-        move, target_problem = _sample(model, segment, index, q, margins)
+        move, target_problem = _sample(arm_for(segment)[0], segment, index, q, margins)
         if target_problem is not None:
             problems.append(target_problem)
             sampled.append(None)
@@ -113,6 +121,7 @@ def check_path(model, plan: PathPlan, cell=None, margins: Margins | None = None)
         if blend_problem is not None:
             problems.append(blend_problem)
         scale = _path_scale(move) if segment.cartesian else 0.0
+        checker = arm_for(segment)[1]
         results = checker.margins_of(segment, move.joints, move.fraction, tcp, extra, scale) if len(tcp) else {}
         problems.extend(checker.problems(index, segment, results, move.fraction, tcp, extra))
         margins_seen = {check: float(np.min(values[0])) for check, values in results.items() if len(values[0])}

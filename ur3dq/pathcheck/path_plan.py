@@ -30,6 +30,9 @@ class PathSegment:
     target_pose:   (8,) TCP pose; for linear/process moves required unless `target_joints` is given (its FK).
     speed:         rad/s (joint) or m/s (linear/process); acceleration rad/s² or m/s² (kept for the time figures).
     blend:         blend radius (m) into the next segment; 0 = stop at the target.
+    tcp_offset:    (6,) UR pose vector [x y z rx ry rz] (m, rad, flange frame) of the TCP this move runs with (a
+                   cell program's waypoint taught with its own TCP: set_tcp before the move); None = the model's.
+                   A linear move's straight line, and `target_pose`, belong to this TCP.
     """
 
     name: str
@@ -39,6 +42,7 @@ class PathSegment:
     speed: float = 1.05
     acceleration: float = 1.4
     blend: float = 0.0
+    tcp_offset: tuple | None = None
 
     def __post_init__(self):
         if not isinstance(self.name, str) or not self.name:
@@ -57,6 +61,9 @@ class PathSegment:
             raise ValueError(f"segment {self.name!r}: blend must be a radius ≥ 0 in metres, got {self.blend!r}")
         object.__setattr__(self, "target_joints", joints)
         object.__setattr__(self, "target_pose", pose)
+        if self.tcp_offset is not None:
+            object.__setattr__(self, "tcp_offset", tuple(map(float, _finite_vector(self.tcp_offset, 6, self.name,
+                                                                                   "tcp_offset"))))
 
     @property
     def cartesian(self) -> bool:

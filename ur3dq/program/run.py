@@ -13,6 +13,8 @@ import math
 import numpy as np
 
 from ur3dq.errors import ProgramError, SafetyCheckError
+from ur3dq.pathcheck import PathPlan, PathSegment
+from ur3dq.program.path import path_plan_of
 from ur3dq.program.plan import Defaults, plan_program
 from ur3dq.program.resolve import select_range
 from ur3dq.program.steps import Wait, WaitInput
@@ -99,7 +101,12 @@ def run_plan(robot, plan, first_position: int = 1, progress=None) -> float:
     text = program_script(plan, program_name=name, first_position=first_position,
                           restore_tcp=tuple(robot.model.tcp.to_ur_pose()))
     return robot.run_script(name, text, final, expected_seconds(plan), on_message=watch.note,
-                            reached_end=lambda: watch.done)
+                            reached_end=lambda: watch.done, path=_path_of(plan, start))
+
+
+def _path_of(plan, start):
+    """The PathPlan the driver's path check sees; a program without waypoints checks where the arm rests."""
+    return path_plan_of(plan, start) or PathPlan(start, [PathSegment("(no motion)", target_joints=start)])
 
 
 def run_program(robot, steps, defaults=None, speed_scale: float = 1.0, start: str | None = None,

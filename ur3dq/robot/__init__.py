@@ -6,7 +6,8 @@ def connect(host, backend="rtde", model=None, **options):
     """A Robot connected to the controller at `host` through `backend` ('rtde' or 'urx'); use it with `with`.
 
     `model` (e.g. 'ur3') is checked against what the controller reports; options go to Robot (max_joint_travel,
-    connect_timeout, heartbeat=False to send motions without the heartbeat that stops them if ur3dq dies).
+    connect_timeout, heartbeat=False to send motions without the heartbeat that stops them if ur3dq dies,
+    path_check=True or a pathcheck Cell to refuse every motion whose whole path does not pass the path check).
     """
     from ur3dq.robot.robot import Robot
 

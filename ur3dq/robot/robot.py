@@ -86,7 +86,7 @@ class Robot:
     """A connection to one UR controller. Use `ur3dq.robot.connect(...)`; close with `close()` or `with`."""
 
     def __init__(self, host, backend="rtde", model=None, max_joint_travel=safety.DEFAULT_MAX_JOINT_TRAVEL,
-                 connect_timeout=3.0, heartbeat=True):
+                 connect_timeout=3.0, heartbeat=True, path_check=None):
         if backend not in ("rtde", "urx"):
             raise ValueError(f"backend must be 'rtde' or 'urx', got {backend!r}")
         if not (isinstance(max_joint_travel, (int, float)) and max_joint_travel > 0):
@@ -100,6 +100,9 @@ class Robot:
         # Started with the first motion, so that reading, recording or a second ur3dq watching the same arm never
         # contend for its RTDE input registers.
         self._use_heartbeat = bool(heartbeat)
+        self._path_check = None
+        if path_check is not None:
+            self.require_path_check(*(() if path_check is True else (path_check,)))
         try:
             self._primary = self._open_primary()
             self._dashboard = Dashboard(host)
@@ -264,11 +267,42 @@ class Robot:
             previous = q
         if len(targets) == 1 and motion.leading_travel(status.joints, targets[0]) < 1e-9:
             return 0.0  # already there: sending a program would only add a start/stop
+        if self._path_check is not None:
+            from ur3dq.pathcheck import PathPlan, PathSegment
+
+            last = len(targets) - 1
+            self._require_clear_path(PathPlan(status.joints, [
+                PathSegment(f"targets[{index}]", "joint", target_joints=q, speed=v, acceleration=a,
+                            blend=0.0 if index == last else float(blend)) for index, q in enumerate(targets)]))
         duration = motion.path_duration(status.joints, targets, a, v)
         name = script.new_program_name("move")
         program = script.movej_program(name, targets, a, v, blend=float(blend))
         timeout = motion.motion_timeout(duration, status.target_speed_fraction)
         return self._run_motion(name, program, targets[-1], status.joints, status.program_running, timeout)
+
+    def require_path_check(self, cell=None, margins=None):
+        """From now on every motion is refused (SafetyCheckError, nothing sent) unless the whole path it sweeps
+        passes ur3dq.pathcheck.check_path in `cell` (a Cell, or None: self-collision, singularities, limits and
+        speeds only) with `margins` (a Margins, or the defaults). movej/movej_path are sampled here; run_script
+        needs the PathPlan of its program (`path=`), which run_program gives; a script without one is refused."""
+        from ur3dq.pathcheck import Margins
+
+        self._path_check = (cell, margins or Margins())
+
+    def _require_clear_path(self, path) -> None:
+        """Check `path` (a PathPlan from the arm's joints) when a path check is required; SafetyCheckError if it
+        fails, or if there is no path to check."""
+        if self._path_check is None:
+            return
+        if path is None:
+            raise SafetyCheckError("this Robot requires a path check before every motion, and this program has no "
+                                   "path to check (pass run_script(..., path=PathPlan))")
+        from ur3dq.pathcheck import check_path
+
+        cell, margins = self._path_check
+        result = check_path(self.model, path, cell, margins)
+        if not result.ok:
+            raise SafetyCheckError(f"path check: {result.summary()}")
 
     def movej_pose(self, pose, a=None, v=None):
         """Move to the TCP `pose` (DualQuaternion) through the IK solution closest to the current joints."""
@@ -317,15 +351,16 @@ class Robot:
             raise ConnectionLostError(f"the primary interface of {self.host} closed: {self._primary.error}")
         return status
 
-    def run_script(self, name, program, target, duration, on_message=None, reached_end=None):
+    def run_script(self, name, program, target, duration, on_message=None, reached_end=None, path=None):
         """Run a whole generated `program` (URScript text of `def name(): ... end`, its targets checked by the
         caller) that ends with the arm at joint `target`, expected to take `duration` s at 100 %; each robot
         message is also given to `on_message` (which may raise to fail the run), and when `reached_end` is given
         the run is only done once it returns True (the program's own report that it ran to its end: the arm
-        resting at a target it started from proves nothing). Returns the wall time (s). Used by
-        ur3dq.program.run for cell programs."""
+        resting at a target it started from proves nothing). `path` (a PathPlan of the program's moves) is
+        checked when require_path_check is on. Returns the wall time (s). Used by ur3dq.program.run."""
         status = self._ready_status()
         target = self._checked_target(target, "target")
+        self._require_clear_path(path)
         timeout = motion.motion_timeout(duration, status.target_speed_fraction)
         return self._run_motion(script.check_identifier(name), program, target, status.joints,
                                 status.program_running, timeout, on_message, reached_end)

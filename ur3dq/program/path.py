@@ -1,0 +1,21 @@
+"""A planned cell program as the whole-path check's input (ur3dq.pathcheck): one PathSegment per waypoint in
+execution order, with its move type (movej / movel / movep), clamped speed and acceleration, blend radius and
+taught TCP offset. Action steps (I/O, waits, messages) do not move the arm and are left out; a blend never spans
+one, since the planner zeroes the blend of a waypoint an action follows.
+"""
+from __future__ import annotations
+
+from ur3dq.pathcheck import PathPlan, PathSegment
+
+
+def path_plan_of(plan, start_joints=None) -> PathPlan | None:
+    """The PathPlan of `plan` (ur3dq.program.plan.PlannedStep list) from `start_joints` (6,) rad; without a start
+    (a dry run with no robot) from the first waypoint's joints, whose configuration is then checked as a move of
+    length 0. None when the plan has no waypoint (nothing moves)."""
+    moves = [planned for planned in plan if planned.joints is not None]
+    if not moves:
+        return None
+    start = moves[0].joints if start_joints is None else start_joints
+    return PathPlan(start, [PathSegment(planned.name, planned.move, target_joints=planned.joints,
+                                        speed=planned.speed, acceleration=planned.acceleration, blend=planned.blend,
+                                        tcp_offset=planned.tcp_offset) for planned in moves])
