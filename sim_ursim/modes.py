@@ -99,7 +99,7 @@ class ModeMachine:
     def enter_protective_stop(self, reason: str, code: tuple = (209, 0)) -> None:
         """PROTECTIVE_STOP now, announced with the error code `code` = (code, argument), C209A0 unless the cause
         has its own (the caller stops the arm and the program)."""
-        log.warning("protective stop (C%dA%d): %s", code[0], code[1], reason)
+        log.warning("protective stop: %s (C%dA%d)", reason, code[0], code[1])
         self._protective_stop_at = time.monotonic()
         self._set_safety_mode(SafetyMode.PROTECTIVE_STOP)
         self._publish(ErrorCodeMessage(code=code[0], argument=code[1], report_level=3, data_type=0, data=0,
