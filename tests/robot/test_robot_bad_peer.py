@@ -2,19 +2,26 @@
 garbage: every connection step ends within its timeout with one ur3dq error; garbage state is never taken as state."""
 import os
 import random
+import shutil
 import socket
 import subprocess
 import sys
 import threading
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
 
+import rtde_receive
+
+from polling import wait_for
 from ur3dq.errors import InvalidStateError, RobotConnectionError, RobotError
 from ur3dq.robot import state
+from ur3dq.store import PoseStore
 
 TIMEOUT = 0.5  # s: UR3DQ_CONNECT_TIMEOUT for these tests
+EXAMPLE_STORE = Path(__file__).parents[2] / "poses" / "example-poses.json"
 
 
 class FakePort:
@@ -150,3 +157,123 @@ def _free_port():
     with socket.socket() as sock:
         sock.bind(("127.0.0.1", 0))
         return sock.getsockname()[1]
+
+
+class GarbledSecondary:
+    """A fake robot on a free loopback address in front of a simulator: the dashboard, primary, realtime and RTDE
+    ports are forwarded to it unchanged, the secondary port (30002, urx's) forwards the controller's stream for
+    `garbage_after` s and then sends random bytes forever (garbage_after 0: garbage from the start)."""
+
+    FORWARDED = (29999, 30001, 30003, 30004)
+
+    def __init__(self, target, garbage_after):
+        self.target, self.garbage_after = target, garbage_after
+        self._listeners, self._sockets = [], []
+        ports = (*self.FORWARDED, 30002)
+        for _ in range(20):   # a random loopback address where all five ports are free
+            self.host = f"127.{random.randint(1, 254)}.{random.randint(1, 254)}.{random.randint(1, 254)}"
+            try:
+                self._listeners = [socket.create_server((self.host, port)) for port in ports]
+                break
+            except OSError:
+                self.close()
+        for listener, port in zip(self._listeners, ports):
+            threading.Thread(target=self._accept, args=(listener, port), daemon=True).start()
+
+    def _accept(self, listener, port):
+        while True:
+            try:
+                client, _ = listener.accept()
+                upstream = socket.create_connection((self.target, port))
+            except OSError:
+                return
+            self._sockets += [client, upstream]
+            garbled = port == 30002
+            threading.Thread(target=self._pump, args=(client, upstream, None), daemon=True).start()
+            threading.Thread(target=self._pump, args=(upstream, client, self.garbage_after if garbled else None),
+                             daemon=True).start()
+
+    @staticmethod
+    def _pump(source, sink, garbage_after):
+        noise = random.Random(7).randbytes(4096)
+        started = time.monotonic()
+        try:
+            while garbage_after is None or time.monotonic() - started < garbage_after:
+                data = source.recv(65536)
+                if not data:
+                    return
+                sink.sendall(data)
+            while True:
+                sink.sendall(noise)
+                time.sleep(0.02)
+        except OSError:
+            pass
+
+    def close(self):
+        for item in self._listeners + self._sockets:
+            item.close()
+        self._listeners = []
+
+
+UR3DQ = str(Path(sys.executable).with_name("ur3dq"))
+
+
+@pytest.fixture
+def powered_simulator(tmp_path):
+    """A simulator process at HOME, powered with its brakes released."""
+    import dashboard_client
+    from robot_test_support import HOME, simulator_with
+
+    with simulator_with(initial_q=list(HOME)) as simulator:
+        dashboard = dashboard_client.DashboardClient(simulator.host)
+        dashboard.connect()
+        dashboard.powerOn()
+        dashboard.brakeRelease()
+        dashboard.disconnect()
+        receive = rtde_receive.RTDEReceiveInterface(simulator.host)
+        try:
+            assert wait_for(lambda: receive.getRobotMode() == 7, timeout=15), "the simulator never got RUNNING"
+        finally:
+            receive.disconnect()
+        yield simulator
+
+
+def ur3dq_urx(host, tmp_path, *args, timeout=30):
+    env = {k: v for k, v in os.environ.items() if not k.startswith("UR3DQ_")}
+    env.update(UR3DQ_STATE_DIR=str(tmp_path / "state"), UR3DQ_STORE=str(tmp_path / "poses.json"), COLUMNS="200")
+    started = time.monotonic()
+    result = subprocess.run([UR3DQ, "--host", host, "--backend", "urx", *args], capture_output=True, text=True,
+                            env=env, timeout=timeout)
+    return result, time.monotonic() - started
+
+
+def test_urx_garbage_on_30002_is_one_error_and_the_process_exits(powered_simulator, tmp_path):
+    """Issue 10 item 3: urx's reader thread spun on the garbage and, not being a daemon, kept the process alive
+    after the error was printed (it never exited)."""
+    fake = GarbledSecondary(powered_simulator.host, garbage_after=0)
+    try:
+        result, seconds = ur3dq_urx(fake.host, tmp_path, "status")
+    finally:
+        fake.close()
+    assert result.returncode == 5, result.stderr
+    assert result.stderr.strip().startswith(f"Error: urx cannot connect to {fake.host}:30002: no valid state packet")
+    assert len(result.stderr.strip().splitlines()) == 1 and seconds < 10
+
+
+def test_urx_garbage_in_the_middle_of_a_motion_stops_the_arm_with_one_error(powered_simulator, tmp_path):
+    shutil.copy(EXAMPLE_STORE, tmp_path / "poses.json")
+    fake = GarbledSecondary(powered_simulator.host, garbage_after=4.0)   # connected and moving by then
+    try:
+        result, _ = ur3dq_urx(fake.host, tmp_path, "run-poses", "--yes")
+    finally:
+        fake.close()
+    assert result.returncode == 6, (result.stdout, result.stderr)
+    assert "no fresh valid data" in result.stderr.strip().splitlines()[-1], result.stderr
+    receive = rtde_receive.RTDEReceiveInterface(powered_simulator.host)
+    try:   # stopped (stopj), not left to run on to the last pose
+        assert wait_for(lambda: max(abs(v) for v in receive.getActualQd()) < 1e-3, timeout=1.5), \
+            "the arm kept moving after ur3dq's error"
+        last = PoseStore(EXAMPLE_STORE).load()[-1].joints
+        assert np.max(np.abs(np.array(receive.getActualQ()) - last)) > 0.05
+    finally:
+        receive.disconnect()

@@ -346,7 +346,8 @@ class Robot:
             raise ProtectiveStopError(f"{self.host} is in a protective stop; inspect the cause, then unlock it "
                                       "(`ur3dq robot unlock`; in Python robot.unlock_protective_stop())")
         if status.age > self._backend.freeze_timeout:
-            raise ConnectionLostError(f"the state stream from {self.host} froze: no fresh data for {status.age:.2f} s")
+            raise ConnectionLostError(f"the state stream from {self.host} froze: no fresh valid data for "
+                                      f"{status.age:.2f} s (silent, frozen, or sending what is not UR state)")
         if not self._primary.alive:
             raise ConnectionLostError(f"the primary interface of {self.host} closed: {self._primary.error}")
         return status

@@ -105,11 +105,31 @@ class _QuietSecondaryMonitor(urx.ursecmon.SecondaryMonitor):
 
     error = None  # a class default: the thread starts inside urx's __init__ and may end before it returns
 
+    def start(self):
+        # urx's reader is not a daemon: on a stream of garbage it spins looking for a packet forever, and a failed
+        # connection (urx raises from its constructor, so nobody holds the thread) kept the process from exiting.
+        self.daemon = True
+        super().start()
+
     def run(self):
         try:
             super().run()
         except OSError as error:  # closed, reset, or urx's 0.5 s receive timeout
             self.error = error
+
+    def wait(self, timeout=0.5):
+        """urx's wait for a fresh packet; on its timeout the reader is ended and its socket closed before the
+        exception leaves (urx's constructor raises it, and the half-built connection would otherwise live on)."""
+        try:
+            super().wait(timeout)
+        except urx.ursecmon.TimeoutException:
+            self._trystop = True
+            try:
+                self._s_secondary.shutdown(socket.SHUT_RDWR)
+            except OSError:
+                pass
+            self._s_secondary.close()
+            raise
 
 
 class _URRobot(URRobot):
@@ -138,7 +158,8 @@ def _open_urx(host):
             return _URRobot(host)
         except urx.ursecmon.TimeoutException as error:
             if attempt + 1 == URX_CONNECT_ATTEMPTS:
-                raise RobotConnectionError(f"urx cannot connect to {host}:30002: {error} "
-                                           f"({URX_CONNECT_ATTEMPTS} attempts)") from None
+                raise RobotConnectionError(f"urx cannot connect to {host}:30002: no valid state packet within "
+                                           f"0.5 s ({URX_CONNECT_ATTEMPTS} attempts: the port is silent, slow, or "
+                                           "not sending a UR controller's data)") from None
         except OSError as error:
             raise RobotConnectionError(f"urx cannot connect to {host}:30002: {error}") from None
