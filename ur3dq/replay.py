@@ -110,10 +110,12 @@ def nearest_variant(model, solutions, reference: np.ndarray) -> np.ndarray:
     return best
 
 
-def choose_joints(model, pose: Pose, previous, replay_recorded_joints: bool) -> tuple[np.ndarray, str, int]:
+def choose_joints(model, pose: Pose, previous, replay_recorded_joints: bool,
+                  solvers: dict | None = None) -> tuple[np.ndarray, str, int]:
     """(joint target (6,), source, number of IK solutions) for `pose` on `model` (a robot_model; its TCP is
-    ignored: the pose's recorded TCP offset is used)."""
-    solver = model.with_tcp(pose.tcp_offset)
+    ignored: the pose's recorded TCP offset is used). `solvers` caches `model.with_tcp(offset)` per offset across
+    calls (building a model costs ~1 ms; a store's poses usually share one TCP)."""
+    solver = _solver(model, pose.tcp_offset, {} if solvers is None else solvers)
     if replay_recorded_joints:
         if pose.joints is None:
             raise ValueError(f"pose {pose.name!r} has no recorded joints (imported from thesis lines?); "
@@ -150,20 +152,28 @@ def plan_replay(model, poses: Sequence[Pose], start_joints=None, a: float = 1.4,
     Raises (naming the pose) if one is unreachable, outside the limits, or (with `max_joint_travel`, rad) would
     swing a joint further than that in one move: nothing moves unless the whole plan is sound.
     """
-    steps = []
+    steps, solvers = [], {}
     previous = None if start_joints is None else np.asarray(start_joints, dtype=float)
     for pose in poses:
-        q, source, count = choose_joints(model, pose, previous, replay_recorded_joints)
+        q, source, count = choose_joints(model, pose, previous, replay_recorded_joints, solvers)
         travel = None if previous is None else motion.leading_travel(previous, q)
         if max_joint_travel is not None and travel is not None and travel > max_joint_travel:
             raise SafetyCheckError(
                 f"pose {pose.name!r}: a joint would travel {travel:.3f} rad in one move, more than --max-travel "
                 f"{max_joint_travel:.3f} rad (record an intermediate pose, or raise --max-travel)")
-        metres, radians = model.with_tcp(pose.tcp_offset).fk(q).distance(pose.dq)
+        metres, radians = _solver(model, pose.tcp_offset, solvers).fk(q).distance(pose.dq)
         duration = None if previous is None else motion.movej_duration(previous, q, a, v)
         steps.append(PlanStep(pose, q, source, count, travel, duration, metres, radians))
         previous = q
     return steps
+
+
+def _solver(model, tcp_offset, solvers: dict):
+    """`model.with_tcp(tcp_offset)`, built once per offset in `solvers`."""
+    key = tuple(map(float, tcp_offset))
+    if key not in solvers:
+        solvers[key] = model.with_tcp(tcp_offset)
+    return solvers[key]
 
 
 def loop_closing_travel(steps: Sequence[PlanStep]) -> float:

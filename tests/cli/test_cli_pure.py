@@ -149,3 +149,27 @@ def test_ur_rtde_console_lines_become_ur3dq_words_and_others_pass(line, shown):
     from ur3dq.cli.library_output import DROPPED_NOTE, translated
 
     assert translated(line) == (DROPPED_NOTE if shown == "dropped" else shown)
+
+
+def test_a_margins_table_of_many_moves_shows_the_ones_that_matter():
+    """More than MAX_MARGIN_ROWS moves: the table keeps each check's smallest margin and every failed move, and
+    says how many it shows (a 10⁵-row table is unreadable and takes rich a minute)."""
+    from rich.console import Console
+
+    from ur3dq.cli.path_report import MAX_MARGIN_ROWS, margins_table
+    from ur3dq.pathcheck import PathPlan, PathSegment, check_path
+
+    model = robot_model("ur3")
+    home = np.array([0.0, -1.5, 1.2, -1.5, -1.57, 0.0])
+    moves = [PathSegment(f"m{i}", target_joints=home + [0.01 * (i % 7), 0, 0.005 * (i % 3), 0, 0, 0])
+             for i in range(MAX_MARGIN_ROWS + 50)]
+    result = check_path(model, PathPlan(home, moves))
+    console = Console(width=200, record=True)
+    console.print(margins_table(result, "margins", 200))
+    text = console.export_text()
+    rows = [line for line in text.splitlines() if line.startswith("│ m")]
+    assert 0 < len(rows) <= len(result.steps[0].margins), text
+    assert f"of {MAX_MARGIN_ROWS + 50} moves shown" in text
+    for check in result.steps[0].margins:   # the move with each check's smallest margin is among the rows
+        worst = min(result.steps, key=lambda step: step.margins[check]).name
+        assert any(row.startswith(f"│ {worst} ") for row in rows), (check, worst)

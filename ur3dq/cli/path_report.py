@@ -97,7 +97,8 @@ def margins_table(result, title: str, width: int | None = None) -> Table:
     columns += [Column(header, narrow_header=short, justify="right", no_wrap=True, drop_order=order)
                 for _, header, _, short, order in MARGIN_COLUMNS]
     rows = []
-    for step in result.steps:
+    shown = _rows_worth_showing(result)
+    for step in (result.steps[i] for i in shown):
         cells = []
         for key, _, scale, _, _ in MARGIN_COLUMNS:
             value = step.margins.get(key)
@@ -107,7 +108,25 @@ def margins_table(result, title: str, width: int | None = None) -> Table:
     if narrow:  # the sample count first: it says how fine the check was, not how safe the path is
         columns, rows = columns[:2] + columns[3:], [row[:2] + row[3:] for row in rows]
     table = fitted_table(title, columns, rows, width)
-    if narrow:
-        table.caption = "; ".join(filter(None, ["shldr, self, cell in mm; limit in °", table.caption]))
-        table.caption_justify = "left"
+    notes = ["shldr, self, cell in mm; limit in °" if narrow else None, table.caption,
+             None if len(shown) == len(result.steps) else
+             f"{len(shown)} of {len(result.steps)} moves shown: those with a problem or a check's smallest margin"]
+    table.caption = "; ".join(filter(None, notes)) or None
+    table.caption_justify = "left"
     return table
+
+
+MAX_MARGIN_ROWS = 200   # a table of 10⁵ moves is unreadable (and takes rich a minute): the moves that matter
+
+
+def _rows_worth_showing(result) -> list[int]:
+    """Indices of the moves the margins table shows: all of them up to MAX_MARGIN_ROWS, else the moves with a
+    problem and, for each check, the move with its smallest margin (in program order)."""
+    if len(result.steps) <= MAX_MARGIN_ROWS:
+        return list(range(len(result.steps)))
+    failed = {problem.step for problem in result.problems}
+    chosen = {i for i, step in enumerate(result.steps) if step.name in failed}
+    for check in {check for step in result.steps for check in step.margins}:
+        values = [(step.margins[check], i) for i, step in enumerate(result.steps) if check in step.margins]
+        chosen.add(min(values)[1])
+    return sorted(chosen)[:MAX_MARGIN_ROWS]

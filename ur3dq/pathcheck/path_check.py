@@ -187,8 +187,8 @@ def _blend_allowance(plan, sampled, tcp_of, index):
     extra = np.zeros(len(tcp))
     problem = None
     segment = plan.segments[index]
-    lengths = {i: float(np.sum(np.linalg.norm(np.diff(t, axis=0), axis=1))) for i, t in tcp_of.items()
-               if i in (index - 1, index, index + 1)}
+    lengths = {i: float(np.sum(np.linalg.norm(np.diff(tcp_of[i], axis=0), axis=1)))
+               for i in (index - 1, index, index + 1) if i in tcp_of}   # the neighbours only: O(1) per move
     if segment.blend > 0 and len(tcp) and index + 1 < len(plan.segments):
         extra = np.maximum(extra, np.where(np.linalg.norm(tcp - tcp[-1], axis=1) < segment.blend, segment.blend, 0))
         shortest = min(lengths.get(index, 0.0), lengths.get(index + 1, np.inf))
