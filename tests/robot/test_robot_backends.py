@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 import ur3dq.robot
+from polling import wait_for
 from ur3dq.errors import ProgramError, RobotError, SafetyCheckError
 from ur3dq.robot import motion
 from ur3dq.robot.primary_client import PrimaryClient
@@ -42,8 +43,7 @@ def test_movej_blocks_for_the_motion_and_ends_at_rest_on_target(robot, home):
     assert np.max(np.abs(status.joints - target)) < 2e-3 and np.max(np.abs(status.joint_speeds)) < 5e-3
     # movej returns on the controller's "program stopped" message; the state stream agrees a cycle later
     # (within 10 Hz for urx's primary data).
-    time.sleep(0.15)
-    assert not robot.state().program_running
+    assert wait_for(lambda: not robot.state().program_running, timeout=1.0)
 
 
 def test_movej_to_the_current_joints_returns_at_once(robot):
@@ -130,22 +130,20 @@ def test_stop_decelerates_a_running_motion(robot, home):
 
     mover = threading.Thread(target=move)
     mover.start()
-    time.sleep(0.8)
+    assert wait_for(lambda: np.max(np.abs(robot.state().joint_speeds)) > 0.5, timeout=5.0)   # well under way
     robot.stop()
     mover.join(timeout=10)
     assert isinstance(outcome.get("error"), ProgramError)
-    time.sleep(0.3)
+    assert wait_for(lambda: np.max(np.abs(robot.state().joint_speeds)) < 5e-3, timeout=2.0)
     status = robot.state()
-    assert np.max(np.abs(status.joint_speeds)) < 5e-3
     assert abs(status.joints[0] - target[0]) > 0.3
 
 
 def test_set_tcp_changes_the_controllers_tcp_and_the_model(robot):
     robot.set_tcp([0.0, 0.0, 0.12, 0.0, 0.0, 0.0])
     assert np.allclose(robot.model.tcp.to_ur_pose(), [0, 0, 0.12, 0, 0, 0], atol=1e-12)
-    time.sleep(0.05)
-    metres, _ = robot.model.fk(robot.joints()).distance(robot.tcp_pose())
-    assert metres < 1e-5
+    # the model changes at once; the streamed TCP pose shows the new TCP from the next state package on
+    assert wait_for(lambda: robot.model.fk(robot.joints()).distance(robot.tcp_pose())[0] < 1e-5, timeout=1.0)
 
 
 def test_teach_mode_on_and_off(robot, home):

@@ -11,6 +11,7 @@ from ur3dq.errors import (ConnectionLostError, EmergencyStopError, MotionTimeout
                           ProtectiveStopError, RobotError)
 from ur3dq.robot import motion
 
+from polling import wait_for
 from robot_target import needs_simulator
 from robot_test_support import inject, set_speed_slider
 
@@ -145,7 +146,7 @@ def test_slider_lowered_mid_motion_times_out(sim_robot, home):
 def test_timeout_allows_for_a_slow_slider(sim_robot, home):
     host, robot = sim_robot
     set_speed_slider(host, 0.5)
-    time.sleep(0.1)
+    assert wait_for(lambda: robot.state().target_speed_fraction == 0.5)
     target = home + np.array([0.5, 0, 0, 0, 0, 0])
     wall = robot.movej(target, a=1.4, v=1.05)
     assert wall >= 1.8 * motion.movej_duration(home, target, 1.4, 1.05)

@@ -70,15 +70,13 @@ def _task_io(host):
     written = [io.setStandardDigitalOut(1, True), io.setToolDigitalOut(0, True), io.setConfigurableDigitalOut(2, True),
                io.setSpeedSlider(0.5), io.setInputIntRegister(18, 7), io.setInputDoubleRegister(20, 1.25),
                io.setAnalogOutputVoltage(0, 0.3)]
-    deadline = time.monotonic() + 3
-    while time.monotonic() < deadline and receiver.getTargetSpeedFraction() != 0.5:
-        time.sleep(0.01)
-    time.sleep(0.05)
+    _until(lambda: receiver.getTargetSpeedFraction() == 0.5 and receiver.getDigitalOutState(1)
+           and abs(receiver.getStandardAnalogOutput0() - 0.3) < 1e-6)   # every write has reached the stream
     result = {"written": written, "do1": receiver.getDigitalOutState(1), "do0": receiver.getDigitalOutState(0),
               "bits": receiver.getActualDigitalOutputBits(), "speed_fraction": receiver.getTargetSpeedFraction(),
               "analog_out0": receiver.getStandardAnalogOutput0()}
     io.setStandardDigitalOut(1, False)
-    time.sleep(0.1)
+    _until(lambda: not receiver.getDigitalOutState(1))
     result["do1_after_clear"] = receiver.getDigitalOutState(1)
     io.disconnect()
     receiver.disconnect()
@@ -108,6 +106,26 @@ def _task_several(host, count, seconds):
     return {"advance": advance, "connected": connected}
 
 
+def _until(predicate, timeout=3.0):
+    """Poll `predicate` every 10 ms until it returns something true (returned) or `timeout` s pass (None). These
+    tasks run in a client subprocess, without the test tree's polling helpers."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        value = predicate()
+        if value:
+            return value
+        time.sleep(0.01)
+    return None
+
+
+def _io_interface(rtde_io, host):
+    """An RTDEIOInterface, or None while the controller still counts the input registers as taken."""
+    try:
+        return rtde_io.RTDEIOInterface(host)
+    except RuntimeError:
+        return None
+
+
 def _task_io_twice(host):
     """A second RTDEIOInterface while the first holds its input registers, then one after the first left."""
     import rtde_io
@@ -119,8 +137,7 @@ def _task_io_twice(host):
     except RuntimeError as error:
         second_error = str(error)
     first.disconnect()
-    time.sleep(0.2)
-    third = rtde_io.RTDEIOInterface(host)
+    third = _until(lambda: _io_interface(rtde_io, host))   # once the controller has seen the first one leave
     third_works = third.setSpeedSlider(0.25)
     third.disconnect()
     return {"second_error": second_error, "third_works": third_works}
