@@ -17,7 +17,8 @@ from robot_test_support import inject, set_speed_slider
 
 pytestmark = needs_simulator
 
-LONG_MOVE = np.array([3.0, 0, 0, 0, 0, 0])  # about 3.6 s at the URScript defaults: room for a late fault detection
+LONG_MOVE = np.array([3.0, 0, 0, 0, 0, 0])
+  # about 3.6 s at the URScript defaults: room for a late fault detection
 
 
 def after(seconds, action):
@@ -172,3 +173,23 @@ def test_not_running_robot_is_refused_then_powered_through_the_dashboard(sim_hos
         robot.brake_release()
         assert robot.state().robot_mode_name == "RUNNING"
         robot.movej(home + 0.1)
+
+
+def test_a_slow_link_is_no_motion_timeout():
+    """Issue 10 item 7: with 2 s of latency on everything the controller sends (set before connecting), a movej
+    whose plain timeout (~2.4 s) is shorter than its send-to-end-report time ends normally: the link's round
+    trip, measured while connecting, extends every motion's timeout. (ur_rtde backend: urx gives a link a fixed
+    0.5 s for its first packet.)"""
+    from robot_test_support import HOME, simulator_with
+
+    with simulator_with(initial_q=list(HOME)) as simulator:
+        inject(simulator.host, "latency", seconds=2.0)
+        with ur3dq.robot.connect(simulator.host, backend="rtde", heartbeat=False) as robot:
+            assert robot.link_delay >= 2.0
+            robot.power_on()
+            robot.brake_release()
+            target = HOME + np.array([0.3, 0, 0, 0, 0, 0])
+            timeout = motion.motion_timeout(motion.movej_duration(HOME, target, 1.4, 1.0), 1.0)
+            wall = robot.movej(target, a=1.4, v=1.0)
+            assert wall > timeout   # the end was reported after the timeout a fast link would have had
+            assert np.allclose(robot.joints(), target, atol=1e-4)

@@ -101,6 +101,7 @@ class Robot:
         # contend for its RTDE input registers.
         self._use_heartbeat = bool(heartbeat)
         self._path_check = None
+        self.link_delay = 0.0   # s, measured while connecting (_identify_model)
         if path_check is not None:
             self.require_path_check(*(() if path_check is True else (path_check,)))
         try:
@@ -164,7 +165,12 @@ class Robot:
     def _identify_model(self, requested):
         """The model name from the dashboard and Configuration Data; RobotError if they or `requested` disagree."""
         major = self._primary.version.major
-        identified = model_from_reply(self._dashboard.robot_model_reply(), major)
+        asked = time.monotonic()
+        reply = self._dashboard.robot_model_reply()
+        # The link's measured round trip: every report of a motion (its start, its end) comes that late, so each
+        # motion's timeout is extended by it (issue 10 item 7: a slow link is no motion timeout).
+        self.link_delay = time.monotonic() - asked
+        identified = model_from_reply(reply, major)
         configuration = self._primary.configuration
         if configuration is not None:
             from_configuration = primary.model_name(configuration.robot_type, major)
@@ -277,7 +283,7 @@ class Robot:
         duration = motion.path_duration(status.joints, targets, a, v)
         name = script.new_program_name("move")
         program = script.movej_program(name, targets, a, v, blend=float(blend))
-        timeout = motion.motion_timeout(duration, status.target_speed_fraction)
+        timeout = motion.motion_timeout(duration, status.target_speed_fraction) + self.link_delay
         return self._run_motion(name, program, targets[-1], status.joints, status.program_running, timeout)
 
     def require_path_check(self, cell=None, margins=None):
@@ -362,7 +368,7 @@ class Robot:
         status = self._ready_status()
         target = self._checked_target(target, "target")
         self._require_clear_path(path)
-        timeout = motion.motion_timeout(duration, status.target_speed_fraction)
+        timeout = motion.motion_timeout(duration, status.target_speed_fraction) + self.link_delay
         return self._run_motion(script.check_identifier(name), program, target, status.joints,
                                 status.program_running, timeout, on_message, reached_end)
 
@@ -399,12 +405,14 @@ class Robot:
                 now = time.monotonic()
                 if outcome.finished(status, now) and (reached_end is None or reached_end()):
                     return now - sent
-                if not outcome.started and now - sent > START_TIMEOUT:
-                    raise ProgramError(f"the controller did not start program {name} within {START_TIMEOUT} s")
+                if not outcome.started and now - sent > START_TIMEOUT + self.link_delay:
+                    raise ProgramError(f"the controller did not start program {name} within "
+                                       f"{START_TIMEOUT + self.link_delay:.1f} s")
                 if now - sent > timeout:
                     raise MotionTimeoutError(
                         f"program {name} did not finish within {timeout:.2f} s (derived from its trapezoidal "
-                        f"duration and the speed slider); the arm is {outcome.distance(status):.4f} rad from target")
+                        f"duration and the speed slider, plus the link's measured round trip of "
+                        f"{self.link_delay:.3f} s); the arm is {outcome.distance(status):.4f} rad from target")
                 time.sleep(self._backend.poll_period)
         except BaseException as error:
             self._stop_after(error)
