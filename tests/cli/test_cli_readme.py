@@ -19,22 +19,9 @@ def python_api_tour() -> str:
 
 @simulator_only("running the README's example against a simulator")
 def test_the_python_api_tour_runs_as_written(tmp_path):
-    import dashboard_client
-    from polling import wait_for
-    from sim_ursim.launch import simulator_process
-    import rtde_receive
+    from powered_simulator import powered_simulator
 
-    with simulator_process(model="ur3") as simulator:
-        dashboard = dashboard_client.DashboardClient(simulator.host)
-        dashboard.connect()
-        dashboard.powerOn()
-        dashboard.brakeRelease()
-        dashboard.disconnect()
-        receive = rtde_receive.RTDEReceiveInterface(simulator.host)
-        try:
-            assert wait_for(lambda: receive.getRobotMode() == 7, timeout=15)
-        finally:
-            receive.disconnect()
+    with powered_simulator(model="ur3") as simulator:
         (tmp_path / "tour.py").write_text(python_api_tour(), encoding="utf-8")
         result = subprocess.run([sys.executable, "tour.py"], cwd=tmp_path, capture_output=True, text=True,
                                 timeout=120, env={"UR3DQ_HOST": simulator.host, "PATH": "/usr/bin:/bin"})

@@ -16,6 +16,7 @@ import pytest
 import rtde_receive
 
 from polling import wait_for
+from powered_simulator import powered_simulator as powered_simulator_process
 from ur3dq.errors import InvalidStateError, RobotConnectionError, RobotError
 from ur3dq.robot import state
 from ur3dq.store import PoseStore
@@ -219,22 +220,10 @@ UR3DQ = str(Path(sys.executable).with_name("ur3dq"))
 
 
 @pytest.fixture
-def powered_simulator(tmp_path):
-    """A simulator process at HOME, powered with its brakes released."""
-    import dashboard_client
-    from robot_test_support import HOME, simulator_with
+def powered_simulator():
+    from robot_test_support import HOME
 
-    with simulator_with(initial_q=list(HOME)) as simulator:
-        dashboard = dashboard_client.DashboardClient(simulator.host)
-        dashboard.connect()
-        dashboard.powerOn()
-        dashboard.brakeRelease()
-        dashboard.disconnect()
-        receive = rtde_receive.RTDEReceiveInterface(simulator.host)
-        try:
-            assert wait_for(lambda: receive.getRobotMode() == 7, timeout=15), "the simulator never got RUNNING"
-        finally:
-            receive.disconnect()
+    with powered_simulator_process(initial_q=list(HOME)) as simulator:
         yield simulator
 
 
