@@ -103,19 +103,27 @@ def fitted_table(title: str | None, columns, rows, width: int | None) -> Table:
     its never-dropped columns is too wide: then its cells fold over lines, but are never cut.
     """
     narrow = width is not None and width < NARROW_WIDTH
+    measured = [_column_measure(column, [row[i] for row in rows], narrow) for i, column in enumerate(columns)]
+
+    def widths_of(indices, no_wrap, natural):   # each column's width, from the one measurement of its cells
+        return [max(columns[i].min_width or 0, measured[i][2] if natural else measured[i][1 if wrap_off else 0])
+                for i, wrap_off in zip(indices, no_wrap)]
+
     kept = list(range(len(columns)))
     while True:
-        shown, cells = [columns[i] for i in kept], [[row[i] for i in kept] for row in rows]
         droppable = [i for i in kept if columns[i].drop_order is not None]
-        if width is None or not droppable or _table_width(_column_widths(shown, cells, narrow, 0), narrow) <= width:
+        no_wrap = [columns[i].no_wrap for i in kept]
+        if width is None or not droppable or _table_width(widths_of(kept, no_wrap, False), narrow) <= width:
             break
         kept.remove(min(droppable, key=lambda i: columns[i].drop_order))
-    if width is not None and _table_width(_column_widths(shown, cells, narrow, 0), narrow) > width:
+    shown, cells = [columns[i] for i in kept], [[row[i] for i in kept] for row in rows]
+    if width is not None and _table_width(widths_of(kept, no_wrap, False), narrow) > width:
         # only the never-dropped columns are left and a name alone is longer than the room: it folds, whole
         shown = [dataclasses.replace(column, no_wrap=False) for column in shown]
+        no_wrap = [False] * len(kept)
     widths = None
-    if width is not None and _table_width(_column_widths(shown, cells, narrow, 1), narrow) > width:
-        widths = _shared_widths(_column_widths(shown, cells, narrow, 0), _column_widths(shown, cells, narrow, 1),
+    if width is not None and _table_width(widths_of(kept, no_wrap, True), narrow) > width:
+        widths = _shared_widths(widths_of(kept, no_wrap, False), widths_of(kept, no_wrap, True),
                                 width - _table_width([0] * len(shown), narrow))
     table = _table(title, shown, cells, narrow, widths)
     left_out = [columns[i].header for i in range(len(columns)) if i not in kept]
@@ -146,22 +154,22 @@ def _table_width(column_widths, narrow: bool) -> int:
     return sum(column_widths) + (2 * (count - 1) if narrow else 3 * (count - 1) + 4)
 
 
-def _column_widths(columns, rows, narrow: bool, widest: int) -> list[int]:
-    """Each column's narrowest width that cuts no word (`widest` 0) or its natural width (`widest` 1)."""
-    widths = []
-    for index, column in enumerate(columns):
-        cells = [_header(column, narrow), *(row[index] for row in rows)]
-        widths.append(max([column.min_width or 0, *(_cell_widths(cell, column.no_wrap)[widest] for cell in cells)]))
-    return widths
+def _column_measure(column: Column, cells, narrow: bool) -> tuple[int, int, int]:
+    """(longest word, longest unbreakable line, longest line) over the column's header and cells: its narrowest
+    width when it may wrap, its narrowest when it may not, and its natural width."""
+    measures = [_cell_widths(cell) for cell in [_header(column, narrow), *cells]]
+    return tuple(max(measure[k] for measure in measures) for k in range(3))
 
 
-def _cell_widths(cell, no_wrap: bool) -> tuple[int, int]:
-    """(longest unbreakable piece, longest line) of a cell: a str with rich markup, or a VectorCell."""
+def _cell_widths(cell) -> tuple[int, int, int]:
+    """(longest word, longest unbreakable piece, longest line) of a cell: a str with rich markup, or a VectorCell
+    (which breaks only between its halves)."""
     if isinstance(cell, VectorCell):
-        return max(len(line) for line in cell.halves.splitlines()), len(cell.one_line)
+        halves = max(len(line) for line in cell.halves.splitlines())
+        return halves, halves, len(cell.one_line)
     lines = Text.from_markup(cell).plain.splitlines() or [""]
     longest = max(len(line) for line in lines)
-    return (longest if no_wrap else max(len(word) for line in lines for word in line.split() or [""])), longest
+    return max(len(word) for line in lines for word in line.split() or [""]), longest, longest
 
 
 def _shared_widths(minimum, natural, room: int) -> list[int]:
