@@ -21,11 +21,48 @@ LONG_MOVE = np.array([3.0, 0, 0, 0, 0, 0])
   # about 3.6 s at the URScript defaults: room for a late fault detection
 
 
-def after(seconds, action):
-    """Run `action` on a timer thread after `seconds`; returns the thread (join it)."""
-    timer = threading.Timer(seconds, action)
-    timer.start()
-    return timer
+class WhenMoving(threading.Thread):
+    """`with WhenMoving(host, start, action) as watch:` runs `action` once the simulator at `host` reports a
+    running program and the base joint `lead` rad from `start`: the fault lands in the middle of this motion. A
+    fixed delay from the movej call does not: on a loaded machine the program may not have started yet, and a
+    dashboard `stop` before the start stops nothing. `running_at` / `fired_at`: monotonic times the program was
+    first seen running and the action ran. Leaving the block cancels a watch that has not fired (so it never
+    fires into the next test) and, when the block raised nothing, asserts that it fired."""
+
+    def __init__(self, host, start, action, lead=0.05, timeout=10.0):
+        super().__init__(daemon=True)
+        self.host, self.start_q, self.action, self.lead, self.timeout = host, start, action, lead, timeout
+        self.running_at = self.fired_at = None
+        self._cancelled = threading.Event()
+
+    def __enter__(self):
+        self.start()
+        return self
+
+    def __exit__(self, exc_type, *_):
+        self._cancelled.set()
+        self.join(5.0)
+        if exc_type is None:
+            assert self.fired_at is not None, "the motion was never seen running"
+
+    def run(self):
+        deadline = time.monotonic() + self.timeout
+        while time.monotonic() < deadline and not self._cancelled.is_set():
+            state = _simulator_status(self.host)
+            if state["running"] and self.running_at is None:
+                self.running_at = time.monotonic()
+            if state["running"] and abs(state["q"][0] - self.start_q[0]) >= self.lead:
+                self.fired_at = time.monotonic()
+                self.action()
+                return
+            self._cancelled.wait(0.01)
+
+
+def _simulator_status(host):
+    """{"running": bool, "q": [6 floats]} from the simulator's control channel (its own view, not the driver's)."""
+    line = inject(host, "status")
+    joints = line.split("q [", 1)[1].split("]", 1)[0]
+    return {"running": "program running" in line, "q": [float(value) for value in joints.split()]}
 
 
 def timed_failure(robot, target, **kwargs):
@@ -53,10 +90,9 @@ def test_protective_stop_during_motion(own_sim_robot, home):
         stopped["at"] = time.monotonic()
         inject(host, "protective-stop", reason="test")
 
-    timer = after(0.5, protective_stop)
-    error, _ = timed_failure(robot, home + LONG_MOVE)
-    caught = time.monotonic()
-    timer.join()
+    with WhenMoving(host, home, protective_stop) as timer:
+        error, _ = timed_failure(robot, home + LONG_MOVE)
+        caught = time.monotonic()
     assert isinstance(error, ProtectiveStopError) and "unlock_protective_stop" in str(error)
     assert caught - stopped["at"] < 0.5
     with pytest.raises(ProtectiveStopError):  # no motion while stopped
@@ -72,10 +108,10 @@ def test_protective_stop_during_motion(own_sim_robot, home):
 
 def test_emergency_stop_during_motion(own_sim_robot, home):
     host, robot = own_sim_robot
-    timer = after(0.5, lambda: inject(host, "emergency-stop"))
-    error, elapsed = timed_failure(robot, home + LONG_MOVE)
-    timer.join()
-    assert isinstance(error, EmergencyStopError) and elapsed < 1.5
+    with WhenMoving(host, home, lambda: inject(host, "emergency-stop")) as timer:
+        error, _ = timed_failure(robot, home + LONG_MOVE)
+        caught = time.monotonic()
+    assert isinstance(error, EmergencyStopError) and caught - timer.fired_at < 1.0
     with pytest.raises(EmergencyStopError):
         robot.movej(home)
 
@@ -86,13 +122,13 @@ def test_program_stopped_from_the_dashboard_is_a_program_error(sim_robot, home):
     host, robot = sim_robot
     dashboard = dashboard_client.DashboardClient(host)
     dashboard.connect()
-    timer = after(0.5, dashboard.stop)
     try:
-        error, elapsed = timed_failure(robot, home + LONG_MOVE)
+        with WhenMoving(host, home, dashboard.stop) as timer:
+            error, _ = timed_failure(robot, home + LONG_MOVE)
+            caught = time.monotonic()
     finally:
-        timer.join()
         dashboard.disconnect()
-    assert isinstance(error, ProgramError) and "from its target" in str(error) and elapsed < 2.0
+    assert isinstance(error, ProgramError) and "from its target" in str(error) and caught - timer.fired_at < 1.5
     assert_at_rest_short_of(robot, home + LONG_MOVE)
 
 
@@ -106,10 +142,10 @@ def test_runtime_error_in_the_program_is_a_program_error(sim_robot, home):
 def test_dropped_connection_during_motion_then_reconnect_without_resending(sim_robot, home):
     host, robot = sim_robot
     target = home + LONG_MOVE
-    timer = after(0.5, lambda: inject(host, "drop-connections"))
-    error, elapsed = timed_failure(robot, target)
-    timer.join()
-    assert isinstance(error, ConnectionLostError) and elapsed < 2.0
+    with WhenMoving(host, home, lambda: inject(host, "drop-connections")) as timer:
+        error, _ = timed_failure(robot, target)
+        caught = time.monotonic()
+    assert isinstance(error, ConnectionLostError) and caught - timer.fired_at < 1.5
     time.sleep(0.5)
     status = robot.state()  # reconnects the streams with backoff
     deadline = time.monotonic() + 3.0
@@ -125,10 +161,10 @@ def test_dropped_connection_during_motion_then_reconnect_without_resending(sim_r
 def test_frozen_stream_during_motion(sim_robot, home):
     host, robot = sim_robot
     target = home + LONG_MOVE
-    timer = after(0.5, lambda: inject(host, "freeze", seconds=2.0))
-    error, elapsed = timed_failure(robot, target)
-    timer.join()
-    assert isinstance(error, ConnectionLostError) and elapsed < 2.5
+    with WhenMoving(host, home, lambda: inject(host, "freeze", seconds=2.0)) as timer:
+        error, _ = timed_failure(robot, target)
+        caught = time.monotonic()
+    assert isinstance(error, ConnectionLostError) and caught - timer.fired_at < 2.0
     time.sleep(2.0)  # the freeze ends
     assert_at_rest_short_of(robot, target)
 
@@ -137,11 +173,14 @@ def test_slider_lowered_mid_motion_times_out(sim_robot, home):
     host, robot = sim_robot
     target = home + np.array([1.0, 0, 0, 0, 0, 0])
     duration = motion.movej_duration(home, target, 1.4, 1.05)
-    timer = after(0.3, lambda: set_speed_slider(host, 0.05))
-    error, elapsed = timed_failure(robot, target, a=1.4, v=1.05)
-    timer.join()
+    with WhenMoving(host, home, lambda: set_speed_slider(host, 0.05), lead=0.02) as timer:
+        error, elapsed = timed_failure(robot, target, a=1.4, v=1.05)
+        caught = time.monotonic()
     assert isinstance(error, MotionTimeoutError) and "speed slider" in str(error)
-    assert elapsed == pytest.approx(motion.motion_timeout(duration, 1.0), abs=0.5)
+    # the driver's clock starts when it sends the program: after the call, and before the program runs; so the
+    # timeout fired no earlier than the derived time after the call and soon after it from the program's start
+    timeout = motion.motion_timeout(duration, 1.0)
+    assert elapsed >= timeout and caught - timer.running_at <= timeout + 0.5
 
 
 def test_timeout_allows_for_a_slow_slider(sim_robot, home):
@@ -156,10 +195,8 @@ def test_timeout_allows_for_a_slow_slider(sim_robot, home):
 def test_keyboard_interrupt_stops_the_arm(sim_robot, home):
     host, robot = sim_robot
     target = home + LONG_MOVE
-    timer = after(0.5, _thread.interrupt_main)
-    with pytest.raises(KeyboardInterrupt):
+    with WhenMoving(host, home, _thread.interrupt_main), pytest.raises(KeyboardInterrupt):
         robot.movej(target)
-    timer.join()
     assert_at_rest_short_of(robot, target)
 
 

@@ -35,11 +35,13 @@ class RTDEBackend:
 
     @property
     def connected(self):
-        """True while ur_rtde's receive thread holds the connection."""
-        return bool(self._receive.isConnected())
+        """True while ur_rtde's receive thread holds the connection (False once closed)."""
+        return self._receive is not None and bool(self._receive.isConnected())
 
     def reconnect(self):
         """Re-open the RTDE stream (RobotConnectionError if the controller does not answer)."""
+        if self._receive is None:
+            raise RobotConnectionError(f"the RTDE stream from {self.host} was closed; connect again")
         probe_rtde(self.host)
         try:
             if not self._receive.reconnect():
@@ -51,7 +53,7 @@ class RTDEBackend:
     def status(self):
         """A RobotStatus from the newest RTDE package; ConnectionLostError if the stream has closed."""
         receive = self._receive
-        if not receive.isConnected():
+        if receive is None or not receive.isConnected():
             raise ConnectionLostError(f"the RTDE state stream from {self.host} is closed")
         timestamp = receive.getTimestamp()
         now = time.monotonic()
@@ -78,8 +80,18 @@ class RTDEBackend:
         self.primary.send_script(script)
 
     def close(self):
-        """Disconnect the RTDE stream (idempotent)."""
+        """Disconnect the RTDE stream and destroy ur_rtde's interface now (idempotent).
+
+        ur_rtde's RTDEReceiveInterface destructor waits 0.5 s holding the GIL (measured; `disconnect()` waits as
+        long but releases it). Left to the garbage collector, that destructor runs at whatever moment a later
+        collection finds the connection in a reference cycle: during the next connection's motion, every thread
+        of the process (the heartbeat included) then stops for 0.5 s and the controller's heartbeat watchdog
+        stops a healthy motion. Dropping the last reference here runs it while this connection moves nothing."""
+        receive, self._receive = self._receive, None
+        if receive is None:
+            return
         try:
-            self._receive.disconnect()
+            receive.disconnect()
         except RuntimeError:
             pass
+        del receive
