@@ -21,10 +21,12 @@ from ur3dq.errors import RobotConnectionError
 
 #: The RTDE input integer register the heartbeat counts on (ur_rtde's lower range is 18–22).
 HEARTBEAT_REGISTER = 20
-#: The controller stops a motion program this long (1/frequency) after the last heartbeat: 200 ms. 100 ms (10 Hz)
-#: stopped a healthy motion once in three full test runs on the loaded 2-core CI machine (a Python thread, or the
-#: controller's input reader, not scheduled for 0.1 s), and a false stop is a failed cell cycle.
-WATCHDOG_FREQUENCY = 5.0
+#: The controller stops a motion program this long (1/frequency) after the last heartbeat: 100 ms. The thread is
+#: Python, so anything holding the GIL longer than that stops the arm. The one such stall found, ur_rtde's
+#: RTDEReceiveInterface destructor (0.5 s with the GIL held) run by a garbage collection mid-motion, is gone: the
+#: driver destroys it when it closes (rtde_backend.close). Largest gap between two heartbeats measured over a whole
+#: `make test` on 2 loaded cores after that: 60 ms client side, 42 ms as the controller saw it.
+WATCHDOG_FREQUENCY = 10.0
 #: Seconds between heartbeats: twenty per watchdog period, so a loaded machine that delays a few is not a stop.
 PERIOD = 0.01
 
