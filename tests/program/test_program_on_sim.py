@@ -13,6 +13,7 @@ from ur3dq.errors import ProgramError
 from ur3dq.kinematics import robot_model
 from ur3dq.pose import Pose
 from ur3dq.program.steps import DigitalOut, Motion, RelativeWaypoint, Wait, WaitInput, Waypoint
+from polling import wait_for
 from sim_ursim.control_channel import send_request
 
 HOME = np.array([0.0, -1.5707963267948966, 1.2, -1.2, -1.5707963267948966, 0.0])
@@ -74,6 +75,8 @@ def test_pick_and_place_program_runs_as_one_watched_program(setup):
     host, robot, receive = setup
     robot.movej(HOME)
     assert send_request(host, "set-digital-input", pin=3, on=False)["ok"]
+    robot.run_program([DigitalOut("release", "tool", 0, False)])  # when it turns on is measured below
+    assert wait_for(lambda: not receive.getActualDigitalOutputBits() & TOOL_OUT_0_BIT)
     pick = waypoint("pick", Q_PICK, Motion("linear", 0.05, 0.5))
     steps = [RelativeWaypoint("approach", "pick", (0, 0, -0.05, 0, 0, 0), "tool", Motion("joint", 1.0, 2.0)),
              pick,

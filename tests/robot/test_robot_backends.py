@@ -140,10 +140,14 @@ def test_stop_decelerates_a_running_motion(robot, home):
 
 
 def test_set_tcp_changes_the_controllers_tcp_and_the_model(robot):
-    robot.set_tcp([0.0, 0.0, 0.12, 0.0, 0.0, 0.0])
-    assert np.allclose(robot.model.tcp.to_ur_pose(), [0, 0, 0.12, 0, 0, 0], atol=1e-12)
-    # the model changes at once; the streamed TCP pose shows the new TCP from the next state package on
-    assert wait_for(lambda: robot.model.fk(robot.joints()).distance(robot.tcp_pose())[0] < 1e-5, timeout=1.0)
+    before = robot.model.tcp.to_ur_pose()
+    try:
+        robot.set_tcp([0.0, 0.0, 0.12, 0.0, 0.0, 0.0])
+        assert np.allclose(robot.model.tcp.to_ur_pose(), [0, 0, 0.12, 0, 0, 0], atol=1e-12)
+        # the model changes at once; the streamed TCP pose shows the new TCP from the next state package on
+        assert wait_for(lambda: robot.model.fk(robot.joints()).distance(robot.tcp_pose())[0] < 1e-5, timeout=1.0)
+    finally:  # the module's other tests share this controller
+        robot.set_tcp(list(before))
 
 
 def test_teach_mode_on_and_off(robot, home):
