@@ -1,6 +1,7 @@
 """Helpers of the CLI tests: the environment of a `ur3dq` run, error checks, and the simulated arm they drive."""
 import contextlib
 import os
+import signal
 import subprocess
 import sys
 import time
@@ -21,11 +22,14 @@ def cli_env(tmp_path, **extra):
 
 
 @contextlib.contextmanager
-def cli_process(tmp_path, *args, stdin=subprocess.DEVNULL):
+def cli_process(tmp_path, *args, stdin=subprocess.DEVNULL, inherited_sigint=signal.SIG_DFL):
     """A running `ur3dq args` in `tmp_path` with text stdout/stderr pipes (stdin too if stdin=PIPE), for tests that
-    talk to it while it runs; on exit it is killed if still running, and its pipes are closed."""
+    talk to it while it runs; on exit it is killed if still running, and its pipes are closed. It starts with
+    SIGINT set to `inherited_sigint` (SIG_IGN: as a shell script's `ur3dq ... &` starts it), whatever the test
+    runner's own disposition."""
     with subprocess.Popen([UR3DQ, *map(str, args)], cwd=tmp_path, env=cli_env(tmp_path), stdin=stdin,
-                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) as process:
+                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                          preexec_fn=lambda: signal.signal(signal.SIGINT, inherited_sigint)) as process:
         try:
             yield process
         finally:

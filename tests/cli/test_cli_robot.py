@@ -88,11 +88,14 @@ def test_dry_run_plans_but_does_not_move(arm, run_cli, tmp_path):
     np.testing.assert_allclose(arm.joints(), PARK, atol=1e-9)
 
 
-def test_ctrl_c_stops_the_arm(arm, run_cli, tmp_path):
+@pytest.mark.parametrize("inherited_sigint", [signal.SIG_DFL, signal.SIG_IGN], ids=["sigint", "started-ignoring-it"])
+def test_ctrl_c_stops_the_arm(arm, run_cli, tmp_path, inherited_sigint):
+    """Also when ur3dq started with SIGINT ignored (a script's `ur3dq run-poses &`): stopping is the safe side."""
     arm.place(PLACES[0])
     assert run_cli("--host", arm.host, "record-pose", "--name", "target", "--yes").returncode == 0
     arm.place(PLACES[1])
-    with cli_process(tmp_path, "--host", arm.host, "run-poses", "--yes", "--speed", "0.15") as process:
+    with cli_process(tmp_path, "--host", arm.host, "run-poses", "--yes", "--speed", "0.15",
+                     inherited_sigint=inherited_sigint) as process:
         deadline = time.monotonic() + 20
         while np.max(np.abs(arm.joint_speeds())) < 0.05:  # wait until the arm is clearly moving
             assert time.monotonic() < deadline and process.poll() is None, "the arm never started moving"

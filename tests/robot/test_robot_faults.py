@@ -1,5 +1,6 @@
 """Faults during motion, injected into sim_ursim: each gives its own exception, in bounded time, and the arm stops."""
 import _thread
+import signal
 import threading
 import time
 
@@ -192,7 +193,16 @@ def test_timeout_allows_for_a_slow_slider(sim_robot, home):
     assert wall >= 1.8 * motion.movej_duration(home, target, 1.4, 1.05)
 
 
-def test_keyboard_interrupt_stops_the_arm(sim_robot, home):
+@pytest.fixture
+def sigint_raises():
+    """SIGINT raises KeyboardInterrupt here, as in an interactive Python: a runner started in the background by a
+    shell script inherits SIGINT ignored, and then `_thread.interrupt_main` does nothing."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, previous)
+
+
+def test_keyboard_interrupt_stops_the_arm(sim_robot, home, sigint_raises):
     host, robot = sim_robot
     target = home + LONG_MOVE
     with WhenMoving(host, home, _thread.interrupt_main), pytest.raises(KeyboardInterrupt):

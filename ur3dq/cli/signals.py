@@ -1,6 +1,10 @@
 """SIGTERM and SIGHUP handled like Ctrl-C: they raise `Terminated` (a KeyboardInterrupt) in the main thread, so the
 driver's interrupt path sends stopj to a moving arm and the store's atomic writes roll back, exactly as for Ctrl-C.
 
+SIGINT itself is taken back when the process started with it ignored: a shell script that starts ur3dq with `&`
+(no job control) passes SIGINT on as ignored, and Python then never raises KeyboardInterrupt, so Ctrl-C in that
+terminal or `kill -INT` would leave the arm moving. Stopping is the safe side, so ur3dq always stops on SIGINT.
+
 The exit code follows the shell convention 128 + signal number: 130 for SIGINT, 143 for SIGTERM, 129 for SIGHUP.
 """
 import contextlib
@@ -36,12 +40,14 @@ def _raise_terminated(signum, _frame):
 
 @contextlib.contextmanager
 def polite_signals_interrupt():
-    """While inside, SIGTERM and SIGHUP raise Terminated in the main thread; the old handlers come back after.
-    Does nothing outside the main thread (Python only delivers signals there)."""
+    """While inside, SIGTERM and SIGHUP raise Terminated and SIGINT raises KeyboardInterrupt (even if it was
+    ignored) in the main thread; the old handlers come back after. Does nothing outside the main thread (Python
+    only delivers signals there)."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
     previous = {sig: signal.signal(sig, _raise_terminated) for sig in POLITE_SIGNALS}
+    previous[signal.SIGINT] = signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         yield
     finally:
