@@ -627,13 +627,16 @@ def test_a_client_flooding_an_incomplete_program_is_dropped_and_others_are_serve
     client's count of bytes sent also holds what sat in the two kernel buffers, which autotuning grows to
     megabytes when the reader is slow (a loaded machine)."""
     limit = MAX_PENDING_BYTES
+
+    def held_when_dropped():  # the byte counts of the server's drop messages so far
+        return [int(match.group(1)) for record in caplog.records
+                for match in [re.search(r"dropped: (\d+) bytes", record.getMessage())] if match]
+
     with caplog.at_level(logging.WARNING, logger="sim_ursim.primary.server"):
         sent = _flood_until_dropped(sim.host, port, opening, line, 4 * limit)
         assert sent is not None, f"not dropped after {4 * limit} bytes"
-        assert wait_for(lambda: any("dropped" in record.getMessage() for record in caplog.records), timeout=3.0)
-    held = [int(match.group(1)) for record in caplog.records
-            for match in [re.search(r"dropped: (\d+) bytes", record.getMessage())] if match]
-    assert held and held[0] < 2 * limit, [record.getMessage() for record in caplog.records]
+        assert wait_for(held_when_dropped, timeout=3.0), [record.getMessage() for record in caplog.records]
+    assert held_when_dropped()[0] < 2 * limit, held_when_dropped()
     with socket.create_connection((sim.host, SECONDARY), timeout=3.0) as good:
         good.sendall(b"write_output_integer_register(8, 42)\n")
     assert wait_for(lambda: sim.controller.state().output_int_registers[8] == 42, timeout=3.0)
