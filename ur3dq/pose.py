@@ -47,6 +47,20 @@ def name_problem(name) -> str | None:
     return None
 
 
+def unstorable_text_problem(text, field: str) -> str | None:
+    """Why the text `text` of `field` cannot be written to a UTF-8 store (None if it can, or if it is None).
+
+    JSON's \\u escapes can spell a lone UTF-16 surrogate (a hand edit, another tool's export); Python reads it, but
+    no UTF-8 file can hold it, so the next save of the store would fail. Refused when read instead."""
+    if text is None or text.isascii():
+        return None
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError as error:
+        return f"{field} holds a lone UTF-16 surrogate ({text[error.start]!r}), which a UTF-8 file cannot hold"
+    return None
+
+
 def _finite_vector(value, length: int, field: str, who: str) -> tuple[float, ...]:
     """`value` as a tuple of `length` finite floats, or ValueError naming `who` and `field`."""
     try:
@@ -98,6 +112,10 @@ def check_pose_text_fields(name, time, robot_model, robot_serial, note) -> None:
         raise ValueError(f"{who}: robot_serial must be text or null")
     if not isinstance(note, str):
         raise ValueError(f"{who}: note must be text")
+    for field, text in (("robot_serial", robot_serial), ("note", note)):
+        problem = unstorable_text_problem(text, field)
+        if problem:
+            raise ValueError(f"{who}: {problem}")
     _check_utc_time(time, who)
 
 

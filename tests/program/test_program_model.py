@@ -29,6 +29,7 @@ def pick_waypoint(joints=Q_PICK, motion=Motion("linear", 0.1)):
     (lambda: pick_waypoint(motion=Motion("teleport")), r"step 'pick' \(waypoint\): move 'teleport'"),
     (lambda: pick_waypoint(motion=Motion("joint", blend=1e9)), r"blend must be a radius 0..1 m"),
     (lambda: pick_waypoint(motion=Motion("joint", speed=0)), r"speed must be a finite number > 0"),
+    (lambda: RelativeWaypoint("up", "pick", note="\ud800"), r"step 'up' \(relative waypoint\): note holds a lone"),
 ])
 def test_bad_steps_are_refused_naming_the_step(build, message):
     with pytest.raises(ValueError, match=message):

@@ -189,6 +189,9 @@ BAD_POSES = {
     "local time": (broken_pose("time", "2026-11-22T01:02:03+01:00"), "time .* must be in UTC"),
     "bad time": (broken_pose("time", "yesterday"), "time .yesterday. is not ISO 8601"),
     "unknown model": (broken_pose("robot_model", "ur99"), "robot_model 'ur99' is not one of ur3, ur5"),
+    # JSON's \\u escapes can spell what no UTF-8 file holds: refused when read, not when the next save fails
+    "lone surrogate in note": (broken_pose("note", "tray \ud800"), "note holds a lone UTF-16 surrogate"),
+    "lone surrogate in serial": (broken_pose("robot_serial", "\udc80"), "robot_serial holds a lone UTF-16 surrogate"),
 }
 
 

@@ -10,6 +10,7 @@ import sys
 from pathlib import Path
 
 import click
+import orjson
 from rich.console import Console
 
 from ur3dq.cli.background_simulator import SimulatorError, running_simulator_host
@@ -101,11 +102,13 @@ def emit_json(data) -> None:
 
 def emit_json_list(items) -> None:
     """Print a JSON array of `items` on stdout, as emit_json would (indent 2), one item at a time (a list of 10⁵
-    poses as one string would need hundreds of MB)."""
-    encode = json.JSONEncoder(indent=2, ensure_ascii=False).encode
+    poses as one string would need hundreds of MB). orjson, not the stdlib: with an indent the stdlib encodes in
+    pure Python, 10× slower (93,587 poses: 6.0 s against 0.55 s of CPU); the values are the same, only a float's exponent
+    may be spelt differently (1e-5, not 1e-05)."""
     parts, count = ["["], 0
     for item in items:
-        parts.append(("\n  " if count == 0 else ",\n  ") + encode(item).replace("\n", "\n  "))
+        text = orjson.dumps(item, option=orjson.OPT_INDENT_2 | orjson.OPT_SERIALIZE_NUMPY).decode()
+        parts.append(("\n  " if count == 0 else ",\n  ") + text.replace("\n", "\n  "))
         count += 1
         if len(parts) >= 1000:  # write in blocks: one write per item costs more than the encoding
             click.echo("".join(parts), nl=False)

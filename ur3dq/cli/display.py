@@ -28,8 +28,12 @@ def angles_text(values, deg: bool) -> str:
 
 def pose_vector_text(pose, deg: bool) -> str:
     """A UR pose vector [x, y, z, rx, ry, rz]: metres with 6 decimals, rotation vector in degrees or radians."""
-    x, y, z, *rotation = (float(v) for v in pose)
-    return f"p[{x:.6f}, {y:.6f}, {z:.6f}, " + ", ".join(angle_text(r, deg) for r in rotation) + "]"
+    x, y, z, rx, ry, rz = (float(v) for v in pose)
+    # One %-format per pose, not a call per number: `poses list` formats 10⁵ of them.
+    if deg:
+        return "p[%.6f, %.6f, %.6f, %.3f°, %.3f°, %.3f°]" % (x, y, z, math.degrees(rx), math.degrees(ry),
+                                                            math.degrees(rz))
+    return "p[%.6f, %.6f, %.6f, %.6f, %.6f, %.6f]" % (x, y, z, rx, ry, rz)
 
 
 def coefficients_text(values) -> str:

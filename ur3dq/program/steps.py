@@ -11,7 +11,7 @@ import dataclasses
 import math
 import unicodedata
 
-from ur3dq.pose import Pose, name_problem
+from ur3dq.pose import Pose, name_problem, unstorable_text_problem
 
 MOVE_TYPES = ("joint", "linear", "process")    # movej, movel, movep
 FRAMES = ("tool", "base")                       # the frame a relative waypoint's offset is expressed in
@@ -178,6 +178,9 @@ class RelativeWaypoint(Step):
             raise ValueError(f"{self.who}: offset must be numbers")
         if not isinstance(self.note, str):
             raise ValueError(f"{self.who}: note must be text")
+        problem = unstorable_text_problem(self.note, "note")
+        if problem:
+            raise ValueError(f"{self.who}: {problem}")
         object.__setattr__(self, "offset", offset)
         object.__setattr__(self, "motion", self.motion.check(self.who))
 
