@@ -6,7 +6,8 @@ Request  {"command": "protective-stop", "reason": "..."} | {"command": "emergenc
          {"command": "freedrive", "on": true} | {"command": "move-by-hand", "q": [6 floats]} |
          {"command": "set-digital-input", "pin": 0..7, "on": true} | {"command": "speed-slider", "fraction": 0..1} |
          {"command": "status"} | {"command": "shutdown"}
-Reply    {"ok": true, "message": "..."} or {"ok": false, "error": "..."}; one line of JSON each.
+Reply    {"ok": true, "message": "..."} or {"ok": false, "error": "..."}; one line of JSON each. `status` also
+         answers "state": {"robot_mode", "safety_mode" (names), "program_running", "q" (6 rad)} for programs.
 This port is not a UR interface: it exists so tests and `python -m sim_ursim fault ...` can inject faults.
 """
 import json
@@ -40,6 +41,9 @@ def execute(request: dict, controller, can_shut_down: bool = False) -> dict:
         command = request.get("command") if isinstance(request, dict) else request
         return {"ok": False, "error": f"unknown command {command!r}; expected one of {', '.join(COMMANDS)}"}
     command = request["command"]
+    if command == "status":  # one snapshot, as a line for people and as fields for programs
+        state = controller.state()
+        return {"ok": True, "message": status_line(state, controller.faults), "state": status_fields(state)}
     try:
         message = _run(command, request, controller, can_shut_down)
     except (ValueError, CommandRefused, TypeError) as error:
@@ -93,8 +97,6 @@ def _run(command, request, controller, can_shut_down):
         fraction = float(_argument(request, "fraction"))
         controller.set_speed_slider(fraction)
         return f"speed slider {fraction:g}"
-    if command == "status":
-        return status_line(controller.state(), faults)
     if not can_shut_down:
         raise CommandRefused("this channel cannot shut the simulator down")
     return "shutting down"
@@ -105,6 +107,12 @@ def status_line(state, faults):
     joints = " ".join(f"{value:+.4f}" for value in state.actual_q)
     return (f"robot {RobotMode.NAMES[state.robot_mode]}, safety {SafetyMode.NAMES[state.safety_mode]}, "
             f"program {'running' if state.program_running else 'stopped'}, q [{joints}], {faults.describe()}")
+
+
+def status_fields(state) -> dict:
+    """The modes (names), whether a program runs, and the joints (6 rad) of a controller snapshot."""
+    return {"robot_mode": RobotMode.NAMES[state.robot_mode], "safety_mode": SafetyMode.NAMES[state.safety_mode],
+            "program_running": bool(state.program_running), "q": [float(value) for value in state.actual_q]}
 
 
 def send_request(host: str, command: str, port: int = CONTROL_PORT, timeout: float = 5.0, **arguments) -> dict:

@@ -19,6 +19,16 @@ def inject(host, command, **arguments):
     return reply["message"]
 
 
+def simulator_state(host):
+    """The simulator's own view (not the driver's), from its control channel: {"program_running": bool, "q": [6
+    floats], "robot_mode": name, "safety_mode": name}."""
+    from sim_ursim.control_channel import send_request
+
+    reply = send_request(host, "status")
+    assert reply["ok"], reply
+    return reply["state"]
+
+
 def simulator_with(calibration=None, model="ur3", **options):
     """A context manager running `python -m sim_ursim` (UR3 by default) with an optional DH calibration (deltas)."""
     from sim_ursim.launch import simulator_process

@@ -14,7 +14,7 @@ from ur3dq.robot import motion
 
 from polling import wait_for
 from robot_target import needs_simulator
-from robot_test_support import inject, set_speed_slider
+from robot_test_support import inject, set_speed_slider, simulator_state
 
 pytestmark = needs_simulator
 
@@ -49,21 +49,14 @@ class WhenMoving(threading.Thread):
     def run(self):
         deadline = time.monotonic() + self.timeout
         while time.monotonic() < deadline and not self._cancelled.is_set():
-            state = _simulator_status(self.host)
-            if state["running"] and self.running_at is None:
+            state = simulator_state(self.host)
+            if state["program_running"] and self.running_at is None:
                 self.running_at = time.monotonic()
-            if state["running"] and abs(state["q"][0] - self.start_q[0]) >= self.lead:
+            if state["program_running"] and abs(state["q"][0] - self.start_q[0]) >= self.lead:
                 self.fired_at = time.monotonic()
                 self.action()
                 return
             self._cancelled.wait(0.01)
-
-
-def _simulator_status(host):
-    """{"running": bool, "q": [6 floats]} from the simulator's control channel (its own view, not the driver's)."""
-    line = inject(host, "status")
-    joints = line.split("q [", 1)[1].split("]", 1)[0]
-    return {"running": "program running" in line, "q": [float(value) for value in joints.split()]}
 
 
 def timed_failure(robot, target, **kwargs):

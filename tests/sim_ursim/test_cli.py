@@ -66,8 +66,10 @@ def test_hand_guiding_command_moves_the_arm():
         client.disconnect()
         result = cli("move-by-hand", "0.2,-1,1,-1.5,-1.5,0.3", "--host", sim.host)
         assert result.returncode == 0, result.stderr
-        status = send_request(sim.host, "status")["message"]
-        assert "q [+0.2000 -1.0000 +1.0000 -1.5000 -1.5000 +0.3000]" in status
+        status = send_request(sim.host, "status")
+        assert "q [+0.2000 -1.0000 +1.0000 -1.5000 -1.5000 +0.3000]" in status["message"]   # for people
+        assert status["state"]["q"] == pytest.approx([0.2, -1, 1, -1.5, -1.5, 0.3], abs=1e-9)  # for programs
+        assert status["state"]["robot_mode"] == "RUNNING" and status["state"]["program_running"] is False
 
 
 def test_fault_shutdown_ends_the_process():
