@@ -3,7 +3,6 @@ import io
 import os
 import subprocess
 import sys
-import time
 
 import pytest
 
@@ -46,20 +45,10 @@ def run_in_process(tmp_path, monkeypatch, capsys):
 @pytest.fixture(scope="module")
 def arm():
     """One simulated UR3 per test module (a subprocess: ur_rtde in this process holds the GIL while it blocks)."""
-    import dashboard_client
-    from sim_ursim.launch import simulator_process
+    from powered_simulator import powered_simulator
 
-    with simulator_process(model="ur3") as simulator:
-        dashboard = dashboard_client.DashboardClient(simulator.host)
-        dashboard.connect()
-        dashboard.powerOn()
-        dashboard.brakeRelease()
+    with powered_simulator(model="ur3") as simulator:
         simulated = SimulatedArm(simulator.host)
-        deadline = time.monotonic() + 15
-        while simulated.receive.getRobotMode() != 7:  # RUNNING
-            assert time.monotonic() < deadline, "the simulator did not reach RUNNING"
-            time.sleep(0.05)
-        dashboard.disconnect()
         try:
             yield simulated
         finally:

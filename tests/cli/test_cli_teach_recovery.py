@@ -18,18 +18,11 @@ PLACE = np.array([0.0, -1.2, 1.0, -1.4, -1.57, 0.0])
 @pytest.fixture
 def own_arm():
     """A simulator of its own (this test leaves another program's motion behind), powered and at PLACE."""
-    import dashboard_client
     from cli_support import SimulatedArm
-    from sim_ursim.launch import simulator_process
+    from powered_simulator import powered_simulator
 
-    with simulator_process(model="ur3") as simulator:
-        dashboard = dashboard_client.DashboardClient(simulator.host)
-        dashboard.connect()
-        dashboard.powerOn()
-        dashboard.brakeRelease()
-        dashboard.disconnect()
+    with powered_simulator(model="ur3") as simulator:
         arm = SimulatedArm(simulator.host)
-        assert wait_for(lambda: arm.receive.getRobotMode() == 7, timeout=15)
         arm.place(PLACE)
         try:
             yield arm

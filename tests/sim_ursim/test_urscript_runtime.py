@@ -1,6 +1,5 @@
 """ProgramRunner on the controller: program state, key/exception messages, replacement, stop, pause, sec programs;
 and the next goal: ur_rtde's RTDEControlInterface uploading its control script to a simulator."""
-import contextlib
 import queue
 import socket
 import time
@@ -13,6 +12,7 @@ from sim_ursim.vocabulary import RuntimeState
 from sim_ursim.messages import KeyMessage, RuntimeExceptionMessage, TextMessage
 from sim_ursim.urscript.runtime import ProgramRunner
 from polling import wait_for
+from powered_simulator import powered_simulator
 from controller_time import wait_cycles
 
 HOME = [0.0, -1.2, 1.0, -1.0, -1.5, 0.3]
@@ -236,29 +236,11 @@ def ur_rtde_modules():
             pytest.importorskip("rtde_receive"))
 
 
-@contextlib.contextmanager
-def powered_simulator_process(dashboard_client, **options):
-    """A simulator subprocess, powered up through the dashboard with ur_rtde's DashboardClient.
-
-    A subprocess because ur_rtde's constructors hold the GIL while they wait for the simulator.
-    """
-    from sim_ursim.launch import simulator_process
-
-    with simulator_process(**options) as sim:
-        dashboard = dashboard_client.DashboardClient(sim.host)
-        dashboard.connect()
-        dashboard.powerOn()
-        dashboard.brakeRelease()
-        assert wait_for(lambda: "RUNNING" in dashboard.robotmode(), timeout=5.0)
-        dashboard.disconnect()
-        yield sim
-
-
 def test_ur_rtde_control_interface_runs_its_uploaded_script_on_the_simulator(ur_rtde_modules):
     """The real ur_rtde 1.6.5 uploads its 38 kB rtde_control script (CB3 3.15) on 30003; our interpreter runs it
     unmodified and executes moveJ / moveL / FK / isSteady / stopScript through the RTDE register handshake."""
     dashboard_client, rtde_control, rtde_receive = ur_rtde_modules
-    with powered_simulator_process(dashboard_client, model="ur3") as sim:
+    with powered_simulator(model="ur3") as sim:
         control = rtde_control.RTDEControlInterface(sim.host)  # raises unless runtime_state reaches PLAYING
         receive = rtde_receive.RTDEReceiveInterface(sim.host)
         try:
@@ -283,7 +265,7 @@ def test_ur_rtde_control_interface_runs_its_uploaded_script_on_the_simulator(ur_
 def test_ur_rtde_control_script_of_an_e_series_5_24_runs(ur_rtde_modules):
     """The 5.24 variant of the script (50 kB: matrices, dynamics functions) compiles and serves moveJ."""
     dashboard_client, rtde_control, rtde_receive = ur_rtde_modules
-    with powered_simulator_process(dashboard_client, model="ur3e", version="5.24.0") as sim:
+    with powered_simulator(model="ur3e", version="5.24.0") as sim:
         control = rtde_control.RTDEControlInterface(sim.host)
         receive = rtde_receive.RTDEReceiveInterface(sim.host)
         try:
