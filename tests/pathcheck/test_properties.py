@@ -80,3 +80,21 @@ def test_a_box_on_the_line_is_always_found(target, size):
     result = check_path(UR5, plan, cell)
     assert any(p.check == "cell" and '"cube"' in p.message for p in result.problems), result.summary()
     assert not math.isnan(result.steps[0].margins["cell"]) and result.steps[0].margins["cell"] < 0
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.lists(st.tuples(waypoint, st.sampled_from([0.0, 0.01, 0.2])), min_size=1, max_size=6))
+def test_the_check_without_samples_finds_the_same_margins_and_problems(blended_waypoints):
+    """keep_samples=False (the command line's check before a run) changes what is kept, never what is found: the
+    same problems, margins, worst samples and sample counts, with blends (some too large) between the moves."""
+    plan = program([w for w, _ in blended_waypoints])
+    segments = [PathSegment(s.name, s.move, s.target_joints, s.target_pose, s.speed, s.acceleration, blend)
+                for s, (_, blend) in zip(plan.segments, blended_waypoints)]
+    blended = PathPlan(plan.start_joints, segments)
+    cell = cell_from_dict({"floor": {"z": 0.2}, "margin": 0.01})      # a floor some moves pass through
+    kept, lean = check_path(UR5, blended, cell), check_path(UR5, blended, cell, keep_samples=False)
+    assert lean.problems == kept.problems
+    assert [(s.name, s.margins, s.worst, s.samples) for s in lean.steps] == \
+        [(s.name, s.margins, s.worst, s.samples) for s in kept.steps]
+    assert all(s.joints is None and s.tcp is None and s.fraction is None for s in lean.steps)
+    assert all(s.samples == len(s.tcp) for s in kept.steps)

@@ -85,7 +85,7 @@ def check(settings: Settings, names, cell_path, move, speed, blend, margin, self
     else:
         steps = plan_replay(model, poses, start, replay_recorded_joints=replay_joints)
         path = path_plan_from_replay(steps, start, move, speed, acceleration, blend)
-    result = check_path(model, path, cell, margins)
+    result = check_path(model, path, cell, margins, keep_samples=False)   # a table and lines: no drawing
     err = Console(stderr=True, highlight=False, width=None if sys.stderr.isatty() else 160)
     title = f"Path check on {where}{f', cell {cell_path}' if cell_path else ''}: smallest margins per move"
     console = err if settings.json else settings.out

@@ -38,38 +38,39 @@ def path_plan_from_replay(steps, start_joints, move: str, speed: float, accelera
                             for i, step in enumerate(steps)])
 
 
-def check_replay(model, steps, cell_path, start_joints=None, blend: float = 0.0, loops: int = 1) -> tuple:
+def check_replay(model, steps, cell_path, start_joints=None, blend: float = 0.0, loops: int = 1,
+                 keep_samples: bool = True) -> tuple:
     """(PathCheckResult, Cell or None) of a movej replay of `steps`; `loops` > 1 adds the move from the last pose
-    back to the first."""
+    back to the first; `keep_samples` as check_path's (a drawing needs them, a margins table does not)."""
     plan = path_plan_from_replay(steps, start_joints, "joint", DEFAULT_JOINT_SPEED, DEFAULT_JOINT_ACCELERATION,
                                  blend)
     segments = list(plan.segments)
     if loops > 1:
         segments.append(PathSegment(f"{steps[0].pose.name} (next loop)", "joint", target_joints=steps[0].joints))
     cell = load_cell(cell_path) if cell_path else None
-    return check_path(model, PathPlan(plan.start_joints, segments), cell), cell
+    return check_path(model, PathPlan(plan.start_joints, segments), cell, keep_samples=keep_samples), cell
 
 
 def require_clear_path(settings: Settings, model, steps, start_joints, blend: float, cell_path,
                        loops: int = 1) -> None:
     """The path check of a movej replay before anything moves (run-poses): prints each move's smallest margins
     (on stderr with --json), then SafetyCheckError (exit 4, one line) naming the step, where and what failed."""
-    result, _ = check_replay(model, steps, cell_path, start_joints, blend, loops)
+    result, _ = check_replay(model, steps, cell_path, start_joints, blend, loops, keep_samples=False)
     report_path_check(settings, result, cell_path)
 
 
-def check_program(model, plan, cell_path, start_joints=None) -> tuple:
+def check_program(model, plan, cell_path, start_joints=None, keep_samples: bool = True) -> tuple:
     """(PathCheckResult or None when no step moves the arm, Cell or None) of a cell program
     (ur3dq.program.plan.PlannedStep list): every joint, linear and process move with its own speed, blend and
-    taught TCP."""
+    taught TCP; `keep_samples` as check_replay's."""
     cell = load_cell(cell_path) if cell_path else None
     path = path_plan_of(plan, start_joints)
-    return (None if path is None else check_path(model, path, cell)), cell
+    return (None if path is None else check_path(model, path, cell, keep_samples=keep_samples)), cell
 
 
 def require_clear_program_path(settings: Settings, model, plan, start_joints, cell_path) -> None:
     """The check of require_clear_path for a cell program (see check_program)."""
-    result, _ = check_program(model, plan, cell_path, start_joints)
+    result, _ = check_program(model, plan, cell_path, start_joints, keep_samples=False)
     if result is not None:
         report_path_check(settings, result, cell_path)
 

@@ -27,24 +27,22 @@ BRANCH_TOLERANCE = 1e-3   # rad: a linear move ending further than this from its
 class StepReport:
     """What the check saw on one move: its samples and its smallest margins.
 
-    fraction (n,), joints (n, 6), tcp (n, 3) m; margins: {check: smallest margin over the move (≥ 0 passes), in the
-    check's unit: m for clearances, |sin| for wrist/elbow, m for shoulder, rad for joint limits, fraction of the
-    maximum for joint speed}; worst: {check: index of the sample with that smallest margin}; end_joints (6,): where
-    the next move starts (None if this one could not be followed).
+    fraction (n,), joints (n, 6), tcp (n, 3) m (all None when the check was asked not to keep samples); margins:
+    {check: smallest margin over the move (≥ 0 passes), in the check's unit: m for clearances, |sin| for
+    wrist/elbow, m for shoulder, rad for joint limits, fraction of the maximum for joint speed}; worst: {check:
+    index of the sample with that smallest margin}; end_joints (6,): where the next move starts (None if this one
+    could not be followed); samples: n, how many samples were checked.
     """
 
     name: str
     move: str
-    fraction: np.ndarray
-    joints: np.ndarray
-    tcp: np.ndarray
+    fraction: np.ndarray | None
+    joints: np.ndarray | None
+    tcp: np.ndarray | None
     margins: dict
     worst: dict
     end_joints: np.ndarray | None
-
-    @property
-    def samples(self) -> int:
-        return len(self.fraction)
+    samples: int
 
     def to_dict(self) -> dict:
         return {"name": self.name, "move": self.move, "samples": self.samples,
@@ -80,9 +78,12 @@ class PathCheckResult:
                 "steps": [s.to_dict() for s in self.steps], "unchecked": list(self.unchecked)}
 
 
-def check_path(model, plan: PathPlan, cell=None, margins: Margins | None = None) -> PathCheckResult:
+def check_path(model, plan: PathPlan, cell=None, margins: Margins | None = None,
+               keep_samples: bool = True) -> PathCheckResult:
     """Check `plan` (a PathPlan) on `model` (a URModel with its TCP; a segment with its own `tcp_offset` runs with
     that one instead) in `cell` (a Cell, or None: no obstacles, no tool) with `margins` (defaults: Margins()).
+    `keep_samples=False` leaves each StepReport's samples out (fraction, joints, tcp are None; the margins and the
+    problems are the same): a 10⁵-move plan's samples take gigabytes, and only a drawing of the path needs them.
     Never raises for a failed check: read `.ok` / `.problems`."""
     margins = margins or Margins()
     by_tcp = {}   # tcp_offset -> (model with that TCP, its StepChecker): built once per TCP the plan uses
@@ -94,45 +95,53 @@ def check_path(model, plan: PathPlan, cell=None, margins: Margins | None = None)
         return by_tcp[segment.tcp_offset]
 
     q = np.array(plan.start_joints)
-    sampled, problems, unchecked = [], [], []
+    problems, unchecked, steps = [], [], []
+    # Moves are checked one behind the sampling: a move's blend zones need its neighbours' samples, and no
+    # other move's (the window holds at most three, so memory does not grow with the plan).
+    window = {}   # index -> (segment, SampledMove, tcp (n, 3)) or None (not sampled)
     for index, segment in enumerate(plan.segments):
         if q is None:
             unchecked.append(segment.name)
-            sampled.append(None)     # keeps sampled[i] ↔ plan.segments[i]
-            continue
-        move, target_problem = _sample(arm_for(segment)[0], segment, index, q, margins)
-        if target_problem is not None:
-            problems.append(target_problem)
-            sampled.append(None)
-            q = segment.target_joints
-            continue
-        sampled.append((segment, move))
-        q, end_problem = _end_joints(segment, index, move)
-        if end_problem is not None:
-            problems.append(end_problem)
-    steps = []
-    tcp_of = {i: dqarray.translation_unchecked(entry[1].poses) for i, entry in enumerate(sampled) if entry}
-    for index, entry in enumerate(sampled):
-        if entry is None:
-            continue
-        segment, move = entry
-        tcp = tcp_of[index]
-        extra, blend_problem = _blend_allowance(plan, sampled, tcp_of, index)
-        if blend_problem is not None:
-            problems.append(blend_problem)
-        scale = _path_scale(move) if segment.cartesian else 0.0
-        checker = arm_for(segment)[1]
-        results = checker.margins_of(segment, move.joints, move.fraction, tcp, extra, scale) if len(tcp) else {}
-        problems.extend(checker.problems(index, segment, results, move.fraction, tcp, extra))
-        margins_seen = {check: float(np.min(values[0])) for check, values in results.items() if len(values[0])}
-        # Interval checks (joint steps, speeds) name the sample that ends their worst interval.
-        worst = {check: int(np.argmin(values[0])) + (len(values[0]) < len(tcp))
-                 for check, values in results.items() if len(values[0])}
-        end = move.joints[-1] if move.unreachable_at is None and len(move.joints) else None
-        steps.append(StepReport(segment.name, segment.move, move.fraction, move.joints, tcp, margins_seen, worst,
-                                end))
+            window[index] = None
+        else:
+            move, target_problem = _sample(arm_for(segment)[0], segment, index, q, margins)
+            if target_problem is not None:
+                problems.append(target_problem)
+                window[index] = None
+                q = segment.target_joints
+            else:
+                window[index] = (segment, move, dqarray.translation_unchecked(move.poses))
+                q, end_problem = _end_joints(segment, index, move)
+                if end_problem is not None:
+                    problems.append(end_problem)
+        if index >= 1:
+            _check_move(plan, window, index - 1, arm_for, problems, steps, keep_samples)
+            window.pop(index - 2, None)
+    if plan.segments:
+        _check_move(plan, window, len(plan.segments) - 1, arm_for, problems, steps, keep_samples)
     problems.sort(key=lambda p: (p.step_index, p.fraction))
     return PathCheckResult(tuple(problems), tuple(steps), tuple(unchecked))
+
+
+def _check_move(plan, window, index, arm_for, problems, steps, keep_samples) -> None:
+    """Run every check on the samples of move `index` (window[index]); add its problems and its StepReport."""
+    if window[index] is None:
+        return
+    segment, move, tcp = window[index]
+    extra, blend_problem = _blend_allowance(plan, window, index)
+    if blend_problem is not None:
+        problems.append(blend_problem)
+    scale = _path_scale(move) if segment.cartesian else 0.0
+    checker = arm_for(segment)[1]
+    results = checker.margins_of(segment, move.joints, move.fraction, tcp, extra, scale) if len(tcp) else {}
+    problems.extend(checker.problems(index, segment, results, move.fraction, tcp, extra))
+    margins_seen = {check: float(np.min(values[0])) for check, values in results.items() if len(values[0])}
+    # Interval checks (joint steps, speeds) name the sample that ends their worst interval.
+    worst = {check: int(np.argmin(values[0])) + (len(values[0]) < len(tcp))
+             for check, values in results.items() if len(values[0])}
+    end = move.joints[-1] if move.unreachable_at is None and len(move.joints) else None
+    kept = (move.fraction, move.joints, tcp) if keep_samples else (None, None, None)
+    steps.append(StepReport(segment.name, segment.move, *kept, margins_seen, worst, end, len(tcp)))
 
 
 def _sample(model, segment, index, q, margins):
@@ -181,23 +190,28 @@ def _path_scale(move) -> float:
     return float(max(metres, radians))
 
 
-def _blend_allowance(plan, sampled, tcp_of, index):
-    """(extra margin (n,) m inside the blend zones of move `index`, Problem if a blend radius is too large)."""
-    tcp = tcp_of[index]
+def _blend_allowance(plan, window, index):
+    """(extra margin (n,) m inside the blend zones of move `index`, Problem if a blend radius is too large);
+    `window` holds the sampled moves index − 1 .. index + 1 (None where not sampled)."""
+    tcp = window[index][2]
     extra = np.zeros(len(tcp))
     problem = None
     segment = plan.segments[index]
-    lengths = {i: float(np.sum(np.linalg.norm(np.diff(tcp_of[i], axis=0), axis=1)))
-               for i in (index - 1, index, index + 1) if i in tcp_of}   # the neighbours only: O(1) per move
+
+    def length(i):   # TCP travel of move i (m); a neighbour that was not sampled: none (index − 1), ∞ (index + 1)
+        entry = window.get(i)
+        return None if entry is None else float(np.sum(np.linalg.norm(np.diff(entry[2], axis=0), axis=1)))
+
     if segment.blend > 0 and len(tcp) and index + 1 < len(plan.segments):
         extra = np.maximum(extra, np.where(np.linalg.norm(tcp - tcp[-1], axis=1) < segment.blend, segment.blend, 0))
-        shortest = min(lengths.get(index, 0.0), lengths.get(index + 1, np.inf))
+        following = length(index + 1)
+        shortest = min(length(index), np.inf if following is None else following)
         if segment.blend > 0.5 * shortest:
             problem = Problem(segment.name, index, "blend", 1.0, tuple(map(float, tcp[-1])),
                               f"blend radius {1000 * segment.blend:.0f} mm is more than half of a neighbouring "
                               f"move ({1000 * shortest:.0f} mm of TCP travel)",
                               "lower the blend radius to at most half of the shorter move")
     previous = plan.segments[index - 1] if index > 0 else None
-    if previous is not None and previous.blend > 0 and len(tcp) and sampled[index - 1] is not None:
+    if previous is not None and previous.blend > 0 and len(tcp) and window.get(index - 1) is not None:
         extra = np.maximum(extra, np.where(np.linalg.norm(tcp - tcp[0], axis=1) < previous.blend, previous.blend, 0))
     return extra, problem

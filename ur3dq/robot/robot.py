@@ -306,7 +306,7 @@ class Robot:
         from ur3dq.pathcheck import check_path
 
         cell, margins = self._path_check
-        result = check_path(self.model, path, cell, margins)
+        result = check_path(self.model, path, cell, margins, keep_samples=False)
         if not result.ok:
             raise SafetyCheckError(f"path check: {result.summary()}")
 
