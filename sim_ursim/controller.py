@@ -38,7 +38,7 @@ from .motion_queue import DEFAULT_STOP_CODE, Motion, MotionEntry, MotionFault, M
 from .vocabulary import (
     PROTECTIVE_STOP_DECELERATION, PROTECTIVE_STOP_UNLOCK_DELAY, STATUS_BIT_POWER_ON, STATUS_BIT_PROGRAM_RUNNING,
     STATUS_BIT_TEACH_BUTTON, CommandRefused, ControllerState, ControlMode, RobotMode, SafetyMode, frozen_array,
-    runtime_state_of, safety_status_bits,
+    replaced_state, runtime_state_of, safety_status_bits,
 )
 
 log = logging.getLogger("sim_ursim.controller")
@@ -206,7 +206,8 @@ class Controller:
     def _next_idle_snapshot(self, began):
         """The last snapshot with this cycle's number and times: an idle cycle costs almost nothing."""
         self._execution_time = time.perf_counter() - began
-        return _replaced(self._state, cycle=self._cycle, timestamp=self._sim_time, execution_time=self._execution_time)
+        return replaced_state(self._state, cycle=self._cycle, timestamp=self._sim_time,
+                              execution_time=self._execution_time)
 
     def _publish(self, state):
         """Make `state` the snapshot `state()` returns and wake the waiters (called under the lock, so a command's
@@ -221,7 +222,7 @@ class Controller:
         a change, so the next control cycle computes a full snapshot again."""
         with self._lock:
             self._touch()
-            self._publish(_replaced(self._state, **fields))
+            self._publish(replaced_state(self._state, **fields))
 
     def _touch(self):
         """Note a change the next control cycle must recompute (its idle shortcut reuses an unchanged snapshot)."""
@@ -397,8 +398,9 @@ class Controller:
                           lambda start: self._plan_movel(start, pose, q_end, a, v, t))
             return motion
 
-    def speedj(self, qd: Vector, a: float = 1.4, t: float = 0.0) -> Motion:
-        """Joint speeds qd [rad/s] reached at acceleration a; after t s (t > 0) decelerate to rest."""
+    def speedj(self, qd: Vector, a: float = 1.4, t: float = 0.0, hold_owner: object = None) -> Motion:
+        """Joint speeds qd [rad/s] reached at acceleration a; after t s (t > 0) decelerate to rest, or with
+        `hold_owner` (a script thread) hold there until its next command: the Motion ends after t (see JointSpeed)."""
         qd = kinematics.checked_vector(qd, 6, "qd")
         a = kinematics.checked_positive(a, "a")
         t = kinematics.checked_non_negative(t, "t")
@@ -408,7 +410,12 @@ class Controller:
         with self._lock:
             self._require_motion_allowed("speedj")
             start = self._motions.speed_ramp_start("speedj", self._qd)
-            return self._replace_motion(trajectories.JointSpeed(start, qd, a, t), "speedj", True)
+            return self._replace_motion(trajectories.JointSpeed(start, qd, a, t, hold_owner), "speedj", True)
+
+    def release_speed_hold(self, owner: object) -> None:
+        """`owner`'s held speedj gets no next command: it ramps to rest."""
+        with self._lock:
+            self._motions.release_hold(owner)
 
     def speedl(self, xd: Vector, a: float = 1.2, t: float = 0.0) -> Motion:
         """TCP twist xd [vx vy vz wx wy wz] (base frame, m/s, rad/s) reached at acceleration a; after t s stop."""
@@ -690,11 +697,3 @@ _AMBIENT_TEMPERATURES = frozen_array(np.full(6, AMBIENT_TEMPERATURE))
 _POWERED_TEMPERATURES = frozen_array(np.full(6, POWERED_TEMPERATURE))
 _JOINT_VOLTAGES = frozen_array(np.full(6, MAIN_VOLTAGE))
 
-
-def _replaced(state, **fields):
-    """A copy of the frozen snapshot `state` with `fields` changed, without re-running the dataclass __init__ (a
-    command commits often: ur_rtde streams servoj and register writes at the control rate)."""
-    copy = object.__new__(ControllerState)
-    copy.__dict__.update(state.__dict__)
-    copy.__dict__.update(fields)
-    return copy

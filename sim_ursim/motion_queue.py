@@ -247,8 +247,18 @@ class MotionQueue:
                         f"{active.motion.kind}", SINGULARITY_STOP_CODE)
         return None
 
+    def release_hold(self, owner: object) -> None:
+        """The script thread `owner` will not follow its held speedj with another command (trajectories.JointSpeed)."""
+        active = self.active
+        if active is not None and getattr(active.segment, "hold_owner", None) is owner:
+            active.segment.release()
+
     def _finish_or_blend(self, active, new_q) -> None:
         """End a finished segment and start the next queued one; with r > 0 start it inside the blend zone."""
+        if getattr(active.segment, "holding", False):
+            # A script's speedj has moved its time t: the command returns, the arm waits for the thread's next one.
+            active.motion._finish(None)
+            return
         if active.segment.finished and self.tail is None:
             active.motion._finish(None)
             self.active = None

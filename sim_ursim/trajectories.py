@@ -168,6 +168,9 @@ def linear_distance(start_matrix: np.ndarray, end_matrix: np.ndarray) -> float:
     return max(length, kinematics.rotation_angle_between(start_matrix, end_matrix))
 
 
+_TIME_EPSILON = 1e-9  # s: float sums of control periods that equal a commanded time
+
+
 def ramp_towards(current: np.ndarray, target: np.ndarray, max_change: float) -> np.ndarray:
     """Vector `current` moved towards `target` by at most `max_change` (largest component), direction kept."""
     difference = np.asarray(target, dtype=float) - current
@@ -178,20 +181,42 @@ def ramp_towards(current: np.ndarray, target: np.ndarray, max_change: float) -> 
 
 
 class JointSpeed:
-    """speedj segment: joint speeds ramp to `qd_target` at `acceleration`; after `duration` (if > 0) ramp to zero."""
+    """speedj segment: joint speeds ramp to `qd_target` at `acceleration`; after `duration` (if > 0) ramp to zero.
+
+    A script's `speedj(qd, a, t)` is held (`hold_owner`, the commanding script thread): it moves for exactly
+    `duration` of trajectory time, then the arm waits, without moving, for that thread's next command. On a
+    controller the script threads run inside the control cycle, in lockstep with it (UR's manual: speedj "returns
+    after time t"; URCL's External Control script streams one `speedj(qd, a, steptime)` per control cycle and
+    integrates its splines assuming each runs exactly t). Here the interpreter needs real time between the return
+    and the next command; moving on at qd meanwhile made every step longer than planned (URCL's 3 s pre-positioning
+    spline of trajectory_streaming_example travelled 1.6 times its distance). Released (`release()`: the thread
+    waits for something else, or ended) it ramps to zero like a timed speedj.
+    """
 
     kind = "speedj"
 
-    def __init__(self, qd_start: np.ndarray, qd_target: np.ndarray, acceleration: float, duration: float):
+    def __init__(self, qd_start: np.ndarray, qd_target: np.ndarray, acceleration: float, duration: float,
+                 hold_owner: object = None):
         self.qd = np.array(qd_start, dtype=float)
         self.qd_target = np.array(qd_target, dtype=float)
         self.acceleration = acceleration
         self.duration = duration
         self.elapsed = 0.0
+        self.hold_owner = hold_owner if duration > 0 else None
+
+    @property
+    def holding(self) -> bool:
+        """True once a held segment has moved its time: the arm waits for its thread's next command."""
+        return self.hold_owner is not None and self.duration - self.elapsed <= _TIME_EPSILON
+
+    def release(self) -> None:
+        """No next command is coming from the holding thread: finish like a timed speedj (ramp to rest)."""
+        self.hold_owner = None
 
     @property
     def finished(self) -> bool:
-        return self.duration > 0 and self.elapsed >= self.duration and not np.any(self.qd)
+        return (self.duration > 0 and self.elapsed >= self.duration and not np.any(self.qd)
+                and self.hold_owner is None)
 
     @property
     def commanded_speed(self) -> np.ndarray:
@@ -199,7 +224,14 @@ class JointSpeed:
         return self.qd.copy()
 
     def advance(self, dt: float, q: np.ndarray) -> np.ndarray:
-        """Joints after dt at the ramped speed."""
+        """Joints after dt at the ramped speed (a held segment moves only for what is left of its time)."""
+        if self.hold_owner is not None:
+            dt = min(dt, self.duration - self.elapsed)
+            if dt <= _TIME_EPSILON:
+                return np.array(q, dtype=float)
+            self.elapsed += dt
+            self.qd = ramp_towards(self.qd, self.qd_target, self.acceleration * dt)
+            return q + self.qd * dt
         self.elapsed += dt
         goal = self.qd_target if (self.duration <= 0 or self.elapsed < self.duration) else np.zeros(6)
         self.qd = ramp_towards(self.qd, goal, self.acceleration * dt)

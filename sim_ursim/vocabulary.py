@@ -166,3 +166,12 @@ class ControllerState:
     execution_time: float  # s the last control cycle's computation took
     script_control_line: int
     external_force_torque: np.ndarray
+
+
+def replaced_state(state: ControllerState, **fields) -> ControllerState:
+    """A copy of the frozen snapshot `state` with `fields` changed, without re-running the dataclass __init__ (a
+    command commits often: ur_rtde streams servoj and register writes at the control rate)."""
+    copy = object.__new__(ControllerState)
+    copy.__dict__.update(state.__dict__)
+    copy.__dict__.update(fields)
+    return copy

@@ -302,6 +302,7 @@ class Execution:
         except (_Return, _Break, _Continue):
             pass
         finally:
+            self.controller.release_speed_hold(context)  # an ended thread sends no next command
             context.done.set()
             self.scheduler.release()
             self.cancel()
@@ -570,6 +571,7 @@ class Execution:
         except URScriptRuntimeError as error:
             self._record_error(error)
         finally:
+            self.controller.release_speed_hold(ctx)  # an ended thread sends no next command
             ctx.done.set()
             self.scheduler.release()
 

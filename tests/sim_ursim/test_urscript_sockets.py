@@ -180,3 +180,84 @@ end
         assert reader.readline() == b"GET ANSWER\n"
         server.connection.sendall(b"ANSWER 42\n")
         assert reader.readline() == b"SET GOT 42\n"
+
+
+# URCL's TrajectoryPointInterface (src/control/trajectory_point_interface.cpp) sends a spline point as 21 big-endian
+# int32: positions, velocities, accelerations (× MULT_JOINTSTATE), duration (× MULT_TIME = 1e6), spline type
+# (2 = quintic), point type (2 = joint spline).
+SPLINE_QUINTIC, POINT_JOINT_SPLINE = 2, 2
+
+# Written here after the spline execution of External Control (resources/external_control.urscript,
+# jointSplineRun/jointSplineStep): the spline from the measured joints to the point, stepped once per control
+# cycle by `speedj(qd, a, steptime)` with qd the spline's speed at the step's end and a the change over the step,
+# the remainder (< one cycle) as a last shorter speedj. It relies on each speedj moving for exactly its t.
+SPLINE_PROGRAM = """def splineLike():
+  MULT = 1000000.0
+  socket_open("{host}", {port}, "trajectory_socket")
+  point = socket_read_binary_integer(21, "trajectory_socket", 5)
+  end_q = [point[1], point[2], point[3], point[4], point[5], point[6]] / MULT
+  duration = point[19] / MULT
+  delta = end_q - get_joint_positions()
+  steptime = get_steptime()
+  def largest_change(a, b):
+    largest = 0
+    i = 0
+    while i < 6:
+      if norm(a[i] - b[i]) > largest:
+        largest = norm(a[i] - b[i])
+      end
+      i = i + 1
+    end
+    return largest
+  end
+  last_qd = [0, 0, 0, 0, 0, 0]
+  elapsed = 0.0
+  while duration - elapsed > steptime:
+    elapsed = elapsed + steptime
+    s = elapsed / duration
+    qd = delta * ((30 * pow(s, 2) - 60 * pow(s, 3) + 30 * pow(s, 4)) / duration)
+    speedj(qd, largest_change(qd, last_qd) / steptime, steptime)
+    last_qd = qd
+  end
+  speedj([0, 0, 0, 0, 0, 0], largest_change(last_qd, [0, 0, 0, 0, 0, 0]) / (duration - elapsed), duration - elapsed)
+  socket_send_int(0, "trajectory_socket")
+end
+"""
+
+
+def spline_point_message(q, duration):
+    """One quintic joint-spline point ending at rest, as URCL's writeTrajectorySplinePoint sends it."""
+    values = [round(v * MULT_JOINTSTATE) for v in q] + [0] * 12
+    return struct.pack(">21i", *values, round(duration * 1_000_000), SPLINE_QUINTIC, POINT_JOINT_SPLINE)
+
+
+def test_a_spline_stepped_by_speedj_each_cycle_ends_on_its_target(servers):
+    """speedj(qd, a, t) moves for exactly t of control time, however long the interpreter takes between two
+    commands (it ran on at qd meanwhile: URCL's trajectory_streaming_example pre-positioned 60 % too far)."""
+    with running_simulator(model="ur5e") as sim:
+        controller = sim.controller
+        controller.power_up()
+        trajectory = servers(sim.host)
+        accepted = threading.Thread(target=trajectory.accept)
+        accepted.start()
+        assert controller.run_program(SPLINE_PROGRAM.format(host=sim.host, port=trajectory.port), "test")
+        accepted.join(10)
+        start = np.array(controller.state().actual_q)
+        target = start + np.array([0.0, 0.3, -0.2, 0.0, 0.0, 0.5])
+        trajectory.connection.sendall(spline_point_message(target, 1.0))
+        trajectory.connection.settimeout(60)  # the arm's progress, not the wall clock, paces the program
+        assert trajectory.read_int() == 0
+        assert wait_for(lambda: not controller.state().program_running, timeout=10)
+        reached = np.array(controller.state().actual_q)
+        assert np.max(np.abs(reached - target)) < 2e-3, f"ended at {reached.tolist()}, target {target.tolist()}"
+
+
+def test_a_speedj_with_time_that_nothing_follows_ramps_to_rest():
+    with running_simulator(model="ur5e") as sim:
+        controller = sim.controller
+        controller.power_up()
+        assert controller.run_program("def alone():\n  speedj([0, 0, 0, 0, 0, 0.2], 2.0, 0.1)\n  sleep(0.5)\nend\n",
+                                      "test")
+        assert wait_for(lambda: not controller.state().program_running, timeout=10)
+        assert wait_for(lambda: not controller.state().motion_active, timeout=5)
+        assert max(abs(v) for v in controller.state().actual_qd) < 1e-9

@@ -70,8 +70,9 @@ def _wait_for(ctx: ThreadContext, seconds):
 
 @builtin
 def speedj(ctx: ThreadContext, qd, a, t=None):
-    """Accelerate the joints to speeds qd [rad/s] at a [rad/s²] and keep them; returns after t [s], or without t
-    once the speeds are reached (the ramp time max|Δqd| / a)."""
+    """Accelerate the joints to speeds qd [rad/s] at a [rad/s²] and keep them; returns after t [s] of controller
+    motion time (the arm then waits for this thread's next command: trajectories.JointSpeed), or without t once
+    the speeds are reached (the ramp time max|Δqd| / a)."""
     qd = np.array(number_list(qd, 6, "qd"))
     acceleration = as_number(a, "a")
     if acceleration == 0.0:
@@ -79,11 +80,21 @@ def speedj(ctx: ThreadContext, qd, a, t=None):
         # interpolation sends a = 0 when consecutive speeds are equal; controllers accept it).
         qd = np.array(ctx.controller.state().target_qd)
         acceleration = 1.0
+    duration = None if t is None else as_number(t, "t")
+    if duration is not None and duration > 0:
+        # Lockstep with the control cycles: wait for the arm to have moved t, not for t of wall time (a busy machine
+        # runs fewer cycles than its wall time holds; the next speedj would then cut this one short).
+        motion = controller_call(ctx.controller.speedj, qd, acceleration, duration, ctx)
+        with ctx.waiting():
+            while not motion.wait(timeout=ctx.controller.period) and not ctx.cancel.is_set():
+                pass
+        ctx.check()
+        return
     controller_call(ctx.controller.speedj, qd, acceleration, 0.0)
-    if t is None:
+    if duration is None:
         _wait_for(ctx, float(np.max(np.abs(qd - ctx.controller.state().actual_qd))) / acceleration)
     else:
-        _wait_for(ctx, as_number(t, "t"))
+        _wait_for(ctx, duration)
 
 
 @builtin
@@ -128,12 +139,14 @@ def sleep(ctx: ThreadContext, t):
     seconds = as_number(t, "t")
     if seconds < 0:
         raise ScriptError(f"runtime_error:sleep time must be ≥ 0, got {to_str(t)}:")
+    ctx.controller.release_speed_hold(ctx)  # waiting, not commanding: a held speedj ramps to rest
     ctx.sleep(seconds)
 
 
 @builtin
 def sync(ctx: ThreadContext):
     """Wait for the next control cycle (uses up the rest of this thread's physical time slot)."""
+    ctx.controller.release_speed_hold(ctx)  # waiting, not commanding: a held speedj ramps to rest
     ctx.sync()
 
 
