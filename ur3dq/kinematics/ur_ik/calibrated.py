@@ -15,11 +15,6 @@ _DAMPING = 1e-9
 #: (measured), so 1e-11 leaves 30× room. Above it a row keeps stepping: beside a singularity Newton converges
 #: linearly (a step may take 1e-8 only to 2e-11, measured on a UR5e at |sin θ5| = 0.06), which is not a floor.
 _ROUNDING_CEILING = 1e-11
-#: (cos, sin) of θ − (0, π/2): one np.cos call gives both (cos(θ − π/2) = sin θ).
-_QUARTER_TURNS = np.array([0.0, 0.5 * math.pi])
-#: Index pairs of the cross product a × b = a[_NEXT]·b[_AFTER] − a[_AFTER]·b[_NEXT] and of the axial vector of a
-#: 3×3 matrix's skew part (rows _AFTER, columns _NEXT minus the transpose).
-_NEXT, _AFTER = [1, 2, 0], [2, 0, 1]
 
 #: Rows from which a Newton step runs the joint-major kernels: their fixed cost (~1 ms of numpy calls) beats the
 #: batched matrices (~4.5 µs a row) from ≈ 200 rows (measured).
@@ -36,23 +31,24 @@ def _refine_calibrated(g: _Geometry, branches: list, target) -> list:
 
 
 def _joint_terms(g: _Geometry) -> tuple:
-    """(θ offsets (6,), cos/sin basis (6, 2, 16), constant part (6, 1, 16)) of the geometry's DH joint matrices.
+    """(angle shifts (6, 1, 1, 2), cos/sin basis (6, 1, 2, 16), constant part (6, 1, 1, 16)) of the geometry's joints.
 
     A standard DH joint is T(θ) = cos θ·A + sin θ·B + C with constant A, B, C (4×4, flattened to 16): all six
-    joints of M configurations are then one (M, 6, 1, 2) @ (6, 2, 16) matmul. Cached per geometry (kept alive
-    with its entry, so its id cannot be reused), like geometry._geometry.
+    joints of M configurations are one (6, M, 1, 2) @ (6, 1, 2, 16) matmul, cos and sin one np.cos of
+    θ + offset − (0, π/2). Cached per geometry (kept alive with its entry, so its id cannot be reused), like
+    geometry._geometry.
     """
     cached = _TERMS.get(id(g))
     if cached is not None and cached[0] is g:
         return cached[1]
-    offset = np.array([joint[2] for joint in g.joints])
+    shift = np.array([[joint[2], joint[2] - 0.5 * math.pi] for joint in g.joints])
     basis, constant = np.zeros((6, 2, 4, 4)), np.zeros((6, 1, 4, 4))
     for i, (a, d, _, cos_half, sin_half) in enumerate(g.joints):
         cos_alpha, sin_alpha = cos_half * cos_half - sin_half * sin_half, 2.0 * cos_half * sin_half
         basis[i, 0] = [[1.0, 0.0, 0.0, a], [0.0, cos_alpha, -sin_alpha, 0.0], [0.0] * 4, [0.0] * 4]
         basis[i, 1] = [[0.0, -cos_alpha, sin_alpha, 0.0], [1.0, 0.0, 0.0, a], [0.0] * 4, [0.0] * 4]
         constant[i, 0] = [[0.0] * 4, [0.0] * 4, [0.0, sin_alpha, cos_alpha, d], [0.0, 0.0, 0.0, 1.0]]
-    terms = (offset, basis.reshape(6, 2, 16), constant.reshape(6, 1, 16))
+    terms = (shift.reshape(6, 1, 1, 2), basis.reshape(6, 1, 2, 16), constant.reshape(6, 1, 1, 16))
     with _TERMS_LOCK:
         if len(_TERMS) >= 64:
             _TERMS.pop(next(iter(_TERMS)))
@@ -61,19 +57,20 @@ def _joint_terms(g: _Geometry) -> tuple:
 
 
 def _chain_frames(terms: tuple, q: np.ndarray) -> np.ndarray:
-    """(M, 6, 4, 4) frames 1…6 of standard DH joints q (M, 6) in the base frame (frame 0 is the identity).
+    """(6, M, 4, 4) frames 1…6 of standard DH joints q (M, 6) in the base frame (frame 0 is the identity).
 
     Newton's inner loop works on 4×4 matrices rather than dual quaternions for speed alone: all six joint
     transforms are one batched matmul and the chain five more, where the coefficient form costs ~70 small array
-    operations per joint. What a solution is accepted on is still the dual-quaternion FK filter
-    (fk_filter._meets / batch._fk_filter).
+    operations per joint. Joint-major, so that each frame is one contiguous block (a matmul on strided blocks costs
+    twice as much). What a solution is accepted on is still the dual-quaternion FK filter (fk_filter._meets /
+    batch._fk_filter).
     """
-    offset, basis, constant = terms
-    trig = np.cos((q + offset)[..., None, None] - _QUARTER_TURNS)        # (M, 6, 1, 2): cos θ, sin θ
-    joint = (trig @ basis + constant).reshape(len(q), 6, 4, 4)
+    shift, basis, constant = terms
+    trig = np.cos(q.T[..., None, None] + shift)        # (6, M, 1, 2): cos θ, sin θ
+    frames = (trig @ basis + constant).reshape(6, len(q), 4, 4)
     for i in range(1, 6):
-        np.matmul(joint[:, i - 1], joint[:, i], out=joint[:, i])
-    return joint
+        np.matmul(frames[i - 1], frames[i], out=frames[i])
+    return frames
 
 
 def _target_matrices(targets: np.ndarray) -> tuple:
@@ -85,6 +82,15 @@ def _target_matrices(targets: np.ndarray) -> tuple:
     return rotation.reshape(-1, 3, 3), targets[:, 4:]
 
 
+#: (9, 3) map from a row-major 3×3 matrix to the axial vector of its skew part, ½·(m21 − m12, m02 − m20, m10 − m01).
+_AXIAL = np.zeros((9, 3))
+_AXIAL[[7, 2, 3], [0, 1, 2]], _AXIAL[[5, 6, 1], [0, 1, 2]] = 0.5, -0.5
+
+
+#: Joint 1's Jacobian row after its first two entries: (z0 × p)_z = 0, then z0 = (0, 0, 1).
+_BASE_ROW_TAIL = np.array([0.0, 0.0, 0.0, 1.0])
+
+
 def _pose_residual(end: np.ndarray, rotation_t: np.ndarray, position_t: np.ndarray) -> np.ndarray:
     """(M, 6) [position error (m), rotation error (rad, base frame)] from end frames (M, 4, 4) to the targets.
 
@@ -93,33 +99,36 @@ def _pose_residual(end: np.ndarray, rotation_t: np.ndarray, position_t: np.ndarr
     relative = rotation_t @ end[:, :3, :3].transpose(0, 2, 1)
     error = np.empty((len(end), 6))
     np.subtract(position_t, end[:, :3, 3], out=error[:, :3])
-    np.subtract(relative[:, _AFTER, _NEXT], relative[:, _NEXT, _AFTER], out=error[:, 3:])
-    error[:, 3:] *= 0.5
+    np.matmul(relative.reshape(-1, 9), _AXIAL, out=error[:, 3:])
     return error
 
 
 def _jacobian_rows(frames: np.ndarray) -> np.ndarray:
-    """(M, 6, 6) transposed base-frame Jacobian of revolute DH joints: row i = [z_{i−1} × (p − o_{i−1}), z_{i−1}].
+    """(6, M, 6) base-frame Jacobian, joint-major: row i = [z_{i−1} × (p − o_{i−1}), z_{i−1}] of joint i + 1.
 
-    Frame i−1 of joint i: the base (z = (0, 0, 1) at the origin) for joint 1, else frames[:, i − 2]."""
-    rows = np.empty((len(frames), 6, 6))
-    axis, origin = rows[:, :, 3:], np.empty((len(frames), 6, 3))
-    axis[:, 0], origin[:, 0] = (0.0, 0.0, 1.0), 0.0
-    axis[:, 1:], origin[:, 1:] = frames[:, :5, :3, 2], frames[:, :5, :3, 3]
-    lever = frames[:, 5, None, :3, 3] - origin
-    np.subtract(axis[..., _NEXT] * lever[..., _AFTER], axis[..., _AFTER] * lever[..., _NEXT], out=rows[:, :, :3])
+    Frame i−1 of joint i: the base (z = (0, 0, 1) at the origin) for joint 1, else frames[i − 2]. The cross
+    products take the axes and levers written twice over (x y z x y z): their slices 1:4 and 2:5 are the two
+    cyclic shifts, views instead of six strided products per component.
+    """
+    rows = np.empty((6, frames.shape[1], 6))
+    end = frames[5, :, :3, 3]
+    rows[0, :, 0], rows[0, :, 1], rows[0, :, 2:] = -end[:, 1], end[:, 0], _BASE_ROW_TAIL
+    axis = np.concatenate((frames[:5, :, :3, 2], frames[:5, :, :3, 2]), axis=-1)
+    lever = np.concatenate((end, end), axis=-1) - np.concatenate((frames[:5, :, :3, 3], frames[:5, :, :3, 3]), axis=-1)
+    np.subtract(axis[..., 1:4] * lever[..., 2:5], axis[..., 2:5] * lever[..., 1:4], out=rows[1:, :, :3])
+    rows[1:, :, 3:] = axis[..., :3]
     return rows
 
 
 def _matrix_residual(terms: tuple, q: np.ndarray, target: tuple) -> tuple:
-    """(error (R, 6), frames (R, 6, 4, 4)) of joints q (R, 6) against target (rotation, position) rows."""
+    """(error (R, 6), frames (6, R, 4, 4)) of joints q (R, 6) against target (rotation, position) rows."""
     frames = _chain_frames(terms, q)
-    return _pose_residual(frames[:, 5], *target), frames
+    return _pose_residual(frames[5], *target), frames
 
 
 def _matrix_step(frames: np.ndarray, error: np.ndarray, damping: np.ndarray) -> np.ndarray:
-    """(R, 6) joint steps solving (JᵀJ + λ²I)·Δq = Jᵀe (numpy's batched LAPACK solve)."""
-    transposed = _jacobian_rows(frames)
+    """(R, 6) joint steps solving (JᵀJ + λ²I)·Δq = Jᵀe (numpy's batched LAPACK solve) for frames (6, R, 4, 4)."""
+    transposed = _jacobian_rows(frames).transpose(1, 0, 2)   # (R, 6, 6): Jᵀ
     normal = transposed @ transposed.transpose(0, 2, 1)
     normal += damping
     return np.linalg.solve(normal, transposed @ error[:, :, None])[..., 0]
@@ -223,6 +232,6 @@ def _refine_batch(g: _Geometry, q: np.ndarray, targets: np.ndarray):
         if len(rows) >= _COLUMN_ROWS:   # the kernel's columns are not sliced: rows stopping now take one more solve
             q[rows[going]] += _column_step(frames, error, damping)[going]
         else:
-            q[rows[going]] += _matrix_step(frames[going], error[going], damping)
+            q[rows[going]] += _matrix_step(frames[:, going], error[going], damping)
         rows = rows[going]   # converged rows drop out: a batch's last steps are for a few stragglers
     return q, residual
