@@ -68,9 +68,11 @@ def _chain_frames(terms: tuple, q: np.ndarray) -> np.ndarray:
     """
     shift, basis, constant = terms
     trig = np.cos(q.T[..., None, None] + shift)        # (6, M, 1, 2): cos θ, sin θ
-    frames = (trig @ basis + constant).reshape(6, len(q), 4, 4)
+    joints = (trig @ basis + constant).reshape(6, len(q), 4, 4)
+    frames = np.empty_like(joints)   # a separate output: an out= overlapping an input makes numpy copy first
+    frames[0] = joints[0]
     for i in range(1, 6):
-        np.matmul(frames[i - 1], frames[i], out=frames[i])
+        np.matmul(frames[i - 1], joints[i], out=frames[i])
     return frames
 
 
