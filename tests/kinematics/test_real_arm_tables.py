@@ -150,3 +150,52 @@ def test_ur3_and_ur3e_wrist_3_is_unlimited_in_both_packages():
         np.testing.assert_array_equal(ours.joint_upper, simulated.joint_upper)
         np.testing.assert_array_equal(ours.joint_lower, simulated.joint_lower)
     assert math.isinf(robot_model("ur3e").joint_upper[5]) and math.isinf(robot_model("ur3").joint_upper[5])
+
+
+@pytest.mark.parametrize("name", ["ur3", "ur10e"])
+def test_ik_batch_equals_ik_pose_by_pose_on_factory_tables(name):
+    """ik_batch refines whole batches at once (joint-major Newton kernels) and ik one pose (batched matrices): on
+    regular configurations both give the same nearest solution."""
+    model = factory_model(name, seed=9)
+    q = random_configurations(100, seed=10)
+    references = q + np.random.default_rng(11).normal(0.0, 0.05, q.shape)
+    batch = model.ik_batch(model.fk_batch(q), references)
+    for pose, reference, solved in zip(model.fk_batch(q), references, batch):
+        np.testing.assert_allclose(solved, model.ik(pose, reference), atol=1e-9)
+
+
+@pytest.mark.parametrize("name", ["ur5", "ur16e"])
+def test_ik_all_batch_holds_the_solution_sets_of_ik_all_on_factory_tables(name):
+    # Newton stops both paths within 1e-12 of the pose, from rows refined in different groupings: beside a wrist
+    # at |sin θ5| ≈ 0.1 that leaves ~1e-9 rad between the joint vectors (measured), hence 1e-8 here.
+    model = factory_model(name, seed=12)
+    poses = model.fk_batch(random_configurations(60, seed=13))
+    for pose, rows in zip(poses, model_solutions(model, poses)):
+        singles = model.ik_all(pose)
+        assert len(rows) == len(singles)
+        for single in singles:
+            assert any(np.max(np.abs((row - single + math.pi) % (2 * math.pi) - math.pi)) < 1e-8 for row in rows)
+
+
+def model_solutions(model, poses) -> list:
+    """Per pose, the finite rows of ur_ik.ik_all_batch."""
+    from ur3dq.kinematics.ur_ik import ik_all_batch
+    return [[row for row in rows if np.all(np.isfinite(row))] for rows in ik_all_batch(model, poses)]
+
+
+def test_the_two_newton_kernels_compute_the_same_step():
+    """calibrated._column_residual/_column_step (many rows) restate _matrix_residual/_matrix_step (few rows)."""
+    from ur3dq.kinematics.ur_ik import calibrated
+    from ur3dq.kinematics.ur_ik.geometry import _geometry
+    model = factory_model("ur5e", seed=14)
+    g = _geometry(model)
+    q = random_configurations(50, seed=15)
+    goal = random_configurations(50, seed=16) * 0.01 + q   # Newton-sized errors: millimetres, milliradians
+    pairs = np.array([list(p.rotation.elements) + list(p.translation) for p in (model.fk_flange(x) for x in goal)])
+    target = calibrated._target_matrices(pairs)
+    damping = calibrated._DAMPING_MATRIX
+    matrix_error, frames = calibrated._matrix_residual(calibrated._joint_terms(g), q, target)
+    column_error, columns = calibrated._column_residual(g, q, target)
+    np.testing.assert_allclose(column_error, matrix_error, atol=1e-12)
+    np.testing.assert_allclose(calibrated._column_step(columns, column_error, damping),
+                               calibrated._matrix_step(frames, matrix_error, damping), atol=1e-9)

@@ -1,6 +1,9 @@
 """Calibrated arms: Newton steps on the full DH chain from the nominal closed-form branches."""
 from __future__ import annotations
 
+import math
+import threading
+
 import numpy as np
 
 from ur3dq.kinematics.ur_ik.geometry import CALIBRATED_MAX_STEPS, CALIBRATED_TOLERANCE, _Geometry
@@ -12,109 +15,251 @@ _DAMPING = 1e-9
 #: (measured), so 1e-11 leaves 30× room. Above it a row keeps stepping: beside a singularity Newton converges
 #: linearly (a step may take 1e-8 only to 2e-11, measured on a UR5e at |sin θ5| = 0.06), which is not a floor.
 _ROUNDING_CEILING = 1e-11
+_DAMPING_MATRIX = np.eye(6) * _DAMPING ** 2   # λ²I of the normal equations
+
+#: Rows from which a Newton step runs the joint-major kernels: their fixed cost (~1 ms of numpy calls) beats the
+#: batched matrices (~4.5 µs a row) from ≈ 200 rows (measured).
+_COLUMN_ROWS = 256
+
+_TERMS: dict = {}
+_TERMS_LOCK = threading.Lock()   # drivers solve IK from their own threads
 
 
 def _refine_calibrated(g: _Geometry, branches: list, target) -> list:
     """Newton steps on the calibrated FK from the nominal branches; those that converge, as float tuples."""
-    refined, residual = _refine_batch(g, np.array(branches, dtype=float), np.tile(np.array(target), (len(branches), 1)))
+    refined, residual = _refine_batch(g, np.array(branches, dtype=float), np.array(target)[None])
     return [tuple(q) for q, r in zip(refined.tolist(), residual.tolist()) if r <= CALIBRATED_TOLERANCE]
 
 
-def _dh_columns(g: _Geometry) -> tuple:
-    """(a, d, θ offset, cos α, sin α), each (6,): the full DH table of a geometry."""
-    a, d, offset, cos_half, sin_half = (np.array(column) for column in zip(*g.joints))
-    return a, d, offset, cos_half * cos_half - sin_half * sin_half, 2.0 * cos_half * sin_half
+def _joint_terms(g: _Geometry) -> tuple:
+    """(angle shifts (6, 1, 1, 2), cos/sin basis (6, 1, 2, 16), constant part (6, 1, 1, 16)) of the geometry's joints.
+
+    A standard DH joint is T(θ) = cos θ·A + sin θ·B + C with constant A, B, C (4×4, flattened to 16): all six
+    joints of M configurations are one (6, M, 1, 2) @ (6, 1, 2, 16) matmul, cos and sin one np.cos of
+    θ + offset − (0, π/2). Cached per geometry (kept alive with its entry, so its id cannot be reused), like
+    geometry._geometry.
+    """
+    cached = _TERMS.get(id(g))
+    if cached is not None and cached[0] is g:
+        return cached[1]
+    shift = np.array([[joint[2], joint[2] - 0.5 * math.pi] for joint in g.joints])
+    basis, constant = np.zeros((6, 2, 4, 4)), np.zeros((6, 1, 4, 4))
+    for i, (a, d, _, cos_half, sin_half) in enumerate(g.joints):
+        cos_alpha, sin_alpha = cos_half * cos_half - sin_half * sin_half, 2.0 * cos_half * sin_half
+        basis[i, 0] = [[1.0, 0.0, 0.0, a], [0.0, cos_alpha, -sin_alpha, 0.0], [0.0] * 4, [0.0] * 4]
+        basis[i, 1] = [[0.0, -cos_alpha, sin_alpha, 0.0], [1.0, 0.0, 0.0, a], [0.0] * 4, [0.0] * 4]
+        constant[i, 0] = [[0.0] * 4, [0.0] * 4, [0.0, sin_alpha, cos_alpha, d], [0.0, 0.0, 0.0, 1.0]]
+    terms = (shift.reshape(6, 1, 1, 2), basis.reshape(6, 1, 2, 16), constant.reshape(6, 1, 1, 16))
+    with _TERMS_LOCK:
+        if len(_TERMS) >= 64:
+            _TERMS.pop(next(iter(_TERMS)))
+        _TERMS[id(g)] = (g, terms)
+    return terms
 
 
-def _chain_matrices(table: tuple, q: np.ndarray) -> np.ndarray:
-    """(M, 7, 4, 4) frames 0…6 of standard DH joints q (M, 6): homogeneous transforms, frame 0 the base.
+def _chain_frames(terms: tuple, q: np.ndarray) -> np.ndarray:
+    """(6, M, 4, 4) frames 1…6 of standard DH joints q (M, 6) in the base frame (frame 0 is the identity).
 
     Newton's inner loop works on 4×4 matrices rather than dual quaternions for speed alone: all six joint
-    transforms come from a few (M, 6) array operations and the chain is six batched matmuls, where the
-    coefficient form costs ~70 small array operations per joint. What a solution is accepted on is still the
-    dual-quaternion FK filter (fk_filter._meets / batch._fk_filter).
+    transforms are one batched matmul and the chain five more, where the coefficient form costs ~70 small array
+    operations per joint. Joint-major, so that each frame is one contiguous block (a matmul on strided blocks costs
+    twice as much). What a solution is accepted on is still the dual-quaternion FK filter (fk_filter._meets /
+    batch._fk_filter).
     """
-    a, d, offset, cos_alpha, sin_alpha = table
-    theta = q + offset
-    c, s = np.cos(theta), np.sin(theta)
-    joint = np.zeros(q.shape + (4, 4))
-    joint[..., 0, 0], joint[..., 0, 1], joint[..., 0, 2], joint[..., 0, 3] = c, -s * cos_alpha, s * sin_alpha, a * c
-    joint[..., 1, 0], joint[..., 1, 1], joint[..., 1, 2], joint[..., 1, 3] = s, c * cos_alpha, -c * sin_alpha, a * s
-    joint[..., 2, 1], joint[..., 2, 2], joint[..., 2, 3] = sin_alpha, cos_alpha, d
-    joint[..., 3, 3] = 1.0
-    frames = np.empty((len(q), 7, 4, 4))
-    frames[:, 0] = np.eye(4)
-    frames[:, 1] = joint[:, 0]
+    shift, basis, constant = terms
+    trig = np.cos(q.T[..., None, None] + shift)        # (6, M, 1, 2): cos θ, sin θ
+    joints = (trig @ basis + constant).reshape(6, len(q), 4, 4)
+    frames = np.empty_like(joints)   # a separate output: an out= overlapping an input makes numpy copy first
+    frames[0] = joints[0]
     for i in range(1, 6):
-        np.matmul(frames[:, i], joint[:, i], out=frames[:, i + 1])
+        np.matmul(frames[i - 1], joints[i], out=frames[i])
     return frames
 
 
+def _rotation_of_products() -> np.ndarray:
+    """(16, 9) map from the products q_a·q_b (a, b over w, x, y, z; row-major) of a unit quaternion to its rotation
+    matrix minus the identity: 2·[[−yy−zz, xy−wz, xz+wy], [xy+wz, −xx−zz, yz−wx], [xz−wy, yz+wx, −xx−yy]]."""
+    w, x, y, z = range(4)
+    entries = (((y, y, -2), (z, z, -2)), ((x, y, 2), (w, z, -2)), ((x, z, 2), (w, y, 2)),
+               ((x, y, 2), (w, z, 2)), ((x, x, -2), (z, z, -2)), ((y, z, 2), (w, x, -2)),
+               ((x, z, 2), (w, y, -2)), ((y, z, 2), (w, x, 2)), ((x, x, -2), (y, y, -2)))
+    matrix = np.zeros((16, 9))
+    for entry, terms in enumerate(entries):
+        for a, b, factor in terms:
+            matrix[4 * a + b, entry] = factor
+    return matrix
+
+
+_ROTATION_OF_PRODUCTS = _rotation_of_products()
+_IDENTITY_ROWS = np.eye(3).reshape(9)
+
+
 def _target_matrices(targets: np.ndarray) -> tuple:
-    """(rotation (M, 3, 3), position (M, 3)) of target pairs (M, 7) = (qw, qx, qy, qz, px, py, pz)."""
-    w, x, y, z = targets[:, 0], targets[:, 1], targets[:, 2], targets[:, 3]
-    rotation = np.stack((1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - w * z), 2.0 * (x * z + w * y),
-                         2.0 * (x * y + w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - w * x),
-                         2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y)), -1)
-    return rotation.reshape(-1, 3, 3), targets[:, 4:]
+    """(rotation (M, 3, 3), position (M, 3)) of target pairs (M, 7) = (qw, qx, qy, qz, px, py, pz).
+
+    The rotation is one matmul of the quaternion's outer products (four numpy calls whatever M: a single pose's
+    target was ~30 calls on 1-element arrays, ~10 % of its Newton time)."""
+    quaternion = targets[:, :4]
+    products = (quaternion[:, :, None] * quaternion[:, None, :]).reshape(-1, 16)
+    return (products @ _ROTATION_OF_PRODUCTS + _IDENTITY_ROWS).reshape(-1, 3, 3), targets[:, 4:]
 
 
-def _pose_residual(end: np.ndarray, target: tuple) -> np.ndarray:
-    """(M, 6) [position error (m), rotation error (rad, base frame)] from end frames (M, 4, 4) to the target.
+#: (9, 3) map from a row-major 3×3 matrix to the axial vector of its skew part, ½·(m21 − m12, m02 − m20, m10 − m01).
+_AXIAL = np.zeros((9, 3))
+_AXIAL[[7, 2, 3], [0, 1, 2]], _AXIAL[[5, 6, 1], [0, 1, 2]] = 0.5, -0.5
+
+
+#: Joint 1's Jacobian row after its first two entries: (z0 × p)_z = 0, then z0 = (0, 0, 1).
+_BASE_ROW_TAIL = np.array([0.0, 0.0, 0.0, 1.0])
+
+
+def _pose_residual(end: np.ndarray, rotation_t: np.ndarray, position_t: np.ndarray) -> np.ndarray:
+    """(M, 6) [position error (m), rotation error (rad, base frame)] from end frames (M, 4, 4) to the targets.
 
     The rotation error is the axial vector of the skew part of R_t·Rᵀ (sin θ·axis): the rotation vector to first
     order, which is all Newton needs (errors here are small)."""
-    rotation_t, position_t = target
-    relative = rotation_t @ np.swapaxes(end[:, :3, :3], 1, 2)
+    relative = rotation_t @ end[:, :3, :3].transpose(0, 2, 1)
     error = np.empty((len(end), 6))
-    error[:, :3] = position_t - end[:, :3, 3]
-    error[:, 3] = 0.5 * (relative[:, 2, 1] - relative[:, 1, 2])
-    error[:, 4] = 0.5 * (relative[:, 0, 2] - relative[:, 2, 0])
-    error[:, 5] = 0.5 * (relative[:, 1, 0] - relative[:, 0, 1])
+    np.subtract(position_t, end[:, :3, 3], out=error[:, :3])
+    np.matmul(relative.reshape(-1, 9), _AXIAL, out=error[:, 3:])
     return error
 
 
-def _geometric_jacobian(frames: np.ndarray) -> np.ndarray:
-    """(M, 6, 6) base-frame Jacobian [v; ω] of revolute DH joints: column i = [z_{i−1}×(p − o_{i−1}); z_{i−1}]."""
-    axis, origin = frames[:, :6, :3, 2], frames[:, :6, :3, 3]
-    lever = frames[:, 6, None, :3, 3] - origin
-    jacobian = np.empty((len(frames), 6, 6))
-    ax, ay, az = axis[..., 0], axis[..., 1], axis[..., 2]
-    lx, ly, lz = lever[..., 0], lever[..., 1], lever[..., 2]
-    jacobian[:, 0], jacobian[:, 1], jacobian[:, 2] = ay * lz - az * ly, az * lx - ax * lz, ax * ly - ay * lx
-    jacobian[:, 3:] = np.swapaxes(axis, 1, 2)
-    return jacobian
+def _jacobian_rows(frames: np.ndarray) -> np.ndarray:
+    """(6, M, 6) base-frame Jacobian, joint-major: row i = [z_{i−1} × (p − o_{i−1}), z_{i−1}] of joint i + 1.
+
+    Frame i−1 of joint i: the base (z = (0, 0, 1) at the origin) for joint 1, else frames[i − 2]. The cross
+    products take the axes and levers written twice over (x y z x y z): their slices 1:4 and 2:5 are the two
+    cyclic shifts, views instead of six strided products per component.
+    """
+    rows = np.empty((6, frames.shape[1], 6))
+    end = frames[5, :, :3, 3]
+    rows[0, :, 0], rows[0, :, 1], rows[0, :, 2:] = -end[:, 1], end[:, 0], _BASE_ROW_TAIL
+    axis = np.concatenate((frames[:5, :, :3, 2], frames[:5, :, :3, 2]), axis=-1)
+    lever = np.concatenate((end, end), axis=-1) - np.concatenate((frames[:5, :, :3, 3], frames[:5, :, :3, 3]), axis=-1)
+    np.subtract(axis[..., 1:4] * lever[..., 2:5], axis[..., 2:5] * lever[..., 1:4], out=rows[1:, :, :3])
+    rows[1:, :, 3:] = axis[..., :3]
+    return rows
+
+
+def _matrix_residual(terms: tuple, q: np.ndarray, target: tuple) -> tuple:
+    """(error (R, 6), frames (6, R, 4, 4)) of joints q (R, 6) against target (rotation, position) rows."""
+    frames = _chain_frames(terms, q)
+    return _pose_residual(frames[5], *target), frames
+
+
+def _matrix_step(frames: np.ndarray, error: np.ndarray, damping: np.ndarray) -> np.ndarray:
+    """(R, 6) joint steps solving (JᵀJ + λ²I)·Δq = Jᵀe (numpy's batched LAPACK solve) for frames (6, R, 4, 4)."""
+    transposed = _jacobian_rows(frames).transpose(1, 0, 2)   # (R, 6, 6): Jᵀ
+    normal = transposed @ transposed.transpose(0, 2, 1)
+    normal += damping
+    return np.linalg.solve(normal, transposed @ error[:, :, None])[..., 0]
+
+
+def _column_residual(g: _Geometry, q: np.ndarray, target: tuple) -> tuple:
+    """(error (R, 6), (axes, origins) of frames 0…6) of joints q (R, 6): the matrix path's quantities, joint-major.
+
+    Every coordinate is an (R,) array (or a float for the base frame) and the chain is written out per column:
+    for thousands of rows numpy's batched 4×4 matmuls and 6×6 LAPACK solves cost ~0.3 µs and ~0.8 µs per matrix,
+    where one elementwise operation costs ~0.5 ns per row (measured on the benchmark machine).
+    """
+    angles = q.T + np.array([joint[2] for joint in g.joints])[:, None]
+    cos, sin = np.cos(angles), np.sin(angles)
+    x, y, z, p = (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0), (0.0, 0.0, 0.0)
+    axes, origins = [z], [p]
+    for c, s, (a, d, _, cos_half, sin_half) in zip(cos, sin, g.joints):
+        cos_alpha, sin_alpha = cos_half * cos_half - sin_half * sin_half, 2.0 * cos_half * sin_half
+        # T = Rz(θ)·Tz(d)·Tx(a)·Rx(α) on the frame's columns: x' = c·x + s·y, y'' = c·y − s·x, then α about x'.
+        x, turned = tuple(c * u + s * v for u, v in zip(x, y)), tuple(c * v - s * u for u, v in zip(x, y))
+        p = tuple(o + d * w + a * u for o, w, u in zip(p, z, x))
+        y = tuple(cos_alpha * v + sin_alpha * w for v, w in zip(turned, z))
+        z = tuple(cos_alpha * w - sin_alpha * v for v, w in zip(turned, z))
+        axes.append(z)
+        origins.append(p)
+    rotation_t, position_t = target
+    error = np.empty((len(q), 6))
+    for k in range(3):
+        np.subtract(position_t[:, k], p[k], out=error[:, k])
+    # ½·Σ_c r_c × t_c over the columns c of the end rotation and the target's: the axial vector of the skew part
+    # of R_t·Rᵀ, as _pose_residual computes it.
+    end = (x, y, z)
+    for k, (i, j) in enumerate(((1, 2), (2, 0), (0, 1))):
+        error[:, 3 + k] = 0.5 * sum(end[c][i] * rotation_t[:, j, c] - end[c][j] * rotation_t[:, i, c]
+                                    for c in range(3))
+    return error, (axes, origins)
+
+
+def _column_step(frames: tuple, error: np.ndarray, damping: np.ndarray) -> np.ndarray:
+    """(R, 6) joint steps solving (JᵀJ + λ²I)·Δq = Jᵀe, the normal equations and Cholesky written out per entry."""
+    axes, origins = frames
+    end = origins[6]
+    columns = []
+    for z, o in zip(axes[:6], origins[:6]):
+        lever = tuple(e - w for e, w in zip(end, o))
+        columns.append((z[1] * lever[2] - z[2] * lever[1], z[2] * lever[0] - z[0] * lever[2],
+                        z[0] * lever[1] - z[1] * lever[0]) + z)
+    residual = error.T
+    rhs = [sum(column[r] * residual[r] for r in range(6)) for column in columns]
+    lower = [[None] * 6 for _ in range(6)]
+    inverse_diagonal = []
+    for j in range(6):
+        for i in range(j, 6):
+            entry = sum(columns[i][r] * columns[j][r] for r in range(6)) - sum(lower[i][k] * lower[j][k]
+                                                                                 for k in range(j))
+            if i == j:
+                # A pivot of the damped normal matrix is ≥ λ² in exact arithmetic; rounding may take it below.
+                inverse_diagonal.append(1.0 / np.sqrt(np.maximum(entry + damping[j, j], damping[j, j])))
+            lower[i][j] = entry * inverse_diagonal[j]
+    solution = [None] * 6
+    for j in range(6):
+        solution[j] = (rhs[j] - sum(lower[j][k] * solution[k] for k in range(j))) * inverse_diagonal[j]
+    for j in reversed(range(6)):
+        solution[j] = (solution[j] - sum(lower[k][j] * solution[k] for k in range(j + 1, 6))) * inverse_diagonal[j]
+    return np.stack(solution, axis=-1)
 
 
 def _refine_batch(g: _Geometry, q: np.ndarray, targets: np.ndarray):
     """Newton steps on the calibrated FK: (refined q (M, 6), final residual norm (M,)); rows of NaN stay NaN.
 
+    ``targets``: (M, 7) pairs, or one (1, 7) pair shared by every row.
     A row stops when it is 100× inside CALIBRATED_TOLERANCE; when, already below _ROUNDING_CEILING, a step no
     longer halves its error (the rounding floor of its table): iterating on would only stir rounding. A row whose
     error grows is not dropped: some seeds converge after a few growing steps (dropping them at the first growth
     lost 87 of 2001 solutions on 300 UR3 poses), so the stragglers take all CALIBRATED_MAX_STEPS, alone.
     Steps solve (JᵀJ + λ²I)·Δq = Jᵀe with a tiny λ, a Newton step wherever J is regular that stays bounded beside
-    a singularity (no SVD per step).
+    a singularity (no SVD per step). A step of _COLUMN_ROWS rows or more runs the joint-major kernels
+    (_column_residual, _column_step), a smaller one the batched-matrix kernels: the same quantities, the one
+    cheap per row, the other in few numpy calls.
     """
     q = q.copy()
-    table, (rotation_t, position_t) = _dh_columns(g), _target_matrices(targets)
-    residual, previous = np.full(len(q), np.inf), np.full(len(q), np.inf)
-    active = np.ones(len(q), dtype=bool)
-    identity = np.eye(6) * _DAMPING ** 2
+    terms = _joint_terms(g)
+    rotation_t, position_t = _target_matrices(targets)
+    shared = len(targets) == 1
+    residual = np.full(len(q), np.inf)
+    # The active rows' joints, last errors and indices in q, kept compact: rows that stop are written back once.
+    rows, current, previous = np.arange(len(q)), q, np.full(len(q), np.inf)
     for step in range(CALIBRATED_MAX_STEPS + 1):
-        rows = np.flatnonzero(active)   # converged rows drop out: a batch's last steps are for a few stragglers
-        if rows.size == 0:
-            break
-        frames = _chain_matrices(table, q[rows])
-        error = _pose_residual(frames[:, 6], (rotation_t[rows], position_t[rows]))
-        residual[rows] = norm = np.linalg.norm(error, axis=-1)
-        stalled = (norm >= 0.5 * previous[rows]) & (norm < _ROUNDING_CEILING)
-        going = (norm > 0.01 * CALIBRATED_TOLERANCE) & ~stalled   # NaN rows (absent branches) stop here too
-        previous[rows] = norm
-        active[rows] = going
+        target = (rotation_t, position_t) if shared else (rotation_t[rows], position_t[rows])
+        columns = len(rows) >= _COLUMN_ROWS
+        error, frames = (_column_residual(g, current, target) if columns
+                         else _matrix_residual(terms, current, target))
+        norm = np.sqrt(np.einsum("ij,ij->i", error, error))
+        residual[rows] = norm
+        # Going on: outside 100× CALIBRATED_TOLERANCE and not stalled (below _ROUNDING_CEILING without halving the
+        # error); NaN rows (absent branches) fail the first test and stop.
+        going = (norm > 0.01 * CALIBRATED_TOLERANCE) & ((norm < 0.5 * previous) | (norm >= _ROUNDING_CEILING))
         if step == CALIBRATED_MAX_STEPS or not going.any():
+            q[rows] = current
             break
-        jacobian = _geometric_jacobian(frames[going])
-        transposed = np.swapaxes(jacobian, 1, 2)
-        q[rows[going]] += np.linalg.solve(transposed @ jacobian + identity, transposed @ error[going, :, None])[..., 0]
+        if columns:   # the kernel's columns are not sliced: rows stopping now take one more solve
+            delta = _column_step(frames, error, _DAMPING_MATRIX)
+        if not going.all():   # converged rows drop out: a batch's last steps are for a few stragglers
+            q[rows[~going]] = current[~going]
+            rows, current, norm = rows[going], current[going], norm[going]
+            if columns:
+                delta = delta[going]
+            else:
+                frames, error = frames[:, going], error[going]
+        current = current + (delta if columns else _matrix_step(frames, error, _DAMPING_MATRIX))
+        previous = norm
     return q, residual
