@@ -16,9 +16,16 @@ from rich.text import Text
 JOINT_LABELS = ("base", "shoulder", "elbow", "wrist 1", "wrist 2", "wrist 3")
 
 
+_ANGLE_FORMAT = {True: "%.3f°", False: "%.6f"}   # deg → the %-format of one angle (degrees or radians)
+
+
 def angle_text(radians: float, deg: bool) -> str:
     """One angle as text: degrees with 3 decimals and a ° sign when `deg`, else radians with 6 decimals."""
-    return f"{math.degrees(radians):.3f}°" if deg else f"{radians:.6f}"
+    return _ANGLE_FORMAT[bool(deg)] % (math.degrees(radians) if deg else radians)
+
+
+_POSE_VECTOR_FORMAT = {deg: "p[%.6f, %.6f, %.6f, " + ", ".join([angle] * 3) + "]"
+                       for deg, angle in _ANGLE_FORMAT.items()}   # deg → the %-format of a whole pose vector
 
 
 def angles_text(values, deg: bool) -> str:
@@ -28,12 +35,11 @@ def angles_text(values, deg: bool) -> str:
 
 def pose_vector_text(pose, deg: bool) -> str:
     """A UR pose vector [x, y, z, rx, ry, rz]: metres with 6 decimals, rotation vector in degrees or radians."""
-    x, y, z, rx, ry, rz = (float(v) for v in pose)
+    x, y, z, *rotation = (float(v) for v in pose)
     # One %-format per pose, not a call per number: `poses list` formats 10⁵ of them.
     if deg:
-        return "p[%.6f, %.6f, %.6f, %.3f°, %.3f°, %.3f°]" % (x, y, z, math.degrees(rx), math.degrees(ry),
-                                                            math.degrees(rz))
-    return "p[%.6f, %.6f, %.6f, %.6f, %.6f, %.6f]" % (x, y, z, rx, ry, rz)
+        rotation = [math.degrees(r) for r in rotation]
+    return _POSE_VECTOR_FORMAT[bool(deg)] % (x, y, z, *rotation)
 
 
 def coefficients_text(values) -> str:

@@ -198,14 +198,13 @@ def _blend_allowance(plan, window, index):
     problem = None
     segment = plan.segments[index]
 
-    def length(i):   # TCP travel of move i (m); a neighbour that was not sampled: none (index − 1), ∞ (index + 1)
+    def length(i):   # TCP travel of move i (m); ∞ for a following move that was not sampled (it bounds nothing)
         entry = window.get(i)
-        return None if entry is None else float(np.sum(np.linalg.norm(np.diff(entry[2], axis=0), axis=1)))
+        return np.inf if entry is None else float(np.sum(np.linalg.norm(np.diff(entry[2], axis=0), axis=1)))
 
     if segment.blend > 0 and len(tcp) and index + 1 < len(plan.segments):
         extra = np.maximum(extra, np.where(np.linalg.norm(tcp - tcp[-1], axis=1) < segment.blend, segment.blend, 0))
-        following = length(index + 1)
-        shortest = min(length(index), np.inf if following is None else following)
+        shortest = min(length(index), length(index + 1))
         if segment.blend > 0.5 * shortest:
             problem = Problem(segment.name, index, "blend", 1.0, tuple(map(float, tcp[-1])),
                               f"blend radius {1000 * segment.blend:.0f} mm is more than half of a neighbouring "

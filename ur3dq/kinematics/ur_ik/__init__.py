@@ -36,7 +36,8 @@ decides whether the pose is met. Unreachable poses raise UnreachablePoseError sa
 Calibrated models (DH deltas): the nominal geometry (d1, a2, a3, d4, d5, d6 of the calibrated table) gives the
 starting branches (a branch beyond CALIBRATED_DOMAIN_SLACK of the nominal reach is absent), then Newton steps on
 the calibrated FK converge each to CALIBRATED_TOLERANCE; the FK filter still decides. Newton runs all rows of a call
-at once: as batched 4×4 matrices for a few rows (single poses), written out per joint-major column for many. Known limit: within ~0.05 rad of a wrist singularity or of the folded elbow, two nominal branches
+at once: as batched 4×4 matrices for a few rows (single poses), written out per joint-major column for many.
+Known limit: within ~0.05 rad of a wrist singularity or of the folded elbow, two nominal branches
 can converge to the same calibrated solution, so ik_all may miss a neighbouring one there (whatever it returns
 is FK-verified; ik then picks the nearest of those).
 
