@@ -3,6 +3,7 @@ then movej) goes to a sim_ursim process on its secondary port; ur_rtde's RTDE re
 and the joints while it runs; every recorded point must lie within the check's sampling tolerance of its samples,
 the arm must end on the joints the check predicted (same IK branch), and no protective stop may occur."""
 import contextlib
+import itertools
 import math
 import socket
 import struct
@@ -183,9 +184,15 @@ def urscript_move(segment) -> str:
     return f"  movel(p[{x!r}, {y!r}, {z!r}, {rx!r}, {ry!r}, {rz!r}], a=1.2, v={segment.speed})\n"
 
 
-# Exclusive (run alone after the parallel pass): six programs on one simulator, each waited for up to 20 s; under the
-# parallel pass's load one program in ~300 did not start in a fresh-clone run (the retry passed), so timing is
-# measured here, not behaviour.
+# Each program ends by writing its own number to output integer register 12, and the test waits for that number: the
+# evidence that *this* program ran to its end. Waiting on the arm's position alone passed at once for a program that
+# moves nowhere (the arm already rests there) before it had even started; the next example's program, sent on
+# another connection, could then be replaced by that late one, and the arm stayed put (seen once at stop 20).
+_PROGRAM_NUMBERS = itertools.count(1)
+FINISHED_REGISTER = 12
+
+
+# Exclusive (run alone after the parallel pass): six programs on one simulator, each waited for up to 20 s.
 @pytest.mark.exclusive
 @settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(st.lists(st.one_of(
@@ -205,11 +212,15 @@ def test_what_the_check_accepts_the_simulator_runs_to_the_predicted_joints_witho
     result = check_path(UR3, PathPlan(start, segments))
     assume(result.ok)
     end = result.steps[-1].end_joints
-    program = "def accepted():\n" + "".join(urscript_move(s) for s in segments) + "end\n"
+    number = next(_PROGRAM_NUMBERS)
+    program = ("def accepted():\n" + "".join(urscript_move(s) for s in segments)
+               + f"  write_output_integer_register({FINISHED_REGISTER}, {number})\nend\n")
     with socket.create_connection((host, SECONDARY_PORT), timeout=5) as sock:
         sock.sendall(program.encode())
-        arrived = wait_for(lambda: receiver.getSafetyMode() != NORMAL
-                           or (np.allclose(receiver.getActualQ(), end, atol=1e-5)
-                               and not np.any(receiver.getActualQd())), timeout=20)
+        finished = wait_for(lambda: receiver.getSafetyMode() != NORMAL
+                            or receiver.getOutputIntRegister(FINISHED_REGISTER) == number, timeout=20)
     assert receiver.getSafetyMode() == NORMAL, "the simulator stopped a path the check accepted"
+    assert finished, f"program {number} did not run to its end within 20 s"
+    arrived = wait_for(lambda: np.allclose(receiver.getActualQ(), end, atol=1e-5)
+                       and not np.any(receiver.getActualQd()), timeout=2)
     assert arrived, f"the arm ended at {receiver.getActualQ()}, the check predicted {end.tolist()}"
