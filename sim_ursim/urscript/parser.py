@@ -7,7 +7,7 @@ import functools
 from pathlib import Path
 
 import lark
-from lark import Lark, Transformer, v_args
+from lark import Lark, Transformer
 
 from sim_ursim.urscript import nodes
 
@@ -54,13 +54,17 @@ class _LineJoiner:
 
 @functools.lru_cache(maxsize=1)
 def _lark_parser():
-    """The LALR parser, built once per process; lark's cache file (temp dir) saves the ~0.5 s build next time."""
+    """The LALR parser, built once per process; lark's cache file (temp dir) saves the ~0.5 s build next time.
+
+    Nodes are built while parsing (lark's `transformer=` option): no intermediate tree and no propagated
+    positions, which made a 48 KB program (URCL's External Control script) take twice as long to start.
+    """
     return Lark(
         GRAMMAR_PATH.read_text(),
         parser="lalr",
         postlex=_LineJoiner(),
-        propagate_positions=True,
         maybe_placeholders=True,
+        transformer=_ToNodes(),
         cache=True,
     )
 
@@ -72,92 +76,103 @@ def _number(text):
     return int(text)
 
 
-def _position(meta_or_token):
-    """(line, column) of a lark meta or token, 1-based."""
-    return {"line": getattr(meta_or_token, "line", 0) or 0, "column": getattr(meta_or_token, "column", 0) or 0}
+def _at(first):
+    """Position keywords {line, column} (1-based) of a token or node: a node starts at its first token."""
+    return {"line": first.line, "column": first.column}
 
 
-@v_args(meta=True)
+def _syntax_error(first, text):
+    """URScriptSyntaxError at the position of `first` (token or node) with the controller's message `text`."""
+    return URScriptSyntaxError(first.line, first.column, f"syntax_error_on_line:{first.line}:{text}:")
+
+
 class _ToNodes(Transformer):
-    """lark tree -> nodes.*; every node gets the position of its first token."""
+    """Parse callbacks: lark rule -> nodes.*. Each receives the rule's kept tokens and already built nodes; the
+    grammar names the keyword or bracket that starts a rule, so the first child always carries the node's position.
+    A parenthesised expression starts at its first token inside the parenthesis."""
 
-    def start(self, meta, children):
-        return nodes.Script(children[0], **_position(meta))
+    def start(self, children):
+        (block,) = children
+        return nodes.Script(block, **(_at(block[0]) if block else {}))
 
-    def block(self, meta, children):
+    def block(self, children):
         return tuple(children)
 
     # --- definitions
-    def funcdef(self, meta, children):
-        name, *rest = children
-        body = rest[-1]
+    def funcdef(self, children):
+        keyword, name, *rest = children
         params = tuple(p for p in rest[:-1] if p is not None)
-        return nodes.FunctionDef(str(name), params, body, **_position(meta))
+        return nodes.FunctionDef(str(name), params, rest[-1], **_at(keyword))
 
-    def param(self, meta, children):
+    def param(self, children):
         name, default = children
-        return nodes.Param(str(name), default, **_position(meta))
+        return nodes.Param(str(name), default, **_at(name))
 
-    def threaddef(self, meta, children):
-        name, body = children
-        return nodes.ThreadDef(str(name), body, **_position(meta))
+    def threaddef(self, children):
+        keyword, name, body = children
+        return nodes.ThreadDef(str(name), body, **_at(keyword))
 
-    def secdef(self, meta, children):
-        name, body = children
-        return nodes.SecDef(str(name), body, **_position(meta))
+    def secdef(self, children):
+        keyword, name, body = children
+        return nodes.SecDef(str(name), body, **_at(keyword))
 
     # --- control flow
-    def if_stmt(self, meta, children):
-        condition, body, *rest = children
+    def if_stmt(self, children):
+        keyword, condition, body, *rest = children
         orelse = rest.pop() if rest else None
         branches = ((condition, body),) + tuple(rest)
-        return nodes.If(branches, orelse, **_position(meta))
+        return nodes.If(branches, orelse, **_at(keyword))
 
-    def elif_clause(self, meta, children):
-        return tuple(children)
+    def elif_clause(self, children):
+        _, condition, body = children
+        return (condition, body)
 
-    def else_clause(self, meta, children):
-        return children[0]
+    def else_clause(self, children):
+        return children[1]
 
-    def while_stmt(self, meta, children):
-        condition, body = children
-        return nodes.While(condition, body, **_position(meta))
+    def while_stmt(self, children):
+        keyword, condition, body = children
+        return nodes.While(condition, body, **_at(keyword))
 
-    def return_stmt(self, meta, children):
-        return nodes.Return(children[0], **_position(meta))
+    def return_stmt(self, children):
+        keyword, value = children
+        return nodes.Return(value, **_at(keyword))
 
-    def halt_stmt(self, meta, children):
-        return nodes.Halt(**_position(meta))
+    def halt_stmt(self, children):
+        return nodes.Halt(**_at(children[0]))
 
-    def break_stmt(self, meta, children):
-        return nodes.Break(**_position(meta))
+    def break_stmt(self, children):
+        return nodes.Break(**_at(children[0]))
 
-    def continue_stmt(self, meta, children):
-        return nodes.Continue(**_position(meta))
+    def continue_stmt(self, children):
+        return nodes.Continue(**_at(children[0]))
 
-    def kill_stmt(self, meta, children):
-        return nodes.Kill(str(children[0]), **_position(meta))
+    def kill_stmt(self, children):
+        keyword, name = children
+        return nodes.Kill(str(name), **_at(keyword))
 
-    def join_stmt(self, meta, children):
-        return nodes.Join(str(children[0]), **_position(meta))
+    def join_stmt(self, children):
+        keyword, name = children
+        return nodes.Join(str(name), **_at(keyword))
 
-    def enter_critical(self, meta, children):
-        return nodes.EnterCritical(**_position(meta))
+    def enter_critical(self, children):
+        return nodes.EnterCritical(**_at(children[0]))
 
-    def exit_critical(self, meta, children):
-        return nodes.ExitCritical(**_position(meta))
+    def exit_critical(self, children):
+        return nodes.ExitCritical(**_at(children[0]))
 
     # --- variables
-    def global_decl(self, meta, children):
-        name, value = children
-        return nodes.GlobalDecl(str(name), value, **_position(meta))
+    def global_decl(self, children):
+        keyword, name, value = children
+        return nodes.GlobalDecl(str(name), value, **_at(keyword))
 
-    def local_decl(self, meta, children):
-        name, value = children
-        return nodes.LocalDecl(str(name), value, **_position(meta))
+    def local_decl(self, children):
+        keyword, name, value = children
+        return nodes.LocalDecl(str(name), value, **_at(keyword))
 
-    def assign(self, meta, children):
+    def assign(self, children):
         target, value = children
+        first = target
         indices = []
         while isinstance(target, (nodes.Index, nodes.MatrixIndex)):
             if isinstance(target, nodes.MatrixIndex):
@@ -166,35 +181,34 @@ class _ToNodes(Transformer):
                 indices.insert(0, target.index)
             target = target.target
         if not isinstance(target, nodes.Name):
-            raise URScriptSyntaxError(meta.line, meta.column, f"syntax_error_on_line:{meta.line}:cannot assign:")
-        return nodes.Assign(target.name, tuple(indices), value, **_position(meta))
+            raise _syntax_error(first, "cannot assign")
+        return nodes.Assign(target.name, tuple(indices), value, **_at(first))
 
-    def expr_stmt(self, meta, children):
-        return nodes.ExprStatement(children[0], **_position(meta))
+    def expr_stmt(self, children):
+        (expr,) = children
+        return nodes.ExprStatement(expr, **_at(expr))
 
     # --- expressions
-    def binary(self, meta, children):
+    def binary(self, children):
         left, op, right = children
-        return nodes.Binary(str(op), left, right, **_position(meta))
+        return nodes.Binary(str(op), left, right, **_at(left))
 
-    def unary(self, meta, children):
+    def unary(self, children):
         op, operand = children
-        return nodes.Unary(str(op), operand, **_position(meta))
+        return nodes.Unary(str(op), operand, **_at(op))
 
-    def subscript(self, meta, children):
+    def subscript(self, children):
         target, *items = children
         # `p[...]` with other than one element is a pose literal; `p[i]` indexes a variable named p.
         if isinstance(target, nodes.Name) and target.name == "p" and len(items) != 1:
-            return nodes.PoseExpr(tuple(items), **_position(meta))
+            return nodes.PoseExpr(tuple(items), **_at(target))
         if len(items) == 2:
-            return nodes.MatrixIndex(target, items[0], items[1], **_position(meta))
+            return nodes.MatrixIndex(target, items[0], items[1], **_at(target))
         if len(items) != 1:
-            raise URScriptSyntaxError(
-                meta.line, meta.column, f"syntax_error_on_line:{meta.line}:one index or a row and column expected:"
-            )
-        return nodes.Index(target, items[0], **_position(meta))
+            raise _syntax_error(target, "one index or a row and column expected")
+        return nodes.Index(target, items[0], **_at(target))
 
-    def call(self, meta, children):
+    def call(self, children):
         name, *arguments = children
         args, kwargs = [], []
         for argument in arguments:
@@ -203,40 +217,43 @@ class _ToNodes(Transformer):
             if isinstance(argument, tuple):
                 kwargs.append(argument)
             elif kwargs:
-                raise URScriptSyntaxError(
-                    meta.line, meta.column, f"syntax_error_on_line:{meta.line}:positional argument after keyword:"
-                )
+                raise _syntax_error(name, "positional argument after keyword")
             else:
                 args.append(argument)
-        return nodes.Call(str(name), tuple(args), tuple(kwargs), **_position(meta))
+        return nodes.Call(str(name), tuple(args), tuple(kwargs), **_at(name))
 
-    def argument(self, meta, children):
+    def argument(self, children):
         return children[0]
 
-    def keyword_argument(self, meta, children):
+    def keyword_argument(self, children):
         name, value = children
         return (str(name), value)
 
-    def run(self, meta, children):
-        return nodes.Run(str(children[0]), **_position(meta))
+    def run(self, children):
+        keyword, name = children
+        return nodes.Run(str(name), **_at(keyword))
 
-    def number(self, meta, children):
-        return nodes.Literal(_number(str(children[0])), **_position(meta))
+    def number(self, children):
+        (token,) = children
+        return nodes.Literal(_number(str(token)), **_at(token))
 
-    def string(self, meta, children):
-        return nodes.Literal(str(children[0])[1:-1], **_position(meta))
+    def string(self, children):
+        (token,) = children
+        return nodes.Literal(str(token)[1:-1], **_at(token))
 
-    def true(self, meta, children):
-        return nodes.Literal(True, **_position(meta))
+    def true(self, children):
+        return nodes.Literal(True, **_at(children[0]))
 
-    def false(self, meta, children):
-        return nodes.Literal(False, **_position(meta))
+    def false(self, children):
+        return nodes.Literal(False, **_at(children[0]))
 
-    def name(self, meta, children):
-        return nodes.Name(str(children[0]), **_position(meta))
+    def name(self, children):
+        (token,) = children
+        return nodes.Name(str(token), **_at(token))
 
-    def list(self, meta, children):
-        return nodes.ListExpr(tuple(c for c in children if c is not None), **_position(meta))
+    def list(self, children):
+        bracket, *items = children
+        return nodes.ListExpr(tuple(c for c in items if c is not None), **_at(bracket))
 
 
 def _source_line(source, line):
@@ -249,13 +266,16 @@ def parse(source: str) -> nodes.Script:
     """URScript text -> nodes.Script; raises URScriptSyntaxError (line, column, controller message) if invalid."""
     if not isinstance(source, str):
         raise ValueError(f"source must be str, got {type(source).__name__}")
+    return _parse_text(source)
+
+
+# Clients send the same large program at every connection (URCL's External Control script, ur_rtde's control
+# script: tens of kB, ~0.1 s to parse); the nodes are immutable, so a program seen recently is not parsed again.
+@functools.lru_cache(maxsize=8)
+def _parse_text(source):
+    """parse() of a str, remembered for the last few distinct programs (errors are raised again each time)."""
     try:
-        tree = _lark_parser().parse(source if source.endswith("\n") else source + "\n")
-        return _ToNodes().transform(tree)
-    except lark.exceptions.VisitError as error:
-        if isinstance(error.orig_exc, URScriptSyntaxError):
-            raise error.orig_exc from None
-        raise
+        return _lark_parser().parse(source if source.endswith("\n") else source + "\n")
     except lark.exceptions.UnexpectedInput as error:
         line = getattr(error, "line", 0) or 0
         column = getattr(error, "column", 0) or 0

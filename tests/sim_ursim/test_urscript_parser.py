@@ -228,3 +228,58 @@ def test_assignment_target_must_be_a_variable():
 def test_source_must_be_text():
     with pytest.raises(ValueError, match="source must be str"):
         parse(b"x = 1\n")
+
+
+@pytest.mark.parametrize(
+    "source, kind, column",
+    [
+        ("  halt\n", nodes.Halt, 3),
+        ("  break\n", nodes.Break, 3),
+        ("  continue\n", nodes.Continue, 3),
+        ("  enter_critical\n", nodes.EnterCritical, 3),
+        ("  exit_critical\n", nodes.ExitCritical, 3),
+        ("  return\n", nodes.Return, 3),
+        ("  kill t\n", nodes.Kill, 3),
+        ("  join t\n", nodes.Join, 3),
+        ("  global g = 1\n", nodes.GlobalDecl, 3),
+        ("  local l = 1\n", nodes.LocalDecl, 3),
+        ("  while True:\n  end\n", nodes.While, 3),
+        ("  if True:\n  end\n", nodes.If, 3),
+        ("  def f():\n  end\n", nodes.FunctionDef, 3),
+        ("  thread t():\n  end\n", nodes.ThreadDef, 3),
+        ("  sec s():\n  end\n", nodes.SecDef, 3),
+        ("  x[1] = 2\n", nodes.Assign, 3),
+    ],
+)
+def test_a_statement_starts_at_its_keyword_or_target(source, kind, column):
+    (statement,) = parse(source).body
+    assert isinstance(statement, kind) and (statement.line, statement.column) == (1, column)
+
+
+@pytest.mark.parametrize(
+    "text, kind, column",
+    [
+        ("True", nodes.Literal, 5),
+        ("False", nodes.Literal, 5),
+        ("[]", nodes.ListExpr, 5),
+        ("[1, 2]", nodes.ListExpr, 5),
+        ("(1, 2)", nodes.ListExpr, 5),
+        ("run t()", nodes.Run, 5),
+        ("-a", nodes.Unary, 5),
+        ("a + b", nodes.Binary, 5),
+        ("(a + b) * c", nodes.Binary, 6),  # a parenthesised expression starts inside its parenthesis
+        ("p[0, 0, 0, 0, 0, 0]", nodes.PoseExpr, 5),
+        ("f(k=1)", nodes.Call, 5),
+    ],
+)
+def test_an_expression_starts_at_its_first_token(text, kind, column):
+    value = only_expression(text)
+    assert isinstance(value, kind) and (value.line, value.column) == (1, column)
+
+
+def test_a_program_parsed_again_gives_the_same_nodes_and_the_same_error():
+    source = "def f():\n  x = [1, 2]\n  textmsg(x)\nend\n"
+    assert parse(source) == parse(source)
+    for _ in range(2):
+        with pytest.raises(URScriptSyntaxError, match="line 2"):
+            parse("x = 1\ny = = 2\n")
