@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 import unicodedata
-from datetime import datetime, timezone
+from datetime import datetime, timedelta, timezone
 
 import numpy as np
 
@@ -24,6 +24,7 @@ MAX_NAME_LENGTH = 100
 # Plausible magnitudes: beyond these a reading or a hand edit went wrong (1e308 would overflow in later maths).
 MAX_JOINT_ABS = 100.0        # rad: the UR3's wrist 3 turns without limit, but no arm is wound up 16 turns
 MAX_TRANSLATION_ABS = 100.0  # m (and rad for rotation-vector components) in ur_pose and tcp_offset
+_NO_OFFSET = timedelta(0)  # the UTC offset a pose's time must have
 
 
 def utc_now_iso() -> str:
@@ -85,7 +86,7 @@ def _check_utc_time(time: str, who: str) -> None:
         parsed = datetime.fromisoformat(time)
     except (TypeError, ValueError):
         raise ValueError(f"{who}: time {time!r} is not ISO 8601 (e.g. 2026-11-22T01:02:03Z)") from None
-    if parsed.utcoffset() is None or parsed.utcoffset().total_seconds() != 0:
+    if parsed.utcoffset() != _NO_OFFSET:  # also a time without an offset (None)
         raise ValueError(f"{who}: time {time!r} must be in UTC (end it with Z)")
 
 
@@ -159,10 +160,9 @@ class Pose:
         the numbers of a whole file in one vectorised pass, then the text with check_pose_text_fields); tuples of
         floats expected. Skips the per-pose checks, which dominate loading a big store."""
         pose = object.__new__(cls)
-        for field, value in (("name", name), ("time", time), ("robot_model", robot_model),
-                             ("dual_quaternion", dual_quaternion), ("ur_pose", ur_pose), ("tcp_offset", tcp_offset),
-                             ("joints", joints), ("robot_serial", robot_serial), ("note", note)):
-            object.__setattr__(pose, field, value)
+        for set_slot, value in zip(_SLOT_SETTERS, (name, time, robot_model, dual_quaternion, ur_pose, tcp_offset,
+                                                   joints, robot_serial, note)):
+            set_slot(pose, value)
         return pose
 
     @property
@@ -185,6 +185,11 @@ class Pose:
     def renamed(self, name: str) -> "Pose":
         """The same pose under another name (validated)."""
         return dataclasses.replace(self, name=name)
+
+
+# One setter per field, in field order (Pose.checked's parameter order): a slot's own setter is the cheapest way
+# past the frozen dataclass.
+_SLOT_SETTERS = tuple(getattr(Pose, field.name).__set__ for field in dataclasses.fields(Pose))
 
 
 def next_free_name(prefix: str, taken) -> str:
