@@ -48,9 +48,12 @@ is separable), and the FK filter checks the joints it returns. Batches of a nomi
 kernel (batch_kernels._regular_branches) in numpy over blocks of IK_BLOCK poses, all branches at once
 (joint-major (6, 8, B) arrays): what the branches share is computed once (θ1 per pose, the wrist per θ1, both θ5
 signs from the same terms), and the FK filter evaluates the closed-form FK kernel (ur_fk) on every branch's final
-joints. Poses near a wrist or elbow singularity are redone one by one by ik_all's own scalar code
-(single._branch_table): there rounding noise decides whether a branch pair merges, and only the same float
-operations give the same answer in every path.
+joints. ``ik_batch`` ranks the existing branches by their nearest in-limit variants first (each joint's
+variants once per distinct value) and runs the FK filter on each pose's winner only, in blocks of NEAREST_BLOCK
+(a winner that fails is ranked again among the verified branches: the same answer as filtering first). Poses
+near a wrist or elbow singularity are redone one by one by ik_all's own scalar code (single._branch_table): there
+rounding noise decides whether a branch pair merges, and only the same float operations give the same answer in
+every path.
 
 Chaining ``ik`` with q_ref = the previous answer (issue 11, item 7, documented behaviour): ``ik`` minimises the
 weighted joint distance to q_ref only, so at an elbow or shoulder crossing (where two branches meet: θ3 = 0, or the
@@ -75,12 +78,13 @@ from ur3dq.kinematics.ur_ik.geometry import (
     FK_TOLERANCE_M,
     FK_TOLERANCE_RAD,
     IK_BLOCK,
+    NEAREST_BLOCK,
     WRIST_SINGULAR_TOLERANCE,
 )
 from ur3dq.kinematics.ur_ik.nearest import ik, joint_variants
 from ur3dq.kinematics.ur_ik.single import ik_all
 
 __all__ = [
-    "CALIBRATED_TOLERANCE", "DUPLICATE_TOLERANCE", "FK_TOLERANCE_M", "FK_TOLERANCE_RAD", "IK_BLOCK",
+    "CALIBRATED_TOLERANCE", "DUPLICATE_TOLERANCE", "FK_TOLERANCE_M", "FK_TOLERANCE_RAD", "IK_BLOCK", "NEAREST_BLOCK",
     "WRIST_SINGULAR_TOLERANCE", "ik", "ik_all", "ik_all_batch", "ik_batch", "joint_variants", "wrap_angle",
 ]
