@@ -39,7 +39,22 @@ def joint_floats(q, name: str = "q") -> tuple:
 
 
 def flange_coefficients(d1, a2, a3, d4, d5, d6, q1, q2, q3, q4, q5, q6) -> tuple:
-    """Flange σ (8 coefficients) of a nominal UR arm, given HALF the DH lengths (d1/2, a2/2, …); q floats.
+    """Flange σ (8 coefficients) of a nominal UR arm, given HALF the DH lengths (d1/2, a2/2, …); q floats: the
+    rotation and half position of :func:`flange_rotation_position` with the dual part ½p·r."""
+    rw, rx, ry, rz, px, py, pz = flange_rotation_position(d1, a2, a3, d4, d5, d6, q1, q2, q3, q4, q5, q6)
+    # Dual part (0, p/2)·r.
+    return (
+        rw, rx, ry, rz,
+        -px * rx - py * ry - pz * rz,
+        px * rw + py * rz - pz * ry,
+        -px * rz + py * rw + pz * rx,
+        px * ry - py * rx + pz * rw,
+    )
+
+
+def flange_rotation_position(d1, a2, a3, d4, d5, d6, q1, q2, q3, q4, q5, q6) -> tuple:
+    """(rw, rx, ry, rz, ½px, ½py, ½pz): flange rotation and half position of a nominal UR arm, given HALF the DH
+    lengths (d1/2, a2/2, …); q floats (the IK's FK filter compares these without forming the dual part).
 
     Rotation r = [rz(q1)·rx(π/2)]·[rz(q234)·rx(π/2)]·[rz(q5)·rx(−π/2)·rz(q6)]. The first two factors multiply out
     to (−s1 sb, c1 cb, s1 cb, c1 sb) and the third to k(cP, −cM, −sM, sP), k = 1/√2, with half angles
@@ -80,14 +95,7 @@ def flange_coefficients(d1, a2, a3, d4, d5, d6, q1, q2, q3, q4, q5, q6) -> tuple
     px = cos1 * reach + sin1 * offset
     py = sin1 * reach - cos1 * offset
     pz = d1 + a2 * sin2 + a3 * sin23 - d5 * cos234 - d6_sin5 * sin234
-    # Dual part (0, p/2)·r.
-    return (
-        rw, rx, ry, rz,
-        -px * rx - py * ry - pz * rz,
-        px * rw + py * rz - pz * ry,
-        -px * rz + py * rw + pz * rx,
-        px * ry - py * rx + pz * rw,
-    )
+    return rw, rx, ry, rz, px, py, pz
 
 
 #: Poses per block in the array kernels: a block's temporaries (a few dozen rows of BLOCK floats) stay in the L2

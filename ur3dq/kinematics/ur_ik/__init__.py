@@ -41,7 +41,9 @@ Known limit: within ~0.05 rad of a wrist singularity or of the folded elbow, two
 can converge to the same calibrated solution, so ik_all may miss a neighbouring one there (whatever it returns
 is FK-verified; ik then picks the nearest of those).
 
-Single poses run in plain floats (no pyquaternion or numpy objects on the hot path); `ik` walks the branches
+Single poses run in plain floats (no pyquaternion or numpy objects on the hot path); on a nominal model `ik_all`
+solves the 8 branches with the equations written out for a regular wrist (single._nominal_branches) and FK-checks
+each from the closed-form flange rotation and position (fk_filter._fk_check); `ik` walks the branches
 θ1 → wrist → elbow cheapest first, with the equations written out for a regular wrist, and stops solving a branch
 that can no longer be the nearest; the ±2π variant nearest q_ref inside the limits is chosen per joint (the cost
 is separable), and the FK filter checks the joints it returns. Batches of a nominal model run a closed-form
@@ -65,8 +67,9 @@ themselves should compare the (θ1, θ5, θ3) signs of consecutive answers.
 The package, one concern a module: ``geometry`` (the model as floats, tolerances), ``equations`` (the thesis'
 equations for floats and arrays), ``fk_filter`` (pose checks, the FK filter, the duplicate rule), ``calibrated``
 (Newton on the full DH chain), ``single`` (``ik_all``), ``nearest`` (``ik``), ``batch`` and ``batch_kernels``
-(``ik_all_batch``, ``ik_batch``). Each performance copy of the equations (``nearest._nearest_branch``,
-``batch_kernels._regular_branches``) is cross-checked against ``equations._branches`` by the tests.
+(``ik_all_batch``, ``ik_batch``). Each performance copy of the equations (``single._nominal_branches``,
+``nearest._nearest_branch``, ``batch_kernels._regular_branches``) is cross-checked against ``equations._branches``
+by the tests.
 """
 from __future__ import annotations
 
