@@ -503,3 +503,28 @@ def test_nominal_branches_of_an_unreachable_pose_do_not_exist(pose):
     actual = single._nominal_branches(g, target, 0.0)
     assert [math.isnan(a[1]) for a in actual] == [math.isnan(e[1]) for e in expected]
     assert all(math.isnan(a[1]) for a in actual)
+
+
+@settings(max_examples=300, deadline=None)
+@given(name=st.sampled_from(MODEL_NAMES), q=JOINTS, theta5=NEAR_ZERO, theta3=NEAR_ZERO, wrist_at_pi=st.booleans(),
+       singular=st.sampled_from(["", "wrist", "elbow", "both", "shoulder"]))
+def test_branches_said_distinct_hold_no_duplicate_pair(name, q, theta5, theta3, wrist_at_pi, singular):
+    # ik_all skips the pairwise duplicate check when single._may_repeat says no sign pair merges: then no two
+    # existing branches may agree within DUPLICATE_TOLERANCE (the check would have kept them all).
+    from ur3dq.kinematics.ur_ik import fk_filter, geometry, single
+    model = robot_model(name)
+    q = q.copy()
+    if singular in ("wrist", "both"):
+        q[4] = theta5 + (math.pi if wrist_at_pi else 0.0)
+    if singular in ("elbow", "both"):
+        q[2] = theta3
+    if singular == "shoulder":   # the wrist centre on the shoulder circle: the two θ1 merge
+        q = shoulder_singular_configuration(model, q[0], q[2], 0.3 * math.sin(q[3]), q[4], q[5])
+    g = geometry._geometry(model)
+    _, target = fk_filter._targets(g, model.fk(q))
+    branches = single._nominal_branches(g, target, 0.0)
+    if single._may_repeat(branches):
+        return
+    existing = [b for b in branches if not math.isnan(b[0]) and not math.isnan(b[1])]
+    for i, branch in enumerate(existing):
+        assert fk_filter._is_new(branch, existing[:i])

@@ -22,9 +22,11 @@ from ur3dq.kinematics.ur_ik.equations import (
 from ur3dq.kinematics.ur_ik.fk_filter import _fk_check, _is_new, _reference, _targets
 from ur3dq.kinematics.ur_ik.geometry import (
     DOMAIN_TOLERANCE,
+    DUPLICATE_TOLERANCE,
     WRIST_NEAR_TOLERANCE,
     _Geometry,
     _HALF_SQRT2,
+    _TWO_PI,
     _geometry,
 )
 
@@ -140,18 +142,38 @@ def _general_wrist_branches(g: _Geometry, theta1, cos1, sin1, reduced, theta6_re
     return branches
 
 
-def _verified(candidates: list, meets) -> list:
+def _verified(candidates: list, meets, distinct: bool = False) -> list:
     """Per candidate (6 floats, NaN where the branch does not exist): kept, i.e. it exists, repeats no earlier kept
     candidate (DUPLICATE_TOLERANCE) and meets the FK filter ``meets`` (fk_filter._fk_check of the pose). The one
-    merge rule of ik_all and ik_all_batch."""
+    merge rule of ik_all and ik_all_batch. ``distinct``: no two candidates can repeat (_may_repeat said so), the
+    comparisons are skipped."""
     kept, mask = [], []
     for candidate in candidates:
-        ok = (candidate[0] == candidate[0] and candidate[1] == candidate[1] and _is_new(candidate, kept)
-              and meets(candidate))
+        ok = (candidate[0] == candidate[0] and candidate[1] == candidate[1]
+              and (distinct or _is_new(candidate, kept)) and meets(candidate))
         if ok:
             kept.append(candidate)
         mask.append(ok)
     return mask
+
+
+def _may_repeat(branches: list) -> bool:
+    """Whether two of the 8 branches of _nominal_branches (in its order, NaN where absent) can agree within
+    DUPLICATE_TOLERANCE in every joint (mod 2π), as _is_new compares them.
+
+    Two branches differ in the sign choice of θ1, θ5 or θ3, and each sign pair is exactly ±: θ1 = base ± offset,
+    the second θ5 and θ3 are the negated first. So unless the two θ1 are within twice the tolerance (mod 2π), or
+    some |θ5| or |θ3| lies within it of 0 or π, every two branches differ by at least twice it in one joint (the
+    batch kernel's ``merged`` rule).
+    """
+    tolerance, far = DUPLICATE_TOLERANCE, math.pi - DUPLICATE_TOLERANCE
+    if not abs(math.remainder(branches[0][0] - branches[4][0], _TWO_PI)) >= 2.0 * tolerance:
+        return True
+    for _, _, theta3, _, theta5, _ in branches:
+        theta3, theta5 = abs(theta3), abs(theta5)
+        if theta3 < tolerance or theta3 > far or theta5 < tolerance or theta5 > far:   # False for NaN
+            return True
+    return False
 
 
 def _canonical(solutions: list) -> np.ndarray:
@@ -173,7 +195,7 @@ def _branch_table(model, pose, theta6_ref: float) -> tuple:
     g = _geometry(model)
     tcp_coefficients, target = _targets(g, pose)
     candidates = _nominal_branches(g, target, theta6_ref)
-    kept = _verified(candidates, _fk_check(model, g, tcp_coefficients))
+    kept = _verified(candidates, _fk_check(model, g, tcp_coefficients), not _may_repeat(candidates))
     table = _canonical([c if ok else (math.nan,) * 6 for c, ok in zip(candidates, kept)])
     return table, np.array(kept)
 
@@ -188,10 +210,15 @@ def ik_all(model, pose, q_ref=None) -> list:
     g = _geometry(model)
     tcp_coefficients, target = _targets(g, pose)
     theta6_ref = 0.0 if q_ref is None else _wrap_float(_reference(q_ref)[5])
-    candidates = _solution_candidates(g, target, theta6_ref)
-    solutions = [c for c, kept in zip(candidates, _verified(candidates, _fk_check(model, g, tcp_coefficients)))
-                 if kept]
+    meets = _fk_check(model, g, tcp_coefficients)
+    if g.calibrated:
+        candidates = _solution_candidates(g, target, theta6_ref)
+        kept = _verified(candidates, meets)
+    else:   # all 8 in branch order (NaN where absent): _may_repeat reads the sign pairs from their places
+        candidates = _nominal_branches(g, target, theta6_ref)
+        kept = _verified(candidates, meets, not _may_repeat(candidates))
+    solutions = [c for c, ok in zip(candidates, kept) if ok]
     if not solutions:
-        raise UnreachablePoseError(f"pose unreachable for {model.name}: "
-                                   f"{_unreachable_reason(g, target, bool(candidates))}")
+        existed = any(c[1] == c[1] and c[0] == c[0] for c in candidates)   # as _solution_candidates keeps them
+        raise UnreachablePoseError(f"pose unreachable for {model.name}: {_unreachable_reason(g, target, existed)}")
     return list(_canonical(solutions))   # one (6,) row per solution
