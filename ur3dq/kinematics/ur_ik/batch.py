@@ -203,6 +203,8 @@ def _joint_variants(angle: np.ndarray, reference, lower: float, upper: float) ->
     np.rint(centre, out=centre)
     centre *= _TWO_PI
     centre += angle                               # angle + 2π·round((reference − angle)/2π)
+    if lower == -np.inf and upper == np.inf:      # an unlimited joint (UR3 wrist 3): every variant fits
+        return centre
     if centre.min() >= lower and centre.max() <= upper:   # False for NaN
         return centre
     outside = ~((centre >= lower) & (centre <= upper))
