@@ -88,8 +88,11 @@ def _within_fk_tolerance(fk, target) -> np.ndarray:
 
 def _meets(model, q, tcp_coefficients) -> bool:
     """The thesis' FK filter (eq. 4.45) for one pose: the model's FK at the 6 floats ``q`` against the TCP pose's
-    8 coefficients (_fk_check, for one configuration)."""
-    return _fk_check(model, _geometry(model), tcp_coefficients)(q)
+    8 coefficients (_fk_check's test, without preparing a function: ik checks one configuration)."""
+    g = _geometry(model)
+    if g.calibrated:
+        return _fk_check(model, g, tcp_coefficients)(q)
+    return _flange_meets(flange_rotation_position(*g.half_lengths, *q), g.tcp_offset, _fk_target(tcp_coefficients))
 
 
 def _fk_check(model, g: _Geometry, tcp_coefficients):
@@ -98,31 +101,45 @@ def _fk_check(model, g: _Geometry, tcp_coefficients):
 
     The tests of _within_fk_tolerance, written out in floats: the rotation chord against the nearer sign of the
     pose (σ ≡ −σ), then the position. A nominal arm compares its closed-form flange rotation and half position
-    (ur_fk.flange_rotation_position, the TCP composed as batch_kernels._tool_rows does), as the batch filter
-    does; a calibrated one the TCP coefficients of its DH chain.
+    (ur_fk.flange_rotation_position, the TCP composed as batch_kernels._tool_rows does: _flange_meets), as the
+    batch filter does; a calibrated one the TCP coefficients of its DH chain.
     """
-    tw, tx, ty, tz = tcp_coefficients[:4]
-    px, py, pz = _translation_columns(tcp_coefficients)
-    chord_limit2, position_limit2 = _CHORD_LIMIT ** 2, FK_TOLERANCE_M ** 2
     if g.calibrated:
+        tw, tx, ty, tz = tcp_coefficients[:4]
+        px, py, pz = _translation_columns(tcp_coefficients)
+
         def meets(q) -> bool:
             fk = model._fk_floats(q)
-            return (_chord2(fk, tw, tx, ty, tz) <= chord_limit2
-                    and _distance2(_translation_columns(fk), px, py, pz) <= position_limit2)
+            return (_chord2(fk, tw, tx, ty, tz) <= _CHORD_LIMIT2
+                    and _distance2(_translation_columns(fk), px, py, pz) <= FK_TOLERANCE_M ** 2)
         return meets
-    half_lengths, tool = g.half_lengths, g.tcp_offset
-    hx, hy, hz = 0.5 * px, 0.5 * py, 0.5 * pz
-    half_limit2 = (0.5 * FK_TOLERANCE_M) ** 2
+    half_lengths, tool, target = g.half_lengths, g.tcp_offset, _fk_target(tcp_coefficients)
+    return lambda q: _flange_meets(flange_rotation_position(*half_lengths, *q), tool, target)
 
-    def meets(q) -> bool:
-        flange = flange_rotation_position(*half_lengths, *q)
-        if tool is not None:
-            flange = _tool_floats(flange, tool)
-        rw, rx, ry, rz, fx, fy, fz = flange   # _chord2 and _distance2 written out: up to 8 calls per ik_all
-        sign = -1.0 if rw * tw + rx * tx + ry * ty + rz * tz < 0.0 else 1.0
-        return ((rw - sign * tw) ** 2 + (rx - sign * tx) ** 2 + (ry - sign * ty) ** 2 + (rz - sign * tz) ** 2
-                <= chord_limit2 and (fx - hx) ** 2 + (fy - hy) ** 2 + (fz - hz) ** 2 <= half_limit2)
-    return meets
+
+#: Squared limits of the FK filter's tests: the rotation chord, and the half position's distance (metres²).
+_CHORD_LIMIT2 = _CHORD_LIMIT ** 2
+_HALF_POSITION_LIMIT2 = (0.5 * FK_TOLERANCE_M) ** 2
+
+
+def _fk_target(tcp_coefficients) -> tuple:
+    """(tw, tx, ty, tz, ½px, ½py, ½pz): rotation and half position of a TCP pose's 8 coefficients, as _flange_meets
+    compares them."""
+    px, py, pz = _translation_columns(tcp_coefficients)
+    return (*tcp_coefficients[:4], 0.5 * px, 0.5 * py, 0.5 * pz)
+
+
+def _flange_meets(flange: tuple, tool, target: tuple) -> bool:
+    """Whether flange floats (r, ½p) (7), composed with ``tool`` (g.tcp_offset, None for none), meet ``target``
+    (_fk_target) within the FK filter's tolerances: the chord against the nearer sign of the pose, the position."""
+    if tool is not None:
+        flange = _tool_floats(flange, tool)
+    rw, rx, ry, rz, fx, fy, fz = flange
+    tw, tx, ty, tz, hx, hy, hz = target
+    if rw * tw + rx * tx + ry * ty + rz * tz < 0.0:   # σ ≡ −σ
+        tw, tx, ty, tz = -tw, -tx, -ty, -tz
+    return ((rw - tw) ** 2 + (rx - tx) ** 2 + (ry - ty) ** 2 + (rz - tz) ** 2 <= _CHORD_LIMIT2
+            and (fx - hx) ** 2 + (fy - hy) ** 2 + (fz - hz) ** 2 <= _HALF_POSITION_LIMIT2)
 
 
 def _chord2(r, tw, tx, ty, tz) -> float:

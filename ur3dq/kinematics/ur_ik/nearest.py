@@ -14,7 +14,7 @@ from ur3dq.kinematics.ur_ik.equations import (
     _wrist_centre,
     _wrist_pair,
 )
-from ur3dq.kinematics.ur_ik.fk_filter import _fk_check, _reference, _targets
+from ur3dq.kinematics.ur_ik.fk_filter import _fk_check, _meets, _reference, _targets
 from ur3dq.kinematics.ur_ik.geometry import (
     LIMIT_ROUNDING,
     WRIST_NEAR_TOLERANCE,
@@ -217,11 +217,11 @@ def ik(model, pose, q_ref, weights=None) -> np.ndarray:
     reference = _reference(q_ref)
     weight = _weights(weights)
     tcp_coefficients, target = _targets(g, pose)
-    meets = _fk_check(model, g, tcp_coefficients)
     if not g.calibrated:
         best = _nearest_branch(g, target, reference, weight)
-        if best is not None and meets(best):
+        if best is not None and _meets(model, best, tcp_coefficients):   # usually the only FK evaluation
             return np.array(best)
+    meets = _fk_check(model, g, tcp_coefficients)
     # Calibrated models (Newton on every branch), or a winner the FK filter rejected: rank all candidates.
     candidates = _solution_candidates(g, target, _wrap_float(reference[5]), reference)
     remaining = list(candidates)
