@@ -263,8 +263,9 @@ def _kernel_costs(g: _Geometry, columns: np.ndarray, reference: np.ndarray, weig
     joint order, as _variant_costs does."""
     count = columns.shape[-1]
     joints = columns.reshape(6, 2, 2, 2, count)
-    shapes = ((slice(None), slice(0, 1), slice(0, 1)),) + ((slice(None),) * 3,) * 3 + ((slice(None),
-                                                                                       slice(None), slice(0, 1)),) * 2
+    every, first = slice(None), slice(0, 1)
+    # Per joint the sign axes (θ1, θ5, θ3) its value varies along: θ1 its own; θ2–θ4 all three; θ5, θ6 θ1 and θ5.
+    shapes = ((every, first, first),) + ((every, every, every),) * 3 + ((every, every, first),) * 2
     variants, cost = [], None
     for j, shape in enumerate(shapes):
         variant = _joint_variants(joints[j][shape], reference[j], g.lower[j], g.upper[j])
