@@ -468,3 +468,63 @@ def test_model_methods_delegate_to_the_solver():
     assert np.allclose(model.ik(pose, q), q, atol=1e-9)
     assert contains(model.ik_all(pose), q, 1e-9)
     assert np.allclose(model.ik_batch(pose.to_array()[None], q), q[None], atol=1e-9)
+
+
+@settings(max_examples=300, deadline=None)
+@given(name=st.sampled_from(MODEL_NAMES), q=JOINTS, theta5=NEAR_ZERO, theta3=NEAR_ZERO, wrist_at_pi=st.booleans(),
+       singular=st.sampled_from(["", "wrist", "elbow", "both"]), theta6_ref=ANGLE, tcp=st.booleans())
+def test_nominal_branches_are_the_general_equations_float_for_float(name, q, theta5, theta3, wrist_at_pi, singular,
+                                                                    theta6_ref, tcp):
+    # ik_all's written-out copy of the equations (single._nominal_branches) must give the very floats of
+    # equations._branches, also where it hands a θ1 over to the general functions (near-singular wrist) or clamps.
+    from ur3dq.kinematics.ur_ik import equations, fk_filter, geometry, single
+    model = robot_model(name).with_tcp([0.01, -0.02, 0.15, 0.1, -0.2, 0.3]) if tcp else robot_model(name)
+    q = q.copy()
+    if singular in ("wrist", "both"):
+        q[4] = theta5 + (math.pi if wrist_at_pi else 0.0)
+    if singular in ("elbow", "both"):
+        q[2] = theta3
+    g = geometry._geometry(model)
+    _, target = fk_filter._targets(g, model.fk(q))
+    expected = equations._branches(equations._ScalarOps, g, target, theta6_ref)
+    actual = single._nominal_branches(g, target, theta6_ref)
+    assert len(actual) == len(expected) == 8
+    for a, e in zip(actual, expected):
+        assert np.array_equal(a, e, equal_nan=True), (a, e)
+
+
+@pytest.mark.parametrize("pose", [[0.0, 0.0, 0.3, 0.0, 0.0, 0.0], [3.0, 0.0, 0.0, 0.0, 0.0, 0.0]])
+def test_nominal_branches_of_an_unreachable_pose_do_not_exist(pose):
+    from ur3dq.kinematics.ur_ik import equations, fk_filter, geometry, single
+    model = robot_model("ur5")
+    g = geometry._geometry(model)
+    _, target = fk_filter._targets(g, DualQuaternion.from_ur_pose(pose))
+    expected = equations._branches(equations._ScalarOps, g, target, 0.0)
+    actual = single._nominal_branches(g, target, 0.0)
+    assert [math.isnan(a[1]) for a in actual] == [math.isnan(e[1]) for e in expected]
+    assert all(math.isnan(a[1]) for a in actual)
+
+
+@settings(max_examples=300, deadline=None)
+@given(name=st.sampled_from(MODEL_NAMES), q=JOINTS, theta5=NEAR_ZERO, theta3=NEAR_ZERO, wrist_at_pi=st.booleans(),
+       singular=st.sampled_from(["", "wrist", "elbow", "both", "shoulder"]))
+def test_branches_said_distinct_hold_no_duplicate_pair(name, q, theta5, theta3, wrist_at_pi, singular):
+    # ik_all skips the pairwise duplicate check when single._may_repeat says no sign pair merges: then no two
+    # existing branches may agree within DUPLICATE_TOLERANCE (the check would have kept them all).
+    from ur3dq.kinematics.ur_ik import fk_filter, geometry, single
+    model = robot_model(name)
+    q = q.copy()
+    if singular in ("wrist", "both"):
+        q[4] = theta5 + (math.pi if wrist_at_pi else 0.0)
+    if singular in ("elbow", "both"):
+        q[2] = theta3
+    if singular == "shoulder":   # the wrist centre on the shoulder circle: the two θ1 merge
+        q = shoulder_singular_configuration(model, q[0], q[2], 0.3 * math.sin(q[3]), q[4], q[5])
+    g = geometry._geometry(model)
+    _, target = fk_filter._targets(g, model.fk(q))
+    branches = single._nominal_branches(g, target, 0.0)
+    if single._may_repeat(branches):
+        return
+    existing = [b for b in branches if not math.isnan(b[0]) and not math.isnan(b[1])]
+    for i, branch in enumerate(existing):
+        assert fk_filter._is_new(branch, existing[:i])

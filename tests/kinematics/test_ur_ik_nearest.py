@@ -19,6 +19,9 @@ from ur3dq.errors import UnreachablePoseError
 from ur3dq.kinematics import URModel, robot_model
 from ur3dq.kinematics import ur_ik
 from ur3dq.kinematics.ur_ik import fk_filter as ik_fk_filter
+from ur3dq.kinematics.ur_ik import batch as ik_batch
+from ur3dq.kinematics.ur_ik import batch_kernels as ik_batch_kernels
+from ur3dq.kinematics.ur_ik import geometry as ik_geometry
 from ur3dq.kinematics.ur_ik import nearest as ik_nearest
 
 ANGLE = st.floats(-math.pi, math.pi, allow_nan=False)
@@ -148,3 +151,45 @@ def test_ik_batch_equals_ik_for_references_far_outside_the_limits(name):
         best = brute_force_least_cost(model, DualQuaternion.from_array(pose), reference, np.ones(6))
         if name != "ur3":   # joint_variants lists the UR3's unlimited wrist 3 within ±2π only
             assert float(np.sum((single - reference) ** 2)) == pytest.approx(best, rel=1e-9)
+
+
+def test_ik_batch_block_ranks_again_when_its_winner_fails_the_fk_filter():
+    # ik_batch runs the FK filter on each pose's winner only; a winner that fails it (here: θ2 moved off, so the
+    # branch "exists" but misses the pose) must give way to the nearest branch that passes, as filtering first does.
+    model = robot_model("ur5e")
+    g = ik_geometry._geometry(model)
+    rng = np.random.default_rng(11)
+    joints = rng.uniform(-math.pi, math.pi, (40, 6))
+    poses = ik_batch._batch_poses(model.fk_batch(joints))
+    references = (joints + rng.normal(0.0, 0.05, joints.shape)).T
+    block = next(ik_batch._kernel_blocks(g, poses, ur_ik.NEAREST_BLOCK))
+    rows, pair, columns, exists, merged, near_singular = block
+    assert not near_singular.any()
+    expected = ik_batch._nearest_of_block(g, block, references, None)
+    variants, cost = ik_batch._kernel_costs(g, columns, references, None)
+    winner = ik_batch._select(cost, exists)[0]
+    spoiled = columns.copy()
+    spoiled[1, winner[::2], np.arange(0, 40, 2)] += 0.1   # every other pose: its winner no longer meets the pose
+    actual = ik_batch._nearest_of_block(g, (rows, pair, spoiled, exists, merged, near_singular), references, None)
+    np.testing.assert_array_equal(actual[:, 1::2], expected[:, 1::2])
+    valid = exists & ik_batch_kernels._regular_fk_filter(g, spoiled, pair)
+    assert not valid[winner[::2], np.arange(0, 40, 2)].any()
+    runner_up = ik_batch._chosen(variants, *ik_batch._select(cost, valid))
+    np.testing.assert_array_equal(actual, runner_up)
+    assert not np.array_equal(actual[:, ::2], expected[:, ::2])
+
+
+@pytest.mark.parametrize("weights", [None, (1.0, 2.0, 0.5, 1.0, 3.0, 0.1)])
+def test_ik_batch_equals_ik_across_blocks(weights):
+    # Two ik_batch blocks, a TCP, and references around ±π (where the nearest variant can lie past a ±2π limit).
+    model = robot_model("ur10").with_tcp([0.01, -0.02, 0.15, 0.1, -0.2, 0.3])
+    rng = np.random.default_rng(12)
+    count = ur_ik.NEAREST_BLOCK + 29
+    joints = rng.uniform(-math.pi, math.pi, (count, 6))
+    references = joints + rng.normal(0.0, 0.3, joints.shape)
+    references[::7] = rng.uniform(-7.0, 7.0, (len(references[::7]), 6))
+    poses = model.fk_batch(joints)
+    batch = ur_ik.ik_batch(model, poses, references, weights)
+    for i in list(range(0, count, 37)) + list(range(ur_ik.NEAREST_BLOCK - 5, count)):
+        # The kernel's closed form rounds apart from the scalar equations by a few ulps.
+        np.testing.assert_allclose(batch[i], ur_ik.ik(model, poses[i], references[i], weights), rtol=0, atol=1e-9)

@@ -41,16 +41,21 @@ Known limit: within ~0.05 rad of a wrist singularity or of the folded elbow, two
 can converge to the same calibrated solution, so ik_all may miss a neighbouring one there (whatever it returns
 is FK-verified; ik then picks the nearest of those).
 
-Single poses run in plain floats (no pyquaternion or numpy objects on the hot path); `ik` walks the branches
+Single poses run in plain floats (no pyquaternion or numpy objects on the hot path); on a nominal model `ik_all`
+solves the 8 branches with the equations written out for a regular wrist (single._nominal_branches) and FK-checks
+each from the closed-form flange rotation and position (fk_filter._fk_check); `ik` walks the branches
 θ1 → wrist → elbow cheapest first, with the equations written out for a regular wrist, and stops solving a branch
 that can no longer be the nearest; the ±2π variant nearest q_ref inside the limits is chosen per joint (the cost
 is separable), and the FK filter checks the joints it returns. Batches of a nominal model run a closed-form
 kernel (batch_kernels._regular_branches) in numpy over blocks of IK_BLOCK poses, all branches at once
 (joint-major (6, 8, B) arrays): what the branches share is computed once (θ1 per pose, the wrist per θ1, both θ5
 signs from the same terms), and the FK filter evaluates the closed-form FK kernel (ur_fk) on every branch's final
-joints. Poses near a wrist or elbow singularity are redone one by one by ik_all's own scalar code
-(single._branch_table): there rounding noise decides whether a branch pair merges, and only the same float
-operations give the same answer in every path.
+joints. ``ik_batch`` ranks the existing branches by their nearest in-limit variants first (each joint's
+variants once per distinct value) and runs the FK filter on each pose's winner only, in blocks of NEAREST_BLOCK
+(a winner that fails is ranked again among the verified branches: the same answer as filtering first). Poses
+near a wrist or elbow singularity are redone one by one by ik_all's own scalar code (single._branch_table): there
+rounding noise decides whether a branch pair merges, and only the same float operations give the same answer in
+every path.
 
 Chaining ``ik`` with q_ref = the previous answer (issue 11, item 7, documented behaviour): ``ik`` minimises the
 weighted joint distance to q_ref only, so at an elbow or shoulder crossing (where two branches meet: θ3 = 0, or the
@@ -62,8 +67,9 @@ themselves should compare the (θ1, θ5, θ3) signs of consecutive answers.
 The package, one concern a module: ``geometry`` (the model as floats, tolerances), ``equations`` (the thesis'
 equations for floats and arrays), ``fk_filter`` (pose checks, the FK filter, the duplicate rule), ``calibrated``
 (Newton on the full DH chain), ``single`` (``ik_all``), ``nearest`` (``ik``), ``batch`` and ``batch_kernels``
-(``ik_all_batch``, ``ik_batch``). Each performance copy of the equations (``nearest._nearest_branch``,
-``batch_kernels._regular_branches``) is cross-checked against ``equations._branches`` by the tests.
+(``ik_all_batch``, ``ik_batch``). Each performance copy of the equations (``single._nominal_branches``,
+``nearest._nearest_branch``, ``batch_kernels._regular_branches``) is cross-checked against ``equations._branches``
+by the tests.
 """
 from __future__ import annotations
 
@@ -75,12 +81,13 @@ from ur3dq.kinematics.ur_ik.geometry import (
     FK_TOLERANCE_M,
     FK_TOLERANCE_RAD,
     IK_BLOCK,
+    NEAREST_BLOCK,
     WRIST_SINGULAR_TOLERANCE,
 )
 from ur3dq.kinematics.ur_ik.nearest import ik, joint_variants
 from ur3dq.kinematics.ur_ik.single import ik_all
 
 __all__ = [
-    "CALIBRATED_TOLERANCE", "DUPLICATE_TOLERANCE", "FK_TOLERANCE_M", "FK_TOLERANCE_RAD", "IK_BLOCK",
+    "CALIBRATED_TOLERANCE", "DUPLICATE_TOLERANCE", "FK_TOLERANCE_M", "FK_TOLERANCE_RAD", "IK_BLOCK", "NEAREST_BLOCK",
     "WRIST_SINGULAR_TOLERANCE", "ik", "ik_all", "ik_all_batch", "ik_batch", "joint_variants", "wrap_angle",
 ]

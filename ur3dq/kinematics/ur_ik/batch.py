@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from ur3dq import dqarray
-from ur3dq.kinematics.ur_ik.batch_kernels import _regular_branches, _regular_fk_filter
+from ur3dq.kinematics.ur_ik.batch_kernels import _joints_fk_filter, _regular_branches, _regular_fk_filter
 from ur3dq.kinematics.ur_ik.calibrated import _refine_batch
 from ur3dq.kinematics.ur_ik.equations import _ArrayOps, _branches, wrap_angle
 from ur3dq.kinematics.ur_ik.fk_filter import _EXACT_UNIT, _within_fk_tolerance
@@ -14,6 +14,7 @@ from ur3dq.kinematics.ur_ik.geometry import (
     CALIBRATED_TOLERANCE,
     DUPLICATE_TOLERANCE,
     IK_BLOCK,
+    NEAREST_BLOCK,
     _Geometry,
     _TWO_PI,
     _geometry,
@@ -118,25 +119,38 @@ def _solved_blocks(model, g: _Geometry, poses: np.ndarray, theta6_ref: np.ndarra
         yield slice(0, len(poses)), columns, _fk_filter(model, columns, poses), np.ones(len(poses), dtype=bool)
         return
     redo = []
-    for start in range(0, len(poses), IK_BLOCK):
-        rows = slice(start, start + IK_BLOCK)
-        coefficients = np.ascontiguousarray(poses[rows].T)
-        pair = _pair_rows(coefficients)
-        flange = pair if g.tcp_inverse is None else _pair_rows(_flange_of(coefficients, g.tcp_inverse))
-        with np.errstate(divide="ignore", invalid="ignore"):   # exact singularities: those poses are redone
-            columns, exists, merged, near_singular = _regular_branches(g, flange)
+    for rows, pair, columns, exists, merged, near_singular in _kernel_blocks(g, poses, IK_BLOCK):
         valid = _regular_fk_filter(g, columns, pair)
         valid &= exists
         if near_singular.any():
             valid[:, near_singular] = False
-            redo.append(start + np.flatnonzero(near_singular))
+            redo.append(rows.start + np.flatnonzero(near_singular))
         yield rows, columns, valid, merged
     if redo:
         rows = np.concatenate(redo)
-        columns, valid = np.empty((6, 8, len(rows))), np.empty((8, len(rows)), dtype=bool)
-        for i, row in enumerate(rows):
-            columns[:, :, i].T[:], valid[:, i] = _branch_table(model, poses[row], float(theta6_ref[row]))
-        yield rows, columns, valid, np.zeros(len(rows), dtype=bool)
+        yield (rows,) + _redone_rows(model, poses, rows, theta6_ref) + (np.zeros(len(rows), dtype=bool),)
+
+
+def _kernel_blocks(g: _Geometry, poses: np.ndarray, size: int):
+    """Per block of ``size`` poses of a nominal model: (rows (slice), TCP pairs (7, B), the closed-form kernel's
+    branches (6, 8, B), exists (8, B), merged (B,), near_singular (B,)) (batch_kernels._regular_branches); no FK
+    filter yet."""
+    for start in range(0, len(poses), size):
+        rows = slice(start, start + size)
+        coefficients = np.ascontiguousarray(poses[rows].T)
+        pair = _pair_rows(coefficients)
+        flange = pair if g.tcp_inverse is None else _pair_rows(_flange_of(coefficients, g.tcp_inverse))
+        with np.errstate(divide="ignore", invalid="ignore"):   # exact singularities: those poses are redone
+            yield (rows, pair) + _regular_branches(g, flange)
+
+
+def _redone_rows(model, poses: np.ndarray, rows: np.ndarray, theta6_ref: np.ndarray) -> tuple:
+    """(branches (6, 8, R), FK-filter mask (8, R)) of the poses ``rows`` (near a singularity) by ik_all's own
+    scalar code, one by one (single._branch_table)."""
+    columns, valid = np.empty((6, 8, len(rows))), np.empty((8, len(rows)), dtype=bool)
+    for i, row in enumerate(rows):
+        columns[:, :, i].T[:], valid[:, i] = _branch_table(model, poses[row], float(theta6_ref[row]))
+    return columns, valid
 
 
 def _pair_rows(coefficients) -> np.ndarray:
@@ -177,17 +191,41 @@ def _batch_reference(q_ref, count: int) -> np.ndarray:
     return reference
 
 
-def _nearest_variants(g: _Geometry, columns: np.ndarray, reference: np.ndarray) -> np.ndarray:
-    """(6, 8, N) ±2π variants of the branches nearest ``reference`` (6, 1, N) inside the limits; NaN if none fits.
+def _joint_variants(angle: np.ndarray, reference, lower: float, upper: float) -> np.ndarray:
+    """The ±2π variants of one joint's ``angle`` (any shape) nearest ``reference`` (broadcasting to it) inside
+    [lower, upper]; NaN where none fits.
 
-    As _closest_variant: the nearest variant of all when it is inside, else the end of the in-limit run on its side.
+    As _closest_variant: the nearest variant of all when it is inside, else the end of the in-limit run on its
+    side. Almost every nearest variant is inside the limits: only the others go through the limit cases.
     """
-    centre = columns + _TWO_PI * np.rint((reference - columns) / _TWO_PI)
-    lower, upper = np.array(g.lower)[:, None, None], np.array(g.upper)[:, None, None]
+    centre = np.subtract(reference, angle)
+    centre /= _TWO_PI
+    np.rint(centre, out=centre)
+    centre *= _TWO_PI
+    centre += angle                               # angle + 2π·round((reference − angle)/2π)
+    if lower == -np.inf and upper == np.inf:      # an unlimited joint (UR3 wrist 3): every variant fits
+        return centre
+    if centre.min() >= lower and centre.max() <= upper:   # False for NaN
+        return centre
+    outside = ~((centre >= lower) & (centre <= upper))
+    centre[outside] = _limited_variants(np.broadcast_to(angle, centre.shape)[outside], centre[outside], lower, upper)
+    return centre
+
+
+def _nearest_variants(g: _Geometry, columns: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """(6, 8, N) ±2π variants of the branches (6, 8, N) nearest ``reference`` (6, 1, N) inside the limits; NaN
+    if none fits (_joint_variants per joint)."""
+    return np.stack([_joint_variants(columns[j], reference[j], g.lower[j], g.upper[j]) for j in range(6)])
+
+
+def _limited_variants(angle: np.ndarray, centre: np.ndarray, lower: float, upper: float) -> np.ndarray:
+    """(M,) in-limit variants of one joint's ``angle`` (M,) whose nearest variant ``centre`` (M,) is outside
+    [lower, upper], NaN where none fits: a centre a rounding past a limit is the limit, else the end of the
+    in-limit run on the centre's side (_closest_variant's rule)."""
     with np.errstate(invalid="ignore"):   # ±inf limits: their end is never selected
-        first = columns + _TWO_PI * np.ceil((lower - columns) / _TWO_PI)
+        first = angle + _TWO_PI * np.ceil((lower - angle) / _TWO_PI)
         first = np.where(first < lower, first + _TWO_PI, first)
-        last = columns + _TWO_PI * np.floor((upper - columns) / _TWO_PI)
+        last = angle + _TWO_PI * np.floor((upper - angle) / _TWO_PI)
         last = np.where(last > upper, last - _TWO_PI, last)
     # A centre a rounding outside a limit is the limit itself (a joint at exactly ±2π), as in _closest_variant.
     centre = np.where((centre < lower) & (centre >= lower - LIMIT_ROUNDING), lower, centre)
@@ -196,22 +234,110 @@ def _nearest_variants(g: _Geometry, columns: np.ndarray, reference: np.ndarray) 
     return np.where((best >= lower) & (best <= upper), best, np.nan)
 
 
+def _variant_costs(g: _Geometry, columns: np.ndarray, reference: np.ndarray, weight) -> tuple:
+    """(variants (6, 8, N), cost (8, N)): the nearest in-limit ±2π variants of branches (6, 8, N) and their
+    Σ wᵢ·(vᵢ − refᵢ)² to ``reference`` (6, 1, N); ``weight`` (6 floats), or None for unit weights (the product
+    is skipped: 1·x is x). The cost is NaN where some joint has no in-limit variant."""
+    variants = _nearest_variants(g, columns, reference)
+    cost = None
+    for j in range(6):
+        term = _joint_cost(variants[j], reference[j], None if weight is None else weight[j])
+        cost = term if cost is None else np.add(cost, term, out=cost)
+    return variants, cost
+
+
+def _joint_cost(variant: np.ndarray, reference, weight) -> np.ndarray:
+    """wⱼ·(vⱼ − refⱼ)² of one joint's variants (any shape); ``weight`` None: unit weight."""
+    shift = variant - reference
+    shift *= shift
+    if weight is not None:
+        shift *= weight
+    return shift
+
+
+def _kernel_costs(g: _Geometry, columns: np.ndarray, reference: np.ndarray, weight) -> tuple:
+    """(variants, cost (8, B)) of the closed-form kernel's branches (6, 8, B) as _variant_costs, with each
+    joint's variants computed once per distinct value: θ1 is shared by the four branches of a θ1 sign, θ5 and θ6
+    by the two of a (θ1, θ5) sign pair (_regular_branches). ``variants`` holds per joint an array of shape
+    (2, 1, 1, B), (2, 2, 1, B) or (2, 2, 2, B) (θ1, θ5, θ3 signs), reference (6, B). The terms are summed in
+    joint order, as _variant_costs does."""
+    count = columns.shape[-1]
+    joints = columns.reshape(6, 2, 2, 2, count)
+    every, first = slice(None), slice(0, 1)
+    # Per joint the sign axes (θ1, θ5, θ3) its value varies along: θ1 its own; θ2–θ4 all three; θ5, θ6 θ1 and θ5.
+    shapes = ((every, first, first),) + ((every, every, every),) * 3 + ((every, every, first),) * 2
+    variants, cost = [], None
+    for j, shape in enumerate(shapes):
+        variant = _joint_variants(joints[j][shape], reference[j], g.lower[j], g.upper[j])
+        variants.append(variant)
+        term = _joint_cost(variant, reference[j], None if weight is None else weight[j])
+        cost = np.array(np.broadcast_to(term, (2, 2, 2, count))) if cost is None else np.add(cost, term, out=cost)
+    return variants, cost.reshape(8, count)
+
+
+def _select(cost: np.ndarray, allowed: np.ndarray) -> tuple:
+    """(branch index (N,), its cost (N,)): per pose the allowed branch of least cost (the first of equal ones), from
+    cost (8, N) and allowed (8, N); cost inf where no branch is allowed or fits the limits (NaN cost)."""
+    cost = np.where(allowed & (cost == cost), cost, np.inf)   # cost == cost: False for NaN
+    best = np.argmin(cost, axis=0)
+    return best, cost[best, np.arange(cost.shape[1])]
+
+
+def _chosen(variants, best: np.ndarray, least: np.ndarray) -> np.ndarray:
+    """(6, N) the variants of branch ``best`` (N,) per pose, NaN where ``least`` is inf (nothing chosen).
+
+    ``variants`` per joint (6 items or a (6, 8, N) array), each of M·N values in branch-sign order, M of 2, 4, 8:
+    a value shared by 8/M consecutive branches is stored once (_kernel_costs)."""
+    count = best.size
+    columns = np.arange(count)
+    chosen = np.empty((6, count))
+    for j, variant in enumerate(variants):
+        flat = variant.reshape(-1, count)
+        chosen[j] = flat[best // (8 // len(flat)), columns]
+    chosen[:, least == np.inf] = np.nan
+    return chosen
+
+
+def _nearest_of_block(g: _Geometry, block: tuple, reference: np.ndarray, weight) -> np.ndarray:
+    """(6, B) the solution nearest ``reference`` (6, B) of one _kernel_blocks block, NaN columns where none is
+    (near-singular poses included: the caller redoes them).
+
+    The FK filter runs on each pose's winner only (one branch instead of eight); a pose whose winner fails it is
+    ranked again among its FK-verified branches. Same answer as filtering first: the winner among the existing
+    branches, when it passes, is also the first least-cost one among the verified ones (a subset)."""
+    _, pair, columns, exists, _, near_singular = block
+    variants, cost = _kernel_costs(g, columns, reference, weight)
+    best, least = _select(cost, exists & ~near_singular)
+    count = best.size
+    joints = columns.reshape(6, 8 * count)[:, best * count + np.arange(count)]
+    rejected = np.isfinite(least) & ~_joints_fk_filter(g, joints, pair)
+    if rejected.any():
+        valid = exists[:, rejected] & _regular_fk_filter(g, columns[:, :, rejected], pair[:, rejected])
+        best[rejected], least[rejected] = _select(cost[:, rejected], valid)
+    return _chosen(variants, best, least)
+
+
 def ik_batch(model, poses, q_ref, weights=None) -> np.ndarray:
     """(N, 6): for each (N, 8) TCP pose the solution nearest q_ref ((6,) or (N, 6)) as in ``ik``; NaN rows where
     the pose is unreachable or no solution lies inside the joint limits (no exception: batches keep going)."""
     poses = _batch_poses(poses)
     reference = _batch_reference(q_ref, len(poses))
-    weight = np.array(_weights(weights))[:, None, None]
+    weight = None if weights is None else _weights(weights)
     g = _geometry(model)
     out = np.empty((len(poses), 6))
-    for rows, columns, valid, _ in _solved_blocks(model, g, poses, wrap_angle(reference[:, 5])):
-        # Duplicates cannot change which branch is nearest: only the FK filter is needed here.
-        reference_columns = reference[rows].T[:, None, :]
-        variants = _nearest_variants(g, columns, reference_columns)
-        cost = np.sum(weight * (variants - reference_columns) ** 2, axis=0)
-        cost = np.where(valid & ~np.isnan(cost), cost, np.inf)
-        best = np.argmin(cost, axis=0)
-        chosen = np.take_along_axis(variants, best[None, None, :], axis=1)[:, 0, :].T
-        reachable = np.isfinite(np.take_along_axis(cost, best[None, :], axis=0)[0])
-        out[rows] = np.where(reachable[:, None], chosen, np.nan)
+    theta6_ref = wrap_angle(reference[:, 5])
+    if g.calibrated:
+        blocks = _solved_blocks(model, g, poses, theta6_ref)
+    else:   # the closed-form kernel, FK filter on the winners; near-singular poses redone by ik_all's code
+        redo = []
+        for block in _kernel_blocks(g, poses, NEAREST_BLOCK):
+            rows, near_singular = block[0], block[5]
+            out[rows] = _nearest_of_block(g, block, reference[rows].T, weight).T
+            if near_singular.any():
+                redo.append(rows.start + np.flatnonzero(near_singular))
+        rows = np.concatenate(redo) if redo else np.empty(0, dtype=int)
+        blocks = [(rows,) + _redone_rows(model, poses, rows, theta6_ref)] if redo else []
+    for rows, columns, valid, *_ in blocks:
+        variants, cost = _variant_costs(g, columns, reference[rows].T[:, None, :], weight)
+        out[rows] = _chosen(variants, *_select(cost, valid)).T
     return out

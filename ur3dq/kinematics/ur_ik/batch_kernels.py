@@ -167,14 +167,26 @@ def _regular_fk_filter(g: _Geometry, columns: np.ndarray, target: np.ndarray) ->
     joints = columns.reshape(6, 2, 2, 2, count)
     q1, q5, q6 = joints[0][:, :1, :1], joints[4][:, :, :1], joints[5][:, :, :1]
     flange = flange_rows(g.half_lengths, q1, joints[1], joints[2], joints[3], q5, q6).reshape(7, 8, count)
+    return _flange_meets(g, flange, target[:, None, :])
+
+
+def _joints_fk_filter(g: _Geometry, joints: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """(M,) mask: whether the FK of joint columns (6, M), one configuration per pose, meets the TCP poses given as
+    pairs (7, M): the filter of _regular_fk_filter for one branch per pose (ik_batch checks only its winners)."""
+    return _flange_meets(g, flange_rows(g.half_lengths, *joints), target)
+
+
+def _flange_meets(g: _Geometry, flange: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """Mask of flange rows (7, *S) (rotation, ½ position) whose TCP is within the FK filter's tolerances of the
+    target pairs (7, *S or broadcasting to it), with the tests of _within_fk_tolerance."""
     rotation, half_position = flange[:4], flange[4:]
     if g.tcp_offset is not None:
         rotation, half_position = _tool_rows(rotation, half_position, g.tcp_offset)
-    error = half_position - 0.5 * target[4:, None, :]
+    error = half_position - 0.5 * target[4:]
     error *= error
     position_ok = error.sum(axis=0) <= (0.5 * FK_TOLERANCE_M) ** 2
-    minus = rotation - target[:4, None, :]
-    plus = rotation + target[:4, None, :]
+    minus = rotation - target[:4]
+    plus = rotation + target[:4]
     minus *= minus
     plus *= plus
     chord2 = np.minimum(minus.sum(axis=0), plus.sum(axis=0))   # the sign of σ ≡ −σ that is nearer

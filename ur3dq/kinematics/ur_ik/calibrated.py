@@ -63,7 +63,7 @@ def _chain_frames(terms: tuple, q: np.ndarray) -> np.ndarray:
     Newton's inner loop works on 4×4 matrices rather than dual quaternions for speed alone: all six joint
     transforms are one batched matmul and the chain five more, where the coefficient form costs ~70 small array
     operations per joint. Joint-major, so that each frame is one contiguous block (a matmul on strided blocks costs
-    twice as much). What a solution is accepted on is still the dual-quaternion FK filter (fk_filter._meets /
+    twice as much). What a solution is accepted on is still the FK filter (fk_filter._fk_check /
     batch._fk_filter).
     """
     shift, basis, constant = terms

@@ -14,7 +14,7 @@ from ur3dq.kinematics.ur_ik.equations import (
     _wrist_centre,
     _wrist_pair,
 )
-from ur3dq.kinematics.ur_ik.fk_filter import _meets, _reference, _targets
+from ur3dq.kinematics.ur_ik.fk_filter import _fk_check, _meets, _reference, _targets
 from ur3dq.kinematics.ur_ik.geometry import (
     LIMIT_ROUNDING,
     WRIST_NEAR_TOLERANCE,
@@ -219,8 +219,9 @@ def ik(model, pose, q_ref, weights=None) -> np.ndarray:
     tcp_coefficients, target = _targets(g, pose)
     if not g.calibrated:
         best = _nearest_branch(g, target, reference, weight)
-        if best is not None and _meets(model, best, tcp_coefficients):
+        if best is not None and _meets(model, best, tcp_coefficients):   # usually the only FK evaluation
             return np.array(best)
+    meets = _fk_check(model, g, tcp_coefficients)
     # Calibrated models (Newton on every branch), or a winner the FK filter rejected: rank all candidates.
     candidates = _solution_candidates(g, target, _wrap_float(reference[5]), reference)
     remaining = list(candidates)
@@ -230,10 +231,10 @@ def ik(model, pose, q_ref, weights=None) -> np.ndarray:
         if best is None:
             break
         joints = _nearest_joints(g, best, reference)
-        if _meets(model, joints, tcp_coefficients):
+        if meets(joints):
             return np.array(joints)
         remaining.remove(best)
-    if any(_meets(model, c, tcp_coefficients) for c in candidates):
+    if any(meets(c) for c in candidates):
         raise UnreachablePoseError(f"pose unreachable for {model.name}: outside limits — every solution has a "
                                    "joint outside the joint limits")
     raise UnreachablePoseError(f"pose unreachable for {model.name}: "

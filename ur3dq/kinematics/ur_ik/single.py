@@ -10,15 +10,25 @@ from ur3dq.kinematics.ur_ik.calibrated import _refine_calibrated
 from ur3dq.kinematics.ur_ik.equations import (
     _ScalarOps,
     _branches,
+    _elbow_for_wrist,
     _planar_arm,
     _reduced_rotation,
+    _shoulder_elbow_pair,
     _theta1_pair,
     _wrap_float,
     _wrist_centre,
     _wrist_pair,
 )
-from ur3dq.kinematics.ur_ik.fk_filter import _is_new, _meets, _reference, _targets
-from ur3dq.kinematics.ur_ik.geometry import DOMAIN_TOLERANCE, _Geometry, _geometry
+from ur3dq.kinematics.ur_ik.fk_filter import _fk_check, _is_new, _reference, _targets
+from ur3dq.kinematics.ur_ik.geometry import (
+    DOMAIN_TOLERANCE,
+    DUPLICATE_TOLERANCE,
+    WRIST_NEAR_TOLERANCE,
+    _Geometry,
+    _HALF_SQRT2,
+    _TWO_PI,
+    _geometry,
+)
 
 
 def _unreachable_reason(g: _Geometry, target, branches_existed: bool) -> str:
@@ -56,25 +66,122 @@ def _solution_candidates(g: _Geometry, target, theta6_ref: float, reference=None
     nominal branches can converge to the same calibrated solution and miss the one beside the reference, which a
     solve started at the reference finds (so ``ik(fk(q), q)`` gives q back).
     """
+    if not g.calibrated:
+        return [branch for branch in _nominal_branches(g, target, theta6_ref)
+                if branch[1] == branch[1] and branch[0] == branch[0]]   # NaN: the branch does not exist
     candidates = [branch for branch in _branches(_ScalarOps, g, target, theta6_ref)
-                  if branch[1] == branch[1] and branch[0] == branch[0]]   # NaN: the branch does not exist
-    if g.calibrated:
-        seeds = candidates + ([tuple(reference)] if reference is not None else [])
-        return _refine_calibrated(g, seeds, target) if seeds else []
-    return candidates
+                  if branch[1] == branch[1] and branch[0] == branch[0]]
+    seeds = candidates + ([tuple(reference)] if reference is not None else [])
+    return _refine_calibrated(g, seeds, target) if seeds else []
 
 
-def _verified(model, candidates: list, tcp_coefficients) -> list:
+def _nominal_branches(g: _Geometry, target, theta6_ref: float) -> list:
+    """The 8 branches of equations._branches(_ScalarOps, g, target, theta6_ref) for a nominal model: the same
+    floats, in the same order, NaN where a branch does not exist (all eight NaN beyond the shoulder's reach).
+
+    Written out in plain floats with the very expressions of _theta1_pair, _reduced_rotation, _wrist_pair,
+    _planar_arm, _elbow_cosine and _shoulder_elbow_pair for a regular wrist (each Python call there costs as much
+    as its arithmetic); a clamped shoulder or elbow and a (near-)singular wrist go through those general
+    functions, so every special case behaves as in _branches. Cross-checked by tests/kinematics/test_ur_ik.py.
+    """
+    qw, qx, qy, qz, px, py, pz = target
+    d1, a2, a3, d4, d5, d6 = g.d1, g.a2, g.a3, g.d4, g.d5, g.d6
+    cos, sin, atan2, sqrt = math.cos, math.sin, math.atan2, math.sqrt
+    x5, y5 = _wrist_centre(g, qw, qx, qy, qz, px, py)
+    reach = x5 * x5 + y5 * y5 - d4 * d4
+    if reach > g.domain_edge * d4 * d4:
+        base, offset = atan2(x5, -y5), atan2(sqrt(reach), d4)
+        theta1_pair = (base + offset, base - offset)
+    else:   # on or inside the shoulder circle: clamped within the domain slack, NaN beyond
+        theta1_pair = _theta1_pair(_ScalarOps, g, x5, y5)
+        if theta1_pair[0] != theta1_pair[0]:
+            return [(math.nan,) * 6] * 8
+    low, high = g.domain_edge - 1.0, 1.0 - g.domain_edge
+    elbow_scale, elbow_offset = 2.0 * a2 * a3, a2 * a2
+    branches = []
+    for theta1 in theta1_pair:
+        # _reduced_rotation: r' = Rx(−π/2)·Rz(−θ1)·r.
+        ch, sh = cos(0.5 * theta1), -sin(0.5 * theta1)
+        w1, x1, y1, z1 = ch * qw - sh * qz, ch * qx - sh * qy, ch * qy + sh * qx, ch * qz + sh * qw
+        h = _HALF_SQRT2
+        reduced = w, x, y, z = h * (w1 + x1), h * (x1 - w1), h * (y1 + z1), h * (z1 - y1)
+        cos1, sin1 = ch * ch - sh * sh, -2.0 * ch * sh
+        sin_half5, cos_half5 = sqrt(x * x + y * y), sqrt(w * w + z * z)
+        if sin_half5 < WRIST_NEAR_TOLERANCE or cos_half5 < WRIST_NEAR_TOLERANCE:
+            branches += _general_wrist_branches(g, theta1, cos1, sin1, reduced, theta6_ref, px, py, pz)
+            continue
+        half_sum, half_diff = atan2(z, w), atan2(x, -y)
+        theta5 = 2.0 * atan2(sin_half5, cos_half5)
+        upper = (theta5, half_sum - half_diff, half_sum + half_diff)
+        for theta5, theta6, theta234 in (upper, (-theta5, upper[1] - math.pi, upper[2] + math.pi)):
+            c234, s234, s5 = cos(theta234), sin(theta234), sin(theta5)   # _planar_arm
+            x4 = cos1 * px + sin1 * py - s234 * d5 + c234 * s5 * d6
+            z4 = pz - d1 + c234 * d5 + s234 * s5 * d6
+            cos3 = (x4 * x4 + z4 * z4 - elbow_offset - a3 * a3) / elbow_scale   # _elbow_cosine
+            if not low <= cos3 <= high:
+                cos3 = _ScalarOps.clamp_or_nan(cos3, low, high, g.domain_slack)
+            sin3 = sqrt(1.0 - cos3 * cos3)   # _shoulder_elbow_pair
+            theta3 = atan2(sin3, cos3)
+            along, across = a2 + a3 * cos3, a3 * sin3
+            near_x, near_z, far_x, far_z = x4 * along, z4 * along, x4 * across, z4 * across
+            theta2 = atan2(near_z - far_x, near_x + far_z)
+            branches.append((theta1, theta2, theta3, theta234 - theta2 - theta3, theta5, theta6))   # eq. 4.44
+            theta2 = atan2(near_z + far_x, near_x - far_z)
+            branches.append((theta1, theta2, -theta3, theta234 - theta2 + theta3, theta5, theta6))
+    return branches
+
+
+def _general_wrist_branches(g: _Geometry, theta1, cos1, sin1, reduced, theta6_ref, px, py, pz) -> list:
+    """The 4 branches of one θ1 at a (near-)singular wrist, by the general functions (the loop body of _branches)."""
+    branches = []
+    upper, lower, flags = _wrist_pair(_ScalarOps, reduced, theta6_ref)
+    for wrist in (upper, lower):
+        theta6, theta234, x4, z4, cos3 = _elbow_for_wrist(_ScalarOps, g, cos1, sin1, wrist, flags, px, py, pz)
+        for theta2, theta3 in _shoulder_elbow_pair(_ScalarOps, g, x4, z4, cos3):
+            branches.append((theta1, theta2, theta3, theta234 - theta2 - theta3, wrist[0], theta6))
+    return branches
+
+
+def _verified(candidates: list, meets, distinct: bool = False) -> list:
     """Per candidate (6 floats, NaN where the branch does not exist): kept, i.e. it exists, repeats no earlier kept
-    candidate (DUPLICATE_TOLERANCE) and meets the FK filter. The one merge rule of ik_all and ik_all_batch."""
+    candidate (DUPLICATE_TOLERANCE) and meets the FK filter ``meets`` (fk_filter._fk_check of the pose). The one
+    merge rule of ik_all and ik_all_batch. ``distinct``: no two candidates can repeat (_may_repeat said so), the
+    comparisons are skipped."""
     kept, mask = [], []
     for candidate in candidates:
-        ok = (candidate[0] == candidate[0] and candidate[1] == candidate[1] and _is_new(candidate, kept)
-              and _meets(model, candidate, tcp_coefficients))
+        ok = (candidate[0] == candidate[0] and candidate[1] == candidate[1]
+              and (distinct or _is_new(candidate, kept)) and meets(candidate))
         if ok:
             kept.append(candidate)
         mask.append(ok)
     return mask
+
+
+def _may_repeat(branches: list) -> bool:
+    """Whether two of the 8 branches of _nominal_branches (in its order, NaN where absent) can agree within
+    DUPLICATE_TOLERANCE in every joint (mod 2π), as _is_new compares them.
+
+    Two branches differ in the sign choice of θ1, θ5 or θ3, and each sign pair is exactly ±: θ1 = base ± offset,
+    the second θ5 and θ3 are the negated first. So unless the two θ1 are within twice the tolerance (mod 2π), or
+    some |θ5| or |θ3| lies within it of 0 or π, every two branches differ by at least twice it in one joint (the
+    batch kernel's ``merged`` rule).
+    """
+    tolerance, far = DUPLICATE_TOLERANCE, math.pi - DUPLICATE_TOLERANCE
+    if not abs(math.remainder(branches[0][0] - branches[4][0], _TWO_PI)) >= 2.0 * tolerance:
+        return True
+    for _, _, theta3, _, theta5, _ in branches:
+        theta3, theta5 = abs(theta3), abs(theta5)
+        if theta3 < tolerance or theta3 > far or theta5 < tolerance or theta5 > far:   # False for NaN
+            return True
+    return False
+
+
+def _canonical(solutions: list) -> np.ndarray:
+    """(k, 6) the joints of k solutions (6 floats each) in (−π, π] (_wrap_float, called only for the joints
+    outside), as one array: one numpy call instead of one per solution."""
+    pi = math.pi
+    flat = [v if -pi < v <= pi else _wrap_float(v) for solution in solutions for v in solution]
+    return np.array(flat).reshape(len(solutions), 6)
 
 
 def _branch_table(model, pose, theta6_ref: float) -> tuple:
@@ -87,9 +194,9 @@ def _branch_table(model, pose, theta6_ref: float) -> tuple:
     """
     g = _geometry(model)
     tcp_coefficients, target = _targets(g, pose)
-    candidates = list(_branches(_ScalarOps, g, target, theta6_ref))
-    kept = _verified(model, candidates, tcp_coefficients)
-    table = np.array([[_wrap_float(v) for v in c] if ok else [math.nan] * 6 for c, ok in zip(candidates, kept)])
+    candidates = _nominal_branches(g, target, theta6_ref)
+    kept = _verified(candidates, _fk_check(model, g, tcp_coefficients), not _may_repeat(candidates))
+    table = _canonical([c if ok else (math.nan,) * 6 for c, ok in zip(candidates, kept)])
     return table, np.array(kept)
 
 
@@ -103,9 +210,15 @@ def ik_all(model, pose, q_ref=None) -> list:
     g = _geometry(model)
     tcp_coefficients, target = _targets(g, pose)
     theta6_ref = 0.0 if q_ref is None else _wrap_float(_reference(q_ref)[5])
-    candidates = _solution_candidates(g, target, theta6_ref)
-    solutions = [c for c, kept in zip(candidates, _verified(model, candidates, tcp_coefficients)) if kept]
+    meets = _fk_check(model, g, tcp_coefficients)
+    if g.calibrated:
+        candidates = _solution_candidates(g, target, theta6_ref)
+        kept = _verified(candidates, meets)
+    else:   # all 8 in branch order (NaN where absent): _may_repeat reads the sign pairs from their places
+        candidates = _nominal_branches(g, target, theta6_ref)
+        kept = _verified(candidates, meets, not _may_repeat(candidates))
+    solutions = [c for c, ok in zip(candidates, kept) if ok]
     if not solutions:
-        raise UnreachablePoseError(f"pose unreachable for {model.name}: "
-                                   f"{_unreachable_reason(g, target, bool(candidates))}")
-    return [np.array([_wrap_float(v) for v in solution]) for solution in solutions]
+        existed = any(c[1] == c[1] and c[0] == c[0] for c in candidates)   # as _solution_candidates keeps them
+        raise UnreachablePoseError(f"pose unreachable for {model.name}: {_unreachable_reason(g, target, existed)}")
+    return list(_canonical(solutions))   # one (6,) row per solution
