@@ -140,7 +140,7 @@ def test_speedj_ramps_to_the_speed_then_stops_after_its_time():
     q = np.zeros(6)
     for _ in range(400):
         q = segment.advance(0.002, q)
-    assert segment.qd[0] == pytest.approx(0.5)  # reached after 0.5 s at 1 rad/s²
+    assert segment.commanded_speed[0] == pytest.approx(0.5)  # reached after 0.5 s at 1 rad/s²
     while not segment.finished:
         q = segment.advance(0.002, q)
     assert q[0] == pytest.approx(0.125 + 0.25 + 0.125, abs=0.003)
