@@ -43,7 +43,7 @@ def test_speedl_stepped_each_cycle_ends_where_its_speeds_integrate_to():
         assert wait_for(lambda: not controller.state().motion_active, timeout=5)
         travelled = np.array(controller.state().actual_tcp_pose) - start
         expected_z = sum(PEAK_SPEED * math.sin(math.pi * k / STEPS) for k in range(1, STEPS + 1)) * steptime
-        assert abs(travelled[2] - expected_z) < 1e-4, f"travelled {travelled[2]:.6f} m along z, expected {expected_z:.6f}"
+        assert abs(travelled[2] - expected_z) < 1e-4, f"travelled {travelled[2]:.6f} m along z, not {expected_z:.6f}"
         assert np.max(np.abs(travelled[:2])) < 1e-4
 
 
