@@ -36,11 +36,13 @@ READER_PROGRAM = """def reader():
 end
 """
 
-# Writes the second integer 0.1 s after a go byte on stdin, then -1: a client in a process of its own, which the
-# GIL of the simulator's process does not hold up.
+# Says it is ready, then writes the second integer 0.1 s after a go byte on stdin, then -1: a client in a process
+# of its own, which the GIL of the simulator's process does not hold up.
 SENDER = textwrap.dedent("""
     import socket, struct, sys, time
     connection = socket.socket(fileno=int(sys.argv[1]))
+    sys.stdout.buffer.write(b"r")
+    sys.stdout.flush()
     sys.stdin.buffer.read(1)
     time.sleep(0.1)
     connection.sendall(struct.pack(">i", 2))
@@ -75,7 +77,9 @@ def test_data_that_arrived_in_time_is_read_even_when_the_reading_thread_runs_lat
         controller = sim.controller
         connection = accepted_program(controller, sim.host)
         with connection, subprocess.Popen([sys.executable, "-c", SENDER, str(connection.fileno())],
-                                          stdin=subprocess.PIPE, pass_fds=[connection.fileno()]) as sender:
+                                          stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                          pass_fds=[connection.fileno()]) as sender:
+            assert sender.stdout.read(1) == b"r"  # started: it will write on time after the go byte
             connection.sendall(struct.pack(">i", 1))
             assert wait_for(lambda: controller.state().output_int_registers[0] == 1, timeout=5)
             sender.stdin.write(b"g")

@@ -230,10 +230,11 @@ def _read_until(ctx, what, socket_name, timeout, complete):
             if remaining > 0:
                 script_socket.receive(remaining)
                 continue
-            # The deadline has passed, maybe while this thread waited for the CPU: take what arrived by then.
+            # The deadline has passed, maybe while this thread waited for the GIL: take what is in the socket first.
+            # Whether it came before the deadline cannot be told, and a late thread is the simulator's delay, not
+            # the client's (External Control would halt on a client that wrote in time).
             script_socket.receive(0)
-            found = complete(script_socket.buffer)
-            if found is None:
+            if complete(script_socket.buffer) is None:
                 _note_timeout(ctx, what, socket_name, timeout, started, script_socket)
                 return None
 
