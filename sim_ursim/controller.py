@@ -413,19 +413,20 @@ class Controller:
             return self._replace_motion(trajectories.JointSpeed(start, qd, a, t, hold_owner), "speedj", True)
 
     def release_speed_hold(self, owner: object) -> None:
-        """`owner`'s held speedj gets no next command: it ramps to rest."""
+        """`owner`'s held speedj or speedl gets no next command: it ramps to rest."""
         with self._lock:
             self._motions.release_hold(owner)
 
-    def speedl(self, xd: Vector, a: float = 1.2, t: float = 0.0) -> Motion:
-        """TCP twist xd [vx vy vz wx wy wz] (base frame, m/s, rad/s) reached at acceleration a; after t s stop."""
+    def speedl(self, xd: Vector, a: float = 1.2, t: float = 0.0, hold_owner: object = None) -> Motion:
+        """TCP twist xd [vx vy vz wx wy wz] (base frame, m/s, rad/s) reached at acceleration a; after t s stop, or
+        with `hold_owner` hold as speedj does."""
         xd = kinematics.checked_vector(xd, 6, "xd")
         a = kinematics.checked_positive(a, "a")
         t = kinematics.checked_non_negative(t, "t")
         with self._lock:
             self._require_motion_allowed("speedl")
             start = self._motions.speed_ramp_start("speedl", self._state.actual_tcp_speed)
-            segment = trajectories.CartesianSpeed(start, xd, a, t, self._arm.tcp_matrix, self._solve_ik)
+            segment = trajectories.CartesianSpeed(start, xd, a, t, self._arm.tcp_matrix, self._solve_ik, hold_owner)
             return self._replace_motion(segment, "speedl", True)
 
     def servoj(self, q: Vector, a: float = 0.0, v: float = 0.0, t: float = 0.008, lookahead_time: float = 0.1,

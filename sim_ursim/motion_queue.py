@@ -248,7 +248,8 @@ class MotionQueue:
         return None
 
     def release_hold(self, owner: object) -> None:
-        """The script thread `owner` will not follow its held speedj with another command (trajectories.JointSpeed)."""
+        """The script thread `owner` will not follow its held speedj/speedl with another command
+        (trajectories.SpeedRamp)."""
         active = self.active
         if active is not None and getattr(active.segment, "hold_owner", None) is owner:
             active.segment.release()
@@ -256,7 +257,7 @@ class MotionQueue:
     def _finish_or_blend(self, active, new_q) -> None:
         """End a finished segment and start the next queued one; with r > 0 start it inside the blend zone."""
         if getattr(active.segment, "holding", False):
-            # A script's speedj has moved its time t: the command returns, the arm waits for the thread's next one.
+            # A script's speedj/speedl has moved its time t: the command returns, the arm waits for the thread's next.
             active.motion._finish(None)
             return
         if active.segment.finished and self.tail is None:

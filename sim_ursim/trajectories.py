@@ -180,25 +180,25 @@ def ramp_towards(current: np.ndarray, target: np.ndarray, max_change: float) -> 
     return current + difference * (max_change / largest)
 
 
-class JointSpeed:
-    """speedj segment: joint speeds ramp to `qd_target` at `acceleration`; after `duration` (if > 0) ramp to zero.
+class SpeedRamp:
+    """A speed command's speed vector (joint speeds, or a TCP twist) ramping to `target` at `acceleration`; after
+    `duration` (if > 0) to zero.
 
-    A script's `speedj(qd, a, t)` is held (`hold_owner`, the commanding script thread): it moves for exactly
-    `duration` of trajectory time, then the arm waits, without moving, for that thread's next command. On a
-    controller the script threads run inside the control cycle, in lockstep with it (UR's manual: speedj "returns
-    after time t"; URCL's External Control script streams one `speedj(qd, a, steptime)` per control cycle and
-    integrates its splines assuming each runs exactly t). Here the interpreter needs real time between the return
-    and the next command; moving on at qd meanwhile made every step longer than planned (URCL's 3 s pre-positioning
-    spline of trajectory_streaming_example travelled 1.6 times its distance). Released (`release()`: the thread
-    waits for something else, or ended) it ramps to zero like a timed speedj.
+    A script's `speedj` / `speedl` with t > 0 is held (`hold_owner`, the commanding script thread): it moves for
+    exactly `duration` of trajectory time, then the arm waits, without moving, for that thread's next command. On a
+    controller the script threads run inside the control cycle, in lockstep with it (UR's manual: speedj and speedl
+    return "after time t"; URCL's External Control script streams one `speedj(qd, a, steptime)` per control cycle
+    and integrates its splines assuming each runs exactly t, and its speedl thread one `speedl(twist, 40, steptime)`
+    per cycle). Here the interpreter needs real time between the return and the next command; moving on meanwhile
+    made every step longer than planned (URCL's 3 s pre-positioning spline of trajectory_streaming_example
+    travelled 1.6 times its distance). Released (`release()`: the thread waits for something else, or ended) it
+    ramps to zero like a timed command.
     """
 
-    kind = "speedj"
-
-    def __init__(self, qd_start: np.ndarray, qd_target: np.ndarray, acceleration: float, duration: float,
+    def __init__(self, start: np.ndarray, target: np.ndarray, acceleration: float, duration: float,
                  hold_owner: object = None):
-        self.qd = np.array(qd_start, dtype=float)
-        self.qd_target = np.array(qd_target, dtype=float)
+        self.speed = np.array(start, dtype=float)
+        self.target = np.array(target, dtype=float)
         self.acceleration = acceleration
         self.duration = duration
         self.elapsed = 0.0
@@ -210,67 +210,66 @@ class JointSpeed:
         return self.hold_owner is not None and self.duration - self.elapsed <= _TIME_EPSILON
 
     def release(self) -> None:
-        """No next command is coming from the holding thread: finish like a timed speedj (ramp to rest)."""
+        """No next command is coming from the holding thread: finish like a timed command (ramp to rest)."""
         self.hold_owner = None
 
     @property
     def finished(self) -> bool:
-        return (self.duration > 0 and self.elapsed >= self.duration and not np.any(self.qd)
+        return (self.duration > 0 and self.elapsed >= self.duration and not np.any(self.speed)
                 and self.hold_owner is None)
 
     @property
     def commanded_speed(self) -> np.ndarray:
-        """Joint speeds the ramp has reached (rad/s, trajectory time: before the speed slider)."""
-        return self.qd.copy()
+        """The speed the ramp has reached (trajectory time: before the speed slider)."""
+        return self.speed.copy()
 
-    def advance(self, dt: float, q: np.ndarray) -> np.ndarray:
-        """Joints after dt at the ramped speed (a held segment moves only for what is left of its time)."""
+    def ramp(self, dt: float) -> float:
+        """Ramp the speed over dt; return how long the arm moves at it this cycle (a held segment moves only for
+        what is left of its time, then not at all)."""
         if self.hold_owner is not None:
             dt = min(dt, self.duration - self.elapsed)
             if dt <= _TIME_EPSILON:
-                return np.array(q, dtype=float)
-            self.elapsed += dt
-            self.qd = ramp_towards(self.qd, self.qd_target, self.acceleration * dt)
-            return q + self.qd * dt
+                return 0.0
+            goal = self.target
+        else:
+            goal = self.target if (self.duration <= 0 or self.elapsed + dt < self.duration) else np.zeros(6)
         self.elapsed += dt
-        goal = self.qd_target if (self.duration <= 0 or self.elapsed < self.duration) else np.zeros(6)
-        self.qd = ramp_towards(self.qd, goal, self.acceleration * dt)
-        return q + self.qd * dt
+        self.speed = ramp_towards(self.speed, goal, self.acceleration * dt)
+        return dt
 
 
-class CartesianSpeed:
-    """speedl segment: TCP twist [v; ω] (base frame) ramps to `xd_target`; joints follow by IK each cycle."""
+class JointSpeed(SpeedRamp):
+    """speedj segment: the joint speeds ramp (SpeedRamp)."""
+
+    kind = "speedj"
+
+    def advance(self, dt: float, q: np.ndarray) -> np.ndarray:
+        """Joints after dt at the ramped speed."""
+        moving = self.ramp(dt)
+        return q + self.speed * moving if moving else np.array(q, dtype=float)
+
+
+class CartesianSpeed(SpeedRamp):
+    """speedl segment: the TCP twist [v; ω] (base frame) ramps (SpeedRamp); joints follow by IK each cycle."""
 
     kind = "speedl"
 
     def __init__(self, xd_start: np.ndarray, xd_target: np.ndarray, acceleration: float, duration: float,
-                 tcp_matrix_of: Callable[[np.ndarray], np.ndarray], solve_ik: Callable[[np.ndarray, np.ndarray], np.ndarray]):
-        self.xd = np.array(xd_start, dtype=float)
-        self.xd_target = np.array(xd_target, dtype=float)
-        self.acceleration = acceleration
-        self.duration = duration
-        self.elapsed = 0.0
+                 tcp_matrix_of: Callable[[np.ndarray], np.ndarray],
+                 solve_ik: Callable[[np.ndarray, np.ndarray], np.ndarray], hold_owner: object = None):
+        super().__init__(xd_start, xd_target, acceleration, duration, hold_owner)
         self._tcp_matrix_of = tcp_matrix_of
         self._solve_ik = solve_ik
 
-    @property
-    def finished(self) -> bool:
-        return self.duration > 0 and self.elapsed >= self.duration and not np.any(self.xd)
-
-    @property
-    def commanded_speed(self) -> np.ndarray:
-        """TCP twist the ramp has reached ([m/s, rad/s] base frame, trajectory time: before the speed slider)."""
-        return self.xd.copy()
-
     def advance(self, dt: float, q: np.ndarray) -> np.ndarray:
         """Joints after moving the TCP by the ramped twist for dt."""
-        self.elapsed += dt
-        goal = self.xd_target if (self.duration <= 0 or self.elapsed < self.duration) else np.zeros(6)
-        self.xd = ramp_towards(self.xd, goal, self.acceleration * dt)
+        moving = self.ramp(dt)
+        if not moving:
+            return np.array(q, dtype=float)
         current = self._tcp_matrix_of(q)
         target = np.eye(4)
-        target[:3, 3] = current[:3, 3] + self.xd[:3] * dt
-        target[:3, :3] = kinematics.rotation_vector_to_matrix(self.xd[3:] * dt) @ current[:3, :3]
+        target[:3, 3] = current[:3, 3] + self.speed[:3] * moving
+        target[:3, :3] = kinematics.rotation_vector_to_matrix(self.speed[3:] * moving) @ current[:3, :3]
         return self._solve_ik(kinematics.matrix_to_pose(target), q)
 
 

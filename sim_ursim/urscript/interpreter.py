@@ -141,6 +141,7 @@ class ThreadContext:
         self.critical = 0
         self.line = 0  # line of the statement being executed
         self.motion = None  # the Motion this thread is waiting for, if any
+        self.last_timeout = None  # this thread's last blocking read, if it timed out: a later halt is explained by it
         self._statements_in_slice = 0
         self._slice = max(1, int(STATEMENTS_PER_SECOND * execution.controller.period))
 
@@ -257,6 +258,7 @@ class Execution:
         self.unpaused = threading.Event()
         self.unpaused.set()
         self.error = None  # the first URScriptRuntimeError of any thread
+        self.end_reason = None  # why the program ended, for the log: the first halt, error or stop
         self._threads = {}
         self._handles = itertools.count(1)
         self._contexts = []
@@ -293,14 +295,15 @@ class Execution:
         self.scheduler.acquire()
         try:
             self.exec_block(context, self.program.body)
+            self._note_end("ran to its end")
         except _Halt:
             pass
         except Cancelled:
-            pass
+            self._note_end("stopped")
         except URScriptRuntimeError as error:
             self._record_error(error)
         except (_Return, _Break, _Continue):
-            pass
+            self._note_end("ran to its end")
         finally:
             self.controller.release_speed_hold(context)  # an ended thread sends no next command
             context.done.set()
@@ -311,7 +314,13 @@ class Execution:
     def _record_error(self, error: URScriptRuntimeError) -> None:
         if self.error is None:
             self.error = error
+        self._note_end(f"failed: {error}")
         self.cancel()
+
+    def _note_end(self, reason: str) -> None:
+        """Keep the first reason the program ends for (a halt or error cancels the other threads afterwards)."""
+        if self.end_reason is None:
+            self.end_reason = reason
 
     # --- statements
     def exec_block(self, ctx: ThreadContext, body: list) -> None:
@@ -374,6 +383,10 @@ class Execution:
         raise _Return(None if node.value is None else self.eval(ctx, node.value))
 
     def _exec_halt(self, ctx, node):
+        # Name the halting thread and line, and the timed-out read that led there if any (URCL's External Control
+        # halts when its reverse socket read times out: the client has dropped, or this side read too late).
+        after = f", after {ctx.last_timeout}" if ctx.last_timeout else ""
+        self._note_end(f"halt in thread {ctx.name} at line {node.line}{after}")
         raise _Halt()
 
     def _exec_break(self, ctx, node):

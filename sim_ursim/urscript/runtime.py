@@ -155,8 +155,8 @@ class ProgramRunner:
         name = execution.program.name
         self._publish(KeyMessage(code=0, argument=0, title="PROGRAM_XXX_STARTED", text=name))
         error = execution.run()
+        log.info("program %s ended: %s", name, execution.end_reason)
         if error is not None:
-            log.info("program %s failed: %s", name, error)
             self._publish(RuntimeExceptionMessage(line=error.line, column=error.column, text=error.text))
             self._stop_arm()
         with self._lock:

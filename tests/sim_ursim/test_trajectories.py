@@ -140,10 +140,36 @@ def test_speedj_ramps_to_the_speed_then_stops_after_its_time():
     q = np.zeros(6)
     for _ in range(400):
         q = segment.advance(0.002, q)
-    assert segment.qd[0] == pytest.approx(0.5)  # reached after 0.5 s at 1 rad/s²
+    assert segment.commanded_speed[0] == pytest.approx(0.5)  # reached after 0.5 s at 1 rad/s²
     while not segment.finished:
         q = segment.advance(0.002, q)
     assert q[0] == pytest.approx(0.125 + 0.25 + 0.125, abs=0.003)
+
+
+def _translating_tcp(q):
+    """TCP frame of a toy arm whose first three joints are the TCP position (m): keeps the speedl test exact."""
+    matrix = np.eye(4)
+    matrix[:3, 3] = q[:3]
+    return matrix
+
+
+def test_a_held_speedl_moves_for_its_time_waits_then_ramps_to_rest_once_released():
+    owner = object()
+    segment = trajectories.CartesianSpeed(np.zeros(6), np.array([0, 0, 0.05, 0, 0, 0]), 5.0, 0.01, _translating_tcp,
+                                          lambda pose, q: np.r_[pose[:3], 0.0, 0.0, 0.0], owner)
+    q = np.zeros(6)
+    for _ in range(5):  # 0.01 s: the ramp reaches 0.05 m/s in 0.01 s at 5 m/s²
+        q = segment.advance(0.002, q)
+    assert segment.holding and not segment.finished
+    assert q[2] == pytest.approx(0.002 * (0.01 + 0.02 + 0.03 + 0.04 + 0.05))
+    held = q.copy()
+    for _ in range(10):  # the thread has not sent its next command yet: the arm waits
+        q = segment.advance(0.002, q)
+    np.testing.assert_array_equal(q, held)
+    segment.release()
+    while not segment.finished:
+        q = segment.advance(0.002, q)
+    assert q[2] == pytest.approx(held[2] + 0.002 * (0.04 + 0.03 + 0.02 + 0.01))
 
 
 def test_servo_target_is_reached_within_its_time_and_speed_limited():

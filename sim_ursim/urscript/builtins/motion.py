@@ -68,6 +68,17 @@ def _wait_for(ctx: ThreadContext, seconds):
         ctx.sync()
 
 
+def _held_speed(ctx: ThreadContext, command, speed, acceleration, duration):
+    """Run speedj/speedl `command` held by this thread (trajectories.SpeedRamp) and return once the arm has moved
+    for `duration`: lockstep with the control cycles, not `duration` of wall time (a busy machine runs fewer cycles
+    than its wall time holds; the next command would then cut this one short)."""
+    motion = controller_call(command, speed, acceleration, duration, ctx)
+    with ctx.waiting():
+        while not motion.wait(timeout=ctx.controller.period) and not ctx.cancel.is_set():
+            pass
+    ctx.check()
+
+
 @builtin
 def speedj(ctx: ThreadContext, qd, a, t=None):
     """Accelerate the joints to speeds qd [rad/s] at a [rad/s²] and keep them; returns after t [s] of controller
@@ -82,13 +93,7 @@ def speedj(ctx: ThreadContext, qd, a, t=None):
         acceleration = 1.0
     duration = None if t is None else as_number(t, "t")
     if duration is not None and duration > 0:
-        # Lockstep with the control cycles: wait for the arm to have moved t, not for t of wall time (a busy machine
-        # runs fewer cycles than its wall time holds; the next speedj would then cut this one short).
-        motion = controller_call(ctx.controller.speedj, qd, acceleration, duration, ctx)
-        with ctx.waiting():
-            while not motion.wait(timeout=ctx.controller.period) and not ctx.cancel.is_set():
-                pass
-        ctx.check()
+        _held_speed(ctx, ctx.controller.speedj, qd, acceleration, duration)
         return
     controller_call(ctx.controller.speedj, qd, acceleration, 0.0)
     if duration is None:
@@ -99,15 +104,20 @@ def speedj(ctx: ThreadContext, qd, a, t=None):
 
 @builtin
 def speedl(ctx: ThreadContext, xd, a, t=None, aRot=None):
-    """Accelerate the TCP to twist xd [m/s, rad/s] at a [m/s²] and keep it; returns after t [s], or without t
-    once the linear speed is reached (the ramp time |Δv| / a)."""
+    """Accelerate the TCP to twist xd [m/s, rad/s] at a [m/s²] and keep it; returns after t [s] of controller
+    motion time (the arm then waits for this thread's next command, as after speedj), or without t once the linear
+    speed is reached (the ramp time |Δv| / a)."""
     xd = np.array(number_list(xd, 6, "xd"))
     acceleration = as_number(a, "a")
+    duration = None if t is None else as_number(t, "t")
+    if duration is not None and duration > 0:
+        _held_speed(ctx, ctx.controller.speedl, xd, acceleration, duration)
+        return
     controller_call(ctx.controller.speedl, xd, acceleration, 0.0)
-    if t is None:
+    if duration is None:
         _wait_for(ctx, float(np.linalg.norm(xd[:3] - ctx.controller.state().actual_tcp_speed[:3])) / acceleration)
     else:
-        _wait_for(ctx, as_number(t, "t"))
+        _wait_for(ctx, duration)
 
 
 @builtin
@@ -139,14 +149,14 @@ def sleep(ctx: ThreadContext, t):
     seconds = as_number(t, "t")
     if seconds < 0:
         raise ScriptError(f"runtime_error:sleep time must be ≥ 0, got {to_str(t)}:")
-    ctx.controller.release_speed_hold(ctx)  # waiting, not commanding: a held speedj ramps to rest
+    ctx.controller.release_speed_hold(ctx)  # waiting, not commanding: a held speedj/speedl ramps to rest
     ctx.sleep(seconds)
 
 
 @builtin
 def sync(ctx: ThreadContext):
     """Wait for the next control cycle (uses up the rest of this thread's physical time slot)."""
-    ctx.controller.release_speed_hold(ctx)  # waiting, not commanding: a held speedj ramps to rest
+    ctx.controller.release_speed_hold(ctx)  # waiting, not commanding: a held speedj/speedl ramps to rest
     ctx.sync()
 
 

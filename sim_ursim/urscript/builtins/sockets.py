@@ -44,6 +44,22 @@ class _ScriptSocket:
         self.sock = sock
         self.buffer = bytearray()
         self.closed = False
+        self.last_data = time.monotonic()  # when bytes last arrived: a timed-out read says how long the peer was silent
+
+    def receive(self, timeout):
+        """Append what arrives within `timeout` s (0: only what is already there) to the buffer; closed on EOF."""
+        self.sock.settimeout(timeout if timeout > 0 else 0.0)
+        try:
+            chunk = self.sock.recv(65536)
+        except (socket.timeout, BlockingIOError):
+            return
+        except OSError:
+            chunk = b""
+        if not chunk:
+            self.close()
+            return
+        self.buffer += chunk
+        self.last_data = time.monotonic()
 
     def close(self):
         self.closed = True
@@ -187,41 +203,49 @@ def socket_send_byte(ctx, value, socket_name=DEFAULT_SOCKET):
     return _send(ctx, socket_name, bytes([int(value)]))
 
 
-def _read_until(ctx, socket_name, timeout, complete):
+def _read_until(ctx, what, socket_name, timeout, complete):
     """Wait until `complete(buffer)` returns (consumed, result) or the timeout passes / the socket closes.
 
-    Returns the result, or None on timeout or a closed socket.  The scheduler is released meanwhile and a stopped
-    program ends the wait within POLL seconds.
+    Returns the result, or None on timeout or a closed socket (noted in `ctx.last_timeout` for the log of a halt
+    that follows, as URCL's External Control script halts on a timed-out read).  The scheduler is released meanwhile
+    and a stopped program ends the wait within POLL seconds.
     """
     script_socket = _get(ctx, socket_name)
     if script_socket is None:
         return None
     timeout = float(timeout) if isinstance(timeout, (int, float)) and not isinstance(timeout, bool) else None
-    deadline = None if timeout is None or timeout <= 0 else time.monotonic() + timeout
+    started = time.monotonic()
+    deadline = None if timeout is None or timeout <= 0 else started + timeout
     with ctx.waiting():
         while True:
             found = complete(script_socket.buffer)
             if found is not None:
                 consumed, result = found
                 del script_socket.buffer[:consumed]
+                ctx.last_timeout = None
                 return result
             if script_socket.closed or ctx.cancel.is_set():
                 return None
             remaining = POLL if deadline is None else min(POLL, deadline - time.monotonic())
-            if remaining <= 0:
+            if remaining > 0:
+                script_socket.receive(remaining)
+                continue
+            # The deadline has passed, maybe while this thread waited for the GIL: take what is in the socket first.
+            # Whether it came before the deadline cannot be told, and a late thread is the simulator's delay, not
+            # the client's (External Control would halt on a client that wrote in time).
+            script_socket.receive(0)
+            if complete(script_socket.buffer) is None:
+                _note_timeout(ctx, what, socket_name, timeout, started, script_socket)
                 return None
-            script_socket.sock.settimeout(remaining)
-            try:
-                chunk = script_socket.sock.recv(65536)
-            except socket.timeout:
-                continue
-            except OSError:
-                script_socket.close()
-                continue
-            if not chunk:
-                script_socket.close()
-                continue
-            script_socket.buffer += chunk
+
+
+def _note_timeout(ctx, what, socket_name, timeout, started, script_socket):
+    """Record (and log at debug level: polling reads time out every cycle) a read that got no complete data."""
+    now = time.monotonic()
+    ctx.last_timeout = (f"{what}(\"{socket_name}\") got no data within {timeout:.3f} s (waited {now - started:.3f} s; "
+                        f"last bytes {now - script_socket.last_data:.3f} s before, {len(script_socket.buffer)} "
+                        f"buffered)")
+    log.debug("%s timed out", ctx.last_timeout)
 
 
 def _count(value, name, limit=30):
@@ -241,7 +265,7 @@ def socket_read_binary_integer(ctx, number, socket_name=DEFAULT_SOCKET, timeout=
             return None
         return size, list(struct.unpack_from(f">{number}i", buffer))
 
-    values = _read_until(ctx, socket_name, timeout, complete)
+    values = _read_until(ctx, "socket_read_binary_integer", socket_name, timeout, complete)
     ctx.check()
     return [0] if values is None else [number] + values
 
@@ -254,7 +278,7 @@ def socket_read_byte_list(ctx, number, socket_name=DEFAULT_SOCKET, timeout=DEFAU
     def complete(buffer):
         return (number, list(buffer[:number])) if len(buffer) >= number else None
 
-    values = _read_until(ctx, socket_name, timeout, complete)
+    values = _read_until(ctx, "socket_read_byte_list", socket_name, timeout, complete)
     ctx.check()
     return [0] if values is None else [number] + values
 
@@ -273,7 +297,7 @@ def socket_read_ascii_float(ctx, number, socket_name=DEFAULT_SOCKET, timeout=DEF
         values = [float(match) for match in _FLOAT.findall(text)]
         return end + 1, values if start >= 0 and len(values) == number else None
 
-    values = _read_until(ctx, socket_name, timeout, complete)
+    values = _read_until(ctx, "socket_read_ascii_float", socket_name, timeout, complete)
     ctx.check()
     return [0] if not values else [number] + values
 
@@ -286,7 +310,7 @@ def socket_read_line(ctx, socket_name=DEFAULT_SOCKET, timeout=DEFAULT_TIMEOUT):
         end = buffer.find(b"\n")
         return None if end < 0 else (end + 1, buffer[:end].decode("utf-8", "replace").rstrip("\r"))
 
-    line = _read_until(ctx, socket_name, timeout, complete)
+    line = _read_until(ctx, "socket_read_line", socket_name, timeout, complete)
     ctx.check()
     return "" if line is None else line
 
@@ -309,7 +333,7 @@ def socket_read_string(ctx, socket_name=DEFAULT_SOCKET, prefix="", suffix="", in
             return None
         return end + len(end_mark), bytes(buffer[body_start:end]).decode("utf-8", "replace")
 
-    text = _read_until(ctx, socket_name, timeout, complete)
+    text = _read_until(ctx, "socket_read_string", socket_name, timeout, complete)
     ctx.check()
     if text is None:
         return ""
