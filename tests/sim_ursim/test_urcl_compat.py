@@ -283,7 +283,9 @@ def test_protective_stop_flag_goes_out_with_the_safety_mode_message():
     assert modes_before and modes_before[-1]["protective_stopped"] is True
 
 
-@pytest.mark.parametrize("motion", ["movel(p[2.0, 0, 0.3, 0, 3.14, 0])", "movej(p[2.0, 0, 0.3, 0, 3.14, 0])"])
+@pytest.mark.parametrize("motion", ["movel(p[2.0, 0, 0.3, 0, 3.14, 0])", "movej(p[2.0, 0, 0.3, 0, 3.14, 0])",
+                                    "movep(p[2.0, 0, 0.3, 0, 3.14, 0])",
+                                    "movec(p[0.5, 0.5, 0.3, 0, 3.14, 0], p[2.0, 0, 0.3, 0, 3.14, 0])"])
 def test_unreachable_target_is_a_robot_error_with_a_protective_stop(motion):
     """Issue 15 §11: URCL's clients see an error-code message (ErrorCodeMessage, logged as C209A0 by URCL) and the
     protective-stop flag, not a URScript runtime exception."""

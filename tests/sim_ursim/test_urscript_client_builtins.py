@@ -122,6 +122,17 @@ def test_movec_passes_the_via_point_and_ends_at_the_target(controller):
     assert np.allclose(controller.state().actual_tcp_pose[:3], end[:3], atol=1e-4)
 
 
+def test_movec_takes_joint_positions_through_forward_kinematics(controller):
+    """UR's script manual: pose_via and pose_to may be joint positions (URCL's MOVEC_JOINT points send them)."""
+    run(controller, f"movej({HOME})\n")
+    q_via = np.array(HOME) + np.array([0.05, 0.0, 0.0, 0.0, 0.0, 0.0])
+    q_to = np.array(HOME) + np.array([0.10, 0.0, 0.0, 0.0, 0.0, 0.0])
+    _, error = run(controller, f"movec({q_via.tolist()}, {q_to.tolist()}, a=0.5, v=0.1)\n")
+    assert error is None
+    expected = kinematics.tcp_pose(controller.model.dh, q_to, controller.state().tcp_offset)
+    assert np.allclose(controller.state().actual_tcp_pose[:3], expected[:3], atol=1e-4)
+
+
 def test_joint_torques_are_the_external_load_through_the_jacobian(controller):
     assert value_of(controller, "get_joint_torques()") == [0.0] * 6  # free arm: nothing beyond its own dynamics
     wrench = np.array([5.0, -3.0, 10.0, 0.2, 0.1, -0.3])

@@ -1,6 +1,6 @@
 """URScript built-ins that UR's client programs reach beyond the core families:
 URCL's External Control script, ur_rtde's control script, urx.  Strings, lists, matrices, analog inputs, tool
-power, movec.  Each follows UR's script manual; where the simulator approximates, the docstring says how.
+power (movec is with the other moves in motion.py).  Each follows UR's script manual; where the simulator approximates, the docstring says how.
 """
 import random as _random
 
@@ -12,7 +12,6 @@ from sim_ursim.urscript.builtins.registry import builtin
 from sim_ursim.urscript.values import ScriptError, number_list, to_str
 
 TOOL_VOLTAGES = (0, 12, 24)
-MOVEC_SEGMENTS = 24  # linear pieces of the arc (each 1/24 of the sweep)
 
 
 def _text(value, name):
@@ -231,52 +230,3 @@ def force_mode(ctx, task_frame, selection_vector, wrench, type, limits):
 def end_force_mode(ctx):
     """Leave force mode: the free-space drift decelerates to rest (stopl)."""
     _call(ctx.controller.stopl, FORCE_MODE_ACCELERATION * 10)
-
-
-# --- motion ----------------------------------------------------------------------------------------------------
-
-def _arc(start, via, end):
-    """Positions along the circle through three points, from start to end through via (MOVEC_SEGMENTS + 1 points)."""
-    a, b, c = (np.asarray(p, dtype=float) for p in (start, via, end))
-    ab, ac = b - a, c - a
-    normal = np.cross(ab, ac)
-    if np.linalg.norm(normal) < 1e-9:
-        raise ScriptError("runtime_error:movec: the three points are on one line, no circle passes through them:")
-    # Circumcentre of the triangle a, b, c.
-    centre = a + (np.dot(ac, ac) * np.cross(normal, ab) + np.dot(ab, ab) * np.cross(ac, normal)) / (
-        2.0 * np.dot(normal, normal))
-    axis = normal / np.linalg.norm(normal)
-    u = (a - centre) / np.linalg.norm(a - centre)
-    v = np.cross(axis, u)
-    radius = np.linalg.norm(a - centre)
-
-    def angle(point):
-        d = point - centre
-        return np.arctan2(np.dot(d, v), np.dot(d, u)) % (2 * np.pi)
-
-    sweep = angle(c)  # counter-clockwise about the normal of (b - a) × (c - a) passes through b first
-    return [centre + radius * (np.cos(t) * u + np.sin(t) * v) for t in np.linspace(0.0, sweep, MOVEC_SEGMENTS + 1)]
-
-
-@builtin
-def movec(ctx, pose_via, pose_to, a=1.2, v=0.25, r=0, mode=0):
-    """Circular move through pose_via to pose_to (a [m/s²], v [m/s]).  Approximation: the arc is followed as
-    MOVEC_SEGMENTS blended linear moves and the orientation is interpolated from the start pose to pose_to (UR's
-    mode 0); mode 1 (orientation fixed to the arc tangent) is accepted and moves like mode 0."""
-    if _index(mode, "mode") not in (0, 1):
-        raise ScriptError(f"runtime_error:movec: mode must be 0 or 1, got {to_str(mode)}:")
-    controller = ctx.controller
-    start = np.array(controller.state().target_tcp_pose)
-    via = np.array(number_list(pose_via, 6, "pose_via"))
-    to = np.array(number_list(pose_to, 6, "pose_to"))
-    points = _arc(start[:3], via[:3], to[:3])
-    start_matrix, end_matrix = kinematics.pose_to_matrix(start), kinematics.pose_to_matrix(to)
-    step = float(np.linalg.norm(points[1] - points[0]))
-    for index, point in enumerate(points[1:], start=1):
-        last = index == len(points) - 1
-        orientation = kinematics.interpolate_pose(start_matrix, end_matrix, index / (len(points) - 1))
-        matrix = np.array(orientation)
-        matrix[:3, 3] = point
-        target = np.array(kinematics.matrix_to_pose(matrix))
-        blend = float(r) if last else 0.4 * step
-        ctx.run_motion(lambda target=target, blend=blend: _call(controller.movel, target, a, v, 0.0, blend))

@@ -1,4 +1,5 @@
-"""URScript motion built-ins: moves, speed and servo commands, stops, waiting, freedrive, protective stop.
+"""URScript motion built-ins: moves (movej, movel, movep, movec), speed and servo commands, stops, waiting,
+freedrive, protective stop.
 
 Blocking moves go through `ctx.run_motion`, which returns when this motion has ended (or at its blend radius).
 """
@@ -58,6 +59,66 @@ def movel(ctx: ThreadContext, pose, a=1.2, v=0.25, t=0, r=0):
 def movep(ctx: ThreadContext, pose, a=1.2, v=0.25, r=0):
     """Process move: modelled as a linear move (the constant-speed circular blends are not emulated)."""
     movel(ctx, pose, a, v, 0, r)
+
+
+MOVEC_SEGMENTS = 24  # linear pieces of a movec arc (each 1/24 of the sweep)
+
+
+def _arc(start, via, end):
+    """Positions along the circle through three points, from start to end through via (MOVEC_SEGMENTS + 1 points)."""
+    a, b, c = (np.asarray(p, dtype=float) for p in (start, via, end))
+    ab, ac = b - a, c - a
+    normal = np.cross(ab, ac)
+    if np.linalg.norm(normal) < 1e-9:
+        raise ScriptError("runtime_error:movec: the three points are on one line, no circle passes through them:")
+    # Circumcentre of the triangle a, b, c.
+    centre = a + (np.dot(ac, ac) * np.cross(normal, ab) + np.dot(ab, ab) * np.cross(ac, normal)) / (
+        2.0 * np.dot(normal, normal))
+    axis = normal / np.linalg.norm(normal)
+    u = (a - centre) / np.linalg.norm(a - centre)
+    v = np.cross(axis, u)
+    radius = np.linalg.norm(a - centre)
+
+    def angle(point):
+        d = point - centre
+        return np.arctan2(np.dot(d, v), np.dot(d, u)) % (2 * np.pi)
+
+    sweep = angle(c)  # counter-clockwise about the normal of (b - a) × (c - a) passes through b first
+    return [centre + radius * (np.cos(t) * u + np.sin(t) * v) for t in np.linspace(0.0, sweep, MOVEC_SEGMENTS + 1)]
+
+
+def _arc_poses(start, via, to):
+    """The TCP poses of a movec arc after `start` (MOVEC_SEGMENTS of them, the last is `to`): positions on the
+    circle through the three points, orientation interpolated from start's to to's."""
+    start_matrix, end_matrix = kinematics.pose_to_matrix(start), kinematics.pose_to_matrix(to)
+    points = _arc(start[:3], via[:3], to[:3])
+    poses = []
+    for index, point in enumerate(points[1:], start=1):
+        matrix = np.array(kinematics.interpolate_pose(start_matrix, end_matrix, index / (len(points) - 1)))
+        matrix[:3, 3] = point
+        poses.append(np.array(kinematics.matrix_to_pose(matrix)))
+    return poses
+
+
+@builtin
+def movec(ctx: ThreadContext, pose_via, pose_to, a=1.2, v=0.25, r=0, mode=0):
+    """Circular move through pose_via to pose_to (a [m/s²], v [m/s]); each may be joint positions, converted by
+    forward kinematics (UR's script manual). The whole arc is checked before the arm moves: a point no joint
+    solution reaches protective-stops as an unreachable movel does. Approximation: the arc is followed as
+    MOVEC_SEGMENTS blended linear moves and the orientation is interpolated from the start pose to pose_to (UR's
+    mode 0); mode 1 (orientation fixed to the arc tangent) is accepted and moves like mode 0."""
+    if isinstance(mode, bool) or mode not in (0, 1):
+        raise ScriptError(f"runtime_error:movec: mode must be 0 or 1, got {to_str(mode)}:")
+    controller = ctx.controller
+    state = controller.state()
+    poses = _arc_poses(np.array(state.target_tcp_pose), _pose_target(ctx, pose_via), _pose_target(ctx, pose_to))
+    q = state.target_q
+    for pose in poses:   # each point solved from the previous one: the branch the linear pieces will follow
+        q = controller_call(_unreachable_stops, ctx, controller.ik, pose, q)
+    step = float(np.linalg.norm(poses[1][:3] - poses[0][:3]))
+    for index, pose in enumerate(poses):
+        blend = float(r) if index == len(poses) - 1 else 0.4 * step
+        ctx.run_motion(lambda pose=pose, blend=blend: controller_call(controller.movel, pose, a, v, 0.0, blend))
 
 
 def _wait_for(ctx: ThreadContext, seconds):
