@@ -24,6 +24,7 @@ import logging
 import math
 import threading
 import time
+from collections import deque
 from collections.abc import Sequence
 
 import numpy as np
@@ -50,6 +51,7 @@ PAUSE_RAMP_TIME = 0.3  # s for speed_scaling to fall to 0 on pause (and rise bac
 AMBIENT_TEMPERATURE = 25.0
 POWERED_TEMPERATURE = 32.0
 MAIN_VOLTAGE = 48.0
+JOINT_HISTORY_CYCLES = 1000  # measured joints kept for get_actual_joint_positions_history (2 s at 500 Hz)
 
 
 class Controller:
@@ -82,6 +84,7 @@ class Controller:
         self._sim_time = 0.0
 
         self._q = frozen_array(start_q)
+        self.joint_history = deque([self._q], JOINT_HISTORY_CYCLES)  # measured joints per control period, newest last
         self._qd = frozen_array(np.zeros(6))
         self._qdd = frozen_array(np.zeros(6))
         self._payload = 0.0
@@ -194,6 +197,7 @@ class Controller:
                 self._execution_time = time.perf_counter() - began
                 state = self._snapshot(previous_q, dt)
             self._idle_signature = (self._changes, self.io.version, self._q)
+            self.joint_history.extend([self._q] * min(steps, JOINT_HISTORY_CYCLES))  # a catch-up step: its end q
             self._publish(state)
 
     def _at_rest_and_unchanged(self, signature):

@@ -6,6 +6,7 @@ exact whatever the machine load; behaviour tied to the clock (period, safety sto
 import math
 import threading
 import time
+import types
 
 import numpy as np
 import pytest
@@ -13,7 +14,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sim_ursim import kinematics
-from sim_ursim.controller import Controller
+from sim_ursim.controller import JOINT_HISTORY_CYCLES, Controller
+from sim_ursim.urscript.builtins import BUILTINS
+from sim_ursim.urscript.values import ScriptError
 from sim_ursim.vocabulary import CommandRefused, JointMode, RobotMode, RuntimeState, SafetyMode, UnlockTooEarly
 from sim_ursim.messages import SafetyModeMessage
 from polling import wait_for
@@ -524,3 +527,20 @@ def test_motion_wait_honours_timeout_and_cancel(controller):
     threading.Timer(0.05, cancel.set).start()
     assert move.wait(timeout=5, cancel=cancel) is False and not move.done
     assert move.wait(timeout=5) and move.succeeded
+
+
+def test_joint_positions_history_gives_the_measured_joints_of_earlier_cycles(stepped):
+    """URScript get_actual_joint_positions_history(steps) (ur_rtde's getActualJointPositionsHistory): the joints
+    `steps` control cycles ago, read from the cycles the controller ran; a catch-up cycle counts its periods."""
+    history = BUILTINS["get_actual_joint_positions_history"]
+    script = types.SimpleNamespace(controller=stepped)  # what the built-in reads of its thread's context
+    stepped.speedj([0.5, -0.2, 0.0, 0.0, 0.3, 0.0], 4.0)
+    seen = [stepped.step().actual_q for _ in range(40)]
+    for steps in (0, 1, 7, 39):
+        assert history(script, steps) == list(seen[-1 - steps])
+    before = stepped.state().actual_q
+    after = stepped.step(periods=3).actual_q
+    assert [history(script, k) for k in range(4)] == [list(after)] * 3 + [list(before)]
+    for bad in (1.5, -1, JOINT_HISTORY_CYCLES):
+        with pytest.raises(ScriptError, match="steps must be a whole number from 0"):
+            history(script, bad)

@@ -64,7 +64,7 @@ def _unsupported(name):
 
 UNSUPPORTED = (
     "servoc",
-    "get_actual_joint_positions_history", "direct_torque", "get_mass_matrix", "get_coriolis_and_centrifugal_torques",
+    "direct_torque", "get_mass_matrix", "get_coriolis_and_centrifugal_torques",
     "get_jacobian_time_derivative", "teach_mode_set_params", "set_analog_inputrange",
 )
 for _name in UNSUPPORTED:

@@ -10,7 +10,7 @@ from typing import Any
 from sim_ursim.urscript.builtins.arguments import as_number, as_pose_array, controller_call, to_list, to_pose
 from sim_ursim.urscript.builtins.registry import builtin, register
 from sim_ursim.urscript.interpreter import ThreadContext
-from sim_ursim.urscript.values import number_list
+from sim_ursim.urscript.values import ScriptError, number_list
 
 
 @builtin
@@ -86,6 +86,18 @@ def _state_getter(name: str, field: str, convert: Callable[[Any], Any], doc: str
 
 for _row in _STATE_GETTERS:
     register(_row[0], _state_getter(*_row))
+
+
+@builtin
+def get_actual_joint_positions_history(ctx: ThreadContext, steps=0):
+    """Measured joints [rad] `steps` control cycles ago (0: as get_actual_joint_positions); the simulator keeps the
+    last controller.JOINT_HISTORY_CYCLES (a cycle that caught up after a stall counts its missed periods)."""
+    count = as_number(steps, "steps")
+    history = ctx.controller.joint_history
+    if count != int(count) or not 0 <= count < len(history):
+        raise ScriptError(f"runtime_error:get_actual_joint_positions_history: steps must be a whole number from 0 "
+                          f"to {len(history) - 1}, got {count:g}:")
+    return to_list(history[-1 - int(count)])
 
 
 @builtin
