@@ -337,6 +337,11 @@ class Execution:
         self.eval(ctx, node.expr)
 
     def _exec_assign(self, ctx, node):
+        if node.name == "digital_out" and len(node.indices) == 1 and not self._bound(ctx, node.name):
+            # The legacy I/O variable (urx's set_digital_out writes `digital_out[n]=b`): set as set_digital_out(n, b).
+            self._eval_call(ctx, nodes.Call("set_digital_out", (node.indices[0], node.value), (), line=node.line,
+                                            column=node.column))
+            return
         value = copy_value(self.eval(ctx, node.value))
         if not node.indices:
             self._store(ctx, node.name, value)
@@ -437,6 +442,10 @@ class Execution:
         if name in BUILTIN_CONSTANTS:
             return BUILTIN_CONSTANTS[name]
         raise URScriptRuntimeError(node.line, node.column, f"runtime_error_name_not_found:{name}:")
+
+    def _bound(self, ctx, name):
+        """Whether `name` is a variable of the running function's frame or a global."""
+        return bool(ctx.frames and name in ctx.frames[-1]) or name in self.globals
 
     def _store(self, ctx, name, value):
         if ctx.frames:

@@ -524,6 +524,14 @@ d = get_digital_out(3)
     assert controller.io.configurable_digital_outputs & 0b10
 
 
+def test_legacy_digital_out_variable_sets_the_output_unless_the_program_has_its_own(controller):
+    """`digital_out[n]=b` (urx's set_digital_out) sets output n; a program's own `digital_out` list stays a list."""
+    outcome = run(controller, "digital_out[4]=True\na = get_digital_out(4)\n")
+    assert outcome.error is None and outcome.globals["a"] is True
+    outcome = run(controller, "digital_out = [0, 0]\ndigital_out[1] = 7\nb = get_digital_out(1)\n")
+    assert outcome.error is None and outcome.globals["digital_out"] == [0, 7] and outcome.globals["b"] is False
+
+
 def test_set_tcp_changes_forward_kinematics(controller):
     source = """flange = get_forward_kin()
 set_tcp(p[0, 0, 0.1, 0, 0, 0])

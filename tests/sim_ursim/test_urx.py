@@ -142,3 +142,12 @@ def test_realtime_monitor_reads_joints_and_pose(sim_3_15, connect):
     assert list(monitor.q_target()) == pytest.approx(list(state.target_q), abs=1e-12)
     # urx's tcf_pose reads the realtime "tool vector target" field (doubles 73..78).
     assert list(monitor.tcf_pose()) == pytest.approx(list(state.target_tcp_pose), abs=1e-12)
+
+
+def test_set_digital_out_sets_the_output_through_the_legacy_variable(sim_3_15, connect):
+    """urx's set_digital_out sends `digital_out[n]=True`, the legacy I/O variable: the output goes on, then off."""
+    robot = connect(sim_3_15.host)
+    robot.set_digital_out(2, True)
+    assert wait_for(lambda: sim_3_15.controller.state().standard_digital_output_bits & 0b100, timeout=5)
+    robot.set_digital_out(2, False)
+    assert wait_for(lambda: not sim_3_15.controller.state().standard_digital_output_bits & 0b100, timeout=5)
