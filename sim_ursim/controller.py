@@ -10,15 +10,10 @@ One way to change state: every command and setter changes the controller's field
 So a command's effect is in `state()` as soon as the command returns; the next control cycle carries it on.
 I/O writes (`controller.io`) commit the same way through IOState's change hook.
 
-Modelling choices (documented where the real controller's rule is not public):
-- Command-time problems raise: `CommandRefused` (not RUNNING/NORMAL, freedrive on, target outside joint limits,
-  unreachable pose) or ValueError (malformed arguments). Run-time problems end the Motion with `.error` set;
-  a motion crossing a joint limit or a joint speed limit while running raises a protective stop (motion_queue.py).
-- Modes and their delays: modes.py. Blending (r > 0): motion_queue.py.
-- Speed slider: planned trajectories (movej, movel) and speed commands advance by dt × slider × speed_scaling;
-  stops use real time. Pausing the program ramps speed_scaling to 0 in PAUSE_RAMP_TIME (the arm halts on its path)
-  and resuming ramps it back to 1, so a paused move continues where it stopped.
-- Protective stop: decelerate at `PROTECTIVE_STOP_DECELERATION`; emergency stop: the arm halts at once.
+Command-time problems raise `CommandRefused` (not RUNNING/NORMAL, freedrive on, a target outside the joint limits,
+an unreachable pose) or ValueError (malformed arguments); run-time problems end the Motion with `.error` set, and a
+motion crossing a joint or joint-speed limit raises a protective stop (motion_queue.py). Modes and their delays:
+modes.py. The other modelling choices (speed slider and pause ramp, stops, blends) are in docs/ursim.md.
 """
 import logging
 import math
