@@ -352,8 +352,8 @@ def test_bad_input_is_a_clear_error(build, error, words):
 @given(name=st.sampled_from(MODEL_NAMES),
        q=st.tuples(*(st.floats(-7.0, 7.0, allow_nan=False),) * 6))
 def test_flange_rotation_position_is_flange_coefficients_without_the_dual_part(name, q):
-    # The IK's FK filter compares ur_fk.flange_rotation_position, a copy of flange_coefficients' statements (fk
-    # keeps its own for speed): the same rotation floats, and the half position whose ½p·r is the dual part.
+    # The IK's FK filter compares ur_fk.flange_rotation_position, the rotation and half position fk completes
+    # with its dual part: the same rotation floats, and the half position whose ½p·r is the dual part.
     from ur3dq.kinematics import ur_fk
     half = tuple(0.5 * float(v) for v in (*robot_model(name).dh.d[:1], *robot_model(name).dh.a[1:3],
                                           *robot_model(name).dh.d[3:6]))

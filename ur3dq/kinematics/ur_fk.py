@@ -50,36 +50,7 @@ def flange_coefficients(d1, a2, a3, d4, d5, d6, q1, q2, q3, q4, q5, q6) -> tuple
     p = (c1 ρ + s1 δ, s1 ρ − c1 δ, d1 + a2 s2 + a3 s23 − d5 c234 − d6 s5 s234),
     ρ = a2 c2 + a3 c23 + d5 s234 − d6 s5 c234, δ = d4 + d6 c5. Half lengths give ½p directly for the dual ½·p·r.
     """
-    q23 = q2 + q3
-    q234 = q23 + q4
-    sin, cos = math.sin, math.cos
-    half1, half234, half_p, half_m = 0.5 * q1, 0.5 * q234, 0.5 * (q5 + q6), 0.5 * (q5 - q6)
-    s1, c1 = sin(half1), cos(half1)
-    sb, cb = sin(half234), cos(half234)
-    sp, cp = sin(half_p), cos(half_p)
-    sm, cm = sin(half_m), cos(half_m)
-    sin2, cos2 = sin(q2), cos(q2)
-    sin23, cos23 = sin(q23), cos(q23)
-    x = cb * cm - sb * sp
-    y = cb * sm - sb * cp
-    z = cb * cp + sb * sm
-    w = cb * sp + sb * cm
-    k = 0.7071067811865476
-    kc1, ks1 = k * c1, k * s1
-    rw = kc1 * x + ks1 * y
-    rx = kc1 * z + ks1 * w
-    ry = ks1 * z - kc1 * w
-    rz = ks1 * x - kc1 * y
-    # Full angles from the half angles already at hand (double-angle and angle-sum formulas).
-    cos1, sin1 = c1 * c1 - s1 * s1, 2.0 * s1 * c1
-    cos234, sin234 = cb * cb - sb * sb, 2.0 * sb * cb
-    cos5, sin5 = cp * cm - sp * sm, sp * cm + cp * sm
-    d6_sin5 = d6 * sin5
-    reach = a2 * cos2 + a3 * cos23 + d5 * sin234 - d6_sin5 * cos234
-    offset = d4 + d6 * cos5
-    px = cos1 * reach + sin1 * offset
-    py = sin1 * reach - cos1 * offset
-    pz = d1 + a2 * sin2 + a3 * sin23 - d5 * cos234 - d6_sin5 * sin234
+    rw, rx, ry, rz, px, py, pz = flange_rotation_position(d1, a2, a3, d4, d5, d6, q1, q2, q3, q4, q5, q6)
     # Dual part (0, p/2)·r.
     return (
         rw, rx, ry, rz,
@@ -92,11 +63,8 @@ def flange_coefficients(d1, a2, a3, d4, d5, d6, q1, q2, q3, q4, q5, q6) -> tuple
 
 def flange_rotation_position(d1, a2, a3, d4, d5, d6, q1, q2, q3, q4, q5, q6) -> tuple:
     """(rw, rx, ry, rz, ½px, ½py, ½pz): the flange rotation and half position of :func:`flange_coefficients` (same
-    arguments: HALF the DH lengths, q floats), without the dual part: what the IK's FK filter compares.
-
-    A copy of flange_coefficients' statements up to its dual part (one call more there would cost fk 8 %);
-    tests/kinematics/test_models.py checks the two give the same floats.
-    """
+    arguments and closed form: HALF the DH lengths, q floats), without the dual part: what the IK's FK filter
+    compares, and what flange_coefficients completes with the dual part."""
     q23 = q2 + q3
     q234 = q23 + q4
     sin, cos = math.sin, math.cos
