@@ -88,6 +88,19 @@ def _theta1_pair(ops, g: _Geometry, x5, y5):
     return base + offset, base - offset
 
 
+def _theta1_floats(g: _Geometry, qw, qx, qy, qz, px, py):
+    """The θ1 pair of _theta1_pair for one pose's floats (rotation qw…qz, position px, py), or None where no θ1
+    exists: written out off the shoulder circle (single-pose hot path), the general clamp on and inside it."""
+    x5, y5 = _wrist_centre(g, qw, qx, qy, qz, px, py)
+    d4 = g.d4
+    reach = x5 * x5 + y5 * y5 - d4 * d4
+    if reach > g.domain_edge * d4 * d4:
+        base, offset = math.atan2(x5, -y5), math.atan2(math.sqrt(reach), d4)
+        return base + offset, base - offset
+    theta1_pair = _theta1_pair(_ScalarOps, g, x5, y5)   # clamped within the domain slack, NaN beyond
+    return None if theta1_pair[0] != theta1_pair[0] else theta1_pair
+
+
 def _reduced_rotation(ops, theta1, qw, qx, qy, qz):
     """(cos θ1, sin θ1, (w', x', y', z')): r' = Rx(−π/2)·Rz(−θ1)·r, what wrist joints 2…6 must produce."""
     ch, sh = ops.cos(0.5 * theta1), -ops.sin(0.5 * theta1)

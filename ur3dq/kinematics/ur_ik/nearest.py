@@ -9,9 +9,8 @@ from ur3dq.errors import UnreachablePoseError
 from ur3dq.kinematics.ur_ik.equations import (
     _ScalarOps,
     _elbow_for_wrist,
-    _theta1_pair,
+    _theta1_floats,
     _wrap_float,
-    _wrist_centre,
     _wrist_pair,
 )
 from ur3dq.kinematics.ur_ik.fk_filter import _fk_check, _meets, _reference, _targets
@@ -98,20 +97,14 @@ def _nearest_branch(g: _Geometry, target, reference, weights):
     functions, so every special case behaves exactly as in _branches (ik_all).
     """
     qw, qx, qy, qz, px, py, pz = target
-    d1, a2, a3, d4, d5, d6 = g.d1, g.a2, g.a3, g.d4, g.d5, g.d6
+    d1, a2, a3, d5, d6 = g.d1, g.a2, g.a3, g.d5, g.d6
     lower, upper = g.lower, g.upper
     ref1, ref2, ref3, ref4, ref5, ref6 = reference
     weight1, weight2, weight3, weight4, weight5, weight6 = weights
     cos, sin, atan2, sqrt = math.cos, math.sin, math.atan2, math.sqrt
-    x5, y5 = _wrist_centre(g, qw, qx, qy, qz, px, py)
-    reach = x5 * x5 + y5 * y5 - d4 * d4
-    if reach > g.domain_edge * d4 * d4:
-        base, offset = atan2(x5, -y5), atan2(sqrt(reach), d4)
-        theta1_pair = (base + offset, base - offset)
-    else:   # on or inside the shoulder circle: clamped within the domain slack, NaN beyond
-        theta1_pair = _theta1_pair(_ScalarOps, g, x5, y5)
-        if theta1_pair[0] != theta1_pair[0]:   # NaN: the wrist centre is too close to the base axis
-            return None
+    theta1_pair = _theta1_floats(g, qw, qx, qy, qz, px, py)
+    if theta1_pair is None:   # the wrist centre is too close to the base axis
+        return None
     shoulders = []
     for theta1 in theta1_pair:
         variant1 = _closest_variant(theta1, ref1, lower[0], upper[0])

@@ -14,6 +14,7 @@ from ur3dq.kinematics.ur_ik.equations import (
     _planar_arm,
     _reduced_rotation,
     _shoulder_elbow_pair,
+    _theta1_floats,
     _theta1_pair,
     _wrap_float,
     _wrist_centre,
@@ -85,17 +86,11 @@ def _nominal_branches(g: _Geometry, target, theta6_ref: float) -> list:
     functions, so every special case behaves as in _branches. Cross-checked by tests/kinematics/test_ur_ik.py.
     """
     qw, qx, qy, qz, px, py, pz = target
-    d1, a2, a3, d4, d5, d6 = g.d1, g.a2, g.a3, g.d4, g.d5, g.d6
+    d1, a2, a3, d5, d6 = g.d1, g.a2, g.a3, g.d5, g.d6
     cos, sin, atan2, sqrt = math.cos, math.sin, math.atan2, math.sqrt
-    x5, y5 = _wrist_centre(g, qw, qx, qy, qz, px, py)
-    reach = x5 * x5 + y5 * y5 - d4 * d4
-    if reach > g.domain_edge * d4 * d4:
-        base, offset = atan2(x5, -y5), atan2(sqrt(reach), d4)
-        theta1_pair = (base + offset, base - offset)
-    else:   # on or inside the shoulder circle: clamped within the domain slack, NaN beyond
-        theta1_pair = _theta1_pair(_ScalarOps, g, x5, y5)
-        if theta1_pair[0] != theta1_pair[0]:
-            return [(math.nan,) * 6] * 8
+    theta1_pair = _theta1_floats(g, qw, qx, qy, qz, px, py)
+    if theta1_pair is None:
+        return [(math.nan,) * 6] * 8
     low, high = g.domain_edge - 1.0, 1.0 - g.domain_edge
     elbow_scale, elbow_offset = 2.0 * a2 * a3, a2 * a2
     branches = []
