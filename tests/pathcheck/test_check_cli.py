@@ -1,6 +1,7 @@
 """`ur3dq check` on a stored program, in real subprocesses: the margins table, the one-line refusal with exit 4,
 --json, the cell file from --cell and from UR3DQ_CELL, and bad cell files."""
 import json
+import math
 import os
 import subprocess
 import sys
@@ -117,14 +118,16 @@ def test_plot_draws_the_path_check_and_names_its_worst_sample(run, tmp_path):
 def test_with_a_robot_the_path_starts_at_the_arms_joints(run):
     from sim_ursim.launch import simulator_process
 
-    arm_at = [0.0, -1.3, 1.3, -1.5708, -1.5708, 0.0]
+    arm_at = [5.6, -1.3, 1.3, -1.5708, -1.5708, 0.0]   # the base 0.68 rad from its limit, unlike either pose
     with simulator_process(model="ur3", initial_q=arm_at) as simulator:
         result = run("--json", UR3DQ_HOST=simulator.host)
     assert result.returncode == 0, result.stderr
     assert "from the arm's joints" in result.stderr
     steps = json.loads(result.stdout)["steps"]
     assert [step["name"] for step in steps] == ["left", "right"]
-    assert steps[0]["samples"] > 2           # a real move from the arm's joints to the first pose, not a 0-length one
+    # a real move from the arm's joints to the first pose, not a 0-length one at the first pose
+    assert steps[0]["margins"]["joint_limit"] == pytest.approx(2 * math.pi - 5.6, abs=1e-4)
+    assert steps[1]["margins"]["joint_limit"] > 4
 
 
 def test_a_cell_program_is_checked_with_its_own_moves_by_run_poses_and_check(run, tmp_path):

@@ -1,8 +1,9 @@
 """The checks run at every sample of a sampled move, and the problems they report.
 
 Each check reduces to a per-sample margin (≥ 0 passes) so a step's smallest margins come out of the same arrays.
-Singularity and joint-speed checks apply to linear/process moves only: a joint move interpolates the joints, so it
-passes through a singular configuration harmlessly, and the controller scales its speed to the joints' limits.
+Branch, singularity and joint-speed checks apply to linear/process moves only: a joint move interpolates the
+joints, so it cannot change IK branch, passes through a singular configuration harmlessly, and the controller
+scales its speed to the joints' limits.
 """
 from __future__ import annotations
 
@@ -117,13 +118,9 @@ class StepChecker:
         m = self.margins
         out = {}
         steps = np.abs(np.diff(joints, axis=0))
-        if len(steps):
+        if len(steps) and segment.cartesian:   # a joint move interpolates the joints: it cannot change branch
             out["branch"] = (m.max_joint_step - steps.max(axis=1), np.argmax(steps, axis=1), steps.max(axis=1))
-        lower = self.model.joint_lower + m.joint_limit
-        upper = self.model.joint_upper - m.joint_limit
-        with np.errstate(invalid="ignore"):   # ±inf limits (UR3 wrist 3)
-            room = np.minimum(joints - lower, upper - joints)
-        out["joint_limit"] = (room.min(axis=1), np.argmin(room, axis=1), joints)
+        out["joint_limit"] = (*self.limit_room(joints), joints)
         frames = geometry.dh_frames(self.model, joints)
         if segment.cartesian:
             sin5, sin3 = np.abs(np.sin(joints[:, 4])), np.abs(np.sin(joints[:, 2]))
@@ -138,22 +135,49 @@ class StepChecker:
                 ratio = rate / self.model.max_joint_speed
                 out["joint_speed"] = (m.joint_speed - ratio.max(axis=1), np.argmax(ratio, axis=1),
                                       ratio.max(axis=1), rate)
-        a, b = geometry.capsule_points(frames, self.capsules)
-        radius = self.capsules.radius
-        if len(self.pair_a):
-            gap = geometry.segment_segment_distance(a[:, self.pair_a], b[:, self.pair_a], a[:, self.pair_b],
-                                                    b[:, self.pair_b]) - radius[self.pair_a] - radius[self.pair_b]
+        gap, flat = self._clearances(frames, float(extra.max(initial=0.0)))
+        if gap is not None:
             worst = np.argmin(gap, axis=1)
             clearance = gap[np.arange(len(gap)), worst]
             out["self_collision"] = (clearance - m.self_collision - extra, worst, clearance)
-        if self.obstacles:
-            clearance = self._cell_clearance(a[:, self.cell_capsules], b[:, self.cell_capsules],
-                                             radius[self.cell_capsules], float(extra.max(initial=0.0)))
-            flat = clearance.reshape(len(clearance), -1)
+        if flat is not None:
             worst = np.argmin(flat, axis=1)
             value = flat[np.arange(len(flat)), worst]
             out["cell"] = (value - self.cell_margin - extra, worst, value)
         return out
+
+    def limit_room(self, joints) -> tuple:
+        """(smallest room (n,) rad of joints (n, 6) from their limits less the joint_limit margin, which joint)."""
+        lower = self.model.joint_lower + self.margins.joint_limit
+        upper = self.model.joint_upper - self.margins.joint_limit
+        with np.errstate(invalid="ignore"):   # ±inf limits (UR3 wrist 3)
+            room = np.minimum(joints - lower, upper - joints)
+        return room.min(axis=1), np.argmin(room, axis=1)
+
+    def _clearances(self, frames, extra_max: float) -> tuple:
+        """(self gaps (n, P) m of the capsule pairs or None, cell clearances (n, cell capsules × obstacles) m or
+        None) at DH frames (n, 7, 4, 4); `extra_max`: the largest blend allowance (which pairs need exact
+        distances)."""
+        a, b = geometry.capsule_points(frames, self.capsules)
+        radius = self.capsules.radius
+        gap = flat = None
+        if len(self.pair_a):
+            gap = geometry.segment_segment_distance(a[:, self.pair_a], b[:, self.pair_a], a[:, self.pair_b],
+                                                    b[:, self.pair_b]) - radius[self.pair_a] - radius[self.pair_b]
+        if self.obstacles:
+            clearance = self._cell_clearance(a[:, self.cell_capsules], b[:, self.cell_capsules],
+                                             radius[self.cell_capsules], extra_max)
+            flat = clearance.reshape(len(clearance), -1)
+        return gap, flat
+
+    def clearance_margins(self, joints) -> tuple:
+        """(self-collision margins (n, P), cell margins (n, cell capsules × obstacles)) m at joints (n, 6): each
+        capsule pair's and each capsule/obstacle column's clearance minus its margin (≥ 0 passes); an absent
+        check gives (n, 0). A cell column may be a lower bound of its clearance (EXACT_RANGE)."""
+        gap, flat = self._clearances(geometry.dh_frames(self.model, joints), 0.0)
+        empty = np.zeros((len(joints), 0))
+        return (empty if gap is None else gap - self.margins.self_collision,
+                empty if flat is None else flat - self.cell_margin)
 
     def _cell_clearance(self, a, b, radius, extra_max) -> np.ndarray:
         columns = []

@@ -16,7 +16,7 @@ import numpy as np
 from ur3dq import dqarray
 from ur3dq.errors import UnreachablePoseError
 from ur3dq.kinematics import ur_ik
-from ur3dq.pathcheck import sampling
+from ur3dq.pathcheck import bounds, sampling
 from ur3dq.pathcheck.checks import Margins, Problem, StepChecker
 from ur3dq.pathcheck.path_plan import PathPlan
 
@@ -82,9 +82,14 @@ def check_path(model, plan: PathPlan, cell=None, margins: Margins | None = None,
                keep_samples: bool = True) -> PathCheckResult:
     """Check `plan` (a PathPlan) on `model` (a URModel with its TCP; a segment with its own `tcp_offset` runs with
     that one instead) in `cell` (a Cell, or None: no obstacles, no tool) with `margins` (defaults: Margins()).
-    `keep_samples=False` leaves each StepReport's samples out (fraction, joints, tcp are None; the margins and the
-    problems are the same): a 10⁵-move plan's samples take gigabytes, and only a drawing of the path needs them.
-    Never raises for a failed check: read `.ok` / `.problems`."""
+    `keep_samples=False` leaves each StepReport's samples out (fraction, joints, tcp are None; the problems are the
+    same): a 10⁵-move plan's samples take gigabytes, and only a drawing of the path needs them.
+    Never raises for a failed check: read `.ok` / `.problems`.
+
+    Without samples, joint moves between known joints are first checked by clearance bounds, all at once
+    (pathcheck.bounds): a move whose every point provably keeps its margins is not sampled densely, and its
+    StepReport gives the smallest margins at the samples the bounds needed. The problems are the same, and no
+    point of a certified move is more than margins.tcp_resolution below a check's smallest margin over the plan."""
     margins = margins or Margins()
     by_tcp = {}   # tcp_offset -> (model with that TCP, its StepChecker): built once per TCP the plan uses
 
@@ -96,11 +101,15 @@ def check_path(model, plan: PathPlan, cell=None, margins: Margins | None = None,
 
     q = np.array(plan.start_joints)
     problems, unchecked, steps = [], [], []
+    certified = {} if keep_samples else _certified_moves(plan, arm_for)
     # Moves are checked one behind the sampling: a move's blend zones need its neighbours' samples, and no
     # other move's (the window holds at most three, so memory does not grow with the plan).
     window = {}   # index -> (segment, SampledMove, tcp (n, 3)) or None (not sampled)
     for index, segment in enumerate(plan.segments):
-        if q is None:
+        if index in certified:
+            window[index] = certified[index]
+            q = segment.target_joints
+        elif q is None:
             unchecked.append(segment.name)
             window[index] = None
         else:
@@ -124,8 +133,12 @@ def check_path(model, plan: PathPlan, cell=None, margins: Margins | None = None,
 
 
 def _check_move(plan, window, index, arm_for, problems, steps, keep_samples) -> None:
-    """Run every check on the samples of move `index` (window[index]); add its problems and its StepReport."""
+    """Run every check on the samples of move `index` (window[index]); add its problems and its StepReport (a
+    StepReport the bounds made is added as it is)."""
     if window[index] is None:
+        return
+    if isinstance(window[index], StepReport):
+        steps.append(window[index])
         return
     segment, move, tcp = window[index]
     extra, blend_problem = _blend_allowance(plan, window, index)
@@ -214,3 +227,36 @@ def _blend_allowance(plan, window, index):
     if previous is not None and previous.blend > 0 and len(tcp) and window.get(index - 1) is not None:
         extra = np.maximum(extra, np.where(np.linalg.norm(tcp - tcp[0], axis=1) < previous.blend, previous.blend, 0))
     return extra, problem
+
+
+def _certified_moves(plan, arm_for) -> dict:
+    """{move index: StepReport from its bounds} of the joint moves the bounds certify (pathcheck.bounds), per TCP.
+    Candidates: joint moves to known joints from known joints (the start, or a joint move's target before them),
+    outside blend zones (whose allowance needs the neighbours' samples)."""
+    candidates = {}   # tcp_offset -> [(index, start joints)]
+    for index, segment in enumerate(plan.segments):
+        previous = plan.segments[index - 1] if index else None
+        if segment.move != "joint" or segment.target_joints is None or segment.blend > 0:
+            continue
+        if previous is None:
+            start = plan.start_joints
+        elif previous.move == "joint" and previous.target_joints is not None and previous.blend == 0:
+            start = previous.target_joints
+        else:
+            continue
+        candidates.setdefault(segment.tcp_offset, []).append((index, start))
+    certified = {}
+    for moves in candidates.values():
+        segments = [plan.segments[index] for index, _ in moves]
+        checker = arm_for(segments[0])[1]
+        result = bounds.certify_joint_moves(checker, np.array([start for _, start in moves]),
+                                            np.array([segment.target_joints for segment in segments]))
+        for k in np.flatnonzero(result.certified):
+            index, segment = moves[k][0], segments[k]
+            report = StepReport(segment.name, segment.move, None, None, None,
+                                {check: float(values[k]) for check, values in result.margins.items()},
+                                {check: int(values[k]) for check, values in result.worst.items()},
+                                segment.target_joints, int(result.samples[k]))
+            certified[index] = report
+    return certified
+

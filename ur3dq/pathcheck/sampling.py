@@ -62,6 +62,7 @@ def sample_joint_move(model, q0, q1, tcp_resolution: float, joint_resolution: fl
 def _joint_samples(model, q0, q1, count: int) -> tuple:
     fraction = np.linspace(0.0, 1.0, count + 1)
     joints = q0 + (q1 - q0) * fraction[:, None]
+    joints[-1] = q1   # q0 + (q1 − q0)·1 may miss q1 by a rounding step; the move ends on its target
     return fraction, joints, np.ascontiguousarray(model.fk_batch(joints))
 
 

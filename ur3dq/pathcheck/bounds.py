@@ -1,0 +1,207 @@
+"""Joint moves certified by clearance bounds, all moves at once: dense sampling only where no bound shows that a
+move keeps its margins.
+
+A joint move runs q(s) = q0 + s·Δq, s ∈ [0, 1]. Turning joint k by dθ moves a point at distance ρ from the joint's
+axis by at most ρ·|dθ|, and a capsule fixed in DH frame f moves with joints 1…f. So along a move:
+* the distance between two capsules in frames f ≤ g changes with joints f+1…g only (frame f sees the first
+  capsule still and the second moved by those alone): by at most L = Σ_{k=f+1..g} |Δq_k|·ρ_k per unit of s, ρ_k
+  bounding the distance of the frame-g capsule's points from joint k's axis;
+* a capsule's distance to a fixed obstacle (a box, the floor, a keep-in wall) changes by at most Σ_{k≤f} |Δq_k|·ρ_k.
+ρ_k holds in every configuration: the translations of links k…f, Σ √(a_i² + d_i²) (a link moves its origin by
+a_i·x_i + d_i·z_{i−1}, and x_i ⊥ z_{i−1}) less link k's d_k, which runs along joint k's own axis, plus the capsule
+end point's distance from its frame's origin.
+
+A margin m(s) with Lipschitz constant L·w on an interval of length w, and lower bounds m0, m1 of it at the two
+ends, keeps min m ≥ (m0 + m1 − L·w)/2 there. An interval whose bound is under its target is halved, for every move
+at once, up to MAX_DEPTH times; a move left with such an interval, or with a sample that fails, is not certified,
+and the caller samples it densely as before (sampling.sample_joint_move). A certified move passes at every point,
+so its dense samples would too: the check's verdicts and problems are the dense check's.
+
+The target of a column is 0 (its margin holds) or, when higher, the smallest margin of its check sampled so far in
+the batch: an interval that might hold the plan's smallest margin is refined too, so that the caller can report
+that margin from dense samples (path_check._refine_smallest).
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+#: Halvings of a move before it is sampled densely (64 intervals; a dense joint move has ~20–100 samples).
+MAX_DEPTH = 6
+#: Configurations evaluated per call of the clearance kernels, and moves bisected together: bounds the temporary
+#: arrays (a configuration's take ~2 kB; a move's intervals up to 2^MAX_DEPTH × ~0.5 kB).
+_CHUNK = 2048
+_BLOCK = 2048
+
+
+@dataclasses.dataclass(frozen=True)
+class Certification:
+    """The bound check of M joint moves. certified (M,) bool: every point of the move keeps every margin (and the
+    move need not be sampled densely); lower {check: (M,)} a lower bound of the move's smallest margin over the
+    whole move; margins {check: (M,)} the smallest margin at the move's evaluated samples; worst {check: (M,)}
+    the index of that sample among the move's samples in path order; samples (M,) how many were evaluated.
+    Checks: "joint_limit" (exact: joints move linearly, so the ends hold the smallest room), and
+    "self_collision" / "cell" where the checker has them."""
+
+    certified: np.ndarray
+    lower: dict
+    margins: dict
+    worst: dict
+    samples: np.ndarray
+
+
+def lever_arms(model, capsules) -> np.ndarray:
+    """(6, C) m: a bound, in every configuration, of the distance of capsule c's points from joint k + 1's axis;
+    0 where that joint does not move the capsule (k + 1 > the capsule's frame)."""
+    link = np.hypot(model.dh.a, model.dh.d)
+    reach = np.maximum(np.linalg.norm(capsules.a, axis=1), np.linalg.norm(capsules.b, axis=1))
+    levers = np.zeros((6, len(reach)))
+    for k in range(6):
+        # Link k + 1's own d runs along joint k + 1's axis: only its a moves points away from that axis.
+        chain = np.array([abs(model.dh.a[k]) + link[k + 1:frame].sum() for frame in capsules.frame])
+        levers[k] = np.where(capsules.frame >= k + 1, chain + reach, 0.0)
+    return levers
+
+
+def column_rates(checker, levers: np.ndarray) -> np.ndarray:
+    """(K, 6) m/rad: how fast each clearance column of checker.clearance_margins can change per radian of each
+    joint (self-collision pairs, then cell capsule × obstacle columns)."""
+    frame = checker.capsules.frame
+    rows = []
+    for i, j in zip(checker.pair_a, checker.pair_b):
+        low, high = (i, j) if frame[i] <= frame[j] else (j, i)
+        row = levers[:, high].copy()
+        row[:frame[low]] = 0.0   # joints 1…f turn both capsules together
+        if frame[low] < 6 and _on_axis(checker.capsules, low):
+            row[frame[low]] = 0.0   # a capsule on joint f + 1's axis is symmetric about it: the base, the shoulder
+        rows.append(row)
+    rows.extend(levers[:, c] for c in checker.cell_capsules for _ in checker.obstacles)
+    return np.array(rows, dtype=float).reshape(-1, 6)
+
+
+def _on_axis(capsules, c: int) -> bool:
+    """True when capsule c's segment lies on the z axis of its frame (the axis of the next joint)."""
+    return not (np.any(capsules.a[c, :2]) or np.any(capsules.b[c, :2]))
+
+
+def certify_joint_moves(checker, q0: np.ndarray, q1: np.ndarray) -> Certification:
+    """Certify the joint moves q0 → q1 ((M, 6) rad each) on `checker` (a checks.StepChecker: model, capsules,
+    cell, margins). See the module docstring."""
+    count = len(q0)
+    delta = q1 - q0
+    rates = np.abs(delta) @ column_rates(checker, lever_arms(checker.model, checker.capsules)).T   # (M, K)
+    groups = _groups(checker)
+    limit_margin, limit_worst = _joint_limit(checker, q0, q1)
+    ends = _evaluate(checker, q1)
+    starts = _start_margins(checker, q0, q1, ends)
+    failed = (starts < 0).any(axis=1) | (ends < 0).any(axis=1) | (limit_margin < 0)
+    records = _Records(groups, checker.margins.tcp_resolution)
+    records.add(np.arange(count), np.zeros(count), starts)
+    records.add(np.arange(count), np.ones(count), ends)
+    lower = np.full(rates.shape, np.inf)
+    pending = np.zeros(count, dtype=bool)
+    # A block of moves at a time: a move's intervals double at each depth, and so would the arrays of all moves.
+    for first in range(0, count, _BLOCK):
+        moves = np.arange(first, min(first + _BLOCK, count))
+        _bisect(checker, q0, delta, rates, moves, starts[moves], ends[moves], records, failed, lower, pending)
+    margins, worst, samples = records.per_move(count)
+    margins["joint_limit"], worst["joint_limit"] = limit_margin, np.where(limit_worst, samples - 1, 0)
+    lowers = {name: lower[:, columns].min(axis=1, initial=np.inf) for name, columns in groups.items()}
+    lowers["joint_limit"] = limit_margin
+    return Certification(~failed & ~pending, lowers, margins, worst, samples)
+
+
+def _bisect(checker, q0, delta, rates, move, m0, m1, records, failed, lower, pending) -> None:
+    """Halve the intervals of the moves `move` (K,) whose margins at start and end are m0, m1 (K, columns) while
+    their bound is below the records' targets; mark in place: failed (a sample below 0), pending (an interval
+    still open at MAX_DEPTH) and lower (each move's smallest bound per column over its final intervals)."""
+    s0, s1 = np.zeros(len(move)), np.ones(len(move))
+    for depth in range(MAX_DEPTH + 1):
+        bound = 0.5 * (m0 + m1 - rates[move] * (s1 - s0)[:, None])
+        open_ = ~np.all(bound >= records.targets(), axis=1) & ~failed[move]
+        np.minimum.at(lower, move[~open_], bound[~open_])
+        if depth == MAX_DEPTH or not open_.any():
+            pending[move[open_]] = True
+            return
+        move, s0, s1, m0, m1 = move[open_], s0[open_], s1[open_], m0[open_], m1[open_]
+        middle = 0.5 * (s0 + s1)
+        values = _evaluate(checker, q0[move] + middle[:, None] * delta[move])
+        failed[move[(values < 0).any(axis=1)]] = True
+        records.add(move, middle, values)
+        move, s0, s1 = np.concatenate((move, move)), np.concatenate((s0, middle)), np.concatenate((middle, s1))
+        m0, m1 = np.concatenate((m0, values)), np.concatenate((values, m1))
+
+
+def _groups(checker) -> dict:
+    """{check: column slice} of checker.clearance_margins' columns, for the checks the checker has."""
+    pairs = len(checker.pair_a)
+    cells = len(checker.cell_capsules) * len(checker.obstacles)
+    named = {"self_collision": slice(0, pairs), "cell": slice(pairs, pairs + cells)}
+    return {name: columns for name, columns in named.items() if columns.stop > columns.start}
+
+
+def _evaluate(checker, joints: np.ndarray) -> np.ndarray:
+    """(n, K) clearance margins of joints (n, 6), n ≥ 1, computed in chunks."""
+    return np.vstack([np.hstack(checker.clearance_margins(joints[i:i + _CHUNK]))
+                      for i in range(0, len(joints), _CHUNK)])
+
+
+def _start_margins(checker, q0, q1, ends) -> np.ndarray:
+    """(M, K) margins at the moves' starts: a move that starts where the one before it ended shares its values."""
+    starts = np.empty_like(ends)
+    shared = np.zeros(len(q0), dtype=bool)
+    shared[1:] = np.all(q0[1:] == q1[:-1], axis=1)
+    starts[shared] = ends[np.flatnonzero(shared) - 1]
+    if not shared.all():
+        starts[~shared] = _evaluate(checker, q0[~shared])
+    return starts
+
+
+def _joint_limit(checker, q0, q1) -> tuple:
+    """(smallest room (M,) rad of the move from its joint limits, True where the end has it rather than the start).
+    Joints move linearly, so a move's ends hold its smallest room."""
+    room0, room1 = checker.limit_room(q0)[0], checker.limit_room(q1)[0]
+    return np.minimum(room0, room1), room1 < room0
+
+
+class _Records:
+    """The samples evaluated so far: their move, path fraction and smallest margin per check; and the smallest
+    margin per check over all of them (the bisection's targets)."""
+
+    def __init__(self, groups: dict, tolerance: float):
+        self.groups, self.tolerance = groups, tolerance
+        self.moves, self.fractions, self.values = [], [], []
+        self.smallest = dict.fromkeys(groups, np.inf)
+
+    def add(self, move: np.ndarray, fraction: np.ndarray, values: np.ndarray) -> None:
+        per_check = np.stack([values[:, columns].min(axis=1) for columns in self.groups.values()], axis=1) \
+            if self.groups else np.zeros((len(move), 0))
+        self.moves.append(move)
+        self.fractions.append(fraction)
+        self.values.append(per_check)
+        for k, name in enumerate(self.groups):
+            if len(move):
+                self.smallest[name] = min(self.smallest[name], float(per_check[:, k].min()))
+
+    def targets(self) -> np.ndarray:
+        """(K,) what each column's bound must reach: 0, or its check's smallest sampled margin when higher."""
+        columns = [np.full(c.stop - c.start, max(0.0, self.smallest[name] - self.tolerance))
+                   for name, c in self.groups.items()]
+        return np.concatenate(columns) if columns else np.zeros(0)
+
+    def per_move(self, count: int) -> tuple:
+        """({check: (M,) smallest sampled margin}, {check: (M,) its sample's index in path order}, samples (M,))."""
+        move, fraction = np.concatenate(self.moves), np.concatenate(self.fractions)
+        values = np.concatenate(self.values)
+        order = np.lexsort((fraction, move))
+        samples = np.bincount(move, minlength=count)
+        first = np.concatenate(([0], np.cumsum(samples)[:-1]))
+        position = np.empty(len(order), dtype=int)
+        position[order] = np.arange(len(order))
+        margins, worst = {}, {}
+        for k, name in enumerate(self.groups):
+            smallest = np.lexsort((values[:, k], move))[first]   # each move's record with its smallest margin
+            margins[name] = values[smallest, k]
+            worst[name] = position[smallest] - first
+        return margins, worst, samples
