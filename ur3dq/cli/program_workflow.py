@@ -144,7 +144,7 @@ def plan_rows(plan, first: int):
             continue
         unit = "rad/s" if planned.move == "joint" else "m/s"
         rows.append((str(first + offset), step.name, planned.move,
-                     " ".join(f"{q:.3f}" for q in planned.joints), f"{planned.speed:.3g} {unit}",
+                     " ".join(f"{q:.3f}" for q in planned.joints.tolist()), f"{planned.speed:.3g} {unit}",
                      f"{planned.blend:.3g}", "—" if planned.travel is None else f"{planned.travel:.3f}",
                      "—" if planned.duration is None else f"{planned.duration:.2f} s"))
     return rows

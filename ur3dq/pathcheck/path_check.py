@@ -251,12 +251,14 @@ def _certified_moves(plan, arm_for) -> dict:
         checker = arm_for(segments[0])[1]
         result = bounds.certify_joint_moves(checker, np.array([start for _, start in moves]),
                                             np.array([segment.target_joints for segment in segments]))
-        for k in np.flatnonzero(result.certified):
-            index, segment = moves[k][0], segments[k]
-            report = StepReport(segment.name, segment.move, None, None, None,
-                                {check: float(values[k]) for check, values in result.margins.items()},
-                                {check: int(values[k]) for check, values in result.worst.items()},
-                                segment.target_joints, int(result.samples[k]))
-            certified[index] = report
+        # rows of Python floats first: a float() of a numpy element costs more than the rest of a report
+        margins = zip(*(values.tolist() for values in result.margins.values()))
+        worst = zip(*(values.tolist() for values in result.worst.values()))
+        for (index, _), segment, ok, margin, sample, samples in zip(moves, segments, result.certified.tolist(),
+                                                                    margins, worst, result.samples.tolist()):
+            if ok:
+                certified[index] = StepReport(segment.name, segment.move, None, None, None,
+                                              dict(zip(result.margins, margin)), dict(zip(result.worst, sample)),
+                                              segment.target_joints, samples)
     return certified
 

@@ -62,8 +62,7 @@ class PathSegment:
         object.__setattr__(self, "target_joints", joints)
         object.__setattr__(self, "target_pose", pose)
         if self.tcp_offset is not None:
-            object.__setattr__(self, "tcp_offset", tuple(map(float, _finite_vector(self.tcp_offset, 6, self.name,
-                                                                                   "tcp_offset"))))
+            object.__setattr__(self, "tcp_offset", _finite_tuple(self.tcp_offset, 6, self.name, "tcp_offset"))
 
     @property
     def cartesian(self) -> bool:
@@ -93,7 +92,20 @@ def _finite_vector(value, size: int, name: str, what: str) -> np.ndarray:
     array = np.array(value, dtype=float)
     if array.shape != (size,):
         raise ValueError(f"segment {name!r}: {what} must have {size} numbers, got shape {array.shape}")
-    if not np.all(np.isfinite(array)):
+    if not np.isfinite(array).all():
         raise ValueError(f"segment {name!r}: {what} contain NaN or infinite values")
     array.flags.writeable = False
     return array
+
+
+def _finite_tuple(value, size: int, name: str, what: str) -> tuple:
+    """`value` as a tuple of `size` finite floats (a hashable key: plans group their moves by TCP)."""
+    try:
+        numbers = tuple(float(v) for v in value)
+    except (TypeError, ValueError):
+        numbers = ()
+    if len(numbers) != size:
+        raise ValueError(f"segment {name!r}: {what} must be {size} numbers, got {value!r}")
+    if not all(map(math.isfinite, numbers)):
+        raise ValueError(f"segment {name!r}: {what} contain NaN or infinite values")
+    return numbers

@@ -113,8 +113,8 @@ def _solve_hinted(model, targets, replay_recorded_joints: bool) -> dict:
         poses = np.array([targets[i].coefficients for i in indices])
         hints = np.array([targets[i].joints_hint for i in indices], dtype=float)
         joints = model.with_tcp(tcp_offset).ik_batch(poses, hints)
-        for i, q in zip(indices, joints):
-            if np.all(np.isfinite(q)):
+        for i, q, finite in zip(indices, joints, np.isfinite(joints).all(axis=1).tolist()):
+            if finite:
                 solved[i] = q
     return solved
 
@@ -163,6 +163,7 @@ def plan_program(model, steps, start_joints=None, defaults: Defaults = Defaults(
     paths = np.maximum(metres, radians)
     if start_joints is None:  # the first move's start is unknown
         travels, paths = np.concatenate([[np.nan], travels]), np.concatenate([[np.nan], paths])
+    travels, paths = travels.tolist(), paths.tolist()   # floats: the loop below reads one per step
     plan: list[PlannedStep] = []
     at = 0
     for index, step in enumerate(steps):
@@ -170,7 +171,7 @@ def plan_program(model, steps, start_joints=None, defaults: Defaults = Defaults(
             plan.append(PlannedStep(step))
             continue
         target, q, fk_error_m = targets[at], solved[at], fk_errors[at]
-        travel, path = float(travels[at]), float(paths[at])
+        travel, path = travels[at], paths[at]
         at += 1
         m = step.motion
         clamped: list[str] = []
