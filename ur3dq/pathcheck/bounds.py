@@ -99,34 +99,39 @@ def certify_joint_moves(checker, q0: np.ndarray, q1: np.ndarray) -> Certificatio
     records = _Records(groups, checker.margins.tcp_resolution)
     records.add(np.arange(count), np.zeros(count), starts)
     records.add(np.arange(count), np.ones(count), ends)
-    lower = np.full(rates.shape, np.inf)
     pending = np.zeros(count, dtype=bool)
     # A block of moves at a time: a move's intervals double at each depth, and so would the arrays of all moves.
     for first in range(0, count, _BLOCK):
         moves = np.arange(first, min(first + _BLOCK, count))
-        _bisect(checker, q0, delta, rates, moves, starts[moves], ends[moves], records, failed, lower, pending)
+        _bisect(checker, q0, delta, rates, moves, starts[moves], ends[moves], records, failed, pending)
     margins, worst, samples = records.per_move(count)
     margins["joint_limit"], worst["joint_limit"] = limit_margin, np.where(limit_worst, samples - 1, 0)
-    lowers = {name: lower[:, columns].min(axis=1, initial=np.inf) for name, columns in groups.items()}
+    lowers = records.lower_bounds(count)
     lowers["joint_limit"] = limit_margin
     return Certification(~failed & ~pending, lowers, margins, worst, samples)
 
 
-def _bisect(checker, q0, delta, rates, move, m0, m1, records, failed, lower, pending) -> None:
+def _bisect(checker, q0, delta, rates, move, m0, m1, records, failed, pending) -> None:
     """Halve the intervals of the moves `move` (K,) whose margins at start and end are m0, m1 (K, columns) while
     their bound is below the records' targets; mark in place: failed (a sample below 0), pending (an interval
-    still open at MAX_DEPTH) and lower (each move's smallest bound per column over its final intervals)."""
+    still open at MAX_DEPTH); the bounds of the final intervals go to `records`."""
     s0, s1 = np.zeros(len(move)), np.ones(len(move))
     for depth in range(MAX_DEPTH + 1):
         bound = 0.5 * (m0 + m1 - rates[move] * (s1 - s0)[:, None])
-        open_ = ~np.all(bound >= records.targets(), axis=1) & ~failed[move]
-        np.minimum.at(lower, move[~open_], bound[~open_])
+        short = bound < records.targets()
+        open_ = short.any(axis=1) & ~failed[move]
+        records.bound(move[~open_], bound[~open_])
         if depth == MAX_DEPTH or not open_.any():
             pending[move[open_]] = True
             return
-        move, s0, s1, m0, m1 = move[open_], s0[open_], s1[open_], m0[open_], m1[open_]
+        move, s0, s1, m0, m1, bound = move[open_], s0[open_], s1[open_], m0[open_], m1[open_], bound[open_]
+        # Only the columns some open interval is short on are evaluated at the middles (often one capsule pair of
+        # fifteen). Every other column's bound holds on the whole interval, so on both halves: it is kept in
+        # in the records now, and the halves carry +inf for it (never short again).
+        needed = short[open_].any(axis=0)
+        records.bound(move, np.where(needed, np.inf, bound))
         middle = 0.5 * (s0 + s1)
-        values = _evaluate(checker, q0[move] + middle[:, None] * delta[move])
+        values = _evaluate(checker, q0[move] + middle[:, None] * delta[move], np.flatnonzero(needed))
         failed[move[(values < 0).any(axis=1)]] = True
         records.add(move, middle, values)
         move, s0, s1 = np.concatenate((move, move)), np.concatenate((s0, middle)), np.concatenate((middle, s1))
@@ -141,10 +146,20 @@ def _groups(checker) -> dict:
     return {name: columns for name, columns in named.items() if columns.stop > columns.start}
 
 
-def _evaluate(checker, joints: np.ndarray) -> np.ndarray:
-    """(n, K) clearance margins of joints (n, 6), n ≥ 1, computed in chunks."""
-    return np.vstack([np.hstack(checker.clearance_margins(joints[i:i + _CHUNK]))
-                      for i in range(0, len(joints), _CHUNK)])
+def _evaluate(checker, joints: np.ndarray, columns=None) -> np.ndarray:
+    """(n, K) clearance margins of joints (n, 6), n ≥ 1, computed in chunks: all columns, or only `columns`
+    (indices; the others +inf). The cell's columns are computed together (one kernel for all of them)."""
+    pairs = len(checker.pair_a)
+    if columns is None:
+        columns = np.arange(pairs + len(checker.cell_capsules) * len(checker.obstacles))
+    chosen_pairs, cell = columns[columns < pairs], bool(np.any(columns >= pairs))
+    values = np.full((len(joints), pairs + len(checker.cell_capsules) * len(checker.obstacles)), np.inf)
+    for i in range(0, len(joints), _CHUNK):
+        gap, flat = checker.clearance_margins(joints[i:i + _CHUNK], chosen_pairs, cell)
+        values[i:i + _CHUNK, chosen_pairs] = gap
+        if cell:
+            values[i:i + _CHUNK, pairs:] = flat
+    return values
 
 
 def _start_margins(checker, q0, q1, ends) -> np.ndarray:
@@ -172,11 +187,33 @@ class _Records:
     def __init__(self, groups: dict, tolerance: float):
         self.groups, self.tolerance = groups, tolerance
         self.moves, self.fractions, self.values = [], [], []
+        self.bound_moves, self.bound_values = [], []
         self.smallest = dict.fromkeys(groups, np.inf)
 
+    def _per_check(self, values: np.ndarray) -> np.ndarray:
+        """(n, checks) the smallest of each check's columns of values (n, K)."""
+        if not self.groups:
+            return np.zeros((len(values), 0))
+        return np.stack([values[:, columns].min(axis=1) for columns in self.groups.values()], axis=1)
+
+    def bound(self, move: np.ndarray, bounds: np.ndarray) -> None:
+        """Keep lower bounds (n, K) of the margins on intervals of the moves `move` (n,)."""
+        self.bound_moves.append(move)
+        self.bound_values.append(self._per_check(bounds))
+
+    def lower_bounds(self, count: int) -> dict:
+        """{check: (M,) the smallest bound kept for each move (+inf for a move with none)}."""
+        move, values = np.concatenate(self.bound_moves), np.concatenate(self.bound_values)
+        lower = np.full((count, len(self.groups)), np.inf)
+        if len(move):
+            order = np.argsort(move, kind="stable")
+            move, values = move[order], values[order]
+            first = np.flatnonzero(np.concatenate(([True], move[1:] != move[:-1])))
+            lower[move[first]] = np.minimum.reduceat(values, first, axis=0)
+        return {name: lower[:, k] for k, name in enumerate(self.groups)}
+
     def add(self, move: np.ndarray, fraction: np.ndarray, values: np.ndarray) -> None:
-        per_check = np.stack([values[:, columns].min(axis=1) for columns in self.groups.values()], axis=1) \
-            if self.groups else np.zeros((len(move), 0))
+        per_check = self._per_check(values)
         self.moves.append(move)
         self.fractions.append(fraction)
         self.values.append(per_check)

@@ -154,27 +154,29 @@ class StepChecker:
             room = np.minimum(joints - lower, upper - joints)
         return room.min(axis=1), np.argmin(room, axis=1)
 
-    def _clearances(self, frames, extra_max: float) -> tuple:
-        """(self gaps (n, P) m of the capsule pairs or None, cell clearances (n, cell capsules × obstacles) m or
-        None) at DH frames (n, 7, 4, 4); `extra_max`: the largest blend allowance (which pairs need exact
-        distances)."""
+    def _clearances(self, frames, extra_max: float, pairs=slice(None), cell: bool = True) -> tuple:
+        """(self gaps (n, p) m of the capsule pairs `pairs` (indices or a slice of pair_a/pair_b) or None, cell
+        clearances (n, cell capsules × obstacles) m or None when the cell is absent or `cell` is False) at DH
+        frames (n, 7, 4, 4); `extra_max`: the largest blend allowance (which pairs need exact distances)."""
         a, b = geometry.capsule_points(frames, self.capsules)
         radius = self.capsules.radius
         gap = flat = None
-        if len(self.pair_a):
-            gap = geometry.segment_segment_distance(a[:, self.pair_a], b[:, self.pair_a], a[:, self.pair_b],
-                                                    b[:, self.pair_b]) - radius[self.pair_a] - radius[self.pair_b]
-        if self.obstacles:
+        first, second = self.pair_a[pairs], self.pair_b[pairs]
+        if len(first):
+            gap = geometry.segment_segment_distance(a[:, first], b[:, first], a[:, second], b[:, second]) \
+                - radius[first] - radius[second]
+        if self.obstacles and cell:
             clearance = self._cell_clearance(a[:, self.cell_capsules], b[:, self.cell_capsules],
                                              radius[self.cell_capsules], extra_max)
             flat = clearance.reshape(len(clearance), -1)
         return gap, flat
 
-    def clearance_margins(self, joints) -> tuple:
-        """(self-collision margins (n, P), cell margins (n, cell capsules × obstacles)) m at joints (n, 6): each
-        capsule pair's and each capsule/obstacle column's clearance minus its margin (≥ 0 passes); an absent
-        check gives (n, 0). A cell column may be a lower bound of its clearance (EXACT_RANGE)."""
-        gap, flat = self._clearances(geometry.dh_frames(self.model, joints), 0.0)
+    def clearance_margins(self, joints, pairs=slice(None), cell: bool = True) -> tuple:
+        """(self-collision margins (n, p), cell margins (n, cell capsules × obstacles)) m at joints (n, 6): each
+        capsule pair's (of `pairs`, indices or a slice of pair_a/pair_b) and, if `cell`, each capsule/obstacle
+        column's clearance minus its margin (≥ 0 passes); an absent check gives (n, 0). A cell column may be a
+        lower bound of its clearance (EXACT_RANGE)."""
+        gap, flat = self._clearances(geometry.dh_frames(self.model, joints), 0.0, pairs, cell)
         empty = np.zeros((len(joints), 0))
         return (empty if gap is None else gap - self.margins.self_collision,
                 empty if flat is None else flat - self.cell_margin)
