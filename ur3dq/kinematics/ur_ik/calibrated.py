@@ -37,8 +37,26 @@ def _joint_terms(g: _Geometry) -> tuple:
     A standard DH joint is T(θ) = cos θ·A + sin θ·B + C with constant A, B, C (4×4, flattened to 16): all six
     joints of M configurations are one (6, M, 1, 2) @ (6, 1, 2, 16) matmul, cos and sin one np.cos of
     θ + offset − (0, π/2). Cached per geometry (kept alive with its entry, so its id cannot be reused), like
-    geometry._geometry.
+    geometry._geometry, together with _curvature_bound's value.
     """
+    return _cached_terms(g)[0]
+
+
+def _curvature_bound(g: _Geometry) -> float:
+    """M: |F″(x)(d, d)| ≤ M·|d|² for every x and d (6,), F = (flange position, the three columns of its rotation).
+
+    For joint i before or at j, ∂²F/∂θi∂θj = z_i × (z_j × (v − o_j)) (Jacobi's identity), v the position (or a
+    rotation column, with o_j = 0): at most the distance of the flange from axis j (or 1). That distance is at most
+    R = Σ |P_k − P_k−1| + |flange − P_6|, P_1 the base origin and P_k the foot of P_k−1 on axis k: P_k lies on
+    axis k and is fixed in link k−1's frame, hence in link k's, so every term is a constant of the arm (evaluated
+    at q = 0; ~a2 + a3 + d4 + d5 + d6, whatever the table's cancelling d offsets). With (Σ|dᵢ|)² ≤ 6·|d|², the
+    position and three columns give M = 6·√(R² + 3).
+    """
+    return _cached_terms(g)[1]
+
+
+def _cached_terms(g: _Geometry) -> tuple:
+    """(_joint_terms, _curvature_bound) of a geometry, computed once."""
     cached = _TERMS.get(id(g))
     if cached is not None and cached[0] is g:
         return cached[1]
@@ -50,11 +68,18 @@ def _joint_terms(g: _Geometry) -> tuple:
         basis[i, 1] = [[0.0, -cos_alpha, sin_alpha, 0.0], [1.0, 0.0, 0.0, a], [0.0] * 4, [0.0] * 4]
         constant[i, 0] = [[0.0] * 4, [0.0] * 4, [0.0, sin_alpha, cos_alpha, d], [0.0, 0.0, 0.0, 1.0]]
     terms = (shift.reshape(6, 1, 1, 2), basis.reshape(6, 1, 2, 16), constant.reshape(6, 1, 1, 16))
+    frames = _chain_frames(terms, np.zeros((1, 6)))[:, 0]
+    foot, reach = np.zeros(3), 0.0
+    for axis, origin in [(np.array([0.0, 0.0, 1.0]), np.zeros(3))] + [(f[:3, 2], f[:3, 3]) for f in frames[:5]]:
+        step = axis * np.dot(foot - origin, axis) + origin - foot   # to the foot of ``foot`` on this axis
+        foot, reach = foot + step, reach + float(np.linalg.norm(step))
+    reach += float(np.linalg.norm(frames[5, :3, 3] - foot))
+    value = (terms, 6.0 * math.sqrt(reach * reach + 3.0))
     with _TERMS_LOCK:
         if len(_TERMS) >= 64:
             _TERMS.pop(next(iter(_TERMS)))
-        _TERMS[id(g)] = (g, terms)
-    return terms
+        _TERMS[id(g)] = (g, value)
+    return value
 
 
 def _chain_frames(terms: tuple, q: np.ndarray) -> np.ndarray:
@@ -263,3 +288,24 @@ def _refine_batch(g: _Geometry, q: np.ndarray, targets: np.ndarray):
         current = current + (delta if columns else _matrix_step(frames, error, _DAMPING_MATRIX))
         previous = norm
     return q, residual
+
+
+#: Bound on |F(x) − F(x′)| for two solutions accepted at CALIBRATED_TOLERANCE (F as in _curvature_bound): each is
+#: within √(1 + 2·(π/2)²)·tolerance < 2.25·tolerance of the target (the residual's rotation part is sin φ·axis,
+#: a column moves by ≤ √2·φ), so two are within 4.5·tolerance; 5 leaves room for rounding.
+_SOLUTION_GAP = 5.0 * CALIBRATED_TOLERANCE
+
+
+def _isolation_radius(g: _Geometry, q: np.ndarray) -> np.ndarray:
+    """(M,) per solution q (M, 6): a radius (rad, Euclidean in joint space, any ±2π shift) within which no other
+    solution accepted at CALIBRATED_TOLERANCE lies, except its own copies within ~_SOLUTION_GAP/σ; 0 if none.
+
+    Along x′ = x + d, |F(x′) − F(x) − G·d| ≤ ½·M·|d|² (_curvature_bound), and G, the Jacobian of F, has
+    |G·d|² = |J_p·d|² + 2·|J_ω·d|² ≥ (σ·|d|)² with σ the least singular value of the 6×6 Jacobian J. Another
+    solution has |F(x′) − F(x)| ≤ _SOLUTION_GAP, so σ·t − ½·M·t² ≤ gap for t = |d|: t lies below the smaller root
+    (the same solution) or beyond the larger, (σ + √(σ² − 2·M·gap))/M, returned here."""
+    sigma = np.linalg.svd(_jacobian_rows(_chain_frames(_joint_terms(g), q)).transpose(1, 0, 2),
+                          compute_uv=False)[:, -1]
+    bound = _curvature_bound(g)
+    discriminant = sigma * sigma - 2.0 * bound * _SOLUTION_GAP
+    return np.where(discriminant > 0.0, (sigma + np.sqrt(np.maximum(discriminant, 0.0))) / bound, 0.0)
