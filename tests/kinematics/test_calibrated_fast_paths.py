@@ -12,7 +12,7 @@ import pytest
 
 from calibrated_arms import factory_model
 from ur3dq.errors import UnreachablePoseError
-from ur3dq.kinematics.ur_ik import calibrated, nearest
+from ur3dq.kinematics.ur_ik import calibrated, nearest, wrap_angle
 from ur3dq.kinematics.ur_ik.fk_filter import _fk_check, _reference, _targets
 from ur3dq.kinematics.ur_ik.geometry import _geometry
 
@@ -132,3 +132,27 @@ def test_curvature_bound_holds_along_random_segments(name, seed):
                             axis=1)
     remainder = np.linalg.norm(flange(x + d) - flange(x) - linear, axis=1)
     assert np.all(remainder <= 0.5 * bound * np.einsum("ij,ij->i", d, d) + 1e-12)
+
+
+@pytest.mark.parametrize("name, seed", MODELS)
+def test_ik_batch_equals_the_full_ranking_on_factory_tables(name, seed, monkeypatch):
+    """batch._calibrated_nearest's proven rows agree with the ranking of every branch (the only path before)."""
+    from ur3dq.kinematics.ur_ik import batch
+    model = factory_model(name, seed)
+    q = hard_configurations(1200, seed + 400)
+    refs = references(q, seed + 500)
+    poses = model.fk_batch(q)
+    weights = np.random.default_rng(seed).uniform(0.2, 5.0, 6)
+    for weight in (None, weights):
+        fast = model.ik_batch(poses, refs, weight)
+        proven = batch._calibrated_nearest(model, _geometry(model), poses, refs, wrap_angle(refs[:, 5]),
+                                           None if weight is None else tuple(weight))[1]
+        with monkeypatch.context() as patched:
+            patched.setattr(batch, "_calibrated_nearest",
+                            lambda model, g, poses, *_: (np.full((len(poses), 6), np.nan), np.zeros(len(poses), bool)))
+            ranked_rows = model.ik_batch(poses, refs, weight)
+        np.testing.assert_array_equal(np.isnan(fast), np.isnan(ranked_rows))
+        for row in np.flatnonzero(~np.isnan(fast[:, 0])):
+            np.testing.assert_allclose(fast[row], ranked_rows[row], rtol=0,
+                                       atol=4e-12 / least_singular_value(model, fast[row]), err_msg=str(q[row]))
+        assert proven.sum() > len(q) // 3   # the fast path is what these configurations mostly exercise

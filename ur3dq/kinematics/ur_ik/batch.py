@@ -1,11 +1,13 @@
 """Batches of poses: every solution (`ik_all_batch`) and the nearest one (`ik_batch`), block by block."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ur3dq import dqarray
 from ur3dq.kinematics.ur_ik.batch_kernels import _joints_fk_filter, _regular_branches, _regular_fk_filter
-from ur3dq.kinematics.ur_ik.calibrated import _refine_batch
+from ur3dq.kinematics.ur_ik.calibrated import _isolation_radius, _refine_batch
 from ur3dq.kinematics.ur_ik.equations import _ArrayOps, _branches, wrap_angle
 from ur3dq.kinematics.ur_ik.fk_filter import _EXACT_UNIT, _within_fk_tolerance
 from ur3dq.kinematics.ur_ik.geometry import (
@@ -56,11 +58,7 @@ def _batch_candidates(g: _Geometry, targets: tuple, theta6_ref) -> np.ndarray:
     Joint-major layout: every joint of every branch is one contiguous run, which is what the elementwise
     kernels (and the model's fk_batch, reading columns) want; refined by Newton first on calibrated models.
     """
-    count = len(targets[0])
-    columns = np.empty((6, 8, count))
-    for k, branch in enumerate(_branches(_ArrayOps, g, targets, theta6_ref)):
-        for j, value in enumerate(branch):
-            columns[j, k] = value
+    columns = _nominal_candidates(g, targets, theta6_ref)
     if g.calibrated:
         flat = columns.reshape(6, -1).T
         repeated = np.tile(np.stack(targets, axis=-1), (8, 1))
@@ -68,11 +66,53 @@ def _batch_candidates(g: _Geometry, targets: tuple, theta6_ref) -> np.ndarray:
         refined, residual = _refine_batch(g, flat[usable], repeated[usable])
         flat = flat.copy()
         flat[usable] = np.where((residual <= CALIBRATED_TOLERANCE)[:, None], refined, np.nan)
-        columns = np.ascontiguousarray(flat.T).reshape(6, 8, count)
+        columns = np.ascontiguousarray(flat.T).reshape(6, 8, len(targets[0]))
     # θ2, θ3 come from atan2 already in (−π, π]; θ1, θ4, θ6 are sums and θ5 may be −π.
     for j in (0, 3, 4, 5):
         columns[j] = wrap_angle(columns[j])
     return columns
+
+
+def _nominal_candidates(g: _Geometry, targets: tuple, theta6_ref) -> np.ndarray:
+    """(6, 8, N) the analytic branches of the geometry's closed form (NaN where absent) of flange targets (seven
+    (N,) arrays), not yet refined nor wrapped: the seeds of Newton on calibrated models."""
+    columns = np.empty((6, 8, len(targets[0])))
+    for k, branch in enumerate(_branches(_ArrayOps, g, targets, theta6_ref)):
+        for j, value in enumerate(branch):
+            columns[j, k] = value
+    return columns
+
+
+def _calibrated_nearest(model, g: _Geometry, poses: np.ndarray, reference: np.ndarray, theta6_ref, weight) -> tuple:
+    """(joints (N, 6), proven (N,)): per pose of a calibrated model, the solution Newton reaches from the nominal
+    branch nearest ``reference`` (N, 6) as its in-limit variants, and whether it is provably ik_batch's answer.
+
+    ik_batch ranks the converged branches of _batch_candidates; this seed is one of them, refined by the same
+    kernels row by row, so its solution x (at cost c) is among them, and none is nearer when every solution nearer
+    than c would lie within 2·√(c / min w) of x, inside half x's calibrated._isolation_radius (the argument of
+    nearest._reference_solution). The FK filter must pass too. Rows not proven are left to the full ranking.
+    """
+    targets = _batch_flange_targets(g, poses)
+    columns = _nominal_candidates(g, targets, theta6_ref)
+    _, cost = _variant_costs(g, columns, reference.T[:, None, :], weight)
+    best, least = _select(cost, np.all(np.isfinite(columns), axis=0))
+    rows = np.flatnonzero(np.isfinite(least))   # poses with some nominal branch in the limits
+    refined, residual = _refine_batch(g, columns[:, best[rows], rows].T, np.stack(targets, axis=-1)[rows])
+    rows, refined = rows[residual <= CALIBRATED_TOLERANCE], refined[residual <= CALIBRATED_TOLERANCE]
+    variants, cost = _variant_costs(g, refined.T[:, None, :], reference[rows].T[:, None, :], weight)
+    joints, cost = variants[:, 0].T, cost[0]
+    fits = cost == cost   # False for NaN: no in-limit variant
+    rows, refined, joints, cost = rows[fits], refined[fits], joints[fits], cost[fits]
+    smallest = 1.0 if weight is None else min(weight)
+    reach = 2.0 * (np.sqrt(cost / smallest) + math.sqrt(6.0) * LIMIT_ROUNDING)
+    isolated = reach < 0.5 * _isolation_radius(g, refined)
+    fk = model.fk_batch(joints[isolated])
+    proven = np.zeros(len(poses), dtype=bool)
+    rows, joints = rows[isolated], joints[isolated]
+    proven[rows] = _within_fk_tolerance(np.ascontiguousarray(fk.T), np.ascontiguousarray(poses[rows].T))
+    out = np.full((len(poses), 6), np.nan)
+    out[rows] = joints
+    return out, proven
 
 
 def _fk_filter(model, columns: np.ndarray, poses: np.ndarray) -> np.ndarray:
@@ -326,8 +366,11 @@ def ik_batch(model, poses, q_ref, weights=None) -> np.ndarray:
     g = _geometry(model)
     out = np.empty((len(poses), 6))
     theta6_ref = wrap_angle(reference[:, 5])
-    if g.calibrated:
-        blocks = _solved_blocks(model, g, poses, theta6_ref)
+    if g.calibrated:   # the proven winners of one Newton row per pose; the others ranked among all branches
+        out[:], proven = _calibrated_nearest(model, g, poses, reference, theta6_ref, weight)
+        rows = np.flatnonzero(~proven)
+        blocks = ([(rows,) + next(_solved_blocks(model, g, poses[rows], theta6_ref[rows]))[1:]]
+                  if rows.size else [])
     else:   # the closed-form kernel, FK filter on the winners; near-singular poses redone by ik_all's code
         redo = []
         for block in _kernel_blocks(g, poses, NEAREST_BLOCK):
