@@ -2,8 +2,9 @@
 
 ``ik`` on a calibrated model first refines the reference alone and keeps the result when _isolation_radius proves
 no other solution nearer (nearest._reference_solution); ``ik_batch`` does the same per pose. Both are compared here
-with the full ranking (Newton from every nominal branch and the reference: nearest._ranked_solution, which was the
-only path before) on thousands of configurations of factory tables, near singularities and at ±2π included.
+with the full rankings that were the only paths before (``ik``: Newton from every nominal branch and the
+reference, nearest._ranked_solution; ``ik_batch``: from every nominal branch) on thousands of configurations of
+factory tables, near singularities and at ±2π included.
 """
 import math
 
@@ -12,7 +13,7 @@ import pytest
 
 from calibrated_arms import factory_model
 from ur3dq.errors import UnreachablePoseError
-from ur3dq.kinematics.ur_ik import calibrated, nearest, wrap_angle
+from ur3dq.kinematics.ur_ik import calibrated, nearest
 from ur3dq.kinematics.ur_ik.fk_filter import _fk_check, _reference, _targets
 from ur3dq.kinematics.ur_ik.geometry import _geometry
 
@@ -135,8 +136,10 @@ def test_curvature_bound_holds_along_random_segments(name, seed):
 
 
 @pytest.mark.parametrize("name, seed", MODELS)
-def test_ik_batch_equals_the_full_ranking_on_factory_tables(name, seed, monkeypatch):
-    """batch._calibrated_nearest's proven rows agree with the ranking of every branch (the only path before)."""
+def test_ik_batch_gives_ik_on_proven_rows_and_the_full_ranking_elsewhere(name, seed, monkeypatch):
+    """batch._calibrated_nearest's proven rows are ik's answers, never farther than the ranking of the refined nominal
+    branches (the only path before: it misses a solution ik finds beside a singularity, 25 of 4800 rows here);
+    the other rows are that ranking's."""
     from ur3dq.kinematics.ur_ik import batch
     model = factory_model(name, seed)
     q = hard_configurations(1200, seed + 400)
@@ -145,14 +148,18 @@ def test_ik_batch_equals_the_full_ranking_on_factory_tables(name, seed, monkeypa
     weights = np.random.default_rng(seed).uniform(0.2, 5.0, 6)
     for weight in (None, weights):
         fast = model.ik_batch(poses, refs, weight)
-        proven = batch._calibrated_nearest(model, _geometry(model), poses, refs, wrap_angle(refs[:, 5]),
+        proven = batch._calibrated_nearest(model, _geometry(model), poses, refs,
                                            None if weight is None else tuple(weight))[1]
         with monkeypatch.context() as patched:
             patched.setattr(batch, "_calibrated_nearest",
                             lambda model, g, poses, *_: (np.full((len(poses), 6), np.nan), np.zeros(len(poses), bool)))
             ranked_rows = model.ik_batch(poses, refs, weight)
-        np.testing.assert_array_equal(np.isnan(fast), np.isnan(ranked_rows))
-        for row in np.flatnonzero(~np.isnan(fast[:, 0])):
-            np.testing.assert_allclose(fast[row], ranked_rows[row], rtol=0,
+        np.testing.assert_array_equal(fast[~proven], ranked_rows[~proven])
+        unit = np.ones(6) if weight is None else weight
+        for row in np.flatnonzero(proven):
+            np.testing.assert_allclose(fast[row], model.ik(poses[row], refs[row], weight), rtol=0,
                                        atol=4e-12 / least_singular_value(model, fast[row]), err_msg=str(q[row]))
+            if not np.isnan(ranked_rows[row, 0]):
+                cost = [np.sum(unit * (x - refs[row]) ** 2) for x in (fast[row], ranked_rows[row])]
+                assert cost[0] <= cost[1] + 1e-12, q[row]
         assert proven.sum() > len(q) // 3   # the fast path is what these configurations mostly exercise

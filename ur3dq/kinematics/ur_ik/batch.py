@@ -83,35 +83,32 @@ def _nominal_candidates(g: _Geometry, targets: tuple, theta6_ref) -> np.ndarray:
     return columns
 
 
-def _calibrated_nearest(model, g: _Geometry, poses: np.ndarray, reference: np.ndarray, theta6_ref, weight) -> tuple:
-    """(joints (N, 6), proven (N,)): per pose of a calibrated model, the solution Newton reaches from the nominal
-    branch nearest ``reference`` (N, 6) as its in-limit variants, and whether it is provably ik_batch's answer.
+def _calibrated_nearest(model, g: _Geometry, poses: np.ndarray, reference: np.ndarray, weight) -> tuple:
+    """(joints (N, 6), proven (N,)): per pose of a calibrated model, the solution Newton reaches from ``reference``
+    (N, 6) as its in-limit ±2π variants nearest it, and whether it is provably the nearest accepted solution.
 
-    ik_batch ranks the converged branches of _batch_candidates; this seed is one of them, refined by the same
-    kernels row by row, so its solution x (at cost c) is among them, and none is nearer when every solution nearer
-    than c would lie within 2·√(c / min w) of x, inside half x's calibrated._isolation_radius (the argument of
-    nearest._reference_solution). The FK filter must pass too. Rows not proven are left to the full ranking.
+    Proven as in nearest._reference_solution: every solution nearer the reference than x (cost c) would lie within
+    2·√(c / min w) of x, inside half x's calibrated._isolation_radius, where no other lies; and the FK filter
+    passes. That is ``ik``'s answer (its ranking holds the same Newton row from the reference), and the ranking of
+    the nominal branches' rows gives it too whenever one of them reaches x. Rows not proven are NaN.
     """
-    targets = _batch_flange_targets(g, poses)
-    columns = _nominal_candidates(g, targets, theta6_ref)
-    _, cost = _variant_costs(g, columns, reference.T[:, None, :], weight)
-    best, least = _select(cost, np.all(np.isfinite(columns), axis=0))
-    rows = np.flatnonzero(np.isfinite(least))   # poses with some nominal branch in the limits
-    refined, residual = _refine_batch(g, columns[:, best[rows], rows].T, np.stack(targets, axis=-1)[rows])
-    rows, refined = rows[residual <= CALIBRATED_TOLERANCE], refined[residual <= CALIBRATED_TOLERANCE]
-    variants, cost = _variant_costs(g, refined.T[:, None, :], reference[rows].T[:, None, :], weight)
+    targets = np.stack(_batch_flange_targets(g, poses), axis=-1)
+    refined, residual = _refine_batch(g, reference, targets)
+    rows = np.flatnonzero(residual <= CALIBRATED_TOLERANCE)
+    variants, cost = _variant_costs(g, refined[rows].T[:, None, :], reference[rows].T[:, None, :], weight)
     joints, cost = variants[:, 0].T, cost[0]
-    fits = cost == cost   # False for NaN: no in-limit variant
-    rows, refined, joints, cost = rows[fits], refined[fits], joints[fits], cost[fits]
+    fits = cost == cost   # False for NaN: some joint has no in-limit variant
+    rows, joints, cost = rows[fits], joints[fits], cost[fits]
     smallest = 1.0 if weight is None else min(weight)
     reach = 2.0 * (np.sqrt(cost / smallest) + math.sqrt(6.0) * LIMIT_ROUNDING)
-    isolated = reach < 0.5 * _isolation_radius(g, refined)
-    fk = model.fk_batch(joints[isolated])
-    proven = np.zeros(len(poses), dtype=bool)
+    isolated = reach < 0.5 * _isolation_radius(g, refined[rows])
     rows, joints = rows[isolated], joints[isolated]
-    proven[rows] = _within_fk_tolerance(np.ascontiguousarray(fk.T), np.ascontiguousarray(poses[rows].T))
+    fk = model.fk_batch(joints)
+    passed = _within_fk_tolerance(np.ascontiguousarray(fk.T), np.ascontiguousarray(poses[rows].T))
     out = np.full((len(poses), 6), np.nan)
-    out[rows] = joints
+    out[rows[passed]] = joints[passed]
+    proven = np.zeros(len(poses), dtype=bool)
+    proven[rows[passed]] = True
     return out, proven
 
 
@@ -366,8 +363,8 @@ def ik_batch(model, poses, q_ref, weights=None) -> np.ndarray:
     g = _geometry(model)
     out = np.empty((len(poses), 6))
     theta6_ref = wrap_angle(reference[:, 5])
-    if g.calibrated:   # the proven winners of one Newton row per pose; the others ranked among all branches
-        out[:], proven = _calibrated_nearest(model, g, poses, reference, theta6_ref, weight)
+    if g.calibrated:   # the proven winners of one Newton row per pose (from q_ref); the others ranked as before
+        out[:], proven = _calibrated_nearest(model, g, poses, reference, weight)
         rows = np.flatnonzero(~proven)
         blocks = ([(rows,) + next(_solved_blocks(model, g, poses[rows], theta6_ref[rows]))[1:]]
                   if rows.size else [])

@@ -188,6 +188,22 @@ def _column_residual(g: _Geometry, q: np.ndarray, target: tuple) -> tuple:
     for thousands of rows numpy's batched 4×4 matmuls and 6×6 LAPACK solves cost ~0.3 µs and ~0.8 µs per matrix,
     where one elementwise operation costs ~0.5 ns per row (measured on the benchmark machine).
     """
+    end, frames = _column_frames(g, q)
+    rotation_t, position_t = target
+    error = np.empty((len(q), 6))
+    for k in range(3):
+        np.subtract(position_t[:, k], frames[1][6][k], out=error[:, k])
+    # ½·Σ_c r_c × t_c over the columns c of the end rotation and the target's: the axial vector of the skew part
+    # of R_t·Rᵀ, as _pose_residual computes it.
+    for k, (i, j) in enumerate(((1, 2), (2, 0), (0, 1))):
+        error[:, 3 + k] = 0.5 * sum(end[c][i] * rotation_t[:, j, c] - end[c][j] * rotation_t[:, i, c]
+                                    for c in range(3))
+    return error, frames
+
+
+def _column_frames(g: _Geometry, q: np.ndarray) -> tuple:
+    """((x, y, z) columns of the end frame, (axes, origins) of frames 0…6) of joints q (R, 6), each coordinate an
+    (R,) array or a float (the base frame): the chain of _chain_frames written out per column."""
     angles = q.T + np.array([joint[2] for joint in g.joints])[:, None]
     cos, sin = np.cos(angles), np.sin(angles)
     x, y, z, p = (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0), (0.0, 0.0, 0.0)
@@ -201,21 +217,12 @@ def _column_residual(g: _Geometry, q: np.ndarray, target: tuple) -> tuple:
         z = tuple(cos_alpha * w - sin_alpha * v for v, w in zip(turned, z))
         axes.append(z)
         origins.append(p)
-    rotation_t, position_t = target
-    error = np.empty((len(q), 6))
-    for k in range(3):
-        np.subtract(position_t[:, k], p[k], out=error[:, k])
-    # ½·Σ_c r_c × t_c over the columns c of the end rotation and the target's: the axial vector of the skew part
-    # of R_t·Rᵀ, as _pose_residual computes it.
-    end = (x, y, z)
-    for k, (i, j) in enumerate(((1, 2), (2, 0), (0, 1))):
-        error[:, 3 + k] = 0.5 * sum(end[c][i] * rotation_t[:, j, c] - end[c][j] * rotation_t[:, i, c]
-                                    for c in range(3))
-    return error, (axes, origins)
+    return (x, y, z), (axes, origins)
 
 
-def _column_step(frames: tuple, error: np.ndarray, damping: np.ndarray) -> np.ndarray:
-    """(R, 6) joint steps solving (JᵀJ + λ²I)·Δq = Jᵀe, the normal equations and Cholesky written out per entry."""
+def _column_jacobian(frames: tuple) -> list:
+    """Per joint its base-frame Jacobian column [z × (p − o), z] (6 coordinates, (R,) arrays or floats) from the
+    (axes, origins) of _column_frames: the rows of _jacobian_rows, joint-major per column."""
     axes, origins = frames
     end = origins[6]
     columns = []
@@ -223,6 +230,12 @@ def _column_step(frames: tuple, error: np.ndarray, damping: np.ndarray) -> np.nd
         lever = tuple(e - w for e, w in zip(end, o))
         columns.append((z[1] * lever[2] - z[2] * lever[1], z[2] * lever[0] - z[0] * lever[2],
                         z[0] * lever[1] - z[1] * lever[0]) + z)
+    return columns
+
+
+def _column_step(frames: tuple, error: np.ndarray, damping: np.ndarray) -> np.ndarray:
+    """(R, 6) joint steps solving (JᵀJ + λ²I)·Δq = Jᵀe, the normal equations and Cholesky written out per entry."""
+    columns = _column_jacobian(frames)
     residual = error.T
     rhs = [sum(column[r] * residual[r] for r in range(6)) for column in columns]
     lower = [[None] * 6 for _ in range(6)]
@@ -304,8 +317,13 @@ def _isolation_radius(g: _Geometry, q: np.ndarray) -> np.ndarray:
     |G·d|² = |J_p·d|² + 2·|J_ω·d|² ≥ (σ·|d|)² with σ the least singular value of the 6×6 Jacobian J. Another
     solution has |F(x′) − F(x)| ≤ _SOLUTION_GAP, so σ·t − ½·M·t² ≤ gap for t = |d|: t lies below the smaller root
     (the same solution) or beyond the larger, (σ + √(σ² − 2·M·gap))/M, returned here."""
-    sigma = np.linalg.svd(_jacobian_rows(_chain_frames(_joint_terms(g), q)).transpose(1, 0, 2),
-                          compute_uv=False)[:, -1]
+    if len(q) >= _COLUMN_ROWS:   # (R, 6, 6) Jᵀ, from the joint-major kernel or the batched matrices
+        transposed = np.stack([np.stack(np.broadcast_arrays(*column, np.empty(len(q))))[:6].T
+                               for column in _column_jacobian(_column_frames(g, q)[1])], axis=1)
+    else:
+        transposed = _jacobian_rows(_chain_frames(_joint_terms(g), q)).transpose(1, 0, 2)
+    # σ² is the least eigenvalue of JᵀJ (eigvalsh costs 60 % of an SVD of J and is as exact: 1e-16·|J|²).
+    sigma = np.sqrt(np.maximum(np.linalg.eigvalsh(transposed @ transposed.transpose(0, 2, 1))[:, 0], 0.0))
     bound = _curvature_bound(g)
     discriminant = sigma * sigma - 2.0 * bound * _SOLUTION_GAP
     return np.where(discriminant > 0.0, (sigma + np.sqrt(np.maximum(discriminant, 0.0))) / bound, 0.0)
