@@ -163,3 +163,13 @@ def test_ik_batch_gives_ik_on_proven_rows_and_the_full_ranking_elsewhere(name, s
                 cost = [np.sum(unit * (x - refs[row]) ** 2) for x in (fast[row], ranked_rows[row])]
                 assert cost[0] <= cost[1] + 1e-12, q[row]
         assert proven.sum() > len(q) // 3   # the fast path is what these configurations mostly exercise
+
+
+def test_isolation_radius_is_the_same_from_both_kernels():
+    """_isolation_radius takes the Jacobian from the joint-major kernel for 256+ rows, the batched matrices below."""
+    model = factory_model("ur5e", 25)
+    g = _geometry(model)
+    q = hard_configurations(calibrated._COLUMN_ROWS, 26)
+    many = calibrated._isolation_radius(g, q)
+    few = np.concatenate([calibrated._isolation_radius(g, q[i:i + 8]) for i in range(0, len(q), 8)])
+    np.testing.assert_allclose(many, few, rtol=1e-9, atol=1e-12)
