@@ -173,3 +173,16 @@ def test_isolation_radius_is_the_same_from_both_kernels():
     many = calibrated._isolation_radius(g, q)
     few = np.concatenate([calibrated._isolation_radius(g, q[i:i + 8]) for i in range(0, len(q), 8)])
     np.testing.assert_allclose(many, few, rtol=1e-9, atol=1e-12)
+
+
+def test_isolated_decides_as_the_radius_for_many_rows():
+    """calibrated._isolated's positive-definiteness test (256+ rows) agrees with reach < _isolation_radius."""
+    model = factory_model("ur10e", 27)
+    g = _geometry(model)
+    q = hard_configurations(4 * calibrated._COLUMN_ROWS, 28)
+    radius = calibrated._isolation_radius(g, q)
+    reach = radius * np.random.default_rng(29).uniform(0.5, 1.5, len(q)) + 1e-9
+    decided = calibrated._isolated(g, q, reach)
+    clear = np.abs(reach / np.maximum(radius, 1e-300) - 1.0) > 1e-6   # not within rounding of the boundary
+    np.testing.assert_array_equal(decided[clear], (reach < radius)[clear])
+    assert decided.any() and not decided.all()

@@ -7,7 +7,7 @@ import numpy as np
 
 from ur3dq import dqarray
 from ur3dq.kinematics.ur_ik.batch_kernels import _joints_fk_filter, _regular_branches, _regular_fk_filter
-from ur3dq.kinematics.ur_ik.calibrated import _isolation_radius, _refine_batch
+from ur3dq.kinematics.ur_ik.calibrated import _isolated, _refine_batch
 from ur3dq.kinematics.ur_ik.equations import _ArrayOps, _branches, wrap_angle
 from ur3dq.kinematics.ur_ik.fk_filter import _EXACT_UNIT, _within_fk_tolerance
 from ur3dq.kinematics.ur_ik.geometry import (
@@ -88,9 +88,9 @@ def _calibrated_nearest(model, g: _Geometry, poses: np.ndarray, reference: np.nd
     (N, 6) as its in-limit ±2π variants nearest it, and whether it is provably the nearest accepted solution.
 
     Proven as in nearest._reference_solution: every solution nearer the reference than x (cost c) would lie within
-    2·√(c / min w) of x, inside half x's calibrated._isolation_radius, where no other lies; and the FK filter
-    passes. That is ``ik``'s answer (its ranking holds the same Newton row from the reference), and the ranking of
-    the nominal branches' rows gives it too whenever one of them reaches x. Rows not proven are NaN.
+    2·√(c / min w) of x, inside half x's isolation radius (calibrated._isolated), where no other lies; and the FK
+    filter passes. That is ``ik``'s answer (its ranking holds the same Newton row from the reference), and the
+    ranking of the nominal branches' rows gives it too whenever one of them reaches x. Rows not proven are NaN.
     """
     targets = np.stack(_batch_flange_targets(g, poses), axis=-1)
     refined, residual = _refine_batch(g, reference, targets)
@@ -101,7 +101,7 @@ def _calibrated_nearest(model, g: _Geometry, poses: np.ndarray, reference: np.nd
     rows, joints, cost = rows[fits], joints[fits], cost[fits]
     smallest = 1.0 if weight is None else min(weight)
     reach = 2.0 * (np.sqrt(cost / smallest) + math.sqrt(6.0) * LIMIT_ROUNDING)
-    isolated = reach < 0.5 * _isolation_radius(g, refined[rows])
+    isolated = _isolated(g, refined[rows], 2.0 * reach)
     rows, joints = rows[isolated], joints[isolated]
     fk = model.fk_batch(joints)
     passed = _within_fk_tolerance(np.ascontiguousarray(fk.T), np.ascontiguousarray(poses[rows].T))

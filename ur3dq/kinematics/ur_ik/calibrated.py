@@ -317,13 +317,43 @@ def _isolation_radius(g: _Geometry, q: np.ndarray) -> np.ndarray:
     |G·d|² = |J_p·d|² + 2·|J_ω·d|² ≥ (σ·|d|)² with σ the least singular value of the 6×6 Jacobian J. Another
     solution has |F(x′) − F(x)| ≤ _SOLUTION_GAP, so σ·t − ½·M·t² ≤ gap for t = |d|: t lies below the smaller root
     (the same solution) or beyond the larger, (σ + √(σ² − 2·M·gap))/M, returned here."""
-    if len(q) >= _COLUMN_ROWS:   # (R, 6, 6) Jᵀ, from the joint-major kernel or the batched matrices
+    # σ² is the least eigenvalue of JᵀJ (eigvalsh costs 60 % of an SVD of J and is as exact: 1e-16·|J|²).
+    sigma = np.sqrt(np.maximum(np.linalg.eigvalsh(_normal_matrices(g, q))[:, 0], 0.0))
+    bound = _curvature_bound(g)
+    discriminant = sigma * sigma - 2.0 * bound * _SOLUTION_GAP
+    return np.where(discriminant > 0.0, (sigma + np.sqrt(np.maximum(discriminant, 0.0))) / bound, 0.0)
+
+
+def _normal_matrices(g: _Geometry, q: np.ndarray) -> np.ndarray:
+    """(M, 6, 6) JᵀJ of the calibrated chain's Jacobian at joints q (M, 6), from the joint-major kernel for
+    _COLUMN_ROWS rows or more (no 4×4 matmuls), from the batched matrices below."""
+    if len(q) >= _COLUMN_ROWS:
         transposed = np.stack([np.stack(np.broadcast_arrays(*column, np.empty(len(q))))[:6].T
                                for column in _column_jacobian(_column_frames(g, q)[1])], axis=1)
     else:
         transposed = _jacobian_rows(_chain_frames(_joint_terms(g), q)).transpose(1, 0, 2)
-    # σ² is the least eigenvalue of JᵀJ (eigvalsh costs 60 % of an SVD of J and is as exact: 1e-16·|J|²).
-    sigma = np.sqrt(np.maximum(np.linalg.eigvalsh(transposed @ transposed.transpose(0, 2, 1))[:, 0], 0.0))
-    bound = _curvature_bound(g)
-    discriminant = sigma * sigma - 2.0 * bound * _SOLUTION_GAP
-    return np.where(discriminant > 0.0, (sigma + np.sqrt(np.maximum(discriminant, 0.0))) / bound, 0.0)
+    return transposed @ transposed.transpose(0, 2, 1)
+
+
+def _isolated(g: _Geometry, q: np.ndarray, reach: np.ndarray) -> np.ndarray:
+    """(M,) whether reach (M,) < _isolation_radius of solutions q (M, 6): no other accepted solution within it.
+
+    For _COLUMN_ROWS rows or more without eigenvalues (eigvalsh costs ~2 µs a matrix): the radius exceeds t = reach
+    exactly when σ exceeds σ_t = max(√(2·M·gap), min(M·t, M·t/2 + gap/t)) (the larger root of ½·M·t² − σ·t + gap
+    passes t), i.e. when JᵀJ − σ_t²·I is positive definite: a Cholesky written out per entry, every pivot > 0.
+    """
+    if len(q) < _COLUMN_ROWS:
+        return reach < _isolation_radius(g, q)
+    bound, gap = _curvature_bound(g), _SOLUTION_GAP
+    needed = np.maximum(math.sqrt(2.0 * bound * gap), np.minimum(bound * reach, 0.5 * bound * reach + gap / reach))
+    normal = _normal_matrices(g, q)
+    shift = needed * needed
+    lower = [[None] * 6 for _ in range(6)]
+    definite = np.ones(len(q), dtype=bool)
+    for j in range(6):
+        pivot = normal[:, j, j] - shift - sum(lower[j][k] * lower[j][k] for k in range(j))
+        definite &= pivot > 0.0
+        inverse_root = 1.0 / np.sqrt(np.where(pivot > 0.0, pivot, 1.0))   # a failed row goes on harmlessly
+        for i in range(j + 1, 6):
+            lower[i][j] = (normal[:, i, j] - sum(lower[i][k] * lower[j][k] for k in range(j))) * inverse_root
+    return definite

@@ -6,7 +6,7 @@ import math
 import numpy as np
 
 from ur3dq.errors import UnreachablePoseError
-from ur3dq.kinematics.ur_ik.calibrated import _isolation_radius, _refine_batch
+from ur3dq.kinematics.ur_ik.calibrated import _isolated, _refine_batch
 from ur3dq.kinematics.ur_ik.equations import (
     _ScalarOps,
     _elbow_for_wrist,
@@ -193,7 +193,7 @@ def _reference_solution(g: _Geometry, target, reference, weights):
     nearest converged candidate. Newton from ``reference`` alone is the same row of that refinement (the same
     kernel, row by row), and its result x, at cost c, is the nearest of all when every other converged solution
     nearer than c would lie within 2·√(c / min w) of x in joint space (both within √(c / min w) of the reference,
-    up to LIMIT_ROUNDING per joint), which _isolation_radius rules out: no other solution lies that close. Half the
+    up to LIMIT_ROUNDING per joint), which _isolated rules out: no other solution lies that close. Half the
     radius is required, for the rounding of σ. Typical of a reference at or beside the answer (``ik(fk(q), q)``,
     a path of small steps); anything else, a singularity included, takes the full ranking.
     """
@@ -205,7 +205,7 @@ def _reference_solution(g: _Geometry, target, reference, weights):
     if not cost < math.inf:
         return None
     reach = 2.0 * (math.sqrt(cost / min(weights)) + math.sqrt(6.0) * LIMIT_ROUNDING)
-    return joints if reach < 0.5 * _isolation_radius(g, refined)[0] else None
+    return joints if _isolated(g, refined, np.array([2.0 * reach]))[0] else None
 
 
 def joint_variants(model, q) -> np.ndarray:
