@@ -342,9 +342,17 @@ def _isolated(g: _Geometry, q: np.ndarray, reach: np.ndarray) -> np.ndarray:
     exactly when σ exceeds σ_t = max(√(2·M·gap), min(M·t, M·t/2 + gap/t)) (the larger root of ½·M·t² − σ·t + gap
     passes t), i.e. when JᵀJ − σ_t²·I is positive definite: a Cholesky written out per entry, every pivot > 0.
     """
+    bound, gap = _curvature_bound(g), _SOLUTION_GAP
+    # The radius is at most 2σ/M, and σ ≤ |J·e6| = |(z6 × (p − o6), z6)| = √(1 + a6²): farther reaches fail
+    # without a Jacobian (a reference ~0.04 rad or more from the answer).
+    possible = reach < 2.0 * math.sqrt(1.0 + g.joints[5][0] ** 2) / bound
+    if not possible.all():
+        decided = np.zeros(len(q), dtype=bool)
+        if possible.any():
+            decided[possible] = _isolated(g, q[possible], reach[possible])
+        return decided
     if len(q) < _COLUMN_ROWS:
         return reach < _isolation_radius(g, q)
-    bound, gap = _curvature_bound(g), _SOLUTION_GAP
     needed = np.maximum(math.sqrt(2.0 * bound * gap), np.minimum(bound * reach, 0.5 * bound * reach + gap / reach))
     normal = _normal_matrices(g, q)
     shift = needed * needed

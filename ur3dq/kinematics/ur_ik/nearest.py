@@ -185,9 +185,10 @@ def _nearest_joints(g: _Geometry, solution, reference) -> tuple:
                  for angle, ref, low, high in zip(solution, reference, g.lower, g.upper))
 
 
-def _reference_solution(g: _Geometry, target, reference, weights):
-    """The solution Newton reaches from ``reference`` (calibrated model, flange pair ``target``), as its in-limit
-    ±2π variants nearest ``reference``, when it is provably the one ``ik``'s full ranking picks; else None.
+def _reference_solution(g: _Geometry, target, reference, weights) -> tuple:
+    """(joints, row): the solution Newton reaches from ``reference`` (calibrated model, flange pair ``target``) as
+    its in-limit ±2π variants nearest ``reference`` when it is provably the one ``ik``'s full ranking picks, else
+    None; and that Newton row (6 floats; None unless it converged) for the ranking to reuse.
 
     The full ranking refines every nominal branch and ``reference`` (single._solution_candidates) and returns the
     nearest converged candidate. Newton from ``reference`` alone is the same row of that refinement (the same
@@ -199,13 +200,14 @@ def _reference_solution(g: _Geometry, target, reference, weights):
     """
     refined, residual = _refine_batch(g, np.array([reference]), np.array(target)[None])
     if not residual[0] <= CALIBRATED_TOLERANCE:
-        return None
-    joints = _nearest_joints(g, tuple(refined[0].tolist()), reference)
+        return None, None
+    row = tuple(refined[0].tolist())
+    joints = _nearest_joints(g, row, reference)
     cost = sum(w * (v - r) ** 2 for w, v, r in zip(weights, joints, reference))
     if not cost < math.inf:
-        return None
+        return None, row
     reach = 2.0 * (math.sqrt(cost / min(weights)) + math.sqrt(6.0) * LIMIT_ROUNDING)
-    return joints if _isolated(g, refined, np.array([2.0 * reach]))[0] else None
+    return (joints if _isolated(g, refined, np.array([2.0 * reach]))[0] else None), row
 
 
 def joint_variants(model, q) -> np.ndarray:
@@ -240,18 +242,19 @@ def ik(model, pose, q_ref, weights=None) -> np.ndarray:
         if best is not None and _meets(model, best, tcp_coefficients):   # usually the only FK evaluation
             return np.array(best)
     meets = _fk_check(model, g, tcp_coefficients)
+    row = None
     if g.calibrated:   # usually one Newton row, from the reference
-        best = _reference_solution(g, target, reference, weight)
+        best, row = _reference_solution(g, target, reference, weight)
         if best is not None and meets(best):
             return np.array(best)
-    return _ranked_solution(model, g, target, meets, reference, weight)
+    candidates = _solution_candidates(g, target, _wrap_float(reference[5]), row)
+    return _ranked_solution(model, g, target, meets, candidates, reference, weight)
 
 
-def _ranked_solution(model, g: _Geometry, target, meets, reference, weight) -> np.ndarray:
+def _ranked_solution(model, g: _Geometry, target, meets, candidates: list, reference, weight) -> np.ndarray:
     """``ik``'s answer by ranking every candidate (single._solution_candidates: on calibrated models Newton from
     every nominal branch and from ``reference``): the nearest one the FK filter ``meets`` accepts. The path of
     calibrated models without a _reference_solution, and of a nominal winner the FK filter rejected."""
-    candidates = _solution_candidates(g, target, _wrap_float(reference[5]), reference)
     remaining = list(candidates)
     # Nearest first, FK filter only on the winner (usually one FK evaluation); a rejected winner is dropped.
     while remaining:
