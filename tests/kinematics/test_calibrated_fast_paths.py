@@ -193,3 +193,15 @@ def test_isolated_decides_as_the_radius_for_many_rows():
     clear = np.abs(reach / np.maximum(radius, 1e-300) - 1.0) > 1e-6   # not within rounding of the boundary
     np.testing.assert_array_equal(decided[clear], (reach < radius)[clear])
     assert decided.any() and not decided.all()
+
+
+def test_ik_batch_without_any_proven_row_and_without_poses():
+    """No reference row converging (references far off) leaves every pose to the ranking; no poses, no rows."""
+    model = factory_model("ur3", 30)
+    q = hard_configurations(8, 31)[::4]   # regular configurations
+    poses = model.fk_batch(q)
+    for shift in (2.0, 3.0):
+        batch = model.ik_batch(poses, q + shift)
+        for pose, reference, row in zip(poses, q + shift, batch):
+            np.testing.assert_allclose(row, model.ik(pose, reference), atol=1e-9)
+    assert model.ik_batch(poses[:0], q[:0]).shape == (0, 6)

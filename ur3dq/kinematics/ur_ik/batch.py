@@ -242,7 +242,7 @@ def _joint_variants(angle: np.ndarray, reference, lower: float, upper: float) ->
     centre += angle                               # angle + 2π·round((reference − angle)/2π)
     if lower == -np.inf and upper == np.inf:      # an unlimited joint (UR3 wrist 3): every variant fits
         return centre
-    if centre.min() >= lower and centre.max() <= upper:   # False for NaN
+    if centre.size == 0 or (centre.min() >= lower and centre.max() <= upper):   # False for NaN
         return centre
     outside = ~((centre >= lower) & (centre <= upper))
     centre[outside] = _limited_variants(np.broadcast_to(angle, centre.shape)[outside], centre[outside], lower, upper)
