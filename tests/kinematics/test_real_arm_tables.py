@@ -11,29 +11,14 @@ import math
 import numpy as np
 import pytest
 
-from sim_ursim.calibration import UR10E_DOCUMENTED, factory_calibration
+from calibrated_arms import factory_model, random_configurations
+from sim_ursim.calibration import UR10E_DOCUMENTED
 from sim_ursim.models import robot_model as simulated_model
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.kinematics import MODEL_NAMES, robot_model, robot_model_from_dh
 from ur3dq.kinematics.dls import dls_ik
 
 ur_analytic_ik = pytest.importorskip("ur_analytic_ik")
-
-
-def factory_model(name: str, seed: int):
-    """The ur3dq model of a controller reporting sim_ursim's factory-style table for arm ``name``."""
-    nominal = robot_model(name).dh
-    deltas = factory_calibration(simulated_model(name).dh, seed)
-    absolute = {key: np.asarray(getattr(nominal, key)) + deltas[key] for key in ("a", "d", "alpha", "theta")}
-    return robot_model_from_dh(name, **absolute)
-
-
-def random_configurations(count: int, seed: int) -> np.ndarray:
-    """Joint vectors kept 0.05 rad away from the wrist and elbow singularities (where branches merge)."""
-    rng = np.random.default_rng(seed)
-    q = rng.uniform(-math.pi, math.pi, (4 * count, 6))
-    regular = (np.abs(np.sin(q[:, 4])) > 0.05) & (np.abs(np.sin(q[:, 2])) > 0.05)
-    return q[regular][:count]
 
 
 @pytest.mark.parametrize("name", MODEL_NAMES)

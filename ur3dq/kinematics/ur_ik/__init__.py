@@ -39,7 +39,12 @@ the calibrated FK converge each to CALIBRATED_TOLERANCE; the FK filter still dec
 at once: as batched 4×4 matrices for a few rows (single poses), written out per joint-major column for many.
 Known limit: within ~0.05 rad of a wrist singularity or of the folded elbow, two nominal branches
 can converge to the same calibrated solution, so ik_all may miss a neighbouring one there (whatever it returns
-is FK-verified; ik then picks the nearest of those).
+is FK-verified; ik then picks the nearest of those). ``ik`` first runs Newton from q_ref alone and returns that
+solution when it provably is the one the full ranking picks (no other solution can lie nearer: its isolation radius,
+from the Jacobian's least singular value and a bound on the chain's curvature, calibrated._isolation_radius, covers
+every configuration nearer q_ref); otherwise, beside a singularity or far from q_ref, all candidates are ranked.
+``ik_batch`` likewise refines one row per pose from q_ref and keeps the proven ones (``ik``'s answers); the other
+poses rank their refined nominal branches (which, beside a singularity, can miss the solution the q_ref row finds).
 
 Single poses run in plain floats (no pyquaternion or numpy objects on the hot path); on a nominal model `ik_all`
 solves the 8 branches with the equations written out for a regular wrist (single._nominal_branches) and FK-checks

@@ -1,11 +1,13 @@
 """Batches of poses: every solution (`ik_all_batch`) and the nearest one (`ik_batch`), block by block."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ur3dq import dqarray
 from ur3dq.kinematics.ur_ik.batch_kernels import _joints_fk_filter, _regular_branches, _regular_fk_filter
-from ur3dq.kinematics.ur_ik.calibrated import _refine_batch
+from ur3dq.kinematics.ur_ik.calibrated import _isolated, _refine_batch
 from ur3dq.kinematics.ur_ik.equations import _ArrayOps, _branches, wrap_angle
 from ur3dq.kinematics.ur_ik.fk_filter import _EXACT_UNIT, _within_fk_tolerance
 from ur3dq.kinematics.ur_ik.geometry import (
@@ -56,11 +58,7 @@ def _batch_candidates(g: _Geometry, targets: tuple, theta6_ref) -> np.ndarray:
     Joint-major layout: every joint of every branch is one contiguous run, which is what the elementwise
     kernels (and the model's fk_batch, reading columns) want; refined by Newton first on calibrated models.
     """
-    count = len(targets[0])
-    columns = np.empty((6, 8, count))
-    for k, branch in enumerate(_branches(_ArrayOps, g, targets, theta6_ref)):
-        for j, value in enumerate(branch):
-            columns[j, k] = value
+    columns = _nominal_candidates(g, targets, theta6_ref)
     if g.calibrated:
         flat = columns.reshape(6, -1).T
         repeated = np.tile(np.stack(targets, axis=-1), (8, 1))
@@ -68,11 +66,50 @@ def _batch_candidates(g: _Geometry, targets: tuple, theta6_ref) -> np.ndarray:
         refined, residual = _refine_batch(g, flat[usable], repeated[usable])
         flat = flat.copy()
         flat[usable] = np.where((residual <= CALIBRATED_TOLERANCE)[:, None], refined, np.nan)
-        columns = np.ascontiguousarray(flat.T).reshape(6, 8, count)
+        columns = np.ascontiguousarray(flat.T).reshape(6, 8, len(targets[0]))
     # θ2, θ3 come from atan2 already in (−π, π]; θ1, θ4, θ6 are sums and θ5 may be −π.
     for j in (0, 3, 4, 5):
         columns[j] = wrap_angle(columns[j])
     return columns
+
+
+def _nominal_candidates(g: _Geometry, targets: tuple, theta6_ref) -> np.ndarray:
+    """(6, 8, N) the analytic branches of the geometry's closed form (NaN where absent) of flange targets (seven
+    (N,) arrays), not yet refined nor wrapped: the seeds of Newton on calibrated models."""
+    columns = np.empty((6, 8, len(targets[0])))
+    for k, branch in enumerate(_branches(_ArrayOps, g, targets, theta6_ref)):
+        for j, value in enumerate(branch):
+            columns[j, k] = value
+    return columns
+
+
+def _calibrated_nearest(model, g: _Geometry, poses: np.ndarray, reference: np.ndarray, weight) -> tuple:
+    """(joints (N, 6), proven (N,)): per pose of a calibrated model, the solution Newton reaches from ``reference``
+    (N, 6) as its in-limit ±2π variants nearest it, and whether it is provably the nearest accepted solution.
+
+    Proven as in nearest._reference_solution: every solution nearer the reference than x (cost c) would lie within
+    2·√(c / min w) of x, inside half x's isolation radius (calibrated._isolated), where no other lies; and the FK
+    filter passes. That is ``ik``'s answer (its ranking holds the same Newton row from the reference), and the
+    ranking of the nominal branches' rows gives it too whenever one of them reaches x. Rows not proven are NaN.
+    """
+    targets = np.stack(_batch_flange_targets(g, poses), axis=-1)
+    refined, residual = _refine_batch(g, reference, targets)
+    rows = np.flatnonzero(residual <= CALIBRATED_TOLERANCE)
+    variants, cost = _variant_costs(g, refined[rows].T[:, None, :], reference[rows].T[:, None, :], weight)
+    joints, cost = variants[:, 0].T, cost[0]
+    fits = cost == cost   # False for NaN: some joint has no in-limit variant
+    rows, joints, cost = rows[fits], joints[fits], cost[fits]
+    smallest = 1.0 if weight is None else min(weight)
+    reach = 2.0 * (np.sqrt(cost / smallest) + math.sqrt(6.0) * LIMIT_ROUNDING)
+    isolated = _isolated(g, refined[rows], 2.0 * reach)
+    rows, joints = rows[isolated], joints[isolated]
+    fk = model.fk_batch(joints)
+    passed = _within_fk_tolerance(np.ascontiguousarray(fk.T), np.ascontiguousarray(poses[rows].T))
+    out = np.full((len(poses), 6), np.nan)
+    out[rows[passed]] = joints[passed]
+    proven = np.zeros(len(poses), dtype=bool)
+    proven[rows[passed]] = True
+    return out, proven
 
 
 def _fk_filter(model, columns: np.ndarray, poses: np.ndarray) -> np.ndarray:
@@ -205,7 +242,7 @@ def _joint_variants(angle: np.ndarray, reference, lower: float, upper: float) ->
     centre += angle                               # angle + 2π·round((reference − angle)/2π)
     if lower == -np.inf and upper == np.inf:      # an unlimited joint (UR3 wrist 3): every variant fits
         return centre
-    if centre.min() >= lower and centre.max() <= upper:   # False for NaN
+    if centre.size == 0 or (centre.min() >= lower and centre.max() <= upper):   # False for NaN
         return centre
     outside = ~((centre >= lower) & (centre <= upper))
     centre[outside] = _limited_variants(np.broadcast_to(angle, centre.shape)[outside], centre[outside], lower, upper)
@@ -326,8 +363,11 @@ def ik_batch(model, poses, q_ref, weights=None) -> np.ndarray:
     g = _geometry(model)
     out = np.empty((len(poses), 6))
     theta6_ref = wrap_angle(reference[:, 5])
-    if g.calibrated:
-        blocks = _solved_blocks(model, g, poses, theta6_ref)
+    if g.calibrated:   # the proven winners of one Newton row per pose (from q_ref); the others ranked as before
+        out[:], proven = _calibrated_nearest(model, g, poses, reference, weight)
+        rows = np.flatnonzero(~proven)
+        blocks = ([(rows,) + next(_solved_blocks(model, g, poses[rows], theta6_ref[rows]))[1:]]
+                  if rows.size else [])
     else:   # the closed-form kernel, FK filter on the winners; near-singular poses redone by ik_all's code
         redo = []
         for block in _kernel_blocks(g, poses, NEAREST_BLOCK):

@@ -37,8 +37,26 @@ def _joint_terms(g: _Geometry) -> tuple:
     A standard DH joint is T(θ) = cos θ·A + sin θ·B + C with constant A, B, C (4×4, flattened to 16): all six
     joints of M configurations are one (6, M, 1, 2) @ (6, 1, 2, 16) matmul, cos and sin one np.cos of
     θ + offset − (0, π/2). Cached per geometry (kept alive with its entry, so its id cannot be reused), like
-    geometry._geometry.
+    geometry._geometry, together with _curvature_bound's value.
     """
+    return _cached_terms(g)[0]
+
+
+def _curvature_bound(g: _Geometry) -> float:
+    """M: |F″(x)(d, d)| ≤ M·|d|² for every x and d (6,), F = (flange position, the three columns of its rotation).
+
+    For joint i before or at j, ∂²F/∂θi∂θj = z_i × (z_j × (v − o_j)) (Jacobi's identity), v the position (or a
+    rotation column, with o_j = 0): at most the distance of the flange from axis j (or 1). That distance is at most
+    R = Σ |P_k − P_k−1| + |flange − P_6|, P_1 the base origin and P_k the foot of P_k−1 on axis k: P_k lies on
+    axis k and is fixed in link k−1's frame, hence in link k's, so every term is a constant of the arm (evaluated
+    at q = 0; ~a2 + a3 + d4 + d5 + d6, whatever the table's cancelling d offsets). With (Σ|dᵢ|)² ≤ 6·|d|², the
+    position and three columns give M = 6·√(R² + 3).
+    """
+    return _cached_terms(g)[1]
+
+
+def _cached_terms(g: _Geometry) -> tuple:
+    """(_joint_terms, _curvature_bound) of a geometry, computed once."""
     cached = _TERMS.get(id(g))
     if cached is not None and cached[0] is g:
         return cached[1]
@@ -50,11 +68,18 @@ def _joint_terms(g: _Geometry) -> tuple:
         basis[i, 1] = [[0.0, -cos_alpha, sin_alpha, 0.0], [1.0, 0.0, 0.0, a], [0.0] * 4, [0.0] * 4]
         constant[i, 0] = [[0.0] * 4, [0.0] * 4, [0.0, sin_alpha, cos_alpha, d], [0.0, 0.0, 0.0, 1.0]]
     terms = (shift.reshape(6, 1, 1, 2), basis.reshape(6, 1, 2, 16), constant.reshape(6, 1, 1, 16))
+    frames = _chain_frames(terms, np.zeros((1, 6)))[:, 0]
+    foot, reach = np.zeros(3), 0.0
+    for axis, origin in [(np.array([0.0, 0.0, 1.0]), np.zeros(3))] + [(f[:3, 2], f[:3, 3]) for f in frames[:5]]:
+        step = axis * np.dot(foot - origin, axis) + origin - foot   # to the foot of ``foot`` on this axis
+        foot, reach = foot + step, reach + float(np.linalg.norm(step))
+    reach += float(np.linalg.norm(frames[5, :3, 3] - foot))
+    value = (terms, 6.0 * math.sqrt(reach * reach + 3.0))
     with _TERMS_LOCK:
         if len(_TERMS) >= 64:
             _TERMS.pop(next(iter(_TERMS)))
-        _TERMS[id(g)] = (g, terms)
-    return terms
+        _TERMS[id(g)] = (g, value)
+    return value
 
 
 def _chain_frames(terms: tuple, q: np.ndarray) -> np.ndarray:
@@ -163,6 +188,22 @@ def _column_residual(g: _Geometry, q: np.ndarray, target: tuple) -> tuple:
     for thousands of rows numpy's batched 4×4 matmuls and 6×6 LAPACK solves cost ~0.3 µs and ~0.8 µs per matrix,
     where one elementwise operation costs ~0.5 ns per row (measured on the benchmark machine).
     """
+    end, frames = _column_frames(g, q)
+    rotation_t, position_t = target
+    error = np.empty((len(q), 6))
+    for k in range(3):
+        np.subtract(position_t[:, k], frames[1][6][k], out=error[:, k])
+    # ½·Σ_c r_c × t_c over the columns c of the end rotation and the target's: the axial vector of the skew part
+    # of R_t·Rᵀ, as _pose_residual computes it.
+    for k, (i, j) in enumerate(((1, 2), (2, 0), (0, 1))):
+        error[:, 3 + k] = 0.5 * sum(end[c][i] * rotation_t[:, j, c] - end[c][j] * rotation_t[:, i, c]
+                                    for c in range(3))
+    return error, frames
+
+
+def _column_frames(g: _Geometry, q: np.ndarray) -> tuple:
+    """((x, y, z) columns of the end frame, (axes, origins) of frames 0…6) of joints q (R, 6), each coordinate an
+    (R,) array or a float (the base frame): the chain of _chain_frames written out per column."""
     angles = q.T + np.array([joint[2] for joint in g.joints])[:, None]
     cos, sin = np.cos(angles), np.sin(angles)
     x, y, z, p = (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0), (0.0, 0.0, 0.0)
@@ -176,21 +217,12 @@ def _column_residual(g: _Geometry, q: np.ndarray, target: tuple) -> tuple:
         z = tuple(cos_alpha * w - sin_alpha * v for v, w in zip(turned, z))
         axes.append(z)
         origins.append(p)
-    rotation_t, position_t = target
-    error = np.empty((len(q), 6))
-    for k in range(3):
-        np.subtract(position_t[:, k], p[k], out=error[:, k])
-    # ½·Σ_c r_c × t_c over the columns c of the end rotation and the target's: the axial vector of the skew part
-    # of R_t·Rᵀ, as _pose_residual computes it.
-    end = (x, y, z)
-    for k, (i, j) in enumerate(((1, 2), (2, 0), (0, 1))):
-        error[:, 3 + k] = 0.5 * sum(end[c][i] * rotation_t[:, j, c] - end[c][j] * rotation_t[:, i, c]
-                                    for c in range(3))
-    return error, (axes, origins)
+    return (x, y, z), (axes, origins)
 
 
-def _column_step(frames: tuple, error: np.ndarray, damping: np.ndarray) -> np.ndarray:
-    """(R, 6) joint steps solving (JᵀJ + λ²I)·Δq = Jᵀe, the normal equations and Cholesky written out per entry."""
+def _column_jacobian(frames: tuple) -> list:
+    """Per joint its base-frame Jacobian column [z × (p − o), z] (6 coordinates, (R,) arrays or floats) from the
+    (axes, origins) of _column_frames: the rows of _jacobian_rows, joint-major per column."""
     axes, origins = frames
     end = origins[6]
     columns = []
@@ -198,6 +230,12 @@ def _column_step(frames: tuple, error: np.ndarray, damping: np.ndarray) -> np.nd
         lever = tuple(e - w for e, w in zip(end, o))
         columns.append((z[1] * lever[2] - z[2] * lever[1], z[2] * lever[0] - z[0] * lever[2],
                         z[0] * lever[1] - z[1] * lever[0]) + z)
+    return columns
+
+
+def _column_step(frames: tuple, error: np.ndarray, damping: np.ndarray) -> np.ndarray:
+    """(R, 6) joint steps solving (JᵀJ + λ²I)·Δq = Jᵀe, the normal equations and Cholesky written out per entry."""
+    columns = _column_jacobian(frames)
     residual = error.T
     rhs = [sum(column[r] * residual[r] for r in range(6)) for column in columns]
     lower = [[None] * 6 for _ in range(6)]
@@ -263,3 +301,67 @@ def _refine_batch(g: _Geometry, q: np.ndarray, targets: np.ndarray):
         current = current + (delta if columns else _matrix_step(frames, error, _DAMPING_MATRIX))
         previous = norm
     return q, residual
+
+
+#: Bound on |F(x) − F(x′)| for two solutions accepted at CALIBRATED_TOLERANCE (F as in _curvature_bound): each is
+#: within √(1 + 2·(π/2)²)·tolerance < 2.25·tolerance of the target (the residual's rotation part is sin φ·axis,
+#: a column moves by ≤ √2·φ), so two are within 4.5·tolerance; 5 leaves room for rounding.
+_SOLUTION_GAP = 5.0 * CALIBRATED_TOLERANCE
+
+
+def _isolation_radius(g: _Geometry, q: np.ndarray) -> np.ndarray:
+    """(M,) per solution q (M, 6): a radius (rad, Euclidean in joint space, any ±2π shift) within which no other
+    solution accepted at CALIBRATED_TOLERANCE lies, except its own copies within ~_SOLUTION_GAP/σ; 0 if none.
+
+    Along x′ = x + d, |F(x′) − F(x) − G·d| ≤ ½·M·|d|² (_curvature_bound), and G, the Jacobian of F, has
+    |G·d|² = |J_p·d|² + 2·|J_ω·d|² ≥ (σ·|d|)² with σ the least singular value of the 6×6 Jacobian J. Another
+    solution has |F(x′) − F(x)| ≤ _SOLUTION_GAP, so σ·t − ½·M·t² ≤ gap for t = |d|: t lies below the smaller root
+    (the same solution) or beyond the larger, (σ + √(σ² − 2·M·gap))/M, returned here."""
+    # σ² is the least eigenvalue of JᵀJ (eigvalsh costs 60 % of an SVD of J and is as exact: 1e-16·|J|²).
+    sigma = np.sqrt(np.maximum(np.linalg.eigvalsh(_normal_matrices(g, q))[:, 0], 0.0))
+    bound = _curvature_bound(g)
+    discriminant = sigma * sigma - 2.0 * bound * _SOLUTION_GAP
+    return np.where(discriminant > 0.0, (sigma + np.sqrt(np.maximum(discriminant, 0.0))) / bound, 0.0)
+
+
+def _normal_matrices(g: _Geometry, q: np.ndarray) -> np.ndarray:
+    """(M, 6, 6) JᵀJ of the calibrated chain's Jacobian at joints q (M, 6), from the joint-major kernel for
+    _COLUMN_ROWS rows or more (no 4×4 matmuls), from the batched matrices below."""
+    if len(q) >= _COLUMN_ROWS:
+        transposed = np.stack([np.stack(np.broadcast_arrays(*column, np.empty(len(q))))[:6].T
+                               for column in _column_jacobian(_column_frames(g, q)[1])], axis=1)
+    else:
+        transposed = _jacobian_rows(_chain_frames(_joint_terms(g), q)).transpose(1, 0, 2)
+    return transposed @ transposed.transpose(0, 2, 1)
+
+
+def _isolated(g: _Geometry, q: np.ndarray, reach: np.ndarray) -> np.ndarray:
+    """(M,) whether reach (M,) < _isolation_radius of solutions q (M, 6): no other accepted solution within it.
+
+    For _COLUMN_ROWS rows or more without eigenvalues (eigvalsh costs ~2 µs a matrix): the radius exceeds t = reach
+    exactly when σ exceeds σ_t = max(√(2·M·gap), min(M·t, M·t/2 + gap/t)) (the larger root of ½·M·t² − σ·t + gap
+    passes t), i.e. when JᵀJ − σ_t²·I is positive definite: a Cholesky written out per entry, every pivot > 0.
+    """
+    bound, gap = _curvature_bound(g), _SOLUTION_GAP
+    # The radius is at most 2σ/M, and σ ≤ |J·e6| = |(z6 × (p − o6), z6)| = √(1 + a6²): farther reaches fail
+    # without a Jacobian (a reference ~0.04 rad or more from the answer).
+    possible = reach < 2.0 * math.sqrt(1.0 + g.joints[5][0] ** 2) / bound
+    if not possible.all():
+        decided = np.zeros(len(q), dtype=bool)
+        if possible.any():
+            decided[possible] = _isolated(g, q[possible], reach[possible])
+        return decided
+    if len(q) < _COLUMN_ROWS:
+        return reach < _isolation_radius(g, q)
+    needed = np.maximum(math.sqrt(2.0 * bound * gap), np.minimum(bound * reach, 0.5 * bound * reach + gap / reach))
+    normal = _normal_matrices(g, q)
+    shift = needed * needed
+    lower = [[None] * 6 for _ in range(6)]
+    definite = np.ones(len(q), dtype=bool)
+    for j in range(6):
+        pivot = normal[:, j, j] - shift - sum(lower[j][k] * lower[j][k] for k in range(j))
+        definite &= pivot > 0.0
+        inverse_root = 1.0 / np.sqrt(np.where(pivot > 0.0, pivot, 1.0))   # a failed row goes on harmlessly
+        for i in range(j + 1, 6):
+            lower[i][j] = (normal[:, i, j] - sum(lower[i][k] * lower[j][k] for k in range(j))) * inverse_root
+    return definite

@@ -6,6 +6,7 @@ import math
 import numpy as np
 
 from ur3dq.errors import UnreachablePoseError
+from ur3dq.kinematics.ur_ik.calibrated import _isolated, _refine_batch
 from ur3dq.kinematics.ur_ik.equations import (
     _ScalarOps,
     _elbow_for_wrist,
@@ -15,6 +16,7 @@ from ur3dq.kinematics.ur_ik.equations import (
 )
 from ur3dq.kinematics.ur_ik.fk_filter import _fk_check, _meets, _reference, _targets
 from ur3dq.kinematics.ur_ik.geometry import (
+    CALIBRATED_TOLERANCE,
     LIMIT_ROUNDING,
     WRIST_NEAR_TOLERANCE,
     _Geometry,
@@ -183,6 +185,31 @@ def _nearest_joints(g: _Geometry, solution, reference) -> tuple:
                  for angle, ref, low, high in zip(solution, reference, g.lower, g.upper))
 
 
+def _reference_solution(g: _Geometry, target, reference, weights) -> tuple:
+    """(joints, row): the solution Newton reaches from ``reference`` (calibrated model, flange pair ``target``) as
+    its in-limit ±2π variants nearest ``reference`` when it is provably the one ``ik``'s full ranking picks, else
+    None; and that Newton row (6 floats; None unless it converged) for the ranking to reuse.
+
+    The full ranking refines every nominal branch and ``reference`` (single._solution_candidates) and returns the
+    nearest converged candidate. Newton from ``reference`` alone is the same row of that refinement (the same
+    kernel, row by row), and its result x, at cost c, is the nearest of all when every other converged solution
+    nearer than c would lie within 2·√(c / min w) of x in joint space (both within √(c / min w) of the reference,
+    up to LIMIT_ROUNDING per joint), which _isolated rules out: no other solution lies that close. Half the
+    radius is required, for the rounding of σ. Typical of a reference at or beside the answer (``ik(fk(q), q)``,
+    a path of small steps); anything else, a singularity included, takes the full ranking.
+    """
+    refined, residual = _refine_batch(g, np.array([reference]), np.array(target)[None])
+    if not residual[0] <= CALIBRATED_TOLERANCE:
+        return None, None
+    row = tuple(refined[0].tolist())
+    joints = _nearest_joints(g, row, reference)
+    cost = sum(w * (v - r) ** 2 for w, v, r in zip(weights, joints, reference))
+    if not cost < math.inf:
+        return None, row
+    reach = 2.0 * (math.sqrt(cost / min(weights)) + math.sqrt(6.0) * LIMIT_ROUNDING)
+    return (joints if _isolated(g, refined, np.array([2.0 * reach]))[0] else None), row
+
+
 def joint_variants(model, q) -> np.ndarray:
     """(M, 6) every q + 2πk (per joint) inside the model's limits; an unlimited joint is listed within ±2π.
 
@@ -215,8 +242,19 @@ def ik(model, pose, q_ref, weights=None) -> np.ndarray:
         if best is not None and _meets(model, best, tcp_coefficients):   # usually the only FK evaluation
             return np.array(best)
     meets = _fk_check(model, g, tcp_coefficients)
-    # Calibrated models (Newton on every branch), or a winner the FK filter rejected: rank all candidates.
-    candidates = _solution_candidates(g, target, _wrap_float(reference[5]), reference)
+    row = None
+    if g.calibrated:   # usually one Newton row, from the reference
+        best, row = _reference_solution(g, target, reference, weight)
+        if best is not None and meets(best):
+            return np.array(best)
+    candidates = _solution_candidates(g, target, _wrap_float(reference[5]), row)
+    return _ranked_solution(model, g, target, meets, candidates, reference, weight)
+
+
+def _ranked_solution(model, g: _Geometry, target, meets, candidates: list, reference, weight) -> np.ndarray:
+    """``ik``'s answer by ranking every candidate (single._solution_candidates: on calibrated models Newton from
+    every nominal branch and from ``reference``): the nearest one the FK filter ``meets`` accepts. The path of
+    calibrated models without a _reference_solution, and of a nominal winner the FK filter rejected."""
     remaining = list(candidates)
     # Nearest first, FK filter only on the winner (usually one FK evaluation); a rejected winner is dropped.
     while remaining:

@@ -60,20 +60,21 @@ def _unreachable_reason(g: _Geometry, target, branches_existed: bool) -> str:
     return "out of reach of every elbow branch for this wrist orientation"
 
 
-def _solution_candidates(g: _Geometry, target, theta6_ref: float, reference=None) -> list:
+def _solution_candidates(g: _Geometry, target, theta6_ref: float, reference_row=None) -> list:
     """Existing analytic branches of ``target`` (flange pair), refined if calibrated; unwrapped, not yet filtered.
 
-    On a calibrated arm ``reference`` (6 floats, optional) seeds one more Newton solve: near a singularity two
-    nominal branches can converge to the same calibrated solution and miss the one beside the reference, which a
-    solve started at the reference finds (so ``ik(fk(q), q)`` gives q back).
+    On a calibrated arm ``reference_row`` (6 floats, optional) is one more candidate, last: the converged Newton
+    solve from ik's reference (nearest._reference_solution runs it first, alone: rows are refined independently).
+    Near a singularity two nominal branches can converge to the same calibrated solution and miss the one beside
+    the reference, which a solve started at the reference finds (so ``ik(fk(q), q)`` gives q back).
     """
     if not g.calibrated:
         return [branch for branch in _nominal_branches(g, target, theta6_ref)
                 if branch[1] == branch[1] and branch[0] == branch[0]]   # NaN: the branch does not exist
     candidates = [branch for branch in _branches(_ScalarOps, g, target, theta6_ref)
                   if branch[1] == branch[1] and branch[0] == branch[0]]
-    seeds = candidates + ([tuple(reference)] if reference is not None else [])
-    return _refine_calibrated(g, seeds, target) if seeds else []
+    refined = _refine_calibrated(g, candidates, target) if candidates else []
+    return refined + ([reference_row] if reference_row is not None else [])
 
 
 def _nominal_branches(g: _Geometry, target, theta6_ref: float) -> list:

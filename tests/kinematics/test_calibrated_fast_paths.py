@@ -1,0 +1,207 @@
+"""The fast paths of calibrated IK give the full ranking's answers (issue 11's calibrated speed goals).
+
+``ik`` on a calibrated model first refines the reference alone and keeps the result when _isolation_radius proves
+no other solution nearer (nearest._reference_solution); ``ik_batch`` does the same per pose. Both are compared here
+with the full rankings that were the only paths before (``ik``: Newton from every nominal branch and the
+reference, nearest._ranked_solution; ``ik_batch``: from every nominal branch) on thousands of configurations of
+factory tables, near singularities and at ±2π included.
+"""
+import math
+
+import numpy as np
+import pytest
+
+from calibrated_arms import factory_model
+from ur3dq.errors import UnreachablePoseError
+from ur3dq.kinematics.ur_ik import calibrated, nearest
+from ur3dq.kinematics.ur_ik.calibrated import _refine_calibrated
+from ur3dq.kinematics.ur_ik.equations import _ScalarOps, _branches, _wrap_float
+from ur3dq.kinematics.ur_ik.fk_filter import _fk_check, _reference, _targets
+from ur3dq.kinematics.ur_ik.geometry import _geometry
+
+MODELS = [("ur3", 21), ("ur5e", 22), ("ur10e", 23), ("ur10e", 24)]
+
+
+def hard_configurations(count: int, seed: int) -> np.ndarray:
+    """(count, 6) joints: a quarter regular in (−π, π], the others with |sin θ5| or |sin θ3| between 1e-4 and 0.05
+    (the wrist or elbow near singular) or one joint at ±2π (or a float step inside)."""
+    rng = np.random.default_rng(seed)
+    q = rng.uniform(-math.pi, math.pi, (count, 6))
+    kind = np.arange(count) % 4
+    small = rng.choice([-1.0, 1.0], count) * 10.0 ** rng.uniform(-4.0, math.log10(0.05), count)
+    wrist, elbow, limit = kind == 1, kind == 2, kind == 3
+    q[wrist, 4] = small[wrist] + rng.choice([0.0, math.pi], wrist.sum())
+    q[elbow, 2] = small[elbow]
+    ends = [2 * math.pi, -2 * math.pi, np.nextafter(2 * math.pi, 0.0), np.nextafter(-2 * math.pi, 0.0)]
+    for row in np.flatnonzero(limit):
+        q[row, rng.choice([0, 1, 3])] = ends[rng.integers(4)]
+    return q
+
+
+def references(q: np.ndarray, seed: int) -> np.ndarray:
+    """Per configuration a reference: itself, or moved by N(0, σ) with σ of 1e-6, 1e-4, 1e-2 or 0.3 rad."""
+    rng = np.random.default_rng(seed)
+    spread = np.array([0.0, 1e-6, 1e-4, 1e-2, 0.3])[np.arange(len(q)) % 5]
+    return q + rng.normal(0.0, 1.0, q.shape) * spread[:, None]
+
+
+def least_singular_value(model, q) -> float:
+    """σ of the calibrated chain's 6×6 Jacobian at joints q."""
+    frames = calibrated._chain_frames(calibrated._joint_terms(_geometry(model)), np.asarray(q)[None])
+    return float(np.linalg.svd(calibrated._jacobian_rows(frames)[:, 0], compute_uv=False)[-1])
+
+
+def ranked(model, pose, reference, weights=None):
+    """ik's answer by the full ranking (the path before the fast one), or the UnreachablePoseError's type."""
+    g = _geometry(model)
+    tcp_coefficients, target = _targets(g, pose)
+    weight = nearest._weights(weights)
+    reference = _reference(reference)
+    # The candidates as ik made them before: Newton from the nominal branches and the reference, in one batch.
+    seeds = [branch for branch in _branches(_ScalarOps, g, target, _wrap_float(reference[5]))
+             if branch[0] == branch[0] and branch[1] == branch[1]] + [reference]
+    candidates = _refine_calibrated(g, seeds, target)
+    try:
+        return nearest._ranked_solution(model, g, target, _fk_check(model, g, tcp_coefficients), candidates,
+                                        reference, weight)
+    except UnreachablePoseError:
+        return UnreachablePoseError
+
+
+def solved(model, pose, reference, weights=None):
+    """ik's answer, or the UnreachablePoseError's type."""
+    try:
+        return model.ik(pose, reference, weights) if weights is not None else model.ik(pose, reference)
+    except UnreachablePoseError:
+        return UnreachablePoseError
+
+
+@pytest.mark.parametrize("name, seed", MODELS)
+def test_ik_equals_the_full_ranking_on_factory_tables(name, seed):
+    model = factory_model(name, seed)
+    q = hard_configurations(800, seed)
+    refs = references(q, seed + 100)
+    rng = np.random.default_rng(seed + 200)
+    fast = 0
+    for row, (joints, reference) in enumerate(zip(q, refs)):
+        pose = model.fk(joints)
+        weights = None if row % 3 else rng.uniform(0.2, 5.0, 6)
+        expected, answer = ranked(model, pose, reference, weights), solved(model, pose, reference, weights)
+        if expected is UnreachablePoseError or answer is UnreachablePoseError:
+            assert answer is expected, (joints, reference)
+            continue
+        # Newton stops each copy of a solution (one per seed) within 1e-12 of the pose, so two copies lie up to
+        # ~2e-12/σ apart (σ the Jacobian's least singular value: 1e-9 rad beside a singularity), and the ranking
+        # picks one of them by rounding.
+        np.testing.assert_allclose(answer, expected, rtol=0, atol=4e-12 / least_singular_value(model, expected),
+                                   err_msg=str((joints, reference)))
+        g = _geometry(model)
+        fast += nearest._reference_solution(g, _targets(g, pose)[1], _reference(reference),
+                                            nearest._weights(weights))[0] is not None
+    assert fast > len(q) // 3   # the fast path is what these configurations mostly exercise
+
+
+@pytest.mark.parametrize("name, seed", MODELS[:2])
+def test_isolation_radius_separates_the_solutions_ik_all_finds(name, seed):
+    """No two distinct solutions of one pose lie within either one's isolation radius (on any ±2π shift)."""
+    model = factory_model(name, seed)
+    g = _geometry(model)
+    for joints in hard_configurations(150, seed + 300):
+        try:
+            solutions = np.array(model.ik_all(model.fk(joints)))
+        except UnreachablePoseError:   # ik_all's known limit beside the shoulder singularity: nothing to compare
+            continue
+        radius = calibrated._isolation_radius(g, solutions)
+        for i in range(len(solutions)):
+            for j in range(i + 1, len(solutions)):
+                apart = np.linalg.norm(np.remainder(solutions[i] - solutions[j] + math.pi, 2 * math.pi) - math.pi)
+                assert apart > min(radius[i], radius[j]) or apart < 1e-6, (solutions[i], solutions[j])
+
+
+@pytest.mark.parametrize("name, seed", MODELS[:3])
+def test_curvature_bound_holds_along_random_segments(name, seed):
+    """|F(x + d) − F(x) − G·d| ≤ ½·M·|d|² (calibrated._curvature_bound), F = flange position and rotation columns."""
+    model = factory_model(name, seed)
+    g = _geometry(model)
+    terms, bound = calibrated._joint_terms(g), calibrated._curvature_bound(g)
+    rng = np.random.default_rng(seed)
+    x = rng.uniform(-math.pi, math.pi, (400, 6))
+    d = rng.normal(0.0, 1.0, (400, 6)) * 10.0 ** rng.uniform(-3.0, 0.0, (400, 1))
+
+    def flange(joints):
+        end = calibrated._chain_frames(terms, joints)[5]
+        return np.concatenate((end[:, :3, 3], end[:, :3, :3].transpose(0, 2, 1).reshape(-1, 9)), axis=1)
+
+    frames = calibrated._chain_frames(terms, x)
+    jacobian = calibrated._jacobian_rows(frames).transpose(1, 2, 0)   # (M, 6, 6): rows position, ω; columns joints
+    moved = (jacobian @ d[:, :, None])[..., 0]
+    rotation = frames[5, :, :3, :3]
+    linear = np.concatenate((moved[:, :3], np.cross(moved[:, None, 3:], rotation.transpose(0, 2, 1)).reshape(-1, 9)),
+                            axis=1)
+    remainder = np.linalg.norm(flange(x + d) - flange(x) - linear, axis=1)
+    assert np.all(remainder <= 0.5 * bound * np.einsum("ij,ij->i", d, d) + 1e-12)
+
+
+@pytest.mark.parametrize("name, seed", MODELS)
+def test_ik_batch_gives_ik_on_proven_rows_and_the_full_ranking_elsewhere(name, seed, monkeypatch):
+    """batch._calibrated_nearest's proven rows are ik's answers, never farther than the ranking of the refined nominal
+    branches (the only path before: it misses a solution ik finds beside a singularity, 25 of 4800 rows here);
+    the other rows are that ranking's."""
+    from ur3dq.kinematics.ur_ik import batch
+    model = factory_model(name, seed)
+    q = hard_configurations(1200, seed + 400)
+    refs = references(q, seed + 500)
+    poses = model.fk_batch(q)
+    weights = np.random.default_rng(seed).uniform(0.2, 5.0, 6)
+    for weight in (None, weights):
+        fast = model.ik_batch(poses, refs, weight)
+        proven = batch._calibrated_nearest(model, _geometry(model), poses, refs,
+                                           None if weight is None else tuple(weight))[1]
+        with monkeypatch.context() as patched:
+            patched.setattr(batch, "_calibrated_nearest",
+                            lambda model, g, poses, *_: (np.full((len(poses), 6), np.nan), np.zeros(len(poses), bool)))
+            ranked_rows = model.ik_batch(poses, refs, weight)
+        np.testing.assert_array_equal(fast[~proven], ranked_rows[~proven])
+        unit = np.ones(6) if weight is None else weight
+        for row in np.flatnonzero(proven):
+            np.testing.assert_allclose(fast[row], model.ik(poses[row], refs[row], weight), rtol=0,
+                                       atol=4e-12 / least_singular_value(model, fast[row]), err_msg=str(q[row]))
+            if not np.isnan(ranked_rows[row, 0]):
+                cost = [np.sum(unit * (x - refs[row]) ** 2) for x in (fast[row], ranked_rows[row])]
+                assert cost[0] <= cost[1] + 1e-12, q[row]
+        assert proven.sum() > len(q) // 3   # the fast path is what these configurations mostly exercise
+
+
+def test_isolation_radius_is_the_same_from_both_kernels():
+    """_isolation_radius takes the Jacobian from the joint-major kernel for 256+ rows, the batched matrices below."""
+    model = factory_model("ur5e", 25)
+    g = _geometry(model)
+    q = hard_configurations(calibrated._COLUMN_ROWS, 26)
+    many = calibrated._isolation_radius(g, q)
+    few = np.concatenate([calibrated._isolation_radius(g, q[i:i + 8]) for i in range(0, len(q), 8)])
+    np.testing.assert_allclose(many, few, rtol=1e-9, atol=1e-12)
+
+
+def test_isolated_decides_as_the_radius_for_many_rows():
+    """calibrated._isolated's positive-definiteness test (256+ rows) agrees with reach < _isolation_radius."""
+    model = factory_model("ur10e", 27)
+    g = _geometry(model)
+    q = hard_configurations(4 * calibrated._COLUMN_ROWS, 28)
+    radius = calibrated._isolation_radius(g, q)
+    reach = radius * np.random.default_rng(29).uniform(0.5, 1.5, len(q)) + 1e-9
+    decided = calibrated._isolated(g, q, reach)
+    clear = np.abs(reach / np.maximum(radius, 1e-300) - 1.0) > 1e-6   # not within rounding of the boundary
+    np.testing.assert_array_equal(decided[clear], (reach < radius)[clear])
+    assert decided.any() and not decided.all()
+
+
+def test_ik_batch_without_any_proven_row_and_without_poses():
+    """No reference row converging (references far off) leaves every pose to the ranking; no poses, no rows."""
+    model = factory_model("ur3", 30)
+    q = hard_configurations(8, 31)[::4]   # regular configurations
+    poses = model.fk_batch(q)
+    for shift in (2.0, 3.0):
+        batch = model.ik_batch(poses, q + shift)
+        for pose, reference, row in zip(poses, q + shift, batch):
+            np.testing.assert_allclose(row, model.ik(pose, reference), atol=1e-9)
+    assert model.ik_batch(poses[:0], q[:0]).shape == (0, 6)
