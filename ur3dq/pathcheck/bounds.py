@@ -89,21 +89,25 @@ def certify_joint_moves(checker, q0: np.ndarray, q1: np.ndarray) -> Certificatio
     """Certify the joint moves q0 → q1 ((M, 6) rad each) on `checker` (a checks.StepChecker: model, capsules,
     cell, margins). See the module docstring."""
     count = len(q0)
-    delta = q1 - q0
-    rates = np.abs(delta) @ column_rates(checker, lever_arms(checker.model, checker.capsules)).T   # (M, K)
-    groups = _groups(checker)
+    rates_per_joint = column_rates(checker, lever_arms(checker.model, checker.capsules)).T   # (6, K)
     limit_margin, limit_worst = _joint_limit(checker, q0, q1)
-    ends = _evaluate(checker, q1)
-    starts = _start_margins(checker, q0, q1, ends)
-    failed = (starts < 0).any(axis=1) | (ends < 0).any(axis=1) | (limit_margin < 0)
-    records = _Records(groups, checker.margins.tcp_resolution)
-    records.add(np.arange(count), np.zeros(count), starts)
-    records.add(np.arange(count), np.ones(count), ends)
+    failed = limit_margin < 0
     pending = np.zeros(count, dtype=bool)
+    records = _Records(_groups(checker), checker.margins.tcp_resolution)
     # A block of moves at a time: a move's intervals double at each depth, and so would the arrays of all moves.
+    carried = None   # (joints, margins) at the end of the block before
     for first in range(0, count, _BLOCK):
-        moves = np.arange(first, min(first + _BLOCK, count))
-        _bisect(checker, q0, delta, rates, moves, starts[moves], ends[moves], records, failed, pending)
+        block = slice(first, min(first + _BLOCK, count))
+        moves = np.arange(block.start, block.stop)
+        ends = _evaluate(checker, q1[block])
+        starts = _start_margins(checker, q0[block], q1[block], ends, carried)
+        carried = q1[block.stop - 1], ends[-1]
+        failed[block] |= (starts < 0).any(axis=1) | (ends < 0).any(axis=1)
+        records.add(moves, np.zeros(len(moves)), starts)
+        records.add(moves, np.ones(len(moves)), ends)
+        delta = q1[block] - q0[block]
+        _bisect(checker, q0[block], delta, np.abs(delta) @ rates_per_joint, moves, starts, ends, records, failed,
+                pending)
     margins, worst, samples = records.per_move(count)
     margins["joint_limit"], worst["joint_limit"] = limit_margin, np.where(limit_worst, samples - 1, 0)
     lowers = records.lower_bounds(count)
@@ -112,12 +116,14 @@ def certify_joint_moves(checker, q0: np.ndarray, q1: np.ndarray) -> Certificatio
 
 
 def _bisect(checker, q0, delta, rates, move, m0, m1, records, failed, pending) -> None:
-    """Halve the intervals of the moves `move` (K,) whose margins at start and end are m0, m1 (K, columns) while
-    their bound is below the records' targets; mark in place: failed (a sample below 0), pending (an interval
-    still open at MAX_DEPTH); the bounds of the final intervals go to `records`."""
+    """Halve the intervals of a block of B moves — starts q0 (B, 6), steps delta (B, 6), column rates (B, K),
+    indices `move` (B,) among all moves, margins m0, m1 (B, K) at their starts and ends — while their bound is
+    below the records' targets; mark in place (by index among all moves): failed (a sample below 0), pending (an
+    interval still open at MAX_DEPTH); the bounds of the final intervals go to `records`."""
+    first = move[0]
     s0, s1 = np.zeros(len(move)), np.ones(len(move))
     for depth in range(MAX_DEPTH + 1):
-        bound = 0.5 * (m0 + m1 - rates[move] * (s1 - s0)[:, None])
+        bound = 0.5 * (m0 + m1 - rates[move - first] * (s1 - s0)[:, None])
         short = bound < records.targets()
         open_ = short.any(axis=1) & ~failed[move]
         records.bound(move[~open_], bound[~open_])
@@ -131,7 +137,7 @@ def _bisect(checker, q0, delta, rates, move, m0, m1, records, failed, pending) -
         needed = short[open_].any(axis=0)
         records.bound(move, np.where(needed, np.inf, bound))
         middle = 0.5 * (s0 + s1)
-        values = _evaluate(checker, q0[move] + middle[:, None] * delta[move], np.flatnonzero(needed))
+        values = _evaluate(checker, q0[move - first] + middle[:, None] * delta[move - first], np.flatnonzero(needed))
         failed[move[(values < 0).any(axis=1)]] = True
         records.add(move, middle, values)
         move, s0, s1 = np.concatenate((move, move)), np.concatenate((s0, middle)), np.concatenate((middle, s1))
@@ -162,12 +168,16 @@ def _evaluate(checker, joints: np.ndarray, columns=None) -> np.ndarray:
     return values
 
 
-def _start_margins(checker, q0, q1, ends) -> np.ndarray:
-    """(M, K) margins at the moves' starts: a move that starts where the one before it ended shares its values."""
+def _start_margins(checker, q0, q1, ends, carried) -> np.ndarray:
+    """(B, K) margins at the starts of a block of moves q0 → q1 with margins `ends` (B, K) at their ends: a move
+    that starts where the one before it ended shares its values, the first one those `carried` (joints (6,),
+    margins (K,)) from the block before (None: none)."""
     starts = np.empty_like(ends)
     shared = np.zeros(len(q0), dtype=bool)
     shared[1:] = np.all(q0[1:] == q1[:-1], axis=1)
     starts[shared] = ends[np.flatnonzero(shared) - 1]
+    if carried is not None and np.array_equal(q0[0], carried[0]):
+        shared[0], starts[0] = True, carried[1]
     if not shared.all():
         starts[~shared] = _evaluate(checker, q0[~shared])
     return starts

@@ -23,7 +23,7 @@ from ur3dq.pathcheck.path_plan import PathPlan
 BRANCH_TOLERANCE = 1e-3   # rad: a linear move ending further than this from its planned joints ended elsewhere
 
 
-@dataclasses.dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True, slots=True)  # slots: one per move, 10⁵ in a big plan
 class StepReport:
     """What the check saw on one move: its samples and its smallest margins.
 

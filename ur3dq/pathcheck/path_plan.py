@@ -17,7 +17,7 @@ from ur3dq import dqarray
 MOVE_TYPES = ("joint", "linear", "process")
 
 
-@dataclasses.dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True, slots=True)  # slots: one per move, 10⁵ in a big plan
 class PathSegment:
     """One move, from wherever the previous one ended.
 

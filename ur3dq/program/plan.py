@@ -38,7 +38,7 @@ class Defaults:
     blend: float = 0.0
 
 
-@dataclasses.dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True, slots=True)  # slots: a big program plans 10⁵ of them
 class PlannedStep:
     """One step of a planned program. Waypoints carry their joint target (rad), the TCP pose and offset they
     aim at, move type, clamped a/v, blend radius (m), travel (rad, largest joint) and time (s, at 100 %; None

@@ -13,7 +13,7 @@ from ur3dq.dualquat import DualQuaternion
 from ur3dq.program.steps import Waypoint, is_waypoint
 
 
-@dataclasses.dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True, slots=True)  # slots: one per waypoint, 10⁵ in a big program
 class Target:
     """A resolved waypoint: the TCP pose to reach (base frame; its 8 coefficients, `pose` as a DualQuaternion),
     the TCP offset it was taught with (flange frame, UR pose vector), the model it was taught on, and joints to
