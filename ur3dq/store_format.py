@@ -14,6 +14,7 @@ import contextlib
 import gc
 import json
 import re
+import sys
 
 import numpy as np
 import orjson
@@ -190,8 +191,11 @@ def _poses_of_chunk(entries, chunk, who_of) -> list[Pose]:
                                    fields.get("robot_serial"), fields["note"])
         except ValueError as error:
             raise ValueError(f"{who_of(chunk[k])}: {_strip_pose_prefix(str(error))}") from None
-        poses.append(Pose.checked(fields["name"], fields["time"], fields["robot_model"], tuple(dq), tuple(ur),
-                                  tuple(tcp), None if joints is None else tuple(joints), fields.get("robot_serial"),
+        tcp = tuple(tcp)
+        # One shared zero TCP and model name: most poses of a store have them, and 10⁵ copies cost ~25 MB.
+        poses.append(Pose.checked(fields["name"], fields["time"], sys.intern(fields["robot_model"]), tuple(dq),
+                                  tuple(ur), _NO_TCP_OFFSET if tcp == _NO_TCP_OFFSET else tcp,
+                                  None if joints is None else tuple(joints), fields.get("robot_serial"),
                                   fields["note"]))
     return poses
 
