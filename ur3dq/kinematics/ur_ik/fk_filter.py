@@ -10,6 +10,7 @@ from ur3dq.dualquat import DualQuaternion
 from ur3dq.kinematics.ur_fk import flange_rotation_position, joint_floats
 from ur3dq.kinematics.ur_ik.geometry import (
     _flange_of,
+    _HALF_SQRT2,
     DUPLICATE_TOLERANCE,
     FK_TOLERANCE_M,
     _CHORD_LIMIT,
@@ -92,7 +93,7 @@ def _meets(model, q, tcp_coefficients) -> bool:
     g = _geometry(model)
     if g.calibrated:
         return _fk_check(model, g, tcp_coefficients)(q)
-    return _flange_meets(flange_rotation_position(*g.half_lengths, *q), g.tcp_offset, _fk_target(tcp_coefficients))
+    return _nominal_check(g, q, _fk_target(tcp_coefficients))
 
 
 def _fk_check(model, g: _Geometry, tcp_coefficients):
@@ -113,8 +114,8 @@ def _fk_check(model, g: _Geometry, tcp_coefficients):
             return (_chord2(fk, tw, tx, ty, tz) <= _CHORD_LIMIT2
                     and _distance2(_translation_columns(fk), px, py, pz) <= FK_TOLERANCE_M ** 2)
         return meets
-    half_lengths, tool, target = g.half_lengths, g.tcp_offset, _fk_target(tcp_coefficients)
-    return lambda q: _flange_meets(flange_rotation_position(*half_lengths, *q), tool, target)
+    target = _fk_target(tcp_coefficients)
+    return lambda q: _nominal_check(g, q, target)
 
 
 #: Squared limits of the FK filter's tests: the rotation chord, and the half position's distance (metres²).
@@ -138,8 +139,115 @@ def _flange_meets(flange: tuple, tool, target: tuple) -> bool:
     tw, tx, ty, tz, hx, hy, hz = target
     if rw * tw + rx * tx + ry * ty + rz * tz < 0.0:   # σ ≡ −σ
         tw, tx, ty, tz = -tw, -tx, -ty, -tz
-    return ((rw - tw) ** 2 + (rx - tx) ** 2 + (ry - ty) ** 2 + (rz - tz) ** 2 <= _CHORD_LIMIT2
-            and (fx - hx) ** 2 + (fy - hy) ** 2 + (fz - hz) ** 2 <= _HALF_POSITION_LIMIT2)
+    # Squares as products (as _nominal_meets, which must reach the very same floats, computes them).
+    dw, dx, dy, dz, ex, ey, ez = rw - tw, rx - tx, ry - ty, rz - tz, fx - hx, fy - hy, fz - hz
+    return (dw * dw + dx * dx + dy * dy + dz * dz <= _CHORD_LIMIT2
+            and ex * ex + ey * ey + ez * ez <= _HALF_POSITION_LIMIT2)
+
+
+#: _nominal_meets judges an elbow partner by its pair's rotation and cos, sin θ234 only when the partner's own
+#: θ2 + θ3 + θ4 is within _SHARED_ANGLE of the first branch's (they differ by the rounding of a few sums of angles,
+#: ~1e-15 rad) and its chord and half-position distance are at least _VERDICT_MARGIN clear of the limits: sharing moves
+#: them by at most ~|Δθ234|·(1 + |d5| + |d6|) ≪ the margin, so the verdict is the general check's.
+_SHARED_ANGLE = 1e-13
+_VERDICT_MARGIN = 1e-12
+#: Open bands of squared chord and squared half distance around the limits where a partner gets the general check.
+_CHORD_BAND2 = ((_CHORD_LIMIT - _VERDICT_MARGIN) ** 2, (_CHORD_LIMIT + _VERDICT_MARGIN) ** 2)
+_POSITION_BAND2 = ((0.5 * FK_TOLERANCE_M - _VERDICT_MARGIN) ** 2, (0.5 * FK_TOLERANCE_M + _VERDICT_MARGIN) ** 2)
+
+
+def _nominal_meets(g: _Geometry, branches: list, target: tuple) -> list:
+    """Per branch of single._nominal_branches (8 tuples of 6 floats, branch order, NaN where absent): whether it
+    exists and meets ``target`` (_fk_target): the verdict of _nominal_check, computed with shared subexpressions.
+
+    Branches 2k and 2k + 1 (the elbow pair) share θ1, θ5, θ6 (the same floats) and θ234 = θ2 + θ3 + θ4 (up to
+    rounding). Joints 2–4 are parallel, so the flange rotation depends on θ1, θ234, θ5, θ6 only: it is computed once
+    per pair from the first branch, the position of each branch adds its θ2 and θ2 + θ3 (a planar 2-link term). The
+    statements are flange_rotation_position's and _flange_meets' (with _tool_floats'), so the first branch's
+    verdict is theirs float for float; the partner's is theirs by the _SHARED_ANGLE and _VERDICT_MARGIN argument, and
+    a partner outside it (corrupted, borderline, or not sharing θ1, θ5, θ6) gets _nominal_check itself.
+    Cross-checked against _nominal_check by tests/kinematics/test_ur_ik_filter.py.
+    """
+    d1, a2, a3, d4, d5, d6 = g.half_lengths
+    tool = g.tcp_offset
+    tw, tx, ty, tz, hx, hy, hz = target
+    sin, cos = math.sin, math.cos
+    k = _HALF_SQRT2
+    chord_low, chord_high = _CHORD_BAND2
+    position_low, position_high = _POSITION_BAND2
+    verdicts = []
+    for first, second in zip(branches[0::2], branches[1::2]):
+        q1, q2, q3, q4, q5, q6 = first
+        if not (q1 == q1 and q2 == q2):   # absent (NaN): the partner, if it exists, on its own
+            verdicts += (False, _nominal_check(g, second, target))
+            continue
+        # flange_rotation_position, the part the pair shares.
+        q23 = q2 + q3
+        q234 = q23 + q4
+        half1, half234, half_p, half_m = 0.5 * q1, 0.5 * q234, 0.5 * (q5 + q6), 0.5 * (q5 - q6)
+        s1, c1 = sin(half1), cos(half1)
+        sb, cb = sin(half234), cos(half234)
+        sp, cp = sin(half_p), cos(half_p)
+        sm, cm = sin(half_m), cos(half_m)
+        x = cb * cm - sb * sp
+        y = cb * sm - sb * cp
+        z = cb * cp + sb * sm
+        w = cb * sp + sb * cm
+        kc1, ks1 = k * c1, k * s1
+        rw = kc1 * x + ks1 * y
+        rx = kc1 * z + ks1 * w
+        ry = ks1 * z - kc1 * w
+        rz = ks1 * x - kc1 * y
+        cos1, sin1 = c1 * c1 - s1 * s1, 2.0 * s1 * c1
+        cos234, sin234 = cb * cb - sb * sb, 2.0 * sb * cb
+        cos5, sin5 = cp * cm - sp * sm, sp * cm + cp * sm
+        d6_sin5 = d6 * sin5
+        offset = d4 + d6 * cos5
+        if tool is None:
+            mx = my = mz = None
+        else:   # _tool_floats: the rotation composed, the tool's moved offset (the same for both branches)
+            (ow, ox, oy, oz), (vx, vy, vz) = tool
+            cx, cy, cz = ry * vz - rz * vy, rz * vx - rx * vz, rx * vy - ry * vx
+            mx = vx + 2.0 * (rw * cx + ry * cz - rz * cy)
+            my = vy + 2.0 * (rw * cy + rz * cx - rx * cz)
+            mz = vz + 2.0 * (rw * cz + rx * cy - ry * cx)
+            rw, rx, ry, rz = (rw * ow - rx * ox - ry * oy - rz * oz, rw * ox + rx * ow + ry * oz - rz * oy,
+                              rw * oy - rx * oz + ry * ow + rz * ox, rw * oz + rx * oy - ry * ox + rz * ow)
+        # _flange_meets: the chord against the nearer sign of the pose.
+        if rw * tw + rx * tx + ry * ty + rz * tz < 0.0:
+            dw, dx, dy, dz = rw + tw, rx + tx, ry + ty, rz + tz
+        else:
+            dw, dx, dy, dz = rw - tw, rx - tx, ry - ty, rz - tz
+        chord2 = dw * dw + dx * dx + dy * dy + dz * dz
+        p1, p2, p3, p4, p5, p6 = second
+        p23 = p2 + p3
+        shared = p1 == q1 and p5 == q5 and p6 == q6 and abs(p23 + p4 - q234) <= _SHARED_ANGLE
+        for joint2, joint23 in ((q2, q23), (p2, p23)):
+            # flange_rotation_position's position, then _flange_meets' distance: per branch.
+            sin2, cos2, sin23, cos23 = sin(joint2), cos(joint2), sin(joint23), cos(joint23)
+            reach = a2 * cos2 + a3 * cos23 + d5 * sin234 - d6_sin5 * cos234
+            px = cos1 * reach + sin1 * offset
+            py = sin1 * reach - cos1 * offset
+            pz = d1 + a2 * sin2 + a3 * sin23 - d5 * cos234 - d6_sin5 * sin234
+            if mx is not None:
+                px, py, pz = px + mx, py + my, pz + mz
+            ex, ey, ez = px - hx, py - hy, pz - hz
+            distance2 = ex * ex + ey * ey + ez * ez
+            verdicts.append(chord2 <= _CHORD_LIMIT2 and distance2 <= _HALF_POSITION_LIMIT2)
+            if not shared:
+                verdicts.append(_nominal_check(g, second, target))
+                break
+        else:   # the partner's verdict from shared terms, unless too close to a limit to be the general check's
+            if chord_low < chord2 < chord_high or position_low < distance2 < position_high:
+                verdicts[-1] = _nominal_check(g, second, target)
+    return verdicts
+
+
+def _nominal_check(g: _Geometry, q: tuple, target: tuple) -> bool:
+    """Whether the 6 floats ``q`` (NaN where the branch does not exist) exist and the nominal model's FK at them meets
+    ``target`` (_fk_target): the FK filter of one configuration, the general form of _nominal_meets."""
+    return (q[0] == q[0] and q[1] == q[1]
+            and _flange_meets(flange_rotation_position(*g.half_lengths, *q), g.tcp_offset, target))
 
 
 def _chord2(r, tw, tx, ty, tz) -> float:

@@ -20,7 +20,15 @@ from ur3dq.kinematics.ur_ik.equations import (
     _wrist_centre,
     _wrist_pair,
 )
-from ur3dq.kinematics.ur_ik.fk_filter import _fk_check, _is_new, _reference, _targets
+from ur3dq.kinematics.ur_ik.fk_filter import (
+    _fk_check,
+    _fk_target,
+    _is_new,
+    _nominal_check,
+    _nominal_meets,
+    _reference,
+    _targets,
+)
 from ur3dq.kinematics.ur_ik.geometry import (
     DOMAIN_TOLERANCE,
     DUPLICATE_TOLERANCE,
@@ -137,19 +145,28 @@ def _general_wrist_branches(g: _Geometry, theta1, cos1, sin1, reduced, theta6_re
     return branches
 
 
-def _verified(candidates: list, meets, distinct: bool = False) -> list:
+def _verified(candidates: list, meets) -> list:
     """Per candidate (6 floats, NaN where the branch does not exist): kept, i.e. it exists, repeats no earlier kept
     candidate (DUPLICATE_TOLERANCE) and meets the FK filter ``meets`` (fk_filter._fk_check of the pose). The one
-    merge rule of ik_all and ik_all_batch. ``distinct``: no two candidates can repeat (_may_repeat said so), the
-    comparisons are skipped."""
+    merge rule of ik_all and ik_all_batch (_nominal_kept skips the comparisons where no two candidates can repeat)."""
     kept, mask = [], []
     for candidate in candidates:
         ok = (candidate[0] == candidate[0] and candidate[1] == candidate[1]
-              and (distinct or _is_new(candidate, kept)) and meets(candidate))
+              and _is_new(candidate, kept) and meets(candidate))
         if ok:
             kept.append(candidate)
         mask.append(ok)
     return mask
+
+
+def _nominal_kept(g: _Geometry, candidates: list, tcp_coefficients) -> list:
+    """_verified for the 8 branches of _nominal_branches (branch order): when no two can repeat (_may_repeat),
+    fk_filter._nominal_meets judges all 8 at once with what they share; otherwise the pairwise merge rule with
+    _nominal_check per candidate (the same verdicts)."""
+    target = _fk_target(tcp_coefficients)
+    if _may_repeat(candidates):
+        return _verified(candidates, lambda candidate: _nominal_check(g, candidate, target))
+    return _nominal_meets(g, candidates, target)
 
 
 def _may_repeat(branches: list) -> bool:
@@ -190,7 +207,7 @@ def _branch_table(model, pose, theta6_ref: float) -> tuple:
     g = _geometry(model)
     tcp_coefficients, target = _targets(g, pose)
     candidates = _nominal_branches(g, target, theta6_ref)
-    kept = _verified(candidates, _fk_check(model, g, tcp_coefficients), not _may_repeat(candidates))
+    kept = _nominal_kept(g, candidates, tcp_coefficients)
     table = _canonical([c if ok else (math.nan,) * 6 for c, ok in zip(candidates, kept)])
     return table, np.array(kept)
 
@@ -205,13 +222,12 @@ def ik_all(model, pose, q_ref=None) -> list:
     g = _geometry(model)
     tcp_coefficients, target = _targets(g, pose)
     theta6_ref = 0.0 if q_ref is None else _wrap_float(_reference(q_ref)[5])
-    meets = _fk_check(model, g, tcp_coefficients)
     if g.calibrated:
         candidates = _solution_candidates(g, target, theta6_ref)
-        kept = _verified(candidates, meets)
-    else:   # all 8 in branch order (NaN where absent): _may_repeat reads the sign pairs from their places
+        kept = _verified(candidates, _fk_check(model, g, tcp_coefficients))
+    else:   # all 8 in branch order (NaN where absent): _nominal_kept reads the pairs from their places
         candidates = _nominal_branches(g, target, theta6_ref)
-        kept = _verified(candidates, meets, not _may_repeat(candidates))
+        kept = _nominal_kept(g, candidates, tcp_coefficients)
     solutions = [c for c, ok in zip(candidates, kept) if ok]
     if not solutions:
         existed = any(c[1] == c[1] and c[0] == c[0] for c in candidates)   # as _solution_candidates keeps them
