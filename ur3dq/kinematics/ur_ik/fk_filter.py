@@ -145,13 +145,14 @@ def _flange_meets(flange: tuple, tool, target: tuple) -> bool:
             and ex * ex + ey * ey + ez * ez <= _HALF_POSITION_LIMIT2)
 
 
-#: _nominal_meets judges an elbow partner by its pair's rotation and cos, sin θ234 only when the partner's own
-#: θ2 + θ3 + θ4 is within _SHARED_ANGLE of the first branch's (they differ by the rounding of a few sums of angles,
-#: ~1e-15 rad) and its chord and half-position distance are at least _VERDICT_MARGIN clear of the limits: sharing moves
-#: them by at most ~|Δθ234|·(1 + |d5| + |d6|) ≪ the margin, so the verdict is the general check's.
+#: _nominal_meets judges a branch from its pair's shared terms when its own θ2 + θ3 + θ4 is within _SHARED_ANGLE of
+#: the pair's (the elbow partners' sums differ by the rounding of a few sums of angles, ~1e-15 rad) and its chord and
+#: half-position distance are at least _VERDICT_MARGIN clear of the limits. Its terms are _nominal_check's, arranged
+#: differently (θ234 of the pair, the position error in the arm plane): they differ from that check's by the
+#: rounding of ~1 m sums (~1e-15) and ~|Δθ234|·(|d5| + |d6|) ≪ the margin, so the verdict is the general check's.
 _SHARED_ANGLE = 1e-13
 _VERDICT_MARGIN = 1e-12
-#: Open bands of squared chord and squared half distance around the limits where a partner gets the general check.
+#: Open bands of squared chord and squared half distance around the limits where a branch gets the general check.
 _CHORD_BAND2 = ((_CHORD_LIMIT - _VERDICT_MARGIN) ** 2, (_CHORD_LIMIT + _VERDICT_MARGIN) ** 2)
 _POSITION_BAND2 = ((0.5 * FK_TOLERANCE_M - _VERDICT_MARGIN) ** 2, (0.5 * FK_TOLERANCE_M + _VERDICT_MARGIN) ** 2)
 
@@ -161,12 +162,13 @@ def _nominal_meets(g: _Geometry, branches: list, target: tuple) -> list:
     exists and meets ``target`` (_fk_target): the verdict of _nominal_check, computed with shared subexpressions.
 
     Branches 2k and 2k + 1 (the elbow pair) share θ1, θ5, θ6 (the same floats) and θ234 = θ2 + θ3 + θ4 (up to
-    rounding). Joints 2–4 are parallel, so the flange rotation depends on θ1, θ234, θ5, θ6 only: it is computed once
-    per pair from the first branch, the position of each branch adds its θ2 and θ2 + θ3 (a planar 2-link term). The
-    statements are flange_rotation_position's and _flange_meets' (with _tool_floats'), so the first branch's
-    verdict is theirs float for float; the partner's is theirs by the _SHARED_ANGLE and _VERDICT_MARGIN argument, and
-    a partner outside it (corrupted, borderline, or not sharing θ1, θ5, θ6) gets _nominal_check itself.
-    Cross-checked against _nominal_check by tests/kinematics/test_ur_ik_filter.py.
+    rounding); pairs 0–1 and 2–3 share θ1. Joints 2–4 are parallel, so the flange rotation depends on θ1, θ234, θ5,
+    θ6 only: flange_rotation_position's rotation (and the tool's, _tool_floats) is computed once per pair from the
+    first branch. The position error is taken in the arm plane, rotated by −θ1 (a rotation keeps its length): there
+    the target and the wrist's terms are per pair, and each branch adds its planar 2-link term a2·(c2, s2) +
+    a3·(c23, s23). A branch outside the _SHARED_ANGLE and _VERDICT_MARGIN argument (corrupted, not sharing θ1, θ5,
+    θ6, or within the margin of a limit) gets _nominal_check itself. Cross-checked against _nominal_check by
+    tests/kinematics/test_ur_ik_filter.py.
     """
     d1, a2, a3, d4, d5, d6 = g.half_lengths
     tool = g.tcp_offset
@@ -176,16 +178,19 @@ def _nominal_meets(g: _Geometry, branches: list, target: tuple) -> list:
     chord_low, chord_high = _CHORD_BAND2
     position_low, position_high = _POSITION_BAND2
     verdicts = []
+    shoulder = math.nan
     for first, second in zip(branches[0::2], branches[1::2]):
         q1, q2, q3, q4, q5, q6 = first
         if not (q1 == q1 and q2 == q2):   # absent (NaN): the partner, if it exists, on its own
             verdicts += (False, _nominal_check(g, second, target))
             continue
-        # flange_rotation_position, the part the pair shares.
-        q23 = q2 + q3
-        q234 = q23 + q4
-        half1, half234, half_p, half_m = 0.5 * q1, 0.5 * q234, 0.5 * (q5 + q6), 0.5 * (q5 - q6)
-        s1, c1 = sin(half1), cos(half1)
+        if q1 != shoulder:   # flange_rotation_position's θ1 terms, once per θ1
+            shoulder = q1
+            s1, c1 = sin(0.5 * q1), cos(0.5 * q1)
+            kc1, ks1 = k * c1, k * s1
+            cos1, sin1 = c1 * c1 - s1 * s1, 2.0 * s1 * c1
+        q234 = q2 + q3 + q4
+        half234, half_p, half_m = 0.5 * q234, 0.5 * (q5 + q6), 0.5 * (q5 - q6)
         sb, cb = sin(half234), cos(half234)
         sp, cp = sin(half_p), cos(half_p)
         sm, cm = sin(half_m), cos(half_m)
@@ -193,24 +198,17 @@ def _nominal_meets(g: _Geometry, branches: list, target: tuple) -> list:
         y = cb * sm - sb * cp
         z = cb * cp + sb * sm
         w = cb * sp + sb * cm
-        kc1, ks1 = k * c1, k * s1
         rw = kc1 * x + ks1 * y
         rx = kc1 * z + ks1 * w
         ry = ks1 * z - kc1 * w
         rz = ks1 * x - kc1 * y
-        cos1, sin1 = c1 * c1 - s1 * s1, 2.0 * s1 * c1
-        cos234, sin234 = cb * cb - sb * sb, 2.0 * sb * cb
-        cos5, sin5 = cp * cm - sp * sm, sp * cm + cp * sm
-        d6_sin5 = d6 * sin5
-        offset = d4 + d6 * cos5
-        if tool is None:
-            mx = my = mz = None
-        else:   # _tool_floats: the rotation composed, the tool's moved offset (the same for both branches)
+        gx, gy, gz = hx, hy, hz
+        if tool is not None:   # _tool_floats: the rotation composed; the tool's offset moves the target instead
             (ow, ox, oy, oz), (vx, vy, vz) = tool
             cx, cy, cz = ry * vz - rz * vy, rz * vx - rx * vz, rx * vy - ry * vx
-            mx = vx + 2.0 * (rw * cx + ry * cz - rz * cy)
-            my = vy + 2.0 * (rw * cy + rz * cx - rx * cz)
-            mz = vz + 2.0 * (rw * cz + rx * cy - ry * cx)
+            gx -= vx + 2.0 * (rw * cx + ry * cz - rz * cy)
+            gy -= vy + 2.0 * (rw * cy + rz * cx - rx * cz)
+            gz -= vz + 2.0 * (rw * cz + rx * cy - ry * cx)
             rw, rx, ry, rz = (rw * ow - rx * ox - ry * oy - rz * oz, rw * ox + rx * ow + ry * oz - rz * oy,
                               rw * oy - rx * oz + ry * ow + rz * ox, rw * oz + rx * oy - ry * ox + rz * ow)
         # _flange_meets: the chord against the nearer sign of the pose.
@@ -219,27 +217,29 @@ def _nominal_meets(g: _Geometry, branches: list, target: tuple) -> list:
         else:
             dw, dx, dy, dz = rw - tw, rx - tx, ry - ty, rz - tz
         chord2 = dw * dw + dx * dx + dy * dy + dz * dz
+        # flange_rotation_position's position less the target, in the arm plane: along the reach, across it
+        # (the shoulder offset d4 + d6·cos θ5) and up; the planar 2-link term is added per branch.
+        cos234, sin234 = cb * cb - sb * sb, 2.0 * sb * cb
+        cos5, sin5 = cp * cm - sp * sm, sp * cm + cp * sm
+        d6_sin5 = d6 * sin5
+        across = d4 + d6 * cos5 - (sin1 * gx - cos1 * gy)
+        across2 = across * across
+        along = d5 * sin234 - d6_sin5 * cos234 - (cos1 * gx + sin1 * gy)
+        up = d1 - d5 * cos234 - d6_sin5 * sin234 - gz
         p1, p2, p3, p4, p5, p6 = second
-        p23 = p2 + p3
-        shared = p1 == q1 and p5 == q5 and p6 == q6 and abs(p23 + p4 - q234) <= _SHARED_ANGLE
-        for joint2, joint23 in ((q2, q23), (p2, p23)):
-            # flange_rotation_position's position, then _flange_meets' distance: per branch.
-            sin2, cos2, sin23, cos23 = sin(joint2), cos(joint2), sin(joint23), cos(joint23)
-            reach = a2 * cos2 + a3 * cos23 + d5 * sin234 - d6_sin5 * cos234
-            px = cos1 * reach + sin1 * offset
-            py = sin1 * reach - cos1 * offset
-            pz = d1 + a2 * sin2 + a3 * sin23 - d5 * cos234 - d6_sin5 * sin234
-            if mx is not None:
-                px, py, pz = px + mx, py + my, pz + mz
-            ex, ey, ez = px - hx, py - hy, pz - hz
-            distance2 = ex * ex + ey * ey + ez * ez
-            verdicts.append(chord2 <= _CHORD_LIMIT2 and distance2 <= _HALF_POSITION_LIMIT2)
+        shared = p1 == q1 and p5 == q5 and p6 == q6 and abs(p2 + p3 + p4 - q234) <= _SHARED_ANGLE
+        for branch, joint2, joint3 in ((first, q2, q3), (second, p2, p3)):
+            joint23 = joint2 + joint3
+            error_along = a2 * cos(joint2) + a3 * cos(joint23) + along
+            error_up = a2 * sin(joint2) + a3 * sin(joint23) + up
+            distance2 = error_along * error_along + error_up * error_up + across2
+            if chord_low < chord2 < chord_high or position_low < distance2 < position_high:
+                verdicts.append(_nominal_check(g, branch, target))   # too near a limit to judge from shared terms
+            else:
+                verdicts.append(chord2 <= _CHORD_LIMIT2 and distance2 <= _HALF_POSITION_LIMIT2)
             if not shared:
                 verdicts.append(_nominal_check(g, second, target))
                 break
-        else:   # the partner's verdict from shared terms, unless too close to a limit to be the general check's
-            if chord_low < chord2 < chord_high or position_low < distance2 < position_high:
-                verdicts[-1] = _nominal_check(g, second, target)
     return verdicts
 
 
