@@ -176,12 +176,13 @@ def _may_repeat(branches: list) -> bool:
     Two branches differ in the sign choice of θ1, θ5 or θ3, and each sign pair is exactly ±: θ1 = base ± offset,
     the second θ5 and θ3 are the negated first. So unless the two θ1 are within twice the tolerance (mod 2π), or
     some |θ5| or |θ3| lies within it of 0 or π, every two branches differ by at least twice it in one joint (the
-    batch kernel's ``merged`` rule).
+    batch kernel's ``merged`` rule). The odd branches negate their even neighbour's θ3: the even ones hold every
+    |θ3| and |θ5|.
     """
     tolerance, far = DUPLICATE_TOLERANCE, math.pi - DUPLICATE_TOLERANCE
     if not abs(math.remainder(branches[0][0] - branches[4][0], _TWO_PI)) >= 2.0 * tolerance:
         return True
-    for _, _, theta3, _, theta5, _ in branches:
+    for _, _, theta3, _, theta5, _ in branches[0::2]:
         theta3, theta5 = abs(theta3), abs(theta5)
         if theta3 < tolerance or theta3 > far or theta5 < tolerance or theta5 > far:   # False for NaN
             return True
