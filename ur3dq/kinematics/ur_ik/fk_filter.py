@@ -6,7 +6,7 @@ import math
 import numpy as np
 
 from ur3dq import dqarray
-from ur3dq.dualquat import DualQuaternion
+from ur3dq.dualquat import DualQuaternion, multiply_quaternion_coefficients
 from ur3dq.kinematics.ur_fk import flange_rotation_position, joint_floats
 from ur3dq.kinematics.ur_ik.geometry import (
     _flange_of,
@@ -163,20 +163,22 @@ def _nominal_meets(g: _Geometry, branches: list, target: tuple) -> list:
 
     Branches 2k and 2k + 1 (the elbow pair) share θ1, θ5, θ6 (the same floats) and θ234 = θ2 + θ3 + θ4 (up to
     rounding); pairs 0–1 and 2–3 share θ1. Joints 2–4 are parallel, so the flange rotation depends on θ1, θ234, θ5,
-    θ6 only: flange_rotation_position's rotation (and the tool's, _tool_floats) is computed once per pair from the
-    first branch. The position error is taken in the arm plane, rotated by −θ1 (a rotation keeps its length): there
-    the target and the wrist's terms are per pair, and each branch adds its planar 2-link term a2·(c2, s2) +
-    a3·(c23, s23). A branch outside the _SHARED_ANGLE and _VERDICT_MARGIN argument (corrupted, not sharing θ1, θ5,
-    θ6, or within the margin of a limit) gets _nominal_check itself. Cross-checked against _nominal_check by
-    tests/kinematics/test_ur_ik_filter.py.
+    θ6 only. It is compared in joint 1's frame: the target turned by Rx(−π/2)·Rz(−θ1) once per θ1 (a rotation
+    keeps the chord), the flange there being the module notes' half-angle form w' = cos(θ5/2)·cos(Σ/2), x' =
+    sin(θ5/2)·sin(Δ/2), y' = −sin(θ5/2)·cos(Δ/2), z' = cos(θ5/2)·sin(Σ/2) (Σ, Δ = θ234 ± θ6), once per pair. The
+    position error is taken in the arm plane (turned by −θ1) as reach, offset and height, where each branch adds its
+    planar 2-link term a2·(c2, s2) + a3·(c23, s23) to its pair's terms. A branch outside the _SHARED_ANGLE and
+    _VERDICT_MARGIN argument (corrupted, not sharing θ1, θ5, θ6, or within the margin of a limit) gets
+    _nominal_check itself. Cross-checked against _nominal_check by tests/kinematics/test_ur_ik_filter.py.
     """
     d1, a2, a3, d4, d5, d6 = g.half_lengths
-    tool = g.tcp_offset
     tw, tx, ty, tz, hx, hy, hz = target
-    sin, cos = math.sin, math.cos
-    k = _HALF_SQRT2
-    chord_low, chord_high = _CHORD_BAND2
-    position_low, position_high = _POSITION_BAND2
+    tool = g.tcp_offset
+    if tool is not None:   # |r·r_t ∓ t| = |r ∓ t·r_t*|: the tool's rotation moves to the target, once
+        (ow, ox, oy, oz), (vx, vy, vz) = tool
+        tw, tx, ty, tz = multiply_quaternion_coefficients((tw, tx, ty, tz), (ow, -ox, -oy, -oz))
+    sin, cos, h = math.sin, math.cos, _HALF_SQRT2
+    chord_low, position_low = _CHORD_BAND2[0], _POSITION_BAND2[0]
     verdicts = []
     shoulder = math.nan
     for first, second in zip(branches[0::2], branches[1::2]):
@@ -184,63 +186,60 @@ def _nominal_meets(g: _Geometry, branches: list, target: tuple) -> list:
         if not (q1 == q1 and q2 == q2):   # absent (NaN): the partner, if it exists, on its own
             verdicts += (False, _nominal_check(g, second, target))
             continue
-        if q1 != shoulder:   # flange_rotation_position's θ1 terms, once per θ1
+        if q1 != shoulder:   # the target in joint 1's frame, as equations._reduced_rotation turns it; once per θ1
             shoulder = q1
-            s1, c1 = sin(0.5 * q1), cos(0.5 * q1)
-            kc1, ks1 = k * c1, k * s1
-            cos1, sin1 = c1 * c1 - s1 * s1, 2.0 * s1 * c1
+            ch, sh = cos(0.5 * q1), -sin(0.5 * q1)
+            w1, x1, y1, z1 = ch * tw - sh * tz, ch * tx - sh * ty, ch * ty + sh * tx, ch * tz + sh * tw
+            rw, rx, ry, rz = h * (w1 + x1), h * (x1 - w1), h * (y1 + z1), h * (z1 - y1)
+            cos1, sin1 = ch * ch - sh * sh, -2.0 * ch * sh
+            reach_target, offset_target = cos1 * hx + sin1 * hy, sin1 * hx - cos1 * hy
         q234 = q2 + q3 + q4
-        half234, half_p, half_m = 0.5 * q234, 0.5 * (q5 + q6), 0.5 * (q5 - q6)
-        sb, cb = sin(half234), cos(half234)
-        sp, cp = sin(half_p), cos(half_p)
-        sm, cm = sin(half_m), cos(half_m)
-        x = cb * cm - sb * sp
-        y = cb * sm - sb * cp
-        z = cb * cp + sb * sm
-        w = cb * sp + sb * cm
-        rw = kc1 * x + ks1 * y
-        rx = kc1 * z + ks1 * w
-        ry = ks1 * z - kc1 * w
-        rz = ks1 * x - kc1 * y
-        gx, gy, gz = hx, hy, hz
-        if tool is not None:   # _tool_floats: the rotation composed; the tool's offset moves the target instead
-            (ow, ox, oy, oz), (vx, vy, vz) = tool
-            cx, cy, cz = ry * vz - rz * vy, rz * vx - rx * vz, rx * vy - ry * vx
-            gx -= vx + 2.0 * (rw * cx + ry * cz - rz * cy)
-            gy -= vy + 2.0 * (rw * cy + rz * cx - rx * cz)
-            gz -= vz + 2.0 * (rw * cz + rx * cy - ry * cx)
-            rw, rx, ry, rz = (rw * ow - rx * ox - ry * oy - rz * oz, rw * ox + rx * ow + ry * oz - rz * oy,
-                              rw * oy - rx * oz + ry * ow + rz * ox, rw * oz + rx * oy - ry * ox + rz * ow)
-        # _flange_meets: the chord against the nearer sign of the pose.
-        if rw * tw + rx * tx + ry * ty + rz * tz < 0.0:
-            dw, dx, dy, dz = rw + tw, rx + tx, ry + ty, rz + tz
+        half_sum, half_diff, half5 = 0.5 * (q234 + q6), 0.5 * (q234 - q6), 0.5 * q5
+        sin_sum, cos_sum, sin_diff, cos_diff = sin(half_sum), cos(half_sum), sin(half_diff), cos(half_diff)
+        sin_half5, cos_half5 = sin(half5), cos(half5)
+        w, x, y, z = cos_half5 * cos_sum, sin_half5 * sin_diff, -sin_half5 * cos_diff, cos_half5 * sin_sum
+        if w * rw + x * rx + y * ry + z * rz < 0.0:   # the chord against the nearer sign of the pose (σ ≡ −σ)
+            dw, dx, dy, dz = w + rw, x + rx, y + ry, z + rz
         else:
-            dw, dx, dy, dz = rw - tw, rx - tx, ry - ty, rz - tz
+            dw, dx, dy, dz = w - rw, x - rx, y - ry, z - rz
         chord2 = dw * dw + dx * dx + dy * dy + dz * dz
         # flange_rotation_position's position less the target, in the arm plane: along the reach, across it
         # (the shoulder offset d4 + d6·cos θ5) and up; the planar 2-link term is added per branch.
-        cos234, sin234 = cb * cb - sb * sb, 2.0 * sb * cb
-        cos5, sin5 = cp * cm - sp * sm, sp * cm + cp * sm
-        d6_sin5 = d6 * sin5
-        across = d4 + d6 * cos5 - (sin1 * gx - cos1 * gy)
+        cos234, sin234 = cos_sum * cos_diff - sin_sum * sin_diff, sin_sum * cos_diff + cos_sum * sin_diff
+        cos5, d6_sin5 = cos_half5 * cos_half5 - sin_half5 * sin_half5, d6 * (2.0 * sin_half5 * cos_half5)
+        along = d5 * sin234 - d6_sin5 * cos234 - reach_target
+        across = d4 + d6 * cos5 - offset_target
+        up = d1 - d5 * cos234 - d6_sin5 * sin234 - hz
+        if tool is not None:   # _tool_floats' offset r·½t_t·r*, here (x, y, z) → (along, up, across) of the flange's
+            cx, cy, cz = y * vz - z * vy, z * vx - x * vz, x * vy - y * vx   # turn in joint 1's frame
+            along += vx + 2.0 * (w * cx + y * cz - z * cy)
+            up += vy + 2.0 * (w * cy + z * cx - x * cz)
+            across += vz + 2.0 * (w * cz + x * cy - y * cx)
         across2 = across * across
-        along = d5 * sin234 - d6_sin5 * cos234 - (cos1 * gx + sin1 * gy)
-        up = d1 - d5 * cos234 - d6_sin5 * sin234 - gz
         p1, p2, p3, p4, p5, p6 = second
         shared = p1 == q1 and p5 == q5 and p6 == q6 and abs(p2 + p3 + p4 - q234) <= _SHARED_ANGLE
-        for branch, joint2, joint3 in ((first, q2, q3), (second, p2, p3)):
-            joint23 = joint2 + joint3
-            error_along = a2 * cos(joint2) + a3 * cos(joint23) + along
-            error_up = a2 * sin(joint2) + a3 * sin(joint23) + up
-            distance2 = error_along * error_along + error_up * error_up + across2
-            if chord_low < chord2 < chord_high or position_low < distance2 < position_high:
-                verdicts.append(_nominal_check(g, branch, target))   # too near a limit to judge from shared terms
-            else:
-                verdicts.append(chord2 <= _CHORD_LIMIT2 and distance2 <= _HALF_POSITION_LIMIT2)
-            if not shared:
-                verdicts.append(_nominal_check(g, second, target))
-                break
+        # Each branch's planar 2-link term (the elbow pair written out, as _nominal_branches solves it).
+        q23, p23 = q2 + q3, p2 + p3
+        first_along, first_up = a2 * cos(q2) + a3 * cos(q23) + along, a2 * sin(q2) + a3 * sin(q23) + up
+        second_along, second_up = a2 * cos(p2) + a3 * cos(p23) + along, a2 * sin(p2) + a3 * sin(p23) + up
+        first2 = first_along * first_along + first_up * first_up + across2
+        second2 = second_along * second_along + second_up * second_up + across2
+        if chord2 <= chord_low and first2 <= position_low and second2 <= position_low and shared:
+            verdicts += (True, True)   # the rule: both clearly within the tolerances
+        else:
+            verdicts += (_clear_verdict(chord2, first2, g, first, target),
+                         _clear_verdict(chord2, second2 if shared else math.nan, g, second, target))
     return verdicts
+
+
+def _clear_verdict(chord2: float, distance2: float, g: _Geometry, branch: tuple, target: tuple) -> bool:
+    """The FK filter's verdict on squared chord and half distance ``chord2``, ``distance2`` (_nominal_meets' shared
+    terms) when they are _VERDICT_MARGIN clear of the limits; else (or for a NaN) _nominal_check of ``branch``."""
+    chord_low, chord_high = _CHORD_BAND2
+    position_low, position_high = _POSITION_BAND2
+    if (chord2 <= chord_low or chord2 >= chord_high) and (distance2 <= position_low or distance2 >= position_high):
+        return chord2 <= chord_low and distance2 <= position_low
+    return _nominal_check(g, branch, target)
 
 
 def _nominal_check(g: _Geometry, q: tuple, target: tuple) -> bool:
