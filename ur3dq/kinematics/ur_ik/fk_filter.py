@@ -145,11 +145,12 @@ def _flange_meets(flange: tuple, tool, target: tuple) -> bool:
             and ex * ex + ey * ey + ez * ez <= _HALF_POSITION_LIMIT2)
 
 
-#: _nominal_meets judges a branch from its pair's shared terms when its own θ2 + θ3 + θ4 is within _SHARED_ANGLE of
-#: the pair's (the elbow partners' sums differ by the rounding of a few sums of angles, ~1e-15 rad) and its chord and
-#: half-position distance are at least _VERDICT_MARGIN clear of the limits. Its terms are _nominal_check's, arranged
-#: differently (θ234 of the pair, the position error in the arm plane): they differ from that check's by the
-#: rounding of ~1 m sums (~1e-15) and ~|Δθ234|·(|d5| + |d6|) ≪ the margin, so the verdict is the general check's.
+#: _nominal_meets judges a branch from terms it shares with another when their joints relate as in _nominal_branches
+#: within _SHARED_ANGLE (the same θ1, θ5, θ6 and θ2 + θ3 + θ4: the elbow partner; or the same θ1, θ5 negated and
+#: θ234 ± θ6 the same or 2π apart: the wrist flip; the sums differ by the rounding of a few sums of angles, ~1e-15
+#: rad) and its chord and half-position distance are at least _VERDICT_MARGIN clear of the limits. Its terms are
+#: _nominal_check's in another arrangement (joint 1's frame, the shared angles): they differ from that check's by the
+#: rounding of ~1 m sums (~1e-15) and ~_SHARED_ANGLE·(1 + |d5| + |d6|) ≪ the margin, so the verdict is that check's.
 _SHARED_ANGLE = 1e-13
 _VERDICT_MARGIN = 1e-12
 #: Open bands of squared chord and squared half distance around the limits where a branch gets the general check.
@@ -162,14 +163,16 @@ def _nominal_meets(g: _Geometry, branches: list, target: tuple) -> list:
     exists and meets ``target`` (_fk_target): the verdict of _nominal_check, computed with shared subexpressions.
 
     Branches 2k and 2k + 1 (the elbow pair) share θ1, θ5, θ6 (the same floats) and θ234 = θ2 + θ3 + θ4 (up to
-    rounding); pairs 0–1 and 2–3 share θ1. Joints 2–4 are parallel, so the flange rotation depends on θ1, θ234, θ5,
-    θ6 only. It is compared in joint 1's frame: the target turned by Rx(−π/2)·Rz(−θ1) once per θ1 (a rotation
-    keeps the chord), the flange there being the module notes' half-angle form w' = cos(θ5/2)·cos(Σ/2), x' =
-    sin(θ5/2)·sin(Δ/2), y' = −sin(θ5/2)·cos(Δ/2), z' = cos(θ5/2)·sin(Σ/2) (Σ, Δ = θ234 ± θ6), once per pair. The
-    position error is taken in the arm plane (turned by −θ1) as reach, offset and height, where each branch adds its
-    planar 2-link term a2·(c2, s2) + a3·(c23, s23) to its pair's terms. A branch outside the _SHARED_ANGLE and
-    _VERDICT_MARGIN argument (corrupted, not sharing θ1, θ5, θ6, or within the margin of a limit) gets
-    _nominal_check itself. Cross-checked against _nominal_check by tests/kinematics/test_ur_ik_filter.py.
+    rounding); pairs 0–1 and 2–3 share θ1, and the second pair of a θ1 is the first's wrist flip (−θ5, θ6 ∓ π,
+    θ234 ± π). Joints 2–4 are parallel, so the flange rotation depends on θ1, θ234, θ5, θ6 only, and the flip keeps
+    it: it is compared once per θ1 (once per pair where the flip does not hold, as at a singular wrist), in joint 1's
+    frame (the target turned by Rx(−π/2)·Rz(−θ1): a rotation keeps the chord), where the flange is the module notes'
+    half-angle form w' = cos(θ5/2)·cos(Σ/2), x' = sin(θ5/2)·sin(Δ/2), y' = −sin(θ5/2)·cos(Δ/2), z' =
+    cos(θ5/2)·sin(Σ/2) (Σ, Δ = θ234 ± θ6). The position error is taken in the arm plane (turned by −θ1) as reach,
+    height and offset: the wrist's d5, d6 terms once per θ1 (the flip turns their signs), then each branch adds its
+    planar 2-link term a2·(c2, s2) + a3·(c23, s23). A branch outside the _SHARED_ANGLE and _VERDICT_MARGIN argument
+    (corrupted, unrelated to its neighbours, or within the margin of a limit) gets _nominal_check itself.
+    Cross-checked against _nominal_check by tests/kinematics/test_ur_ik_filter.py.
     """
     d1, a2, a3, d4, d5, d6 = g.half_lengths
     tw, tx, ty, tz, hx, hy, hz = target
@@ -180,42 +183,49 @@ def _nominal_meets(g: _Geometry, branches: list, target: tuple) -> list:
     sin, cos, h = math.sin, math.cos, _HALF_SQRT2
     chord_low, position_low = _CHORD_BAND2[0], _POSITION_BAND2[0]
     verdicts = []
-    shoulder = math.nan
+    shoulder = flip5 = flip_sum = flip_diff = math.nan
     for first, second in zip(branches[0::2], branches[1::2]):
         q1, q2, q3, q4, q5, q6 = first
         if not (q1 == q1 and q2 == q2):   # absent (NaN): the partner, if it exists, on its own
             verdicts += (False, _nominal_check(g, second, target))
             continue
-        if q1 != shoulder:   # the target in joint 1's frame, as equations._reduced_rotation turns it; once per θ1
-            shoulder = q1
-            ch, sh = cos(0.5 * q1), -sin(0.5 * q1)
-            w1, x1, y1, z1 = ch * tw - sh * tz, ch * tx - sh * ty, ch * ty + sh * tx, ch * tz + sh * tw
-            rw, rx, ry, rz = h * (w1 + x1), h * (x1 - w1), h * (y1 + z1), h * (z1 - y1)
-            cos1, sin1 = ch * ch - sh * sh, -2.0 * ch * sh
-            reach_target, offset_target = cos1 * hx + sin1 * hy, sin1 * hx - cos1 * hy
         q234 = q2 + q3 + q4
-        half_sum, half_diff, half5 = 0.5 * (q234 + q6), 0.5 * (q234 - q6), 0.5 * q5
-        sin_sum, cos_sum, sin_diff, cos_diff = sin(half_sum), cos(half_sum), sin(half_diff), cos(half_diff)
-        sin_half5, cos_half5 = sin(half5), cos(half5)
-        w, x, y, z = cos_half5 * cos_sum, sin_half5 * sin_diff, -sin_half5 * cos_diff, cos_half5 * sin_sum
-        if w * rw + x * rx + y * ry + z * rz < 0.0:   # the chord against the nearer sign of the pose (σ ≡ −σ)
-            dw, dx, dy, dz = w + rw, x + rx, y + ry, z + rz
+        if (q1 == shoulder and q5 == -flip5 and abs(q234 + q6 - flip_sum) <= _SHARED_ANGLE
+                and abs(abs(q234 - q6 - flip_diff) - _TWO_PI) <= _SHARED_ANGLE):
+            # The wrist flip (−θ5, θ6 ∓ π, θ234 ± π) of this θ1's pair before: the same rotation (chord2) and offset
+            # (across2); cos θ234, sin θ234 and sin θ5 change sign, so do the wrist terms.
+            along, up = reach - wrist_along - tilt_along, height + wrist_up - tilt_up
         else:
-            dw, dx, dy, dz = w - rw, x - rx, y - ry, z - rz
-        chord2 = dw * dw + dx * dx + dy * dy + dz * dz
-        # flange_rotation_position's position less the target, in the arm plane: along the reach, across it
-        # (the shoulder offset d4 + d6·cos θ5) and up; the planar 2-link term is added per branch.
-        cos234, sin234 = cos_sum * cos_diff - sin_sum * sin_diff, sin_sum * cos_diff + cos_sum * sin_diff
-        cos5, d6_sin5 = cos_half5 * cos_half5 - sin_half5 * sin_half5, d6 * (2.0 * sin_half5 * cos_half5)
-        along = d5 * sin234 - d6_sin5 * cos234 - reach_target
-        across = d4 + d6 * cos5 - offset_target
-        up = d1 - d5 * cos234 - d6_sin5 * sin234 - hz
-        if tool is not None:   # _tool_floats' offset r·½t_t·r*, here (x, y, z) → (along, up, across) of the flange's
-            cx, cy, cz = y * vz - z * vy, z * vx - x * vz, x * vy - y * vx   # turn in joint 1's frame
-            along += vx + 2.0 * (w * cx + y * cz - z * cy)
-            up += vy + 2.0 * (w * cy + z * cx - x * cz)
-            across += vz + 2.0 * (w * cz + x * cy - y * cx)
-        across2 = across * across
+            if q1 != shoulder:   # the target in joint 1's frame, as equations._reduced_rotation turns it
+                shoulder = q1
+                ch, sh = cos(0.5 * q1), -sin(0.5 * q1)
+                w1, x1, y1, z1 = ch * tw - sh * tz, ch * tx - sh * ty, ch * ty + sh * tx, ch * tz + sh * tw
+                rw, rx, ry, rz = h * (w1 + x1), h * (x1 - w1), h * (y1 + z1), h * (z1 - y1)
+                cos1, sin1 = ch * ch - sh * sh, -2.0 * ch * sh
+            flip5, flip_sum, flip_diff = q5, q234 + q6, q234 - q6
+            half_sum, half_diff, half5 = 0.5 * flip_sum, 0.5 * flip_diff, 0.5 * q5
+            sin_sum, cos_sum, sin_diff, cos_diff = sin(half_sum), cos(half_sum), sin(half_diff), cos(half_diff)
+            sin_half5, cos_half5 = sin(half5), cos(half5)
+            w, x, y, z = cos_half5 * cos_sum, sin_half5 * sin_diff, -sin_half5 * cos_diff, cos_half5 * sin_sum
+            if w * rw + x * rx + y * ry + z * rz < 0.0:   # the chord against the nearer sign of the pose (σ ≡ −σ)
+                dw, dx, dy, dz = w + rw, x + rx, y + ry, z + rz
+            else:
+                dw, dx, dy, dz = w - rw, x - rx, y - ry, z - rz
+            chord2 = dw * dw + dx * dx + dy * dy + dz * dz
+            # flange_rotation_position's position less the target, in the arm plane: along the reach, up, and
+            # across it (the shoulder offset d4 + d6·cos θ5); each branch adds its planar 2-link term below.
+            cos234, sin234 = cos_sum * cos_diff - sin_sum * sin_diff, sin_sum * cos_diff + cos_sum * sin_diff
+            cos5, d6_sin5 = cos_half5 * cos_half5 - sin_half5 * sin_half5, d6 * (2.0 * sin_half5 * cos_half5)
+            wrist_along, wrist_up, tilt_along, tilt_up = d5 * sin234, d5 * cos234, d6_sin5 * cos234, d6_sin5 * sin234
+            reach, height = -(cos1 * hx + sin1 * hy), d1 - hz
+            across = d4 + d6 * cos5 - (sin1 * hx - cos1 * hy)
+            if tool is not None:   # _tool_floats' offset r·½t_t·r*, (x, y, z) → (along, up, across) in the plane
+                cx, cy, cz = y * vz - z * vy, z * vx - x * vz, x * vy - y * vx
+                reach += vx + 2.0 * (w * cx + y * cz - z * cy)
+                height += vy + 2.0 * (w * cy + z * cx - x * cz)
+                across += vz + 2.0 * (w * cz + x * cy - y * cx)
+            across2 = across * across
+            along, up = wrist_along - tilt_along + reach, height - wrist_up - tilt_up
         p1, p2, p3, p4, p5, p6 = second
         shared = p1 == q1 and p5 == q5 and p6 == q6 and abs(p2 + p3 + p4 - q234) <= _SHARED_ANGLE
         # Each branch's planar 2-link term (the elbow pair written out, as _nominal_branches solves it).
