@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+from itertools import compress
 
 import numpy as np
 
@@ -192,9 +193,9 @@ def _may_repeat(branches: list) -> bool:
 def _canonical(solutions: list) -> np.ndarray:
     """(k, 6) the joints of k solutions (6 floats each) in (−π, π] (_wrap_float's arithmetic, for the joints
     outside only), as one array: one numpy call instead of one per solution."""
-    pi, two_pi, remainder = math.pi, _TWO_PI, math.remainder
+    low, pi, two_pi, remainder = -math.pi, math.pi, _TWO_PI, math.remainder
     # _wrap_float written out: a call per wrapped joint (θ1, θ4, θ6 are often outside) costs more than its arithmetic.
-    flat = [v if -pi < v <= pi else (w + two_pi if (w := remainder(v, two_pi)) <= -pi else w)
+    flat = [v if low < v <= pi else (w + two_pi if (w := remainder(v, two_pi)) <= low else w)
             for solution in solutions for v in solution]
     return np.fromiter(flat, float, len(flat)).reshape(len(solutions), 6)
 
@@ -231,7 +232,7 @@ def ik_all(model, pose, q_ref=None) -> list:
     else:   # all 8 in branch order (NaN where absent): _nominal_kept reads the pairs from their places
         candidates = _nominal_branches(g, target, theta6_ref)
         kept = _nominal_kept(g, candidates, tcp_coefficients)
-    solutions = [c for c, ok in zip(candidates, kept) if ok]
+    solutions = list(compress(candidates, kept))
     if not solutions:
         existed = any(c[1] == c[1] and c[0] == c[0] for c in candidates)   # as _solution_candidates keeps them
         raise UnreachablePoseError(f"pose unreachable for {model.name}: {_unreachable_reason(g, target, existed)}")
