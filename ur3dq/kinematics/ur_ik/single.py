@@ -193,9 +193,10 @@ def _may_repeat(branches: list) -> bool:
 def _canonical(solutions: list) -> np.ndarray:
     """(k, 6) the joints of k solutions (6 floats each) in (−π, π] (_wrap_float's arithmetic, for the joints
     outside only), as one array: one numpy call instead of one per solution."""
-    low, pi, two_pi, remainder = -math.pi, math.pi, _TWO_PI, math.remainder
-    # _wrap_float written out: a call per wrapped joint (θ1, θ4, θ6 are often outside) costs more than its arithmetic.
-    flat = [v if low < v <= pi else (w + two_pi if (w := remainder(v, two_pi)) <= low else w)
+    low, pi2, two_pi, remainder = -math.pi, math.pi * math.pi, _TWO_PI, math.remainder
+    # _wrap_float written out (a call per wrapped joint costs more than its arithmetic), for the joints outside
+    # |v| < π only: v·v < π² implies it (rounding is monotonic); ±π and NaN take _wrap_float's way.
+    flat = [v if v * v < pi2 else (w + two_pi if (w := remainder(v, two_pi)) <= low else w)
             for solution in solutions for v in solution]
     return np.fromiter(flat, float, len(flat)).reshape(len(solutions), 6)
 
