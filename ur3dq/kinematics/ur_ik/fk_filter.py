@@ -43,15 +43,17 @@ def _pose_coefficients(pose, name: str) -> tuple:
         if values.shape != (8,):
             raise ValueError(f"{name}: expected a DualQuaternion or 8 coefficients, got shape {values.shape}")
         c = tuple(values.tolist())
-    norm2 = c[0] * c[0] + c[1] * c[1] + c[2] * c[2] + c[3] * c[3]
-    if not math.isfinite(norm2 + c[4] + c[5] + c[6] + c[7]):
+    rw, rx, ry, rz, dw, dx, dy, dz = c
+    norm2 = rw * rw + rx * rx + ry * ry + rz * rz
+    if not math.isfinite(norm2 + dw + dx + dy + dz):
         raise ValueError(f"{name}: contains NaN or infinite values")
-    if abs(norm2 - 1.0) > 2.0 * dqarray.UNIT_TOLERANCE:
+    off_unit = abs(norm2 - 1.0)
+    if off_unit > 2.0 * dqarray.UNIT_TOLERANCE:
         raise ValueError(f"{name}: rotation part is not a unit quaternion (norm² {norm2:.6g})")
-    orthogonality = c[0] * c[4] + c[1] * c[5] + c[2] * c[6] + c[3] * c[7]
+    orthogonality = rw * dw + rx * dx + ry * dy + rz * dz
     if abs(orthogonality) > dqarray.UNIT_TOLERANCE:
         raise ValueError(f"{name}: not a unit dual quaternion (real·dual = {orthogonality:.3g}, must be 0)")
-    if abs(norm2 - 1.0) > _EXACT_UNIT or abs(orthogonality) > _EXACT_UNIT:
+    if off_unit > _EXACT_UNIT or abs(orthogonality) > _EXACT_UNIT:
         c = _normalised(c, norm2)
     return c
 
