@@ -1,9 +1,10 @@
 """ik_all's grouped FK filter (fk_filter._nominal_meets) against the general one (fk_filter._nominal_check).
 
-The grouped check computes each elbow pair's flange rotation once and each branch's position from what the pair
-shares; it must give exactly the general check's verdict, on the branches the IK solves and on corrupted ones
-(a joint off by a little or a lot, an elbow partner moved to the very edge of the tolerance, pairs that no longer
-share θ1, θ5, θ6, absent branches), and so reject every wrong branch the general check rejects.
+The grouped check computes the flange rotation once per θ1 (elbow partners and the wrist flip share it) and each
+branch's position from shared terms plus its planar 2-link term; it must give exactly the general check's verdict,
+on the branches the IK solves and on corrupted ones (a joint off by a little or a lot, an elbow partner moved to
+the very edge of the tolerance, a wrist flip that no longer holds, branches moved or absent), and so reject every
+wrong branch the general check rejects.
 """
 import math
 
@@ -110,3 +111,17 @@ def test_grouped_filter_rejects_the_branches_of_another_pose(name, q, other, tcp
         return
     assert not any(fk_filter._nominal_meets(g, branches, other_target))
     assert_same_verdicts(g, branches, other_target)
+
+
+@settings(max_examples=150, deadline=None)
+@given(name=st.sampled_from(MODEL_NAMES), q=JOINTS, tcp=st.booleans(), shoulder=st.sampled_from([0, 4]),
+       error=ERRORS, sign=st.sampled_from([-1.0, 1.0]))
+def test_grouped_filter_gives_the_general_verdicts_when_a_wrist_flip_is_off(name, q, tcp, shoulder, error, sign):
+    # The second pair of a θ1 is judged as the first's wrist flip only while (−θ5, θ6 ∓ π, θ234 ± π) holds within
+    # 1e-13: θ6 + e, θ4 ∓ e keep one of θ234 ± θ6 and move the other by 2e, a turn of θ6 (e = 2π) keeps the pose.
+    g, target, branches = branches_of(name, q, tcp)
+    moved = list(branches)
+    for index in (shoulder + 2, shoulder + 3):
+        b = branches[index]
+        moved[index] = (b[0], b[1], b[2], b[3] + sign * error, b[4], b[5] + error)
+    assert_same_verdicts(g, moved, target)
