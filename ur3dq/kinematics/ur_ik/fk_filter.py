@@ -152,7 +152,8 @@ def _flange_meets(flange: tuple, tool, target: tuple) -> bool:
 #: θ234 ± θ6 the same or 2π apart: the wrist flip; the sums differ by the rounding of a few sums of angles, ~1e-15
 #: rad) and its chord and half-position distance are at least _VERDICT_MARGIN clear of the limits. Its terms are
 #: _nominal_check's in another arrangement (joint 1's frame, the shared angles): they differ from that check's by the
-#: rounding of ~1 m sums (~1e-15) and ~_SHARED_ANGLE·(1 + |d5| + |d6|) ≪ the margin, so the verdict is that check's.
+#: rounding of ~1 m sums (~1e-15) and at most ~2·_SHARED_ANGLE·(1 + |d5| + |d6|) (an elbow partner of a wrist flip)
+#: ≪ the margin, so the verdict is that check's.
 _SHARED_ANGLE = 1e-13
 _VERDICT_MARGIN = 1e-12
 #: Open bands of squared chord and squared half distance around the limits where a branch gets the general check.
