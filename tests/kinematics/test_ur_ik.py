@@ -528,3 +528,15 @@ def test_branches_said_distinct_hold_no_duplicate_pair(name, q, theta5, theta3, 
     existing = [b for b in branches if not math.isnan(b[0]) and not math.isnan(b[1])]
     for i, branch in enumerate(existing):
         assert fk_filter._is_new(branch, existing[:i])
+
+
+@settings(max_examples=200, deadline=None)
+@given(values=st.lists(st.floats(-20.0, 20.0, allow_nan=False) | st.sampled_from(
+    [math.pi, -math.pi, 3 * math.pi, -3 * math.pi, math.nextafter(math.pi, 4), math.nextafter(-math.pi, -4), math.nan]),
+    min_size=6, max_size=48).map(lambda v: v[:len(v) // 6 * 6]))
+def test_canonical_rows_are_wrap_float_of_each_joint(values):
+    # single._canonical writes _wrap_float out for speed: the very floats, NaN kept, each in (−π, π].
+    from ur3dq.kinematics.ur_ik import equations, single
+    rows = [tuple(values[i:i + 6]) for i in range(0, len(values), 6)]
+    expected = np.array([equations._wrap_float(v) for v in values]).reshape(-1, 6)
+    assert np.array_equal(single._canonical(rows), expected, equal_nan=True)

@@ -48,10 +48,12 @@ poses rank their refined nominal branches (which, beside a singularity, can miss
 
 Single poses run in plain floats (no pyquaternion or numpy objects on the hot path); on a nominal model `ik_all`
 solves the 8 branches with the equations written out for a regular wrist (single._nominal_branches) and FK-checks
-each from the closed-form flange rotation and position (fk_filter._fk_check); `ik` walks the branches
-θ1 → wrist → elbow cheapest first, with the equations written out for a regular wrist, and stops solving a branch
-that can no longer be the nearest; the ±2π variant nearest q_ref inside the limits is chosen per joint (the cost
-is separable), and the FK filter checks the joints it returns. Batches of a nominal model run a closed-form
+each from the closed-form flange rotation and position, what the branches share computed once (the rotation per
+θ1: the elbow pair shares θ1, θ2 + θ3 + θ4, θ5, θ6 and the wrist flip keeps the rotation; each branch adds its
+planar 2-link term): fk_filter._nominal_meets, cross-checked against the per-branch fk_filter._nominal_check;
+`ik` walks the branches θ1 → wrist → elbow cheapest first, with the equations written out for a regular wrist,
+and stops solving a branch that can no longer be the nearest; the ±2π variant nearest q_ref inside the limits is
+chosen per joint (the cost is separable), and the FK filter checks the joints it returns. Batches of a nominal model run a closed-form
 kernel (batch_kernels._regular_branches) in numpy over blocks of IK_BLOCK poses, all branches at once
 (joint-major (6, 8, B) arrays): what the branches share is computed once (θ1 per pose, the wrist per θ1, both θ5
 signs from the same terms), and the FK filter evaluates the closed-form FK kernel (ur_fk) on every branch's final

@@ -6,10 +6,11 @@ import math
 import numpy as np
 
 from ur3dq import dqarray
-from ur3dq.dualquat import DualQuaternion
+from ur3dq.dualquat import DualQuaternion, multiply_quaternion_coefficients
 from ur3dq.kinematics.ur_fk import flange_rotation_position, joint_floats
 from ur3dq.kinematics.ur_ik.geometry import (
     _flange_of,
+    _HALF_SQRT2,
     DUPLICATE_TOLERANCE,
     FK_TOLERANCE_M,
     _CHORD_LIMIT,
@@ -42,15 +43,17 @@ def _pose_coefficients(pose, name: str) -> tuple:
         if values.shape != (8,):
             raise ValueError(f"{name}: expected a DualQuaternion or 8 coefficients, got shape {values.shape}")
         c = tuple(values.tolist())
-    norm2 = c[0] * c[0] + c[1] * c[1] + c[2] * c[2] + c[3] * c[3]
-    if not math.isfinite(norm2 + c[4] + c[5] + c[6] + c[7]):
+    rw, rx, ry, rz, dw, dx, dy, dz = c
+    norm2 = rw * rw + rx * rx + ry * ry + rz * rz
+    if not math.isfinite(norm2 + dw + dx + dy + dz):
         raise ValueError(f"{name}: contains NaN or infinite values")
-    if abs(norm2 - 1.0) > 2.0 * dqarray.UNIT_TOLERANCE:
+    off_unit = abs(norm2 - 1.0)
+    if off_unit > 2.0 * dqarray.UNIT_TOLERANCE:
         raise ValueError(f"{name}: rotation part is not a unit quaternion (norm² {norm2:.6g})")
-    orthogonality = c[0] * c[4] + c[1] * c[5] + c[2] * c[6] + c[3] * c[7]
+    orthogonality = rw * dw + rx * dx + ry * dy + rz * dz
     if abs(orthogonality) > dqarray.UNIT_TOLERANCE:
         raise ValueError(f"{name}: not a unit dual quaternion (real·dual = {orthogonality:.3g}, must be 0)")
-    if abs(norm2 - 1.0) > _EXACT_UNIT or abs(orthogonality) > _EXACT_UNIT:
+    if off_unit > _EXACT_UNIT or abs(orthogonality) > _EXACT_UNIT:
         c = _normalised(c, norm2)
     return c
 
@@ -92,7 +95,7 @@ def _meets(model, q, tcp_coefficients) -> bool:
     g = _geometry(model)
     if g.calibrated:
         return _fk_check(model, g, tcp_coefficients)(q)
-    return _flange_meets(flange_rotation_position(*g.half_lengths, *q), g.tcp_offset, _fk_target(tcp_coefficients))
+    return _nominal_check(g, q, _fk_target(tcp_coefficients))
 
 
 def _fk_check(model, g: _Geometry, tcp_coefficients):
@@ -113,8 +116,8 @@ def _fk_check(model, g: _Geometry, tcp_coefficients):
             return (_chord2(fk, tw, tx, ty, tz) <= _CHORD_LIMIT2
                     and _distance2(_translation_columns(fk), px, py, pz) <= FK_TOLERANCE_M ** 2)
         return meets
-    half_lengths, tool, target = g.half_lengths, g.tcp_offset, _fk_target(tcp_coefficients)
-    return lambda q: _flange_meets(flange_rotation_position(*half_lengths, *q), tool, target)
+    target = _fk_target(tcp_coefficients)
+    return lambda q: _nominal_check(g, q, target)
 
 
 #: Squared limits of the FK filter's tests: the rotation chord, and the half position's distance (metres²).
@@ -138,8 +141,125 @@ def _flange_meets(flange: tuple, tool, target: tuple) -> bool:
     tw, tx, ty, tz, hx, hy, hz = target
     if rw * tw + rx * tx + ry * ty + rz * tz < 0.0:   # σ ≡ −σ
         tw, tx, ty, tz = -tw, -tx, -ty, -tz
-    return ((rw - tw) ** 2 + (rx - tx) ** 2 + (ry - ty) ** 2 + (rz - tz) ** 2 <= _CHORD_LIMIT2
-            and (fx - hx) ** 2 + (fy - hy) ** 2 + (fz - hz) ** 2 <= _HALF_POSITION_LIMIT2)
+    # Squares as products (as _nominal_meets, which must reach the very same floats, computes them).
+    dw, dx, dy, dz, ex, ey, ez = rw - tw, rx - tx, ry - ty, rz - tz, fx - hx, fy - hy, fz - hz
+    return (dw * dw + dx * dx + dy * dy + dz * dz <= _CHORD_LIMIT2
+            and ex * ex + ey * ey + ez * ez <= _HALF_POSITION_LIMIT2)
+
+
+#: _nominal_meets judges a branch from terms it shares with another when their joints relate as in _nominal_branches
+#: within _SHARED_ANGLE (the same θ1, θ5, θ6 and θ2 + θ3 + θ4: the elbow partner; or the same θ1, θ5 negated and
+#: θ234 ± θ6 the same or 2π apart: the wrist flip; the sums differ by the rounding of a few sums of angles, ~1e-15
+#: rad) and its chord and half-position distance are at least _VERDICT_MARGIN clear of the limits. Its terms are
+#: _nominal_check's in another arrangement (joint 1's frame, the shared angles): they differ from that check's by the
+#: rounding of ~1 m sums (~1e-15) and at most ~2·_SHARED_ANGLE·(1 + |d5| + |d6|) (an elbow partner of a wrist flip)
+#: ≪ the margin, so the verdict is that check's.
+_SHARED_ANGLE = 1e-13
+_VERDICT_MARGIN = 1e-12
+#: Open bands of squared chord and squared half distance around the limits where a branch gets the general check.
+_CHORD_BAND2 = ((_CHORD_LIMIT - _VERDICT_MARGIN) ** 2, (_CHORD_LIMIT + _VERDICT_MARGIN) ** 2)
+_POSITION_BAND2 = ((0.5 * FK_TOLERANCE_M - _VERDICT_MARGIN) ** 2, (0.5 * FK_TOLERANCE_M + _VERDICT_MARGIN) ** 2)
+
+
+def _nominal_meets(g: _Geometry, branches: list, target: tuple) -> list:
+    """Per branch of single._nominal_branches (8 tuples of 6 floats, branch order, NaN where absent): whether it
+    exists and meets ``target`` (_fk_target): the verdict of _nominal_check, computed with shared subexpressions.
+
+    Branches 2k and 2k + 1 (the elbow pair) share θ1, θ5, θ6 (the same floats) and θ234 = θ2 + θ3 + θ4 (up to
+    rounding); pairs 0–1 and 2–3 share θ1, and the second pair of a θ1 is the first's wrist flip (−θ5, θ6 ∓ π,
+    θ234 ± π). Joints 2–4 are parallel, so the flange rotation depends on θ1, θ234, θ5, θ6 only, and the flip keeps
+    it: it is compared once per θ1 (once per pair where the flip does not hold, as at a singular wrist), in joint 1's
+    frame (the target turned by Rx(−π/2)·Rz(−θ1): a rotation keeps the chord), where the flange is the module notes'
+    half-angle form w' = cos(θ5/2)·cos(Σ/2), x' = sin(θ5/2)·sin(Δ/2), y' = −sin(θ5/2)·cos(Δ/2), z' =
+    cos(θ5/2)·sin(Σ/2) (Σ, Δ = θ234 ± θ6). The position error is taken in the arm plane (turned by −θ1) as reach,
+    height and offset: the wrist's d5, d6 terms once per θ1 (the flip turns their signs), then each branch adds its
+    planar 2-link term a2·(c2, s2) + a3·(c23, s23). A branch outside the _SHARED_ANGLE and _VERDICT_MARGIN argument
+    (corrupted, unrelated to its neighbours, or within the margin of a limit) gets _nominal_check itself.
+    Cross-checked against _nominal_check by tests/kinematics/test_ur_ik_filter.py.
+    """
+    d1, a2, a3, d4, d5, d6 = g.half_lengths
+    tw, tx, ty, tz, hx, hy, hz = target
+    tool = g.tcp_offset
+    if tool is not None:   # |r·r_t ∓ t| = |r ∓ t·r_t*|: the tool's rotation moves to the target, once
+        (ow, ox, oy, oz), (vx, vy, vz) = tool
+        tw, tx, ty, tz = multiply_quaternion_coefficients((tw, tx, ty, tz), (ow, -ox, -oy, -oz))
+    sin, cos, h = math.sin, math.cos, _HALF_SQRT2
+    chord_low, position_low = _CHORD_BAND2[0], _POSITION_BAND2[0]
+    verdicts = []
+    shoulder = flip5 = flip_sum = flip_diff = math.nan
+    for first, second in zip(branches[0::2], branches[1::2]):
+        q1, q2, q3, q4, q5, q6 = first
+        if not (q1 == q1 and q2 == q2):   # absent (NaN): the partner, if it exists, on its own
+            verdicts += (False, _nominal_check(g, second, target))
+            continue
+        q234 = q2 + q3 + q4
+        if (q1 == shoulder and q5 == -flip5 and abs(q234 + q6 - flip_sum) <= _SHARED_ANGLE
+                and abs(abs(q234 - q6 - flip_diff) - _TWO_PI) <= _SHARED_ANGLE):
+            # The wrist flip (−θ5, θ6 ∓ π, θ234 ± π) of this θ1's pair before: the same rotation (chord2) and offset
+            # (across2); cos θ234, sin θ234 and sin θ5 change sign, so do the wrist terms.
+            along, up = reach - wrist_along - tilt_along, height + wrist_up - tilt_up
+        else:
+            if q1 != shoulder:   # the target in joint 1's frame, as equations._reduced_rotation turns it
+                shoulder = q1
+                ch, sh = cos(0.5 * q1), -sin(0.5 * q1)
+                w1, x1, y1, z1 = ch * tw - sh * tz, ch * tx - sh * ty, ch * ty + sh * tx, ch * tz + sh * tw
+                rw, rx, ry, rz = h * (w1 + x1), h * (x1 - w1), h * (y1 + z1), h * (z1 - y1)
+                cos1, sin1 = ch * ch - sh * sh, -2.0 * ch * sh
+            flip5, flip_sum, flip_diff = q5, q234 + q6, q234 - q6
+            half_sum, half_diff, half5 = 0.5 * flip_sum, 0.5 * flip_diff, 0.5 * q5
+            sin_sum, cos_sum, sin_diff, cos_diff = sin(half_sum), cos(half_sum), sin(half_diff), cos(half_diff)
+            sin_half5, cos_half5 = sin(half5), cos(half5)
+            w, x, y, z = cos_half5 * cos_sum, sin_half5 * sin_diff, -sin_half5 * cos_diff, cos_half5 * sin_sum
+            if w * rw + x * rx + y * ry + z * rz < 0.0:   # the chord against the nearer sign of the pose (σ ≡ −σ)
+                dw, dx, dy, dz = w + rw, x + rx, y + ry, z + rz
+            else:
+                dw, dx, dy, dz = w - rw, x - rx, y - ry, z - rz
+            chord2 = dw * dw + dx * dx + dy * dy + dz * dz
+            # flange_rotation_position's position less the target, in the arm plane: along the reach, up, and
+            # across it (the shoulder offset d4 + d6·cos θ5); each branch adds its planar 2-link term below.
+            cos234, sin234 = cos_sum * cos_diff - sin_sum * sin_diff, sin_sum * cos_diff + cos_sum * sin_diff
+            cos5, d6_sin5 = cos_half5 * cos_half5 - sin_half5 * sin_half5, d6 * (2.0 * sin_half5 * cos_half5)
+            wrist_along, wrist_up, tilt_along, tilt_up = d5 * sin234, d5 * cos234, d6_sin5 * cos234, d6_sin5 * sin234
+            reach, height = -(cos1 * hx + sin1 * hy), d1 - hz
+            across = d4 + d6 * cos5 - (sin1 * hx - cos1 * hy)
+            if tool is not None:   # _tool_floats' offset r·½t_t·r*, (x, y, z) → (along, up, across) in the plane
+                cx, cy, cz = y * vz - z * vy, z * vx - x * vz, x * vy - y * vx
+                reach += vx + 2.0 * (w * cx + y * cz - z * cy)
+                height += vy + 2.0 * (w * cy + z * cx - x * cz)
+                across += vz + 2.0 * (w * cz + x * cy - y * cx)
+            across2 = across * across
+            along, up = wrist_along - tilt_along + reach, height - wrist_up - tilt_up
+        p1, p2, p3, p4, p5, p6 = second
+        shared = p1 == q1 and p5 == q5 and p6 == q6 and abs(p2 + p3 + p4 - q234) <= _SHARED_ANGLE
+        # Each branch's planar 2-link term (the elbow pair written out, as _nominal_branches solves it).
+        q23, p23 = q2 + q3, p2 + p3
+        first_along, first_up = a2 * cos(q2) + a3 * cos(q23) + along, a2 * sin(q2) + a3 * sin(q23) + up
+        second_along, second_up = a2 * cos(p2) + a3 * cos(p23) + along, a2 * sin(p2) + a3 * sin(p23) + up
+        first2 = first_along * first_along + first_up * first_up + across2
+        second2 = second_along * second_along + second_up * second_up + across2
+        if chord2 <= chord_low and first2 <= position_low and second2 <= position_low and shared:
+            verdicts += (True, True)   # the rule: both clearly within the tolerances
+        else:
+            verdicts += (_clear_verdict(chord2, first2, g, first, target),
+                         _clear_verdict(chord2, second2 if shared else math.nan, g, second, target))
+    return verdicts
+
+
+def _clear_verdict(chord2: float, distance2: float, g: _Geometry, branch: tuple, target: tuple) -> bool:
+    """The FK filter's verdict on squared chord and half distance ``chord2``, ``distance2`` (_nominal_meets' shared
+    terms) when they are _VERDICT_MARGIN clear of the limits; else (or for a NaN) _nominal_check of ``branch``."""
+    chord_low, chord_high = _CHORD_BAND2
+    position_low, position_high = _POSITION_BAND2
+    if (chord2 <= chord_low or chord2 >= chord_high) and (distance2 <= position_low or distance2 >= position_high):
+        return chord2 <= chord_low and distance2 <= position_low
+    return _nominal_check(g, branch, target)
+
+
+def _nominal_check(g: _Geometry, q: tuple, target: tuple) -> bool:
+    """Whether the 6 floats ``q`` (NaN where the branch does not exist) exist and the nominal model's FK at them meets
+    ``target`` (_fk_target): the FK filter of one configuration, the general form of _nominal_meets."""
+    return (q[0] == q[0] and q[1] == q[1]
+            and _flange_meets(flange_rotation_position(*g.half_lengths, *q), g.tcp_offset, target))
 
 
 def _chord2(r, tw, tx, ty, tz) -> float:

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+from itertools import compress
 
 import numpy as np
 
@@ -20,7 +21,15 @@ from ur3dq.kinematics.ur_ik.equations import (
     _wrist_centre,
     _wrist_pair,
 )
-from ur3dq.kinematics.ur_ik.fk_filter import _fk_check, _is_new, _reference, _targets
+from ur3dq.kinematics.ur_ik.fk_filter import (
+    _fk_check,
+    _fk_target,
+    _is_new,
+    _nominal_check,
+    _nominal_meets,
+    _reference,
+    _targets,
+)
 from ur3dq.kinematics.ur_ik.geometry import (
     DOMAIN_TOLERANCE,
     DUPLICATE_TOLERANCE,
@@ -138,19 +147,28 @@ def _general_wrist_branches(g: _Geometry, theta1, cos1, sin1, reduced, theta6_re
     return branches
 
 
-def _verified(candidates: list, meets, distinct: bool = False) -> list:
+def _verified(candidates: list, meets) -> list:
     """Per candidate (6 floats, NaN where the branch does not exist): kept, i.e. it exists, repeats no earlier kept
     candidate (DUPLICATE_TOLERANCE) and meets the FK filter ``meets`` (fk_filter._fk_check of the pose). The one
-    merge rule of ik_all and ik_all_batch. ``distinct``: no two candidates can repeat (_may_repeat said so), the
-    comparisons are skipped."""
+    merge rule of ik_all and ik_all_batch (_nominal_kept skips the comparisons where no two candidates can repeat)."""
     kept, mask = [], []
     for candidate in candidates:
         ok = (candidate[0] == candidate[0] and candidate[1] == candidate[1]
-              and (distinct or _is_new(candidate, kept)) and meets(candidate))
+              and _is_new(candidate, kept) and meets(candidate))
         if ok:
             kept.append(candidate)
         mask.append(ok)
     return mask
+
+
+def _nominal_kept(g: _Geometry, candidates: list, tcp_coefficients) -> list:
+    """_verified for the 8 branches of _nominal_branches (branch order): when no two can repeat (_may_repeat),
+    fk_filter._nominal_meets judges all 8 at once with what they share; otherwise the pairwise merge rule with
+    _nominal_check per candidate (the same verdicts)."""
+    target = _fk_target(tcp_coefficients)
+    if _may_repeat(candidates):
+        return _verified(candidates, lambda candidate: _nominal_check(g, candidate, target))
+    return _nominal_meets(g, candidates, target)
 
 
 def _may_repeat(branches: list) -> bool:
@@ -160,12 +178,13 @@ def _may_repeat(branches: list) -> bool:
     Two branches differ in the sign choice of θ1, θ5 or θ3, and each sign pair is exactly ±: θ1 = base ± offset,
     the second θ5 and θ3 are the negated first. So unless the two θ1 are within twice the tolerance (mod 2π), or
     some |θ5| or |θ3| lies within it of 0 or π, every two branches differ by at least twice it in one joint (the
-    batch kernel's ``merged`` rule).
+    batch kernel's ``merged`` rule). The odd branches negate their even neighbour's θ3: the even ones hold every
+    |θ3| and |θ5|.
     """
     tolerance, far = DUPLICATE_TOLERANCE, math.pi - DUPLICATE_TOLERANCE
     if not abs(math.remainder(branches[0][0] - branches[4][0], _TWO_PI)) >= 2.0 * tolerance:
         return True
-    for _, _, theta3, _, theta5, _ in branches:
+    for _, _, theta3, _, theta5, _ in branches[0::2]:
         theta3, theta5 = abs(theta3), abs(theta5)
         if theta3 < tolerance or theta3 > far or theta5 < tolerance or theta5 > far:   # False for NaN
             return True
@@ -173,11 +192,14 @@ def _may_repeat(branches: list) -> bool:
 
 
 def _canonical(solutions: list) -> np.ndarray:
-    """(k, 6) the joints of k solutions (6 floats each) in (−π, π] (_wrap_float, called only for the joints
-    outside), as one array: one numpy call instead of one per solution."""
-    pi = math.pi
-    flat = [v if -pi < v <= pi else _wrap_float(v) for solution in solutions for v in solution]
-    return np.array(flat).reshape(len(solutions), 6)
+    """(k, 6) the joints of k solutions (6 floats each) in (−π, π] (_wrap_float's arithmetic, for the joints
+    outside only), as one array: one numpy call instead of one per solution."""
+    low, pi2, two_pi, remainder = -math.pi, math.pi * math.pi, _TWO_PI, math.remainder
+    # _wrap_float written out (a call per wrapped joint costs more than its arithmetic), for the joints outside
+    # |v| < π only: v·v < π² implies it (rounding is monotonic); ±π and NaN take _wrap_float's way.
+    flat = [v if v * v < pi2 else (w + two_pi if (w := remainder(v, two_pi)) <= low else w)
+            for solution in solutions for v in solution]
+    return np.fromiter(flat, float, len(flat)).reshape(len(solutions), 6)
 
 
 def _branch_table(model, pose, theta6_ref: float) -> tuple:
@@ -191,7 +213,7 @@ def _branch_table(model, pose, theta6_ref: float) -> tuple:
     g = _geometry(model)
     tcp_coefficients, target = _targets(g, pose)
     candidates = _nominal_branches(g, target, theta6_ref)
-    kept = _verified(candidates, _fk_check(model, g, tcp_coefficients), not _may_repeat(candidates))
+    kept = _nominal_kept(g, candidates, tcp_coefficients)
     table = _canonical([c if ok else (math.nan,) * 6 for c, ok in zip(candidates, kept)])
     return table, np.array(kept)
 
@@ -206,14 +228,13 @@ def ik_all(model, pose, q_ref=None) -> list:
     g = _geometry(model)
     tcp_coefficients, target = _targets(g, pose)
     theta6_ref = 0.0 if q_ref is None else _wrap_float(_reference(q_ref)[5])
-    meets = _fk_check(model, g, tcp_coefficients)
     if g.calibrated:
         candidates = _solution_candidates(g, target, theta6_ref)
-        kept = _verified(candidates, meets)
-    else:   # all 8 in branch order (NaN where absent): _may_repeat reads the sign pairs from their places
+        kept = _verified(candidates, _fk_check(model, g, tcp_coefficients))
+    else:   # all 8 in branch order (NaN where absent): _nominal_kept reads the pairs from their places
         candidates = _nominal_branches(g, target, theta6_ref)
-        kept = _verified(candidates, meets, not _may_repeat(candidates))
-    solutions = [c for c, ok in zip(candidates, kept) if ok]
+        kept = _nominal_kept(g, candidates, tcp_coefficients)
+    solutions = list(compress(candidates, kept))
     if not solutions:
         existed = any(c[1] == c[1] and c[0] == c[0] for c in candidates)   # as _solution_candidates keeps them
         raise UnreachablePoseError(f"pose unreachable for {model.name}: {_unreachable_reason(g, target, existed)}")
