@@ -19,8 +19,10 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
+from ur3dq import dqarray
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import ConnectionLostError, JointLimitError, SafetyCheckError, UnreachablePoseError
+from ur3dq.kinematics import ur_ik
 from ur3dq.pose import Pose
 from ur3dq.robot import motion
 
@@ -28,6 +30,8 @@ SOURCE_RECORDED = "recorded joints"
 SOURCE_IK_RECORDED = "IK nearest recorded"
 SOURCE_IK_PREVIOUS = "IK nearest previous"
 SOURCE_IK_ZERO = "IK nearest zero"  # no robot joints known (dry run without a robot)
+#: rad: a pose's recorded joints this close to its batch IK answer are that answer (the FK filter's scale, 1e-9)
+RECORDED_SOLUTION = 1e-9
 
 MAX_STATUS_AGE_S = 1.0  # a reading older than this is a frozen stream, not the arm's pose
 
@@ -136,10 +140,12 @@ def choose_joints(model, pose: Pose, previous, replay_recorded_joints: bool,
     else:
         reference, source = np.zeros(6), SOURCE_IK_ZERO
     try:
-        solutions = solver.ik_all(pose.dq, q_ref=reference)  # the one IK solve of this pose
+        solutions = solver.ik_all(pose.dq, q_ref=reference)
         if not solutions:
             raise UnreachablePoseError("no solution passed the FK check")
-        q = nearest_variant(solver, solutions, reference)
+        # ik, not the nearest of ik_all's list: at a singular pose ik_all gives one member of each family, while
+        # ik (and ik_batch, which plan_replay uses for recorded joints) takes the member nearest the reference
+        q = solver.ik(pose.dq, reference)
     except UnreachablePoseError as error:
         raise UnreachablePoseError(f"pose {pose.name!r} is unreachable on the {model.name}: {error}") from None
     return q, source, len(solutions)
@@ -150,22 +156,66 @@ def plan_replay(model, poses: Sequence[Pose], start_joints=None, a: float = 1.4,
     """The replay plan of `poses` from `start_joints` (rad, or None if unknown) with movej a (rad/s²), v (rad/s).
 
     Raises (naming the pose) if one is unreachable, outside the limits, or (with `max_joint_travel`, rad) would
-    swing a joint further than that in one move: nothing moves unless the whole plan is sound.
+    swing a joint further than that in one move: nothing moves unless the whole plan is sound. The poses with
+    recorded joints are solved first, in one batch per TCP offset (_solve_recorded), the others in order.
     """
-    steps, solvers = [], {}
+    solvers = {}
+    batch = {} if replay_recorded_joints else _solve_recorded(model, poses, solvers)
+    chosen = []
     previous = None if start_joints is None else np.asarray(start_joints, dtype=float)
-    for pose in poses:
-        q, source, count = choose_joints(model, pose, previous, replay_recorded_joints, solvers)
+    for index, pose in enumerate(poses):
+        q, source, count = batch.get(index) or choose_joints(model, pose, previous, replay_recorded_joints,
+                                                             solvers)
         travel = None if previous is None else motion.leading_travel(previous, q)
         if max_joint_travel is not None and travel is not None and travel > max_joint_travel:
             raise SafetyCheckError(
                 f"pose {pose.name!r}: a joint would travel {travel:.3f} rad in one move, more than --max-travel "
                 f"{max_joint_travel:.3f} rad (record an intermediate pose, or raise --max-travel)")
-        metres, radians = _solver(model, pose.tcp_offset, solvers).fk(q).distance(pose.dq)
-        duration = None if previous is None else motion.movej_duration(previous, q, a, v)
-        steps.append(PlanStep(pose, q, source, count, travel, duration, metres, radians))
+        duration = None if travel is None else motion.trapezoid_duration(travel, a, v)   # movej_duration's
+        chosen.append((q, source, count, travel, duration))
         previous = q
-    return steps
+    errors = _fk_errors(model, poses, [q for q, *_ in chosen], solvers)
+    return [PlanStep(pose, q, source, count, travel, duration, metres, radians)
+            for pose, (q, source, count, travel, duration), (metres, radians) in zip(poses, chosen, errors)]
+
+
+def _solve_recorded(model, poses: Sequence[Pose], solvers: dict) -> dict:
+    """{index: (joints (6,), SOURCE_IK_RECORDED, number of IK solutions)} of the poses whose recorded joints are a
+    solution of their pose on `model` (within RECORDED_SOLUTION rad: what choose_joints would pick, since nothing is
+    nearer), found in one batch per TCP offset (ik_batch). The other poses (unreachable, or recorded with another
+    TCP or arm) are left out, for choose_joints."""
+    groups: dict = {}
+    for index, pose in enumerate(poses):
+        if pose.joints is not None:
+            groups.setdefault(tuple(map(float, pose.tcp_offset)), []).append(index)
+    solved = {}
+    for tcp_offset, indices in groups.items():
+        solver = _solver(model, tcp_offset, solvers)
+        targets = np.array([poses[i].dual_quaternion for i in indices])
+        hints = np.array([poses[i].joints for i in indices], dtype=float)
+        joints = solver.ik_batch(targets, hints)
+        counts = np.sum(~np.isnan(ur_ik.ik_all_batch(solver, targets, q_ref=hints)[:, :, 0]), axis=1)
+        # NaN rows (unreachable) compare False
+        recorded = (np.abs(joints - hints) <= RECORDED_SOLUTION).all(axis=1).tolist()
+        for i, q, count, same in zip(indices, joints, counts.tolist(), recorded):
+            if same and count:
+                solved[i] = (q, SOURCE_IK_RECORDED, count)
+    return solved
+
+
+def _fk_errors(model, poses: Sequence[Pose], joints: list, solvers: dict) -> list:
+    """[(metres, radians)] between each pose and the model's FK of its joint target, batched per TCP offset."""
+    errors = [None] * len(poses)
+    groups: dict = {}
+    for index, pose in enumerate(poses):
+        groups.setdefault(tuple(map(float, pose.tcp_offset)), []).append(index)
+    for tcp_offset, indices in groups.items():
+        reached = _solver(model, tcp_offset, solvers).fk_batch(np.array([joints[i] for i in indices]))
+        wanted = dqarray.normalise(np.array([poses[i].dual_quaternion for i in indices]))
+        metres, radians = dqarray.pose_distance(reached, wanted)
+        for i, m, r in zip(indices, metres.tolist(), radians.tolist()):
+            errors[i] = (m, r)
+    return errors
 
 
 def _solver(model, tcp_offset, solvers: dict):

@@ -105,3 +105,41 @@ def test_replay_of_a_recorded_pose_returns_its_recorded_joints(q):
     (step,) = plan_replay(UR3, [recorded("p", q)], start_joints=np.zeros(6))
     np.testing.assert_allclose(step.joints, q, atol=1e-7)
     assert step.source == SOURCE_IK_RECORDED and step.fk_error_m < 1e-9
+
+
+@pytest.mark.parametrize("name", ["ur3", "ur5e", "ur10"])
+def test_the_batch_of_recorded_poses_plans_what_choose_joints_picks_pose_by_pose(name, monkeypatch):
+    """plan_replay solves the poses with recorded joints in one batch: the same joints, sources and solution
+    counts as choose_joints per pose — with hints that are the pose's joints or 0.3 rad off, other TCPs, and
+    singular poses (joints at multiples of π, up to the ±2π limits: stretched elbow, wrist 2 at 0)."""
+    import ur3dq.replay as replay
+
+    model = robot_model(name)
+    rng = np.random.default_rng(4)
+    lower, upper = np.maximum(model.joint_lower, -7), np.minimum(model.joint_upper, 7)
+    joints = rng.uniform(lower, upper, (400, 6))
+    joints[::7] = np.clip(np.round(joints[::7] / np.pi) * np.pi, lower, upper)
+    joints[::11, 4] = 0.0
+    poses = []
+    for index, q in enumerate(joints):
+        hint = np.clip(q + rng.normal(0, 0.3, 6) * (index % 3 == 0), lower, upper)
+        tcp = (0.0,) * 6 if index % 4 else (0.01, -0.02, 0.1, 0.1, 0.0, 0.2)
+        poses.append(Pose.from_dual_quaternion(f"p{index}", model.with_tcp(tcp).fk(q), name, joints=tuple(hint),
+                                               tcp_offset=tcp))
+    batch = plan_replay(model, poses)
+    monkeypatch.setattr(replay, "_solve_recorded", lambda *arguments: {})
+    one_by_one = plan_replay(model, poses)
+    assert sum(step.source == SOURCE_IK_RECORDED for step in batch) == len(poses)
+    for fast, slow in zip(batch, one_by_one):
+        np.testing.assert_allclose(fast.joints, slow.joints, rtol=0, atol=1e-9)
+        assert (fast.source, fast.solutions) == (slow.source, slow.solutions)
+        assert fast.fk_error_m == pytest.approx(slow.fk_error_m, abs=1e-12)
+
+
+def test_at_a_singular_pose_ik_nearest_the_recorded_joints_returns_them():
+    """A stretched elbow at its 2π limit and wrist 2 at 0: the recorded joints are a solution, and the one chosen
+    (ik_all's list held another member of the family, 6.3 rad away, which choose_joints used to take)."""
+    q = np.array([0.3, -1.0, 2 * math.pi, -1.2, 0.0, 0.5])
+    chosen, source, _ = choose_joints(UR3, recorded("stretched", q), None, replay_recorded_joints=False)
+    assert source == SOURCE_IK_RECORDED
+    np.testing.assert_allclose(chosen, q, atol=1e-7)

@@ -14,7 +14,8 @@ import pytest
 from rich.console import Console
 
 from cli_support import assert_fits_with_every_name_whole, assert_one_line_error
-from ur3dq.cli.program_workflow import PLAN_COLUMNS, plan_rows, print_table
+from ur3dq.cli.display import print_table
+from ur3dq.cli.program_workflow import PLAN_COLUMNS, plan_rows
 from ur3dq.kinematics import robot_model
 from ur3dq.program.plan import plan_program
 from ur3dq.store import PoseStore

@@ -9,7 +9,8 @@ from rich.console import Console
 from ur3dq.cli.app import Settings, cli, confirm, emit_json, one_line, robot_session
 from ur3dq.cli.background_simulator import running_simulator_host
 from ur3dq.cli.display import (
-    angles_text, count_text, key_value_table, plan_table, pose_rows, pose_vector_text, progress_bar, reached_table,
+    angles_text, count_text, key_value_table, pose_rows, pose_vector_text, print_table, progress_bar, reached_table,
+    replay_plan,
 )
 from ur3dq.cli.options import (
     DEFAULT_ACCELERATION, DEFAULT_SPEED, angular_option, cell_option, check_blend, check_max_travel, display_options,
@@ -267,9 +268,6 @@ def _for_the_current_tcp(poses, tcp_now, choice, replay_joints: bool, err: Conso
 
 def _show_plan(settings: Settings, steps, loops: int, title: str) -> None:
     """Print the plan table (to stderr with --json, so stdout carries exactly one JSON document)."""
-    if settings.json:
-        err = Console(stderr=True, highlight=False)
-        err.print(plan_table(steps, settings.deg, title, err.width))
-        return
-    settings.out.print(plan_table(steps, settings.deg, title + (f", × {loops}" if loops > 1 else ""),
-                                  settings.out.width))
+    console = Console(stderr=True, highlight=False) if settings.json else settings.out
+    print_table(console, title + (f", × {loops}" if loops > 1 else ""),
+                *replay_plan(steps, settings.deg, console.width))

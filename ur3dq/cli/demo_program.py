@@ -5,7 +5,8 @@ from __future__ import annotations
 from rich.console import Console
 from rich.markup import escape
 
-from ur3dq.cli.program_workflow import PLAN_COLUMNS, plan_rows, print_table
+from ur3dq.cli.display import print_table
+from ur3dq.cli.program_workflow import PLAN_COLUMNS, plan_rows
 from ur3dq.errors import RobotError
 from ur3dq.program.steps import DigitalOut, Motion, RelativeWaypoint, Wait, Waypoint
 

@@ -5,6 +5,8 @@ import contextlib
 import dataclasses
 import math
 
+import numpy as np
+
 from rich import box
 from rich.console import Console
 from rich.markup import escape  # user text (pose names) is shown as typed, never read as markup
@@ -30,7 +32,7 @@ _POSE_VECTOR_FORMAT = {deg: "p[%.6f, %.6f, %.6f, " + ", ".join([angle] * 3) + "]
 
 def angles_text(values, deg: bool) -> str:
     """Joint angles (radians in) as one bracketed line in degrees or radians."""
-    return "[" + ", ".join(angle_text(float(v), deg) for v in values) + "]"
+    return "[" + ", ".join(angle_text(v, deg) for v in np.asarray(values, dtype=float).tolist()) + "]"
 
 
 def pose_vector_text(pose, deg: bool) -> str:
@@ -244,11 +246,34 @@ def compact_pose_text(pose, deg: bool) -> str:
     return " ".join(f"{float(v):.3f}" for v in pose[:3]) + " " + compact_angles_text(pose[3:], deg)
 
 
+PLAIN_TABLE_ROWS = 2000  # beyond this, tables are printed as tab-separated lines (rich takes minutes to lay out)
+
+
+def print_table(console: Console, title: str, columns, rows) -> None:
+    """A table of Columns on `console` that reads at its width (names are never cut or dropped); user text is
+    shown as typed (no markup); very long tables as tab-separated lines, written straight to the console's file
+    (stderr under --json, like the table would be)."""
+    if len(rows) > PLAIN_TABLE_ROWS:
+        console.file.write("\n".join([title, "\t".join(column.header for column in columns),
+                                       *("\t".join(row) for row in rows)]) + "\n")
+        return
+    # The title on its own line, unwrapped: a table's title wraps to the table's width, which would cut a store
+    # path (and a Text is never read as markup).
+    console.print(Text(title, no_wrap=True, overflow="ignore"))
+    console.print(fitted_table(None, columns, [[escape(cell) for cell in row] for row in rows], console.width))
+
+
 def plan_table(steps, deg: bool, title: str, width: int | None = None) -> Table:
-    """The replay plan (ur3dq.replay.PlanStep list): chosen joints, how they were chosen, travel, time, FK residual.
-    Narrower than NARROW_WIDTH columns, the joints are compact and wrap three per line, and the FK check, the time
-    and how the joints were chosen are left out in that order while the table would not fit; the pose name is
-    never cut."""
+    """The replay plan (ur3dq.replay.PlanStep list) as a table: replay_plan's columns and rows."""
+    columns, rows = replay_plan(steps, deg, width)
+    return fitted_table(title, columns, [[escape(cell) for cell in row] for row in rows], width)
+
+
+def replay_plan(steps, deg: bool, width: int | None = None) -> tuple:
+    """(Columns, rows of plain text) of the replay plan (ur3dq.replay.PlanStep list): chosen joints, how they were
+    chosen, travel, time, FK residual. Narrower than NARROW_WIDTH columns, the joints are compact and wrap three
+    per line, and the FK check, the time and how the joints were chosen are left out in that order while the
+    table would not fit; the pose name is never cut."""
     narrow = width is not None and width < NARROW_WIDTH
     unit = unit_label(deg)
     joints_width = len(compact_angles_text([-3.14159] * 3, deg)) if narrow else None
@@ -266,11 +291,11 @@ def plan_table(steps, deg: bool, title: str, width: int | None = None) -> Table:
         else:
             joints, travel = angles_text(step.joints, deg), "—" if step.travel is None else angle_text(step.travel,
                                                                                                        deg)
-        rows.append([str(index), escape(step.pose.name), joints,
+        rows.append([str(index), step.pose.name, joints,
                      step.source + (f" (of {step.solutions})" if step.solutions else ""), travel,
                      "—" if step.duration is None else f"{step.duration:.2f} s",
                      distance_text(step.fk_error_m, step.fk_error_rad)])
-    return fitted_table(title, columns, rows, width)
+    return columns, rows
 
 
 def reached_table(results, title: str, width: int | None = None) -> Table:

@@ -13,10 +13,9 @@ import click
 from rich.console import Console
 from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
-from rich.text import Text
 
 from ur3dq.cli.app import Settings, confirm, emit_json, emit_json_list, robot_session
-from ur3dq.cli.display import Column, fitted_table
+from ur3dq.cli.display import Column, print_table
 from ur3dq.cli.path_report import require_clear_program_path
 from ur3dq.errors import StoreError
 from ur3dq.pose import utc_now_iso
@@ -25,9 +24,6 @@ from ur3dq.program.resolve import select_range
 from ur3dq.program.steps import Motion, Waypoint, describe
 from ur3dq.program.urscript import program_script
 from ur3dq.store_format import PROGRAM_SCHEMA_VERSION, step_to_dict
-
-PLAIN_TABLE_ROWS = 2000  # beyond this, tables are printed as tab-separated lines (rich takes minutes to lay out)
-
 
 # ---------------------------------------------------------------- shared options and edits
 
@@ -105,19 +101,6 @@ def record_waypoint(settings: Settings, pose, number_if_taken: bool, move, speed
 def program_rows(steps):
     """(position, name, type, what it does) text of each step."""
     return [(str(index), step.name, step.kind, describe(step)) for index, step in enumerate(steps, start=1)]
-
-
-def print_table(console: Console, title: str, columns, rows) -> None:
-    """A table of Columns that reads at the terminal's width (names are never cut or dropped); user text is
-    shown as typed (no markup); very long tables as tab-separated lines."""
-    if len(rows) > PLAIN_TABLE_ROWS:
-        click.echo("\n".join([title, "\t".join(column.header for column in columns),
-                              *("\t".join(row) for row in rows)]))
-        return
-    # The title on its own line, unwrapped: a table's title wraps to the table's width, which would cut a store
-    # path (and a Text is never read as markup).
-    console.print(Text(title, no_wrap=True, overflow="ignore"))
-    console.print(fitted_table(None, columns, [[escape(cell) for cell in row] for row in rows], console.width))
 
 
 def list_program(settings: Settings) -> bool:

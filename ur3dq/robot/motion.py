@@ -26,7 +26,7 @@ def trapezoid_duration(distance, a, v):
 
 def leading_travel(q_from, q_to):
     """The largest joint travel |q_to − q_from| (radians): the joint that leads a movej."""
-    return float(np.max(np.abs(np.asarray(q_to, dtype=float) - np.asarray(q_from, dtype=float))))
+    return float(np.abs(np.subtract(q_to, q_from, dtype=float)).max())
 
 
 def movej_duration(q_from, q_to, a, v):
