@@ -151,13 +151,19 @@ def checked_non_negative(value: object, name: str) -> float:
 def geometric_jacobian(dh: DH, q: Vector, tcp_offset: Vector) -> np.ndarray:
     """6x6 Jacobian mapping joint speeds to the TCP twist [v; ω] in the base frame (revolute joints about z_{i-1})."""
     frames = joint_frames(dh, q)
-    tcp = frames[-1] @ pose_to_matrix(tcp_offset)
-    p_end = tcp[:3, 3]
+    return _jacobian_of(frames, frames[-1] @ pose_to_matrix(tcp_offset))
+
+
+def _jacobian_of(frames: list[np.ndarray], tcp: np.ndarray) -> np.ndarray:
+    """geometric_jacobian from the joint frames and the TCP matrix at the same joints."""
+    stacked = np.array(frames[:6])                    # (6, 4, 4)
+    z, lever = stacked[:, :3, 2].T, (tcp[:3, 3] - stacked[:, :3, 3]).T   # (3, 6) each: x, y, z rows
     jacobian = np.empty((6, 6))
-    for i in range(6):
-        z_axis, origin = frames[i][:3, 2], frames[i][:3, 3]
-        jacobian[:3, i] = np.cross(z_axis, p_end - origin)
-        jacobian[3:, i] = z_axis
+    # z × lever for all six columns at once, as np.cross computes it (~10× cheaper than np.cross on 6 vectors)
+    jacobian[0] = z[1] * lever[2] - z[2] * lever[1]
+    jacobian[1] = z[2] * lever[0] - z[0] * lever[2]
+    jacobian[2] = z[0] * lever[1] - z[1] * lever[0]
+    jacobian[3:] = z
     return jacobian
 
 
@@ -172,12 +178,15 @@ def inverse_kinematics(dh: DH, pose: Vector, q_near: Vector, tcp_offset: Vector,
                        max_iterations: int = 100, damping: float = 1e-3) -> np.ndarray:
     """Joints reaching TCP `pose` by damped Newton steps from `q_near` (so the nearest branch); IKError if none."""
     target = pose_to_matrix(pose)
+    offset = pose_to_matrix(tcp_offset)
     q = checked_vector(q_near, 6, "q_near").copy()
     for _ in range(max_iterations):
-        error = pose_error(target, tcp_matrix(dh, q, tcp_offset))
+        frames = joint_frames(dh, q)   # once per step, for the error and the Jacobian (the control loop's cost)
+        tcp = frames[-1] @ offset
+        error = pose_error(target, tcp)
         if float(np.linalg.norm(error)) < tolerance:
             return q
-        jacobian = geometric_jacobian(dh, q, tcp_offset)
+        jacobian = _jacobian_of(frames, tcp)
         # Damped least squares, the damping shrinking with the error: robust far away, quadratic Newton close in.
         # The floor keeps J·Jᵀ + λ²I invertible at a singular pose (its rank-deficient J·Jᵀ plus a λ² below the
         # rounding of its entries would be singular); a 1e-7 damping leaves the convergence near-quadratic.
