@@ -89,11 +89,12 @@ def main() -> None:
         print(f"{'peer: json.load of the file':44s} cpu {peer[0]:6.2f} s  wall {peer[1]:6.2f} s  "
               f"rss {peer[2]:6.0f} MB")
         failed = False
-        # the plan goes through the cell-program planner (--from selects it; batch IK) and the whole-path check
-        # run-poses runs before anything moves; plain `run-poses --dry-run` of a version-1 store takes the
-        # per-pose planner of ur3dq/replay.py
+        # two plans, each with the whole-path check run-poses runs before anything moves: plain `run-poses
+        # --dry-run` of a version-1 store (the replay planner of ur3dq/replay.py) and, with --from, the
+        # cell-program planner
         for label, command in (("ur3dq poses list", ["poses", "list"]),
                                ("ur3dq poses list --json", ["poses", "list", "--json"]),
+                               ("ur3dq run-poses --dry-run", ["run-poses", "--dry-run"]),
                                ("ur3dq run-poses --dry-run --from pose-1", ["run-poses", "--dry-run", "--from",
                                                                              "pose-1"])):
             cpu, wall, rss = measure(ur3dq + command, args.repeat)
