@@ -269,5 +269,5 @@ def _for_the_current_tcp(poses, tcp_now, choice, replay_joints: bool, err: Conso
 def _show_plan(settings: Settings, steps, loops: int, title: str) -> None:
     """Print the plan table (to stderr with --json, so stdout carries exactly one JSON document)."""
     console = Console(stderr=True, highlight=False) if settings.json else settings.out
-    print_table(console, title + (f", × {loops}" if loops > 1 else ""),
-                *replay_plan(steps, settings.deg, console.width))
+    columns, rows = replay_plan(steps, settings.deg, console.width)
+    print_table(console, title + (f", × {loops}" if loops > 1 else ""), columns, rows, len(steps))

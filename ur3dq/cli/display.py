@@ -249,13 +249,25 @@ def compact_pose_text(pose, deg: bool) -> str:
 PLAIN_TABLE_ROWS = 2000  # beyond this, tables are printed as tab-separated lines (rich takes minutes to lay out)
 
 
-def print_table(console: Console, title: str, columns, rows) -> None:
+def print_table(console: Console, title: str, columns, rows, count: int | None = None) -> None:
     """A table of Columns on `console` that reads at its width (names are never cut or dropped); user text is
-    shown as typed (no markup); very long tables as tab-separated lines, written straight to the console's file
-    (stderr under --json, like the table would be)."""
-    if len(rows) > PLAIN_TABLE_ROWS:
-        console.file.write("\n".join([title, "\t".join(column.header for column in columns),
-                                       *("\t".join(row) for row in rows)]) + "\n")
+    shown as typed (no markup). `rows`: a sequence of rows (lists of text), or an iterable of `count` rows. A table
+    of more than PLAIN_TABLE_ROWS rows is written as tab-separated lines as the rows come (10⁵ rows need no list of
+    them), straight to the console's file (stderr under --json, like the table would be)."""
+    if count is None:
+        rows = list(rows)
+        count = len(rows)
+    if count > PLAIN_TABLE_ROWS:
+        write = console.file.write
+        write(title + "\n" + "\t".join(column.header for column in columns) + "\n")
+        block = []
+        for row in rows:
+            block.append("\t".join(row))
+            if len(block) == 1000:   # one write per 1000 lines: a write per line costs more than the text
+                write("\n".join(block) + "\n")
+                block = []
+        if block:
+            write("\n".join(block) + "\n")
         return
     # The title on its own line, unwrapped: a table's title wraps to the table's width, which would cut a store
     # path (and a Text is never read as markup).
@@ -270,8 +282,8 @@ def plan_table(steps, deg: bool, title: str, width: int | None = None) -> Table:
 
 
 def replay_plan(steps, deg: bool, width: int | None = None) -> tuple:
-    """(Columns, rows of plain text) of the replay plan (ur3dq.replay.PlanStep list): chosen joints, how they were
-    chosen, travel, time, FK residual. Narrower than NARROW_WIDTH columns, the joints are compact and wrap three
+    """(Columns, an iterator of the rows in plain text) of the replay plan (ur3dq.replay.PlanStep list): chosen
+    joints, how they were chosen, travel, time, FK residual. Narrower than NARROW_WIDTH columns, the joints are compact and wrap three
     per line, and the FK check, the time and how the joints were chosen are left out in that order while the
     table would not fit; the pose name is never cut."""
     narrow = width is not None and width < NARROW_WIDTH
@@ -282,7 +294,11 @@ def replay_plan(steps, deg: bool, width: int | None = None) -> tuple:
                Column("travel", justify="right", no_wrap=True, drop_order=4),
                Column("time", justify="right", no_wrap=True, drop_order=2),
                Column("FK check", drop_order=1)]
-    rows = []
+    return columns, _replay_rows(steps, deg, narrow)
+
+
+def _replay_rows(steps, deg: bool, narrow: bool):
+    """replay_plan's rows, one at a time."""
     for index, step in enumerate(steps, start=1):
         if narrow:
             joints = compact_angles_text(step.joints, deg)
@@ -291,11 +307,9 @@ def replay_plan(steps, deg: bool, width: int | None = None) -> tuple:
         else:
             joints, travel = angles_text(step.joints, deg), "—" if step.travel is None else angle_text(step.travel,
                                                                                                        deg)
-        rows.append([str(index), step.pose.name, joints,
-                     step.source + (f" (of {step.solutions})" if step.solutions else ""), travel,
-                     "—" if step.duration is None else f"{step.duration:.2f} s",
-                     distance_text(step.fk_error_m, step.fk_error_rad)])
-    return columns, rows
+        yield (str(index), step.pose.name, joints, step.source + (f" (of {step.solutions})" if step.solutions else ""),
+               travel, "—" if step.duration is None else f"{step.duration:.2f} s",
+               distance_text(step.fk_error_m, step.fk_error_rad))
 
 
 def reached_table(results, title: str, width: int | None = None) -> Table:

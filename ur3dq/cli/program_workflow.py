@@ -117,20 +117,18 @@ def list_program(settings: Settings) -> bool:
 
 
 def plan_rows(plan, first: int):
-    """The run-poses plan table's rows: #, name, type, target joints (rad, 3 decimals), speed, blend, travel,
-    time."""
-    rows = []
+    """The run-poses plan table's rows, one at a time: #, name, type, target joints (rad, 3 decimals), speed,
+    blend, travel, time."""
     for offset, planned in enumerate(plan):
         step = planned.step
         if planned.joints is None:
-            rows.append((str(first + offset), step.name, step.kind, describe(step), "", "", "", ""))
+            yield str(first + offset), step.name, step.kind, describe(step), "", "", "", ""
             continue
         unit = "rad/s" if planned.move == "joint" else "m/s"
-        rows.append((str(first + offset), step.name, planned.move,
-                     " ".join(f"{q:.3f}" for q in planned.joints.tolist()), f"{planned.speed:.3g} {unit}",
-                     f"{planned.blend:.3g}", "—" if planned.travel is None else f"{planned.travel:.3f}",
-                     "—" if planned.duration is None else f"{planned.duration:.2f} s"))
-    return rows
+        yield (str(first + offset), step.name, planned.move, " ".join(f"{q:.3f}" for q in planned.joints.tolist()),
+               f"{planned.speed:.3g} {unit}", f"{planned.blend:.3g}",
+               "—" if planned.travel is None else f"{planned.travel:.3f}",
+               "—" if planned.duration is None else f"{planned.duration:.2f} s")
 
 
 PLAN_COLUMNS = (Column("#", justify="right", no_wrap=True), Column("step", no_wrap=True), Column("type"),
@@ -203,7 +201,7 @@ def run_program_command(settings: Settings, start, end, speed_scale, dry_run, ye
 
 def _show_plan(settings: Settings, plan, first: int, title: str) -> None:
     console = Console(stderr=True, highlight=False) if settings.json else settings.out
-    print_table(console, title, PLAN_COLUMNS, plan_rows(plan, first))
+    print_table(console, title, PLAN_COLUMNS, plan_rows(plan, first), len(plan))
     for planned in plan:  # say what was lowered to the model's (or the TCP's) limits
         if planned.clamped:
             click.echo(f"{planned.step.who}: clamped {', '.join(planned.clamped)}", err=True)

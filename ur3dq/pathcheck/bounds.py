@@ -93,7 +93,7 @@ def certify_joint_moves(checker, q0: np.ndarray, q1: np.ndarray) -> Certificatio
     limit_margin, limit_worst = _joint_limit(checker, q0, q1)
     failed = limit_margin < 0
     pending = np.zeros(count, dtype=bool)
-    records = _Records(_groups(checker), checker.margins.tcp_resolution)
+    records = _Records(_groups(checker), checker.margins.tcp_resolution, count)
     # A block of moves at a time: a move's intervals double at each depth, and so would the arrays of all moves.
     carried = None   # (joints, margins) at the end of the block before
     for first in range(0, count, _BLOCK):
@@ -108,11 +108,10 @@ def certify_joint_moves(checker, q0: np.ndarray, q1: np.ndarray) -> Certificatio
         delta = q1[block] - q0[block]
         _bisect(checker, q0[block], delta, np.abs(delta) @ rates_per_joint, moves, starts, ends, records, failed,
                 pending)
-    margins, worst, samples = records.per_move(count)
+        records.close_block(block.start, len(moves))
+    margins, worst, samples = dict(records.margins), dict(records.worst), records.samples
     margins["joint_limit"], worst["joint_limit"] = limit_margin, np.where(limit_worst, samples - 1, 0)
-    lowers = records.lower_bounds(count)
-    lowers["joint_limit"] = limit_margin
-    return Certification(~failed & ~pending, lowers, margins, worst, samples)
+    return Certification(~failed & ~pending, {**records.lower, "joint_limit": limit_margin}, margins, worst, samples)
 
 
 def _bisect(checker, q0, delta, rates, move, m0, m1, records, failed, pending) -> None:
@@ -191,14 +190,18 @@ def _joint_limit(checker, q0, q1) -> tuple:
 
 
 class _Records:
-    """The samples evaluated so far: their move, path fraction and smallest margin per check; and the smallest
-    margin per check over all of them (the bisection's targets)."""
+    """What the bisection found: per move its smallest sampled margin per check (and which sample, in path order),
+    its sample count and its smallest interval bound per check, reduced one block of moves at a time; and the
+    smallest sampled margin per check so far (the bisection's targets)."""
 
-    def __init__(self, groups: dict, tolerance: float):
+    def __init__(self, groups: dict, tolerance: float, count: int):
         self.groups, self.tolerance = groups, tolerance
-        self.moves, self.fractions, self.values = [], [], []
-        self.bound_moves, self.bound_values = [], []
         self.smallest = dict.fromkeys(groups, np.inf)
+        self.margins = {name: np.full(count, np.inf) for name in groups}
+        self.worst = {name: np.zeros(count, dtype=int) for name in groups}
+        self.lower = {name: np.full(count, np.inf) for name in groups}
+        self.samples = np.zeros(count, dtype=int)
+        self._samples, self._bounds = [], []   # the open block's (move, fraction, per-check values), (move, bounds)
 
     def _per_check(self, values: np.ndarray) -> np.ndarray:
         """(n, checks) the smallest of each check's columns of values (n, K)."""
@@ -206,30 +209,17 @@ class _Records:
             return np.zeros((len(values), 0))
         return np.stack([values[:, columns].min(axis=1) for columns in self.groups.values()], axis=1)
 
-    def bound(self, move: np.ndarray, bounds: np.ndarray) -> None:
-        """Keep lower bounds (n, K) of the margins on intervals of the moves `move` (n,)."""
-        self.bound_moves.append(move)
-        self.bound_values.append(self._per_check(bounds))
-
-    def lower_bounds(self, count: int) -> dict:
-        """{check: (M,) the smallest bound kept for each move (+inf for a move with none)}."""
-        move, values = np.concatenate(self.bound_moves), np.concatenate(self.bound_values)
-        lower = np.full((count, len(self.groups)), np.inf)
-        if len(move):
-            order = np.argsort(move, kind="stable")
-            move, values = move[order], values[order]
-            first = np.flatnonzero(np.concatenate(([True], move[1:] != move[:-1])))
-            lower[move[first]] = np.minimum.reduceat(values, first, axis=0)
-        return {name: lower[:, k] for k, name in enumerate(self.groups)}
-
     def add(self, move: np.ndarray, fraction: np.ndarray, values: np.ndarray) -> None:
+        """Keep samples: their moves (n,), path fractions (n,) and margins (n, K)."""
         per_check = self._per_check(values)
-        self.moves.append(move)
-        self.fractions.append(fraction)
-        self.values.append(per_check)
+        self._samples.append((move, fraction, per_check))
         for k, name in enumerate(self.groups):
             if len(move):
                 self.smallest[name] = min(self.smallest[name], float(per_check[:, k].min()))
+
+    def bound(self, move: np.ndarray, bounds: np.ndarray) -> None:
+        """Keep lower bounds (n, K) of the margins on intervals of the moves `move` (n,)."""
+        self._bounds.append((move, self._per_check(bounds)))
 
     def targets(self) -> np.ndarray:
         """(K,) what each column's bound must reach: 0, or its check's smallest sampled margin when higher."""
@@ -237,18 +227,27 @@ class _Records:
                    for name, c in self.groups.items()]
         return np.concatenate(columns) if columns else np.zeros(0)
 
-    def per_move(self, count: int) -> tuple:
-        """({check: (M,) smallest sampled margin}, {check: (M,) its sample's index in path order}, samples (M,))."""
-        move, fraction = np.concatenate(self.moves), np.concatenate(self.fractions)
-        values = np.concatenate(self.values)
+    def close_block(self, first: int, size: int) -> None:
+        """Reduce the samples and bounds kept for moves first … first + size − 1 to their figures, and drop them."""
+        move, fraction, values = (np.concatenate(parts) for parts in zip(*self._samples))
+        move = move - first
         order = np.lexsort((fraction, move))
-        samples = np.bincount(move, minlength=count)
-        first = np.concatenate(([0], np.cumsum(samples)[:-1]))
+        samples = np.bincount(move, minlength=size)
+        start = np.concatenate(([0], np.cumsum(samples)[:-1]))
         position = np.empty(len(order), dtype=int)
         position[order] = np.arange(len(order))
-        margins, worst = {}, {}
+        block = slice(first, first + size)
+        self.samples[block] = samples
         for k, name in enumerate(self.groups):
-            smallest = np.lexsort((values[:, k], move))[first]   # each move's record with its smallest margin
-            margins[name] = values[smallest, k]
-            worst[name] = position[smallest] - first
-        return margins, worst, samples
+            smallest = np.lexsort((values[:, k], move))[start]   # each move's record with its smallest margin
+            self.margins[name][block] = values[smallest, k]
+            self.worst[name][block] = position[smallest] - start
+        if self._bounds:
+            move, values = (np.concatenate(parts) for parts in zip(*self._bounds))
+            order = np.argsort(move, kind="stable")
+            move, values = move[order] - first, values[order]
+            heads = np.flatnonzero(np.concatenate(([True], move[1:] != move[:-1])))
+            reduced = np.minimum.reduceat(values, heads, axis=0)
+            for k, name in enumerate(self.groups):
+                self.lower[name][first + move[heads]] = reduced[:, k]
+        self._samples, self._bounds = [], []
