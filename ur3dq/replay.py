@@ -42,7 +42,7 @@ TCP_CURRENT = "current"    # replay puts the controller's current TCP on the rec
 ProgressCallback = Callable[[str, int, int], None]
 
 
-@dataclasses.dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True, slots=True)  # slots: one per pose, 10⁵ in a big store
 class PlanStep:
     """One move of a replay: the pose, its joint target (rad, shape (6,)), how it was chosen, the move's figures."""
 
