@@ -7,16 +7,13 @@ import threading
 import numpy as np
 
 from ur3dq.kinematics.ur_ik.geometry import CALIBRATED_MAX_STEPS, CALIBRATED_TOLERANCE, _Geometry
+from ur3dq.kinematics.ur_ik.newton_floats import DAMPING, float_joints, going_on, refine_row
 
-#: Damping λ of the Newton steps (rad·m): far below any regular singular value of a UR Jacobian (≥ 1e-3 away from
-#: singularities), so a regular step is Newton's to ~1e-12 relative.
-_DAMPING = 1e-9
-#: Below this error a step that does not halve it has hit rounding: the floor of a factory table is ≈ 3e-13
-#: (measured), so 1e-11 leaves 30× room. Above it a row keeps stepping: beside a singularity Newton converges
-#: linearly (a step may take 1e-8 only to 2e-11, measured on a UR5e at |sin θ5| = 0.06), which is not a floor.
-_ROUNDING_CEILING = 1e-11
-_DAMPING_MATRIX = np.eye(6) * _DAMPING ** 2   # λ²I of the normal equations
+_DAMPING_MATRIX = np.eye(6) * DAMPING ** 2   # λ²I of the normal equations
 
+#: Rows up to which Newton steps in Python floats (newton_floats), a row at a time: ~20 µs a row against ~50 µs
+#: for a batched step of any few rows (measured).
+_FLOAT_ROWS = 2
 #: Rows from which a Newton step runs the joint-major kernels: their fixed cost (~1 ms of numpy calls) beats the
 #: batched matrices (~4.5 µs a row) from ≈ 200 rows (measured).
 _COLUMN_ROWS = 256
@@ -56,7 +53,7 @@ def _curvature_bound(g: _Geometry) -> float:
 
 
 def _cached_terms(g: _Geometry) -> tuple:
-    """(_joint_terms, _curvature_bound) of a geometry, computed once."""
+    """(_joint_terms, _curvature_bound, newton_floats.float_joints) of a geometry, computed once."""
     cached = _TERMS.get(id(g))
     if cached is not None and cached[0] is g:
         return cached[1]
@@ -74,7 +71,7 @@ def _cached_terms(g: _Geometry) -> tuple:
         step = axis * np.dot(foot - origin, axis) + origin - foot   # to the foot of ``foot`` on this axis
         foot, reach = foot + step, reach + float(np.linalg.norm(step))
     reach += float(np.linalg.norm(frames[5, :3, 3] - foot))
-    value = (terms, 6.0 * math.sqrt(reach * reach + 3.0))
+    value = (terms, 6.0 * math.sqrt(reach * reach + 3.0), float_joints(g.joints))
     with _TERMS_LOCK:
         if len(_TERMS) >= 64:
             _TERMS.pop(next(iter(_TERMS)))
@@ -260,14 +257,15 @@ def _refine_batch(g: _Geometry, q: np.ndarray, targets: np.ndarray):
     """Newton steps on the calibrated FK: (refined q (M, 6), final residual norm (M,)); rows of NaN stay NaN.
 
     ``targets``: (M, 7) pairs, or one (1, 7) pair shared by every row.
-    A row stops when it is 100× inside CALIBRATED_TOLERANCE; when, already below _ROUNDING_CEILING, a step no
+    A row stops when it is 100× inside CALIBRATED_TOLERANCE; when, already below ROUNDING_CEILING, a step no
     longer halves its error (the rounding floor of its table): iterating on would only stir rounding. A row whose
     error grows is not dropped: some seeds converge after a few growing steps (dropping them at the first growth
     lost 87 of 2001 solutions on 300 UR3 poses), so the stragglers take all CALIBRATED_MAX_STEPS, alone.
     Steps solve (JᵀJ + λ²I)·Δq = Jᵀe with a tiny λ, a Newton step wherever J is regular that stays bounded beside
     a singularity (no SVD per step). A step of _COLUMN_ROWS rows or more runs the joint-major kernels
-    (_column_residual, _column_step), a smaller one the batched-matrix kernels: the same quantities, the one
-    cheap per row, the other in few numpy calls.
+    (_column_residual, _column_step), a smaller one the batched-matrix kernels, and from _FLOAT_ROWS rows down
+    (the stragglers, or a single row) each row goes on alone in floats (newton_floats): the same quantities, the
+    first cheap per row, the second in few numpy calls, the last without numpy's fixed cost per call.
     """
     q = q.copy()
     terms = _joint_terms(g)
@@ -277,15 +275,16 @@ def _refine_batch(g: _Geometry, q: np.ndarray, targets: np.ndarray):
     # The active rows' joints, last errors and indices in q, kept compact: rows that stop are written back once.
     rows, current, previous = np.arange(len(q)), q, np.full(len(q), np.inf)
     for step in range(CALIBRATED_MAX_STEPS + 1):
+        if len(rows) <= _FLOAT_ROWS:   # the last rows (or the only one) step cheaper in floats
+            _refine_in_floats(g, q, residual, (rows, current, previous), (rotation_t, position_t), step)
+            break
         target = (rotation_t, position_t) if shared else (rotation_t[rows], position_t[rows])
         columns = len(rows) >= _COLUMN_ROWS
         error, frames = (_column_residual(g, current, target) if columns
                          else _matrix_residual(terms, current, target))
         norm = np.sqrt(np.einsum("ij,ij->i", error, error))
         residual[rows] = norm
-        # Going on: outside 100× CALIBRATED_TOLERANCE and not stalled (below _ROUNDING_CEILING without halving the
-        # error); NaN rows (absent branches) fail the first test and stop.
-        going = (norm > 0.01 * CALIBRATED_TOLERANCE) & ((norm < 0.5 * previous) | (norm >= _ROUNDING_CEILING))
+        going = going_on(norm, previous)   # NaN rows (absent branches) stop
         if step == CALIBRATED_MAX_STEPS or not going.any():
             q[rows] = current
             break
@@ -301,6 +300,17 @@ def _refine_batch(g: _Geometry, q: np.ndarray, targets: np.ndarray):
         current = current + (delta if columns else _matrix_step(frames, error, _DAMPING_MATRIX))
         previous = norm
     return q, residual
+
+
+def _refine_in_floats(g: _Geometry, q: np.ndarray, residual: np.ndarray, state: tuple, target: tuple, step: int):
+    """Newton's steps from ``step`` on of the active rows ``state`` = (indices into q (R,), their joints (R, 6),
+    last errors (R,)), one row at a time in floats (newton_floats.refine_row); q (M, 6) and residual (M,) are
+    written in place. ``target``: (rotation (M or 1, 3, 3), position (M or 1, 3))."""
+    joints, (rotation_t, position_t) = _cached_terms(g)[2], target
+    for row, start, previous in zip(*(part.tolist() for part in state)):
+        pose = 0 if len(position_t) == 1 else row
+        pair = tuple(rotation_t[pose].ravel().tolist()) + tuple(position_t[pose].tolist())
+        q[row], residual[row] = refine_row(joints, start, pair, step, previous)
 
 
 #: Bound on |F(x) − F(x′)| for two solutions accepted at CALIBRATED_TOLERANCE (F as in _curvature_bound): each is
