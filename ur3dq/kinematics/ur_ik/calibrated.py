@@ -338,10 +338,12 @@ def _normal_matrices(g: _Geometry, q: np.ndarray) -> np.ndarray:
     """(M, 6, 6) JᵀJ of the calibrated chain's Jacobian at joints q (M, 6), from the joint-major kernel for
     _COLUMN_ROWS rows or more (no 4×4 matmuls), from the batched matrices below."""
     if len(q) >= _COLUMN_ROWS:
-        transposed = np.stack([np.stack(np.broadcast_arrays(*column, np.empty(len(q))))[:6].T
-                               for column in _column_jacobian(_column_frames(g, q)[1])], axis=1)
-    else:
-        transposed = _jacobian_rows(_chain_frames(_joint_terms(g), q)).transpose(1, 0, 2)
+        jacobian = np.empty((6, 6, len(q)))   # (joint, coordinate, row): each coordinate one contiguous run
+        for joint, column in enumerate(_column_jacobian(_column_frames(g, q)[1])):
+            for coordinate, value in enumerate(column):
+                jacobian[joint, coordinate] = value
+        return np.einsum("irn,jrn->nij", jacobian, jacobian)   # 3× a matmul of the (R, 6, 6) transposes
+    transposed = _jacobian_rows(_chain_frames(_joint_terms(g), q)).transpose(1, 0, 2)
     return transposed @ transposed.transpose(0, 2, 1)
 
 
