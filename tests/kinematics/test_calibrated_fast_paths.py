@@ -265,3 +265,20 @@ def test_ik_all_refining_its_last_rows_in_floats_finds_the_batched_solutions(nam
         for solution in solutions:
             apart = np.abs(np.remainder(batched - solution + math.pi, 2 * math.pi) - math.pi).max(axis=1)
             assert apart.min() < 4e-12 / least_singular_value(model, solution) + 1e-12, (joints, solution)
+
+
+def test_seeds_of_few_poses_are_the_array_equations_seeds():
+    """batch._nominal_candidates solves fewer than _SCALAR_SEED_POSES poses pose by pose in floats (_ScalarOps):
+    the same branches as the array equations, NaN where absent, to the rounding of near-singular poses."""
+    from ur3dq.kinematics.ur_ik import batch
+    model = factory_model("ur10e", 23)
+    g = _geometry(model)
+    poses = batch._batch_poses(model.fk_batch(hard_configurations(320, 34)))
+    targets = batch._batch_flange_targets(g, poses)
+    theta6_ref = np.random.default_rng(35).uniform(-math.pi, math.pi, len(poses))
+    arrays = batch._nominal_candidates(g, targets, theta6_ref)
+    few = batch._SCALAR_SEED_POSES - 1
+    floats = np.concatenate([batch._nominal_candidates(g, tuple(t[i:i + few] for t in targets), theta6_ref[i:i + few])
+                             for i in range(0, len(poses), few)], axis=2)
+    np.testing.assert_array_equal(np.isnan(floats), np.isnan(arrays))
+    np.testing.assert_allclose(floats, arrays, rtol=0, atol=1e-10)
