@@ -113,7 +113,7 @@ def _calibrated_nearest(model, g: _Geometry, poses: np.ndarray, reference: np.nd
     reach = 2.0 * (np.sqrt(cost / smallest) + math.sqrt(6.0) * LIMIT_ROUNDING)
     isolated = _isolated(g, refined[rows], 2.0 * reach)
     rows, joints = rows[isolated], joints[isolated]
-    fk = _fk_rows(model, joints)
+    fk = model.fk_batch(joints)
     passed = _within_fk_tolerance(np.ascontiguousarray(fk.T), np.ascontiguousarray(poses[rows].T))
     out = np.full((len(poses), 6), np.nan)
     out[rows[passed]] = joints[passed]
@@ -122,23 +122,10 @@ def _calibrated_nearest(model, g: _Geometry, poses: np.ndarray, reference: np.nd
     return out, proven
 
 
-#: Rows below which the FK filter takes the model's FK row by row in floats (model._fk_floats, ~10 µs a row on a
-#: calibrated chain) rather than in one fk_batch call (~300 µs whatever the rows up to hundreds: ~900 numpy calls
-#: on tiny arrays; measured).
-_FLOAT_FK_ROWS = 24
-
-
-def _fk_rows(model, joints: np.ndarray) -> np.ndarray:
-    """(N, 8) the model's TCP poses at joints (N, 6): one fk_batch call, or row by row for few rows."""
-    if len(joints) >= _FLOAT_FK_ROWS:
-        return model.fk_batch(joints)
-    return np.array([model._fk_floats(row) for row in joints.tolist()]).reshape(-1, 8)
-
-
 def _fk_filter(model, columns: np.ndarray, poses: np.ndarray) -> np.ndarray:
     """(8, N) mask of the branches (6, 8, N) whose FK meets poses (N, 8) (the thesis' filter, eq. 4.45)."""
     exists = ~np.isnan(columns).any(axis=0)
-    fk = _fk_rows(model, np.where(exists, columns, 0.0).reshape(6, -1).T)
+    fk = model.fk_batch(np.where(exists, columns, 0.0).reshape(6, -1).T)
     # One transposing copy makes every coefficient a contiguous run: the comparison then runs twice as fast.
     fk_columns = np.ascontiguousarray(fk.T).reshape((8,) + exists.shape)
     return exists & _within_fk_tolerance(fk_columns, np.ascontiguousarray(poses.T))
