@@ -229,7 +229,7 @@ def test_float_kernels_give_the_batched_quantities():
     targets = np.array([_targets(g, pose)[1] for pose in model.fk_batch(q + 1e-3)])
     rotation, position = calibrated._target_matrices(targets)
     error, frames = calibrated._matrix_residual(calibrated._joint_terms(g), q, (rotation, position))
-    step = calibrated._matrix_step(frames, error, calibrated._DAMPING_MATRIX)
+    step = calibrated._matrix_step(frames, error, calibrated.DAMPING_MATRIX)
     joints = newton_floats.float_joints(g.joints)
     for row in range(len(q)):
         end, row_frames = newton_floats.float_frames(joints, q[row].tolist())
@@ -237,7 +237,7 @@ def test_float_kernels_give_the_batched_quantities():
         row_error = newton_floats.float_residual(end, row_frames, pair)
         # The rounding floor of a factory table's position (its ±440 m offsets cancel): ~1e-12 m.
         np.testing.assert_allclose(row_error, error[row], rtol=0, atol=1e-11)
-        row_step = newton_floats.float_step(row_frames, row_error, newton_floats.DAMPING ** 2)
+        row_step = newton_floats.float_step(row_frames, row_error, calibrated.DAMPING_MATRIX)
         # Its error moves the step by ≤ 1e-11/σ, and the normal equations' rounding by ~1e-16·|Δq|·(|J|/σ)².
         sigma = least_singular_value(model, q[row])
         np.testing.assert_allclose(row_step, step[row], rtol=0,

@@ -7,11 +7,10 @@ import threading
 import numpy as np
 
 from ur3dq.kinematics.ur_ik.geometry import CALIBRATED_MAX_STEPS, CALIBRATED_TOLERANCE, _Geometry
-from ur3dq.kinematics.ur_ik.newton_floats import DAMPING, float_joints, going_on, refine_row
+from ur3dq.kinematics.ur_ik.newton_floats import DAMPING_MATRIX, float_joints, going_on, refine_row
 
-_DAMPING_MATRIX = np.eye(6) * DAMPING ** 2   # λ²I of the normal equations
 
-#: Rows up to which Newton steps in Python floats (newton_floats), a row at a time: ~20 µs a row against ~50 µs
+#: Rows up to which Newton steps in Python floats (newton_floats), a row at a time: ~15 µs a row against ~50 µs
 #: for a batched step of any few rows (measured).
 _FLOAT_ROWS = 2
 #: Rows from which a Newton step runs the joint-major kernels: their fixed cost (~1 ms of numpy calls) beats the
@@ -289,7 +288,7 @@ def _refine_batch(g: _Geometry, q: np.ndarray, targets: np.ndarray):
             q[rows] = current
             break
         if columns:   # the kernel's columns are not sliced: rows stopping now take one more solve
-            delta = _column_step(frames, error, _DAMPING_MATRIX)
+            delta = _column_step(frames, error, DAMPING_MATRIX)
         if not going.all():   # converged rows drop out: a batch's last steps are for a few stragglers
             q[rows[~going]] = current[~going]
             rows, current, norm = rows[going], current[going], norm[going]
@@ -297,7 +296,7 @@ def _refine_batch(g: _Geometry, q: np.ndarray, targets: np.ndarray):
                 delta = delta[going]
             else:
                 frames, error = frames[:, going], error[going]
-        current = current + (delta if columns else _matrix_step(frames, error, _DAMPING_MATRIX))
+        current = current + (delta if columns else _matrix_step(frames, error, DAMPING_MATRIX))
         previous = norm
     return q, residual
 

@@ -1,13 +1,16 @@
-"""Newton on the calibrated DH chain for a single row in Python floats: the steps of one or two rows without numpy.
+"""Newton on the calibrated DH chain for a single row in Python floats: the steps of one or two rows.
 
 A step of calibrated._refine_batch's batched kernels costs ~50 µs whatever its rows (~40 numpy calls on tiny
-arrays); the same step written out in floats costs ~15 µs a row (measured), so the rows left after the others
-converged — stragglers that may run all CALIBRATED_MAX_STEPS — and single rows step here. The quantities and
-their order of operations are those of calibrated._column_frames, _column_residual and _column_step.
+arrays); the same step in floats, with one numpy solve of its 6×6 normal equations, costs ~15 µs a row
+(measured), so the rows left after the others converged — stragglers that may run all CALIBRATED_MAX_STEPS — and
+single rows step here. The quantities and their order of operations are those of calibrated._column_frames and
+_column_residual, the step _matrix_step's.
 """
 from __future__ import annotations
 
 from math import cos, sin, sqrt
+
+import numpy as np
 
 from ur3dq.kinematics.ur_ik.geometry import CALIBRATED_MAX_STEPS, CALIBRATED_TOLERANCE
 
@@ -18,6 +21,7 @@ DAMPING = 1e-9
 #: (measured), so 1e-11 leaves 30× room. Above it a row keeps stepping: beside a singularity Newton converges
 #: linearly (a step may take 1e-8 only to 2e-11, measured on a UR5e at |sin θ5| = 0.06), which is not a floor.
 ROUNDING_CEILING = 1e-11
+DAMPING_MATRIX = np.eye(6) * DAMPING ** 2   # λ²I of the normal equations
 
 
 def going_on(norm, previous):
@@ -30,14 +34,13 @@ def refine_row(joints: tuple, q: list, target: tuple, first: int, previous: floa
     """(joints (6 floats), final error norm) of Newton on one row from q (6 floats), its step ``first`` onwards
     (error ``previous`` before it), the stopping rule of calibrated._refine_batch; ``joints`` from float_joints,
     ``target`` as float_residual takes it."""
-    damping = DAMPING * DAMPING
     for step in range(first, CALIBRATED_MAX_STEPS + 1):
         end, frames = float_frames(joints, q)
         error = float_residual(end, frames, target)
         norm = sqrt(sum(e * e for e in error))
         if step == CALIBRATED_MAX_STEPS or not going_on(norm, previous):
             break
-        q = [v + d for v, d in zip(q, float_step(frames, error, damping))]
+        q = [v + d for v, d in zip(q, float_step(frames, error, DAMPING_MATRIX))]
         previous = norm
     return q, norm
 
@@ -78,39 +81,14 @@ def float_residual(end: tuple, frames: list, target: tuple) -> tuple:
             0.5 * ((x0 * r10 - x1 * r00) + (y0 * r11 - y1 * r01) + (z0 * r12 - z1 * r02)))
 
 
-def float_step(frames: list, error: tuple, damping: float) -> list:
-    """Joint step (6 floats) solving (JᵀJ + λ²I)·Δq = Jᵀe, λ² = ``damping``: the Jacobian columns [z × (p − o), z]
-    of float_frames' frames 0…5 and the Cholesky factor written out (_column_step on floats)."""
+def float_step(frames: list, error: tuple, damping: np.ndarray) -> list:
+    """Joint step (6 floats) solving (JᵀJ + λ²I)·Δq = Jᵀe, ``damping`` = λ²I (6, 6) (DAMPING_MATRIX): the Jacobian
+    columns [z × (p − o), z] of float_frames' frames 0…5 in floats (_column_jacobian), the 6×6 solve numpy's
+    LAPACK one (as calibrated._matrix_step's, one matrix: ~5 µs, a Cholesky written out in floats costs 13)."""
     _, _, _, e0, e1, e2 = frames[6]
     columns = []
     for z0, z1, z2, o0, o1, o2 in frames[:6]:
         l0, l1, l2 = e0 - o0, e1 - o1, e2 - o2
         columns.append((z1 * l2 - z2 * l1, z2 * l0 - z0 * l2, z0 * l1 - z1 * l0, z0, z1, z2))
-    r0, r1, r2, r3, r4, r5 = error
-    rhs = [c0 * r0 + c1 * r1 + c2 * r2 + c3 * r3 + c4 * r4 + c5 * r5 for c0, c1, c2, c3, c4, c5 in columns]
-    lower = [[0.0] * 6 for _ in range(6)]
-    inverse_diagonal = [0.0] * 6
-    for j, (b0, b1, b2, b3, b4, b5) in enumerate(columns):
-        row_j = lower[j]
-        for i in range(j, 6):
-            a0, a1, a2, a3, a4, a5 = columns[i]
-            row_i = lower[i]
-            entry = a0 * b0 + a1 * b1 + a2 * b2 + a3 * b3 + a4 * b4 + a5 * b5
-            for k in range(j):
-                entry -= row_i[k] * row_j[k]
-            if i == j:
-                # A pivot of the damped normal matrix is ≥ λ² in exact arithmetic; rounding may take it below.
-                inverse_diagonal[j] = 1.0 / sqrt(max(entry + damping, damping))
-            row_i[j] = entry * inverse_diagonal[j]
-    solution = [0.0] * 6
-    for j in range(6):
-        value = rhs[j]
-        for k in range(j):
-            value -= lower[j][k] * solution[k]
-        solution[j] = value * inverse_diagonal[j]
-    for j in reversed(range(6)):
-        value = solution[j]
-        for k in range(j + 1, 6):
-            value -= lower[k][j] * solution[k]
-        solution[j] = value * inverse_diagonal[j]
-    return solution
+    transposed = np.array(columns)   # Jᵀ: a row per joint
+    return np.linalg.solve(transposed @ transposed.T + damping, transposed @ error).tolist()
