@@ -185,14 +185,17 @@ def test_ik_batch_gives_ik_on_proven_rows_and_the_full_ranking_elsewhere(name, s
 
 
 def test_isolation_radius_is_the_same_from_both_kernels():
-    """_isolation_radius takes the Jacobian from the joint-major kernel for 256+ rows, the batched matrices below."""
+    """_isolation_radius takes the Jacobian from the joint-major kernel for 256+ rows, from the float kernels for
+    one or two rows, from the batched matrices between."""
     model = factory_model("ur5e", 25)
     g = _geometry(model)
     q = hard_configurations(calibrated._COLUMN_ROWS, 26)
     many = calibrated._isolation_radius(g, q)
     few = np.concatenate([calibrated._isolation_radius(g, q[i:i + 8]) for i in range(0, len(q), 8)])
+    single = np.concatenate([calibrated._isolation_radius(g, q[i:i + 1]) for i in range(len(q))])
     # The kernels sum JᵀJ in different orders: σ² apart by ~1e-16·|J|², σ (and M·radius) by ~1e-15/σ.
     np.testing.assert_allclose(many, few, rtol=1e-9, atol=1e-11)
+    np.testing.assert_allclose(single, few, rtol=1e-9, atol=1e-11)
 
 
 def test_isolated_decides_as_the_radius_for_many_rows():

@@ -81,14 +81,20 @@ def float_residual(end: tuple, frames: list, target: tuple) -> tuple:
             0.5 * ((x0 * r10 - x1 * r00) + (y0 * r11 - y1 * r01) + (z0 * r12 - z1 * r02)))
 
 
-def float_step(frames: list, error: tuple, damping: np.ndarray) -> list:
-    """Joint step (6 floats) solving (JᵀJ + λ²I)·Δq = Jᵀe, ``damping`` = λ²I (6, 6) (DAMPING_MATRIX): the Jacobian
-    columns [z × (p − o), z] of float_frames' frames 0…5 in floats (_column_jacobian), the 6×6 solve numpy's
-    LAPACK one (as calibrated._matrix_step's, one matrix: ~5 µs, a Cholesky written out in floats costs 13)."""
+def float_jacobian(frames: list) -> list:
+    """The Jacobian's columns [z × (p − o), z] (6 tuples of 6 floats, one per joint) of float_frames' frames 0…5
+    (calibrated._column_jacobian on floats)."""
     _, _, _, e0, e1, e2 = frames[6]
     columns = []
     for z0, z1, z2, o0, o1, o2 in frames[:6]:
         l0, l1, l2 = e0 - o0, e1 - o1, e2 - o2
         columns.append((z1 * l2 - z2 * l1, z2 * l0 - z0 * l2, z0 * l1 - z1 * l0, z0, z1, z2))
-    transposed = np.array(columns)   # Jᵀ: a row per joint
+    return columns
+
+
+def float_step(frames: list, error: tuple, damping: np.ndarray) -> list:
+    """Joint step (6 floats) solving (JᵀJ + λ²I)·Δq = Jᵀe, ``damping`` = λ²I (6, 6) (DAMPING_MATRIX): the Jacobian
+    of float_frames' frames in floats (float_jacobian), the 6×6 solve numpy's
+    LAPACK one (as calibrated._matrix_step's, one matrix: ~5 µs, a Cholesky written out in floats costs 13)."""
+    transposed = np.array(float_jacobian(frames))   # Jᵀ: a row per joint
     return np.linalg.solve(transposed @ transposed.T + damping, transposed @ error).tolist()
