@@ -345,11 +345,7 @@ def _normal_matrices(g: _Geometry, q: np.ndarray) -> np.ndarray:
     _COLUMN_ROWS rows or more (no 4×4 matmuls), from the float kernels for _FLOAT_ROWS or fewer, else from the
     batched matrices."""
     if len(q) >= _COLUMN_ROWS:
-        jacobian = np.empty((6, 6, len(q)))   # (joint, coordinate, row): each coordinate one contiguous run
-        for joint, column in enumerate(_column_jacobian(_column_frames(g, q)[1])):
-            for coordinate, value in enumerate(column):
-                jacobian[joint, coordinate] = value
-        return np.einsum("irn,jrn->nij", jacobian, jacobian)   # 3× a matmul of the (R, 6, 6) transposes
+        return _column_normal(g, q).transpose(2, 0, 1)
     if len(q) <= _FLOAT_ROWS:   # ik's one row: the float kernels, ~25 µs less than the batched matrices
         joints = _cached_terms(g)[2]
         columns = [float_jacobian(float_frames(joints, row)[1]) for row in q.tolist()]
@@ -357,6 +353,15 @@ def _normal_matrices(g: _Geometry, q: np.ndarray) -> np.ndarray:
     else:
         transposed = _jacobian_rows(_chain_frames(_joint_terms(g), q)).transpose(1, 0, 2)
     return transposed @ transposed.transpose(0, 2, 1)
+
+
+def _column_normal(g: _Geometry, q: np.ndarray) -> np.ndarray:
+    """(6, 6, R) JᵀJ at joints q (R, 6) from the joint-major kernel, each entry one contiguous run of rows."""
+    jacobian = np.empty((6, 6, len(q)))   # (joint, coordinate, row)
+    for joint, column in enumerate(_column_jacobian(_column_frames(g, q)[1])):
+        for coordinate, value in enumerate(column):
+            jacobian[joint, coordinate] = value
+    return np.einsum("irn,jrn->ijn", jacobian, jacobian)   # 3× a matmul of the (R, 6, 6) transposes
 
 
 def _isolated(g: _Geometry, q: np.ndarray, reach: np.ndarray) -> np.ndarray:
@@ -378,14 +383,14 @@ def _isolated(g: _Geometry, q: np.ndarray, reach: np.ndarray) -> np.ndarray:
     if len(q) < _COLUMN_ROWS:
         return reach < _isolation_radius(g, q)
     needed = np.maximum(math.sqrt(2.0 * bound * gap), np.minimum(bound * reach, 0.5 * bound * reach + gap / reach))
-    normal = _normal_matrices(g, q)
+    normal = _column_normal(g, q)
     shift = needed * needed
     lower = [[None] * 6 for _ in range(6)]
     definite = np.ones(len(q), dtype=bool)
     for j in range(6):
-        pivot = normal[:, j, j] - shift - sum(lower[j][k] * lower[j][k] for k in range(j))
+        pivot = normal[j, j] - shift - sum(lower[j][k] * lower[j][k] for k in range(j))
         definite &= pivot > 0.0
         inverse_root = 1.0 / np.sqrt(np.where(pivot > 0.0, pivot, 1.0))   # a failed row goes on harmlessly
         for i in range(j + 1, 6):
-            lower[i][j] = (normal[:, i, j] - sum(lower[i][k] * lower[j][k] for k in range(j))) * inverse_root
+            lower[i][j] = (normal[i, j] - sum(lower[i][k] * lower[j][k] for k in range(j))) * inverse_root
     return definite
