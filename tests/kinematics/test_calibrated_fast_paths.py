@@ -285,3 +285,21 @@ def test_seeds_of_few_poses_are_the_array_equations_seeds():
                              for i in range(0, len(poses), few)], axis=2)
     np.testing.assert_array_equal(np.isnan(floats), np.isnan(arrays))
     np.testing.assert_allclose(floats, arrays, rtol=0, atol=1e-10)
+
+
+def test_a_seed_with_an_exactly_singular_jacobian_takes_a_least_squares_step():
+    """Beside the singular wrist (θ5 = π − 1.8e-4) the seed at θ5 = π has an exactly singular Jacobian: λ² is
+    below the rounding of JᵀJ and LAPACK met a zero pivot (ik_all, ik and ik_batch raised LinAlgError). The step
+    is then the least-squares one (newton_floats.damped_solve) and every answer is a verified solution."""
+    model = factory_model("ur10e", 73)
+    q = np.array([2.215134511018282, 1.5390903755923233, 1.2738721622232836, 2.1093858663185454,
+                  3.141416101479907, 3.0261392082218075])
+    pose = model.fk(q)
+    solutions = model.ik_all(pose)
+    assert any(np.allclose(solution, q, rtol=0, atol=1e-6) for solution in solutions)
+    for answer in [*solutions, model.ik(pose, q + 0.3), model.ik_batch(pose.to_array()[None], (q + 0.3)[None])[0]]:
+        assert model.fk(answer).is_close(pose, 1e-9, 1e-9), answer
+    singular = np.zeros((1, 6, 6))
+    singular[0, :5, :5] = np.eye(5)
+    step = newton_floats.damped_solve(singular, np.ones((1, 6, 1)))
+    np.testing.assert_allclose(step[0, :, 0], [1.0] * 5 + [0.0])

@@ -9,6 +9,7 @@ import numpy as np
 from ur3dq.kinematics.ur_ik.geometry import CALIBRATED_MAX_STEPS, CALIBRATED_TOLERANCE, _Geometry
 from ur3dq.kinematics.ur_ik.newton_floats import (
     DAMPING_MATRIX,
+    damped_solve,
     float_frames,
     float_jacobian,
     float_joints,
@@ -177,11 +178,12 @@ def _matrix_residual(terms: tuple, q: np.ndarray, target: tuple) -> tuple:
 
 
 def _matrix_step(frames: np.ndarray, error: np.ndarray, damping: np.ndarray) -> np.ndarray:
-    """(R, 6) joint steps solving (JᵀJ + λ²I)·Δq = Jᵀe (numpy's batched LAPACK solve) for frames (6, R, 4, 4)."""
+    """(R, 6) joint steps solving (JᵀJ + λ²I)·Δq = Jᵀe (numpy's batched LAPACK solve, newton_floats.damped_solve)
+    for frames (6, R, 4, 4)."""
     transposed = _jacobian_rows(frames).transpose(1, 0, 2)   # (R, 6, 6): Jᵀ
     normal = transposed @ transposed.transpose(0, 2, 1)
     normal += damping
-    return np.linalg.solve(normal, transposed @ error[:, :, None])[..., 0]
+    return damped_solve(normal, transposed @ error[:, :, None])[..., 0]
 
 
 def _column_residual(g: _Geometry, q: np.ndarray, target: tuple) -> tuple:

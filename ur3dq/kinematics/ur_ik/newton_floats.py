@@ -97,4 +97,17 @@ def float_step(frames: list, error: tuple, damping: np.ndarray) -> list:
     of float_frames' frames in floats (float_jacobian), the 6×6 solve numpy's
     LAPACK one (as calibrated._matrix_step's, one matrix: ~5 µs, a Cholesky written out in floats costs 13)."""
     transposed = np.array(float_jacobian(frames))   # Jᵀ: a row per joint
-    return np.linalg.solve(transposed @ transposed.T + damping, transposed @ error).tolist()
+    return damped_solve(transposed @ transposed.T + damping, (transposed @ error)[:, None])[:, 0].tolist()
+
+
+def damped_solve(normal: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """normal⁻¹·rhs of damped normal matrices (…, 6, 6) and right-hand sides (…, 6, 1) (numpy's LAPACK solve).
+
+    Where J is exactly singular (a seed at θ5 = 0 or π, a clamped elbow) λ² = 1e-18 is below the rounding of JᵀJ's
+    entries and LAPACK may meet an exact zero pivot: those matrices take their least-squares solution, the null
+    direction dropped as the damping would (numpy raised LinAlgError out of ik_all before)."""
+    try:
+        return np.linalg.solve(normal, rhs)
+    except np.linalg.LinAlgError:
+        pairs = zip(normal.reshape(-1, 6, 6), rhs.reshape(-1, 6, rhs.shape[-1]))
+        return np.array([np.linalg.lstsq(matrix, right, rcond=None)[0] for matrix, right in pairs]).reshape(rhs.shape)
