@@ -1,10 +1,11 @@
 """The fast paths of calibrated IK give the full ranking's answers (issue 11's calibrated speed goals).
 
 ``ik`` on a calibrated model first refines the reference alone and keeps the result when _isolation_radius proves
-no other solution nearer (nearest._reference_solution); ``ik_batch`` does the same per pose. Both are compared here
-with the full rankings that were the only paths before (``ik``: Newton from every nominal branch and the
-reference, nearest._ranked_solution; ``ik_batch``: from every nominal branch) on thousands of configurations of
-factory tables, near singularities and at ±2π included.
+no other solution nearer (nearest._reference_solution); ``ik_batch`` does the same per pose and ranks the others as
+``ik`` does. Both are compared here with the full rankings (Newton from every nominal branch and the reference,
+nearest._ranked_solution) on thousands of configurations of factory tables, near singularities and at ±2π
+included; the later fast paths (a refinement's last rows and single rows in floats, newton_floats; seeds of few
+poses in floats) with the paths before them.
 """
 import math
 
@@ -155,32 +156,45 @@ def test_curvature_bound_holds_along_random_segments(name, seed):
 
 
 @pytest.mark.parametrize("name, seed", MODELS)
-def test_ik_batch_gives_ik_on_proven_rows_and_the_full_ranking_elsewhere(name, seed, monkeypatch):
-    """batch._calibrated_nearest's proven rows are ik's answers, never farther than the ranking of the refined nominal
-    branches (the only path before: it misses a solution ik finds beside a singularity, 25 of 4800 rows here);
-    the other rows are that ranking's."""
+def test_ik_batch_gives_ik_with_and_without_its_fast_path(name, seed, monkeypatch):
+    """ik_batch's answers are ik's: the rows batch._calibrated_nearest proves, and the others ranked among the
+    refined nominal branches and the reference's Newton row, as ik ranks them (the nominal branches alone missed a
+    solution ik finds beside a singularity, 25 of 4800 rows here); with nothing proven, every pose ranked, the
+    answers are the same."""
     from ur3dq.kinematics.ur_ik import batch
     model = factory_model(name, seed)
     q = hard_configurations(1200, seed + 400)
     refs = references(q, seed + 500)
     poses = model.fk_batch(q)
     weights = np.random.default_rng(seed).uniform(0.2, 5.0, 6)
+    nearest_of = batch._calibrated_nearest
+
+    def nothing_proven(*arguments):
+        joints, proven, rows = nearest_of(*arguments)
+        return np.full_like(joints, np.nan), np.zeros_like(proven), rows
+
     for weight in (None, weights):
         fast = model.ik_batch(poses, refs, weight)
-        proven = batch._calibrated_nearest(model, _geometry(model), poses, refs,
-                                           None if weight is None else tuple(weight))[1]
         with monkeypatch.context() as patched:
-            patched.setattr(batch, "_calibrated_nearest",
-                            lambda model, g, poses, *_: (np.full((len(poses), 6), np.nan), np.zeros(len(poses), bool)))
+            patched.setattr(batch, "_calibrated_nearest", nothing_proven)
             ranked_rows = model.ik_batch(poses, refs, weight)
-        np.testing.assert_array_equal(fast[~proven], ranked_rows[~proven])
-        unit = np.ones(6) if weight is None else weight
-        for row in np.flatnonzero(proven):
-            np.testing.assert_allclose(fast[row], model.ik(poses[row], refs[row], weight), rtol=0,
-                                       atol=4e-12 / least_singular_value(model, fast[row]), err_msg=str(q[row]))
-            if not np.isnan(ranked_rows[row, 0]):
-                cost = [np.sum(unit * (x - refs[row]) ** 2) for x in (fast[row], ranked_rows[row])]
-                assert cost[0] <= cost[1] + 1e-12, q[row]
+        apart = 0
+        for row, (pose, reference) in enumerate(zip(poses, refs)):
+            expected = solved(model, pose, reference, weight)
+            for answer in (fast[row], ranked_rows[row]):
+                if expected is UnreachablePoseError:
+                    assert np.isnan(answer).all(), q[row]
+                    continue
+                sigma = least_singular_value(model, expected)
+                if np.allclose(answer, expected, rtol=0, atol=4e-12 / sigma) or at_a_limit(model, expected) \
+                        or at_a_limit(model, answer):
+                    continue   # at a limit either copy may win (test_ik_equals_the_full_ranking_on_factory_tables)
+                # Within 1e-4 of a singularity Newton from ik's seeds (floats, 8 rows) and from the batch's (arrays,
+                # thousands of rows) may reach different solutions: each answer is still a verified one.
+                assert sigma < 1e-4 and model.fk(answer).is_close(model.fk(q[row])), (q[row], answer, expected)
+                apart += 1
+        assert apart <= 2   # 1 row of 1200, twice (fast path and ranking), on the UR3 table
+        proven = nearest_of(model, _geometry(model), poses, refs, None if weight is None else tuple(weight))[1]
         assert proven.sum() > len(q) // 3   # the fast path is what these configurations mostly exercise
 
 

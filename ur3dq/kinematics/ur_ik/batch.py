@@ -94,8 +94,9 @@ def _nominal_candidates(g: _Geometry, targets: tuple, theta6_ref) -> np.ndarray:
 
 
 def _calibrated_nearest(model, g: _Geometry, poses: np.ndarray, reference: np.ndarray, weight) -> tuple:
-    """(joints (N, 6), proven (N,)): per pose of a calibrated model, the solution Newton reaches from ``reference``
-    (N, 6) as its in-limit ±2π variants nearest it, and whether it is provably the nearest accepted solution.
+    """(joints (N, 6), proven (N,), rows (N, 6)): per pose of a calibrated model, the solution Newton reaches from
+    ``reference`` (N, 6) as its in-limit ±2π variants nearest it, whether it is provably the nearest accepted
+    solution, and the Newton row itself (NaN where it did not converge) for the ranking of the others.
 
     Proven as in nearest._reference_solution: every solution nearer the reference than x (cost c) would lie within
     2·√(c / min w) of x, inside half x's isolation radius (calibrated._isolated), where no other lies; and the FK
@@ -119,7 +120,18 @@ def _calibrated_nearest(model, g: _Geometry, poses: np.ndarray, reference: np.nd
     out[rows[passed]] = joints[passed]
     proven = np.zeros(len(poses), dtype=bool)
     proven[rows[passed]] = True
-    return out, proven
+    return out, proven, np.where((residual <= CALIBRATED_TOLERANCE)[:, None], refined, np.nan)
+
+
+def _calibrated_ranking(model, g: _Geometry, poses: np.ndarray, theta6_ref: np.ndarray, rows: np.ndarray) -> tuple:
+    """(branches (6, 9, R), FK-filter mask (9, R)) to rank for poses (R, 8) of a calibrated model: the refined
+    nominal branches (_solved_blocks) and, last, the Newton rows from the references (R, 6), NaN where they did not
+    converge (_calibrated_nearest), the candidates of ik's ranking (single._solution_candidates): beside a
+    singularity the nominal branches can miss the solution the reference's row reaches."""
+    _, columns, valid, _ = next(_solved_blocks(model, g, poses, theta6_ref))
+    reference_rows = wrap_angle(rows.T)[:, None, :]
+    return (np.concatenate((columns, reference_rows), axis=1),
+            np.concatenate((valid, _fk_filter(model, reference_rows, poses))))
 
 
 def _fk_filter(model, columns: np.ndarray, poses: np.ndarray) -> np.ndarray:
@@ -333,14 +345,14 @@ def _select(cost: np.ndarray, allowed: np.ndarray) -> tuple:
 def _chosen(variants, best: np.ndarray, least: np.ndarray) -> np.ndarray:
     """(6, N) the variants of branch ``best`` (N,) per pose, NaN where ``least`` is inf (nothing chosen).
 
-    ``variants`` per joint (6 items or a (6, 8, N) array), each of M·N values in branch-sign order, M of 2, 4, 8:
-    a value shared by 8/M consecutive branches is stored once (_kernel_costs)."""
+    ``variants`` per joint (6 items or a (6, B, N) array), each of M·N values in branch order, M dividing the
+    largest, B: a value shared by B/M consecutive branches is stored once (_kernel_costs: M of 2, 4, 8)."""
     count = best.size
     columns = np.arange(count)
     chosen = np.empty((6, count))
-    for j, variant in enumerate(variants):
-        flat = variant.reshape(-1, count)
-        chosen[j] = flat[best // (8 // len(flat)), columns]
+    sizes = [math.prod(variant.shape[:-1]) for variant in variants]
+    for j, (variant, size) in enumerate(zip(variants, sizes)):
+        chosen[j] = variant.reshape(size, count)[best // (max(sizes) // size), columns]
     chosen[:, least == np.inf] = np.nan
     return chosen
 
@@ -373,10 +385,10 @@ def ik_batch(model, poses, q_ref, weights=None) -> np.ndarray:
     g = _geometry(model)
     out = np.empty((len(poses), 6))
     theta6_ref = wrap_angle(reference[:, 5])
-    if g.calibrated:   # the proven winners of one Newton row per pose (from q_ref); the others ranked as before
-        out[:], proven = _calibrated_nearest(model, g, poses, reference, weight)
+    if g.calibrated:   # the proven winners of one Newton row per pose (from q_ref); the others ranked as ik ranks
+        out[:], proven, reference_rows = _calibrated_nearest(model, g, poses, reference, weight)
         rows = np.flatnonzero(~proven)
-        blocks = ([(rows,) + next(_solved_blocks(model, g, poses[rows], theta6_ref[rows]))[1:]]
+        blocks = ([(rows,) + _calibrated_ranking(model, g, poses[rows], theta6_ref[rows], reference_rows[rows])]
                   if rows.size else [])
     else:   # the closed-form kernel, FK filter on the winners; near-singular poses redone by ik_all's code
         redo = []
