@@ -178,7 +178,7 @@ def test_the_two_newton_kernels_compute_the_same_step():
     goal = random_configurations(50, seed=16) * 0.01 + q   # Newton-sized errors: millimetres, milliradians
     pairs = np.array([list(p.rotation.elements) + list(p.translation) for p in (model.fk_flange(x) for x in goal)])
     target = calibrated._target_matrices(pairs)
-    damping = calibrated._DAMPING_MATRIX
+    damping = calibrated.DAMPING_MATRIX
     matrix_error, frames = calibrated._matrix_residual(calibrated._joint_terms(g), q, target)
     column_error, columns = calibrated._column_residual(g, q, target)
     np.testing.assert_allclose(column_error, matrix_error, atol=1e-12)

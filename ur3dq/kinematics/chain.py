@@ -100,20 +100,13 @@ def _as_coefficients(pose, name: str) -> tuple:
     return tuple(float(c) for c in array)
 
 
+_K = (0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0)           # the quaternion k: rz(θ) = cos(θ/2) + k·sin(θ/2)
+_EPSILON_K = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)   # ε·k: tz(t) = 1 + ε·k·t/2
+
+
 #: Rows per block in batch FK: small enough that a block's temporaries stay in the CPU cache (measured: 4096–8192
 #: rows run about twice as fast per pose as one pass over 10^5 rows), large enough to amortise Python overhead.
 BATCH_BLOCK = 4096
-
-
-def evaluate_in_blocks(coefficients_of, joint_matrix: np.ndarray) -> np.ndarray:
-    """(N, 8) from ``coefficients_of(columns) -> 8 coefficient arrays``, applied to blocks of joint_matrix's rows."""
-    out = np.empty((len(joint_matrix), 8))
-    for start in range(0, len(joint_matrix), BATCH_BLOCK):
-        block = joint_matrix[start:start + BATCH_BLOCK]
-        target = out[start:start + BATCH_BLOCK]
-        for i, column in enumerate(coefficients_of(list(block.T))):
-            target[:, i] = column
-    return out
 
 
 class SerialChain:
@@ -144,6 +137,7 @@ class SerialChain:
         self._frame_offsets = tuple(tuple(float(c) for c in row) for row in frame_offsets)
         self.joint_types = joint_types
         self.joint_offsets = tuple(float(v) for v in offsets)
+        self._maps = None   # fk_batch's per-joint matrices, built on first use
 
     # ---------------------------------------------------------------------------------------------- builders
     @classmethod
@@ -228,7 +222,7 @@ class SerialChain:
         return q
 
     def _after_joint(self, i: int, pose: tuple, value) -> tuple:
-        """pose·J_i(value + offset_i) (floats or arrays), written out for J_i's sparse coefficients.
+        """pose·J_i(value + offset_i) (floats), written out for J_i's sparse coefficients.
 
         Revolute: both parts times rz = (c, 0, 0, s): (w c − z s, x c + y s, y c − x s, z c + w s).
         Prismatic: (r + εd)(1 + ε(0, 0, 0, h)) = r + ε(d + r·(0, 0, 0, h)), r·(0,0,0,h) = (−z h, y h, −x h, w h).
@@ -237,10 +231,7 @@ class SerialChain:
         w, x, y, z, dw, dx, dy, dz = pose
         if self.joint_types[i] == REVOLUTE:
             half = 0.5 * value
-            if isinstance(half, float):
-                c, s = math.cos(half), math.sin(half)
-            else:
-                s, c = dqarray.sincos(half)
+            c, s = math.cos(half), math.sin(half)
             return (w * c - z * s, x * c + y * s, y * c - x * s, z * c + w * s,
                     dw * c - dz * s, dx * c + dy * s, dy * c - dx * s, dz * c + dw * s)
         h = 0.5 * value
@@ -273,11 +264,37 @@ class SerialChain:
         if joint_matrix.ndim != 2:
             raise ValueError(f"joint_matrix: expected shape (N, {self.n_joints}), got {joint_matrix.shape}")
 
-        def end_pose(columns):
-            *_, end = self._accumulate(columns)
-            return end
+        maps = self._batch_maps()
+        out = np.empty((len(joint_matrix), 8))
+        for start in range(0, len(joint_matrix), BATCH_BLOCK):
+            block = joint_matrix[start:start + BATCH_BLOCK]
+            pose = np.broadcast_to(self._constants[0], (len(block), 8))
+            for column, kind, offset, matrix in zip(block.T, self.joint_types, self.joint_offsets, maps):
+                both = pose @ matrix   # (B, 16): pose·K_i and pose·u·K_i
+                half = 0.5 * (column + offset)
+                if kind == REVOLUTE:
+                    pose = np.cos(half)[:, None] * both[:, :8] + np.sin(half)[:, None] * both[:, 8:]
+                else:
+                    pose = both[:, :8] + half[:, None] * both[:, 8:]
+            out[start:start + BATCH_BLOCK] = pose
+        return out
 
-        return evaluate_in_blocks(end_pose, joint_matrix)
+    def _batch_maps(self) -> tuple:
+        """Per joint i the (8, 16) matrix of X ↦ (X·K_i, X·u·K_i) on coefficient rows (cached): right-multiplication
+        by a constant is linear, so a joint of fk_batch is one matmul of its (B, 8) running products, then
+        X·J_i·K_i = cos(h)·X·K_i + sin(h)·X·k·K_i (revolute: rz(2h) = cos h + k sin h) or X·K_i + h·X·εk·K_i
+        (prismatic: tz(2h) = 1 + εk·h), h half the joint value. ~40 numpy calls per block instead of ~900 for the
+        coefficient products written out on arrays."""
+        if self._maps is None:
+            identity = [tuple(row) for row in np.eye(8)]
+            maps = []
+            for kind, constant in zip(self.joint_types, self._constants[1:]):
+                unit = _K if kind == REVOLUTE else _EPSILON_K
+                maps.append(np.array([multiply_coefficients(e, constant)
+                                      + multiply_coefficients(multiply_coefficients(e, unit), constant)
+                                      for e in identity]))
+            self._maps = tuple(maps)
+        return self._maps
 
     def frames(self, q) -> np.ndarray:
         """(n + 1, 8) frames 0..n in the base frame: DH frames for DH chains, the partial products of exponentials

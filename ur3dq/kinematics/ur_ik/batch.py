@@ -8,7 +8,7 @@ import numpy as np
 from ur3dq import dqarray
 from ur3dq.kinematics.ur_ik.batch_kernels import _joints_fk_filter, _regular_branches, _regular_fk_filter
 from ur3dq.kinematics.ur_ik.calibrated import _isolated, _refine_batch
-from ur3dq.kinematics.ur_ik.equations import _ArrayOps, _branches, wrap_angle
+from ur3dq.kinematics.ur_ik.equations import _ArrayOps, _ScalarOps, _branches, wrap_angle
 from ur3dq.kinematics.ur_ik.fk_filter import _EXACT_UNIT, _within_fk_tolerance
 from ur3dq.kinematics.ur_ik.geometry import (
     LIMIT_ROUNDING,
@@ -73,10 +73,20 @@ def _batch_candidates(g: _Geometry, targets: tuple, theta6_ref) -> np.ndarray:
     return columns
 
 
+#: Poses below which the calibrated seeds are solved pose by pose in floats (_ScalarOps, ~10 µs a pose, as ik_all
+#: and ik solve them) rather than once on arrays (~100 µs whatever the poses up to dozens: ~1000 numpy calls).
+_SCALAR_SEED_POSES = 16
+
+
 def _nominal_candidates(g: _Geometry, targets: tuple, theta6_ref) -> np.ndarray:
     """(6, 8, N) the analytic branches of the geometry's closed form (NaN where absent) of flange targets (seven
     (N,) arrays), not yet refined nor wrapped: the seeds of Newton on calibrated models."""
-    columns = np.empty((6, 8, len(targets[0])))
+    count = len(targets[0])
+    if count < _SCALAR_SEED_POSES:
+        pairs, references = np.stack(targets, axis=-1).tolist(), np.broadcast_to(theta6_ref, (count,)).tolist()
+        return np.array([_branches(_ScalarOps, g, pair, reference) for pair, reference in zip(pairs, references)],
+                        dtype=float).reshape(count, 8, 6).transpose(2, 1, 0)
+    columns = np.empty((6, 8, count))
     for k, branch in enumerate(_branches(_ArrayOps, g, targets, theta6_ref)):
         for j, value in enumerate(branch):
             columns[j, k] = value
@@ -84,8 +94,9 @@ def _nominal_candidates(g: _Geometry, targets: tuple, theta6_ref) -> np.ndarray:
 
 
 def _calibrated_nearest(model, g: _Geometry, poses: np.ndarray, reference: np.ndarray, weight) -> tuple:
-    """(joints (N, 6), proven (N,)): per pose of a calibrated model, the solution Newton reaches from ``reference``
-    (N, 6) as its in-limit ±2π variants nearest it, and whether it is provably the nearest accepted solution.
+    """(joints (N, 6), proven (N,), rows (N, 6)): per pose of a calibrated model, the solution Newton reaches from
+    ``reference`` (N, 6) as its in-limit ±2π variants nearest it, whether it is provably the nearest accepted
+    solution, and the Newton row itself (NaN where it did not converge) for the ranking of the others.
 
     Proven as in nearest._reference_solution: every solution nearer the reference than x (cost c) would lie within
     2·√(c / min w) of x, inside half x's isolation radius (calibrated._isolated), where no other lies; and the FK
@@ -109,7 +120,18 @@ def _calibrated_nearest(model, g: _Geometry, poses: np.ndarray, reference: np.nd
     out[rows[passed]] = joints[passed]
     proven = np.zeros(len(poses), dtype=bool)
     proven[rows[passed]] = True
-    return out, proven
+    return out, proven, np.where((residual <= CALIBRATED_TOLERANCE)[:, None], refined, np.nan)
+
+
+def _calibrated_ranking(model, g: _Geometry, poses: np.ndarray, theta6_ref: np.ndarray, rows: np.ndarray) -> tuple:
+    """(branches (6, 9, R), FK-filter mask (9, R)) to rank for poses (R, 8) of a calibrated model: the refined
+    nominal branches (_solved_blocks) and, last, the Newton rows from the references (R, 6), NaN where they did not
+    converge (_calibrated_nearest), the candidates of ik's ranking (single._solution_candidates): beside a
+    singularity the nominal branches can miss the solution the reference's row reaches."""
+    _, columns, valid, _ = next(_solved_blocks(model, g, poses, theta6_ref))
+    reference_rows = wrap_angle(rows.T)[:, None, :]
+    return (np.concatenate((columns, reference_rows), axis=1),
+            np.concatenate((valid, _fk_filter(model, reference_rows, poses))))
 
 
 def _fk_filter(model, columns: np.ndarray, poses: np.ndarray) -> np.ndarray:
@@ -323,14 +345,14 @@ def _select(cost: np.ndarray, allowed: np.ndarray) -> tuple:
 def _chosen(variants, best: np.ndarray, least: np.ndarray) -> np.ndarray:
     """(6, N) the variants of branch ``best`` (N,) per pose, NaN where ``least`` is inf (nothing chosen).
 
-    ``variants`` per joint (6 items or a (6, 8, N) array), each of M·N values in branch-sign order, M of 2, 4, 8:
-    a value shared by 8/M consecutive branches is stored once (_kernel_costs)."""
+    ``variants`` per joint (6 items or a (6, B, N) array), each of M·N values in branch order, M dividing the
+    largest, B: a value shared by B/M consecutive branches is stored once (_kernel_costs: M of 2, 4, 8)."""
     count = best.size
     columns = np.arange(count)
     chosen = np.empty((6, count))
-    for j, variant in enumerate(variants):
-        flat = variant.reshape(-1, count)
-        chosen[j] = flat[best // (8 // len(flat)), columns]
+    sizes = [math.prod(variant.shape[:-1]) for variant in variants]
+    for j, (variant, size) in enumerate(zip(variants, sizes)):
+        chosen[j] = variant.reshape(size, count)[best // (max(sizes) // size), columns]
     chosen[:, least == np.inf] = np.nan
     return chosen
 
@@ -363,10 +385,10 @@ def ik_batch(model, poses, q_ref, weights=None) -> np.ndarray:
     g = _geometry(model)
     out = np.empty((len(poses), 6))
     theta6_ref = wrap_angle(reference[:, 5])
-    if g.calibrated:   # the proven winners of one Newton row per pose (from q_ref); the others ranked as before
-        out[:], proven = _calibrated_nearest(model, g, poses, reference, weight)
+    if g.calibrated:   # the proven winners of one Newton row per pose (from q_ref); the others ranked as ik ranks
+        out[:], proven, reference_rows = _calibrated_nearest(model, g, poses, reference, weight)
         rows = np.flatnonzero(~proven)
-        blocks = ([(rows,) + next(_solved_blocks(model, g, poses[rows], theta6_ref[rows]))[1:]]
+        blocks = ([(rows,) + _calibrated_ranking(model, g, poses[rows], theta6_ref[rows], reference_rows[rows])]
                   if rows.size else [])
     else:   # the closed-form kernel, FK filter on the winners; near-singular poses redone by ik_all's code
         redo = []

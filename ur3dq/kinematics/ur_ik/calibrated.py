@@ -7,16 +7,20 @@ import threading
 import numpy as np
 
 from ur3dq.kinematics.ur_ik.geometry import CALIBRATED_MAX_STEPS, CALIBRATED_TOLERANCE, _Geometry
+from ur3dq.kinematics.ur_ik.newton_floats import (
+    DAMPING_MATRIX,
+    damped_solve,
+    float_frames,
+    float_jacobian,
+    float_joints,
+    going_on,
+    refine_row,
+)
 
-#: Damping λ of the Newton steps (rad·m): far below any regular singular value of a UR Jacobian (≥ 1e-3 away from
-#: singularities), so a regular step is Newton's to ~1e-12 relative.
-_DAMPING = 1e-9
-#: Below this error a step that does not halve it has hit rounding: the floor of a factory table is ≈ 3e-13
-#: (measured), so 1e-11 leaves 30× room. Above it a row keeps stepping: beside a singularity Newton converges
-#: linearly (a step may take 1e-8 only to 2e-11, measured on a UR5e at |sin θ5| = 0.06), which is not a floor.
-_ROUNDING_CEILING = 1e-11
-_DAMPING_MATRIX = np.eye(6) * _DAMPING ** 2   # λ²I of the normal equations
 
+#: Rows up to which Newton steps in Python floats (newton_floats), a row at a time: ~15 µs a row against ~50 µs
+#: for a batched step of any few rows (measured).
+_FLOAT_ROWS = 2
 #: Rows from which a Newton step runs the joint-major kernels: their fixed cost (~1 ms of numpy calls) beats the
 #: batched matrices (~4.5 µs a row) from ≈ 200 rows (measured).
 _COLUMN_ROWS = 256
@@ -56,7 +60,7 @@ def _curvature_bound(g: _Geometry) -> float:
 
 
 def _cached_terms(g: _Geometry) -> tuple:
-    """(_joint_terms, _curvature_bound) of a geometry, computed once."""
+    """(_joint_terms, _curvature_bound, newton_floats.float_joints) of a geometry, computed once."""
     cached = _TERMS.get(id(g))
     if cached is not None and cached[0] is g:
         return cached[1]
@@ -74,7 +78,7 @@ def _cached_terms(g: _Geometry) -> tuple:
         step = axis * np.dot(foot - origin, axis) + origin - foot   # to the foot of ``foot`` on this axis
         foot, reach = foot + step, reach + float(np.linalg.norm(step))
     reach += float(np.linalg.norm(frames[5, :3, 3] - foot))
-    value = (terms, 6.0 * math.sqrt(reach * reach + 3.0))
+    value = (terms, 6.0 * math.sqrt(reach * reach + 3.0), float_joints(g.joints))
     with _TERMS_LOCK:
         if len(_TERMS) >= 64:
             _TERMS.pop(next(iter(_TERMS)))
@@ -134,6 +138,10 @@ _AXIAL = np.zeros((9, 3))
 _AXIAL[[7, 2, 3], [0, 1, 2]], _AXIAL[[5, 6, 1], [0, 1, 2]] = 0.5, -0.5
 
 
+#: (9, 3) map from the outer product a ⊗ b (row-major) to a × b: (a1·b2 − a2·b1, a2·b0 − a0·b2, a0·b1 − a1·b0).
+_CROSS = np.zeros((9, 3))
+_CROSS[[5, 6, 1], [0, 1, 2]], _CROSS[[7, 2, 3], [0, 1, 2]] = 1.0, -1.0
+
 #: Joint 1's Jacobian row after its first two entries: (z0 × p)_z = 0, then z0 = (0, 0, 1).
 _BASE_ROW_TAIL = np.array([0.0, 0.0, 0.0, 1.0])
 
@@ -153,17 +161,17 @@ def _pose_residual(end: np.ndarray, rotation_t: np.ndarray, position_t: np.ndarr
 def _jacobian_rows(frames: np.ndarray) -> np.ndarray:
     """(6, M, 6) base-frame Jacobian, joint-major: row i = [z_{i−1} × (p − o_{i−1}), z_{i−1}] of joint i + 1.
 
-    Frame i−1 of joint i: the base (z = (0, 0, 1) at the origin) for joint 1, else frames[i − 2]. The cross
-    products take the axes and levers written twice over (x y z x y z): their slices 1:4 and 2:5 are the two
-    cyclic shifts, views instead of six strided products per component.
+    Frame i−1 of joint i: the base (z = (0, 0, 1) at the origin) for joint 1, else frames[i − 2]. The five cross
+    products are one matmul of the outer products z ⊗ (p − o) (5, M, 9) with _CROSS: ~11 µs for 8 rows against
+    ~15 for the products of cyclic shifts (measured), the same sums.
     """
     rows = np.empty((6, frames.shape[1], 6))
     end = frames[5, :, :3, 3]
     rows[0, :, 0], rows[0, :, 1], rows[0, :, 2:] = -end[:, 1], end[:, 0], _BASE_ROW_TAIL
-    axis = np.concatenate((frames[:5, :, :3, 2], frames[:5, :, :3, 2]), axis=-1)
-    lever = np.concatenate((end, end), axis=-1) - np.concatenate((frames[:5, :, :3, 3], frames[:5, :, :3, 3]), axis=-1)
-    np.subtract(axis[..., 1:4] * lever[..., 2:5], axis[..., 2:5] * lever[..., 1:4], out=rows[1:, :, :3])
-    rows[1:, :, 3:] = axis[..., :3]
+    axis = frames[:5, :, :3, 2]
+    lever = end - frames[:5, :, :3, 3]
+    np.matmul((axis[..., :, None] * lever[..., None, :]).reshape(5, -1, 9), _CROSS, out=rows[1:, :, :3])
+    rows[1:, :, 3:] = axis
     return rows
 
 
@@ -174,17 +182,18 @@ def _matrix_residual(terms: tuple, q: np.ndarray, target: tuple) -> tuple:
 
 
 def _matrix_step(frames: np.ndarray, error: np.ndarray, damping: np.ndarray) -> np.ndarray:
-    """(R, 6) joint steps solving (JᵀJ + λ²I)·Δq = Jᵀe (numpy's batched LAPACK solve) for frames (6, R, 4, 4)."""
+    """(R, 6) joint steps solving (JᵀJ + λ²I)·Δq = Jᵀe (numpy's batched LAPACK solve, newton_floats.damped_solve)
+    for frames (6, R, 4, 4)."""
     transposed = _jacobian_rows(frames).transpose(1, 0, 2)   # (R, 6, 6): Jᵀ
     normal = transposed @ transposed.transpose(0, 2, 1)
     normal += damping
-    return np.linalg.solve(normal, transposed @ error[:, :, None])[..., 0]
+    return damped_solve(normal, transposed @ error[:, :, None])[..., 0]
 
 
 def _column_residual(g: _Geometry, q: np.ndarray, target: tuple) -> tuple:
     """(error (R, 6), (axes, origins) of frames 0…6) of joints q (R, 6): the matrix path's quantities, joint-major.
 
-    Every coordinate is an (R,) array (or a float for the base frame) and the chain is written out per column:
+    Every coordinate is an (R,) array (row of a (3, R) vector) and the chain is written out per column:
     for thousands of rows numpy's batched 4×4 matmuls and 6×6 LAPACK solves cost ~0.3 µs and ~0.8 µs per matrix,
     where one elementwise operation costs ~0.5 ns per row (measured on the benchmark machine).
     """
@@ -202,34 +211,34 @@ def _column_residual(g: _Geometry, q: np.ndarray, target: tuple) -> tuple:
 
 
 def _column_frames(g: _Geometry, q: np.ndarray) -> tuple:
-    """((x, y, z) columns of the end frame, (axes, origins) of frames 0…6) of joints q (R, 6), each coordinate an
-    (R,) array or a float (the base frame): the chain of _chain_frames written out per column."""
+    """((x, y, z) columns of the end frame, (axes, origins) of frames 0…6) of joints q (R, 6), each vector a (3, R)
+    array ((3, 1) for the base frame), its coordinate k the row [k]: the chain of _chain_frames written out per
+    column, one operation for the three coordinates (a third of the calls of one per coordinate, same roundings)."""
     angles = q.T + np.array([joint[2] for joint in g.joints])[:, None]
     cos, sin = np.cos(angles), np.sin(angles)
-    x, y, z, p = (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0), (0.0, 0.0, 0.0)
+    x, y, z, p = np.eye(4)[:3, :, None].transpose(1, 0, 2)   # base frame: its columns and origin, (3, 1)
     axes, origins = [z], [p]
     for c, s, (a, d, _, cos_half, sin_half) in zip(cos, sin, g.joints):
         cos_alpha, sin_alpha = cos_half * cos_half - sin_half * sin_half, 2.0 * cos_half * sin_half
         # T = Rz(θ)·Tz(d)·Tx(a)·Rx(α) on the frame's columns: x' = c·x + s·y, y'' = c·y − s·x, then α about x'.
-        x, turned = tuple(c * u + s * v for u, v in zip(x, y)), tuple(c * v - s * u for u, v in zip(x, y))
-        p = tuple(o + d * w + a * u for o, w, u in zip(p, z, x))
-        y = tuple(cos_alpha * v + sin_alpha * w for v, w in zip(turned, z))
-        z = tuple(cos_alpha * w - sin_alpha * v for v, w in zip(turned, z))
+        x, turned = c * x + s * y, c * y - s * x
+        p = p + d * z + a * x
+        y, z = cos_alpha * turned + sin_alpha * z, cos_alpha * z - sin_alpha * turned
         axes.append(z)
         origins.append(p)
     return (x, y, z), (axes, origins)
 
 
 def _column_jacobian(frames: tuple) -> list:
-    """Per joint its base-frame Jacobian column [z × (p − o), z] (6 coordinates, (R,) arrays or floats) from the
-    (axes, origins) of _column_frames: the rows of _jacobian_rows, joint-major per column."""
+    """Per joint its base-frame Jacobian column [z × (p − o), z] (6 coordinates, (R,) arrays, (1,) for the base
+    frame's axis) from the (axes, origins) of _column_frames: the rows of _jacobian_rows, joint-major per column."""
     axes, origins = frames
     end = origins[6]
     columns = []
     for z, o in zip(axes[:6], origins[:6]):
-        lever = tuple(e - w for e, w in zip(end, o))
+        lever = end - o
         columns.append((z[1] * lever[2] - z[2] * lever[1], z[2] * lever[0] - z[0] * lever[2],
-                        z[0] * lever[1] - z[1] * lever[0]) + z)
+                        z[0] * lever[1] - z[1] * lever[0]) + tuple(z))
     return columns
 
 
@@ -260,14 +269,15 @@ def _refine_batch(g: _Geometry, q: np.ndarray, targets: np.ndarray):
     """Newton steps on the calibrated FK: (refined q (M, 6), final residual norm (M,)); rows of NaN stay NaN.
 
     ``targets``: (M, 7) pairs, or one (1, 7) pair shared by every row.
-    A row stops when it is 100× inside CALIBRATED_TOLERANCE; when, already below _ROUNDING_CEILING, a step no
+    A row stops when it is 100× inside CALIBRATED_TOLERANCE; when, already below ROUNDING_CEILING, a step no
     longer halves its error (the rounding floor of its table): iterating on would only stir rounding. A row whose
     error grows is not dropped: some seeds converge after a few growing steps (dropping them at the first growth
     lost 87 of 2001 solutions on 300 UR3 poses), so the stragglers take all CALIBRATED_MAX_STEPS, alone.
     Steps solve (JᵀJ + λ²I)·Δq = Jᵀe with a tiny λ, a Newton step wherever J is regular that stays bounded beside
     a singularity (no SVD per step). A step of _COLUMN_ROWS rows or more runs the joint-major kernels
-    (_column_residual, _column_step), a smaller one the batched-matrix kernels: the same quantities, the one
-    cheap per row, the other in few numpy calls.
+    (_column_residual, _column_step), a smaller one the batched-matrix kernels, and from _FLOAT_ROWS rows down
+    (the stragglers, or a single row) each row goes on alone in floats (newton_floats): the same quantities, the
+    first cheap per row, the second in few numpy calls, the last without numpy's fixed cost per call.
     """
     q = q.copy()
     terms = _joint_terms(g)
@@ -277,20 +287,21 @@ def _refine_batch(g: _Geometry, q: np.ndarray, targets: np.ndarray):
     # The active rows' joints, last errors and indices in q, kept compact: rows that stop are written back once.
     rows, current, previous = np.arange(len(q)), q, np.full(len(q), np.inf)
     for step in range(CALIBRATED_MAX_STEPS + 1):
+        if len(rows) <= _FLOAT_ROWS:   # the last rows (or the only one) step cheaper in floats
+            _refine_in_floats(g, q, residual, (rows, current, previous), (rotation_t, position_t), step)
+            break
         target = (rotation_t, position_t) if shared else (rotation_t[rows], position_t[rows])
         columns = len(rows) >= _COLUMN_ROWS
         error, frames = (_column_residual(g, current, target) if columns
                          else _matrix_residual(terms, current, target))
         norm = np.sqrt(np.einsum("ij,ij->i", error, error))
         residual[rows] = norm
-        # Going on: outside 100× CALIBRATED_TOLERANCE and not stalled (below _ROUNDING_CEILING without halving the
-        # error); NaN rows (absent branches) fail the first test and stop.
-        going = (norm > 0.01 * CALIBRATED_TOLERANCE) & ((norm < 0.5 * previous) | (norm >= _ROUNDING_CEILING))
+        going = going_on(norm, previous)   # NaN rows (absent branches) stop
         if step == CALIBRATED_MAX_STEPS or not going.any():
             q[rows] = current
             break
         if columns:   # the kernel's columns are not sliced: rows stopping now take one more solve
-            delta = _column_step(frames, error, _DAMPING_MATRIX)
+            delta = _column_step(frames, error, DAMPING_MATRIX)
         if not going.all():   # converged rows drop out: a batch's last steps are for a few stragglers
             q[rows[~going]] = current[~going]
             rows, current, norm = rows[going], current[going], norm[going]
@@ -298,9 +309,20 @@ def _refine_batch(g: _Geometry, q: np.ndarray, targets: np.ndarray):
                 delta = delta[going]
             else:
                 frames, error = frames[:, going], error[going]
-        current = current + (delta if columns else _matrix_step(frames, error, _DAMPING_MATRIX))
+        current = current + (delta if columns else _matrix_step(frames, error, DAMPING_MATRIX))
         previous = norm
     return q, residual
+
+
+def _refine_in_floats(g: _Geometry, q: np.ndarray, residual: np.ndarray, state: tuple, target: tuple, step: int):
+    """Newton's steps from ``step`` on of the active rows ``state`` = (indices into q (R,), their joints (R, 6),
+    last errors (R,)), one row at a time in floats (newton_floats.refine_row); q (M, 6) and residual (M,) are
+    written in place. ``target``: (rotation (M or 1, 3, 3), position (M or 1, 3))."""
+    joints, (rotation_t, position_t) = _cached_terms(g)[2], target
+    for row, start, previous in zip(*(part.tolist() for part in state)):
+        pose = 0 if len(position_t) == 1 else row
+        pair = tuple(rotation_t[pose].ravel().tolist()) + tuple(position_t[pose].tolist())
+        q[row], residual[row] = refine_row(joints, start, pair, step, previous)
 
 
 #: Bound on |F(x) − F(x′)| for two solutions accepted at CALIBRATED_TOLERANCE (F as in _curvature_bound): each is
@@ -326,13 +348,26 @@ def _isolation_radius(g: _Geometry, q: np.ndarray) -> np.ndarray:
 
 def _normal_matrices(g: _Geometry, q: np.ndarray) -> np.ndarray:
     """(M, 6, 6) JᵀJ of the calibrated chain's Jacobian at joints q (M, 6), from the joint-major kernel for
-    _COLUMN_ROWS rows or more (no 4×4 matmuls), from the batched matrices below."""
+    _COLUMN_ROWS rows or more (no 4×4 matmuls), from the float kernels for _FLOAT_ROWS or fewer, else from the
+    batched matrices."""
     if len(q) >= _COLUMN_ROWS:
-        transposed = np.stack([np.stack(np.broadcast_arrays(*column, np.empty(len(q))))[:6].T
-                               for column in _column_jacobian(_column_frames(g, q)[1])], axis=1)
+        return _column_normal(g, q).transpose(2, 0, 1)
+    if len(q) <= _FLOAT_ROWS:   # ik's one row: the float kernels, ~25 µs less than the batched matrices
+        joints = _cached_terms(g)[2]
+        columns = [float_jacobian(float_frames(joints, row)[1]) for row in q.tolist()]
+        transposed = np.array(columns).reshape(-1, 6, 6)
     else:
         transposed = _jacobian_rows(_chain_frames(_joint_terms(g), q)).transpose(1, 0, 2)
     return transposed @ transposed.transpose(0, 2, 1)
+
+
+def _column_normal(g: _Geometry, q: np.ndarray) -> np.ndarray:
+    """(6, 6, R) JᵀJ at joints q (R, 6) from the joint-major kernel, each entry one contiguous run of rows."""
+    jacobian = np.empty((6, 6, len(q)))   # (joint, coordinate, row)
+    for joint, column in enumerate(_column_jacobian(_column_frames(g, q)[1])):
+        for coordinate, value in enumerate(column):
+            jacobian[joint, coordinate] = value
+    return np.einsum("irn,jrn->ijn", jacobian, jacobian)   # 3× a matmul of the (R, 6, 6) transposes
 
 
 def _isolated(g: _Geometry, q: np.ndarray, reach: np.ndarray) -> np.ndarray:
@@ -354,14 +389,14 @@ def _isolated(g: _Geometry, q: np.ndarray, reach: np.ndarray) -> np.ndarray:
     if len(q) < _COLUMN_ROWS:
         return reach < _isolation_radius(g, q)
     needed = np.maximum(math.sqrt(2.0 * bound * gap), np.minimum(bound * reach, 0.5 * bound * reach + gap / reach))
-    normal = _normal_matrices(g, q)
+    normal = _column_normal(g, q)
     shift = needed * needed
     lower = [[None] * 6 for _ in range(6)]
     definite = np.ones(len(q), dtype=bool)
     for j in range(6):
-        pivot = normal[:, j, j] - shift - sum(lower[j][k] * lower[j][k] for k in range(j))
+        pivot = normal[j, j] - shift - sum(lower[j][k] * lower[j][k] for k in range(j))
         definite &= pivot > 0.0
         inverse_root = 1.0 / np.sqrt(np.where(pivot > 0.0, pivot, 1.0))   # a failed row goes on harmlessly
         for i in range(j + 1, 6):
-            lower[i][j] = (normal[:, i, j] - sum(lower[i][k] * lower[j][k] for k in range(j))) * inverse_root
+            lower[i][j] = (normal[i, j] - sum(lower[i][k] * lower[j][k] for k in range(j))) * inverse_root
     return definite

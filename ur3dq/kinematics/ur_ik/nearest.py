@@ -190,13 +190,13 @@ def _reference_solution(g: _Geometry, target, reference, weights) -> tuple:
     its in-limit ±2π variants nearest ``reference`` when it is provably the one ``ik``'s full ranking picks, else
     None; and that Newton row (6 floats; None unless it converged) for the ranking to reuse.
 
-    The full ranking refines every nominal branch and ``reference`` (single._solution_candidates) and returns the
-    nearest converged candidate. Newton from ``reference`` alone is the same row of that refinement (the same
-    kernel, row by row), and its result x, at cost c, is the nearest of all when every other converged solution
-    nearer than c would lie within 2·√(c / min w) of x in joint space (both within √(c / min w) of the reference,
-    up to LIMIT_ROUNDING per joint), which _isolated rules out: no other solution lies that close. Half the
-    radius is required, for the rounding of σ. Typical of a reference at or beside the answer (``ik(fk(q), q)``,
-    a path of small steps); anything else, a singularity included, takes the full ranking.
+    The full ranking refines every nominal branch (single._solution_candidates), adds the row from ``reference``
+    computed here and returns the nearest converged candidate. That row's result x, at cost c, is the nearest of
+    all when every other converged solution nearer than c would lie within 2·√(c / min w) of x in joint space
+    (both within √(c / min w) of the reference, up to LIMIT_ROUNDING per joint), which _isolated rules out: no
+    other solution lies that close. Half the radius is required, for the rounding of σ. Typical of a reference at
+    or beside the answer (``ik(fk(q), q)``, a path of small steps); anything else, a singularity included, takes
+    the full ranking.
     """
     refined, residual = _refine_batch(g, np.array([reference]), np.array(target)[None])
     if not residual[0] <= CALIBRATED_TOLERANCE:
