@@ -186,7 +186,9 @@ def _nominal_meets(g: _Geometry, branches: list, target: tuple) -> list:
     sin, cos, h = math.sin, math.cos, _HALF_SQRT2
     chord_low, position_low = _CHORD_BAND2[0], _POSITION_BAND2[0]
     verdicts = []
+    # set by the first pair of each θ1 (else branch below) and read by its wrist flip, which always comes after it
     shoulder = flip5 = flip_sum = flip_diff = math.nan
+    reach = height = wrist_along = wrist_up = tilt_along = tilt_up = math.nan
     for first, second in zip(branches[0::2], branches[1::2]):
         q1, q2, q3, q4, q5, q6 = first
         if not (q1 == q1 and q2 == q2):   # absent (NaN): the partner, if it exists, on its own

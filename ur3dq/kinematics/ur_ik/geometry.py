@@ -37,8 +37,11 @@ NEAREST_BLOCK = BLOCK
 #: moves the wrist by < 1e-10 m, so the FK filter still judges the result.
 DOMAIN_TOLERANCE = 1e-10
 #: A solved joint angle this far (rad) past a joint limit is taken as the limit: a joint at exactly ±2π comes back
-#: from the equations as ±1e-15 and its 2π variant rounds past the limit. Moves the TCP by < 1e-10 m.
-LIMIT_ROUNDING = 1e-10
+#: from the equations as ±1e-15 and its 2π variant rounds past the limit; on a calibrated arm Newton stops within
+#: ~1e-12/σ of the solution (σ the Jacobian's least singular value), up to ~5e-10 rad a few degrees from a
+#: singularity, where 1e-10 let ik drop the solution at the limit for another configuration. Moves the TCP by
+#: ~1e-9 m at most, the FK filter's tolerance.
+LIMIT_ROUNDING = 1e-9
 #: Two solutions closer than this in every joint (mod 2π) are the same solution (one rule: ik_all_batch takes its
 #: near-singular poses from ik_all's own code, single._branch_table). Near a singularity the two branches of one
 #: configuration come out up to ~1e-8 rad apart (√ε amplification of rounding): at 1e-6, a hundred times that,
