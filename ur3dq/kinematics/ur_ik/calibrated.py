@@ -276,8 +276,8 @@ def _refine_batch(g: _Geometry, q: np.ndarray, targets: np.ndarray):
     Steps solve (JᵀJ + λ²I)·Δq = Jᵀe with a tiny λ, a Newton step wherever J is regular that stays bounded beside
     a singularity (no SVD per step). A step of _COLUMN_ROWS rows or more runs the joint-major kernels
     (_column_residual, _column_step), a smaller one the batched-matrix kernels, and from _FLOAT_ROWS rows down
-    (the stragglers, or a single row) each row goes on alone in floats (newton_floats): the same quantities, the
-    first cheap per row, the second in few numpy calls, the last without numpy's fixed cost per call.
+    (the stragglers of a larger refinement) each row goes on alone in floats (newton_floats): the same quantities,
+    the first cheap per row, the second in few numpy calls, the last without numpy's fixed cost per call.
     """
     q = q.copy()
     terms = _joint_terms(g)
@@ -287,7 +287,11 @@ def _refine_batch(g: _Geometry, q: np.ndarray, targets: np.ndarray):
     # The active rows' joints, last errors and indices in q, kept compact: rows that stop are written back once.
     rows, current, previous = np.arange(len(q)), q, np.full(len(q), np.inf)
     for step in range(CALIBRATED_MAX_STEPS + 1):
-        if len(rows) <= _FLOAT_ROWS:   # the last rows (or the only one) step cheaper in floats
+        # The last rows of a refinement step cheaper in floats. A refinement of one or two rows from the start (ik's
+        # row from q_ref) keeps the numpy kernels: the full ranking reaches the same solution through them, and a
+        # solution at a joint limit must round alike in both (in floats it could land past the limit, and ik took
+        # another configuration).
+        if len(rows) <= _FLOAT_ROWS < len(q):
             _refine_in_floats(g, q, residual, (rows, current, previous), (rotation_t, position_t), step)
             break
         target = (rotation_t, position_t) if shared else (rotation_t[rows], position_t[rows])

@@ -41,7 +41,7 @@ DOMAIN_TOLERANCE = 1e-10
 #: ~1e-12/σ of the solution (σ the Jacobian's least singular value), up to ~5e-10 rad a few degrees from a
 #: singularity, where 1e-10 let ik drop the solution at the limit for another configuration. Moves the TCP by
 #: ~1e-9 m at most, the FK filter's tolerance.
-LIMIT_ROUNDING = 1e-9
+LIMIT_ROUNDING = 1e-10
 #: Two solutions closer than this in every joint (mod 2π) are the same solution (one rule: ik_all_batch takes its
 #: near-singular poses from ik_all's own code, single._branch_table). Near a singularity the two branches of one
 #: configuration come out up to ~1e-8 rad apart (√ε amplification of rounding): at 1e-6, a hundred times that,
