@@ -19,7 +19,6 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from ur3dq import dqarray
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import ConnectionLostError, JointLimitError, SafetyCheckError, UnreachablePoseError
 from ur3dq.kinematics import ur_ik
@@ -174,9 +173,10 @@ def plan_replay(model, poses: Sequence[Pose], start_joints=None, a: float = 1.4,
         duration = None if travel is None else motion.trapezoid_duration(travel, a, v)   # movej_duration's
         chosen.append((q, source, count, travel, duration))
         previous = q
-    errors = _fk_errors(model, poses, [q for q, *_ in chosen], solvers)
+    errors = model.fk_errors([q for q, *_ in chosen], [pose.dual_quaternion for pose in poses],
+                             [pose.tcp_offset for pose in poses])
     return [PlanStep(pose, q, source, count, travel, duration, metres, radians)
-            for pose, (q, source, count, travel, duration), (metres, radians) in zip(poses, chosen, errors)]
+            for pose, (q, source, count, travel, duration), metres, radians in zip(poses, chosen, *errors)]
 
 
 def _solve_recorded(model, poses: Sequence[Pose], solvers: dict) -> dict:
@@ -201,21 +201,6 @@ def _solve_recorded(model, poses: Sequence[Pose], solvers: dict) -> dict:
             if same and count:
                 solved[i] = (q, SOURCE_IK_RECORDED, count)
     return solved
-
-
-def _fk_errors(model, poses: Sequence[Pose], joints: list, solvers: dict) -> list:
-    """[(metres, radians)] between each pose and the model's FK of its joint target, batched per TCP offset."""
-    errors = [None] * len(poses)
-    groups: dict = {}
-    for index, pose in enumerate(poses):
-        groups.setdefault(tuple(map(float, pose.tcp_offset)), []).append(index)
-    for tcp_offset, indices in groups.items():
-        reached = _solver(model, tcp_offset, solvers).fk_batch(np.array([joints[i] for i in indices]))
-        wanted = dqarray.normalise(np.array([poses[i].dual_quaternion for i in indices]))
-        metres, radians = dqarray.pose_distance(reached, wanted)
-        for i, m, r in zip(indices, metres.tolist(), radians.tolist()):
-            errors[i] = (m, r)
-    return errors
 
 
 def _solver(model, tcp_offset, solvers: dict):

@@ -182,6 +182,22 @@ class URModel:
         """Flange pose (DH frame 6, TCP offset ignored) in the base frame."""
         return DualQuaternion._from_tuple(self._flange(joint_floats(q)))
 
+    def fk_errors(self, joints, poses, tcp_offsets) -> tuple[list, list]:
+        """([metres], [radians]) per row i: how far the TCP pose poses[i] (8,) lies from this arm's FK of joints[i]
+        (6,) with the TCP offset tcp_offsets[i] (a UR pose vector in the flange frame) in place of its own; one
+        batch per distinct offset (the planners' check of every planned target)."""
+        metres, radians = [0.0] * len(poses), [0.0] * len(poses)
+        groups: dict = {}
+        for index, offset in enumerate(tcp_offsets):
+            groups.setdefault(tuple(map(float, offset)), []).append(index)
+        for offset, indices in groups.items():
+            reached = self.with_tcp(offset).fk_batch(np.array([joints[i] for i in indices]))
+            wanted = dqarray.normalise(np.array([poses[i] for i in indices]))
+            distance = dqarray.pose_distance(reached, wanted)
+            for i, m, r in zip(indices, *(values.tolist() for values in distance)):
+                metres[i], radians[i] = m, r
+        return metres, radians
+
     def fk_batch(self, joint_matrix) -> np.ndarray:
         """TCP poses (N, 8) [rw rx ry rz dw dx dy dz] of N joint configurations (N, 6), vectorised over N.
 

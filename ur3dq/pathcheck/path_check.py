@@ -261,4 +261,3 @@ def _certified_moves(plan, arm_for) -> dict:
                                               dict(zip(result.margins, margin)), dict(zip(result.worst, sample)),
                                               segment.target_joints, samples)
     return certified
-

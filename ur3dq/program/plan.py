@@ -148,7 +148,7 @@ def plan_program(model, steps, start_joints=None, defaults: Defaults = Defaults(
             q = _joints_for(model, target, previous, replay_recorded_joints)
         solved.append(q)
         previous = q
-    fk_errors = _fk_errors(model, targets, solved)
+    fk_errors, _ = model.fk_errors(solved, [t.coefficients for t in targets], [t.tcp_offset for t in targets])
     # travel and TCP path of every move at once: (N, 6) joints and (N, 3) TCP positions, the start prepended
     joints = np.array(solved).reshape(-1, 6)
     poses = np.array([t.coefficients for t in targets]).reshape(-1, 8)
@@ -197,18 +197,3 @@ def plan_program(model, steps, start_joints=None, defaults: Defaults = Defaults(
         plan.append(PlannedStep(step, q, target.coefficients, target.tcp_offset, m.move, a, v, blend, travel, duration, fk_error_m,
                                 tuple(clamped)))
     return plan
-
-
-def _fk_errors(model, targets, solved) -> list[float]:
-    """Metres between each target pose and the model's FK of its joints (per TCP offset, batched)."""
-    errors = [0.0] * len(targets)
-    groups: dict = {}
-    for index, target in enumerate(targets):
-        groups.setdefault(target.tcp_offset, []).append(index)
-    for tcp_offset, indices in groups.items():
-        reached = model.with_tcp(tcp_offset).fk_batch(np.array([solved[i] for i in indices]))
-        wanted = np.array([targets[i].coefficients for i in indices])
-        metres, _ = dqarray.pose_distance(reached, wanted)
-        for i, value in zip(indices, metres):
-            errors[i] = float(value)
-    return errors
