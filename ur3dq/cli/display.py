@@ -283,9 +283,9 @@ def plan_table(steps, deg: bool, title: str, width: int | None = None) -> Table:
 
 def replay_plan(steps, deg: bool, width: int | None = None) -> tuple:
     """(Columns, an iterator of the rows in plain text) of the replay plan (ur3dq.replay.PlanStep list): chosen
-    joints, how they were chosen, travel, time, FK residual. Narrower than NARROW_WIDTH columns, the joints are compact and wrap three
-    per line, and the FK check, the time and how the joints were chosen are left out in that order while the
-    table would not fit; the pose name is never cut."""
+    joints, how they were chosen, travel, time, FK residual. Narrower than NARROW_WIDTH columns, the joints are
+    compact and wrap three per line, and the FK check, the time and how the joints were chosen are left out in that
+    order while the table would not fit; the pose name is never cut."""
     narrow = width is not None and width < NARROW_WIDTH
     unit = unit_label(deg)
     joints_width = len(compact_angles_text([-3.14159] * 3, deg)) if narrow else None

@@ -131,8 +131,8 @@ def _bisect(checker, q0, delta, rates, move, m0, m1, records, failed, pending) -
             return
         move, s0, s1, m0, m1, bound = move[open_], s0[open_], s1[open_], m0[open_], m1[open_], bound[open_]
         # Only the columns some open interval is short on are evaluated at the middles (often one capsule pair of
-        # fifteen). Every other column's bound holds on the whole interval, so on both halves: it is kept in
-        # in the records now, and the halves carry +inf for it (never short again).
+        # fifteen). Every other column's bound holds on the whole interval, so on both halves: it is kept in the
+        # records now, and the halves carry +inf for it (never short again).
         needed = short[open_].any(axis=0)
         records.bound(move, np.where(needed, np.inf, bound))
         middle = 0.5 * (s0 + s1)
@@ -143,22 +143,28 @@ def _bisect(checker, q0, delta, rates, move, m0, m1, records, failed, pending) -
         m0, m1 = np.concatenate((m0, values)), np.concatenate((values, m1))
 
 
+def _column_counts(checker) -> tuple:
+    """(self-collision columns P, all columns K) of checker.clearance_margins: P capsule pairs, then one column per
+    cell capsule and obstacle."""
+    pairs = len(checker.pair_a)
+    return pairs, pairs + len(checker.cell_capsules) * len(checker.obstacles)
+
+
 def _groups(checker) -> dict:
     """{check: column slice} of checker.clearance_margins' columns, for the checks the checker has."""
-    pairs = len(checker.pair_a)
-    cells = len(checker.cell_capsules) * len(checker.obstacles)
-    named = {"self_collision": slice(0, pairs), "cell": slice(pairs, pairs + cells)}
+    pairs, total = _column_counts(checker)
+    named = {"self_collision": slice(0, pairs), "cell": slice(pairs, total)}
     return {name: columns for name, columns in named.items() if columns.stop > columns.start}
 
 
 def _evaluate(checker, joints: np.ndarray, columns=None) -> np.ndarray:
     """(n, K) clearance margins of joints (n, 6), n ≥ 1, computed in chunks: all columns, or only `columns`
     (indices; the others +inf). The cell's columns are computed together (one kernel for all of them)."""
-    pairs = len(checker.pair_a)
+    pairs, total = _column_counts(checker)
     if columns is None:
-        columns = np.arange(pairs + len(checker.cell_capsules) * len(checker.obstacles))
+        columns = np.arange(total)
     chosen_pairs, cell = columns[columns < pairs], bool(np.any(columns >= pairs))
-    values = np.full((len(joints), pairs + len(checker.cell_capsules) * len(checker.obstacles)), np.inf)
+    values = np.full((len(joints), total), np.inf)
     for i in range(0, len(joints), _CHUNK):
         gap, flat = checker.clearance_margins(joints[i:i + _CHUNK], chosen_pairs, cell)
         values[i:i + _CHUNK, chosen_pairs] = gap
