@@ -63,6 +63,8 @@ def test_movej_path_runs_one_blended_program_to_the_last_target(robot, home):
     stopping = motion.path_duration(robot.joints(), targets, 1.4, 1.05)
     listener = PrimaryClient(robot.host)  # a second 30001 client sees every program the controller starts
     messages = listener.watch()
+    # from its version message on: a program started before the controller greeted this client is not its news
+    assert listener.wait_for(lambda client: client.version is not None, 5.0)
     try:
         wall = robot.movej_path(targets, blend=0.02, a=1.4, v=1.05)
         time.sleep(0.05)
