@@ -6,6 +6,7 @@ import pytest
 
 from ur3dq.kinematics import robot_model
 from ur3dq.pathcheck import Margins, PathPlan, PathSegment, bounds, cell_from_dict, check_path
+from ur3dq.pathcheck import checks
 from ur3dq.pathcheck.checks import StepChecker
 
 CELL = cell_from_dict({
@@ -18,6 +19,13 @@ CELL = cell_from_dict({
 
 def margins_at(checker, joints):
     return np.hstack(checker.clearance_margins(joints))
+
+
+@pytest.fixture
+def exact_cell(monkeypatch):
+    """Cell clearances computed exactly at every distance (the checker keeps a cheaper lower bound for boxes
+    further than EXACT_RANGE, which is not the clearance the bounds bound)."""
+    monkeypatch.setattr(checks, "EXACT_RANGE", np.inf)
 
 
 @pytest.mark.parametrize("name", ["ur3", "ur5e", "ur10"])
@@ -58,14 +66,67 @@ def random_moves(model, count, seed, spread):
     return q[:-1], q[1:]
 
 
+@pytest.mark.parametrize("name", ["ur3", "ur5e", "ur10"])
+def test_no_clearance_bends_down_faster_than_its_bound(name, exact_cell):
+    """Along a joint move, each column's second difference (over steps h of the move's parameter) stays under the
+    curvature bound H + L²/(distance) of bounds.column_slopes: a clearance lies above its chords less that bend."""
+    model = robot_model(name)
+    checker = StepChecker(model, CELL, Margins(self_collision=0.005))
+    rates = bounds.column_rates(checker, bounds.lever_arms(model, checker.capsules))
+    offsets = bounds.column_offsets(checker)
+    rng = np.random.default_rng(13)
+    q = rng.uniform(-np.pi, np.pi, (400, 6))
+    worst = -np.inf
+    for _ in range(4):
+        delta = rng.normal(size=(400, 6)) * rng.uniform(0, 1, (400, 6)) ** 3
+        rate, bend = bounds.column_slopes(rates, np.abs(delta))
+        h = 1e-3
+        m_minus, m, m_plus = (margins_at(checker, q + t * delta) for t in (-h, 0.0, h))
+        distance = np.minimum(np.minimum(m_minus, m), m_plus) - rate * h + offsets   # least over [−h, h]
+        allowed = np.where(distance > 0, bend + rate ** 2 / distance, np.inf)
+        second = (m_plus - 2 * m + m_minus) / h ** 2
+        assert np.all(second <= allowed * (1 + 1e-6) + 1e-6), np.max(second - allowed)
+        worst = max(worst, np.max(second / np.maximum(allowed, 1e-300)))
+    assert worst > 0.05   # the bound is not vacuous: some columns bend by a fair part of it
+
+
+def test_leaving_out_the_speed_term_of_the_bend_is_caught(exact_cell):
+    """The test above can fail: without L²/distance, capsules turning past each other bend more than H allows."""
+    model = robot_model("ur5e")
+    checker = StepChecker(model, CELL, Margins())
+    rates = bounds.column_rates(checker, bounds.lever_arms(model, checker.capsules))
+    rng = np.random.default_rng(13)
+    q = rng.uniform(-np.pi, np.pi, (2000, 6))
+    delta = rng.normal(size=(2000, 6))
+    bend = bounds.column_slopes(rates, np.abs(delta))[1]
+    h = 1e-3
+    m_minus, m, m_plus = (margins_at(checker, q + t * delta) for t in (-h, 0.0, h))
+    assert np.any((m_plus - 2 * m + m_minus) / h ** 2 > bend + 1e-3)
+
+
+def test_an_interval_bound_is_the_better_of_the_lipschitz_and_the_chord_bound():
+    """interval_bound on hand-made figures: a column that does not move keeps its margin, a bend lowers the
+    chord, a near contact leaves the Lipschitz bound, and unevaluated (+inf) columns stay +inf."""
+    one = np.ones((1, 1))
+    assert bounds.interval_bound(0.1 * one, 0.1 * one, one, 0.0 * one, 0.0 * one, 0.05)[0, 0] == 0.1
+    bent = bounds.interval_bound(0.2 * one, 0.2 * one, one, 0.2 * one, 0.1 * one, 0.05)[0, 0]
+    speed = 0.2 ** 2 / (0.05 + 0.1)   # L² over the least distance: offset + the Lipschitz bound 0.1
+    assert bent == pytest.approx(0.2 - (0.1 + speed) / 8) and bent > 0.1
+    assert bounds.interval_bound(0.01 * one, 0.01 * one, one, 1.0 * one, 0.1 * one, 0.05)[0, 0] == \
+        pytest.approx(0.5 * (0.02 - 1.0))
+    assert bounds.interval_bound(np.inf * one, 0.2 * one, one, one, one, 0.05)[0, 0] == np.inf
+
+
 @pytest.mark.parametrize("name, spread", [("ur3", 0.6), ("ur5e", 1.2), ("ur10", 0.7)])
-def test_a_certified_move_keeps_its_margins_at_every_point(name, spread):
-    """Sampled 2000 times, no certified move comes below its lower bound or below 0; every move that dips below 0
-    somewhere is left uncertified (for the dense check to report)."""
+def test_a_certified_move_keeps_its_margins_at_every_point(name, spread, monkeypatch):
+    """Sampled 2000 times, no certified move comes below its lower bound or below 0 (its exact clearances: the
+    bounds bound those, from the checker's cheaper figures); every move that dips below 0 somewhere is left
+    uncertified (for the dense check to report)."""
     model = robot_model(name)
     checker = StepChecker(model, CELL, Margins(self_collision=0.005))
     q0, q1 = random_moves(model, 60, 3, spread)
     result = bounds.certify_joint_moves(checker, q0, q1)
+    monkeypatch.setattr(checks, "EXACT_RANGE", np.inf)
     fraction = np.linspace(0, 1, 2001)[:, None]
     dipped = 0
     for k in range(len(q0)):

@@ -12,8 +12,14 @@ a_i·x_i + d_i·z_{i−1}, and x_i ⊥ z_{i−1}) less link k's d_k, which runs 
 end point's distance from its frame's origin.
 
 A margin m(s) with Lipschitz constant L·w on an interval of length w, and lower bounds m0, m1 of it at the two
-ends, keeps min m ≥ (m0 + m1 − L·w)/2 there. An interval whose bound is under its target is halved, for every move
-at once, up to MAX_DEPTH times; a move left with such an interval, or with a sample that fails, is not certified,
+ends, keeps min m ≥ (m0 + m1 − L·w)/2 there. It also bends down by at most C per unit s²: a clearance is a distance
+less a constant offset (radii and margin), the least over the capsules' point pairs (or over a capsule's points, to a
+convex obstacle or a plane) of a distance g(s) = |x(s)| with g″ ≤ |x″| + |x′|²/|x|. A point at distance ρ_k from
+joint k's axis has |x″| ≤ H = Σ_k |Δq_k|·ρ_k·(2·Σ_{j<k} |Δq_j| + |Δq_k|) (∂²x/∂θj∂θk = z_j × (z_k × (x − o_k)) for
+j ≤ k, by Jacobi's identity), |x′| ≤ L and |x| ≥ offset + the Lipschitz bound, so C = H + L²/(offset + that bound)
+while it is positive. The least of such functions lies above its chord less C/2·(s − s0)(s1 − s): the bound is the
+larger of the two. An interval whose bound is under its target is halved, for every move at once, up to MAX_DEPTH
+times; a move left with such an interval, or with a sample that fails, is not certified,
 and the caller samples it densely as before (sampling.sample_joint_move). A certified move passes at every point,
 so its dense samples would too: the check's verdicts and problems are the dense check's.
 
@@ -89,7 +95,8 @@ def certify_joint_moves(checker, q0: np.ndarray, q1: np.ndarray) -> Certificatio
     """Certify the joint moves q0 → q1 ((M, 6) rad each) on `checker` (a checks.StepChecker: model, capsules,
     cell, margins). See the module docstring."""
     count = len(q0)
-    rates_per_joint = column_rates(checker, lever_arms(checker.model, checker.capsules)).T   # (6, K)
+    rates = column_rates(checker, lever_arms(checker.model, checker.capsules))   # (K, 6)
+    offsets = column_offsets(checker)
     limit_margin, limit_worst = _joint_limit(checker, q0, q1)
     failed = limit_margin < 0
     pending = np.zeros(count, dtype=bool)
@@ -106,23 +113,24 @@ def certify_joint_moves(checker, q0: np.ndarray, q1: np.ndarray) -> Certificatio
         records.add(moves, np.zeros(len(moves)), starts)
         records.add(moves, np.ones(len(moves)), ends)
         delta = q1[block] - q0[block]
-        _bisect(checker, q0[block], delta, np.abs(delta) @ rates_per_joint, moves, starts, ends, records, failed,
-                pending)
+        slopes = _Slopes(*column_slopes(rates, np.abs(delta)), offsets)
+        _bisect(checker, q0[block], delta, slopes, moves, starts, ends, records, failed, pending)
         records.close_block(block.start, len(moves))
     margins, worst, samples = dict(records.margins), dict(records.worst), records.samples
     margins["joint_limit"], worst["joint_limit"] = limit_margin, np.where(limit_worst, samples - 1, 0)
     return Certification(~failed & ~pending, {**records.lower, "joint_limit": limit_margin}, margins, worst, samples)
 
 
-def _bisect(checker, q0, delta, rates, move, m0, m1, records, failed, pending) -> None:
-    """Halve the intervals of a block of B moves — starts q0 (B, 6), steps delta (B, 6), column rates (B, K),
+def _bisect(checker, q0, delta, slopes, move, m0, m1, records, failed, pending) -> None:
+    """Halve the intervals of a block of B moves — starts q0 (B, 6), steps delta (B, 6), their columns' _Slopes,
     indices `move` (B,) among all moves, margins m0, m1 (B, K) at their starts and ends — while their bound is
     below the records' targets; mark in place (by index among all moves): failed (a sample below 0), pending (an
     interval still open at MAX_DEPTH); the bounds of the final intervals go to `records`."""
     first = move[0]
     s0, s1 = np.zeros(len(move)), np.ones(len(move))
     for depth in range(MAX_DEPTH + 1):
-        bound = 0.5 * (m0 + m1 - rates[move - first] * (s1 - s0)[:, None])
+        bound = interval_bound(m0, m1, (s1 - s0)[:, None], slopes.rate[move - first], slopes.bend[move - first],
+                               slopes.offset)
         short = bound < records.targets()
         open_ = short.any(axis=1) & ~failed[move]
         records.bound(move[~open_], bound[~open_])
@@ -141,6 +149,50 @@ def _bisect(checker, q0, delta, rates, move, m0, m1, records, failed, pending) -
         records.add(move, middle, values)
         move, s0, s1 = np.concatenate((move, move)), np.concatenate((s0, middle)), np.concatenate((middle, s1))
         m0, m1 = np.concatenate((m0, values)), np.concatenate((values, m1))
+
+
+def column_offsets(checker) -> np.ndarray:
+    """(K,) m: what each clearance column of checker.clearance_margins subtracts from a distance — the capsules'
+    radii and the check's margin (the distance is the margin plus this)."""
+    radius = checker.capsules.radius
+    pairs = radius[checker.pair_a] + radius[checker.pair_b] + checker.margins.self_collision
+    cell = np.repeat(radius[checker.cell_capsules], len(checker.obstacles)) + checker.cell_margin
+    return np.concatenate((pairs, cell)).astype(float)
+
+
+def column_slopes(rates: np.ndarray, steps: np.ndarray) -> tuple:
+    """(L (M, K) m, H (M, K) m) of M joint moves with joint steps |Δq| `steps` (M, 6) rad and column rates `rates`
+    (K, 6) m/rad: how fast each column's points move and how fast that speed turns, per unit of the move's
+    parameter s (see the module docstring). A joint with rate 0 does not move the column's pair apart."""
+    moving = steps[:, None, :] * (rates > 0)            # (M, K, 6): the joints that move each column
+    before = np.cumsum(moving, axis=2) - moving          # Σ_{j<k} |Δq_j| over those joints
+    return steps @ rates.T, np.einsum("mkj,kj->mk", moving * (2.0 * before + moving), rates)
+
+
+@dataclasses.dataclass(frozen=True)
+class _Slopes:
+    """A block's column_slopes — rate L (B, K), bend H (B, K) — and the columns' offsets (K,)."""
+
+    rate: np.ndarray
+    bend: np.ndarray
+    offset: np.ndarray
+
+
+def interval_bound(m0, m1, width, rate, bend, offset) -> np.ndarray:
+    """A lower bound of a column's margin over an interval of `width` (of the move's parameter s; (B, 1)) from lower
+    bounds m0, m1 of it at the ends, the move's column_slopes `rate`, `bend` and the columns' `offset` (all (B, K)
+    or broadcastable): the larger of the Lipschitz bound and the chord bound (module docstring). +inf ends (columns
+    not evaluated) give +inf."""
+    lipschitz = 0.5 * (m0 + m1 - rate * width)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        near = offset + lipschitz   # the least distance on the interval is at least this
+        bend = np.where(near > 0, bend + rate * rate / near, np.inf) * width * width
+        # the least of m0 + (m1 − m0)·t − bend/2·t·(1 − t) over t in [0, 1]
+        t = np.clip(0.5 - (m1 - m0) / bend, 0.0, 1.0)
+        chord = m0 + (m1 - m0) * t - 0.5 * bend * t * (1.0 - t)
+        # bend 0: nothing moves (m0 = m1); +inf: no curvature bound (the interval may come near a contact)
+        chord = np.where(bend > 0, np.where(np.isfinite(bend), chord, -np.inf), np.minimum(m0, m1))
+    return np.where(np.isfinite(lipschitz), np.fmax(lipschitz, chord), lipschitz)
 
 
 def _column_counts(checker) -> tuple:
