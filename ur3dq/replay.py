@@ -19,6 +19,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
+from ur3dq.collector import cyclic_gc_paused
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import ConnectionLostError, JointLimitError, SafetyCheckError, UnreachablePoseError
 from ur3dq.kinematics import ur_ik
@@ -150,6 +151,7 @@ def choose_joints(model, pose: Pose, previous, replay_recorded_joints: bool,
     return q, source, len(solutions)
 
 
+@cyclic_gc_paused()
 def plan_replay(model, poses: Sequence[Pose], start_joints=None, a: float = 1.4, v: float = 1.05,
                 replay_recorded_joints: bool = False, max_joint_travel: float | None = None) -> list[PlanStep]:
     """The replay plan of `poses` from `start_joints` (rad, or None if unknown) with movej a (rad/s²), v (rad/s).

@@ -10,8 +10,6 @@ quaternion, UR pose agreeing with it), then the poses are built without repeatin
 """
 from __future__ import annotations
 
-import contextlib
-import gc
 import json
 import re
 import sys
@@ -20,6 +18,7 @@ import numpy as np
 import orjson
 
 from ur3dq import dqarray
+from ur3dq.collector import cyclic_gc_paused
 from ur3dq.errors import StoreError
 from ur3dq.pose import (
     MAX_JOINT_ABS, MAX_TRANSLATION_ABS, POSE_AGREEMENT_TOLERANCE, UNIT_TOLERANCE, Pose, check_pose_text_fields,
@@ -415,22 +414,8 @@ def parse_document(text: str, source: str) -> tuple[int, list]:
 
     Text in ur3dq's own layout is read line by line in chunks of CHUNK entries (bounded memory for big stores,
     exact line numbers); anything else (a hand-edited layout) is parsed as one JSON document."""
-    with _cyclic_gc_paused():
+    with cyclic_gc_paused():
         return _parse_document(text, source)
-
-
-@contextlib.contextmanager
-def _cyclic_gc_paused():
-    """Python's cyclic collector off while a store is parsed: the parse builds 10⁵ acyclic objects (reference
-    counting frees them), and every collection it triggers walks all those built so far. 93,587 poses: 1.7 s of
-    CPU without it, 3.0 s with it. Restored as it was, also when the parse raises."""
-    enabled = gc.isenabled()
-    gc.disable()
-    try:
-        yield
-    finally:
-        if enabled:
-            gc.enable()
 
 
 def _parse_document(text: str, source: str) -> tuple[int, list]:

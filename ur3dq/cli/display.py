@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import functools
 import math
 
 import numpy as np
@@ -32,7 +33,17 @@ _POSE_VECTOR_FORMAT = {deg: "p[%.6f, %.6f, %.6f, " + ", ".join([angle] * 3) + "]
 
 def angles_text(values, deg: bool) -> str:
     """Joint angles (radians in) as one bracketed line in degrees or radians."""
-    return "[" + ", ".join(angle_text(v, deg) for v in np.asarray(values, dtype=float).tolist()) + "]"
+    numbers = np.asarray(values, dtype=float).tolist()
+    if deg:
+        numbers = [math.degrees(v) for v in numbers]
+    # One %-format per line, not one per angle: a long replay plan formats 10⁵ of them.
+    return _angles_format(bool(deg), len(numbers)) % tuple(numbers)
+
+
+@functools.lru_cache(maxsize=None)
+def _angles_format(deg: bool, count: int) -> str:
+    """The %-format of angles_text's line of `count` angles."""
+    return "[" + ", ".join([_ANGLE_FORMAT[deg]] * count) + "]"
 
 
 def pose_vector_text(pose, deg: bool) -> str:

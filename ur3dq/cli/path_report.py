@@ -33,9 +33,11 @@ def path_plan_from_replay(steps, start_joints, move: str, speed: float, accelera
     """The PathPlan of replay `steps` (ur3dq.replay.PlanStep) from `start_joints`; without a start (dry run, no
     robot) the plan starts at the first pose, whose configuration is then checked as a move of length 0."""
     start = steps[0].joints if start_joints is None else start_joints
-    return PathPlan(start, [PathSegment(step.pose.name, move, target_joints=step.joints, speed=speed,
-                                        acceleration=acceleration, blend=blend if i + 1 < len(steps) else 0.0)
-                            for i, step in enumerate(steps)])
+    count = len(steps)
+    blends = [blend] * (count - 1) + [0.0]
+    return PathPlan(start, PathSegment.joint_targets([step.pose.name for step in steps], [move] * count,
+                                                     [step.joints for step in steps], [speed] * count,
+                                                     [acceleration] * count, blends, [None] * count))
 
 
 def check_replay(model, steps, cell_path, start_joints=None, blend: float = 0.0, loops: int = 1,

@@ -10,10 +10,12 @@ than the TCP, so this holds for the usual arm poses). A blend radius larger than
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 
 import numpy as np
 
 from ur3dq import dqarray
+from ur3dq.collector import cyclic_gc_paused
 from ur3dq.errors import UnreachablePoseError
 from ur3dq.kinematics import ur_ik
 from ur3dq.pathcheck import bounds, sampling
@@ -23,6 +25,36 @@ from ur3dq.pathcheck.path_plan import PathPlan
 BRANCH_TOLERANCE = 1e-3   # rad: a linear move ending further than this from its planned joints ended elsewhere
 
 
+class Figures(Mapping):
+    """An immutable {check: number} of a StepReport (its margins, or its worst samples): a tuple of the numbers
+    beside a tuple of the check names that reports share. A big plan has 10⁵ reports, and a dict of two or three
+    entries takes 184 bytes; reports with the same worst samples share one."""
+
+    __slots__ = ("_keys", "_values")
+
+    def __init__(self, keys: tuple, values: tuple):
+        self._keys, self._values = keys, values
+
+    def __getitem__(self, key):
+        try:
+            return self._values[self._keys.index(key)]
+        except ValueError:
+            raise KeyError(key) from None
+
+    def __iter__(self):
+        return iter(self._keys)
+
+    def __len__(self) -> int:
+        return len(self._keys)
+
+    def __repr__(self) -> str:
+        return repr(dict(self.items()))
+
+
+def _figures(values: dict) -> Figures:
+    return Figures(tuple(values), tuple(values.values()))
+
+
 @dataclasses.dataclass(frozen=True, slots=True)  # slots: one per move, 10⁵ in a big plan
 class StepReport:
     """What the check saw on one move: its samples and its smallest margins.
@@ -30,7 +62,7 @@ class StepReport:
     fraction (n,), joints (n, 6), tcp (n, 3) m (all None when the check was asked not to keep samples); margins:
     {check: smallest margin over the move (≥ 0 passes), in the check's unit: m for clearances, |sin| for
     wrist/elbow, m for shoulder, rad for joint limits, fraction of the maximum for joint speed}; worst: {check:
-    index of the sample with that smallest margin}; end_joints (6,): where the next move starts (None if this one
+    index of the sample with that smallest margin} (both read-only mappings, Figures); end_joints (6,): where the next move starts (None if this one
     could not be followed); samples: n, how many samples were checked.
     """
 
@@ -78,6 +110,7 @@ class PathCheckResult:
                 "steps": [s.to_dict() for s in self.steps], "unchecked": list(self.unchecked)}
 
 
+@cyclic_gc_paused()
 def check_path(model, plan: PathPlan, cell=None, margins: Margins | None = None,
                keep_samples: bool = True) -> PathCheckResult:
     """Check `plan` (a PathPlan) on `model` (a URModel with its TCP; a segment with its own `tcp_offset` runs with
@@ -154,7 +187,8 @@ def _check_move(plan, window, index, arm_for, problems, steps, keep_samples) -> 
              for check, values in results.items() if len(values[0])}
     end = move.joints[-1] if move.unreachable_at is None and len(move.joints) else None
     kept = (move.fraction, move.joints, tcp) if keep_samples else (None, None, None)
-    steps.append(StepReport(segment.name, segment.move, *kept, margins_seen, worst, end, len(tcp)))
+    steps.append(StepReport(segment.name, segment.move, *kept, _figures(margins_seen), _figures(worst), end,
+                            len(tcp)))
 
 
 def _sample(model, segment, index, q, margins):
@@ -234,17 +268,12 @@ def _certified_moves(plan, arm_for) -> dict:
     Candidates: joint moves to known joints from known joints (the start, or a joint move's target before them),
     outside blend zones (whose allowance needs the neighbours' samples)."""
     candidates = {}   # tcp_offset -> [(index, start joints)]
+    start = plan.start_joints   # where a candidate after this segment starts; None: it is no candidate
     for index, segment in enumerate(plan.segments):
-        previous = plan.segments[index - 1] if index else None
-        if segment.move != "joint" or segment.target_joints is None or segment.blend > 0:
-            continue
-        if previous is None:
-            start = plan.start_joints
-        elif previous.move == "joint" and previous.target_joints is not None and previous.blend == 0:
-            start = previous.target_joints
-        else:
-            continue
-        candidates.setdefault(segment.tcp_offset, []).append((index, start))
+        joint_move = segment.move == "joint" and segment.target_joints is not None and segment.blend == 0
+        if joint_move and start is not None:
+            candidates.setdefault(segment.tcp_offset, []).append((index, start))
+        start = segment.target_joints if joint_move else None
     certified = {}
     for moves in candidates.values():
         segments = [plan.segments[index] for index, _ in moves]
@@ -254,10 +283,31 @@ def _certified_moves(plan, arm_for) -> dict:
         # rows of Python floats first: a float() of a numpy element costs more than the rest of a report
         margins = zip(*(values.tolist() for values in result.margins.values()))
         worst = zip(*(values.tolist() for values in result.worst.values()))
+        margin_keys, worst_keys, shared = tuple(result.margins), tuple(result.worst), {}
         for (index, _), segment, ok, margin, sample, samples in zip(moves, segments, result.certified.tolist(),
                                                                     margins, worst, result.samples.tolist()):
             if ok:
-                certified[index] = StepReport(segment.name, segment.move, None, None, None,
-                                              dict(zip(result.margins, margin)), dict(zip(result.worst, sample)),
-                                              segment.target_joints, samples)
+                if sample not in shared:
+                    shared[sample] = Figures(worst_keys, sample)
+                certified[index] = _lean_report(segment, Figures(margin_keys, margin), shared[sample], samples)
     return certified
+
+
+def _lean_report(segment, margins: Figures, worst: Figures, samples: int) -> StepReport:
+    """The StepReport of a certified move (no samples kept; it ends on its target), built past the frozen
+    dataclass's __init__ by the slots' own setters: a big plan builds 10⁵ of them."""
+    report = object.__new__(StepReport)
+    _SET_NAME(report, segment.name)
+    _SET_MOVE(report, segment.move)
+    _SET_FRACTION(report, None)
+    _SET_JOINTS(report, None)
+    _SET_TCP(report, None)
+    _SET_MARGINS(report, margins)
+    _SET_WORST(report, worst)
+    _SET_END(report, segment.target_joints)
+    _SET_SAMPLES(report, samples)
+    return report
+
+
+(_SET_NAME, _SET_MOVE, _SET_FRACTION, _SET_JOINTS, _SET_TCP, _SET_MARGINS, _SET_WORST, _SET_END,
+ _SET_SAMPLES) = (getattr(StepReport, field.name).__set__ for field in dataclasses.fields(StepReport))

@@ -13,6 +13,7 @@ import math
 import numpy as np
 
 from ur3dq import dqarray
+from ur3dq.collector import cyclic_gc_paused
 
 MOVE_TYPES = ("joint", "linear", "process")
 
@@ -64,10 +65,52 @@ class PathSegment:
         if self.tcp_offset is not None:
             object.__setattr__(self, "tcp_offset", _finite_tuple(self.tcp_offset, 6, self.name, "tcp_offset"))
 
+    @classmethod
+    @cyclic_gc_paused()
+    def joint_targets(cls, names, moves, targets, speeds, accelerations, blends, tcp_offsets) -> list:
+        """Segments to joint targets, many at once: names (n,) and moves (n,) str, targets (n, 6) rad, speeds,
+        accelerations, blends (n,) and tcp_offsets (n,) (each (6,) or None), checked as PathSegment checks one
+        but as arrays (a big plan has 10⁵ moves; one at a time they cost more than their whole path check). Each
+        segment's target_joints is a read-only row of one (n, 6) array."""
+        names, moves = list(names), list(moves)
+        count = len(names)
+        targets = np.array(targets, dtype=float).reshape(-1, 6) if count else np.zeros((0, 6))
+        numbers = np.array([speeds, accelerations, blends], dtype=float).reshape(3, count)
+        if len(targets) != count or len(moves) != count or len(tcp_offsets) != count:
+            raise ValueError(f"{count} names need as many moves, targets and TCP offsets")
+        for name, move in zip(names, moves):
+            if not isinstance(name, str) or not name or move not in MOVE_TYPES:
+                return [cls(*fields) for fields in zip(names, moves, targets, [None] * count, *numbers,
+                                                       tcp_offsets)]   # the one-at-a-time check names the fault
+        bad = ~np.isfinite(targets).all(axis=1) | ~(numbers[:2] > 0).all(axis=0) | ~np.isfinite(numbers).all(axis=0) \
+            | ~(numbers[2] >= 0)
+        if bad.any():
+            i = int(np.argmax(bad))
+            cls(names[i], moves[i], targets[i], None, *numbers[:, i].tolist(), tcp_offsets[i])   # raises
+        targets.flags.writeable = False
+        offsets = {}   # id -> checked tuple: moves share a few offset objects (all alive in tcp_offsets)
+        segments = []
+        for name, move, target, speed, acceleration, blend, offset in zip(names, moves, targets,
+                                                                           *numbers.tolist(), tcp_offsets):
+            if offset is not None:
+                if id(offset) not in offsets:
+                    offsets[id(offset)] = _finite_tuple(offset, 6, name, "tcp_offset")
+                offset = offsets[id(offset)]
+            segment = object.__new__(cls)
+            for set_slot, value in zip(_SLOT_SETTERS, (name, move, target, None, speed, acceleration, blend,
+                                                       offset)):
+                set_slot(segment, value)
+            segments.append(segment)
+        return segments
+
     @property
     def cartesian(self) -> bool:
         """True for moves whose TCP follows a straight line (linear, process)."""
         return self.move != "joint"
+
+
+# One setter per field, in field order: a slot's own setter is the cheapest way past the frozen dataclass.
+_SLOT_SETTERS = tuple(getattr(PathSegment, field.name).__set__ for field in dataclasses.fields(PathSegment))
 
 
 @dataclasses.dataclass(frozen=True)

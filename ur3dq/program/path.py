@@ -16,6 +16,6 @@ def path_plan_of(plan, start_joints=None) -> PathPlan | None:
     if not moves:
         return None
     start = moves[0].joints if start_joints is None else start_joints
-    return PathPlan(start, [PathSegment(planned.name, planned.move, target_joints=planned.joints,
-                                        speed=planned.speed, acceleration=planned.acceleration, blend=planned.blend,
-                                        tcp_offset=planned.tcp_offset) for planned in moves])
+    fields = ([getattr(planned, name) for planned in moves]
+              for name in ("name", "move", "joints", "speed", "acceleration", "blend", "tcp_offset"))
+    return PathPlan(start, PathSegment.joint_targets(*fields))

@@ -14,6 +14,7 @@ import math
 import numpy as np
 
 from ur3dq import dqarray
+from ur3dq.collector import cyclic_gc_paused
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import JointLimitError, SafetyCheckError, UnreachablePoseError
 from ur3dq.program.resolve import resolve_targets
@@ -119,6 +120,7 @@ def _solve_hinted(model, targets, replay_recorded_joints: bool) -> dict:
     return solved
 
 
+@cyclic_gc_paused()
 def plan_program(model, steps, start_joints=None, defaults: Defaults = Defaults(), speed_scale: float = 1.0,
                  replay_recorded_joints: bool = False, max_joint_travel: float | None = None,
                  resolve_from=None) -> list[PlannedStep]:
