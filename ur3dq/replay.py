@@ -160,25 +160,59 @@ def plan_replay(model, poses: Sequence[Pose], start_joints=None, a: float = 1.4,
     swing a joint further than that in one move: nothing moves unless the whole plan is sound. The poses with
     recorded joints are solved first, in one batch per TCP offset (_solve_recorded), the others in order.
     """
+    motion.trapezoid_duration(0.0, a, v)   # a and v checked once: the durations are computed as one array
     solvers = {}
     batch = {} if replay_recorded_joints else _solve_recorded(model, poses, solvers)
-    chosen = []
-    previous = None if start_joints is None else np.asarray(start_joints, dtype=float)
+    start = None if start_joints is None else np.asarray(start_joints, dtype=float)
+    chosen = []   # (joints, source, solutions) per pose
     for index, pose in enumerate(poses):
-        q, source, count = batch.get(index) or choose_joints(model, pose, previous, replay_recorded_joints,
-                                                             solvers)
-        travel = None if previous is None else motion.leading_travel(previous, q)
-        if max_joint_travel is not None and travel is not None and travel > max_joint_travel:
+        found = batch.get(index)
+        if found is None:
+            previous = chosen[-1][0] if chosen else start
+            try:
+                found = choose_joints(model, pose, previous, replay_recorded_joints, solvers)
+            except (UnreachablePoseError, JointLimitError, ValueError):
+                # the poses before come first, as pose by pose: a move among them that swings too far
+                _check_travel(poses, _travels(start, [q for q, *_ in chosen]), max_joint_travel)
+                raise
+        chosen.append(found)
+    joints = [q for q, *_ in chosen]
+    travels = _travels(start, joints)
+    _check_travel(poses, travels, max_joint_travel)
+    durations = _durations(travels, a, v)
+    errors = model.fk_errors(joints, [pose.dual_quaternion for pose in poses], [pose.tcp_offset for pose in poses])
+    return [PlanStep(pose, q, source, count, travel, duration, metres, radians)
+            for pose, (q, source, count), travel, duration, metres, radians
+            in zip(poses, chosen, travels, durations, *errors)]
+
+
+def _travels(start, joints: list) -> list:
+    """The leading joint travel (rad, motion.leading_travel) of each move through `joints` ((6,) each) from
+    `start` ((6,) or None: the first move's is None)."""
+    if not joints:
+        return []
+    path = np.array(joints if start is None else [start, *joints], dtype=float)
+    travel = np.abs(np.diff(path, axis=0)).max(axis=1).tolist() if len(path) > 1 else []
+    return [None] + travel if start is None else travel
+
+
+def _check_travel(poses, travels: list, max_joint_travel) -> None:
+    """SafetyCheckError naming the first pose whose move swings a joint further than `max_joint_travel` (rad)."""
+    if max_joint_travel is None:
+        return
+    for pose, travel in zip(poses, travels):
+        if travel is not None and travel > max_joint_travel:
             raise SafetyCheckError(
                 f"pose {pose.name!r}: a joint would travel {travel:.3f} rad in one move, more than --max-travel "
                 f"{max_joint_travel:.3f} rad (record an intermediate pose, or raise --max-travel)")
-        duration = None if travel is None else motion.trapezoid_duration(travel, a, v)   # movej_duration's
-        chosen.append((q, source, count, travel, duration))
-        previous = q
-    errors = model.fk_errors([q for q, *_ in chosen], [pose.dual_quaternion for pose in poses],
-                             [pose.tcp_offset for pose in poses])
-    return [PlanStep(pose, q, source, count, travel, duration, metres, radians)
-            for pose, (q, source, count, travel, duration), metres, radians in zip(poses, chosen, *errors)]
+
+
+def _durations(travels: list, a: float, v: float) -> list:
+    """movej seconds at 100 % speed (motion.trapezoid_duration) of each move's travel; None where it is None."""
+    known = [travel for travel in travels if travel is not None]   # None leads (_travels), if anywhere
+    distance = np.array(known, dtype=float)
+    seconds = np.where(distance >= v * v / a, distance / v + v / a, 2.0 * np.sqrt(distance / a)).tolist()
+    return [None] * (len(travels) - len(known)) + seconds
 
 
 def _solve_recorded(model, poses: Sequence[Pose], solvers: dict) -> dict:
@@ -188,8 +222,8 @@ def _solve_recorded(model, poses: Sequence[Pose], solvers: dict) -> dict:
     TCP or arm) are left out, for choose_joints."""
     groups: dict = {}
     for index, pose in enumerate(poses):
-        if pose.joints is not None:
-            groups.setdefault(tuple(map(float, pose.tcp_offset)), []).append(index)
+        if pose.joints is not None:   # a Pose's tcp_offset is a tuple of floats: a key as it is
+            groups.setdefault(pose.tcp_offset, []).append(index)
     solved = {}
     for tcp_offset, indices in groups.items():
         solver = _solver(model, tcp_offset, solvers)
@@ -198,10 +232,10 @@ def _solve_recorded(model, poses: Sequence[Pose], solvers: dict) -> dict:
         joints = solver.ik_batch(targets, hints)
         counts = np.sum(~np.isnan(ur_ik.ik_all_batch(solver, targets, q_ref=hints)[:, :, 0]), axis=1)
         # NaN rows (unreachable) compare False
-        recorded = (np.abs(joints - hints) <= RECORDED_SOLUTION).all(axis=1).tolist()
-        for i, q, count, same in zip(indices, joints, counts.tolist(), recorded):
-            if same and count:
-                solved[i] = (q, SOURCE_IK_RECORDED, count)
+        recorded = (np.abs(joints - hints) <= RECORDED_SOLUTION).all(axis=1) & (counts > 0)
+        kept = np.flatnonzero(recorded)
+        solved.update(zip(np.array(indices)[kept].tolist(),
+                          zip(joints[kept], [SOURCE_IK_RECORDED] * len(kept), counts[kept].tolist())))
     return solved
 
 

@@ -85,6 +85,30 @@ def test_plan_refuses_a_move_beyond_max_travel():
         plan_replay(UR3, [recorded("a", A), recorded("b", B)], A, max_joint_travel=0.5)
 
 
+def test_a_move_beyond_max_travel_is_named_before_a_later_unreachable_pose():
+    """The plan's faults come in pose order, as pose by pose: the travel of an earlier move before a later pose
+    that cannot be solved, and that pose when the moves before it are within --max-travel."""
+    far = Pose.from_dual_quaternion("far", DualQuaternion.from_translation([2.0, 0, 0]), "ur3")
+    with pytest.raises(SafetyCheckError, match="pose 'b': a joint would travel 0.800 rad"):
+        plan_replay(UR3, [recorded("a", A), recorded("b", B), far], A, max_joint_travel=0.5)
+    with pytest.raises(UnreachablePoseError, match="pose 'far'"):
+        plan_replay(UR3, [recorded("a", A), recorded("b", B), far], A, max_joint_travel=1.0)
+
+
+def test_each_duration_is_the_movej_trapezoid_of_its_move():
+    """The durations, computed for all moves at once, are motion.movej_duration's, to the last bit, on both sides
+    of the cruise threshold (a short move never reaches v)."""
+    rng = np.random.default_rng(8)
+    joints = A + rng.normal(0, 0.8, (30, 6)) * rng.uniform(0, 1, (30, 1)) ** 2
+    poses = [recorded(f"p{i}", q) for i, q in enumerate(joints)]
+    steps = plan_replay(UR3, poses, A, a=0.7, v=0.9)
+    previous = A
+    for step in steps:
+        assert step.duration == motion.movej_duration(previous, step.joints, 0.7, 0.9)
+        previous = step.joints
+    assert min(s.travel for s in steps) < 0.9 ** 2 / 0.7 < max(s.travel for s in steps)
+
+
 def test_tcp_pose_for_moves_the_recorded_pose_onto_the_current_tcp():
     pose = recorded("tool", A, tcp=TOOL)
     assert tcp_pose_for(pose, DualQuaternion.from_ur_pose(TOOL)).is_close(pose.dq)

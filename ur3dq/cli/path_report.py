@@ -129,7 +129,10 @@ def _rows_worth_showing(result) -> list[int]:
         return list(range(len(result.steps)))
     failed = {problem.step for problem in result.problems}
     chosen = {i for i, step in enumerate(result.steps) if step.name in failed}
-    for check in {check for step in result.steps for check in step.margins}:
-        values = [(step.margins[check], i) for i, step in enumerate(result.steps) if check in step.margins]
-        chosen.add(min(values)[1])
+    smallest = {}   # check -> (its smallest margin, the first move with it)
+    for i, step in enumerate(result.steps):
+        for check, value in step.margins.items():
+            if check not in smallest or value < smallest[check][0]:
+                smallest[check] = (value, i)
+    chosen.update(i for _, i in smallest.values())
     return sorted(chosen)[:MAX_MARGIN_ROWS]

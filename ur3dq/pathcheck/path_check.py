@@ -47,6 +47,19 @@ class Figures(Mapping):
     def __len__(self) -> int:
         return len(self._keys)
 
+    def __contains__(self, key) -> bool:
+        return key in self._keys
+
+    # Tuples, not the mixins' views: those look each value up again, and a margins table reads 10⁵ reports.
+    def keys(self) -> tuple:
+        return self._keys
+
+    def values(self) -> tuple:
+        return self._values
+
+    def items(self) -> tuple:
+        return tuple(zip(self._keys, self._values))
+
     def __repr__(self) -> str:
         return repr(dict(self.items()))
 
