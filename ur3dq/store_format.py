@@ -357,22 +357,32 @@ def _own_layout(text: str):
     end = len(text) - len(_OWN_TAIL) + 1  # just after the last entry's line break
 
     def entries():
-        position, index, line = head.end(), 0, 5
+        position, index = head.end(), 0
         while position < end:
-            stop = text.index("\n", position)
-            last = stop + 1 >= end
-            entry = text[position:stop]
-            if not entry.startswith("    {") or entry.endswith(",") == last:
+            stop = position   # just after the CHUNK-th line break from `position`, or the end
+            for _ in range(CHUNK):
+                stop = text.index("\n", stop) + 1
+                if stop >= end:
+                    break
+            lines = text[position:stop - 1].split("\n")
+            last = stop >= end
+            # One entry per line: each opens an object, and all but the file's last end with a comma.
+            if not all(entry.startswith("    {") for entry in lines) or \
+                    not all(entry.endswith(",") for entry in lines[:-1]) or lines[-1].endswith(",") == last:
                 raise _NotOwnLayout
             try:
-                # orjson parses a line 4× faster than the stdlib's scanner (the 93,587 lines of bench_store.py's
-                # store: 0.56 s against 2.26 s of CPU, one process). What it refuses (NaN, a number beyond a
-                # double, a lone surrogate, nesting past 1024) sends the file to the stdlib path, with its errors.
-                obj = orjson.loads(entry[4:] if last else entry[4:-1])
+                # orjson parses the chunk's lines as one array: 6× faster than the stdlib's scanner, and a call
+                # per line costs as much again. What it refuses (NaN, a number beyond a double, a lone surrogate,
+                # nesting past 1024) sends the file to the stdlib path, with its errors.
+                objects = orjson.loads("[" + text[position:stop - (1 if last else 2)] + "]")
             except orjson.JSONDecodeError:
                 raise _NotOwnLayout from None
-            yield index, line, obj
-            position, index, line = stop + 1, index + 1, line + 1
+            if len(objects) != len(lines):   # a line that holds two entries
+                raise _NotOwnLayout
+            for obj in objects:
+                yield index, index + 5, obj   # the entries start on the file's 5th line
+                index += 1
+            position = stop
 
     return version, key, entries()
 

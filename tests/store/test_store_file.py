@@ -12,6 +12,7 @@ from pyquaternion import Quaternion
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import StoreError
 from ur3dq.pose import Pose
+from ur3dq.store_format import CHUNK
 from ur3dq.store import (
     SCHEMA_NAME, SCHEMA_VERSION, PoseStore, format_store, parse_store, pose_to_dict, write_atomically,
 )
@@ -216,6 +217,37 @@ def test_error_line_points_at_the_pose_in_the_store_layout(tmp_path):
     line = next(n for n, content in enumerate(text.splitlines(), 1) if '"name": "a"' in content)
     with pytest.raises(StoreError, match=rf"poses\.json:{line}: pose #1 'a': joints must be 6 numbers, got 7"):
         PoseStore(path).load()
+
+
+@pytest.mark.parametrize("count", [CHUNK - 1, CHUNK, CHUNK + 1, 2 * CHUNK + 3])
+def test_a_big_store_loads_whole_and_names_the_line_of_a_fault_past_the_first_chunk(tmp_path, count):
+    """ur3dq's own layout is parsed CHUNK lines at a time: every pose comes back in order on either side of a
+    chunk's end, and a fault in the last pose names its line."""
+    path = tmp_path / "poses.json"
+    poses = [make_pose(f"p{i}", i % 7) for i in range(count)]
+    text = format_store(poses)
+    path.write_text(text)
+    assert [pose.name for pose in PoseStore(path).load()] == [pose.name for pose in poses]
+    lines = text.splitlines()
+    lines[-3] = lines[-3].replace('"joints": [', '"joints": [1e3, ', 1)   # the last pose's line
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(StoreError, match=rf"poses\.json:{len(lines) - 2}: pose #{count} 'p{count - 1}': joints"):
+        PoseStore(path).load()
+
+
+@pytest.mark.parametrize("edit", ["two entries on one line", "an entry over two lines"])
+def test_a_hand_edit_of_the_layout_still_loads_every_pose(tmp_path, edit):
+    """A file that is no longer one entry per line (a hand edit) is read as a whole document: the same poses."""
+    path = tmp_path / "poses.json"
+    poses = [make_pose(f"p{i}", i) for i in range(6)]
+    text = format_store(poses)
+    if edit == "two entries on one line":
+        text = text.replace('"},\n    {"name": "p3"', '"}, {"name": "p3"', 1)
+    else:
+        text = text.replace('"name": "p2", ', '"name": "p2",\n', 1)
+    assert text != format_store(poses)
+    path.write_text(text)
+    assert [pose.name for pose in PoseStore(path).load()] == [f"p{i}" for i in range(6)]
 
 
 def test_duplicate_names_in_a_file_are_refused(tmp_path):
