@@ -90,8 +90,11 @@ class PathSegment:
         targets.flags.writeable = False
         offsets = {}   # id -> checked tuple: moves share a few offset objects (all alive in tcp_offsets)
         segments = []
-        for name, move, target, speed, acceleration, blend, offset in zip(names, moves, targets,
-                                                                           *numbers.tolist(), tcp_offsets):
+        # the callers' own float objects where they are floats: 10⁵ moves would hold 3·10⁵ copies
+        speeds, accelerations, blends = ([value if type(value) is float else float(value) for value in column]
+                                         for column in (speeds, accelerations, blends))
+        for name, move, target, speed, acceleration, blend, offset in zip(names, moves, targets, speeds,
+                                                                           accelerations, blends, tcp_offsets):
             if offset is not None:
                 if id(offset) not in offsets:
                     offsets[id(offset)] = _finite_tuple(offset, 6, name, "tcp_offset")
