@@ -13,8 +13,9 @@ import numpy as np
 import pytest
 
 from calibrated_arms import factory_model
+from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import UnreachablePoseError
-from ur3dq.kinematics.ur_ik import calibrated, nearest, newton_floats
+from ur3dq.kinematics.ur_ik import calibrated, nearest, newton_floats, single
 from ur3dq.kinematics.ur_ik.calibrated import _refine_calibrated
 from ur3dq.kinematics.ur_ik.equations import _ScalarOps, _branches, _wrap_float, wrap_angle
 from ur3dq.kinematics.ur_ik.fk_filter import _fk_check, _reference, _targets
@@ -330,3 +331,51 @@ def test_a_seed_with_an_exactly_singular_jacobian_takes_a_least_squares_step():
     singular[0, :5, :5] = np.eye(5)
     step = newton_floats.damped_solve(singular, np.ones((1, 6, 1)))
     np.testing.assert_allclose(step[0, :, 0], [1.0] * 5 + [0.0])
+
+
+@pytest.mark.parametrize("name, seed, tcp", [("ur3", 21, None), ("ur10e", 23, [0.01, -0.02, 0.3, 0.1, 0.2, -0.3])])
+def test_ik_all_without_its_fk_filter_keeps_what_the_filter_kept(name, seed, tcp, monkeypatch):
+    """Where Newton's acceptance implies the FK filter (calibrated._fk_implied: factory tables, a TCP included),
+    ik_all skips it: the very solutions of the filtered path, on hard configurations."""
+    model = factory_model(name, seed)
+    model = model if tcp is None else model.with_tcp(tcp)
+    assert calibrated._fk_implied(_geometry(model))
+    for joints in hard_configurations(200, seed + 700):
+        pose = model.fk(joints)
+        try:
+            solutions = np.array(model.ik_all(pose))
+        except UnreachablePoseError:
+            solutions = np.empty((0, 6))
+        with monkeypatch.context() as patched:
+            patched.setattr(single, "_fk_implied", lambda g: False)
+            try:
+                filtered = np.array(model.ik_all(pose))
+            except UnreachablePoseError:
+                filtered = np.empty((0, 6))
+        np.testing.assert_array_equal(solutions, filtered)
+
+
+def test_the_fk_filter_stays_for_a_tcp_far_from_the_flange():
+    """A TCP 20 m from the flange turns Newton's 1e-10 rad into 2e-9 m there: the filter is no longer implied, and
+    ik_all still finds the configuration."""
+    model = factory_model("ur5e", 22).with_tcp([0.0, 0.0, 20.0, 0.0, 0.0, 0.0])
+    assert not calibrated._fk_implied(_geometry(model))
+    q = np.array([0.3, -1.2, 1.1, -0.4, 0.9, 0.2])
+    assert any(np.allclose(solution, q, rtol=0, atol=1e-8) for solution in model.ik_all(model.fk(q)))
+
+
+def test_a_row_at_zero_error_facing_away_from_its_target_is_no_solution():
+    """Newton's rotation error sin φ·axis vanishes at φ = π: a flange turned half a turn about its z axis from the
+    target has zero error, yet is no solution (calibrated._facing); the target itself is faced."""
+    model = factory_model("ur10e", 24)
+    g = _geometry(model)
+    q = np.array([0.3, -1.2, 1.1, -0.4, 0.9, 0.2])
+    _, target = _targets(g, model.fk(q))
+    _, turned = _targets(g, model.fk(q) * DualQuaternion.from_axis_angle([0.0, 0.0, 1.0], math.pi))
+    error, _ = calibrated._matrix_residual(calibrated._joint_terms(g), q[None],
+                                           calibrated._target_matrices(np.array(turned)[None]))
+    assert np.abs(error).max() < 1e-12
+    assert calibrated._facing(g, q[None], np.array(target)).tolist() == [True]
+    assert calibrated._facing(g, q[None], np.array(turned)).tolist() == [False]
+    assert _refine_calibrated(g, [tuple(q)], turned) == []
+    assert len(_refine_calibrated(g, [tuple(q)], target)) == 1
