@@ -268,7 +268,7 @@ def test_float_kernels_give_the_batched_quantities():
         row_error = newton_floats.float_residual(end, row_frames, pair)
         # The rounding floor of a factory table's position (its ±440 m offsets cancel): ~1e-12 m.
         np.testing.assert_allclose(row_error, error[row], rtol=0, atol=1e-11)
-        row_step = newton_floats.float_step(row_frames, row_error, calibrated.DAMPING_MATRIX)
+        row_step = newton_floats.float_step(row_frames, row_error[:6], calibrated.DAMPING_MATRIX)
         # Its error moves the step by ≤ 1e-11/σ, and the normal equations' rounding by ~1e-16·|Δq|·(|J|/σ)².
         sigma = least_singular_value(model, q[row])
         np.testing.assert_allclose(row_step, step[row], rtol=0,
@@ -366,16 +366,22 @@ def test_the_fk_filter_stays_for_a_tcp_far_from_the_flange():
 
 def test_a_row_at_zero_error_facing_away_from_its_target_is_no_solution():
     """Newton's rotation error sin φ·axis vanishes at φ = π: a flange turned half a turn about its z axis from the
-    target has zero error, yet is no solution (calibrated._facing); the target itself is faced."""
+    target has zero error, yet is no solution. Every kernel (batched matrices, joint-major columns, floats) reports
+    its residual as inf, from the trace of R_t·Rᵀ; the target itself converges."""
     model = factory_model("ur10e", 24)
     g = _geometry(model)
     q = np.array([0.3, -1.2, 1.1, -0.4, 0.9, 0.2])
     _, target = _targets(g, model.fk(q))
     _, turned = _targets(g, model.fk(q) * DualQuaternion.from_axis_angle([0.0, 0.0, 1.0], math.pi))
-    error, _ = calibrated._matrix_residual(calibrated._joint_terms(g), q[None],
-                                           calibrated._target_matrices(np.array(turned)[None]))
-    assert np.abs(error).max() < 1e-12
-    assert calibrated._facing(g, q[None], np.array(target)).tolist() == [True]
-    assert calibrated._facing(g, q[None], np.array(turned)).tolist() == [False]
+    rotation, position = calibrated._target_matrices(np.array(turned)[None])
+    error, _ = calibrated._matrix_residual(calibrated._joint_terms(g), q[None], (rotation, position))
+    assert np.abs(error[0, :6]).max() < 1e-12 and error[0, 6] < -0.99
+    for rows in (1, 3, calibrated._COLUMN_ROWS):
+        _, residual = calibrated._refine_batch(g, np.tile(q, (rows, 1)), np.array(turned)[None])
+        assert np.isinf(residual).all(), rows
+        _, residual = calibrated._refine_batch(g, np.tile(q, (rows, 1)), np.array(target)[None])
+        assert (residual <= calibrated.CALIBRATED_TOLERANCE).all(), rows
+    pair = tuple(rotation[0].ravel()) + tuple(position[0])
+    assert newton_floats.refine_row(newton_floats.float_joints(g.joints), q.tolist(), pair, 0, math.inf)[1] == math.inf
     assert _refine_calibrated(g, [tuple(q)], turned) == []
     assert len(_refine_calibrated(g, [tuple(q)], target)) == 1

@@ -36,23 +36,9 @@ _TERMS_LOCK = threading.Lock()   # drivers solve IK from their own threads
 
 
 def _refine_calibrated(g: _Geometry, branches: list, target) -> list:
-    """Newton steps on the calibrated FK from the nominal branches; those that converge facing the target (see
-    _facing), as float tuples."""
+    """Newton steps on the calibrated FK from the nominal branches; those that converge, as float tuples."""
     refined, residual = _refine_batch(g, np.array(branches, dtype=float), np.array(target)[None])
-    converged = refined[residual <= CALIBRATED_TOLERANCE]
-    return [tuple(q) for q in converged[_facing(g, converged, np.array(target))].tolist()]
-
-
-def _facing(g: _Geometry, q: np.ndarray, target: np.ndarray) -> np.ndarray:
-    """(M,) whether the flange rotation at joints q (M, 6) lies less than 90° from the target pair's (7,):
-    trace(R_t·Rᵀ) = 1 + 2·cos φ > 1.
-
-    Newton's rotation error is sin φ·axis, which vanishes at φ = π too: only a converged row that faces its target
-    is within its residual of it (φ = asin|sin φ|), what _fk_implied's bound builds on. One batched chain for all
-    rows (~20 µs for 8, a third of the FK filter it lets ik_all skip)."""
-    rotation_t, _ = _target_matrices(target[None])
-    end = _chain_frames(_joint_terms(g), q)[5, :, :3, :3]
-    return np.einsum("ij,mij->m", rotation_t[0], end) > 1.0
+    return [tuple(q) for q, r in zip(refined.tolist(), residual.tolist()) if r <= CALIBRATED_TOLERANCE]
 
 
 #: Rounding allowance (m per metre of the chain's Σ|a| + Σ|d| + |TCP|) of one FK evaluation in floats: six joints
@@ -67,7 +53,7 @@ def _fk_implied(g: _Geometry) -> bool:
     computed once per geometry (_cached_terms, _implied_by_residual).
 
     Such a row's flange is within its residual of the target: position error ≤ CALIBRATED_TOLERANCE and, facing
-    it (_facing), rotation φ ≤ CALIBRATED_TOLERANCE (rad; the filter allows FK_TOLERANCE_RAD, ten times that). The
+    it (_refine_batch), rotation φ ≤ CALIBRATED_TOLERANCE (rad; the filter allows FK_TOLERANCE_RAD, ten times that). The
     TCP, at |t| from the flange, then misses by ≤ (1 + |t|)·CALIBRATED_TOLERANCE; the Newton residual and the
     filter's FK each round by ≤ _ROUNDING_PER_METRE·length. When all of it stays within FK_TOLERANCE_M (|t| up to
     ~7 m on factory tables, ~3 m on 10 km of offsets) the filter's verdict is known: True.
@@ -181,9 +167,11 @@ def _target_matrices(targets: np.ndarray) -> tuple:
     return (products @ _ROTATION_OF_PRODUCTS + _IDENTITY_ROWS).reshape(-1, 3, 3), targets[:, 4:]
 
 
-#: (9, 3) map from a row-major 3×3 matrix to the axial vector of its skew part, ½·(m21 − m12, m02 − m20, m10 − m01).
-_AXIAL = np.zeros((9, 3))
-_AXIAL[[7, 2, 3], [0, 1, 2]], _AXIAL[[5, 6, 1], [0, 1, 2]] = 0.5, -0.5
+#: (9, 4) map from a row-major 3×3 matrix to the axial vector of its skew part, ½·(m21 − m12, m02 − m20, m10 − m01),
+#: and its trace m00 + m11 + m22.
+_AXIAL_TRACE = np.zeros((9, 4))
+_AXIAL_TRACE[[7, 2, 3], [0, 1, 2]], _AXIAL_TRACE[[5, 6, 1], [0, 1, 2]] = 0.5, -0.5
+_AXIAL_TRACE[[0, 4, 8], 3] = 1.0
 
 
 #: (9, 3) map from the outer product a ⊗ b (row-major) to a × b: (a1·b2 − a2·b1, a2·b0 − a0·b2, a0·b1 − a1·b0).
@@ -195,14 +183,16 @@ _BASE_ROW_TAIL = np.array([0.0, 0.0, 0.0, 1.0])
 
 
 def _pose_residual(end: np.ndarray, rotation_t: np.ndarray, position_t: np.ndarray) -> np.ndarray:
-    """(M, 6) [position error (m), rotation error (rad, base frame)] from end frames (M, 4, 4) to the targets.
+    """(M, 7) [position error (m), rotation error (rad, base frame), trace of R_t·Rᵀ] from end frames (M, 4, 4) to
+    the targets: the error is the first six columns.
 
     The rotation error is the axial vector of the skew part of R_t·Rᵀ (sin θ·axis): the rotation vector to first
-    order, which is all Newton needs (errors here are small)."""
+    order, which is all Newton needs (errors here are small). It vanishes at θ = π too, which the trace, 1 + 2·cos θ,
+    tells apart (same matmul, no extra numpy call)."""
     relative = rotation_t @ end[:, :3, :3].transpose(0, 2, 1)
-    error = np.empty((len(end), 6))
+    error = np.empty((len(end), 7))
     np.subtract(position_t, end[:, :3, 3], out=error[:, :3])
-    np.matmul(relative.reshape(-1, 9), _AXIAL, out=error[:, 3:])
+    np.matmul(relative.reshape(-1, 9), _AXIAL_TRACE, out=error[:, 3:])
     return error
 
 
@@ -224,22 +214,23 @@ def _jacobian_rows(frames: np.ndarray) -> np.ndarray:
 
 
 def _matrix_residual(terms: tuple, q: np.ndarray, target: tuple) -> tuple:
-    """(error (R, 6), frames (6, R, 4, 4)) of joints q (R, 6) against target (rotation, position) rows."""
+    """(error (R, 7) as _pose_residual's, frames (6, R, 4, 4)) of joints q (R, 6) against target (rotation, position)
+    rows."""
     frames = _chain_frames(terms, q)
     return _pose_residual(frames[5], *target), frames
 
 
 def _matrix_step(frames: np.ndarray, error: np.ndarray, damping: np.ndarray) -> np.ndarray:
     """(R, 6) joint steps solving (JᵀJ + λ²I)·Δq = Jᵀe (numpy's batched LAPACK solve, newton_floats.damped_solve)
-    for frames (6, R, 4, 4)."""
+    for frames (6, R, 4, 4) and errors e (R, ≥ 6: _pose_residual's, the trace column unused)."""
     transposed = _jacobian_rows(frames).transpose(1, 0, 2)   # (R, 6, 6): Jᵀ
     normal = transposed @ transposed.transpose(0, 2, 1)
     normal += damping
-    return damped_solve(normal, transposed @ error[:, :, None])[..., 0]
+    return damped_solve(normal, transposed @ error[:, :6, None])[..., 0]
 
 
 def _column_residual(g: _Geometry, q: np.ndarray, target: tuple) -> tuple:
-    """(error (R, 6), (axes, origins) of frames 0…6) of joints q (R, 6): the matrix path's quantities, joint-major.
+    """(error (R, 7), (axes, origins) of frames 0…6) of joints q (R, 6): the matrix path's quantities, joint-major.
 
     Every coordinate is an (R,) array (row of a (3, R) vector) and the chain is written out per column:
     for thousands of rows numpy's batched 4×4 matmuls and 6×6 LAPACK solves cost ~0.3 µs and ~0.8 µs per matrix,
@@ -247,7 +238,7 @@ def _column_residual(g: _Geometry, q: np.ndarray, target: tuple) -> tuple:
     """
     end, frames = _column_frames(g, q)
     rotation_t, position_t = target
-    error = np.empty((len(q), 6))
+    error = np.empty((len(q), 7))
     for k in range(3):
         np.subtract(position_t[:, k], frames[1][6][k], out=error[:, k])
     # ½·Σ_c r_c × t_c over the columns c of the end rotation and the target's: the axial vector of the skew part
@@ -255,6 +246,7 @@ def _column_residual(g: _Geometry, q: np.ndarray, target: tuple) -> tuple:
     for k, (i, j) in enumerate(((1, 2), (2, 0), (0, 1))):
         error[:, 3 + k] = 0.5 * sum(end[c][i] * rotation_t[:, j, c] - end[c][j] * rotation_t[:, i, c]
                                     for c in range(3))
+    error[:, 6] = sum(end[c][k] * rotation_t[:, k, c] for c in range(3) for k in range(3))   # Σ_c r_c · t_c
     return error, frames
 
 
@@ -316,6 +308,10 @@ def _column_step(frames: tuple, error: np.ndarray, damping: np.ndarray) -> np.nd
 def _refine_batch(g: _Geometry, q: np.ndarray, targets: np.ndarray):
     """Newton steps on the calibrated FK: (refined q (M, 6), final residual norm (M,)); rows of NaN stay NaN.
 
+    A row whose flange ends facing away from its target (rotated by more than 90°: Newton's rotation error sin φ·axis
+    also vanishes at φ = π) has residual inf: every finite residual bounds the flange's distance to its target
+    (position, and rotation angle φ = asin|sin φ|), what calibrated._fk_implied builds on.
+
     ``targets``: (M, 7) pairs, or one (1, 7) pair shared by every row.
     A row stops when it is 100× inside CALIBRATED_TOLERANCE; when, already below ROUNDING_CEILING, a step no
     longer halves its error (the rounding floor of its table): iterating on would only stir rounding. A row whose
@@ -346,8 +342,8 @@ def _refine_batch(g: _Geometry, q: np.ndarray, targets: np.ndarray):
         columns = len(rows) >= _COLUMN_ROWS
         error, frames = (_column_residual(g, current, target) if columns
                          else _matrix_residual(terms, current, target))
-        norm = np.sqrt(np.einsum("ij,ij->i", error, error))
-        residual[rows] = norm
+        norm = np.sqrt(np.einsum("ij,ij->i", error[:, :6], error[:, :6]))
+        residual[rows] = np.where(error[:, 6] > 1.0, norm, np.inf)   # the trace, 1 + 2·cos φ
         going = going_on(norm, previous)   # NaN rows (absent branches) stop
         if step == CALIBRATED_MAX_STEPS or not going.any():
             q[rows] = current
