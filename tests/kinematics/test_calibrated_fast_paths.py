@@ -385,3 +385,28 @@ def test_a_row_at_zero_error_facing_away_from_its_target_is_no_solution():
     assert newton_floats.refine_row(newton_floats.float_joints(g.joints), q.tolist(), pair, 0, math.inf)[1] == math.inf
     assert _refine_calibrated(g, [tuple(q)], turned) == []
     assert len(_refine_calibrated(g, [tuple(q)], target)) == 1
+
+
+@pytest.mark.parametrize("name, seed", MODELS[1:3])
+def test_ik_batch_fk_filter_of_shifted_rows_is_the_filter(name, seed):
+    """batch._shifted_rows_filter passes ±2π variants of Newton's accepted rows unchecked (calibrated._fk_implied)
+    and checks the others: its verdicts are the FK filter's, variants clamped onto ±2π limits and a TCP included."""
+    from ur3dq.kinematics.ur_ik import batch
+    from ur3dq.kinematics.ur_ik.fk_filter import _within_fk_tolerance
+    model = factory_model(name, seed).with_tcp([0.02, 0.01, 0.2, 0.3, -0.1, 0.2])
+    g = _geometry(model)
+    q = hard_configurations(400, seed + 800)
+    poses = batch._batch_poses(model.fk_batch(q))
+    reference = references(q, seed + 801)
+    targets = np.stack(batch._batch_flange_targets(g, poses), axis=-1)
+    refined, residual = calibrated._refine_batch(g, reference, targets)
+    rows = np.flatnonzero(residual <= calibrated.CALIBRATED_TOLERANCE)
+    joints = batch._variant_costs(g, refined[rows].T[:, None, :], reference[rows].T[:, None, :], None)[0][:, 0].T
+    rows, joints = rows[~np.isnan(joints).any(axis=1)], joints[~np.isnan(joints).any(axis=1)]
+    shifted = joints + np.where(np.arange(len(joints)) % 7 == 0, 5e-11, 0.0)[:, None]   # some moved as by a clamp
+    for candidate in (joints, shifted):
+        fk = model.fk_batch(candidate)
+        expected = _within_fk_tolerance(np.ascontiguousarray(fk.T), np.ascontiguousarray(poses[rows].T))
+        verdict = batch._shifted_rows_filter(model, g, candidate, refined[rows], poses[rows])
+        np.testing.assert_array_equal(verdict, expected)
+    assert calibrated._fk_implied(g) and len(rows) > 300

@@ -48,25 +48,35 @@ def _refine_calibrated(g: _Geometry, branches: list, target) -> list:
 _ROUNDING_PER_METRE = 1e-14
 
 
+#: How far (rad) a joint of a solution may be from an exact 2π multiple of Newton's joint and keep _fk_implied's
+#: verdict: ik_batch's ±2π variants round by a few ulps of 4π (~4e-15); a clamp onto a joint limit moves by up to
+#: LIMIT_ROUNDING, and one beyond this goes through the FK filter.
+VARIANT_SHIFT = 1e-12
+
+
 def _fk_implied(g: _Geometry) -> bool:
-    """Whether every row _refine_calibrated returns provably meets its pose's FK filter (fk_filter._fk_check);
-    computed once per geometry (_cached_terms, _implied_by_residual).
+    """Whether every row _refine_batch accepts (residual ≤ CALIBRATED_TOLERANCE) provably meets its pose's FK filter
+    (fk_filter._fk_check), also with each joint moved by a 2π multiple and up to VARIANT_SHIFT; computed once per
+    geometry (_cached_terms, _implied_by_residual).
 
     Such a row's flange is within its residual of the target: position error ≤ CALIBRATED_TOLERANCE and, facing
     it (_refine_batch), rotation φ ≤ CALIBRATED_TOLERANCE (rad; the filter allows FK_TOLERANCE_RAD, ten times that). The
-    TCP, at |t| from the flange, then misses by ≤ (1 + |t|)·CALIBRATED_TOLERANCE; the Newton residual and the
-    filter's FK each round by ≤ _ROUNDING_PER_METRE·length. When all of it stays within FK_TOLERANCE_M (|t| up to
-    ~7 m on factory tables, ~3 m on 10 km of offsets) the filter's verdict is known: True.
+    TCP, at |t| from the flange, then misses by ≤ (1 + |t|)·CALIBRATED_TOLERANCE; six joint shifts turn it by ≤
+    6·VARIANT_SHIFT and move it by ≤ 6·VARIANT_SHIFT·(R + |t|), R ≥ the flange's distance from every axis
+    (_curvature_bound's); the Newton residual and the filter's FK each round by ≤ _ROUNDING_PER_METRE·length. When
+    all of it stays within FK_TOLERANCE_M (|t| up to ~7 m on factory tables, ~3 m on 10 km of offsets) the filter's
+    verdict is known: True.
     """
     return _cached_terms(g)[3]
 
 
-def _implied_by_residual(g: _Geometry) -> bool:
-    """_fk_implied's value, from the geometry's lengths and TCP."""
+def _implied_by_residual(g: _Geometry, reach: float) -> bool:
+    """_fk_implied's value, from the geometry's lengths, TCP and ``reach`` (R of _curvature_bound)."""
     lever = 0.0 if g.tcp_offset is None else 2.0 * math.sqrt(sum(v * v for v in g.tcp_offset[1]))
     length = sum(abs(a) + abs(d) for a, d, *_ in g.joints) + lever
-    return ((1.0 + lever) * CALIBRATED_TOLERANCE + 2.0 * _ROUNDING_PER_METRE * length <= FK_TOLERANCE_M
-            and 2.0 * CALIBRATED_TOLERANCE <= FK_TOLERANCE_RAD)
+    position = ((1.0 + lever) * CALIBRATED_TOLERANCE + 6.0 * VARIANT_SHIFT * (reach + lever)
+                + 2.0 * _ROUNDING_PER_METRE * length)
+    return position <= FK_TOLERANCE_M and 2.0 * (CALIBRATED_TOLERANCE + 6.0 * VARIANT_SHIFT) <= FK_TOLERANCE_RAD
 
 
 def _joint_terms(g: _Geometry) -> tuple:
@@ -112,7 +122,8 @@ def _cached_terms(g: _Geometry) -> tuple:
         step = axis * np.dot(foot - origin, axis) + origin - foot   # to the foot of ``foot`` on this axis
         foot, reach = foot + step, reach + float(np.linalg.norm(step))
     reach += float(np.linalg.norm(frames[5, :3, 3] - foot))
-    value = (terms, 6.0 * math.sqrt(reach * reach + 3.0), float_joints(g.joints), _implied_by_residual(g))
+    value = (terms, 6.0 * math.sqrt(reach * reach + 3.0), float_joints(g.joints),
+             _implied_by_residual(g, reach))
     with _TERMS_LOCK:
         if len(_TERMS) >= 64:
             _TERMS.pop(next(iter(_TERMS)))
