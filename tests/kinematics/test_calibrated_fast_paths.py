@@ -410,3 +410,17 @@ def test_ik_batch_fk_filter_of_shifted_rows_is_the_filter(name, seed):
         verdict = batch._shifted_rows_filter(model, g, candidate, refined[rows], poses[rows])
         np.testing.assert_array_equal(verdict, expected)
     assert calibrated._fk_implied(g) and len(rows) > 300
+
+
+def test_refined_rows_filter_is_the_fk_filter():
+    """batch._refined_filter takes Newton's accepted, wrapped rows as passing where calibrated._fk_implied: the
+    FK filter's mask (batch._fk_filter) on the refined branches of hard configurations, a TCP included."""
+    from ur3dq.kinematics.ur_ik import batch
+    model = factory_model("ur3", 21).with_tcp([0.02, 0.01, 0.2, 0.3, -0.1, 0.2])
+    g = _geometry(model)
+    poses = batch._batch_poses(model.fk_batch(hard_configurations(300, 901)))
+    theta6_ref = np.random.default_rng(902).uniform(-math.pi, math.pi, len(poses))
+    columns = batch._batch_candidates(g, batch._batch_flange_targets(g, poses), theta6_ref)
+    expected = batch._fk_filter(model, columns, poses)
+    np.testing.assert_array_equal(batch._refined_filter(model, g, columns, poses), expected)
+    assert calibrated._fk_implied(g) and expected.sum() > 1000

@@ -147,7 +147,16 @@ def _calibrated_ranking(model, g: _Geometry, poses: np.ndarray, theta6_ref: np.n
     _, columns, valid, _ = next(_solved_blocks(model, g, poses, theta6_ref))
     reference_rows = wrap_angle(rows.T)[:, None, :]
     return (np.concatenate((columns, reference_rows), axis=1),
-            np.concatenate((valid, _fk_filter(model, reference_rows, poses))))
+            np.concatenate((valid, _refined_filter(model, g, reference_rows, poses))))
+
+
+def _refined_filter(model, g: _Geometry, columns: np.ndarray, poses: np.ndarray) -> np.ndarray:
+    """(k, N) _fk_filter's mask of Newton's accepted rows (6, k, N) of a calibrated model, wrapped (wrap_angle: a 2π
+    shift, within a few ulps), NaN where absent: known where calibrated._fk_implied (they pass: the mask is where
+    they exist), else from their FK."""
+    if _fk_implied(g):
+        return ~np.isnan(columns).any(axis=0)
+    return _fk_filter(model, columns, poses)
 
 
 def _fk_filter(model, columns: np.ndarray, poses: np.ndarray) -> np.ndarray:
@@ -191,7 +200,8 @@ def _solved_blocks(model, g: _Geometry, poses: np.ndarray, theta6_ref: np.ndarra
     """
     if g.calibrated:
         columns = _batch_candidates(g, _batch_flange_targets(g, poses), theta6_ref)
-        yield slice(0, len(poses)), columns, _fk_filter(model, columns, poses), np.ones(len(poses), dtype=bool)
+        yield (slice(0, len(poses)), columns, _refined_filter(model, g, columns, poses),
+               np.ones(len(poses), dtype=bool))
         return
     redo = []
     for rows, pair, columns, exists, merged, near_singular in _kernel_blocks(g, poses, IK_BLOCK):
