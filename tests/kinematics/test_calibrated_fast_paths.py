@@ -424,3 +424,22 @@ def test_refined_rows_filter_is_the_fk_filter():
     expected = batch._fk_filter(model, columns, poses)
     np.testing.assert_array_equal(batch._refined_filter(model, g, columns, poses), expected)
     assert calibrated._fk_implied(g) and expected.sum() > 1000
+
+
+@pytest.mark.parametrize("name, seed", MODELS)
+def test_calibrated_seeds_of_the_written_out_equations_are_the_general_ones(name, seed):
+    """ik_all and ik seed Newton with single._nominal_branches: on factory tables (their domain slack and edge)
+    the very floats of equations._branches, near singularities, at ±2π and beyond the reach included."""
+    from ur3dq.kinematics.ur_ik import single
+    model = factory_model(name, seed)
+    g = _geometry(model)
+    q = hard_configurations(300, seed + 900)
+    stretched = q[::10].copy()
+    stretched[:, 2] = 0.0
+    poses = [model.fk(joints) for joints in np.concatenate((q, stretched))]
+    far = [pose * DualQuaternion.from_translation([0.0, 0.0, 0.05 * k]) for k, pose in enumerate(poses[::7])]
+    for pose in poses + far:
+        _, target = _targets(g, pose)
+        for theta6_ref in (0.0, 2.5):
+            expected = np.array(_branches(_ScalarOps, g, target, theta6_ref), dtype=float)
+            np.testing.assert_array_equal(np.array(single._nominal_branches(g, target, theta6_ref)), expected)
