@@ -61,12 +61,13 @@ def _fk_implied(g: _Geometry) -> bool:
     geometry (_cached_terms, _implied_by_residual).
 
     Such a row's flange is within its residual of the target: position error ≤ CALIBRATED_TOLERANCE and, facing
-    it (_refine_batch), rotation φ ≤ CALIBRATED_TOLERANCE (rad; the filter allows FK_TOLERANCE_RAD, ten times that). The
-    TCP, at |t| from the flange, then misses by ≤ (1 + |t|)·CALIBRATED_TOLERANCE; six joint shifts turn it by ≤
-    6·VARIANT_SHIFT and move it by ≤ 6·VARIANT_SHIFT·(R + |t|), R ≥ the flange's distance from every axis
+    it (_refine_batch), rotation φ ≤ CALIBRATED_TOLERANCE (rad; the filter allows FK_TOLERANCE_RAD, ten times
+    that). The TCP, at |t| from the flange, then misses by ≤ (1 + |t|)·CALIBRATED_TOLERANCE; six joint shifts turn
+    it by ≤ 6·VARIANT_SHIFT and move it by ≤ 6·VARIANT_SHIFT·(R + |t|), R ≥ the flange's distance from every axis
     (_curvature_bound's); the Newton residual and the filter's FK each round by ≤ _ROUNDING_PER_METRE·length. When
-    all of it stays within FK_TOLERANCE_M (|t| up to ~7 m on factory tables, ~3 m on 10 km of offsets) the filter's
-    verdict is known: True.
+    the position stays within half FK_TOLERANCE_M and twice the rotation within half FK_TOLERANCE_RAD (|t| up to
+    ~3 m on factory tables, ~1 m on 10 km of offsets; the other half for what the sums leave out, such as a target
+    quaternion off unit by up to fk_filter._EXACT_UNIT) the filter's verdict is known: True.
     """
     return _cached_terms(g)[3]
 
@@ -77,7 +78,8 @@ def _implied_by_residual(g: _Geometry, reach: float) -> bool:
     length = sum(abs(a) + abs(d) for a, d, *_ in g.joints) + lever
     position = ((1.0 + lever) * CALIBRATED_TOLERANCE + 6.0 * VARIANT_SHIFT * (reach + lever)
                 + 2.0 * _ROUNDING_PER_METRE * length)
-    return position <= FK_TOLERANCE_M and 2.0 * (CALIBRATED_TOLERANCE + 6.0 * VARIANT_SHIFT) <= FK_TOLERANCE_RAD
+    return (position <= 0.5 * FK_TOLERANCE_M
+            and 2.0 * (CALIBRATED_TOLERANCE + 6.0 * VARIANT_SHIFT) <= 0.5 * FK_TOLERANCE_RAD)
 
 
 def _joint_terms(g: _Geometry) -> tuple:
