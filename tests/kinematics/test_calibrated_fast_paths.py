@@ -443,3 +443,25 @@ def test_calibrated_seeds_of_the_written_out_equations_are_the_general_ones(name
         for theta6_ref in (0.0, 2.5):
             expected = np.array(_branches(_ScalarOps, g, target, theta6_ref), dtype=float)
             np.testing.assert_array_equal(np.array(single._nominal_branches(g, target, theta6_ref)), expected)
+
+
+@pytest.mark.parametrize("name, seed", MODELS[:2])
+def test_ik_fk_filter_of_shifted_candidates_is_the_filter(name, seed):
+    """nearest._passes takes in-limit variants of Newton's accepted rows as passing (calibrated._fk_implied): the
+    FK filter's verdicts, on ik's candidates of hard configurations (joints at ±2π clamped onto a limit, and
+    variants moved by 5e-11 as by a clamp, included), a TCP included."""
+    model = factory_model(name, seed).with_tcp([0.02, 0.01, 0.2, 0.3, -0.1, 0.2])
+    g = _geometry(model)
+    q = hard_configurations(120, seed + 1000)
+    checked = 0
+    for joints, reference in zip(q, references(q, seed + 1001)):
+        tcp_coefficients, target = _targets(g, model.fk(joints))
+        meets = _fk_check(model, g, tcp_coefficients)
+        for candidate in nearest._solution_candidates(g, target, _wrap_float(reference[5])):
+            variant = nearest._nearest_joints(g, candidate, reference)
+            if math.inf in variant:
+                continue
+            for moved in (variant, tuple(v + 5e-11 for v in variant)):
+                assert nearest._passes(g, meets, moved, candidate) == meets(moved), (joints, moved)
+                checked += 1
+    assert calibrated._fk_implied(g) and checked > 500
