@@ -465,3 +465,22 @@ def test_ik_fk_filter_of_shifted_candidates_is_the_filter(name, seed):
                 assert nearest._passes(g, meets, moved, candidate) == meets(moved), (joints, moved)
                 checked += 1
     assert calibrated._fk_implied(g) and checked > 500
+
+
+def test_refinement_normals_are_the_column_normals_of_its_rows():
+    """_refine_batch's ``normals`` (rows stopping in joint-major steps, at different steps) are _column_normal's
+    JᵀJ at the refined joints, float for float, and _isolated decides alike with and without them."""
+    model = factory_model("ur10e", 23)
+    g = _geometry(model)
+    q = hard_configurations(2 * calibrated._COLUMN_ROWS, 1100)
+    reference = references(q, 1101)
+    targets = np.array([_targets(g, pose)[1] for pose in model.fk_batch(q)])
+    normals = np.full((6, 6, len(q)), np.nan)
+    refined, residual = calibrated._refine_batch(g, reference, targets, normals)
+    known = ~np.isnan(normals[0, 0])
+    assert known.sum() > calibrated._COLUMN_ROWS
+    np.testing.assert_array_equal(normals[:, :, known], calibrated._column_normal(g, refined[known]))
+    rows = np.flatnonzero(residual <= calibrated.CALIBRATED_TOLERANCE)
+    reach = np.full(len(rows), 1e-6)
+    np.testing.assert_array_equal(calibrated._isolated(g, refined[rows], reach, normals[:, :, rows]),
+                                  calibrated._isolated(g, refined[rows], reach))

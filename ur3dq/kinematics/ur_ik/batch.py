@@ -104,7 +104,8 @@ def _calibrated_nearest(model, g: _Geometry, poses: np.ndarray, reference: np.nd
     ranking of the nominal branches' rows gives it too whenever one of them reaches x. Rows not proven are NaN.
     """
     targets = np.stack(_batch_flange_targets(g, poses), axis=-1)
-    refined, residual = _refine_batch(g, reference, targets)
+    normals = np.full((6, 6, len(poses)), np.nan)   # JᵀJ of the final joints, for _isolated
+    refined, residual = _refine_batch(g, reference, targets, normals)
     rows = np.flatnonzero(residual <= CALIBRATED_TOLERANCE)
     variants, cost = _variant_costs(g, refined[rows].T[:, None, :], reference[rows].T[:, None, :], weight)
     joints, cost = variants[:, 0].T, cost[0]
@@ -112,7 +113,7 @@ def _calibrated_nearest(model, g: _Geometry, poses: np.ndarray, reference: np.nd
     rows, joints, cost = rows[fits], joints[fits], cost[fits]
     smallest = 1.0 if weight is None else min(weight)
     reach = 2.0 * (np.sqrt(cost / smallest) + math.sqrt(6.0) * LIMIT_ROUNDING)
-    isolated = _isolated(g, refined[rows], 2.0 * reach)
+    isolated = _isolated(g, refined[rows], 2.0 * reach, normals[:, :, rows])
     rows, joints = rows[isolated], joints[isolated]
     passed = _shifted_rows_filter(model, g, joints, refined[rows], poses[rows])
     out = np.full((len(poses), 6), np.nan)

@@ -319,8 +319,11 @@ def _column_step(frames: tuple, error: np.ndarray, damping: np.ndarray) -> np.nd
     return np.stack(solution, axis=-1)
 
 
-def _refine_batch(g: _Geometry, q: np.ndarray, targets: np.ndarray):
+def _refine_batch(g: _Geometry, q: np.ndarray, targets: np.ndarray, normals=None):
     """Newton steps on the calibrated FK: (refined q (M, 6), final residual norm (M,)); rows of NaN stay NaN.
+
+    ``normals`` (optional, (6, 6, M)): where a row stops in a step of the joint-major kernels its JᵀJ at its final
+    joints is written there (_frames_normal of the step's frames: _isolated's _column_normal, not computed again).
 
     A row whose flange ends facing away from its target (rotated by more than 90°: Newton's rotation error sin φ·axis
     also vanishes at φ = π) has residual inf: every finite residual bounds the flange's distance to its target
@@ -364,12 +367,16 @@ def _refine_batch(g: _Geometry, q: np.ndarray, targets: np.ndarray):
         going = None if every else going_on(norm, previous)
         if step == CALIBRATED_MAX_STEPS or not (every or going.any()):
             q[rows], residual[rows] = current, _faced(norm, error)
+            if columns and normals is not None:
+                normals[:, :, rows] = _frames_normal(frames)
             break
         if columns:   # the kernel's columns are not sliced: rows stopping now take one more solve
             delta = _column_step(frames, error, DAMPING_MATRIX)
         if not (every or going.all()):   # converged rows drop out: a batch's last steps are for a few stragglers
             stop = ~going
             q[rows[stop]], residual[rows[stop]] = current[stop], _faced(norm[stop], error[stop])
+            if columns and normals is not None:
+                normals[:, :, rows[stop]] = _frames_normal(_row_frames(frames, stop))
             rows, current, norm = rows[going], current[going], norm[going]
             if columns:
                 delta = delta[going]
@@ -435,15 +442,27 @@ def _normal_matrices(g: _Geometry, q: np.ndarray) -> np.ndarray:
 
 def _column_normal(g: _Geometry, q: np.ndarray) -> np.ndarray:
     """(6, 6, R) JᵀJ at joints q (R, 6) from the joint-major kernel, each entry one contiguous run of rows."""
-    jacobian = np.empty((6, 6, len(q)))   # (joint, coordinate, row)
-    for joint, column in enumerate(_column_jacobian(_column_frames(g, q)[1])):
+    return _frames_normal(_column_frames(g, q)[1])
+
+
+def _frames_normal(frames: tuple) -> np.ndarray:
+    """(6, 6, R) JᵀJ from _column_frames' (axes, origins) of R rows."""
+    jacobian = np.empty((6, 6, frames[1][6].shape[1]))   # (joint, coordinate, row)
+    for joint, column in enumerate(_column_jacobian(frames)):
         for coordinate, value in enumerate(column):
             jacobian[joint, coordinate] = value
     return np.einsum("irn,jrn->ijn", jacobian, jacobian)   # 3× a matmul of the (R, 6, 6) transposes
 
 
-def _isolated(g: _Geometry, q: np.ndarray, reach: np.ndarray) -> np.ndarray:
+def _row_frames(frames: tuple, rows) -> tuple:
+    """_column_frames' (axes, origins) of the given rows only (the base frame's (3, 1) vectors, first, as they are)."""
+    return tuple([vectors[0]] + [v[:, rows] for v in vectors[1:]] for vectors in frames)
+
+
+def _isolated(g: _Geometry, q: np.ndarray, reach: np.ndarray, normal=None) -> np.ndarray:
     """(M,) whether reach (M,) < _isolation_radius of solutions q (M, 6): no other accepted solution within it.
+    ``normal`` (optional, (6, 6, M), NaN where unknown): _column_normal's JᵀJ of rows that _refine_batch computed
+    (its ``normals``), not computed again.
 
     For _COLUMN_ROWS rows or more without eigenvalues (eigvalsh costs ~2 µs a matrix): the radius exceeds t = reach
     exactly when σ exceeds σ_t = max(√(2·M·gap), min(M·t, M·t/2 + gap/t)) (the larger root of ½·M·t² − σ·t + gap
@@ -456,12 +475,18 @@ def _isolated(g: _Geometry, q: np.ndarray, reach: np.ndarray) -> np.ndarray:
     if not possible.all():
         decided = np.zeros(len(q), dtype=bool)
         if possible.any():
-            decided[possible] = _isolated(g, q[possible], reach[possible])
+            decided[possible] = _isolated(g, q[possible], reach[possible],
+                                          None if normal is None else normal[:, :, possible])
         return decided
     if len(q) < _COLUMN_ROWS:
         return reach < _isolation_radius(g, q)
     needed = np.maximum(math.sqrt(2.0 * bound * gap), np.minimum(bound * reach, 0.5 * bound * reach + gap / reach))
-    normal = _column_normal(g, q)
+    if normal is None:
+        normal = _column_normal(g, q)
+    else:
+        missing = np.isnan(normal[0, 0])
+        if missing.any():
+            normal[:, :, missing] = _column_normal(g, q[missing])
     shift = needed * needed
     lower = [[None] * 6 for _ in range(6)]
     definite = np.ones(len(q), dtype=bool)
