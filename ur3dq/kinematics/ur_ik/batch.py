@@ -8,7 +8,7 @@ import numpy as np
 from ur3dq import dqarray
 from ur3dq.kinematics.ur_ik.batch_kernels import _joints_fk_filter, _regular_branches, _regular_fk_filter
 from ur3dq.kinematics.ur_ik.calibrated import VARIANT_SHIFT, _fk_implied, _isolated, _refine_batch
-from ur3dq.kinematics.ur_ik.equations import _ArrayOps, _ScalarOps, _branches, wrap_angle
+from ur3dq.kinematics.ur_ik.equations import _ArrayOps, _branches, wrap_angle
 from ur3dq.kinematics.ur_ik.fk_filter import _EXACT_UNIT, _within_fk_tolerance
 from ur3dq.kinematics.ur_ik.geometry import (
     LIMIT_ROUNDING,
@@ -23,7 +23,7 @@ from ur3dq.kinematics.ur_ik.geometry import (
     _translation_columns,
 )
 from ur3dq.kinematics.ur_ik.nearest import _weights
-from ur3dq.kinematics.ur_ik.single import _branch_table
+from ur3dq.kinematics.ur_ik.single import _branch_table, _nominal_branches
 
 
 def _batch_poses(poses) -> np.ndarray:
@@ -73,8 +73,9 @@ def _batch_candidates(g: _Geometry, targets: tuple, theta6_ref) -> np.ndarray:
     return columns
 
 
-#: Poses below which the calibrated seeds are solved pose by pose in floats (_ScalarOps, ~10 µs a pose, as ik_all
-#: and ik solve them) rather than once on arrays (~100 µs whatever the poses up to dozens: ~1000 numpy calls).
+#: Poses below which the calibrated seeds are solved pose by pose in floats (single._nominal_branches, ~6 µs a pose,
+#: as ik_all and ik solve them) rather than once on arrays (~100 µs whatever the poses up to dozens: ~1000 numpy
+#: calls).
 _SCALAR_SEED_POSES = 16
 
 
@@ -84,7 +85,7 @@ def _nominal_candidates(g: _Geometry, targets: tuple, theta6_ref) -> np.ndarray:
     count = len(targets[0])
     if count < _SCALAR_SEED_POSES:
         pairs, references = np.stack(targets, axis=-1).tolist(), np.broadcast_to(theta6_ref, (count,)).tolist()
-        return np.array([_branches(_ScalarOps, g, pair, reference) for pair, reference in zip(pairs, references)],
+        return np.array([_nominal_branches(g, pair, reference) for pair, reference in zip(pairs, references)],
                         dtype=float).reshape(count, 8, 6).transpose(2, 1, 0)
     columns = np.empty((6, 8, count))
     for k, branch in enumerate(_branches(_ArrayOps, g, targets, theta6_ref)):
