@@ -31,9 +31,9 @@ def going_on(norm, previous):
 
 
 def refine_row(joints: tuple, q: list, target: tuple, first: int, previous: float) -> tuple:
-    """(joints (6 floats), final error norm, inf facing away) of Newton on one row from q (6 floats), its step
-    ``first`` onwards (error ``previous`` before it), the stopping rule and residual of calibrated._refine_batch;
-    ``joints`` from float_joints, ``target`` as float_residual takes it."""
+    """(joints (6 floats), final error norm: inf where the flange ends facing away) of Newton on one row from q
+    (6 floats), its step ``first`` onwards (error ``previous`` before it), the stopping rule and residual of
+    calibrated._refine_batch; ``joints`` from float_joints, ``target`` as float_residual takes it."""
     for step in range(first, CALIBRATED_MAX_STEPS + 1):
         end, frames = float_frames(joints, q)
         error = float_residual(end, frames, target)
