@@ -13,8 +13,9 @@ import numpy as np
 import pytest
 
 from calibrated_arms import factory_model
+from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import UnreachablePoseError
-from ur3dq.kinematics.ur_ik import calibrated, nearest, newton_floats
+from ur3dq.kinematics.ur_ik import calibrated, nearest, newton_floats, single
 from ur3dq.kinematics.ur_ik.calibrated import _refine_calibrated
 from ur3dq.kinematics.ur_ik.equations import _ScalarOps, _branches, _wrap_float, wrap_angle
 from ur3dq.kinematics.ur_ik.fk_filter import _fk_check, _reference, _targets
@@ -267,7 +268,7 @@ def test_float_kernels_give_the_batched_quantities():
         row_error = newton_floats.float_residual(end, row_frames, pair)
         # The rounding floor of a factory table's position (its ±440 m offsets cancel): ~1e-12 m.
         np.testing.assert_allclose(row_error, error[row], rtol=0, atol=1e-11)
-        row_step = newton_floats.float_step(row_frames, row_error, calibrated.DAMPING_MATRIX)
+        row_step = newton_floats.float_step(row_frames, row_error[:6], calibrated.DAMPING_MATRIX)
         # Its error moves the step by ≤ 1e-11/σ, and the normal equations' rounding by ~1e-16·|Δq|·(|J|/σ)².
         sigma = least_singular_value(model, q[row])
         np.testing.assert_allclose(row_step, step[row], rtol=0,
@@ -330,3 +331,156 @@ def test_a_seed_with_an_exactly_singular_jacobian_takes_a_least_squares_step():
     singular[0, :5, :5] = np.eye(5)
     step = newton_floats.damped_solve(singular, np.ones((1, 6, 1)))
     np.testing.assert_allclose(step[0, :, 0], [1.0] * 5 + [0.0])
+
+
+@pytest.mark.parametrize("name, seed, tcp", [("ur3", 21, None), ("ur10e", 23, [0.01, -0.02, 0.3, 0.1, 0.2, -0.3])])
+def test_ik_all_without_its_fk_filter_keeps_what_the_filter_kept(name, seed, tcp, monkeypatch):
+    """Where Newton's acceptance implies the FK filter (calibrated._fk_implied: factory tables, a TCP included),
+    ik_all skips it: the very solutions of the filtered path, on hard configurations."""
+    model = factory_model(name, seed)
+    model = model if tcp is None else model.with_tcp(tcp)
+    assert calibrated._fk_implied(_geometry(model))
+    for joints in hard_configurations(200, seed + 700):
+        pose = model.fk(joints)
+        try:
+            solutions = np.array(model.ik_all(pose))
+        except UnreachablePoseError:
+            solutions = np.empty((0, 6))
+        with monkeypatch.context() as patched:
+            patched.setattr(single, "_fk_implied", lambda g: False)
+            try:
+                filtered = np.array(model.ik_all(pose))
+            except UnreachablePoseError:
+                filtered = np.empty((0, 6))
+        np.testing.assert_array_equal(solutions, filtered)
+
+
+def test_the_fk_filter_stays_for_a_tcp_far_from_the_flange():
+    """A TCP 20 m from the flange turns Newton's 1e-10 rad into 2e-9 m there: the filter is no longer implied, and
+    ik_all still finds the configuration."""
+    model = factory_model("ur5e", 22).with_tcp([0.0, 0.0, 20.0, 0.0, 0.0, 0.0])
+    assert not calibrated._fk_implied(_geometry(model))
+    q = np.array([0.3, -1.2, 1.1, -0.4, 0.9, 0.2])
+    assert any(np.allclose(solution, q, rtol=0, atol=1e-8) for solution in model.ik_all(model.fk(q)))
+
+
+def test_a_row_at_zero_error_facing_away_from_its_target_is_no_solution():
+    """Newton's rotation error sin φ·axis vanishes at φ = π: a flange turned half a turn about its z axis from the
+    target has zero error, yet is no solution. Every kernel (batched matrices, joint-major columns, floats) reports
+    its residual as inf, from the trace of R_t·Rᵀ; the target itself converges."""
+    model = factory_model("ur10e", 24)
+    g = _geometry(model)
+    q = np.array([0.3, -1.2, 1.1, -0.4, 0.9, 0.2])
+    _, target = _targets(g, model.fk(q))
+    _, turned = _targets(g, model.fk(q) * DualQuaternion.from_axis_angle([0.0, 0.0, 1.0], math.pi))
+    rotation, position = calibrated._target_matrices(np.array(turned)[None])
+    error, _ = calibrated._matrix_residual(calibrated._joint_terms(g), q[None], (rotation, position))
+    assert np.abs(error[0, :6]).max() < 1e-12 and error[0, 6] < -0.99
+    for rows in (1, 3, calibrated._COLUMN_ROWS):
+        _, residual = calibrated._refine_batch(g, np.tile(q, (rows, 1)), np.array(turned)[None])
+        assert np.isinf(residual).all(), rows
+        _, residual = calibrated._refine_batch(g, np.tile(q, (rows, 1)), np.array(target)[None])
+        assert (residual <= calibrated.CALIBRATED_TOLERANCE).all(), rows
+    pair = tuple(rotation[0].ravel()) + tuple(position[0])
+    assert newton_floats.refine_row(newton_floats.float_joints(g.joints), q.tolist(), pair, 0, math.inf)[1] == math.inf
+    assert _refine_calibrated(g, [tuple(q)], turned) == []
+    assert len(_refine_calibrated(g, [tuple(q)], target)) == 1
+
+
+@pytest.mark.parametrize("name, seed", MODELS[1:3])
+def test_ik_batch_fk_filter_of_shifted_rows_is_the_filter(name, seed):
+    """batch._shifted_rows_filter passes ±2π variants of Newton's accepted rows unchecked (calibrated._fk_implied)
+    and checks the others: its verdicts are the FK filter's, variants clamped onto ±2π limits and a TCP included."""
+    from ur3dq.kinematics.ur_ik import batch
+    from ur3dq.kinematics.ur_ik.fk_filter import _within_fk_tolerance
+    model = factory_model(name, seed).with_tcp([0.02, 0.01, 0.2, 0.3, -0.1, 0.2])
+    g = _geometry(model)
+    q = hard_configurations(400, seed + 800)
+    poses = batch._batch_poses(model.fk_batch(q))
+    reference = references(q, seed + 801)
+    targets = np.stack(batch._batch_flange_targets(g, poses), axis=-1)
+    refined, residual = calibrated._refine_batch(g, reference, targets)
+    rows = np.flatnonzero(residual <= calibrated.CALIBRATED_TOLERANCE)
+    joints = batch._variant_costs(g, refined[rows].T[:, None, :], reference[rows].T[:, None, :], None)[0][:, 0].T
+    rows, joints = rows[~np.isnan(joints).any(axis=1)], joints[~np.isnan(joints).any(axis=1)]
+    shifted = joints + np.where(np.arange(len(joints)) % 7 == 0, 5e-11, 0.0)[:, None]   # some moved as by a clamp
+    for candidate in (joints, shifted):
+        fk = model.fk_batch(candidate)
+        expected = _within_fk_tolerance(np.ascontiguousarray(fk.T), np.ascontiguousarray(poses[rows].T))
+        verdict = batch._shifted_rows_filter(model, g, candidate, refined[rows], poses[rows])
+        np.testing.assert_array_equal(verdict, expected)
+    assert calibrated._fk_implied(g) and len(rows) > 300
+
+
+def test_refined_rows_filter_is_the_fk_filter():
+    """batch._refined_filter takes Newton's accepted, wrapped rows as passing where calibrated._fk_implied: the
+    FK filter's mask (batch._fk_filter) on the refined branches of hard configurations, a TCP included."""
+    from ur3dq.kinematics.ur_ik import batch
+    model = factory_model("ur3", 21).with_tcp([0.02, 0.01, 0.2, 0.3, -0.1, 0.2])
+    g = _geometry(model)
+    poses = batch._batch_poses(model.fk_batch(hard_configurations(300, 901)))
+    theta6_ref = np.random.default_rng(902).uniform(-math.pi, math.pi, len(poses))
+    columns = batch._batch_candidates(g, batch._batch_flange_targets(g, poses), theta6_ref)
+    expected = batch._fk_filter(model, columns, poses)
+    np.testing.assert_array_equal(batch._refined_filter(model, g, columns, poses), expected)
+    assert calibrated._fk_implied(g) and expected.sum() > 1000
+
+
+@pytest.mark.parametrize("name, seed", MODELS)
+def test_calibrated_seeds_of_the_written_out_equations_are_the_general_ones(name, seed):
+    """ik_all and ik seed Newton with single._nominal_branches: on factory tables (their domain slack and edge)
+    the very floats of equations._branches, near singularities, at ±2π and beyond the reach included."""
+    from ur3dq.kinematics.ur_ik import single
+    model = factory_model(name, seed)
+    g = _geometry(model)
+    q = hard_configurations(300, seed + 900)
+    stretched = q[::10].copy()
+    stretched[:, 2] = 0.0
+    poses = [model.fk(joints) for joints in np.concatenate((q, stretched))]
+    far = [pose * DualQuaternion.from_translation([0.0, 0.0, 0.05 * k]) for k, pose in enumerate(poses[::7])]
+    for pose in poses + far:
+        _, target = _targets(g, pose)
+        for theta6_ref in (0.0, 2.5):
+            expected = np.array(_branches(_ScalarOps, g, target, theta6_ref), dtype=float)
+            np.testing.assert_array_equal(np.array(single._nominal_branches(g, target, theta6_ref)), expected)
+
+
+@pytest.mark.parametrize("name, seed", MODELS[:2])
+def test_ik_fk_filter_of_shifted_candidates_is_the_filter(name, seed):
+    """nearest._passes takes in-limit variants of Newton's accepted rows as passing (calibrated._fk_implied): the
+    FK filter's verdicts, on ik's candidates of hard configurations (joints at ±2π clamped onto a limit, and
+    variants moved by 5e-11 as by a clamp, included), a TCP included."""
+    model = factory_model(name, seed).with_tcp([0.02, 0.01, 0.2, 0.3, -0.1, 0.2])
+    g = _geometry(model)
+    q = hard_configurations(120, seed + 1000)
+    checked = 0
+    for joints, reference in zip(q, references(q, seed + 1001)):
+        tcp_coefficients, target = _targets(g, model.fk(joints))
+        meets = _fk_check(model, g, tcp_coefficients)
+        for candidate in nearest._solution_candidates(g, target, _wrap_float(reference[5])):
+            variant = nearest._nearest_joints(g, candidate, reference)
+            if math.inf in variant:
+                continue
+            for moved in (variant, tuple(v + 5e-11 for v in variant)):
+                assert nearest._passes(g, meets, moved, candidate) == meets(moved), (joints, moved)
+                checked += 1
+    assert calibrated._fk_implied(g) and checked > 500
+
+
+def test_refinement_normals_are_the_column_normals_of_its_rows():
+    """_refine_batch's ``normals`` (rows stopping in joint-major steps, at different steps) are _column_normal's
+    JᵀJ at the refined joints, float for float, and _isolated decides alike with and without them."""
+    model = factory_model("ur10e", 23)
+    g = _geometry(model)
+    q = hard_configurations(2 * calibrated._COLUMN_ROWS, 1100)
+    reference = references(q, 1101)
+    targets = np.array([_targets(g, pose)[1] for pose in model.fk_batch(q)])
+    normals = np.full((6, 6, len(q)), np.nan)
+    refined, residual = calibrated._refine_batch(g, reference, targets, normals)
+    known = ~np.isnan(normals[0, 0])
+    assert known.sum() > calibrated._COLUMN_ROWS
+    np.testing.assert_array_equal(normals[:, :, known], calibrated._column_normal(g, refined[known]))
+    rows = np.flatnonzero(residual <= calibrated.CALIBRATED_TOLERANCE)
+    reach = np.full(len(rows), 1e-6)
+    np.testing.assert_array_equal(calibrated._isolated(g, refined[rows], reach, normals[:, :, rows]),
+                                  calibrated._isolated(g, refined[rows], reach))

@@ -7,8 +7,8 @@ import numpy as np
 
 from ur3dq import dqarray
 from ur3dq.kinematics.ur_ik.batch_kernels import _joints_fk_filter, _regular_branches, _regular_fk_filter
-from ur3dq.kinematics.ur_ik.calibrated import _isolated, _refine_batch
-from ur3dq.kinematics.ur_ik.equations import _ArrayOps, _ScalarOps, _branches, wrap_angle
+from ur3dq.kinematics.ur_ik.calibrated import VARIANT_SHIFT, _fk_implied, _isolated, _refine_batch
+from ur3dq.kinematics.ur_ik.equations import _ArrayOps, _branches, wrap_angle
 from ur3dq.kinematics.ur_ik.fk_filter import _EXACT_UNIT, _within_fk_tolerance
 from ur3dq.kinematics.ur_ik.geometry import (
     LIMIT_ROUNDING,
@@ -23,7 +23,7 @@ from ur3dq.kinematics.ur_ik.geometry import (
     _translation_columns,
 )
 from ur3dq.kinematics.ur_ik.nearest import _weights
-from ur3dq.kinematics.ur_ik.single import _branch_table
+from ur3dq.kinematics.ur_ik.single import _branch_table, _nominal_branches
 
 
 def _batch_poses(poses) -> np.ndarray:
@@ -73,8 +73,9 @@ def _batch_candidates(g: _Geometry, targets: tuple, theta6_ref) -> np.ndarray:
     return columns
 
 
-#: Poses below which the calibrated seeds are solved pose by pose in floats (_ScalarOps, ~10 µs a pose, as ik_all
-#: and ik solve them) rather than once on arrays (~100 µs whatever the poses up to dozens: ~1000 numpy calls).
+#: Poses below which the calibrated seeds are solved pose by pose in floats (single._nominal_branches, ~6 µs a pose,
+#: as ik_all and ik solve them) rather than once on arrays (~100 µs whatever the poses up to dozens: ~1000 numpy
+#: calls).
 _SCALAR_SEED_POSES = 16
 
 
@@ -84,7 +85,7 @@ def _nominal_candidates(g: _Geometry, targets: tuple, theta6_ref) -> np.ndarray:
     count = len(targets[0])
     if count < _SCALAR_SEED_POSES:
         pairs, references = np.stack(targets, axis=-1).tolist(), np.broadcast_to(theta6_ref, (count,)).tolist()
-        return np.array([_branches(_ScalarOps, g, pair, reference) for pair, reference in zip(pairs, references)],
+        return np.array([_nominal_branches(g, pair, reference) for pair, reference in zip(pairs, references)],
                         dtype=float).reshape(count, 8, 6).transpose(2, 1, 0)
     columns = np.empty((6, 8, count))
     for k, branch in enumerate(_branches(_ArrayOps, g, targets, theta6_ref)):
@@ -104,7 +105,8 @@ def _calibrated_nearest(model, g: _Geometry, poses: np.ndarray, reference: np.nd
     ranking of the nominal branches' rows gives it too whenever one of them reaches x. Rows not proven are NaN.
     """
     targets = np.stack(_batch_flange_targets(g, poses), axis=-1)
-    refined, residual = _refine_batch(g, reference, targets)
+    normals = np.full((6, 6, len(poses)), np.nan)   # JᵀJ of the final joints, for _isolated
+    refined, residual = _refine_batch(g, reference, targets, normals)
     rows = np.flatnonzero(residual <= CALIBRATED_TOLERANCE)
     variants, cost = _variant_costs(g, refined[rows].T[:, None, :], reference[rows].T[:, None, :], weight)
     joints, cost = variants[:, 0].T, cost[0]
@@ -112,15 +114,31 @@ def _calibrated_nearest(model, g: _Geometry, poses: np.ndarray, reference: np.nd
     rows, joints, cost = rows[fits], joints[fits], cost[fits]
     smallest = 1.0 if weight is None else min(weight)
     reach = 2.0 * (np.sqrt(cost / smallest) + math.sqrt(6.0) * LIMIT_ROUNDING)
-    isolated = _isolated(g, refined[rows], 2.0 * reach)
+    isolated = _isolated(g, refined[rows], 2.0 * reach, normals[:, :, rows])
     rows, joints = rows[isolated], joints[isolated]
-    fk = model.fk_batch(joints)
-    passed = _within_fk_tolerance(np.ascontiguousarray(fk.T), np.ascontiguousarray(poses[rows].T))
+    passed = _shifted_rows_filter(model, g, joints, refined[rows], poses[rows])
     out = np.full((len(poses), 6), np.nan)
     out[rows[passed]] = joints[passed]
     proven = np.zeros(len(poses), dtype=bool)
     proven[rows[passed]] = True
     return out, proven, np.where((residual <= CALIBRATED_TOLERANCE)[:, None], refined, np.nan)
+
+
+def _shifted_rows_filter(model, g: _Geometry, joints: np.ndarray, refined: np.ndarray, poses: np.ndarray):
+    """(M,) the FK filter of ``joints`` (M, 6), ±2π variants of Newton's accepted rows ``refined`` (M, 6), against
+    poses (M, 8): known to pass where each joint lies within VARIANT_SHIFT of a 2π shift of its Newton joint and
+    the geometry allows (calibrated._fk_implied; ~0.7 µs a row of fk_batch saved), checked for the others (a joint
+    clamped onto a limit)."""
+    check = np.arange(len(joints))
+    if _fk_implied(g):
+        shift = joints - refined
+        shift -= _TWO_PI * np.rint(shift / _TWO_PI)
+        check = np.flatnonzero((np.abs(shift) > VARIANT_SHIFT).any(axis=1))
+    passed = np.ones(len(joints), dtype=bool)
+    if check.size:
+        fk = model.fk_batch(joints[check])
+        passed[check] = _within_fk_tolerance(np.ascontiguousarray(fk.T), np.ascontiguousarray(poses[check].T))
+    return passed
 
 
 def _calibrated_ranking(model, g: _Geometry, poses: np.ndarray, theta6_ref: np.ndarray, rows: np.ndarray) -> tuple:
@@ -131,7 +149,16 @@ def _calibrated_ranking(model, g: _Geometry, poses: np.ndarray, theta6_ref: np.n
     _, columns, valid, _ = next(_solved_blocks(model, g, poses, theta6_ref))
     reference_rows = wrap_angle(rows.T)[:, None, :]
     return (np.concatenate((columns, reference_rows), axis=1),
-            np.concatenate((valid, _fk_filter(model, reference_rows, poses))))
+            np.concatenate((valid, _refined_filter(model, g, reference_rows, poses))))
+
+
+def _refined_filter(model, g: _Geometry, columns: np.ndarray, poses: np.ndarray) -> np.ndarray:
+    """(k, N) _fk_filter's mask of Newton's accepted rows (6, k, N) of a calibrated model, wrapped (wrap_angle: a 2π
+    shift, within a few ulps), NaN where absent: known where calibrated._fk_implied (they pass: the mask is where
+    they exist), else from their FK."""
+    if _fk_implied(g):
+        return ~np.isnan(columns).any(axis=0)
+    return _fk_filter(model, columns, poses)
 
 
 def _fk_filter(model, columns: np.ndarray, poses: np.ndarray) -> np.ndarray:
@@ -175,7 +202,8 @@ def _solved_blocks(model, g: _Geometry, poses: np.ndarray, theta6_ref: np.ndarra
     """
     if g.calibrated:
         columns = _batch_candidates(g, _batch_flange_targets(g, poses), theta6_ref)
-        yield slice(0, len(poses)), columns, _fk_filter(model, columns, poses), np.ones(len(poses), dtype=bool)
+        yield (slice(0, len(poses)), columns, _refined_filter(model, g, columns, poses),
+               np.ones(len(poses), dtype=bool))
         return
     redo = []
     for rows, pair, columns, exists, merged, near_singular in _kernel_blocks(g, poses, IK_BLOCK):

@@ -6,9 +6,16 @@ import threading
 
 import numpy as np
 
-from ur3dq.kinematics.ur_ik.geometry import CALIBRATED_MAX_STEPS, CALIBRATED_TOLERANCE, _Geometry
+from ur3dq.kinematics.ur_ik.geometry import (
+    CALIBRATED_MAX_STEPS,
+    CALIBRATED_TOLERANCE,
+    FK_TOLERANCE_M,
+    FK_TOLERANCE_RAD,
+    _Geometry,
+)
 from ur3dq.kinematics.ur_ik.newton_floats import (
     DAMPING_MATRIX,
+    ROUNDING_CEILING,
     damped_solve,
     float_frames,
     float_jacobian,
@@ -33,6 +40,46 @@ def _refine_calibrated(g: _Geometry, branches: list, target) -> list:
     """Newton steps on the calibrated FK from the nominal branches; those that converge, as float tuples."""
     refined, residual = _refine_batch(g, np.array(branches, dtype=float), np.array(target)[None])
     return [tuple(q) for q, r in zip(refined.tolist(), residual.tolist()) if r <= CALIBRATED_TOLERANCE]
+
+
+#: Rounding allowance (m per metre of the chain's Σ|a| + Σ|d| + |TCP|) of one FK evaluation in floats: six joints
+#: each turn the frame's columns (a few ε each, ≲ 30ε accumulated) that the offsets, up to the length, then scale,
+#: and add (ε·length): ≲ 33ε = 7e-15. Measured, the 4×4 chain and the model's dual quaternion FK differ by at most
+#: 3.1e-16 per metre (3000 configurations of three test tables with 3–10 km of cancelling offsets).
+_ROUNDING_PER_METRE = 1e-14
+
+
+#: How far (rad) a joint of a solution may be from an exact 2π multiple of Newton's joint and keep _fk_implied's
+#: verdict: ik_batch's ±2π variants round by a few ulps of 4π (~4e-15); a clamp onto a joint limit moves by up to
+#: LIMIT_ROUNDING, and one beyond this goes through the FK filter.
+VARIANT_SHIFT = 1e-12
+
+
+def _fk_implied(g: _Geometry) -> bool:
+    """Whether every row _refine_batch accepts (residual ≤ CALIBRATED_TOLERANCE) provably meets its pose's FK filter
+    (fk_filter._fk_check), also with each joint moved by a 2π multiple and up to VARIANT_SHIFT; computed once per
+    geometry (_cached_terms, _implied_by_residual).
+
+    Such a row's flange is within its residual of the target: position error ≤ CALIBRATED_TOLERANCE and, facing
+    it (_refine_batch), rotation φ ≤ CALIBRATED_TOLERANCE (rad; the filter allows FK_TOLERANCE_RAD, ten times
+    that). The TCP, at |t| from the flange, then misses by ≤ (1 + |t|)·CALIBRATED_TOLERANCE; six joint shifts turn
+    it by ≤ 6·VARIANT_SHIFT and move it by ≤ 6·VARIANT_SHIFT·(R + |t|), R ≥ the flange's distance from every axis
+    (_curvature_bound's); the Newton residual and the filter's FK each round by ≤ _ROUNDING_PER_METRE·length. When
+    the position stays within half FK_TOLERANCE_M and twice the rotation within half FK_TOLERANCE_RAD (|t| up to
+    ~3 m on factory tables, ~1 m on 10 km of offsets; the other half for what the sums leave out, such as a target
+    quaternion off unit by up to fk_filter._EXACT_UNIT) the filter's verdict is known: True.
+    """
+    return _cached_terms(g)[3]
+
+
+def _implied_by_residual(g: _Geometry, reach: float) -> bool:
+    """_fk_implied's value, from the geometry's lengths, TCP and ``reach`` (R of _curvature_bound)."""
+    lever = 0.0 if g.tcp_offset is None else 2.0 * math.sqrt(sum(v * v for v in g.tcp_offset[1]))
+    length = sum(abs(a) + abs(d) for a, d, *_ in g.joints) + lever
+    position = ((1.0 + lever) * CALIBRATED_TOLERANCE + 6.0 * VARIANT_SHIFT * (reach + lever)
+                + 2.0 * _ROUNDING_PER_METRE * length)
+    return (position <= 0.5 * FK_TOLERANCE_M
+            and 2.0 * (CALIBRATED_TOLERANCE + 6.0 * VARIANT_SHIFT) <= 0.5 * FK_TOLERANCE_RAD)
 
 
 def _joint_terms(g: _Geometry) -> tuple:
@@ -60,7 +107,7 @@ def _curvature_bound(g: _Geometry) -> float:
 
 
 def _cached_terms(g: _Geometry) -> tuple:
-    """(_joint_terms, _curvature_bound, newton_floats.float_joints) of a geometry, computed once."""
+    """(_joint_terms, _curvature_bound, newton_floats.float_joints, _fk_implied) of a geometry, computed once."""
     cached = _TERMS.get(id(g))
     if cached is not None and cached[0] is g:
         return cached[1]
@@ -78,7 +125,8 @@ def _cached_terms(g: _Geometry) -> tuple:
         step = axis * np.dot(foot - origin, axis) + origin - foot   # to the foot of ``foot`` on this axis
         foot, reach = foot + step, reach + float(np.linalg.norm(step))
     reach += float(np.linalg.norm(frames[5, :3, 3] - foot))
-    value = (terms, 6.0 * math.sqrt(reach * reach + 3.0), float_joints(g.joints))
+    value = (terms, 6.0 * math.sqrt(reach * reach + 3.0), float_joints(g.joints),
+             _implied_by_residual(g, reach))
     with _TERMS_LOCK:
         if len(_TERMS) >= 64:
             _TERMS.pop(next(iter(_TERMS)))
@@ -133,9 +181,11 @@ def _target_matrices(targets: np.ndarray) -> tuple:
     return (products @ _ROTATION_OF_PRODUCTS + _IDENTITY_ROWS).reshape(-1, 3, 3), targets[:, 4:]
 
 
-#: (9, 3) map from a row-major 3×3 matrix to the axial vector of its skew part, ½·(m21 − m12, m02 − m20, m10 − m01).
-_AXIAL = np.zeros((9, 3))
-_AXIAL[[7, 2, 3], [0, 1, 2]], _AXIAL[[5, 6, 1], [0, 1, 2]] = 0.5, -0.5
+#: (9, 4) map from a row-major 3×3 matrix to the axial vector of its skew part, ½·(m21 − m12, m02 − m20, m10 − m01),
+#: and its trace m00 + m11 + m22.
+_AXIAL_TRACE = np.zeros((9, 4))
+_AXIAL_TRACE[[7, 2, 3], [0, 1, 2]], _AXIAL_TRACE[[5, 6, 1], [0, 1, 2]] = 0.5, -0.5
+_AXIAL_TRACE[[0, 4, 8], 3] = 1.0
 
 
 #: (9, 3) map from the outer product a ⊗ b (row-major) to a × b: (a1·b2 − a2·b1, a2·b0 − a0·b2, a0·b1 − a1·b0).
@@ -147,14 +197,16 @@ _BASE_ROW_TAIL = np.array([0.0, 0.0, 0.0, 1.0])
 
 
 def _pose_residual(end: np.ndarray, rotation_t: np.ndarray, position_t: np.ndarray) -> np.ndarray:
-    """(M, 6) [position error (m), rotation error (rad, base frame)] from end frames (M, 4, 4) to the targets.
+    """(M, 7) [position error (m), rotation error (rad, base frame), trace of R_t·Rᵀ] from end frames (M, 4, 4) to
+    the targets: the error is the first six columns.
 
     The rotation error is the axial vector of the skew part of R_t·Rᵀ (sin θ·axis): the rotation vector to first
-    order, which is all Newton needs (errors here are small)."""
+    order, which is all Newton needs (errors here are small). It vanishes at θ = π too, which the trace, 1 + 2·cos θ,
+    tells apart (same matmul, no extra numpy call)."""
     relative = rotation_t @ end[:, :3, :3].transpose(0, 2, 1)
-    error = np.empty((len(end), 6))
+    error = np.empty((len(end), 7))
     np.subtract(position_t, end[:, :3, 3], out=error[:, :3])
-    np.matmul(relative.reshape(-1, 9), _AXIAL, out=error[:, 3:])
+    np.matmul(relative.reshape(-1, 9), _AXIAL_TRACE, out=error[:, 3:])
     return error
 
 
@@ -176,22 +228,23 @@ def _jacobian_rows(frames: np.ndarray) -> np.ndarray:
 
 
 def _matrix_residual(terms: tuple, q: np.ndarray, target: tuple) -> tuple:
-    """(error (R, 6), frames (6, R, 4, 4)) of joints q (R, 6) against target (rotation, position) rows."""
+    """(error (R, 7) as _pose_residual's, frames (6, R, 4, 4)) of joints q (R, 6) against target (rotation, position)
+    rows."""
     frames = _chain_frames(terms, q)
     return _pose_residual(frames[5], *target), frames
 
 
 def _matrix_step(frames: np.ndarray, error: np.ndarray, damping: np.ndarray) -> np.ndarray:
     """(R, 6) joint steps solving (JᵀJ + λ²I)·Δq = Jᵀe (numpy's batched LAPACK solve, newton_floats.damped_solve)
-    for frames (6, R, 4, 4)."""
+    for frames (6, R, 4, 4) and errors e (R, ≥ 6: _pose_residual's, the trace column unused)."""
     transposed = _jacobian_rows(frames).transpose(1, 0, 2)   # (R, 6, 6): Jᵀ
     normal = transposed @ transposed.transpose(0, 2, 1)
     normal += damping
-    return damped_solve(normal, transposed @ error[:, :, None])[..., 0]
+    return damped_solve(normal, transposed @ error[:, :6, None])[..., 0]
 
 
 def _column_residual(g: _Geometry, q: np.ndarray, target: tuple) -> tuple:
-    """(error (R, 6), (axes, origins) of frames 0…6) of joints q (R, 6): the matrix path's quantities, joint-major.
+    """(error (R, 7), (axes, origins) of frames 0…6) of joints q (R, 6): the matrix path's quantities, joint-major.
 
     Every coordinate is an (R,) array (row of a (3, R) vector) and the chain is written out per column:
     for thousands of rows numpy's batched 4×4 matmuls and 6×6 LAPACK solves cost ~0.3 µs and ~0.8 µs per matrix,
@@ -199,7 +252,7 @@ def _column_residual(g: _Geometry, q: np.ndarray, target: tuple) -> tuple:
     """
     end, frames = _column_frames(g, q)
     rotation_t, position_t = target
-    error = np.empty((len(q), 6))
+    error = np.empty((len(q), 7))
     for k in range(3):
         np.subtract(position_t[:, k], frames[1][6][k], out=error[:, k])
     # ½·Σ_c r_c × t_c over the columns c of the end rotation and the target's: the axial vector of the skew part
@@ -207,6 +260,7 @@ def _column_residual(g: _Geometry, q: np.ndarray, target: tuple) -> tuple:
     for k, (i, j) in enumerate(((1, 2), (2, 0), (0, 1))):
         error[:, 3 + k] = 0.5 * sum(end[c][i] * rotation_t[:, j, c] - end[c][j] * rotation_t[:, i, c]
                                     for c in range(3))
+    error[:, 6] = sum(end[c][k] * rotation_t[:, k, c] for c in range(3) for k in range(3))   # Σ_c r_c · t_c
     return error, frames
 
 
@@ -265,8 +319,15 @@ def _column_step(frames: tuple, error: np.ndarray, damping: np.ndarray) -> np.nd
     return np.stack(solution, axis=-1)
 
 
-def _refine_batch(g: _Geometry, q: np.ndarray, targets: np.ndarray):
+def _refine_batch(g: _Geometry, q: np.ndarray, targets: np.ndarray, normals=None):
     """Newton steps on the calibrated FK: (refined q (M, 6), final residual norm (M,)); rows of NaN stay NaN.
+
+    ``normals`` (optional, (6, 6, M)): where a row stops in a step of the joint-major kernels its JᵀJ at its final
+    joints is written there (_frames_normal of the step's frames: _isolated's _column_normal, not computed again).
+
+    A row whose flange ends facing away from its target (rotated by more than 90°: Newton's rotation error sin φ·axis
+    also vanishes at φ = π) has residual inf: every finite residual bounds the flange's distance to its target
+    (position, and rotation angle φ = asin|sin φ|), what calibrated._fk_implied builds on.
 
     ``targets``: (M, 7) pairs, or one (1, 7) pair shared by every row.
     A row stops when it is 100× inside CALIBRATED_TOLERANCE; when, already below ROUNDING_CEILING, a step no
@@ -298,16 +359,24 @@ def _refine_batch(g: _Geometry, q: np.ndarray, targets: np.ndarray):
         columns = len(rows) >= _COLUMN_ROWS
         error, frames = (_column_residual(g, current, target) if columns
                          else _matrix_residual(terms, current, target))
-        norm = np.sqrt(np.einsum("ij,ij->i", error, error))
-        residual[rows] = norm
-        going = going_on(norm, previous)   # NaN rows (absent branches) stop
-        if step == CALIBRATED_MAX_STEPS or not going.any():
-            q[rows] = current
+        pose_error = error[:, :6]
+        norm = np.sqrt(np.einsum("ij,ij->i", pose_error, pose_error))
+        # Rows at or above ROUNDING_CEILING all go on (going_on): one reduction instead of its six operations and
+        # two more, in most steps. False for NaN (an absent branch), which going_on stops.
+        every = len(norm) > 0 and norm.min() >= ROUNDING_CEILING
+        going = None if every else going_on(norm, previous)
+        if step == CALIBRATED_MAX_STEPS or not (every or going.any()):
+            q[rows], residual[rows] = current, _faced(norm, error)
+            if columns and normals is not None:
+                normals[:, :, rows] = _frames_normal(frames)
             break
         if columns:   # the kernel's columns are not sliced: rows stopping now take one more solve
             delta = _column_step(frames, error, DAMPING_MATRIX)
-        if not going.all():   # converged rows drop out: a batch's last steps are for a few stragglers
-            q[rows[~going]] = current[~going]
+        if not (every or going.all()):   # converged rows drop out: a batch's last steps are for a few stragglers
+            stop = ~going
+            q[rows[stop]], residual[rows[stop]] = current[stop], _faced(norm[stop], error[stop])
+            if columns and normals is not None:
+                normals[:, :, rows[stop]] = _frames_normal(_row_frames(frames, stop))
             rows, current, norm = rows[going], current[going], norm[going]
             if columns:
                 delta = delta[going]
@@ -316,6 +385,12 @@ def _refine_batch(g: _Geometry, q: np.ndarray, targets: np.ndarray):
         current = current + (delta if columns else _matrix_step(frames, error, DAMPING_MATRIX))
         previous = norm
     return q, residual
+
+
+def _faced(norm: np.ndarray, error: np.ndarray) -> np.ndarray:
+    """The residuals _refine_batch reports for error norms (R,) of errors (R, 7) (_pose_residual's): inf where the
+    trace of R_t·Rᵀ, 1 + 2·cos φ, is not above 1."""
+    return np.where(error[:, 6] > 1.0, norm, np.inf)
 
 
 def _refine_in_floats(g: _Geometry, q: np.ndarray, residual: np.ndarray, state: tuple, target: tuple, step: int):
@@ -367,15 +442,27 @@ def _normal_matrices(g: _Geometry, q: np.ndarray) -> np.ndarray:
 
 def _column_normal(g: _Geometry, q: np.ndarray) -> np.ndarray:
     """(6, 6, R) JᵀJ at joints q (R, 6) from the joint-major kernel, each entry one contiguous run of rows."""
-    jacobian = np.empty((6, 6, len(q)))   # (joint, coordinate, row)
-    for joint, column in enumerate(_column_jacobian(_column_frames(g, q)[1])):
+    return _frames_normal(_column_frames(g, q)[1])
+
+
+def _frames_normal(frames: tuple) -> np.ndarray:
+    """(6, 6, R) JᵀJ from _column_frames' (axes, origins) of R rows."""
+    jacobian = np.empty((6, 6, frames[1][6].shape[1]))   # (joint, coordinate, row)
+    for joint, column in enumerate(_column_jacobian(frames)):
         for coordinate, value in enumerate(column):
             jacobian[joint, coordinate] = value
     return np.einsum("irn,jrn->ijn", jacobian, jacobian)   # 3× a matmul of the (R, 6, 6) transposes
 
 
-def _isolated(g: _Geometry, q: np.ndarray, reach: np.ndarray) -> np.ndarray:
+def _row_frames(frames: tuple, rows) -> tuple:
+    """_column_frames' (axes, origins) of the given rows only (the base frame's (3, 1) vectors, first, as they are)."""
+    return tuple([vectors[0]] + [v[:, rows] for v in vectors[1:]] for vectors in frames)
+
+
+def _isolated(g: _Geometry, q: np.ndarray, reach: np.ndarray, normal=None) -> np.ndarray:
     """(M,) whether reach (M,) < _isolation_radius of solutions q (M, 6): no other accepted solution within it.
+    ``normal`` (optional, (6, 6, M), NaN where unknown): _column_normal's JᵀJ of rows that _refine_batch computed
+    (its ``normals``), not computed again.
 
     For _COLUMN_ROWS rows or more without eigenvalues (eigvalsh costs ~2 µs a matrix): the radius exceeds t = reach
     exactly when σ exceeds σ_t = max(√(2·M·gap), min(M·t, M·t/2 + gap/t)) (the larger root of ½·M·t² − σ·t + gap
@@ -388,12 +475,18 @@ def _isolated(g: _Geometry, q: np.ndarray, reach: np.ndarray) -> np.ndarray:
     if not possible.all():
         decided = np.zeros(len(q), dtype=bool)
         if possible.any():
-            decided[possible] = _isolated(g, q[possible], reach[possible])
+            decided[possible] = _isolated(g, q[possible], reach[possible],
+                                          None if normal is None else normal[:, :, possible])
         return decided
     if len(q) < _COLUMN_ROWS:
         return reach < _isolation_radius(g, q)
     needed = np.maximum(math.sqrt(2.0 * bound * gap), np.minimum(bound * reach, 0.5 * bound * reach + gap / reach))
-    normal = _column_normal(g, q)
+    if normal is None:
+        normal = _column_normal(g, q)
+    else:
+        missing = np.isnan(normal[0, 0])
+        if missing.any():
+            normal[:, :, missing] = _column_normal(g, q[missing])
     shift = needed * needed
     lower = [[None] * 6 for _ in range(6)]
     definite = np.ones(len(q), dtype=bool)

@@ -6,7 +6,7 @@ import math
 import numpy as np
 
 from ur3dq.errors import UnreachablePoseError
-from ur3dq.kinematics.ur_ik.calibrated import _isolated, _refine_batch
+from ur3dq.kinematics.ur_ik.calibrated import VARIANT_SHIFT, _fk_implied, _isolated, _refine_batch
 from ur3dq.kinematics.ur_ik.equations import (
     _ScalarOps,
     _elbow_for_wrist,
@@ -245,10 +245,21 @@ def ik(model, pose, q_ref, weights=None) -> np.ndarray:
     row = None
     if g.calibrated:   # usually one Newton row, from the reference
         best, row = _reference_solution(g, target, reference, weight)
-        if best is not None and meets(best):
+        if best is not None and _passes(g, meets, best, row):
             return np.array(best)
     candidates = _solution_candidates(g, target, _wrap_float(reference[5]), row)
     return _ranked_solution(model, g, target, meets, candidates, reference, weight)
+
+
+def _passes(g: _Geometry, meets, joints: tuple, candidate: tuple) -> bool:
+    """The FK filter ``meets`` of ``joints``, the in-limit variants of ``candidate`` (6 floats each): on a calibrated
+    model, where each joint is within VARIANT_SHIFT of a 2π shift of the candidate's (Newton's accepted row, as
+    every calibrated candidate is) and calibrated._fk_implied, known to pass without an FK (~10 µs); else checked
+    (a joint clamped onto a limit, a nominal model's branch)."""
+    if g.calibrated and _fk_implied(g) and all(abs(math.remainder(v - c, _TWO_PI)) <= VARIANT_SHIFT
+                                               for v, c in zip(joints, candidate)):
+        return True
+    return meets(joints)
 
 
 def _ranked_solution(model, g: _Geometry, target, meets, candidates: list, reference, weight) -> np.ndarray:
@@ -262,7 +273,7 @@ def _ranked_solution(model, g: _Geometry, target, meets, candidates: list, refer
         if best is None:
             break
         joints = _nearest_joints(g, best, reference)
-        if meets(joints):
+        if _passes(g, meets, joints, best):
             return np.array(joints)
         remaining.remove(best)
     if any(meets(c) for c in candidates):

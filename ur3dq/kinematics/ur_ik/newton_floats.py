@@ -8,7 +8,7 @@ _column_residual, the step _matrix_step's.
 """
 from __future__ import annotations
 
-from math import cos, sin, sqrt
+from math import cos, inf, sin, sqrt
 
 import numpy as np
 
@@ -31,18 +31,18 @@ def going_on(norm, previous):
 
 
 def refine_row(joints: tuple, q: list, target: tuple, first: int, previous: float) -> tuple:
-    """(joints (6 floats), final error norm) of Newton on one row from q (6 floats), its step ``first`` onwards
-    (error ``previous`` before it), the stopping rule of calibrated._refine_batch; ``joints`` from float_joints,
-    ``target`` as float_residual takes it."""
+    """(joints (6 floats), final error norm: inf where the flange ends facing away) of Newton on one row from q
+    (6 floats), its step ``first`` onwards (error ``previous`` before it), the stopping rule and residual of
+    calibrated._refine_batch; ``joints`` from float_joints, ``target`` as float_residual takes it."""
     for step in range(first, CALIBRATED_MAX_STEPS + 1):
         end, frames = float_frames(joints, q)
         error = float_residual(end, frames, target)
-        norm = sqrt(sum(e * e for e in error))
+        norm = sqrt(sum(e * e for e in error[:6]))
         if step == CALIBRATED_MAX_STEPS or not going_on(norm, previous):
             break
-        q = [v + d for v, d in zip(q, float_step(frames, error, DAMPING_MATRIX))]
+        q = [v + d for v, d in zip(q, float_step(frames, error[:6], DAMPING_MATRIX))]
         previous = norm
-    return q, norm
+    return q, norm if error[6] > 1.0 else inf
 
 
 def float_joints(joints: tuple) -> tuple:
@@ -70,15 +70,17 @@ def float_frames(joints: tuple, q) -> tuple:
 
 
 def float_residual(end: tuple, frames: list, target: tuple) -> tuple:
-    """Pose error (6 floats: position, then the axial vector of R_t·Rᵀ's skew part) of float_frames' end rotation
-    and frames against ``target`` = (R_t row-major (9 floats), position (3 floats)); _column_residual on floats."""
+    """Pose error (6 floats: position, then the axial vector of R_t·Rᵀ's skew part) and trace of R_t·Rᵀ (a 7th
+    float) of float_frames' end rotation and frames against ``target`` = (R_t row-major (9 floats), position
+    (3 floats)); _column_residual on floats."""
     x0, x1, x2, y0, y1, y2, z0, z1, z2 = end
     r00, r01, r02, r10, r11, r12, r20, r21, r22, t0, t1, t2 = target
     _, _, _, p0, p1, p2 = frames[6]
     return (t0 - p0, t1 - p1, t2 - p2,
             0.5 * ((x1 * r20 - x2 * r10) + (y1 * r21 - y2 * r11) + (z1 * r22 - z2 * r12)),
             0.5 * ((x2 * r00 - x0 * r20) + (y2 * r01 - y0 * r21) + (z2 * r02 - z0 * r22)),
-            0.5 * ((x0 * r10 - x1 * r00) + (y0 * r11 - y1 * r01) + (z0 * r12 - z1 * r02)))
+            0.5 * ((x0 * r10 - x1 * r00) + (y0 * r11 - y1 * r01) + (z0 * r12 - z1 * r02)),
+            (x0 * r00 + x1 * r10 + x2 * r20) + (y0 * r01 + y1 * r11 + y2 * r21) + (z0 * r02 + z1 * r12 + z2 * r22))
 
 
 def float_jacobian(frames: list) -> list:
