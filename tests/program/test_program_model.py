@@ -1,9 +1,10 @@
 """The cell-program model (pure): step validation naming the step, relative waypoint resolution, planning, and the
 one URScript program with its step reports and escaped user text."""
+import gc
+
 import numpy as np
 import pytest
 
-from ur3dq.dualquat import DualQuaternion
 from ur3dq.kinematics import robot_model
 from ur3dq.pose import Pose
 from ur3dq.program.plan import plan_program
@@ -57,6 +58,32 @@ def test_cycles_and_missing_bases_name_the_step():
         resolve_targets([RelativeWaypoint("a", "gone")])
     with pytest.raises(ValueError, match=r"its base 'w' is a wait step"):
         resolve_targets([Wait("w", 1), RelativeWaypoint("a", "w")])
+
+
+def test_loading_planning_and_checking_a_program_leave_no_reference_cycle(tmp_path):
+    """A big program's steps are freed by reference counting alone: its load, plan and path check build no
+    reference cycle (a recursive closure in resolve_targets once kept every step alive until the cyclic collector
+    ran, which the collector pauses of ur3dq/collector.py delayed)."""
+    from ur3dq.cli.path_report import check_program
+    from ur3dq.store import PoseStore
+
+    store = PoseStore(tmp_path / "program.json")
+    chain = [pick_waypoint(), RelativeWaypoint("above", "pick", (0, 0, -0.05, 0, 0, 0), "tool"),
+             RelativeWaypoint("higher", "above", (0, 0, 0.02, 0, 0, 0), "base"), Wait("pause", 0.5),
+             DigitalOut("grip", "standard", 0, True)]
+    store.update_program(lambda steps: (chain, None))
+    was = gc.isenabled()
+    gc.collect()
+    gc.disable()
+    try:
+        steps = store.load_program()
+        plan = plan_program(MODEL, select_range(steps, "above", None), resolve_from=steps)
+        result, _ = check_program(MODEL, plan, None, keep_samples=False)
+        assert result.ok and len(plan) == 4
+        del steps, plan, result
+        assert gc.collect() == 0
+    finally:
+        (gc.enable if was else gc.disable)()
 
 
 def test_plan_and_script_of_a_pick_and_place():

@@ -45,34 +45,37 @@ def resolve_targets(steps, relative_only: bool = False) -> dict:
     waypoint's base is missing or not a waypoint, or relative waypoints form a cycle."""
     by_name = {step.name: step for step in steps}
     resolved: dict = {}
-
-    def resolve(step, chain):
-        if step.name in resolved:
-            return resolved[step.name]
-        if isinstance(step, Waypoint):
-            pose = step.pose
-            target = Target(step, pose.dual_quaternion, pose.tcp_offset, pose.robot_model, pose.joints)
-        else:
-            if step.name in chain:
-                loop = " → ".join(repr(name) for name in [*chain[chain.index(step.name):], step.name])
-                raise ValueError(f"{step.who}: relative waypoints form a cycle: {loop}")
-            base = by_name.get(step.base)
-            if base is None:
-                raise ValueError(f"{step.who}: its base waypoint {step.base!r} is not in the program "
-                                 "(removed or renamed?)")
-            if not is_waypoint(base):
-                raise ValueError(f"{step.who}: its base {step.base!r} is a {base.kind} step, not a waypoint")
-            parent = resolve(base, [*chain, step.name])
-            pose = offset_pose(parent.pose, step.offset, step.frame)
-            target = Target(step, tuple(pose.to_array().tolist()), parent.tcp_offset, parent.robot_model,
-                            parent.joints_hint)
-        resolved[step.name] = target
-        return target
-
     for step in steps:
         if is_waypoint(step) and not (relative_only and isinstance(step, Waypoint)):
-            resolve(step, [])
+            _resolve(step, [], by_name, resolved)
     return resolved
+
+
+def _resolve(step, chain: list, by_name: dict, resolved: dict) -> Target:
+    """The Target of waypoint `step`, kept in `resolved` (its relative bases first, through `by_name`); `chain`:
+    the relative waypoints that led here. A function of its own, not a closure: a closure that calls itself is
+    a reference cycle, which would keep the whole program alive until the cyclic collector runs."""
+    if step.name in resolved:
+        return resolved[step.name]
+    if isinstance(step, Waypoint):
+        pose = step.pose
+        target = Target(step, pose.dual_quaternion, pose.tcp_offset, pose.robot_model, pose.joints)
+    else:
+        if step.name in chain:
+            loop = " → ".join(repr(name) for name in [*chain[chain.index(step.name):], step.name])
+            raise ValueError(f"{step.who}: relative waypoints form a cycle: {loop}")
+        base = by_name.get(step.base)
+        if base is None:
+            raise ValueError(f"{step.who}: its base waypoint {step.base!r} is not in the program "
+                             "(removed or renamed?)")
+        if not is_waypoint(base):
+            raise ValueError(f"{step.who}: its base {step.base!r} is a {base.kind} step, not a waypoint")
+        parent = _resolve(base, [*chain, step.name], by_name, resolved)
+        pose = offset_pose(parent.pose, step.offset, step.frame)
+        target = Target(step, tuple(pose.to_array().tolist()), parent.tcp_offset, parent.robot_model,
+                        parent.joints_hint)
+    resolved[step.name] = target
+    return target
 
 
 def check_program(steps) -> None:
