@@ -156,7 +156,7 @@ def _open_urx(host):
     for attempt in range(URX_CONNECT_ATTEMPTS):
         try:
             return _URRobot(host)
-        except urx.ursecmon.TimeoutException as error:
+        except urx.ursecmon.TimeoutException:
             if attempt + 1 == URX_CONNECT_ATTEMPTS:
                 raise RobotConnectionError(f"urx cannot connect to {host}:30002: no valid state packet within "
                                            f"0.5 s ({URX_CONNECT_ATTEMPTS} attempts: the port is silent, slow, or "
