@@ -116,6 +116,9 @@ def list_program(settings: Settings) -> bool:
     return True
 
 
+_TARGET_FORMAT = " ".join(["%.3f"] * 6)   # one %-format per row: a long program's table has 10⁵ of them
+
+
 def plan_rows(plan, first: int):
     """The run-poses plan table's rows, one at a time: #, name, type, target joints (rad, 3 decimals), speed,
     blend, travel, time."""
@@ -125,7 +128,7 @@ def plan_rows(plan, first: int):
             yield str(first + offset), step.name, step.kind, describe(step), "", "", "", ""
             continue
         unit = "rad/s" if planned.move == "joint" else "m/s"
-        yield (str(first + offset), step.name, planned.move, " ".join(f"{q:.3f}" for q in planned.joints.tolist()),
+        yield (str(first + offset), step.name, planned.move, _TARGET_FORMAT % tuple(planned.joints.tolist()),
                f"{planned.speed:.3g} {unit}", f"{planned.blend:.3g}",
                "—" if planned.travel is None else f"{planned.travel:.3f}",
                "—" if planned.duration is None else f"{planned.duration:.2f} s")
