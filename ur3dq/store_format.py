@@ -351,8 +351,8 @@ def own_layout_version(head: str) -> int | None:
 
 def _own_layout(text: str):
     """(version, key, iterator of (index, line number, entry object)) when `text` has the layout ur3dq writes,
-    reading one line at a time (so a big file's entries are never all parsed at once); _NotOwnLayout otherwise
-    (also raised by the iterator at the first line that does not fit)."""
+    reading PARSED_LINES lines at a time (so a big file's entries are never all parsed at once); _NotOwnLayout
+    otherwise (also raised by the iterator at the first batch of lines that does not fit)."""
     head = _OWN_HEAD.match(text)
     if not head or not text.endswith(_OWN_TAIL):
         raise _NotOwnLayout
@@ -427,8 +427,8 @@ def _whole_document(text: str, source: str):
 def parse_document(text: str, source: str) -> tuple[int, list]:
     """(version, steps) of a store file's text; StoreError with `source:line` (where known) and what is wrong.
 
-    Text in ur3dq's own layout is read line by line in chunks of CHUNK entries (bounded memory for big stores,
-    exact line numbers); anything else (a hand-edited layout) is parsed as one JSON document."""
+    Text in ur3dq's own layout is read one entry per line, checked in chunks of CHUNK entries (bounded memory for
+    big stores, exact line numbers); anything else (a hand-edited layout) is parsed as one JSON document."""
     with cyclic_gc_paused():
         return _parse_document(text, source)
 

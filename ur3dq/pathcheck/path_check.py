@@ -75,8 +75,8 @@ class StepReport:
     fraction (n,), joints (n, 6), tcp (n, 3) m (all None when the check was asked not to keep samples); margins:
     {check: smallest margin over the move (≥ 0 passes), in the check's unit: m for clearances, |sin| for
     wrist/elbow, m for shoulder, rad for joint limits, fraction of the maximum for joint speed}; worst: {check:
-    index of the sample with that smallest margin} (both read-only mappings, Figures); end_joints (6,): where the next move starts (None if this one
-    could not be followed); samples: n, how many samples were checked.
+    index of the sample with that smallest margin} (both read-only mappings, Figures); end_joints (6,): where the
+    next move starts (None if this one could not be followed); samples: n, how many samples were checked.
     """
 
     name: str
