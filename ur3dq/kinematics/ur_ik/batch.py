@@ -24,6 +24,7 @@ from ur3dq.kinematics.ur_ik.geometry import (
 )
 from ur3dq.kinematics.ur_ik.nearest import _weights
 from ur3dq.kinematics.ur_ik.single import _branch_table, _nominal_branches
+from ur3dq.kinematics.ur_ik.wrist_turns import TURN_SINE, turned
 
 
 def _batch_poses(poses) -> np.ndarray:
@@ -66,7 +67,11 @@ def _batch_candidates(g: _Geometry, targets: tuple, theta6_ref) -> np.ndarray:
         refined, residual = _refine_batch(g, flat[usable], repeated[usable])
         flat = flat.copy()
         flat[usable] = np.where((residual <= CALIBRATED_TOLERANCE)[:, None], refined, np.nan)
-        columns = np.ascontiguousarray(flat.T).reshape(6, 8, len(targets[0]))
+        seeds, columns = columns, np.ascontiguousarray(flat.T).reshape(6, 8, len(targets[0]))
+        # Beside a singular wrist a pair's seeds may miss its solutions: as ik_all, Newton again from their turns.
+        for pose in np.flatnonzero((np.abs(np.sin(seeds[4])) < TURN_SINE).any(axis=0)):
+            pair = [float(part[pose]) for part in targets]
+            columns[:, :, pose] = turned(g, seeds[:, :, pose].T, columns[:, :, pose].T, pair).T
     # θ2, θ3 come from atan2 already in (−π, π]; θ1, θ4, θ6 are sums and θ5 may be −π.
     for j in (0, 3, 4, 5):
         columns[j] = wrap_angle(columns[j])
