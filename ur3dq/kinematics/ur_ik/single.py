@@ -7,7 +7,7 @@ from itertools import compress
 import numpy as np
 
 from ur3dq.errors import UnreachablePoseError
-from ur3dq.kinematics.ur_ik.calibrated import _fk_implied, _refine_batch
+from ur3dq.kinematics.ur_ik.calibrated import _fk_implied, _refine_batch, _refine_calibrated
 from ur3dq.kinematics.ur_ik.equations import (
     _ScalarOps,
     _elbow_for_wrist,
@@ -39,7 +39,7 @@ from ur3dq.kinematics.ur_ik.geometry import (
     _TWO_PI,
     _geometry,
 )
-from ur3dq.kinematics.ur_ik.wrist_turns import turned
+from ur3dq.kinematics.ur_ik.wrist_turns import beside_singular_wrist, turned
 
 
 def _unreachable_reason(g: _Geometry, target, branches_existed: bool) -> str:
@@ -83,13 +83,15 @@ def _solution_candidates(g: _Geometry, target, theta6_ref: float, reference_row=
     candidates = list(compress(branches, exists))
     if not g.calibrated:
         return candidates
-    rows = np.full((8, 6), math.nan)
-    if candidates:
+    if not candidates:
+        refined = []
+    elif not beside_singular_wrist(branches):
+        refined = _refine_calibrated(g, candidates, target)
+    else:   # a pair's seeds may miss its solutions there: Newton again from their turns where they did
+        rows = np.full((8, 6), math.nan)
         refined, residual = _refine_batch(g, np.array(candidates), np.array(target)[None])
         rows[np.flatnonzero(exists)] = np.where((residual <= CALIBRATED_TOLERANCE)[:, None], refined, math.nan)
-        # Beside a singular wrist a pair's seeds may miss its solutions: Newton again from their turns.
-        rows = turned(g, np.array(branches), rows, target)
-    refined = [tuple(row) for row in rows.tolist() if row[0] == row[0]]
+        refined = [tuple(row) for row in turned(g, np.array(branches), rows, target).tolist() if row[0] == row[0]]
     return refined + ([reference_row] if reference_row is not None else [])
 
 
