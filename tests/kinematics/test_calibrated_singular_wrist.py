@@ -73,3 +73,4 @@ def test_turned_seeds_fill_open_pairs_with_new_solutions_only(name, seed):
         for row in found:
             assert min(distance(row, solution) for solution in solutions) < 1e-12
     assert filled > 0   # the turns ran: these configurations hold pairs whose seeds missed
+

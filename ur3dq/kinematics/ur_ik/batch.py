@@ -434,5 +434,26 @@ def ik_batch(model, poses, q_ref, weights=None) -> np.ndarray:
         blocks = [(rows,) + _redone_rows(model, poses, rows, theta6_ref)] if redo else []
     for rows, columns, valid, *_ in blocks:
         variants, cost = _variant_costs(g, columns, reference[rows].T[:, None, :], weight)
-        out[rows] = _chosen(variants, *_select(cost, valid)).T
+        out[rows] = _ranked_choice(model, g, (columns, variants, cost, valid), poses[rows]).T
     return out
+
+
+def _ranked_choice(model, g: _Geometry, ranking: tuple, poses: np.ndarray) -> np.ndarray:
+    """(6, R) per pose (R, 8) the in-limit variants of its least-cost allowed branch, ``ranking`` = (branches
+    (6, k, R), their variants (6, k, R), costs (k, R), allowed (k, R)); NaN where none is allowed.
+
+    On a calibrated model the winner's variants pass the FK filter as ik's ranking requires (nearest._passes,
+    _shifted_rows_filter's rule: known where each joint is a 2π shift of Newton's, checked where one is clamped
+    onto a limit), a rejected branch dropped and the next taken: a 50 m tool turns a 1e-10 rad clamp into 5e-9 m."""
+    columns, variants, cost, valid = ranking
+    best, least = _select(cost, valid)
+    while g.calibrated:
+        picked = np.flatnonzero(least < np.inf)
+        joints = _chosen(variants, best, least)[:, picked]
+        failed = picked[~_shifted_rows_filter(model, g, joints.T, columns[:, best[picked], picked].T, poses[picked])]
+        if not failed.size:
+            break
+        valid = valid.copy()
+        valid[best[failed], failed] = False
+        best[failed], least[failed] = _select(cost[:, failed], valid[:, failed])
+    return _chosen(variants, best, least)
