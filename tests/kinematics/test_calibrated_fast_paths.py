@@ -15,7 +15,7 @@ import pytest
 from calibrated_arms import factory_model
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import UnreachablePoseError
-from ur3dq.kinematics.ur_ik import calibrated, nearest, newton_floats, single
+from ur3dq.kinematics.ur_ik import calibrated, nearest, newton_floats, single, wrist_turns
 from ur3dq.kinematics.ur_ik.calibrated import _refine_calibrated
 from ur3dq.kinematics.ur_ik.equations import _ScalarOps, _branches, _wrap_float, wrap_angle
 from ur3dq.kinematics.ur_ik.fk_filter import _fk_check, _reference, _targets
@@ -77,10 +77,19 @@ def ranked(model, pose, reference, weights=None):
     tcp_coefficients, target = _targets(g, pose)
     weight = nearest._weights(weights)
     reference = _reference(reference)
-    # The candidates as ik made them before: Newton from the nominal branches and the reference, in one batch.
-    seeds = [branch for branch in _branches(_ScalarOps, g, target, _wrap_float(reference[5]))
-             if branch[0] == branch[0] and branch[1] == branch[1]] + [reference]
-    candidates = _refine_calibrated(g, seeds, target)
+    # The candidates as ik made them before: Newton from the nominal branches and the reference, in one batch;
+    # and the solutions Newton reaches from the turns of a pair of seeds beside a singular wrist (wrist_turns).
+    branches = _branches(_ScalarOps, g, target, _wrap_float(reference[5]))
+    exists = [branch[0] == branch[0] and branch[1] == branch[1] for branch in branches]
+    seeds = [branch for branch, present in zip(branches, exists) if present]
+    candidates = _refine_calibrated(g, seeds + [reference], target)
+    if seeds:
+        rows = np.full((8, 6), np.nan)
+        refined, residual = calibrated._refine_batch(g, np.array(seeds), np.array(target)[None])
+        rows[exists] = np.where((residual <= calibrated.CALIBRATED_TOLERANCE)[:, None], refined, np.nan)
+        filled = wrist_turns.turned(g, np.array(branches), rows, target)
+        candidates += [tuple(row) for row, before in zip(filled.tolist(), rows.tolist())
+                       if row[0] == row[0] and not row == before]
     try:
         return nearest._ranked_solution(model, g, target, _fk_check(model, g, tcp_coefficients), candidates,
                                         reference, weight)

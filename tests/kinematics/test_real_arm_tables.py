@@ -149,6 +149,20 @@ def test_ik_batch_equals_ik_pose_by_pose_on_factory_tables(name):
         np.testing.assert_allclose(solved, model.ik(pose, reference), atol=1e-9)
 
 
+def test_ik_batch_checks_the_variant_clamped_onto_a_limit_as_ik_does():
+    """A joint 9e-11 rad past its limit is clamped onto it (LIMIT_ROUNDING); with a 50 m tool that moves the TCP by
+    4.5e-9 m, beyond the FK filter: ik drops that variant and takes the next solution, and so does ik_batch (it
+    returned the clamped variant, whose pose is not the one asked for)."""
+    model = factory_model("ur5e", 3).with_tcp([0.0, 0.0, 50.0, 0.0, 0.0, 0.0])
+    q = np.array([[2 * math.pi + 9e-11, -1.0, 1.2, -0.5, 1.1, 0.3], [0.3, -1.0, 1.2, -0.5, 1.1, 0.3],
+                  [2 * math.pi + 9e-11, -1.1, 1.3, -0.4, 1.0, 0.2]])
+    poses = model.fk_batch(q)
+    batch = model.ik_batch(poses, q)
+    for pose, reference, row in zip(poses, q, batch):
+        np.testing.assert_allclose(row, model.ik(pose, reference), rtol=0, atol=1e-12)
+    assert np.max(np.abs(batch[0] - q[0])) > 0.1   # not the clamped configuration (θ1 = 2π)
+
+
 @pytest.mark.parametrize("name", ["ur5", "ur16e"])
 def test_ik_all_batch_holds_the_solution_sets_of_ik_all_on_factory_tables(name):
     # Newton stops both paths within 1e-12 of the pose, from rows refined in different groupings: beside a wrist

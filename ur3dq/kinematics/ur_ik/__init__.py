@@ -37,9 +37,13 @@ Calibrated models (DH deltas): the nominal geometry (d1, a2, a3, d4, d5, d6 of t
 starting branches (a branch beyond CALIBRATED_DOMAIN_SLACK of the nominal reach is absent), then Newton steps on
 the calibrated FK converge each to CALIBRATED_TOLERANCE; the FK filter still decides. Newton runs all rows of a call
 at once: as batched 4×4 matrices for a few rows (single poses), written out per joint-major column for many.
-Known limit: within ~0.05 rad of a wrist singularity or of the folded elbow, two nominal branches
-can converge to the same calibrated solution, so ik_all may miss a neighbouring one there (whatever it returns
-is FK-verified; ik then picks the nearest of those). ``ik`` first runs Newton from q_ref alone and returns that
+Beside a wrist singularity (|sin θ5| < 0.05 for a nominal seed) a seed's θ6 can be off by up to π: where a
+(θ1, elbow) pair's two seeds do not reach two new solutions, Newton runs again from their turns along the wrist's
+family (wrist_turns) and fills the pair's slots. Known limit: there a calibrated arm can have more than two
+solutions per pair (more than 8 in all), and beside the folded elbow two nominal branches can converge to the same
+calibrated solution, so ik_all may miss one (~4 % of configurations beside a singularity, measured on the 14
+factory tables; whatever it returns is FK-verified; ik then picks the nearest of those).
+``ik`` first runs Newton from q_ref alone and returns that
 solution when it provably is the one the full ranking picks (no other solution can lie nearer: its isolation radius,
 from the Jacobian's least singular value and a bound on the chain's curvature, calibrated._isolation_radius, covers
 every configuration nearer q_ref); otherwise, beside a singularity or far from q_ref, all candidates are ranked.
@@ -73,7 +77,7 @@ themselves should compare the (θ1, θ5, θ3) signs of consecutive answers.
 
 The package, one concern a module: ``geometry`` (the model as floats, tolerances), ``equations`` (the thesis'
 equations for floats and arrays), ``fk_filter`` (pose checks, the FK filter, the duplicate rule), ``calibrated``
-(Newton on the full DH chain), ``single`` (``ik_all``), ``nearest`` (``ik``), ``batch`` and ``batch_kernels``
+(Newton on the full DH chain), ``wrist_turns`` (its seeds beside a singular wrist), ``single`` (``ik_all``), ``nearest`` (``ik``), ``batch`` and ``batch_kernels``
 (``ik_all_batch``, ``ik_batch``). Each performance copy of the equations (``single._nominal_branches``,
 ``nearest._nearest_branch``, ``batch_kernels._regular_branches``) is cross-checked against ``equations._branches``
 by the tests.

@@ -24,6 +24,7 @@ from ur3dq.kinematics.ur_ik.geometry import (
 )
 from ur3dq.kinematics.ur_ik.nearest import _weights
 from ur3dq.kinematics.ur_ik.single import _branch_table, _nominal_branches
+from ur3dq.kinematics.ur_ik.wrist_turns import TURN_SINE, turned
 
 
 def _batch_poses(poses) -> np.ndarray:
@@ -66,7 +67,11 @@ def _batch_candidates(g: _Geometry, targets: tuple, theta6_ref) -> np.ndarray:
         refined, residual = _refine_batch(g, flat[usable], repeated[usable])
         flat = flat.copy()
         flat[usable] = np.where((residual <= CALIBRATED_TOLERANCE)[:, None], refined, np.nan)
-        columns = np.ascontiguousarray(flat.T).reshape(6, 8, len(targets[0]))
+        seeds, columns = columns, np.ascontiguousarray(flat.T).reshape(6, 8, len(targets[0]))
+        # Beside a singular wrist a pair's seeds may miss its solutions: as ik_all, Newton again from their turns.
+        for pose in np.flatnonzero((np.abs(np.sin(seeds[4])) < TURN_SINE).any(axis=0)):
+            pair = [float(part[pose]) for part in targets]
+            columns[:, :, pose] = turned(g, seeds[:, :, pose].T, columns[:, :, pose].T, pair).T
     # θ2, θ3 come from atan2 already in (−π, π]; θ1, θ4, θ6 are sums and θ5 may be −π.
     for j in (0, 3, 4, 5):
         columns[j] = wrap_angle(columns[j])
@@ -429,5 +434,26 @@ def ik_batch(model, poses, q_ref, weights=None) -> np.ndarray:
         blocks = [(rows,) + _redone_rows(model, poses, rows, theta6_ref)] if redo else []
     for rows, columns, valid, *_ in blocks:
         variants, cost = _variant_costs(g, columns, reference[rows].T[:, None, :], weight)
-        out[rows] = _chosen(variants, *_select(cost, valid)).T
+        out[rows] = _ranked_choice(model, g, (columns, variants, cost, valid), poses[rows]).T
     return out
+
+
+def _ranked_choice(model, g: _Geometry, ranking: tuple, poses: np.ndarray) -> np.ndarray:
+    """(6, R) per pose (R, 8) the in-limit variants of its least-cost allowed branch, ``ranking`` = (branches
+    (6, k, R), their variants (6, k, R), costs (k, R), allowed (k, R)); NaN where none is allowed.
+
+    On a calibrated model the winner's variants pass the FK filter as ik's ranking requires (nearest._passes,
+    _shifted_rows_filter's rule: known where each joint is a 2π shift of Newton's, checked where one is clamped
+    onto a limit), a rejected branch dropped and the next taken: a 50 m tool turns a 1e-10 rad clamp into 5e-9 m."""
+    columns, variants, cost, valid = ranking
+    best, least = _select(cost, valid)
+    while g.calibrated:
+        picked = np.flatnonzero(least < np.inf)
+        joints = _chosen(variants, best, least)[:, picked]
+        failed = picked[~_shifted_rows_filter(model, g, joints.T, columns[:, best[picked], picked].T, poses[picked])]
+        if not failed.size:
+            break
+        valid = valid.copy()
+        valid[best[failed], failed] = False
+        best[failed], least[failed] = _select(cost[:, failed], valid[:, failed])
+    return _chosen(variants, best, least)

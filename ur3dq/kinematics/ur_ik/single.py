@@ -7,7 +7,7 @@ from itertools import compress
 import numpy as np
 
 from ur3dq.errors import UnreachablePoseError
-from ur3dq.kinematics.ur_ik.calibrated import _fk_implied, _refine_calibrated
+from ur3dq.kinematics.ur_ik.calibrated import _fk_implied, _refine_batch, _refine_calibrated
 from ur3dq.kinematics.ur_ik.equations import (
     _ScalarOps,
     _elbow_for_wrist,
@@ -31,6 +31,7 @@ from ur3dq.kinematics.ur_ik.fk_filter import (
 )
 from ur3dq.kinematics.ur_ik.geometry import (
     DOMAIN_TOLERANCE,
+    CALIBRATED_TOLERANCE,
     DUPLICATE_TOLERANCE,
     WRIST_NEAR_TOLERANCE,
     _Geometry,
@@ -38,6 +39,7 @@ from ur3dq.kinematics.ur_ik.geometry import (
     _TWO_PI,
     _geometry,
 )
+from ur3dq.kinematics.ur_ik.wrist_turns import beside_singular_wrist, turned
 
 
 def _unreachable_reason(g: _Geometry, target, branches_existed: bool) -> str:
@@ -76,11 +78,20 @@ def _solution_candidates(g: _Geometry, target, theta6_ref: float, reference_row=
     Near a singularity two nominal branches can converge to the same calibrated solution and miss the one beside
     the reference, which a solve started at the reference finds (so ``ik(fk(q), q)`` gives q back).
     """
-    candidates = [branch for branch in _nominal_branches(g, target, theta6_ref)
-                  if branch[1] == branch[1] and branch[0] == branch[0]]   # NaN: the branch does not exist
+    branches = _nominal_branches(g, target, theta6_ref)
+    exists = [branch[1] == branch[1] and branch[0] == branch[0] for branch in branches]   # NaN: absent
+    candidates = list(compress(branches, exists))
     if not g.calibrated:
         return candidates
-    refined = _refine_calibrated(g, candidates, target) if candidates else []
+    if not candidates:
+        refined = []
+    elif not beside_singular_wrist(branches):
+        refined = _refine_calibrated(g, candidates, target)
+    else:   # a pair's seeds may miss its solutions there: Newton again from their turns where they did
+        rows = np.full((8, 6), math.nan)
+        refined, residual = _refine_batch(g, np.array(candidates), np.array(target)[None])
+        rows[np.flatnonzero(exists)] = np.where((residual <= CALIBRATED_TOLERANCE)[:, None], refined, math.nan)
+        refined = [tuple(row) for row in turned(g, np.array(branches), rows, target).tolist() if row[0] == row[0]]
     return refined + ([reference_row] if reference_row is not None else [])
 
 
