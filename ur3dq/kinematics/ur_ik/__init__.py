@@ -77,8 +77,8 @@ themselves should compare the (θ1, θ5, θ3) signs of consecutive answers.
 
 The package, one concern a module: ``geometry`` (the model as floats, tolerances), ``equations`` (the thesis'
 equations for floats and arrays), ``fk_filter`` (pose checks, the FK filter, the duplicate rule), ``calibrated``
-(Newton on the full DH chain), ``wrist_turns`` (its seeds beside a singular wrist), ``single`` (``ik_all``), ``nearest`` (``ik``), ``batch`` and ``batch_kernels``
-(``ik_all_batch``, ``ik_batch``). Each performance copy of the equations (``single._nominal_branches``,
+(Newton on the full DH chain), ``wrist_turns`` (its seeds beside a singular wrist), ``single`` (``ik_all``),
+``nearest`` (``ik``), ``batch`` and ``batch_kernels`` (``ik_all_batch``, ``ik_batch``). Each performance copy of the equations (``single._nominal_branches``,
 ``nearest._nearest_branch``, ``batch_kernels._regular_branches``) is cross-checked against ``equations._branches``
 by the tests.
 """
