@@ -284,6 +284,14 @@ def test_float_kernels_give_the_batched_quantities():
                                    atol=1e-11 / sigma + 1e-15 * np.abs(step[row]).max() / sigma ** 2)
 
 
+def all_solutions(model, pose) -> np.ndarray:
+    """(n, 6) ik_all's solutions of `pose`, (0, 6) where it finds none (UnreachablePoseError)."""
+    try:
+        return np.array(model.ik_all(pose))
+    except UnreachablePoseError:
+        return np.empty((0, 6))
+
+
 @pytest.mark.parametrize("name, seed", MODELS[:3])
 def test_ik_all_refining_its_last_rows_in_floats_finds_the_batched_solutions(name, seed, monkeypatch):
     """ik_all, whose last Newton rows step in floats, against the batched kernels only (the path before): the same
@@ -291,16 +299,10 @@ def test_ik_all_refining_its_last_rows_in_floats_finds_the_batched_solutions(nam
     model = factory_model(name, seed)
     for joints in hard_configurations(200, seed + 600):
         pose = model.fk(joints)
-        try:
-            solutions = np.array(model.ik_all(pose))
-        except UnreachablePoseError:
-            solutions = np.empty((0, 6))
+        solutions = all_solutions(model, pose)
         with monkeypatch.context() as patched:
             patched.setattr(calibrated, "_FLOAT_ROWS", 0)
-            try:
-                batched = np.array(model.ik_all(pose))
-            except UnreachablePoseError:
-                batched = np.empty((0, 6))
+            batched = all_solutions(model, pose)
         assert len(solutions) == len(batched), joints
         for solution in solutions:
             apart = np.abs(np.remainder(batched - solution + math.pi, 2 * math.pi) - math.pi).max(axis=1)
@@ -351,16 +353,10 @@ def test_ik_all_without_its_fk_filter_keeps_what_the_filter_kept(name, seed, tcp
     assert calibrated._fk_implied(_geometry(model))
     for joints in hard_configurations(200, seed + 700):
         pose = model.fk(joints)
-        try:
-            solutions = np.array(model.ik_all(pose))
-        except UnreachablePoseError:
-            solutions = np.empty((0, 6))
+        solutions = all_solutions(model, pose)
         with monkeypatch.context() as patched:
             patched.setattr(single, "_fk_implied", lambda g: False)
-            try:
-                filtered = np.array(model.ik_all(pose))
-            except UnreachablePoseError:
-                filtered = np.empty((0, 6))
+            filtered = all_solutions(model, pose)
         np.testing.assert_array_equal(solutions, filtered)
 
 
