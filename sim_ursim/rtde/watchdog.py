@@ -6,7 +6,9 @@ the program) and "stop" (stop the program), in any letter case; "all watchdogs a
 
 The period is counted from the latest of the arming, the variable's last update and the end of a pause, so a
 program that arms a watchdog gets one full period for its client's first package, and a paused program is not
-watched until it resumes.  One watchdog per variable: arming it again replaces
+watched until it resumes. It also starts again after the simulator itself stalled (its checks more than
+`STALL` s apart): a controller is real-time, but this process can be starved of the CPU, and then the input
+packages that came in meanwhile are read late, so a client that kept sending would be taken for one that stopped.  One watchdog per variable: arming it again replaces
 it.  The RTDE server reports every input package (`note_update`); a checker thread takes the action at most
 1/`CHECK_RATE` s late and disarms a watchdog whose program has ended.
 
@@ -21,6 +23,7 @@ log = logging.getLogger("sim_ursim.rtde")
 
 ACTIONS = ("ignore", "pause", "stop")
 CHECK_RATE = 200.0  # Hz at which deadlines are checked (a 500 Hz controller checks every cycle; 5 ms is close)
+STALL = 0.05  # s between two checks beyond which the simulator stalled (ten check periods)
 _ATTRIBUTE = "_rtde_input_watchdogs"
 _ATTACH_LOCK = threading.Lock()
 
@@ -43,6 +46,7 @@ class InputWatchdogs:
         self._lock = threading.Lock()
         self._armed = {}
         self._last_update = {}
+        self._last_check = None
         self._thread = None
 
     def arm(self, variable, min_frequency, action, program_ended):
@@ -78,12 +82,15 @@ class InputWatchdogs:
         paused = self._controller.state().program_paused
         fired = []
         with self._lock:
+            stalled = self._last_check is not None and now - self._last_check > STALL
+            self._last_check = now
             for name, watchdog in list(self._armed.items()):
                 if watchdog.program_ended():
                     del self._armed[name]
                     continue
-                if paused:
-                    # A paused program is not watched; the period starts again when it resumes.
+                if paused or stalled:
+                    # A paused program is not watched; the period starts again when it resumes. After a stall of
+                    # the simulator the packages that arrived meanwhile may not have been read yet.
                     watchdog.armed_at = now
                     continue
                 since = max(watchdog.armed_at, self._last_update.get(name, watchdog.armed_at))

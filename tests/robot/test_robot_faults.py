@@ -34,6 +34,7 @@ class WhenMoving(threading.Thread):
         super().__init__(daemon=True)
         self.host, self.start_q, self.action, self.lead, self.timeout = host, start, action, lead, timeout
         self.running_at = self.fired_at = None
+        self.last_state, self.furthest = None, 0.0   # what the watch saw (said when it never fired)
         self._cancelled = threading.Event()
 
     def __enter__(self):
@@ -44,12 +45,14 @@ class WhenMoving(threading.Thread):
         self._cancelled.set()
         self.join(5.0)
         if exc_type is None:
-            assert self.fired_at is not None, "the motion was never seen running"
+            assert self.fired_at is not None, (f"the motion was never seen running (furthest from the start: "
+                                               f"{self.furthest:.3f} rad; last state: {self.last_state})")
 
     def run(self):
         deadline = time.monotonic() + self.timeout
         while time.monotonic() < deadline and not self._cancelled.is_set():
             state = simulator_state(self.host)
+            self.last_state, self.furthest = state, max(self.furthest, abs(state["q"][0] - self.start_q[0]))
             if state["program_running"] and self.running_at is None:
                 self.running_at = time.monotonic()
             if state["program_running"] and abs(state["q"][0] - self.start_q[0]) >= self.lead:
@@ -84,7 +87,7 @@ def test_protective_stop_during_motion(own_sim_robot, home):
         stopped["at"] = time.monotonic()
         inject(host, "protective-stop", reason="test")
 
-    with WhenMoving(host, home, protective_stop) as timer:
+    with WhenMoving(host, home, protective_stop):
         error, _ = timed_failure(robot, home + LONG_MOVE)
         caught = time.monotonic()
     assert isinstance(error, ProtectiveStopError) and "unlock_protective_stop" in str(error)
