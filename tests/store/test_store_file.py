@@ -12,7 +12,7 @@ from pyquaternion import Quaternion
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import StoreError
 from ur3dq.pose import Pose
-from ur3dq.store_format import CHUNK
+from ur3dq import store_format
 from ur3dq.store import (
     SCHEMA_NAME, SCHEMA_VERSION, PoseStore, format_store, parse_store, pose_to_dict, write_atomically,
 )
@@ -219,10 +219,13 @@ def test_error_line_points_at_the_pose_in_the_store_layout(tmp_path):
         PoseStore(path).load()
 
 
-@pytest.mark.parametrize("count", [CHUNK - 1, CHUNK, CHUNK + 1, 2 * CHUNK + 3])
-def test_a_big_store_loads_whole_and_names_the_line_of_a_fault_past_the_first_chunk(tmp_path, count):
-    """ur3dq's own layout is parsed CHUNK lines at a time: every pose comes back in order on either side of a
-    chunk's end, and a fault in the last pose names its line."""
+@pytest.mark.parametrize("count", [7, 8, 9, 12, 13, 19])
+def test_a_big_store_loads_whole_and_names_the_line_of_a_fault_past_the_first_chunk(tmp_path, count, monkeypatch):
+    """ur3dq's own layout is parsed PARSED_LINES lines at a time and checked CHUNK entries at a time (both made
+    small here: 3 and 8, so that a few poses cross their ends): every pose comes back in order on either side of
+    those ends, and a fault in the last pose names its line."""
+    monkeypatch.setattr(store_format, "CHUNK", 8)
+    monkeypatch.setattr(store_format, "PARSED_LINES", 3)
     path = tmp_path / "poses.json"
     poses = [make_pose(f"p{i}", i % 7) for i in range(count)]
     text = format_store(poses)
