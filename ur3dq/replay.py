@@ -160,7 +160,7 @@ def plan_replay(model, poses: Sequence[Pose], start_joints=None, a: float = 1.4,
     swing a joint further than that in one move: nothing moves unless the whole plan is sound. The poses with
     recorded joints are solved first, in one batch per TCP offset (_solve_recorded), the others in order.
     """
-    motion.trapezoid_duration(0.0, a, v)   # a and v checked once: the durations are computed as one array
+    motion.trapezoid_durations([], a, v)   # a and v checked before any IK (the durations come last)
     solvers = {}
     batch = {} if replay_recorded_joints else _solve_recorded(model, poses, solvers)
     start = None if start_joints is None else np.asarray(start_joints, dtype=float)
@@ -208,11 +208,9 @@ def _check_travel(poses, travels: list, max_joint_travel) -> None:
 
 
 def _durations(travels: list, a: float, v: float) -> list:
-    """movej seconds at 100 % speed (motion.trapezoid_duration) of each move's travel; None where it is None."""
+    """movej seconds at 100 % speed (motion.trapezoid_durations) of each move's travel; None where it is None."""
     known = [travel for travel in travels if travel is not None]   # None leads (_travels), if anywhere
-    distance = np.array(known, dtype=float)
-    seconds = np.where(distance >= v * v / a, distance / v + v / a, 2.0 * np.sqrt(distance / a)).tolist()
-    return [None] * (len(travels) - len(known)) + seconds
+    return [None] * (len(travels) - len(known)) + motion.trapezoid_durations(known, a, v).tolist()
 
 
 def _solve_recorded(model, poses: Sequence[Pose], solvers: dict) -> dict:

@@ -20,6 +20,25 @@ def test_trapezoid_triangular():
     assert motion.trapezoid_duration(0.25, 1.0, 1.0) == pytest.approx(1.0)
 
 
+@given(st.lists(st.floats(min_value=0, max_value=20), max_size=20), positive, positive)
+def test_trapezoid_durations_are_trapezoid_duration_for_every_distance(distances, a, v):
+    """The array form gives the scalar one's seconds to the last bit, on both sides of the cruise threshold."""
+    distances += [v * v / a, 0.5 * v * v / a, 2.0 * v * v / a]
+    assert motion.trapezoid_durations(distances, a, v).tolist() == \
+        [motion.trapezoid_duration(d, a, v) for d in distances]
+
+
+@pytest.mark.parametrize("distances, a, v, message", [
+    ([0.1, -1.0], 1.0, 1.0, "distance must be finite and ≥ 0, got -1.0"),
+    ([math.nan], 1.0, 1.0, "distance must be finite and ≥ 0, got nan"),
+    ([], 0.0, 1.0, r"a \(acceleration\) must be finite and > 0, got 0.0"),
+    ([1.0], 1.0, math.inf, r"v \(speed\) must be finite and > 0, got inf"),
+])
+def test_trapezoid_durations_refuse_what_trapezoid_duration_refuses(distances, a, v, message):
+    with pytest.raises(ValueError, match=message):
+        motion.trapezoid_durations(distances, a, v)
+
+
 @given(st.floats(min_value=0, max_value=20), positive, positive)
 def test_trapezoid_is_continuous_and_no_faster_than_cruise(distance, a, v):
     duration = motion.trapezoid_duration(distance, a, v)
