@@ -191,8 +191,7 @@ def _travels(start, joints: list) -> list:
     `start` ((6,) or None: the first move's is None)."""
     if not joints:
         return []
-    path = np.array(joints if start is None else [start, *joints], dtype=float)
-    travel = np.abs(np.diff(path, axis=0)).max(axis=1).tolist() if len(path) > 1 else []
+    travel = motion.leading_travels(joints if start is None else [start, *joints]).tolist()
     return [None] + travel if start is None else travel
 
 

@@ -386,7 +386,7 @@ def _own_layout(text: str):
             for obj in objects:
                 yield index, index + 5, obj   # the entries start on the file's 5th line
                 index += 1
-            del objects   # before the next chunk is parsed: never two chunks of entries at once
+            del objects   # before the next lines are parsed: never two batches of entries at once
             position = stop
 
     return version, key, entries()

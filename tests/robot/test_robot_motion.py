@@ -1,6 +1,7 @@
 """Trapezoidal durations and speed-slider-aware timeouts."""
 import math
 
+import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
@@ -26,6 +27,13 @@ def test_trapezoid_durations_are_trapezoid_duration_for_every_distance(distances
     distances += [v * v / a, 0.5 * v * v / a, 2.0 * v * v / a]
     assert motion.trapezoid_durations(distances, a, v).tolist() == \
         [motion.trapezoid_duration(d, a, v) for d in distances]
+
+
+def test_leading_travels_are_leading_travel_of_each_move():
+    rng = np.random.default_rng(3)
+    path = rng.uniform(-6, 6, (9, 6))
+    assert motion.leading_travels(path).tolist() == [motion.leading_travel(p, q) for p, q in zip(path, path[1:])]
+    assert motion.leading_travels(path[:1]).shape == (0,) and motion.leading_travels([]).shape == (0,)
 
 
 @pytest.mark.parametrize("distances, a, v, message", [

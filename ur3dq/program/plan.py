@@ -158,7 +158,7 @@ def plan_program(model, steps, start_joints=None, defaults: Defaults = Defaults(
         joints = np.vstack([np.asarray(start_joints, dtype=float), joints])
         start_tcp = model.with_tcp(targets[0].tcp_offset).fk(joints[0]) if targets else model.fk(joints[0])
         poses = np.vstack([start_tcp.to_array(), poses])
-    travels = np.max(np.abs(np.diff(joints, axis=0)), axis=1) if len(joints) > 1 else np.zeros(0)
+    travels = motion.leading_travels(joints)
     # a linear/process move's leading "distance": the larger of its TCP path (m) and its rotation (rad), as a
     # controller times movel
     metres, radians = dqarray.pose_distance(poses[:-1], poses[1:]) if len(poses) > 1 else (np.zeros(0),) * 2

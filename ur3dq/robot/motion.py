@@ -38,6 +38,12 @@ def leading_travel(q_from, q_to):
     return float(np.abs(np.subtract(q_to, q_from, dtype=float)).max())
 
 
+def leading_travels(path) -> np.ndarray:
+    """leading_travel of each move along `path` (N, 6) rad, from row i to row i + 1: (N − 1,) (empty below 2 rows)."""
+    path = np.asarray(path, dtype=float).reshape(-1, 6)
+    return np.abs(np.diff(path, axis=0)).max(axis=1) if len(path) > 1 else np.zeros(0)
+
+
 def movej_duration(q_from, q_to, a, v):
     """Seconds a movej from `q_from` to `q_to` takes at 100 % speed (trapezoid of the leading joint)."""
     return trapezoid_duration(leading_travel(q_from, q_to), a, v)
