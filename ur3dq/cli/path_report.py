@@ -127,12 +127,7 @@ def _rows_worth_showing(result) -> list[int]:
     problem and, for each check, the move with its smallest margin (in program order)."""
     if len(result.steps) <= MAX_MARGIN_ROWS:
         return list(range(len(result.steps)))
-    failed = {problem.step for problem in result.problems}
-    chosen = {i for i, step in enumerate(result.steps) if step.name in failed}
-    smallest = {}   # check -> (its smallest margin, the first move with it)
-    for i, step in enumerate(result.steps):
-        for check, value in step.margins.items():
-            if check not in smallest or value < smallest[check][0]:
-                smallest[check] = (value, i)
-    chosen.update(i for _, i in smallest.values())
+    chosen = set(result.steps.positions_named({problem.step for problem in result.problems})) \
+        if result.problems else set()
+    chosen.update(position for _, position in result.steps.smallest_margins().values())
     return sorted(chosen)[:MAX_MARGIN_ROWS]

@@ -8,8 +8,9 @@ for reach, IK branch flips, singularities, joint limits and speeds, self-collisi
 """
 from ur3dq.pathcheck.cell import Box, Cell, ToolShape, cell_from_dict, load_cell
 from ur3dq.pathcheck.checks import CHECKS, Margins, Problem
-from ur3dq.pathcheck.path_check import PathCheckResult, StepReport, check_path
+from ur3dq.pathcheck.path_check import check_path
 from ur3dq.pathcheck.path_plan import MOVE_TYPES, PathPlan, PathSegment
+from ur3dq.pathcheck.reports import PathCheckResult, StepReport
 
 __all__ = ["CHECKS", "MOVE_TYPES", "Box", "Cell", "Margins", "PathCheckResult", "PathPlan", "PathSegment",
            "Problem", "StepReport", "ToolShape", "cell_from_dict", "check_path", "load_cell"]

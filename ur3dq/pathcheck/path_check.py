@@ -9,9 +9,6 @@ than the TCP, so this holds for the usual arm poses). A blend radius larger than
 """
 from __future__ import annotations
 
-import dataclasses
-from collections.abc import Mapping
-
 import numpy as np
 
 from ur3dq import dqarray
@@ -21,106 +18,9 @@ from ur3dq.kinematics import ur_ik
 from ur3dq.pathcheck import bounds, sampling
 from ur3dq.pathcheck.checks import Margins, Problem, StepChecker
 from ur3dq.pathcheck.path_plan import PathPlan
+from ur3dq.pathcheck.reports import CertifiedMoves, PathCheckResult, StepReport, StepReports, figures
 
 BRANCH_TOLERANCE = 1e-3   # rad: a linear move ending further than this from its planned joints ended elsewhere
-
-
-class Figures(Mapping):
-    """An immutable {check: number} of a StepReport (its margins, or its worst samples): a tuple of the numbers
-    beside a tuple of the check names that reports share. A big plan has 10⁵ reports, and a dict of two or three
-    entries takes 184 bytes; reports with the same worst samples share one."""
-
-    __slots__ = ("_keys", "_values")
-
-    def __init__(self, keys: tuple, values: tuple):
-        self._keys, self._values = keys, values
-
-    def __getitem__(self, key):
-        try:
-            return self._values[self._keys.index(key)]
-        except ValueError:
-            raise KeyError(key) from None
-
-    def __iter__(self):
-        return iter(self._keys)
-
-    def __len__(self) -> int:
-        return len(self._keys)
-
-    def __contains__(self, key) -> bool:
-        return key in self._keys
-
-    # Tuples, not the mixins' views: those look each value up again, and a margins table reads 10⁵ reports.
-    def keys(self) -> tuple:
-        return self._keys
-
-    def values(self) -> tuple:
-        return self._values
-
-    def items(self) -> tuple:
-        return tuple(zip(self._keys, self._values))
-
-    def __repr__(self) -> str:
-        return repr(dict(self.items()))
-
-
-def _figures(values: dict) -> Figures:
-    return Figures(tuple(values), tuple(values.values()))
-
-
-@dataclasses.dataclass(frozen=True, slots=True)  # slots: one per move, 10⁵ in a big plan
-class StepReport:
-    """What the check saw on one move: its samples and its smallest margins.
-
-    fraction (n,), joints (n, 6), tcp (n, 3) m (all None when the check was asked not to keep samples); margins:
-    {check: smallest margin over the move (≥ 0 passes), in the check's unit: m for clearances, |sin| for
-    wrist/elbow, m for shoulder, rad for joint limits, fraction of the maximum for joint speed}; worst: {check:
-    index of the sample with that smallest margin} (both read-only mappings, Figures); end_joints (6,): where the
-    next move starts (None if this one could not be followed); samples: n, how many samples were checked.
-    """
-
-    name: str
-    move: str
-    fraction: np.ndarray | None
-    joints: np.ndarray | None
-    tcp: np.ndarray | None
-    margins: dict
-    worst: dict
-    end_joints: np.ndarray | None
-    samples: int
-
-    def to_dict(self) -> dict:
-        return {"name": self.name, "move": self.move, "samples": self.samples,
-                "margins": {k: round(float(v), 6) for k, v in self.margins.items()},
-                "end_joints": None if self.end_joints is None else [float(v) for v in self.end_joints]}
-
-
-@dataclasses.dataclass(frozen=True)
-class PathCheckResult:
-    """ok: no problem; problems: every failed check (at most one per move and check, at its worst sample);
-    steps: one StepReport per checked move; unchecked: names of moves that could not be checked (no start)."""
-
-    problems: tuple
-    steps: tuple
-    unchecked: tuple = ()
-
-    @property
-    def ok(self) -> bool:
-        return not self.problems and not self.unchecked
-
-    def summary(self) -> str:
-        """One line: the first problem (with how many more), or that the path is clear."""
-        if self.problems:
-            more = len(self.problems) - 1
-            return self.problems[0].line() + (f" (+{more} more problem{'s' * (more > 1)})" if more else "")
-        if self.unchecked:
-            return f"steps {', '.join(map(repr, self.unchecked))} could not be checked (no known start)"
-        samples = sum(step.samples for step in self.steps)
-        return f"path clear: {len(self.steps)} moves, {samples} samples checked"
-
-    def to_dict(self) -> dict:
-        return {"ok": self.ok, "problems": [p.to_dict() for p in self.problems],
-                "steps": [s.to_dict() for s in self.steps], "unchecked": list(self.unchecked)}
 
 
 @cyclic_gc_paused()
@@ -146,14 +46,15 @@ def check_path(model, plan: PathPlan, cell=None, margins: Margins | None = None,
         return by_tcp[segment.tcp_offset]
 
     q = np.array(plan.start_joints)
-    problems, unchecked, steps = [], [], []
-    certified = {} if keep_samples else _certified_moves(plan, arm_for)
+    problems, unchecked, steps = [], [], []   # steps: StepReports' entries
+    certified = None if keep_samples else _certified_moves(plan, arm_for)
+    certified_row = {} if certified is None else dict(zip(certified.index, range(len(certified.index))))
     # Moves are checked one behind the sampling: a move's blend zones need its neighbours' samples, and no
     # other move's (the window holds at most three, so memory does not grow with the plan).
     window = {}   # index -> (segment, SampledMove, tcp (n, 3)) or None (not sampled)
     for index, segment in enumerate(plan.segments):
-        if index in certified:
-            window[index] = certified[index]
+        if index in certified_row:
+            window[index] = certified_row[index]   # an int: the row of its report in `certified`
             q = segment.target_joints
         elif q is None:
             unchecked.append(segment.name)
@@ -170,20 +71,22 @@ def check_path(model, plan: PathPlan, cell=None, margins: Margins | None = None,
                 if end_problem is not None:
                     problems.append(end_problem)
         if index >= 1:
-            _check_move(plan, window, index - 1, arm_for, problems, steps, keep_samples)
+            _check_move(plan, window, index - 1, arm_for, problems, steps, certified)
             window.pop(index - 2, None)
     if plan.segments:
-        _check_move(plan, window, len(plan.segments) - 1, arm_for, problems, steps, keep_samples)
+        _check_move(plan, window, len(plan.segments) - 1, arm_for, problems, steps, certified)
     problems.sort(key=lambda p: (p.step_index, p.fraction))
-    return PathCheckResult(tuple(problems), tuple(steps), tuple(unchecked))
+    return PathCheckResult(tuple(problems), StepReports(steps, certified), tuple(unchecked))
 
 
-def _check_move(plan, window, index, arm_for, problems, steps, keep_samples) -> None:
-    """Run every check on the samples of move `index` (window[index]); add its problems and its StepReport (a
-    StepReport the bounds made is added as it is)."""
+def _check_move(plan, window, index, arm_for, problems, steps, certified) -> None:
+    """Run every check on the samples of move `index` (window[index]); add its problems and its StepReport to
+    `steps` (a move the bounds certified: its row in `certified`, a CertifiedMoves, or None when samples are
+    kept)."""
     if window[index] is None:
         return
-    if isinstance(window[index], StepReport):
+    if type(window[index]) is int:
+        certified.position[window[index]] = len(steps)
         steps.append(window[index])
         return
     segment, move, tcp = window[index]
@@ -199,9 +102,8 @@ def _check_move(plan, window, index, arm_for, problems, steps, keep_samples) -> 
     worst = {check: int(np.argmin(values[0])) + (len(values[0]) < len(tcp))
              for check, values in results.items() if len(values[0])}
     end = move.joints[-1] if move.unreachable_at is None and len(move.joints) else None
-    kept = (move.fraction, move.joints, tcp) if keep_samples else (None, None, None)
-    steps.append(StepReport(segment.name, segment.move, *kept, _figures(margins_seen), _figures(worst), end,
-                            len(tcp)))
+    kept = (move.fraction, move.joints, tcp) if certified is None else (None, None, None)
+    steps.append(StepReport(segment.name, segment.move, *kept, figures(margins_seen), figures(worst), end, len(tcp)))
 
 
 def _sample(model, segment, index, q, margins):
@@ -276,10 +178,9 @@ def _blend_allowance(plan, window, index):
     return extra, problem
 
 
-def _certified_moves(plan, arm_for) -> dict:
-    """{move index: StepReport from its bounds} of the joint moves the bounds certify (pathcheck.bounds), per TCP.
-    Candidates: joint moves to known joints from known joints (the start, or a joint move's target before them),
-    outside blend zones (whose allowance needs the neighbours' samples)."""
+def _certified_moves(plan, arm_for) -> CertifiedMoves:
+    """The joint moves the bounds certify (pathcheck.bounds), per TCP, as CertifiedMoves. Candidates: joint moves to known joints from known joints (the start, or a joint move's
+    target before them), outside blend zones (whose allowance needs the neighbours' samples)."""
     candidates = {}   # tcp_offset -> [(index, start joints)]
     start = plan.start_joints   # where a candidate after this segment starts; None: it is no candidate
     for index, segment in enumerate(plan.segments):
@@ -287,40 +188,14 @@ def _certified_moves(plan, arm_for) -> dict:
         if joint_move and start is not None:
             candidates.setdefault(segment.tcp_offset, []).append((index, start))
         start = segment.target_joints if joint_move else None
-    certified = {}
+    certified = CertifiedMoves()
     for moves in candidates.values():
         segments = [plan.segments[index] for index, _ in moves]
         checker = arm_for(segments[0])[1]
         result = bounds.certify_joint_moves(checker, np.array([start for _, start in moves]),
                                             np.array([segment.target_joints for segment in segments]))
-        # rows of Python floats first: a float() of a numpy element costs more than the rest of a report
-        margins = zip(*(values.tolist() for values in result.margins.values()))
-        worst = zip(*(values.tolist() for values in result.worst.values()))
-        margin_keys, worst_keys, shared = tuple(result.margins), tuple(result.worst), {}
-        for (index, _), segment, ok, margin, sample, samples in zip(moves, segments, result.certified.tolist(),
-                                                                    margins, worst, result.samples.tolist()):
-            if ok:
-                if sample not in shared:
-                    shared[sample] = Figures(worst_keys, sample)
-                certified[index] = _lean_report(segment, Figures(margin_keys, margin), shared[sample], samples)
+        kept = np.flatnonzero(result.certified)
+        certified.add([moves[k][0] for k in kept.tolist()], [segments[k] for k in kept.tolist()],
+                      {check: values[kept] for check, values in result.margins.items()},
+                      {check: values[kept] for check, values in result.worst.items()}, result.samples[kept])
     return certified
-
-
-def _lean_report(segment, margins: Figures, worst: Figures, samples: int) -> StepReport:
-    """The StepReport of a certified move (no samples kept; it ends on its target), built past the frozen
-    dataclass's __init__ by the slots' own setters: a big plan builds 10⁵ of them."""
-    report = object.__new__(StepReport)
-    _SET_NAME(report, segment.name)
-    _SET_MOVE(report, segment.move)
-    _SET_FRACTION(report, None)
-    _SET_JOINTS(report, None)
-    _SET_TCP(report, None)
-    _SET_MARGINS(report, margins)
-    _SET_WORST(report, worst)
-    _SET_END(report, segment.target_joints)
-    _SET_SAMPLES(report, samples)
-    return report
-
-
-(_SET_NAME, _SET_MOVE, _SET_FRACTION, _SET_JOINTS, _SET_TCP, _SET_MARGINS, _SET_WORST, _SET_END,
- _SET_SAMPLES) = (getattr(StepReport, field.name).__set__ for field in dataclasses.fields(StepReport))

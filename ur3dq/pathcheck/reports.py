@@ -1,0 +1,214 @@
+"""What check_path returns: the PathCheckResult, one StepReport per checked move, and the read-only Figures of a
+report's margins and worst samples.
+
+The reports of a big plan are a StepReports sequence: the sampled moves' reports as check_path built them, and the
+joint moves the clearance bounds certified (pathcheck.bounds) as the bounds' columns, each of their reports built
+when it is read. A big store's plan has 10⁵ certified moves: their reports, built one by one, cost a third of the
+whole check, and a margins table reads a few of them (StepReports.smallest_margins, positions_named).
+"""
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+
+
+class Figures(Mapping):
+    """An immutable {check: number} of a StepReport (its margins, or its worst samples): a tuple of the numbers
+    beside a tuple of the check names that reports share. A big plan has 10⁵ reports, and a dict of two or three
+    entries takes 184 bytes; reports with the same worst samples share one."""
+
+    __slots__ = ("_keys", "_values")
+
+    def __init__(self, keys: tuple, values: tuple):
+        self._keys, self._values = keys, values
+
+    def __getitem__(self, key):
+        try:
+            return self._values[self._keys.index(key)]
+        except ValueError:
+            raise KeyError(key) from None
+
+    def __iter__(self):
+        return iter(self._keys)
+
+    def __len__(self) -> int:
+        return len(self._keys)
+
+    def __contains__(self, key) -> bool:
+        return key in self._keys
+
+    # Tuples, not the mixins' views: those look each value up again, and a margins table reads 10⁵ reports.
+    def keys(self) -> tuple:
+        return self._keys
+
+    def values(self) -> tuple:
+        return self._values
+
+    def items(self) -> tuple:
+        return tuple(zip(self._keys, self._values))
+
+    def __repr__(self) -> str:
+        return repr(dict(self.items()))
+
+
+def figures(values: dict) -> Figures:
+    """The Figures of a dict {check: number}."""
+    return Figures(tuple(values), tuple(values.values()))
+
+
+@dataclasses.dataclass(frozen=True, slots=True)  # slots: one per move, 10⁵ in a big plan
+class StepReport:
+    """What the check saw on one move: its samples and its smallest margins.
+
+    fraction (n,), joints (n, 6), tcp (n, 3) m (all None when the check was asked not to keep samples); margins:
+    {check: smallest margin over the move (≥ 0 passes), in the check's unit: m for clearances, |sin| for
+    wrist/elbow, m for shoulder, rad for joint limits, fraction of the maximum for joint speed}; worst: {check:
+    index of the sample with that smallest margin} (both read-only mappings, Figures); end_joints (6,): where the
+    next move starts (None if this one could not be followed); samples: n, how many samples were checked.
+    """
+
+    name: str
+    move: str
+    fraction: np.ndarray | None
+    joints: np.ndarray | None
+    tcp: np.ndarray | None
+    margins: dict
+    worst: dict
+    end_joints: np.ndarray | None
+    samples: int
+
+    def to_dict(self) -> dict:
+        return {"name": self.name, "move": self.move, "samples": self.samples,
+                "margins": {k: round(float(v), 6) for k, v in self.margins.items()},
+                "end_joints": None if self.end_joints is None else [float(v) for v in self.end_joints]}
+
+
+class CertifiedMoves:
+    """The joint moves the bounds certified, as columns: row r is the plan's move index[r], segments[r] (a
+    PathSegment, which it ends on), with margins[check][r], worst[check][r] (sample index) and samples[r] from a bounds.Certification; rows are
+    added a group of moves at a time (one group per TCP). `position[r]`: the move's place among the StepReports,
+    set by check_path as it goes."""
+
+    def __init__(self):
+        self.index: list = []
+        self.segments: list = []
+        self.position: list = []
+        self._groups: list = []   # (first row, margin keys, margins (K, M) floats, worst keys, worst (K, M) ints)
+        self._samples: list = []
+        self._shared: dict = {}   # worst samples (tuple) -> their Figures: reports with equal ones share one
+
+    def add(self, index: list, segments: list, margins: dict, worst: dict, samples: np.ndarray) -> None:
+        """Add a group of M rows: move indices and PathSegments (M each), margins and worst {check: (M,) array},
+        samples (M,)."""
+        first, count = len(self.segments), len(segments)
+        if not count:
+            return
+        self.index.extend(index)
+        self.segments.extend(segments)
+        self.position.extend([-1] * count)
+        self._groups.append((first, tuple(margins), np.array(list(margins.values()), dtype=float).reshape(-1, count),
+                             tuple(worst), np.array(list(worst.values()), dtype=int).reshape(-1, count)))
+        self._samples.extend(samples.tolist())
+
+    def _group(self, row: int) -> tuple:
+        for group in reversed(self._groups):
+            if group[0] <= row:
+                return group
+        raise IndexError(row)
+
+    def report(self, row: int) -> StepReport:
+        """The StepReport of row `row` (no samples kept; it ends on its target), its numbers as Python floats."""
+        first, margin_keys, margins, worst_keys, worst = self._group(row)
+        sample = tuple(worst[:, row - first].tolist())
+        if sample not in self._shared:
+            self._shared[sample] = Figures(worst_keys, sample)
+        segment = self.segments[row]
+        return StepReport(segment.name, segment.move, None, None, None,
+                          Figures(margin_keys, tuple(margins[:, row - first].tolist())), self._shared[sample],
+                          segment.target_joints, self._samples[row])
+
+    def smallest(self) -> list:
+        """[(check, margin, position)]: per group and check, the row with the smallest margin (the first such)."""
+        found = []
+        for first, margin_keys, margins, _, _ in self._groups:
+            rows = np.argmin(margins, axis=1)
+            for check, row, values in zip(margin_keys, rows.tolist(), margins):
+                    found.append((check, float(values[row]), self.position[first + row]))
+        return found
+
+    def samples(self) -> int:
+        return sum(self._samples)
+
+
+class StepReports(Sequence):
+    """The StepReports of a check in plan order (PathCheckResult.steps): each entry a StepReport, or the int row of
+    a move in `certified` (CertifiedMoves), whose report is built when read."""
+
+    __slots__ = ("_entries", "_certified")
+
+    def __init__(self, entries: list, certified: CertifiedMoves | None = None):
+        self._entries, self._certified = entries, certified
+
+    def __len__(self) -> int:
+        return len(self._entries)
+
+    def __getitem__(self, index):
+        if isinstance(index, slice):
+            return [self[i] for i in range(*index.indices(len(self)))]
+        entry = self._entries[index]
+        return self._certified.report(entry) if type(entry) is int else entry
+
+    def __repr__(self) -> str:
+        return f"StepReports({len(self)} moves)"
+
+    def smallest_margins(self) -> dict:
+        """{check: (smallest margin over every move, the position of the first move with it)}."""
+        found = [] if self._certified is None else self._certified.smallest()
+        found += [(check, value, position) for position, entry in enumerate(self._entries) if type(entry) is not int
+                  for check, value in entry.margins.items()]
+        smallest = {}
+        for check, value, position in sorted(found, key=lambda item: item[2]):
+            if check not in smallest or value < smallest[check][0]:
+                smallest[check] = (value, position)
+        return smallest
+
+    def positions_named(self, names) -> list:
+        """The positions of the moves named in `names` (a set), in order."""
+        certified = self._certified
+        return [position for position, entry in enumerate(self._entries)
+                if (certified.segments[entry].name if type(entry) is int else entry.name) in names]
+
+    def samples(self) -> int:
+        """How many samples the check evaluated over all moves."""
+        return sum(entry.samples for entry in self._entries if type(entry) is not int) + \
+            (0 if self._certified is None else self._certified.samples())
+
+
+@dataclasses.dataclass(frozen=True)
+class PathCheckResult:
+    """ok: no problem; problems: every failed check (at most one per move and check, at its worst sample);
+    steps: one StepReport per checked move (StepReports); unchecked: names of moves that could not be
+    checked (no start)."""
+
+    problems: tuple
+    steps: StepReports
+    unchecked: tuple = ()
+
+    @property
+    def ok(self) -> bool:
+        return not self.problems and not self.unchecked
+
+    def summary(self) -> str:
+        """One line: the first problem (with how many more), or that the path is clear."""
+        if self.problems:
+            more = len(self.problems) - 1
+            return self.problems[0].line() + (f" (+{more} more problem{'s' * (more > 1)})" if more else "")
+        if self.unchecked:
+            return f"steps {', '.join(map(repr, self.unchecked))} could not be checked (no known start)"
+        return f"path clear: {len(self.steps)} moves, {self.steps.samples()} samples checked"
+
+    def to_dict(self) -> dict:
+        return {"ok": self.ok, "problems": [p.to_dict() for p in self.problems],
+                "steps": [s.to_dict() for s in self.steps], "unchecked": list(self.unchecked)}
