@@ -1,10 +1,10 @@
 """ur3dq/collector.py: the cyclic collector is paused inside and restored as it was, also on errors and when
-nested; a paused function still gives its result."""
+nested; a paused function still gives its result; what a command's block built is left out of later collections."""
 import gc
 
 import pytest
 
-from ur3dq.collector import cyclic_gc_paused
+from ur3dq.collector import built_to_last, cyclic_gc_paused
 
 
 @pytest.fixture
@@ -48,3 +48,41 @@ def test_as_a_decorator_it_pauses_each_call(collector_on):
         return gc.isenabled()
 
     assert inside() is False and inside() is False and gc.isenabled()
+
+
+class _Node:
+    pass
+
+
+def test_what_a_commands_block_built_is_never_examined_again(collector_on):
+    examined = []
+
+    def count(phase, info):
+        if phase == "stop":
+            examined.append(info["collected"])
+
+    kept = []
+    try:
+        with built_to_last():
+            assert not gc.isenabled()
+            for _ in range(1000):   # cycles the block still holds: a collection would walk them
+                node = _Node()
+                node.self = node
+                kept.append(node)
+        assert gc.isenabled() and gc.get_freeze_count() >= 1000
+        frozen = gc.get_freeze_count()
+        gc.collect()   # whatever else was garbage
+        gc.callbacks.append(count)
+        kept.clear()   # garbage cycles now, but frozen: a full collection leaves them be
+        gc.collect()
+        assert gc.get_freeze_count() == frozen and examined == [0]
+    finally:
+        if count in gc.callbacks:
+            gc.callbacks.remove(count)
+        gc.unfreeze()
+        gc.collect()
+    with pytest.raises(KeyError):   # an error inside still restores the collector
+        with built_to_last():
+            raise KeyError("x")
+    gc.unfreeze()
+    assert gc.isenabled()
