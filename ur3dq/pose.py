@@ -14,6 +14,7 @@ import numpy as np
 
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.kinematics.models import MODEL_NAMES
+from ur3dq.slots import slot_builder
 
 # How far the stored UR pose vector may drift from the dual quaternion (JSON floats round-trip exactly, so only
 # hand edits can exceed this).
@@ -159,11 +160,8 @@ class Pose:
         """A Pose whose fields the caller has already validated exactly as __post_init__ would (the store checks
         the numbers of a whole file in one vectorised pass, then the text with check_pose_text_fields); tuples of
         floats expected. Skips the per-pose checks, which dominate loading a big store."""
-        pose = object.__new__(cls)
-        for set_slot, value in zip(_SLOT_SETTERS, (name, time, robot_model, dual_quaternion, ur_pose, tcp_offset,
-                                                   joints, robot_serial, note)):
-            set_slot(pose, value)
-        return pose
+        return _checked_pose(name, time, robot_model, dual_quaternion, ur_pose, tcp_offset, joints, robot_serial,
+                             note)
 
     @property
     def dq(self) -> DualQuaternion:
@@ -187,9 +185,7 @@ class Pose:
         return dataclasses.replace(self, name=name)
 
 
-# One setter per field, in field order (Pose.checked's parameter order): a slot's own setter is the cheapest way
-# past the frozen dataclass.
-_SLOT_SETTERS = tuple(getattr(Pose, field.name).__set__ for field in dataclasses.fields(Pose))
+_checked_pose = slot_builder(Pose)   # Pose.checked's parameters are its fields, in order
 
 
 def next_free_name(prefix: str, taken) -> str:

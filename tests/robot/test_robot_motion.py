@@ -29,6 +29,15 @@ def test_trapezoid_durations_are_trapezoid_duration_for_every_distance(distances
         [motion.trapezoid_duration(d, a, v) for d in distances]
 
 
+@given(st.lists(st.tuples(st.floats(min_value=0, max_value=20), positive, positive), max_size=20))
+def test_trapezoid_durations_with_each_moves_own_a_and_v(moves):
+    """a and v as arrays (a cell program's moves each have their own): each move's scalar seconds, to the bit."""
+    moves += [(v * v / a, a, v) for _, a, v in moves[:3]]   # on the cruise threshold
+    distances, a, v = (list(column) for column in zip(*moves)) if moves else ([], [], [])
+    assert motion.trapezoid_durations(distances, a, v).tolist() == \
+        [motion.trapezoid_duration(*move) for move in moves]
+
+
 def test_leading_travels_are_leading_travel_of_each_move():
     rng = np.random.default_rng(3)
     path = rng.uniform(-6, 6, (9, 6))
@@ -41,6 +50,9 @@ def test_leading_travels_are_leading_travel_of_each_move():
     ([math.nan], 1.0, 1.0, "distance must be finite and ≥ 0, got nan"),
     ([], 0.0, 1.0, r"a \(acceleration\) must be finite and > 0, got 0.0"),
     ([1.0], 1.0, math.inf, r"v \(speed\) must be finite and > 0, got inf"),
+    ([1.0, 2.0], [1.0, -1.0], 1.0, r"a \(acceleration\) must be finite and > 0, got -1.0"),
+    ([1.0, 2.0, 3.0], 1.0, [1.0, 2.0, math.nan], r"v \(speed\) must be finite and > 0, got nan"),
+    ([1.0, -2.0], [1.0, 0.0], 1.0, "distance must be finite and ≥ 0, got -2.0"),
 ])
 def test_trapezoid_durations_refuse_what_trapezoid_duration_refuses(distances, a, v, message):
     with pytest.raises(ValueError, match=message):

@@ -14,6 +14,7 @@ import numpy as np
 
 from ur3dq import dqarray
 from ur3dq.collector import cyclic_gc_paused
+from ur3dq.slots import slot_builder
 
 MOVE_TYPES = ("joint", "linear", "process")
 
@@ -99,11 +100,7 @@ class PathSegment:
                 if id(offset) not in offsets:
                     offsets[id(offset)] = _finite_tuple(offset, 6, name, "tcp_offset")
                 offset = offsets[id(offset)]
-            segment = object.__new__(cls)
-            for set_slot, value in zip(_SLOT_SETTERS, (name, move, target, None, speed, acceleration, blend,
-                                                       offset)):
-                set_slot(segment, value)
-            segments.append(segment)
+            segments.append(_checked_segment(name, move, target, None, speed, acceleration, blend, offset))
         return segments
 
     @property
@@ -112,8 +109,7 @@ class PathSegment:
         return self.move != "joint"
 
 
-# One setter per field, in field order: a slot's own setter is the cheapest way past the frozen dataclass.
-_SLOT_SETTERS = tuple(getattr(PathSegment, field.name).__set__ for field in dataclasses.fields(PathSegment))
+_checked_segment = slot_builder(PathSegment)   # joint_targets' segments: their fields in order, checked as arrays
 
 
 @dataclasses.dataclass(frozen=True)

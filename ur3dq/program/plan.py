@@ -20,6 +20,7 @@ from ur3dq.errors import JointLimitError, SafetyCheckError, UnreachablePoseError
 from ur3dq.program.resolve import resolve_targets
 from ur3dq.program.steps import Waypoint, is_waypoint
 from ur3dq.robot import motion
+from ur3dq.slots import slot_builder
 
 MAX_TCP_SPEED = 1.0          # m/s: the pendant's default tool speed limit region; faster is refused by clamping
 MAX_TCP_ACCELERATION = 4.0   # m/s²
@@ -66,6 +67,10 @@ class PlannedStep:
     def pose(self):
         """The target TCP pose as a DualQuaternion (None for an action step)."""
         return None if self.coefficients is None else DualQuaternion.from_array(self.coefficients)
+
+
+# A waypoint's PlannedStep from its values (plan_program has checked them all): a big program plans 10⁵.
+_planned_step = slot_builder(PlannedStep)
 
 
 def _clamp(value: float, limit: float, what: str, clamped: list) -> float:
@@ -140,8 +145,6 @@ def plan_program(model, steps, start_joints=None, defaults: Defaults = Defaults(
     waypoints = [step for step in steps if is_waypoint(step)]
     targets = [resolved[step.name] for step in waypoints]
     batch = _solve_hinted(model, targets, replay_recorded_joints)
-    joint_v_limit = float(np.min(model.max_joint_speed))
-    joint_a_limit = float(np.min(model.max_joint_acceleration))
     previous = None if start_joints is None else np.asarray(start_joints, dtype=float)
     solved = []
     for index, target in enumerate(targets):
@@ -165,37 +168,56 @@ def plan_program(model, steps, start_joints=None, defaults: Defaults = Defaults(
     paths = np.maximum(metres, radians)
     if start_joints is None:  # the first move's start is unknown
         travels, paths = np.concatenate([[np.nan], travels]), np.concatenate([[np.nan], paths])
-    travels, paths = travels.tolist(), paths.tolist()   # floats: the loop below reads one per step
+    limits = (float(np.min(model.max_joint_speed)), float(np.min(model.max_joint_acceleration)))
+    shared: dict = {}   # id(Motion) -> _motion_figures: a big program's waypoints share a few Motion objects
+    figures = [shared.get(id(step.motion)) or shared.setdefault(id(step.motion), _motion_figures(
+        step.motion, defaults, speed_scale, limits)) for step in waypoints]
+    durations = _durations(waypoints, figures, travels, paths, max_joint_travel)
+    moving = [is_waypoint(step) for step in steps]
     plan: list[PlannedStep] = []
     at = 0
     for index, step in enumerate(steps):
-        if not is_waypoint(step):
+        if not moving[index]:
             plan.append(PlannedStep(step))
             continue
-        target, q, fk_error_m = targets[at], solved[at], fk_errors[at]
-        travel, path = travels[at], paths[at]
+        target, (move, a, v, blend, clamped) = targets[at], figures[at]
+        if index + 1 == len(steps) or not moving[index + 1]:
+            blend = 0.0   # the last waypoint, or an action follows: the action happens at the waypoint
+        plan.append(_planned_step(step, solved[at], target.coefficients, target.tcp_offset, move, a, v, blend,
+                                  durations[at][0], durations[at][1], fk_errors[at], clamped))
         at += 1
-        m = step.motion
-        clamped: list[str] = []
-        if m.move == "joint":
-            v = _clamp((m.speed or defaults.joint_speed) * speed_scale, joint_v_limit, "speed", clamped)
-            a = _clamp(m.acceleration or defaults.joint_acceleration, joint_a_limit, "acceleration", clamped)
-        else:
-            v = _clamp((m.speed or defaults.tcp_speed) * speed_scale, MAX_TCP_SPEED, "speed", clamped)
-            a = _clamp(m.acceleration or defaults.tcp_acceleration, MAX_TCP_ACCELERATION, "acceleration", clamped)
-        later = steps[index + 1:index + 2]
-        ends_here = not later or not is_waypoint(later[0])
-        blend = 0.0 if ends_here else (m.blend if m.blend is not None else defaults.blend)
-        duration = None
-        if math.isnan(travel):
-            travel = None
-        else:
-            if max_joint_travel is not None and travel > max_joint_travel:
-                raise SafetyCheckError(
-                    f"{step.who}: a joint would travel {travel:.3f} rad in one move, more than --max-travel "
-                    f"{max_joint_travel:.3f} rad (add an intermediate waypoint, or raise --max-travel)")
-            # joint moves: the leading joint's trapezoid; linear/process: the TCP's
-            duration = motion.trapezoid_duration(travel if m.move == "joint" else path, a, v)
-        plan.append(PlannedStep(step, q, target.coefficients, target.tcp_offset, m.move, a, v, blend, travel, duration, fk_error_m,
-                                tuple(clamped)))
     return plan
+
+
+def _motion_figures(m, defaults: Defaults, speed_scale: float, limits: tuple) -> tuple:
+    """(move, a, v, blend, clamped) of a waypoint's Motion `m`: the run's defaults where it leaves a value unset,
+    the speed scaled, a and v clamped (joint moves to `limits` = (slowest joint's speed, acceleration), linear and
+    process moves to MAX_TCP_SPEED / MAX_TCP_ACCELERATION); `clamped` says what was."""
+    clamped: list[str] = []
+    if m.move == "joint":
+        v = _clamp((m.speed or defaults.joint_speed) * speed_scale, limits[0], "speed", clamped)
+        a = _clamp(m.acceleration or defaults.joint_acceleration, limits[1], "acceleration", clamped)
+    else:
+        v = _clamp((m.speed or defaults.tcp_speed) * speed_scale, MAX_TCP_SPEED, "speed", clamped)
+        a = _clamp(m.acceleration or defaults.tcp_acceleration, MAX_TCP_ACCELERATION, "acceleration", clamped)
+    return m.move, a, v, (m.blend if m.blend is not None else defaults.blend), tuple(clamped)
+
+
+def _durations(waypoints: list, figures: list, travels: np.ndarray, paths: np.ndarray, max_joint_travel) -> list:
+    """[(travel rad or None, seconds at 100 % or None)] per waypoint: its leading joint travel (`travels`, NaN
+    where the start is unknown) and the trapezoid of joint moves' travel, linear and process moves' `paths`;
+    SafetyCheckError naming the first waypoint that swings a joint further than `max_joint_travel` (rad)."""
+    known = ~np.isnan(travels)
+    if max_joint_travel is not None:
+        over = np.flatnonzero(known & (travels > max_joint_travel))
+        if over.size:
+            step, travel = waypoints[over[0]], float(travels[over[0]])
+            raise SafetyCheckError(
+                f"{step.who}: a joint would travel {travel:.3f} rad in one move, more than --max-travel "
+                f"{max_joint_travel:.3f} rad (add an intermediate waypoint, or raise --max-travel)")
+    joint = np.array([move == "joint" for move, *_ in figures], dtype=bool)
+    a, v = (np.array([values[k] for values in figures], dtype=float).reshape(-1) for k in (1, 2))
+    seconds = np.full(len(travels), np.nan)
+    seconds[known] = motion.trapezoid_durations(np.where(joint, travels, paths)[known], a[known], v[known])
+    return [(None, None) if math.isnan(travel) else (travel, duration)
+            for travel, duration in zip(travels.tolist(), seconds.tolist())]

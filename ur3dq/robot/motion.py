@@ -26,10 +26,18 @@ def trapezoid_duration(distance, a, v):
 
 def trapezoid_durations(distances, a, v) -> np.ndarray:
     """trapezoid_duration of every distance (N,) at once (the same arithmetic, element by element; a plan of 10⁵
-    moves): seconds (N,); ValueError as trapezoid_duration's for a, v or a distance that is not finite and ≥ 0."""
+    moves), with a and v numbers or (N,) arrays (each move its own): seconds (N,); ValueError as
+    trapezoid_duration's for the first a, v or distance that is not finite and ≥ 0 (a and v: > 0)."""
     distance = np.asarray(distances, dtype=float)
+    a, v = (value if np.ndim(value) == 0 else np.asarray(value, dtype=float) for value in (a, v))
     bad = ~(np.isfinite(distance) & (distance >= 0))
-    trapezoid_duration(float(distance[bad][0]) if bad.any() else 0.0, a, v)   # its checks, its messages
+    if np.ndim(a) == 0 and np.ndim(v) == 0:   # a and v are checked even for no distance at all
+        trapezoid_duration(float(distance[bad][0]) if bad.any() else 0.0, a, v)   # its checks, its messages
+    else:
+        bad |= ~(np.isfinite(a) & (a > 0) & np.isfinite(v) & (v > 0))
+        if bad.any():
+            first = int(np.argmax(bad))
+            trapezoid_duration(*(float(np.broadcast_to(value, distance.shape)[first]) for value in (distance, a, v)))
     return np.where(distance >= v * v / a, distance / v + v / a, 2.0 * np.sqrt(distance / a))
 
 
