@@ -25,6 +25,7 @@ from ur3dq.errors import ConnectionLostError, JointLimitError, SafetyCheckError,
 from ur3dq.kinematics import ur_ik
 from ur3dq.pose import Pose
 from ur3dq.robot import motion
+from ur3dq.slots import slot_builder
 
 SOURCE_RECORDED = "recorded joints"
 SOURCE_IK_RECORDED = "IK nearest recorded"
@@ -54,6 +55,10 @@ class PlanStep:
     duration: float | None   # movej seconds at 100 % speed; None when the start is unknown
     fk_error_m: float        # model FK of the target vs the recorded pose
     fk_error_rad: float
+
+
+# A PlanStep from its values (plan_replay has checked them all): a big store's plan has 10⁵.
+_plan_step = slot_builder(PlanStep)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -181,7 +186,7 @@ def plan_replay(model, poses: Sequence[Pose], start_joints=None, a: float = 1.4,
     _check_travel(poses, travels, max_joint_travel)
     durations = _durations(travels, a, v)
     errors = model.fk_errors(joints, [pose.dual_quaternion for pose in poses], [pose.tcp_offset for pose in poses])
-    return [PlanStep(pose, q, source, count, travel, duration, metres, radians)
+    return [_plan_step(pose, q, source, count, travel, duration, metres, radians)
             for pose, (q, source, count), travel, duration, metres, radians
             in zip(poses, chosen, travels, durations, *errors)]
 
