@@ -362,3 +362,19 @@ def test_flange_rotation_position_is_flange_coefficients_without_the_dual_part(n
     assert (rw, rx, ry, rz) == coefficients[:4]
     assert (-px * rx - py * ry - pz * rz, px * rw + py * rz - pz * ry, -px * rz + py * rw + pz * rx,
             px * ry - py * rx + pz * rw) == coefficients[4:]
+
+
+def test_fk_errors_are_each_rows_distance_with_its_own_tcp():
+    """fk_errors groups rows by TCP offset (shared objects, equal values in other objects, other values): each
+    row's figures are its own FK with its own offset against its own pose."""
+    model = robot_model("ur5e")
+    rng = np.random.default_rng(4)
+    joints = list(rng.uniform(-3, 3, (12, 6)))
+    shared, other = (0.0, 0.0, 0.1, 0.0, 0.0, 0.0), (0.02, 0.0, 0.05, 0.0, 0.3, 0.0)
+    offsets = [shared, other, list(shared), shared, (0.0,) * 6, tuple(other)] * 2
+    poses = [model.with_tcp(offsets[(i + i % 2) % 12]).fk(q).to_array() for i, q in enumerate(joints)]   # odd: off
+    metres, radians = model.fk_errors(joints, poses, offsets)
+    for q, pose, offset, m, r in zip(joints, poses, offsets, metres, radians):
+        expected = model.with_tcp(offset).fk(q).distance(DualQuaternion.from_array(pose))
+        assert m == pytest.approx(expected[0], abs=1e-12) and r == pytest.approx(expected[1], abs=1e-9)
+    assert metres[3] > 0.01 and metres[4] < 1e-12   # a pose made with another offset, and one with its own

@@ -187,9 +187,12 @@ class URModel:
         (6,) with the TCP offset tcp_offsets[i] (a UR pose vector in the flange frame) in place of its own; one
         batch per distinct offset (the planners' check of every planned target)."""
         metres, radians = [0.0] * len(poses), [0.0] * len(poses)
-        groups: dict = {}
+        by_object: dict = {}   # rows share a few offset objects (all alive in tcp_offsets): their floats once each
         for index, offset in enumerate(tcp_offsets):
-            groups.setdefault(tuple(map(float, offset)), []).append(index)
+            by_object.setdefault(id(offset), []).append(index)
+        groups: dict = {}
+        for indices in by_object.values():
+            groups.setdefault(tuple(map(float, tcp_offsets[indices[0]])), []).extend(indices)
         for offset, indices in groups.items():
             reached = self.with_tcp(offset).fk_batch(np.array([joints[i] for i in indices]))
             wanted = dqarray.normalise(np.array([poses[i] for i in indices]))
