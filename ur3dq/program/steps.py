@@ -12,6 +12,7 @@ import math
 import unicodedata
 
 from ur3dq.pose import Pose, name_problem, unstorable_text_problem
+from ur3dq.slots import slot_builder
 
 MOVE_TYPES = ("joint", "linear", "process")    # movej, movel, movep
 FRAMES = ("tool", "base")                       # the frame a relative waypoint's offset is expressed in
@@ -139,10 +140,10 @@ class Waypoint(Step):
     def of_checked_pose(cls, pose: Pose) -> "Waypoint":
         """The plain joint waypoint of a validated Pose, built without re-running the checks above (nothing to
         check: the name is the pose's and the motion the default); a big store has 10⁵ of them."""
-        waypoint = object.__new__(cls)
-        for field, value in (("name", pose.name), ("pose", pose), ("motion", DEFAULT_MOTION)):
-            object.__setattr__(waypoint, field, value)
-        return waypoint
+        return _checked_waypoint(pose.name, pose, DEFAULT_MOTION)
+
+
+_checked_waypoint = slot_builder(Waypoint)   # Waypoint.of_checked_pose's: name, pose, motion
 
 
 @dataclasses.dataclass(frozen=True)
