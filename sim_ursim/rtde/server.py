@@ -118,6 +118,13 @@ class Session:
         if len(self._pending) > self.backlog_limit:
             self._close_locked(f"client does not read its data ({len(self._pending)} bytes waiting)")
 
+    def has_unread_input(self) -> bool:
+        """True while bytes the client sent wait in the socket, not yet taken by the reader thread."""
+        try:
+            return bool(self.sock.recv(1, socket.MSG_PEEK | socket.MSG_DONTWAIT))
+        except OSError:   # nothing waiting (BlockingIOError), or the connection is gone
+            return False
+
     def close(self, reason: str) -> None:
         """Close the connection once (the reader thread wakes up with EOF and exits)."""
         with self._lock:
@@ -152,6 +159,7 @@ class RTDEServer(TCPServer):
     # --- life cycle ---------------------------------------------------------------------------------------------
 
     def on_start(self) -> None:
+        watchdogs_of(self.controller).unread_input = self._unread_input
         self.spawn(self._stream_loop, "stream")
         log.info("RTDE version %s, control rate %.0f Hz", ".".join(map(str, self._version)), self._control_rate)
 
@@ -198,6 +206,12 @@ class RTDEServer(TCPServer):
             session.close(reason)
             self._forget_session(session)
             log.info("%s disconnected (%s)", session, session.close_reason)
+
+    def _unread_input(self, name: str) -> bool:
+        """True while the client that controls input `name` has bytes waiting unread (see rtde.watchdog)."""
+        with self._sessions_lock:
+            owner = self._input_owners.get(name)
+        return owner is not None and owner.has_unread_input()
 
     def _forget_session(self, session: Session) -> None:
         with self._sessions_lock:

@@ -6,11 +6,15 @@ the program) and "stop" (stop the program), in any letter case; "all watchdogs a
 
 The period is counted from the latest of the arming, the variable's last update and the end of a pause, so a
 program that arms a watchdog gets one full period for its client's first package, and a paused program is not
-watched until it resumes. It also starts again after the simulator itself stalled (its checks more than
-`STALL` s apart): a controller is real-time, but this process can be starved of the CPU, and then the input
-packages that came in meanwhile are read late, so a client that kept sending would be taken for one that stopped.  One watchdog per variable: arming it again replaces
-it.  The RTDE server reports every input package (`note_update`); a checker thread takes the action at most
-1/`CHECK_RATE` s late and disarms a watchdog whose program has ended.
+watched until it resumes. A controller is real-time and reads its inputs every cycle; this process can be starved
+of the CPU or the GIL, and then the input packages a client kept sending are read late. So the period also starts
+again after the simulator itself stalled (its checks more than `STALL` s apart), and an expired watchdog does not
+fire while input bytes of the variable's client wait unread in its socket (`unread_input`, set by the RTDE
+server): the checker can run on time while the thread reading that client is held back (seen in loaded test runs:
+a client writing every 10-20 ms, nothing read for 101 ms, the program stopped). A client that stopped sending
+leaves nothing unread, so it is still stopped one period after its last package. One watchdog per variable:
+arming it again replaces it. The RTDE server reports every input package (`note_update`); a checker thread takes
+the action at most 1/`CHECK_RATE` s late and disarms a watchdog whose program has ended.
 
 Attached to a controller without touching its class: `watchdogs_of(controller)` creates the registry on first use.
 """
@@ -48,6 +52,7 @@ class InputWatchdogs:
         self._last_update = {}
         self._last_check = None
         self._thread = None
+        self.unread_input = lambda variable: False   # True while bytes of the client writing `variable` wait unread
 
     def arm(self, variable, min_frequency, action, program_ended):
         """Arm (or re-arm) the watchdog of input `variable`; ValueError for a bad frequency or action."""
@@ -94,7 +99,7 @@ class InputWatchdogs:
                     watchdog.armed_at = now
                     continue
                 since = max(watchdog.armed_at, self._last_update.get(name, watchdog.armed_at))
-                if now - since > watchdog.period and watchdog.action != "ignore":
+                if now - since > watchdog.period and watchdog.action != "ignore" and not self.unread_input(name):
                     watchdog.armed_at = now
                     fired.append((name, watchdog.action))
         for name, action in fired:

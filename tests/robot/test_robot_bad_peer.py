@@ -266,3 +266,81 @@ def test_urx_garbage_in_the_middle_of_a_motion_stops_the_arm_with_one_error(powe
         assert np.max(np.abs(np.array(receive.getActualQ()) - last)) > 0.05
     finally:
         receive.disconnect()
+
+
+class _RecordingSocket:
+    """A real socket whose reads note how many bytes the urx reader `monitor` held just before each one."""
+
+    def __init__(self, sock, monitor):
+        self.sock, self.monitor, self.held = sock, monitor, []
+
+    def recv(self, size):
+        self.held.append(len(self.monitor._dataqueue))
+        return self.sock.recv(size)
+
+
+def _urx_reader(sock):
+    """ur3dq's urx 30002 reader on `sock`, without its constructor (which connects and starts the thread)."""
+    from urx.ursecmon import ParserUtils
+    from ur3dq.robot.urx_backend import _QuietSecondaryMonitor
+
+    monitor = _QuietSecondaryMonitor.__new__(_QuietSecondaryMonitor)
+    monitor._dataqueue, monitor._parser = b"", ParserUtils()
+    monitor._s_secondary = _RecordingSocket(sock, monitor)
+    return monitor
+
+
+def test_urx_reader_drops_garbage_as_it_reads_it():
+    """The flake of the motion test above: urx's own reader kept every byte of garbage and scanned them all again,
+    one byte per step, after each 1 kB read (one second of that stream cost 44 s of CPU), and the thread holding
+    the GIL meanwhile starved ur3dq's heartbeat thread until the controller's 0.1 s watchdog stopped the motion,
+    before ur3dq reported the garbage. ur3dq's reader keeps only what could still begin a packet."""
+    import struct
+
+    packet = struct.pack("!iB", 12, 16) + b"payload"
+    reader, writer = socket.socketpair()
+    with reader, writer:
+        writer.sendall(random.Random(7).randbytes(32 * 1024) + packet)
+        monitor = _urx_reader(reader)
+        assert monitor._get_data() == packet
+    assert max(monitor._s_secondary.held) <= 4 and monitor._dataqueue == b""
+
+
+def test_urx_reader_finds_the_packets_urx_finds():
+    """take_packet gives the packets urx's find_first_packet gives, over streams of packets, headers and garbage
+    cut into reads of several sizes."""
+    import struct
+
+    from urx.ursecmon import ParserUtils
+    from ur3dq.robot.urx_backend import take_packet
+
+    def urx_packets(queue):
+        found = []
+        while (step := ParserUtils().find_first_packet(queue)) is not None:
+            found.append(step[0])
+            queue = step[1]
+        return found, queue
+
+    rng = random.Random(3)
+    for _ in range(200):
+        parts = []
+        for _ in range(rng.randint(0, 5)):
+            kind, size = rng.random(), rng.choice([5, 6, rng.randint(7, 400), 2000])
+            if kind < 0.4:
+                parts.append(rng.randbytes(rng.randint(0, 100)))
+            elif kind < 0.5:   # a header alone: urx waits for the rest
+                parts.append(struct.pack("!iB", size, 16))
+            else:
+                parts.append(struct.pack("!iB", size, 16) + rng.randbytes(size - 5))
+        stream, read = b"".join(parts), rng.choice([3, 64, 1024])
+        expected, held = [], b""
+        ours, queue = [], b""
+        for at in range(0, len(stream), read):
+            found, held = urx_packets(held + stream[at:at + read])
+            expected += found
+            queue += stream[at:at + read]
+            while (step := take_packet(queue))[0] is not None:
+                ours.append(step[0])
+                queue = step[1]
+            queue = step[1]
+        assert ours == expected

@@ -88,3 +88,28 @@ def test_at_rest_on_target_without_any_evidence_of_the_program_is_not_the_end():
         assert not outcome.finished(status(0.5, running=False), tick * SETTLE_TIME)
     outcome.note_message(key("PROGRAM_XXX_STOPPED"))
     assert outcome.finished(status(0.5, running=False), 30.0)
+
+
+class _Beats:
+    """A heartbeat that went `gap` s without a write during the motion (ur3dq.robot.heartbeat.Heartbeat's
+    longest_gap)."""
+
+    def __init__(self, gap):
+        self.gap = gap
+
+    def longest_gap(self):
+        return self.gap
+
+
+@pytest.mark.parametrize("gap, named", [(0.143, True), (0.03, False)])
+def test_a_stop_after_a_heartbeat_gap_names_the_heartbeat_watchdog(gap, named):
+    """The controller's key message does not say why a program stopped; a heartbeat that went a watchdog period
+    without a write is the likely cause (the flaky runs: gaps of 114-155 ms in a starved test process)."""
+    outcome = _MotionWatch("p", TARGET, running_at_send=False, heartbeat=_Beats(gap))
+    outcome.finished(status(0.2, running=True, moving=True), 0.0)
+    outcome.finished(status(0.3, running=False), 0.1)
+    with pytest.raises(ProgramError) as caught:
+        outcome.finished(status(0.3, running=False), 0.1 + SETTLE_TIME + 0.01)
+    assert str(caught.value).endswith("heartbeat wrote nothing for 0.143 s; the watchdog stops a program after "
+                                      "0.1 s)") == named
+    assert ("heartbeat watchdog" in str(caught.value)) == named

@@ -1,9 +1,13 @@
 """sim_ursim's RTDE input watchdogs (sim_ursim/rtde/watchdog.py) on a clock of the test's own: a period without
-an input update fires the action, and a stall of the simulator itself (its checks far apart, the packages that came
-in meanwhile not read yet) starts the period again instead of stopping a client that kept sending."""
+an input update fires the action; a stall of the simulator itself (its checks far apart, the packages that came
+in meanwhile not read yet) starts the period again, and input waiting unread in the client's socket holds the
+action back, instead of stopping a client that kept sending."""
+import socket
 from types import SimpleNamespace
 
+from sim_ursim.rtde.server import Session
 from sim_ursim.rtde.watchdog import STALL, InputWatchdogs
+from sim_ursim.tcp_server import Connection
 
 
 class FakeController:
@@ -64,3 +68,40 @@ def test_a_stall_of_the_simulator_starts_the_period_again():
         assert watchdogs.check() == []
     times[0] = last + 0.105
     assert watchdogs.check() == [("input_int_register_20", "stop")] and controller.stopped == 1
+
+
+def test_input_waiting_unread_holds_the_action_back_until_it_is_read():
+    """Loaded test runs: the checker ran on time while the thread reading the heartbeat's client was held back;
+    the client wrote every 10-20 ms, nothing was read for 101 ms, and a healthy motion was stopped."""
+    times = [0.0]
+    watchdogs, controller = watchdogs_at(times)
+    unread = {"input_int_register_20": False}
+    watchdogs.unread_input = unread.get
+    arm(watchdogs)
+    times[0] = 0.01
+    watchdogs.note_update(["input_int_register_20"])
+    unread["input_int_register_20"] = True   # the client's next packages are in the socket, not read yet
+    for step in range(1, 60):   # checked on time all along: no stall of the checker
+        times[0] = 0.01 + 0.005 * step
+        assert watchdogs.check() == []
+    watchdogs.note_update(["input_int_register_20"])   # read at last
+    unread["input_int_register_20"] = False
+    last = times[0]
+    for step in range(1, 20):   # then nothing more comes: stopped one period after the last package
+        times[0] = last + 0.005 * step
+        assert watchdogs.check() == [] and controller.stopped == 0
+    times[0] = last + 0.105
+    assert watchdogs.check() == [("input_int_register_20", "stop")] and controller.stopped == 1
+
+
+def test_a_session_tells_whether_its_client_sent_what_is_not_read_yet():
+    server_side, client_side = socket.socketpair()
+    with server_side, client_side:
+        session = Session(Connection(server_side, ("127.0.0.1", 1), 0), 1, backlog_limit=1024)
+        assert not session.has_unread_input()
+        client_side.sendall(b"\x00\x08U\x01\x00\x00\x00\x01")
+        assert session.has_unread_input() and session.has_unread_input()   # looking does not take it
+        assert len(server_side.recv(64)) == 8
+        assert not session.has_unread_input()
+        client_side.close()   # a client gone leaves nothing to wait for
+        assert not session.has_unread_input()

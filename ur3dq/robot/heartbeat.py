@@ -14,6 +14,7 @@ RTDEIOInterface) makes the controller refuse it, and the motion is refused with 
 from __future__ import annotations
 
 import threading
+import time
 
 import rtde_io
 
@@ -25,7 +26,9 @@ HEARTBEAT_REGISTER = 20
 #: Python, so anything holding the GIL longer than that stops the arm. The one such stall found, ur_rtde's
 #: RTDEReceiveInterface destructor (0.5 s with the GIL held) run by a garbage collection mid-motion, is gone: the
 #: driver destroys it when it closes (rtde_backend.close). Largest gap between two heartbeats measured over a whole
-#: `make test` on 2 loaded cores after that: 60 ms client side, 42 ms as the controller saw it.
+#: `make test` on 2 loaded cores after that: 60 ms client side, 42 ms as the controller saw it; with more load
+#: beside it (a busy loop, urx spinning on garbage) 114-155 ms, and then a motion stops: its ProgramError says so
+#: (Heartbeat.longest_gap).
 WATCHDOG_FREQUENCY = 10.0
 #: Seconds between heartbeats: twenty per watchdog period, so a loaded machine that delays a few is not a stop.
 PERIOD = 0.01
@@ -55,6 +58,9 @@ class Heartbeat:
 
     def __init__(self, host: str):
         self.host = host
+        self._last_write = None      # monotonic time of the last write that went through
+        self._watched_from = 0.0     # see watch_gaps
+        self._longest_gap = 0.0
         try:
             self._io = rtde_io.RTDEIOInterface(host)
         except RuntimeError as error:
@@ -84,6 +90,17 @@ class Heartbeat:
             raise RobotConnectionError(f"the heartbeat to {self.host}:30004 cannot reconnect")
         self._start()
 
+    def watch_gaps(self):
+        """From now on, measure the longest time without a write (longest_gap): call it when a motion is sent."""
+        self._watched_from, self._longest_gap = time.monotonic(), 0.0
+
+    def longest_gap(self) -> float:
+        """The longest time (s) since watch_gaps without a write, the time since the last write included. At
+        1/WATCHDOG_FREQUENCY or more the controller's watchdog may have stopped the program: the beat thread was
+        held back (a starved CPU, or another thread holding the GIL) or the connection broke."""
+        since = max(self._last_write or 0.0, self._watched_from)
+        return max(self._longest_gap, time.monotonic() - since)
+
     @property
     def alive(self) -> bool:
         """True while the thread runs and its last write went through."""
@@ -100,6 +117,9 @@ class Heartbeat:
             if not ok:
                 failed.set()
                 return
+            now = time.monotonic()
+            self._longest_gap = max(self._longest_gap, now - max(self._last_write or now, self._watched_from))
+            self._last_write = now
             written.set()
             if stop.wait(PERIOD):
                 return

@@ -29,7 +29,7 @@ from ur3dq.errors import (
 from ur3dq.kinematics import robot_model_from_dh
 from ur3dq.robot import motion, primary, safety, script, state
 from ur3dq.robot.dashboard import Dashboard, model_from_reply
-from ur3dq.robot.heartbeat import Heartbeat, armed
+from ur3dq.robot.heartbeat import WATCHDOG_FREQUENCY, Heartbeat, armed
 from ur3dq.robot.primary_client import PrimaryClient, send_script
 
 URSCRIPT_DEFAULT_A = 1.4  # rad/s², URScript movej default
@@ -392,10 +392,13 @@ class Robot:
                                           "ur3dq died, so none is sent (reconnect)")
             program = armed(program, name)
         watcher = self._primary.watch()
+        if self._use_heartbeat:
+            self._heartbeat.watch_gaps()
         sent = time.monotonic()
         try:
             self._backend.send_program(program)
-            outcome = _MotionWatch(name, target, running_at_send=running_at_send)
+            outcome = _MotionWatch(name, target, running_at_send=running_at_send,
+                                   heartbeat=self._heartbeat if self._use_heartbeat else None)
             while True:
                 for message in _drain(watcher):
                     outcome.note_message(message)
@@ -530,8 +533,9 @@ class _MotionWatch:
     on the target proves nothing by itself: a closed path [B, A] or a zero-length move starts there.
     """
 
-    def __init__(self, name: str, target, running_at_send: bool):
+    def __init__(self, name: str, target, running_at_send: bool, heartbeat=None):
         self.name = name
+        self.heartbeat = heartbeat  # the Heartbeat the program is armed on (None: not armed)
         self.target = np.asarray(target, dtype=float)
         self.started = False
         self.stopped = False  # our STOPPED key message arrived
@@ -595,10 +599,21 @@ class _MotionWatch:
         if self._ended_at is None:
             self._ended_at = now
         elif now - self._ended_at > SETTLE_TIME:
-            reason = f": {self.last_error_text}" if self.last_error_text else ""
             raise ProgramError(f"program {self.name} ended with the arm {self.distance(status):.4f} rad from its "
-                               f"target{reason}")
+                               f"target{self._stop_reason()}")
         return False
+
+    def _stop_reason(self) -> str:
+        """What ended the program short of its target, as far as ur3dq can tell: the controller's error, or its
+        heartbeat watchdog when the heartbeat went a watchdog period without a write (the controller's key
+        message does not say why a program stopped)."""
+        if self.last_error_text:
+            return f": {self.last_error_text}"
+        gap = self.heartbeat.longest_gap() if self.heartbeat is not None else 0.0
+        if gap >= 1.0 / WATCHDOG_FREQUENCY:
+            return (f": most likely the controller's heartbeat watchdog (ur3dq's heartbeat wrote nothing for "
+                    f"{gap:.3f} s; the watchdog stops a program after {1.0 / WATCHDOG_FREQUENCY:g} s)")
+        return ""
 
 
 def _drain(watcher):

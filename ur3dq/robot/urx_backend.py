@@ -4,6 +4,7 @@ of controllers newer than 3.4 (its `is_running()` stays False there), so complet
 """
 import logging
 import socket
+import struct
 import threading
 import time
 
@@ -99,6 +100,37 @@ class URXBackend:
         secmon._s_secondary.close()
 
 
+# What urx's parser takes for the start of a packet: a big-endian int32 size in [5, 2000] and the type byte 16.
+_HEADER = struct.Struct("!iB")
+_PACKET_TYPE = 16
+_MIN_PACKET, _MAX_PACKET = 5, 2000
+
+
+def take_packet(queue: bytes):
+    """(packet, rest) for the first span of `queue` urx would take for a packet, or (None, rest) when there is none
+    yet: `rest` then keeps only what could still begin one, so garbage is dropped as it is read.
+
+    The same packet as urx's `ParserUtils.find_first_packet`, which steps one byte at a time with a copy of the
+    rest per step and keeps the skipped garbage until a packet turns up; its reader rescans that whole queue after
+    every 1,024-byte read, so a stream of garbage costs time quadratic in its length (one second of the bad-peer
+    test's garbage, 200 kB, took 44 s of CPU). That reader held the GIL nearly all the time, and the heartbeat
+    thread (ur3dq.robot.heartbeat) then missed the controller's 0.1 s watchdog and the program stopped before the
+    driver could report the stream as garbage. Here the type byte is found by `bytes.find`, in C, and the queue
+    holds at most one incomplete packet and the 1,024 bytes read after it."""
+    start = 0
+    while True:
+        at = queue.find(bytes((_PACKET_TYPE,)), start + 4)
+        if at < 0:
+            return None, queue[max(start, len(queue) - 4):]
+        start = at - 4
+        size = _HEADER.unpack_from(queue, start)[0]
+        if _MIN_PACKET <= size <= _MAX_PACKET:
+            if len(queue) - start < size:
+                return None, queue[start:]
+            return queue[start:start + size], queue[start + size:]
+        start += 1
+
+
 class _QuietSecondaryMonitor(urx.ursecmon.SecondaryMonitor):
     """urx's 30002 reader thread, ending quietly when the stream breaks or falls silent (the error kept in `error`):
     urx's own run() dies there with a traceback on stderr, while the driver reports the loss as ConnectionLostError."""
@@ -116,6 +148,14 @@ class _QuietSecondaryMonitor(urx.ursecmon.SecondaryMonitor):
             super().run()
         except OSError as error:  # closed, reset, or urx's 0.5 s receive timeout
             self.error = error
+
+    def _get_data(self):
+        """urx's read of the next packet, linear in the bytes read (take_packet)."""
+        while True:
+            packet, self._dataqueue = take_packet(self._dataqueue)
+            if packet is not None:
+                return packet
+            self._dataqueue += self._s_secondary.recv(1024)
 
     def wait(self, timeout=0.5):
         """urx's wait for a fresh packet; on its timeout the reader is ended and its socket closed before the
