@@ -260,6 +260,40 @@ def test_ik_batch_without_any_proven_row_and_without_poses():
     assert model.ik_batch(poses[:0], q[:0]).shape == (0, 6)
 
 
+@pytest.mark.parametrize("name, seed", MODELS[:3])
+def test_a_reference_at_its_solution_is_the_full_rankings_answer(name, seed, monkeypatch):
+    """ik(fk(q), q) and ik_batch beside singularities, where _isolated cannot prove the reference's Newton row: where
+    that row's variants are the reference to the bit (cost 0), ik and ik_batch return it without the ranking, and
+    the full rankings (the paths before: ik's, and ik_batch's with nothing proven) give the very same joints."""
+    from ur3dq.kinematics.ur_ik import batch
+    model = factory_model(name, seed)
+    g = _geometry(model)
+    q = hard_configurations(200, seed + 900)
+    poses = model.fk_batch(q)
+    answers = model.ik_batch(poses, q)
+    nearest_of = batch._calibrated_nearest
+    with monkeypatch.context() as patched:
+        patched.setattr(batch, "_calibrated_nearest", lambda *arguments: (lambda joints, proven, rows: (
+            np.full_like(joints, np.nan), np.zeros_like(proven), rows))(*nearest_of(*arguments)))
+        ranked_rows = model.ik_batch(poses, q)
+    at_reference = np.all(answers == q, axis=1)   # the batch's cost-0 rows (and any the ranking puts there)
+    np.testing.assert_array_equal(ranked_rows[at_reference], q[at_reference])
+    decided = 0
+    for joints, pose in zip(q, poses):
+        target, reference = _targets(g, pose)[1], _reference(joints)
+        refined, residual = calibrated._refine_batch(g, np.array([reference]), np.array(target)[None])
+        variants = nearest._nearest_joints(g, tuple(refined[0]), reference)
+        if not (residual[0] <= calibrated.CALIBRATED_TOLERANCE and variants == reference):
+            continue   # not the shortcut's case: the other tests compare these
+        expected = ranked(model, pose, joints)
+        assert np.array_equal(expected, joints), joints
+        assert np.array_equal(solved(model, pose, joints), expected), joints
+        assert np.array_equal(model.ik_batch(pose[None], joints[None])[0], expected), joints   # ik's kernels
+        reach = 4.0 * math.sqrt(6.0) * LIMIT_ROUNDING   # _reference_solution's 2·reach at cost 0
+        decided += not calibrated._isolated(g, refined, np.array([reach]))[0]
+    assert decided >= 10 and at_reference.sum() >= len(q) // 2   # rows the radius could not decide; most rows
+
+
 def test_float_kernels_give_the_batched_quantities():
     """newton_floats' error and step of one row are the batched matrices' (calibrated._matrix_residual,
     _matrix_step) to rounding, beside singularities and at ±2π included."""

@@ -105,9 +105,10 @@ def _calibrated_nearest(model, g: _Geometry, poses: np.ndarray, reference: np.nd
     solution, and the Newton row itself (NaN where it did not converge) for the ranking of the others.
 
     Proven as in nearest._reference_solution: every solution nearer the reference than x (cost c) would lie within
-    2·√(c / min w) of x, inside half x's isolation radius (calibrated._isolated), where no other lies; and the FK
-    filter passes. That is ``ik``'s answer (its ranking holds the same Newton row from the reference), and the
-    ranking of the nominal branches' rows gives it too whenever one of them reaches x. Rows not proven are NaN.
+    2·√(c / min w) of x, inside half x's isolation radius (calibrated._isolated), where no other lies, or c = 0 (x's
+    variants are the reference: every candidate as near has these joints); and the FK filter passes. That is
+    ``ik``'s answer (its ranking holds the same Newton row from the reference), and the ranking of the nominal
+    branches' rows gives it too whenever one of them reaches x. Rows not proven are NaN.
     """
     targets = np.stack(_batch_flange_targets(g, poses), axis=-1)
     normals = np.full((6, 6, len(poses)), np.nan)   # JᵀJ of the final joints, for _isolated
@@ -119,7 +120,11 @@ def _calibrated_nearest(model, g: _Geometry, poses: np.ndarray, reference: np.nd
     rows, joints, cost = rows[fits], joints[fits], cost[fits]
     smallest = 1.0 if weight is None else min(weight)
     reach = 2.0 * (np.sqrt(cost / smallest) + math.sqrt(6.0) * LIMIT_ROUNDING)
-    isolated = _isolated(g, refined[rows], 2.0 * reach, normals[:, :, rows])
+    # A reference that is itself the solution (cost 0) is the answer whatever the ranking (as in nearest's).
+    isolated = cost == 0.0
+    others = np.flatnonzero(~isolated)
+    if others.size:
+        isolated[others] = _isolated(g, refined[rows[others]], 2.0 * reach[others], normals[:, :, rows[others]])
     rows, joints = rows[isolated], joints[isolated]
     passed = _shifted_rows_filter(model, g, joints, refined[rows], poses[rows])
     out = np.full((len(poses), 6), np.nan)

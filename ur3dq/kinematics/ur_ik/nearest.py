@@ -196,7 +196,10 @@ def _reference_solution(g: _Geometry, target, reference, weights) -> tuple:
     (both within √(c / min w) of the reference, up to LIMIT_ROUNDING per joint), which _isolated rules out: no
     other solution lies that close. Half the radius is required, for the rounding of σ. Typical of a reference at
     or beside the answer (``ik(fk(q), q)``, a path of small steps); anything else, a singularity included, takes
-    the full ranking.
+    the full ranking, except a reference that is itself a solution (c = 0: x's variants are the
+    reference to the bit, as when Newton takes no step from an exact ``ik(fk(q), q)``): no candidate costs less
+    than 0, and one that costs 0 has these very variants, so the ranking's answer is these joints whatever it
+    ranks (beside a singularity, where _isolated cannot tell, that ranking costs milliseconds).
     """
     refined, residual = _refine_batch(g, np.array([reference]), np.array(target)[None])
     if not residual[0] <= CALIBRATED_TOLERANCE:
@@ -206,6 +209,8 @@ def _reference_solution(g: _Geometry, target, reference, weights) -> tuple:
     cost = sum(w * (v - r) ** 2 for w, v, r in zip(weights, joints, reference))
     if not cost < math.inf:
         return None, row
+    if cost == 0.0:   # the reference itself: the answer whatever the ranking (see above)
+        return joints, row
     reach = 2.0 * (math.sqrt(cost / min(weights)) + math.sqrt(6.0) * LIMIT_ROUNDING)
     return (joints if _isolated(g, refined, np.array([2.0 * reach]))[0] else None), row
 
