@@ -598,7 +598,9 @@ class _MotionWatch:
             return True
         if self._ended_at is None:
             self._ended_at = now
-        elif now - self._ended_at > SETTLE_TIME:
+        # Only a state the stream delivered after the end says where the arm ended: one from before (a frozen
+        # stream, garbled on the wire) shows the arm where it was then, and the stream's freeze check reports it.
+        elif now - self._ended_at > SETTLE_TIME and now - status.age > self._ended_at:
             raise ProgramError(f"program {self.name} ended with the arm {self.distance(status):.4f} rad from its "
                                f"target{self._stop_reason()}")
         return False
