@@ -312,6 +312,29 @@ def test_urx_reader_drops_garbage_as_it_reads_it():
     assert max(monitor._s_secondary.held) <= 4 and monitor._dataqueue == b""
 
 
+def test_urx_reader_ends_when_the_controller_closes_the_connection():
+    """urx's reader spun on the empty reads of a closed socket, its thread alive: the driver took urx for connected
+    after a dropped connection and returned the state from before the drop as the newest (a flaky fault test:
+    0.7 s old right after the reconnect). ur3dq's reader ends there, and the driver reconnects urx."""
+    reader, writer = socket.socketpair()
+    with reader:
+        writer.sendall(b"\x00\x00")   # the start of a header that never ends
+        writer.close()
+        monitor = _urx_reader(reader)
+        errors = []
+
+        def read():
+            try:
+                monitor._get_data()
+            except OSError as error:
+                errors.append(error)
+
+        thread = threading.Thread(target=read, daemon=True)   # urx's loop would spin on: bounded here
+        thread.start()
+        thread.join(2.0)
+    assert not thread.is_alive() and isinstance(errors[0], ConnectionResetError) and "closed" in str(errors[0])
+
+
 def test_urx_reader_finds_the_packets_urx_finds():
     """take_packet gives the packets urx's find_first_packet gives, over streams of packets, headers and garbage
     cut into reads of several sizes."""

@@ -150,12 +150,17 @@ class _QuietSecondaryMonitor(urx.ursecmon.SecondaryMonitor):
             self.error = error
 
     def _get_data(self):
-        """urx's read of the next packet, linear in the bytes read (take_packet)."""
+        """urx's read of the next packet, linear in the bytes read (take_packet); ConnectionResetError when the
+        controller closed the connection (urx's own loop spins on the empty reads, its thread alive, so the driver
+        took the connection for up and read the state of before the close as the newest)."""
         while True:
             packet, self._dataqueue = take_packet(self._dataqueue)
             if packet is not None:
                 return packet
-            self._dataqueue += self._s_secondary.recv(1024)
+            data = self._s_secondary.recv(1024)
+            if not data:
+                raise ConnectionResetError("the controller closed urx's connection (port 30002)")
+            self._dataqueue += data
 
     def wait(self, timeout=0.5):
         """urx's wait for a fresh packet; on its timeout the reader is ended and its socket closed before the
