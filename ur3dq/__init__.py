@@ -1,5 +1,15 @@
 """ur3dq: dual-quaternion kinematics, a safe driver and a shop-floor CLI for Universal Robots arms."""
-from ur3dq.dualquat import DualQuaternion
-from ur3dq.kinematics.models import robot_model
 
 __all__ = ["DualQuaternion", "robot_model"]
+
+
+def __getattr__(name: str):
+    # Imported on first use (PEP 562), not with the package: the command line must set its BLAS thread count
+    # (ur3dq.cli) before anything here imports numpy.
+    if name == "DualQuaternion":
+        from ur3dq.dualquat import DualQuaternion
+        return DualQuaternion
+    if name == "robot_model":
+        from ur3dq.kinematics.models import robot_model
+        return robot_model
+    raise AttributeError(f"module 'ur3dq' has no attribute {name!r}")

@@ -1,6 +1,14 @@
 """The `ur3dq` command line (click): importing this package registers every command on `cli`."""
-from ur3dq.cli.app import cli, main
-from ur3dq.cli import (  # noqa: F401  (importing registers the commands)
+import os
+
+# One BLAS thread, set before numpy is first imported (ur3dq's own package imports none). A command's matrices are
+# small; OpenBLAS's extra threads only spin, 0.05–0.12 s of CPU at numpy's import alone (measured), taken from the
+# heartbeat and state threads of a driver on a 2-core cell PC. A value the user set is kept.
+for _variable in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_variable, "1")
+
+from ur3dq.cli.app import cli, main  # noqa: E402  (after the thread count)
+from ur3dq.cli import (  # noqa: E402,F401  (importing registers the commands)
     commands_check, commands_controller, commands_files, commands_kinematics, commands_poses, commands_program,
     commands_robot, commands_sim,
 )
