@@ -23,6 +23,7 @@ from ur3dq.collector import cyclic_gc_paused
 from ur3dq.errors import StoreError
 from ur3dq.pose import (
     MAX_JOINT_ABS, MAX_TRANSLATION_ABS, POSE_AGREEMENT_TOLERANCE, UNIT_TOLERANCE, Pose, check_pose_text_fields,
+    text_fields_all_valid,
 )
 from ur3dq.program.resolve import check_program
 from ur3dq.program.steps import (
@@ -118,10 +119,11 @@ def _first_bad(mask: np.ndarray) -> int | None:
     return int(rows[0]) if rows.size else None
 
 
-def _check_magnitudes(fields_list, who, who_of=None) -> list:
+def _check_magnitudes(fields_list, who, who_of=None) -> tuple:
     """Check the numbers of many pose field dicts at once (vectorised); ValueError naming the pose at fault.
 
-    Returns the rows as (dual_quaternion, ur_pose, tcp_offset, joints-or-None) lists of floats."""
+    Returns (dual_quaternion (N, 8), ur_pose (N, 6), tcp_offset (N, 6)) arrays and the joints of each pose: a
+    tuple of 6 floats, or None."""
     who_of = who_of or (lambda index: who)
     dq = _vectors(fields_list, "dual_quaternion", 8, who_of)
     ur = _vectors(fields_list, "ur_pose", 6, who_of)
@@ -160,9 +162,10 @@ def _check_magnitudes(fields_list, who, who_of=None) -> list:
     if bad is not None:
         raise ValueError(f"{who_of(bad)}: ur_pose and dual_quaternion disagree by {metres[bad]:.3g} m and "
                          f"{radians[bad]:.3g} rad")
-    dq_rows, ur_rows, tcp_rows = dq.tolist(), ur.tolist(), tcp.tolist()  # one conversion per chunk, not per pose
-    joint_rows = dict(zip(with_joints, joints.tolist()))
-    return [(dq_rows[i], ur_rows[i], tcp_rows[i], joint_rows.get(i)) for i in range(len(fields_list))]
+    joint_rows = [None] * len(fields_list)
+    for index, row in zip(with_joints, _tuples(joints)):
+        joint_rows[index] = row
+    return dq, ur, tcp, joint_rows
 
 
 _NO_TCP_OFFSET = (0.0,) * 6
@@ -189,21 +192,27 @@ def _poses_of_chunk(entries, chunk, who_of) -> list[Pose]:
         fields_list.append(fields)
     if not fields_list:
         return []
-    rows = _check_magnitudes(fields_list, None, lambda k: who_of(chunk[k]))
-    poses = []
-    for k, (fields, (dq, ur, tcp, joints)) in enumerate(zip(fields_list, rows)):
-        try:
-            check_pose_text_fields(fields["name"], fields["time"], fields["robot_model"],
-                                   fields.get("robot_serial"), fields["note"])
-        except ValueError as error:
-            raise ValueError(f"{who_of(chunk[k])}: {_strip_pose_prefix(str(error))}") from None
-        tcp = tuple(tcp)
-        # One shared zero TCP and model name: most poses of a store have them, and 10⁵ copies cost ~25 MB.
-        poses.append(Pose.checked(fields["name"], fields["time"], sys.intern(fields["robot_model"]), tuple(dq),
-                                  tuple(ur), _NO_TCP_OFFSET if tcp == _NO_TCP_OFFSET else tcp,
-                                  None if joints is None else tuple(joints), fields.get("robot_serial"),
-                                  fields["note"]))
-    return poses
+    dq, ur, tcp, joints = _check_magnitudes(fields_list, None, lambda k: who_of(chunk[k]))
+    names = [fields["name"] for fields in fields_list]
+    times = [fields["time"] for fields in fields_list]
+    models = [fields["robot_model"] for fields in fields_list]
+    serials = [fields.get("robot_serial") for fields in fields_list]
+    notes = [fields["note"] for fields in fields_list]
+    if not text_fields_all_valid(names, times, models, serials, notes):
+        for k, text in enumerate(zip(names, times, models, serials, notes)):   # the first at fault, by name
+            try:
+                check_pose_text_fields(*text)
+            except ValueError as error:
+                raise ValueError(f"{who_of(chunk[k])}: {_strip_pose_prefix(str(error))}") from None
+    # One shared zero TCP and model name: most poses of a store have them, and 10⁵ copies cost ~25 MB.
+    tcp = [_NO_TCP_OFFSET if zero else row for zero, row in zip((~tcp.any(axis=1)).tolist(), _tuples(tcp))]
+    models = [sys.intern(model) for model in models]
+    return list(map(Pose.checked, names, times, models, _tuples(dq), _tuples(ur), tcp, joints, serials, notes))
+
+
+def _tuples(rows: np.ndarray) -> list:
+    """The rows of a 2-D array as tuples of floats."""
+    return list(map(tuple, rows.tolist()))
 
 
 def _strip_pose_prefix(message: str) -> str:
