@@ -363,9 +363,9 @@ def own_layout_version(head: str) -> int | None:
 
 
 def _own_layout(text: str):
-    """(version, key, iterator of (index, line number, entry object)) when `text` has the layout ur3dq writes,
-    reading PARSED_LINES lines at a time (so a big file's entries are never all parsed at once); _NotOwnLayout
-    otherwise (also raised by the iterator at the first batch of lines that does not fit)."""
+    """(version, key, iterator of (first entry's line number, entry objects)) when `text` has the layout ur3dq
+    writes, reading PARSED_LINES lines at a time (so a big file's entries are never all parsed at once);
+    _NotOwnLayout otherwise (also raised by the iterator at the first batch of lines that does not fit)."""
     head = _OWN_HEAD.match(text)
     if not head or not text.endswith(_OWN_TAIL):
         raise _NotOwnLayout
@@ -373,7 +373,7 @@ def _own_layout(text: str):
     end = len(text) - len(_OWN_TAIL) + 1  # just after the last entry's line break
 
     def entries():
-        position, index = head.end(), 0
+        position, line = head.end(), 5   # the entries start on the file's 5th line
         while position < end:
             # The next PARSED_LINES lines, one entry each: each opens an object, and all but the file's last end
             # with a comma (checked in place: a copy of each line would cost as much memory as the text).
@@ -396,18 +396,16 @@ def _own_layout(text: str):
                 raise _NotOwnLayout from None
             if len(objects) != count:   # a line that holds two entries
                 raise _NotOwnLayout
-            for obj in objects:
-                yield index, index + 5, obj   # the entries start on the file's 5th line
-                index += 1
+            yield line, objects
             del objects   # before the next lines are parsed: never two batches of entries at once
-            position = stop
+            position, line = stop, line + count
 
     return version, key, entries()
 
 
 def _whole_document(text: str, source: str):
-    """(version, key, iterator of (index, None, entry object)) of any JSON store text; StoreError naming
-    `source:line` for invalid JSON or envelope."""
+    """(version, key, iterator of (None, entry objects)) of any JSON store text (no line numbers: the layout is
+    not known); StoreError naming `source:line` for invalid JSON or envelope."""
     try:
         document = json.loads(text)
     except json.JSONDecodeError as error:
@@ -434,7 +432,7 @@ def _whole_document(text: str, source: str):
     entries = document.get(key)
     if not isinstance(entries, list):
         raise StoreError(f"{source}:1: {json.dumps(key)} must be a list")
-    return version, key, ((index, None, entry) for index, entry in enumerate(entries))
+    return version, key, iter([(None, entries)])
 
 
 def parse_document(text: str, source: str) -> tuple[int, list]:
@@ -455,8 +453,9 @@ def _parse_document(text: str, source: str) -> tuple[int, list]:
         return version, _steps_of(version, entries, text, source)
 
 
-def _steps_of(version: int, entries, text: str, source: str) -> list:
-    """The validated steps of `entries` ((index, line or None, object) in file order), converted CHUNK at a time."""
+def _steps_of(version: int, batches, text: str, source: str) -> list:
+    """The validated steps of `batches` ((first entry's line number or None, entry objects) in file order),
+    converted CHUNK entries at a time."""
     label = "pose" if version == SCHEMA_VERSION else "step"
     names: list = []
     lines: list = []
@@ -471,24 +470,32 @@ def _steps_of(version: int, entries, text: str, source: str) -> list:
         return StoreError(f"{_where(text, source, names[index] if index is not None else None)}: {error}")
 
     steps: list = []
-    chunk: list = []
 
-    def convert(chunk):
-        is_pose = [version == SCHEMA_VERSION or (isinstance(obj, dict) and obj.get("type") == "waypoint")
-                   for _, obj in chunk]
-        pose_indices = [index for (index, _), flag in zip(chunk, is_pose) if flag]
-        pose_objects = [obj for (_, obj), flag in zip(chunk, is_pose) if flag]
+    def convert(first: int, objects: list):
+        """Append the steps of `objects`, the entries from index `first` on."""
+        if version == SCHEMA_VERSION:   # poses only: the chunk's steps are its waypoints, the names the poses'
+            try:
+                steps.extend(map(Waypoint.of_checked_pose,
+                                 _poses_of_chunk(objects, range(len(objects)), lambda k: who_of(first + k))))
+            except ValueError as error:
+                bad = next((i for i in range(first, first + len(objects)) if str(error).startswith(who_of(i) + ":")),
+                           None)
+                raise fail(bad, error) from None
+            return
+        is_pose = [isinstance(obj, dict) and obj.get("type") == "waypoint" for obj in objects]
+        pose_indices = [first + k for k, flag in enumerate(is_pose) if flag]
+        pose_objects = [obj for obj, flag in zip(objects, is_pose) if flag]
         try:
             poses = iter(_poses_of_chunk(pose_objects, range(len(pose_objects)),
                                          lambda k: who_of(pose_indices[k])))
         except ValueError as error:
             bad = next((i for i in pose_indices if str(error).startswith(who_of(i) + ":")), None)
             raise fail(bad, error) from None
-        for (index, obj), flag in zip(chunk, is_pose):
+        for index, obj, flag in zip(range(first, first + len(objects)), objects, is_pose):
             try:
                 if flag:
                     pose = next(poses)
-                    motion = _motion_from(obj, who_of(index)) if version != SCHEMA_VERSION else DEFAULT_MOTION
+                    motion = _motion_from(obj, who_of(index))
                     steps.append(Waypoint.of_checked_pose(pose) if motion is DEFAULT_MOTION
                                  else Waypoint(pose.name, pose, motion))
                 elif not isinstance(obj, dict):
@@ -499,14 +506,15 @@ def _steps_of(version: int, entries, text: str, source: str) -> list:
                 message = str(error)
                 raise fail(index, message if message.startswith(label) else f"{who_of(index)}: {message}") from None
 
-    for index, line, obj in entries:
-        names.append(obj.get("name") if isinstance(obj, dict) else None)
-        lines.append(line)
-        chunk.append((index, obj))
-        if len(chunk) == CHUNK:
-            convert(chunk)
-            chunk = []
-    convert(chunk)
+    pending: list = []   # entries read, not yet converted
+    for line, objects in batches:
+        names.extend([obj.get("name") if isinstance(obj, dict) else None for obj in objects])
+        lines.extend(range(line, line + len(objects)) if line is not None else [None] * len(objects))
+        pending.extend(objects)
+        while len(pending) >= CHUNK:
+            convert(len(steps), pending[:CHUNK])
+            del pending[:CHUNK]
+    convert(len(steps), pending)
     if len(set(names)) != len(names):   # every step is built, so `names` are their names; find the repeat's line
         seen: set = set()
         for index, step in enumerate(steps):
