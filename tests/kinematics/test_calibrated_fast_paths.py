@@ -294,6 +294,49 @@ def test_a_reference_at_its_solution_is_the_full_rankings_answer(name, seed, mon
     assert decided >= 10 and at_reference.sum() >= len(q) // 2   # rows the radius could not decide; most rows
 
 
+@pytest.mark.parametrize("name, seed", MODELS[:2])
+def test_a_reference_too_far_to_prove_is_refined_with_the_branches(name, seed, monkeypatch):
+    """A reference whose first Newton step is beyond the proof's reach (nearest._too_far_to_prove) skips the row
+    refined alone: ik refines it with the nominal branches and gives the full ranking's answer; the guess never
+    skips a row the proof would have taken, and keeps references at or beside their answer on the fast path."""
+    model = factory_model(name, seed)
+    g = _geometry(model)
+    q = hard_configurations(120, seed + 700)
+    spread = np.array([0.0, 1e-4, 0.05, 0.3])[np.arange(len(q)) % 4]
+    refs = q + np.random.default_rng(seed + 800).normal(0.0, 1.0, q.shape) * spread[:, None]
+    alone = nearest._reference_solution
+    far = []
+    for joints, reference in zip(q, refs):
+        pose = model.fk(joints)
+        target, start = _targets(g, pose)[1], _reference(reference)
+        too_far = nearest._too_far_to_prove(g, target, start)
+        far.append(too_far)
+        if too_far:
+            assert alone(g, target, start, nearest._weights(None))[0] is None, (joints, reference)
+            # the reference's converged row is the ranking's last candidate, as it was when refined alone
+            refined, residual = calibrated._refine_batch(g, np.array([start]), np.array(target)[None])
+            if residual[0] <= calibrated.CALIBRATED_TOLERANCE:
+                last = single._solution_candidates(g, target, _wrap_float(start[5]), None, start)[-1]
+                np.testing.assert_allclose(last, refined[0], rtol=0,
+                                           atol=4e-12 / least_singular_value(model, refined[0]))
+        starts = []
+        with monkeypatch.context() as patched:
+            if too_far:   # ik must not run the row alone, and hands the reference to the ranking's batch
+                patched.setattr(nearest, "_reference_solution", lambda *arguments: pytest.fail("refined alone"))
+                patched.setattr(nearest, "_solution_candidates", lambda *arguments: (
+                    starts.append(arguments[4]), single._solution_candidates(*arguments))[1])
+            expected, answer = ranked(model, pose, reference), solved(model, pose, reference)
+        assert starts == ([start] if too_far else []), (joints, reference)
+        if expected is UnreachablePoseError or answer is UnreachablePoseError:
+            assert answer is expected, (joints, reference)
+            continue
+        atol = 4e-12 / least_singular_value(model, expected)
+        if not other_copy_at_a_limit(model, answer, expected, atol):
+            np.testing.assert_allclose(answer, expected, rtol=0, atol=atol, err_msg=str((joints, reference)))
+    far = np.array(far)
+    assert far[spread <= 1e-4].mean() < 0.2 and far[spread == 0.3].all() and far[spread == 0.05].mean() > 0.5
+
+
 def test_float_kernels_give_the_batched_quantities():
     """newton_floats' error and step of one row are the batched matrices' (calibrated._matrix_residual,
     _matrix_step) to rounding, beside singularities and at ±2π included."""

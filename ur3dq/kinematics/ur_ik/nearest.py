@@ -6,7 +6,15 @@ import math
 import numpy as np
 
 from ur3dq.errors import UnreachablePoseError
-from ur3dq.kinematics.ur_ik.calibrated import VARIANT_SHIFT, _fk_implied, _isolated, _refine_batch
+from ur3dq.kinematics.ur_ik.calibrated import (
+    VARIANT_SHIFT,
+    _cached_terms,
+    _curvature_bound,
+    _fk_implied,
+    _isolated,
+    _refine_batch,
+    _target_matrices,
+)
 from ur3dq.kinematics.ur_ik.equations import (
     _ScalarOps,
     _elbow_for_wrist,
@@ -25,6 +33,7 @@ from ur3dq.kinematics.ur_ik.geometry import (
     _UNIT_WEIGHTS,
     _geometry,
 )
+from ur3dq.kinematics.ur_ik.newton_floats import DAMPING_MATRIX, float_frames, float_residual, float_step
 from ur3dq.kinematics.ur_ik.single import _solution_candidates, _unreachable_reason
 
 
@@ -215,6 +224,27 @@ def _reference_solution(g: _Geometry, target, reference, weights) -> tuple:
     return (joints if _isolated(g, refined, np.array([2.0 * reach]))[0] else None), row
 
 
+def _too_far_to_prove(g: _Geometry, target, reference) -> bool:
+    """Whether Newton's first step from ``reference`` (calibrated model, flange pair ``target``) is long enough that
+    _reference_solution's proof will fail: its row alone would cost as much as the eight nominal branches (a
+    batched Newton step costs ~50 µs for 1 row as for 9, and a far reference takes 5–6 steps), for a ranking that
+    runs anyway.
+
+    The proof needs 2·reach = 4·(√(c / min w) + …) ≥ 4·|Δ| below 2·√(1 + a6²)/M (_isolated's first test, M the
+    curvature bound, Δ the joints' distance to the answer), and c = 0 needs Δ = 0. Newton's first step estimates
+    Δ (to first order); one beyond twice that bound is taken as too far. The answer is the full ranking's either
+    way (the proof only ever returns that answer): this is a choice of path, a wrong guess costs time only. A
+    reference 0.05 rad per joint off the answer (the benchmark's: |Δ| ≈ 0.12) is far beyond it (|Δ| < 0.043 on a
+    UR3 factory table).
+    """
+    bound = math.sqrt(1.0 + g.joints[5][0] ** 2) / _curvature_bound(g)
+    rotation, position = _target_matrices(np.array(target)[None])
+    pair = tuple(rotation[0].ravel().tolist()) + tuple(position[0].tolist())
+    end, frames = float_frames(_cached_terms(g)[2], reference)
+    step = float_step(frames, float_residual(end, frames, pair)[:6], DAMPING_MATRIX)
+    return math.sqrt(sum(v * v for v in step)) > bound
+
+
 def joint_variants(model, q) -> np.ndarray:
     """(M, 6) every q + 2πk (per joint) inside the model's limits; an unlimited joint is listed within ±2π.
 
@@ -247,12 +277,14 @@ def ik(model, pose, q_ref, weights=None) -> np.ndarray:
         if best is not None and _meets(model, best, tcp_coefficients):   # usually the only FK evaluation
             return np.array(best)
     meets = _fk_check(model, g, tcp_coefficients)
-    row = None
-    if g.calibrated:   # usually one Newton row, from the reference
+    row = start = None
+    if g.calibrated and _too_far_to_prove(g, target, reference):
+        start = reference   # refined with the nominal branches, in one batch
+    elif g.calibrated:   # usually one Newton row, from the reference
         best, row = _reference_solution(g, target, reference, weight)
         if best is not None and _passes(g, meets, best, row):
             return np.array(best)
-    candidates = _solution_candidates(g, target, _wrap_float(reference[5]), row)
+    candidates = _solution_candidates(g, target, _wrap_float(reference[5]), row, start)
     return _ranked_solution(model, g, target, meets, candidates, reference, weight)
 
 

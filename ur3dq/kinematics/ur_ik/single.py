@@ -70,28 +70,33 @@ def _unreachable_reason(g: _Geometry, target, branches_existed: bool) -> str:
     return "out of reach of every elbow branch for this wrist orientation"
 
 
-def _solution_candidates(g: _Geometry, target, theta6_ref: float, reference_row=None) -> list:
+def _solution_candidates(g: _Geometry, target, theta6_ref: float, reference_row=None, reference=None) -> list:
     """Existing analytic branches of ``target`` (flange pair), refined if calibrated; unwrapped, not yet filtered.
 
     On a calibrated arm ``reference_row`` (6 floats, optional) is one more candidate, last: the converged Newton
     solve from ik's reference (nearest._reference_solution runs it first, alone: rows are refined independently).
     Near a singularity two nominal branches can converge to the same calibrated solution and miss the one beside
-    the reference, which a solve started at the reference finds (so ``ik(fk(q), q)`` gives q back).
+    the reference, which a solve started at the reference finds (so ``ik(fk(q), q)`` gives q back). ``reference``
+    (6 floats, optional, instead of ``reference_row``): that solve is not done yet; it runs here, in the branches'
+    batch (nearest._too_far_to_prove), its converged row last alike.
     """
     branches = _nominal_branches(g, target, theta6_ref)
     exists = [branch[1] == branch[1] and branch[0] == branch[0] for branch in branches]   # NaN: absent
     candidates = list(compress(branches, exists))
     if not g.calibrated:
         return candidates
-    if not candidates:
+    starts = candidates + ([tuple(reference)] if reference is not None else [])
+    if not starts:
         refined = []
     elif not beside_singular_wrist(branches):
-        refined = _refine_calibrated(g, candidates, target)
+        refined = _refine_calibrated(g, starts, target)
     else:   # a pair's seeds may miss its solutions there: Newton again from their turns where they did
         rows = np.full((8, 6), math.nan)
-        refined, residual = _refine_batch(g, np.array(candidates), np.array(target)[None])
-        rows[np.flatnonzero(exists)] = np.where((residual <= CALIBRATED_TOLERANCE)[:, None], refined, math.nan)
-        refined = [tuple(row) for row in turned(g, np.array(branches), rows, target).tolist() if row[0] == row[0]]
+        refined, residual = _refine_batch(g, np.array(starts, dtype=float).reshape(-1, 6), np.array(target)[None])
+        converged = np.where((residual <= CALIBRATED_TOLERANCE)[:, None], refined, math.nan)
+        rows[np.flatnonzero(exists)] = converged[:len(candidates)]
+        filled = np.concatenate((turned(g, np.array(branches), rows, target), converged[len(candidates):]))
+        refined = [tuple(row) for row in filled.tolist() if row[0] == row[0]]
     return refined + ([reference_row] if reference_row is not None else [])
 
 
