@@ -25,6 +25,7 @@ from ur3dq.errors import ConnectionLostError, JointLimitError, SafetyCheckError,
 from ur3dq.kinematics import ur_ik
 from ur3dq.pose import Pose
 from ur3dq.robot import motion
+from ur3dq.rows import float_rows
 from ur3dq.slots import slot_builder
 
 SOURCE_RECORDED = "recorded joints"
@@ -229,8 +230,8 @@ def _solve_recorded(model, poses: Sequence[Pose], solvers: dict) -> dict:
     solved = {}
     for tcp_offset, indices in groups.items():
         solver = _solver(model, tcp_offset, solvers)
-        targets = np.array([poses[i].dual_quaternion for i in indices])
-        hints = np.array([poses[i].joints for i in indices], dtype=float)
+        targets = float_rows([poses[i].dual_quaternion for i in indices], 8)
+        hints = float_rows([poses[i].joints for i in indices], 6)
         joints = solver.ik_batch(targets, hints)
         counts = np.sum(~np.isnan(ur_ik.ik_all_batch(solver, targets, q_ref=hints)[:, :, 0]), axis=1)
         # NaN rows (unreachable) compare False

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ur3dq import dqarray
+from ur3dq.rows import float_rows
 from ur3dq.dualquat import DualQuaternion, multiply_coefficients
 from ur3dq.errors import JointLimitError
 from ur3dq.kinematics import ur_ik
@@ -195,7 +196,7 @@ class URModel:
             groups.setdefault(tuple(map(float, tcp_offsets[indices[0]])), []).extend(indices)
         for offset, indices in groups.items():
             reached = self.with_tcp(offset).fk_batch(np.array([joints[i] for i in indices]))
-            wanted = dqarray.normalise(np.array([poses[i] for i in indices]))
+            wanted = dqarray.normalise(float_rows([poses[i] for i in indices], 8))
             distance = dqarray.pose_distance(reached, wanted)
             for i, m, r in zip(indices, *(values.tolist() for values in distance)):
                 metres[i], radians[i] = m, r

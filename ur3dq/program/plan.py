@@ -20,6 +20,7 @@ from ur3dq.errors import JointLimitError, SafetyCheckError, UnreachablePoseError
 from ur3dq.program.resolve import resolve_targets
 from ur3dq.program.steps import Waypoint, is_waypoint
 from ur3dq.robot import motion
+from ur3dq.rows import float_rows
 from ur3dq.slots import slot_builder
 
 MAX_TCP_SPEED = 1.0          # m/s: the pendant's default tool speed limit region; faster is refused by clamping
@@ -116,8 +117,8 @@ def _solve_hinted(model, targets, replay_recorded_joints: bool) -> dict:
             groups.setdefault(target.tcp_offset, []).append(index)
     solved = {}
     for tcp_offset, indices in groups.items():
-        poses = np.array([targets[i].coefficients for i in indices])
-        hints = np.array([targets[i].joints_hint for i in indices], dtype=float)
+        poses = float_rows([targets[i].coefficients for i in indices], 8)
+        hints = float_rows([targets[i].joints_hint for i in indices], 6)
         joints = model.with_tcp(tcp_offset).ik_batch(poses, hints)
         for i, q, finite in zip(indices, joints, np.isfinite(joints).all(axis=1).tolist()):
             if finite:
@@ -156,7 +157,7 @@ def plan_program(model, steps, start_joints=None, defaults: Defaults = Defaults(
     fk_errors, _ = model.fk_errors(solved, [t.coefficients for t in targets], [t.tcp_offset for t in targets])
     # travel and TCP path of every move at once: (N, 6) joints and (N, 3) TCP positions, the start prepended
     joints = np.array(solved).reshape(-1, 6)
-    poses = np.array([t.coefficients for t in targets]).reshape(-1, 8)
+    poses = float_rows([t.coefficients for t in targets], 8).reshape(-1, 8)
     if start_joints is not None:
         joints = np.vstack([np.asarray(start_joints, dtype=float), joints])
         start_tcp = model.with_tcp(targets[0].tcp_offset).fk(joints[0]) if targets else model.fk(joints[0])

@@ -11,6 +11,7 @@ import dataclasses
 
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.program.steps import Waypoint, is_waypoint
+from ur3dq.slots import slot_builder
 
 
 @dataclasses.dataclass(frozen=True, slots=True)  # slots: one per waypoint, 10⁵ in a big program
@@ -30,6 +31,9 @@ class Target:
         return DualQuaternion.from_array(self.coefficients)
 
 
+_target = slot_builder(Target)   # a recorded waypoint's Target: step, coefficients, tcp_offset, model, joints
+
+
 def offset_pose(base: DualQuaternion, offset, frame: str) -> DualQuaternion:
     """The pose `offset` (UR pose vector) away from `base`, in `base`'s tool frame or the robot's base frame."""
     delta = DualQuaternion.from_ur_pose(offset)
@@ -46,9 +50,19 @@ def resolve_targets(steps, relative_only: bool = False) -> dict:
     by_name = {step.name: step for step in steps}
     resolved: dict = {}
     for step in steps:
-        if is_waypoint(step) and not (relative_only and isinstance(step, Waypoint)):
+        if isinstance(step, Waypoint):   # most steps of a big program: a recorded pose as it is, no base to follow
+            if not relative_only and step.name not in resolved:
+                resolved[step.name] = _recorded_target(step)
+        elif is_waypoint(step):
             _resolve(step, [], by_name, resolved)
     return resolved
+
+
+def _recorded_target(step: Waypoint) -> Target:
+    """The Target of a recorded waypoint: its pose's own fields (a Target checks nothing, so it is built past its
+    frozen __init__, a third of a big program's resolve)."""
+    pose = step.pose
+    return _target(step, pose.dual_quaternion, pose.tcp_offset, pose.robot_model, pose.joints)
 
 
 def _resolve(step, chain: list, by_name: dict, resolved: dict) -> Target:
@@ -58,8 +72,7 @@ def _resolve(step, chain: list, by_name: dict, resolved: dict) -> Target:
     if step.name in resolved:
         return resolved[step.name]
     if isinstance(step, Waypoint):
-        pose = step.pose
-        target = Target(step, pose.dual_quaternion, pose.tcp_offset, pose.robot_model, pose.joints)
+        target = _recorded_target(step)
     else:
         if step.name in chain:
             loop = " → ".join(repr(name) for name in [*chain[chain.index(step.name):], step.name])
