@@ -17,7 +17,6 @@ import tempfile
 from pathlib import Path
 from typing import Callable, Iterable
 
-import filelock
 
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import StoreError
@@ -187,7 +186,16 @@ class PoseStore:
 
     def __init__(self, path):
         self.path = Path(path)
-        self._lock = filelock.FileLock(os.path.realpath(self.path) + ".lock", timeout=LOCK_TIMEOUT_S)
+        self._write_lock = None
+
+    @property
+    def _lock(self):
+        """The inter-process write lock `<path>.lock` (of the link's target), made on the first write: filelock is
+        imported only then (reads need no lock, and its import is ~20 ms of every command's start)."""
+        if self._write_lock is None:
+            import filelock
+            self._write_lock = filelock.FileLock(os.path.realpath(self.path) + ".lock", timeout=LOCK_TIMEOUT_S)
+        return self._write_lock
 
     def __repr__(self):
         return f"PoseStore({str(self.path)!r})"
@@ -255,8 +263,10 @@ class PoseStore:
         a kill at any moment leaves the old store or the new one with its backup)."""
         self.require_directory()
         target = Path(os.path.realpath(self.path))
+        lock = self._lock
+        from filelock import Timeout   # loaded with the lock (see _lock)
         try:
-            with self._lock:
+            with lock:
                 remove_orphan_temporaries(target)
                 text, version, steps = self._read()
                 steps, result = edit(steps)
@@ -266,9 +276,9 @@ class PoseStore:
                     write_atomically(backup_path(target), text)
                 keep_version_2 = version == PROGRAM_SCHEMA_VERSION
                 write_atomically(target, format_program_v2(steps) if keep_version_2 else format_program(steps))
-        except filelock.Timeout:
+        except Timeout:
             raise StoreError(f"{self.path}: another process has held the store's lock for {LOCK_TIMEOUT_S:.0f} s "
-                             f"({self._lock.lock_file})") from None
+                             f"({lock.lock_file})") from None
         except OSError as error:
             raise StoreError(f"{self.path}: cannot write the pose store: {error}") from None
         return result

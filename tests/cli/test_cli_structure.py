@@ -54,3 +54,8 @@ def test_the_command_line_runs_numpy_on_one_blas_thread():
     assert _python(code, OPENBLAS_NUM_THREADS="2").split()[0] == "2"   # the user's own setting is kept
     if (os.cpu_count() or 1) > 1:   # the control: numpy alone starts its BLAS threads here
         assert int(_python("import os, numpy; print(len(os.listdir('/proc/self/task')))")) > 1
+
+
+def test_a_command_that_only_reads_never_imports_the_lock_library():
+    # filelock (~20 ms of a command's start) is imported by the first write or simulator start, not with the CLI
+    assert _python("import sys, ur3dq.cli; print('filelock' in sys.modules)") == "False"

@@ -7,9 +7,11 @@ import time
 from pathlib import Path
 
 import numpy as np
+import pytest
 from pyquaternion import Quaternion
 
 from ur3dq.dualquat import DualQuaternion
+from ur3dq.errors import StoreError
 from ur3dq.pose import Pose
 from ur3dq.store import PoseStore
 
@@ -75,3 +77,22 @@ def test_two_writers_at_once_keep_all_hundred_poses(tmp_path):
     assert len(names) == 100
     assert sorted(names) == sorted([f"left-{n}" for n in range(1, 51)] + [f"right-{n}" for n in range(1, 51)])
     assert sorted(p.name for p in tmp_path.iterdir()) == ["poses.json", "poses.json.lock"]
+
+
+def test_a_lock_held_by_another_process_is_an_error_naming_it_and_nothing_is_written(tmp_path, monkeypatch):
+    store_path = tmp_path / "poses.json"
+    PoseStore(store_path).add(random_pose("a", 1))
+    before = store_path.read_bytes()
+    holder = subprocess.Popen([sys.executable, "-c", "import filelock, sys; lock = filelock.FileLock(sys.argv[1]); "
+                               "lock.acquire(); print('held', flush=True); sys.stdin.read()", f"{store_path}.lock"],
+                              stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "held"
+        monkeypatch.setattr("ur3dq.store.LOCK_TIMEOUT_S", 0.3)
+        with pytest.raises(StoreError, match=r"another process has held the store's lock for 0 s .*poses\.json\.lock"):
+            PoseStore(store_path).add(random_pose("b", 2))
+    finally:
+        holder.communicate("", timeout=30)
+    assert store_path.read_bytes() == before
+    PoseStore(store_path).add(random_pose("b", 2))   # the lock released, the write goes through
+    assert [pose.name for pose in PoseStore(store_path).load()] == ["a", "b"]

@@ -13,12 +13,14 @@ import subprocess
 import sys
 import time
 from pathlib import Path
-
-import filelock
+from typing import TYPE_CHECKING
 
 from ur3dq.errors import UR3DQError
 from ur3dq.pose import utc_now_iso
 from ur3dq.store import write_atomically
+
+if TYPE_CHECKING:
+    import filelock
 
 STATE_FILE_NAME = "sim.json"
 STOP_TIMEOUT_S = 10.0
@@ -69,6 +71,7 @@ def running_simulator_host() -> str | None:
 
 def _lock(directory: Path) -> filelock.FileLock:
     """The lock that serialises `sim start` / `sim stop` (so two starts cannot both spawn)."""
+    import filelock   # here, not with the module: every command imports this one, few start a simulator
     return filelock.FileLock(str(directory / "sim.lock"), timeout=START_TIMEOUT_S + STOP_TIMEOUT_S)
 
 
