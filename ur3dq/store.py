@@ -17,7 +17,6 @@ import tempfile
 from pathlib import Path
 from typing import Callable, Iterable
 
-
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import StoreError
 from ur3dq.pose import Pose, next_free_name, numbering_prefix, utc_now_iso

@@ -10,7 +10,6 @@ quaternion, UR pose agreeing with it), then the poses are built without repeatin
 """
 from __future__ import annotations
 
-import itertools
 import json
 import re
 import sys
@@ -29,6 +28,7 @@ from ur3dq.program.resolve import check_program
 from ur3dq.program.steps import (
     DEFAULT_MOTION, AnalogOut, DigitalOut, Message, Motion, RelativeWaypoint, Wait, WaitInput, Waypoint,
 )
+from ur3dq.rows import packed_rows
 
 SCHEMA_NAME = "ur3dq.poses"
 SCHEMA_VERSION = 1            # a store of recorded poses only (what every ur3dq writes unless a program needs 2)
@@ -91,13 +91,12 @@ def pose_from_dict(obj, who: str) -> Pose:
 
 def _vectors(entries, field: str, length: int, who_of) -> np.ndarray:
     """(N, length) floats of `field` of every entry; ValueError naming the first entry that is not numbers."""
-    values = [entry[field] for entry in entries]
     try:
-        # numbers one by one into a flat array: a third faster than np.array's nested-list scan; each row a JSON
-        # array of `length` first (a short row and a long one would fill the same count, and a JSON object's keys
-        # are a sequence too)
-        if all(type(value) is list and len(value) == length for value in values):
-            return np.fromiter(itertools.chain.from_iterable(values), float, len(values) * length).reshape(-1, length)
+        # a third faster than np.array's nested-list scan; None (or an error) sends the rows to the loop below,
+        # which names the first bad one
+        packed = packed_rows([entry[field] for entry in entries], length, list)
+        if packed is not None:
+            return packed
     except (TypeError, ValueError, OverflowError):
         pass
     for index, entry in enumerate(entries):

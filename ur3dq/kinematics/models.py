@@ -28,12 +28,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from ur3dq import dqarray
-from ur3dq.rows import float_rows
 from ur3dq.dualquat import DualQuaternion, multiply_coefficients
 from ur3dq.errors import JointLimitError
 from ur3dq.kinematics import ur_ik
 from ur3dq.kinematics.chain import SerialChain, thesis_to_dh_flange
 from ur3dq.kinematics.ur_fk import BLOCK, dual_part_rows, flange_coefficients, flange_rows, joint_floats
+from ur3dq.rows import float_rows
 
 JOINT_NAMES = ("base", "shoulder", "elbow", "wrist 1", "wrist 2", "wrist 3")
 NOMINAL_ALPHA = (math.pi / 2, 0.0, 0.0, math.pi / 2, -math.pi / 2, 0.0)

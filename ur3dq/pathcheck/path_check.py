@@ -48,7 +48,7 @@ def check_path(model, plan: PathPlan, cell=None, margins: Margins | None = None,
     q = np.array(plan.start_joints)
     problems, unchecked, steps = [], [], []   # steps: StepReports' entries
     certified = None if keep_samples else _certified_moves(plan, arm_for)
-    certified_row = {} if certified is None else dict(zip(certified.index, range(len(certified.index))))
+    certified_row = {} if certified is None else certified.row_of
     # Moves are checked one behind the sampling: a move's blend zones need its neighbours' samples, and no
     # other move's (the window holds at most three, so memory does not grow with the plan).
     window = {}   # index -> (segment, SampledMove, tcp (n, 3)) or None (not sampled)
@@ -179,8 +179,9 @@ def _blend_allowance(plan, window, index):
 
 
 def _certified_moves(plan, arm_for) -> CertifiedMoves:
-    """The joint moves the bounds certify (pathcheck.bounds), per TCP, as CertifiedMoves. Candidates: joint moves to known joints from known joints (the start, or a joint move's
-    target before them), outside blend zones (whose allowance needs the neighbours' samples)."""
+    """The joint moves the bounds certify (pathcheck.bounds), per TCP, as CertifiedMoves. Candidates: joint moves
+    to known joints from known joints (the start, or a joint move's target before them), outside blend zones (whose
+    allowance needs the neighbours' samples)."""
     candidates = {}   # tcp_offset -> [(index, start joints)]
     start = plan.start_joints   # where a candidate after this segment starts; None: it is no candidate
     for index, segment in enumerate(plan.segments):

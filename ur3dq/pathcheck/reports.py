@@ -86,13 +86,13 @@ class StepReport:
 
 
 class CertifiedMoves:
-    """The joint moves the bounds certified, as columns: row r is the plan's move index[r], segments[r] (a
-    PathSegment, which it ends on), with margins[check][r], worst[check][r] (sample index) and samples[r] from a bounds.Certification; rows are
-    added a group of moves at a time (one group per TCP). `position[r]`: the move's place among the StepReports,
-    set by check_path as it goes."""
+    """The joint moves the bounds certified, as columns: row r is segments[r] (a PathSegment, which it ends on), with
+    margins[check][r], worst[check][r] (sample index) and samples[r] from a bounds.Certification; row_of maps the
+    plan's move index to its row. Rows are added a group of moves at a time (one group per TCP). `position[r]`: the
+    move's place among the StepReports, set by check_path as it goes."""
 
     def __init__(self):
-        self.index: list = []
+        self.row_of: dict = {}
         self.segments: list = []
         self.position: list = []
         self._groups: list = []   # (first row, margin keys, margins (K, M) floats, worst keys, worst (K, M) ints)
@@ -105,7 +105,7 @@ class CertifiedMoves:
         first, count = len(self.segments), len(segments)
         if not count:
             return
-        self.index.extend(index)
+        self.row_of.update(zip(index, range(first, first + count)))
         self.segments.extend(segments)
         self.position.extend([-1] * count)
         self._groups.append((first, tuple(margins), np.array(list(margins.values()), dtype=float).reshape(-1, count),
@@ -135,7 +135,7 @@ class CertifiedMoves:
         for first, margin_keys, margins, _, _ in self._groups:
             rows = np.argmin(margins, axis=1)
             for check, row, values in zip(margin_keys, rows.tolist(), margins):
-                    found.append((check, float(values[row]), self.position[first + row]))
+                found.append((check, float(values[row]), self.position[first + row]))
         return found
 
     def samples(self) -> int:
