@@ -464,7 +464,8 @@ def test_a_row_at_zero_error_facing_away_from_its_target_is_no_solution():
         _, residual = calibrated._refine_batch(g, np.tile(q, (rows, 1)), np.array(target)[None])
         assert (residual <= calibrated.CALIBRATED_TOLERANCE).all(), rows
     pair = tuple(rotation[0].ravel()) + tuple(position[0])
-    assert newton_floats.refine_row(newton_floats.float_joints(g.joints), q.tolist(), pair, 0, math.inf)[1] == math.inf
+    joints = newton_floats.float_joints(g.joints)
+    assert newton_floats.refine_row(joints, q.tolist(), pair, (0, math.inf), True)[1] == math.inf
     assert _refine_calibrated(g, [tuple(q)], turned) == []
     assert len(_refine_calibrated(g, [tuple(q)], target)) == 1
 
@@ -566,3 +567,40 @@ def test_refinement_normals_are_the_column_normals_of_its_rows():
     reach = np.full(len(rows), 1e-6)
     np.testing.assert_array_equal(calibrated._isolated(g, refined[rows], reach, normals[:, :, rows]),
                                   calibrated._isolated(g, refined[rows], reach))
+
+
+def test_a_wandering_seed_gives_up_after_the_hopeless_step_unless_patient():
+    """A seed still above HOPELESS_ERROR after HOPELESS_STEP Newton steps stops there (its row is not accepted);
+    a patient one takes all CALIBRATED_MAX_STEPS. The seed: a branch of a pose on a UR3 factory table whose
+    stretched elbow the calibrated arm does not reach, wandering at 1e-3…1e-1."""
+    model = factory_model("ur3", 21)
+    g = _geometry(model)
+    joints = newton_floats.float_joints(g.joints)
+    rng = np.random.default_rng(31)
+    wandering = None
+    for q in rng.uniform(-math.pi, math.pi, (40, 6)):
+        _, target = _targets(g, model.fk(q))
+        rotation, position = calibrated._target_matrices(np.array(target)[None])
+        pair = tuple(rotation[0].ravel()) + tuple(position[0])
+        for seed in single._nominal_branches(g, target, 0.0):
+            path = [list(seed)]
+            for _ in range(newton_floats.HOPELESS_STEP):
+                end, frames = newton_floats.float_frames(joints, path[-1])
+                error = newton_floats.float_residual(end, frames, pair)[:6]
+                path.append([v + d for v, d in zip(path[-1], newton_floats.float_step(frames, error,
+                                                                                        newton_floats.DAMPING_MATRIX))])
+            end, frames = newton_floats.float_frames(joints, path[-1])
+            error = newton_floats.float_residual(end, frames, pair)[:6]
+            if math.dist(error, [0.0] * 6) > 2 * newton_floats.HOPELESS_ERROR:
+                wandering = seed, pair, path[-1]
+                break
+        if wandering:
+            break
+    seed, pair, sixth = wandering
+    stopped, residual = newton_floats.refine_row(joints, list(seed), pair, (0, math.inf), False)
+    assert stopped == sixth and residual > calibrated.CALIBRATED_TOLERANCE
+    went_on, _ = newton_floats.refine_row(joints, list(seed), pair, (0, math.inf), True)
+    assert went_on != sixth
+    assert not newton_floats.going_on(2 * newton_floats.HOPELESS_ERROR, math.inf, newton_floats.HOPELESS_STEP, False)
+    assert newton_floats.going_on(2 * newton_floats.HOPELESS_ERROR, math.inf, newton_floats.HOPELESS_STEP, True)
+    assert newton_floats.going_on(2 * newton_floats.HOPELESS_ERROR, math.inf, newton_floats.HOPELESS_STEP - 1, False)

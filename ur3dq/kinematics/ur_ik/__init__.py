@@ -35,7 +35,9 @@ decides whether the pose is met. Unreachable poses raise UnreachablePoseError sa
 
 Calibrated models (DH deltas): the nominal geometry (d1, a2, a3, d4, d5, d6 of the calibrated table) gives the
 starting branches (a branch beyond CALIBRATED_DOMAIN_SLACK of the nominal reach is absent), then Newton steps on
-the calibrated FK converge each to CALIBRATED_TOLERANCE; the FK filter still decides. Newton runs all rows of a call
+the calibrated FK converge each to CALIBRATED_TOLERANCE; the FK filter still decides. A seed still above
+newton_floats.HOPELESS_ERROR after HOPELESS_STEP steps gives up, unless a seed of its pose lies beside a singular
+wrist (|sin θ5| < wrist_turns.PATIENT_SINE), where seeds wander before they converge. Newton runs all rows of a call
 at once: as batched 4×4 matrices for a few rows (single poses), written out per joint-major column for many.
 Beside a wrist singularity (|sin θ5| < 0.05 for a nominal seed) a seed's θ6 can be off by up to π: where a
 (θ1, elbow) pair's two seeds do not reach two new solutions, Newton runs again from their turns along the wrist's

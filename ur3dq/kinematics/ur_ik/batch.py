@@ -24,7 +24,7 @@ from ur3dq.kinematics.ur_ik.geometry import (
 )
 from ur3dq.kinematics.ur_ik.nearest import _weights
 from ur3dq.kinematics.ur_ik.single import _branch_table, _nominal_branches
-from ur3dq.kinematics.ur_ik.wrist_turns import TURN_SINE, turned
+from ur3dq.kinematics.ur_ik.wrist_turns import PATIENT_SINE, TURN_SINE, turned
 
 
 def _batch_poses(poses) -> np.ndarray:
@@ -64,7 +64,9 @@ def _batch_candidates(g: _Geometry, targets: tuple, theta6_ref) -> np.ndarray:
         flat = columns.reshape(6, -1).T
         repeated = np.tile(np.stack(targets, axis=-1), (8, 1))
         usable = np.all(np.isfinite(flat), axis=1)
-        refined, residual = _refine_batch(g, flat[usable], repeated[usable])
+        # As ik_all: a wandering seed gives up early unless its pose lies beside a singular wrist.
+        patient = np.tile((np.abs(np.sin(columns[4])) < PATIENT_SINE).any(axis=0), 8)
+        refined, residual = _refine_batch(g, flat[usable], repeated[usable], patient=patient[usable])
         flat = flat.copy()
         flat[usable] = np.where((residual <= CALIBRATED_TOLERANCE)[:, None], refined, np.nan)
         seeds, columns = columns, np.ascontiguousarray(flat.T).reshape(6, 8, len(targets[0]))

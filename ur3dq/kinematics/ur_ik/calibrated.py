@@ -15,6 +15,8 @@ from ur3dq.kinematics.ur_ik.geometry import (
 )
 from ur3dq.kinematics.ur_ik.newton_floats import (
     DAMPING_MATRIX,
+    HOPELESS_ERROR,
+    HOPELESS_STEP,
     ROUNDING_CEILING,
     damped_solve,
     float_frames,
@@ -36,9 +38,10 @@ _TERMS: dict = {}
 _TERMS_LOCK = threading.Lock()   # drivers solve IK from their own threads
 
 
-def _refine_calibrated(g: _Geometry, branches: list, target) -> list:
-    """Newton steps on the calibrated FK from the nominal branches; those that converge, as float tuples."""
-    refined, residual = _refine_batch(g, np.array(branches, dtype=float), np.array(target)[None])
+def _refine_calibrated(g: _Geometry, branches: list, target, patient=None) -> list:
+    """Newton steps on the calibrated FK from the nominal branches; those that converge, as float tuples.
+    ``patient``: as _refine_batch's."""
+    refined, residual = _refine_batch(g, np.array(branches, dtype=float), np.array(target)[None], patient=patient)
     return [tuple(q) for q, r in zip(refined.tolist(), residual.tolist()) if r <= CALIBRATED_TOLERANCE]
 
 
@@ -319,7 +322,7 @@ def _column_step(frames: tuple, error: np.ndarray, damping: np.ndarray) -> np.nd
     return np.stack(solution, axis=-1)
 
 
-def _refine_batch(g: _Geometry, q: np.ndarray, targets: np.ndarray, normals=None):
+def _refine_batch(g: _Geometry, q: np.ndarray, targets: np.ndarray, normals=None, patient=None):
     """Newton steps on the calibrated FK: (refined q (M, 6), final residual norm (M,)); rows of NaN stay NaN.
 
     ``normals`` (optional, (6, 6, M)): where a row stops in a step of the joint-major kernels its JᵀJ at its final
@@ -333,7 +336,10 @@ def _refine_batch(g: _Geometry, q: np.ndarray, targets: np.ndarray, normals=None
     A row stops when it is 100× inside CALIBRATED_TOLERANCE; when, already below ROUNDING_CEILING, a step no
     longer halves its error (the rounding floor of its table): iterating on would only stir rounding. A row whose
     error grows is not dropped: some seeds converge after a few growing steps (dropping them at the first growth
-    lost 87 of 2001 solutions on 300 UR3 poses), so the stragglers take all CALIBRATED_MAX_STEPS, alone.
+    lost 87 of 2001 solutions on 300 UR3 poses). A row still above HOPELESS_ERROR after HOPELESS_STEP steps stops
+    unless it is ``patient`` ((M,) bools; default every row): the seeds of a pose beside a singular wrist converge
+    linearly, or after wandering, to solutions no other seed reaches (newton_floats.going_on); the other
+    stragglers take all CALIBRATED_MAX_STEPS, alone.
     Steps solve (JᵀJ + λ²I)·Δq = Jᵀe with a tiny λ, a Newton step wherever J is regular that stays bounded beside
     a singularity (no SVD per step). A step of _COLUMN_ROWS rows or more runs the joint-major kernels
     (_column_residual, _column_step), a smaller one the batched-matrix kernels, and from _FLOAT_ROWS rows down
@@ -347,13 +353,14 @@ def _refine_batch(g: _Geometry, q: np.ndarray, targets: np.ndarray, normals=None
     residual = np.full(len(q), np.inf)
     # The active rows' joints, last errors and indices in q, kept compact: rows that stop are written back once.
     rows, current, previous = np.arange(len(q)), q, np.full(len(q), np.inf)
+    patient = np.ones(len(q), dtype=bool) if patient is None else np.asarray(patient, dtype=bool)
     for step in range(CALIBRATED_MAX_STEPS + 1):
         # The last rows of a refinement step cheaper in floats. A refinement of one or two rows from the start (ik's
         # row from q_ref) keeps the numpy kernels: the full ranking reaches the same solution through them, and a
         # solution at a joint limit must round alike in both (in floats it could land past the limit, and ik took
         # another configuration).
         if len(rows) <= _FLOAT_ROWS < len(q):
-            _refine_in_floats(g, q, residual, (rows, current, previous), (rotation_t, position_t), step)
+            _refine_in_floats(g, q, residual, (rows, current, previous, patient), (rotation_t, position_t), step)
             break
         target = (rotation_t, position_t) if shared else (rotation_t[rows], position_t[rows])
         columns = len(rows) >= _COLUMN_ROWS
@@ -363,8 +370,8 @@ def _refine_batch(g: _Geometry, q: np.ndarray, targets: np.ndarray, normals=None
         norm = np.sqrt(np.einsum("ij,ij->i", pose_error, pose_error))
         # Rows at or above ROUNDING_CEILING all go on (going_on): one reduction instead of its six operations and
         # two more, in most steps. False for NaN (an absent branch), which going_on stops.
-        every = len(norm) > 0 and norm.min() >= ROUNDING_CEILING
-        going = None if every else going_on(norm, previous)
+        every = step < HOPELESS_STEP and len(norm) > 0 and norm.min() >= ROUNDING_CEILING
+        going = None if every else going_on(norm, previous, step, patient)
         if step == CALIBRATED_MAX_STEPS or not (every or going.any()):
             q[rows], residual[rows] = current, _faced(norm, error)
             if columns and normals is not None:
@@ -378,6 +385,7 @@ def _refine_batch(g: _Geometry, q: np.ndarray, targets: np.ndarray, normals=None
             if columns and normals is not None:
                 normals[:, :, rows[stop]] = _frames_normal(_row_frames(frames, stop))
             rows, current, norm = rows[going], current[going], norm[going]
+            patient = patient[going]
             if columns:
                 delta = delta[going]
             else:
@@ -395,13 +403,13 @@ def _faced(norm: np.ndarray, error: np.ndarray) -> np.ndarray:
 
 def _refine_in_floats(g: _Geometry, q: np.ndarray, residual: np.ndarray, state: tuple, target: tuple, step: int):
     """Newton's steps from ``step`` on of the active rows ``state`` = (indices into q (R,), their joints (R, 6),
-    last errors (R,)), one row at a time in floats (newton_floats.refine_row); q (M, 6) and residual (M,) are
-    written in place. ``target``: (rotation (M or 1, 3, 3), position (M or 1, 3))."""
+    last errors (R,), patient (R,)), one row at a time in floats (newton_floats.refine_row); q (M, 6) and residual
+    (M,) are written in place. ``target``: (rotation (M or 1, 3, 3), position (M or 1, 3))."""
     joints, (rotation_t, position_t) = _cached_terms(g)[2], target
-    for row, start, previous in zip(*(part.tolist() for part in state)):
+    for row, start, previous, patient in zip(*(part.tolist() for part in state)):
         pose = 0 if len(position_t) == 1 else row
         pair = tuple(rotation_t[pose].ravel().tolist()) + tuple(position_t[pose].tolist())
-        q[row], residual[row] = refine_row(joints, start, pair, step, previous)
+        q[row], residual[row] = refine_row(joints, start, pair, (step, previous), patient)
 
 
 #: Bound on |F(x) − F(x′)| for two solutions accepted at CALIBRATED_TOLERANCE (F as in _curvature_bound): each is

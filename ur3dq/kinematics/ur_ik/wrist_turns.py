@@ -27,6 +27,12 @@ from ur3dq.kinematics.ur_ik.geometry import CALIBRATED_TOLERANCE, _Geometry
 #: without turns, 127 from 0.02, 107 from 0.05, 103 from 0.2; but from 0.2, 4 of the benchmark's 50 random poses
 #: (|sin θ5| 0.12…0.2, a pair with one solution) ran the turns and found nothing (ik_all +20 %).
 TURN_SINE = 0.05
+#: |sin θ5| of a nominal seed below which the seeds of its pose are refined patiently (calibrated._refine_batch's
+#: ``patient``: no giving up after newton_floats.HOPELESS_STEP): there a seed can wander for several steps and still
+#: reach a solution no other seed reaches. Measured on the same 2800 configurations (14 factory tables), solutions
+#: lost to giving up: 18 with no patience, 7 from 0.05 (seeds at |sin θ5| = 0.06 of a calibrated 0.037), none from
+#: 0.15.
+PATIENT_SINE = 0.15
 #: Turns of the family tried per seed (δ = k·2π/TURNS, k = 1 … TURNS − 1): π/4 apart, as the pair's solutions may
 #: lie anywhere along it.
 TURNS = 8
@@ -39,6 +45,11 @@ def beside_singular_wrist(seeds) -> bool:
     """Whether some of the 8 seeds (6 floats each, NaN where absent) has |sin θ5| < TURN_SINE: turned can only
     change rows then (~1 µs, against ~20 for its pairwise comparisons)."""
     return any(abs(math.sin(seed[4])) < TURN_SINE for seed in seeds)
+
+
+def beside_wandering_wrist(seeds) -> bool:
+    """Whether some of the 8 seeds (6 floats each, NaN where absent) has |sin θ5| < PATIENT_SINE."""
+    return any(abs(math.sin(seed[4])) < PATIENT_SINE for seed in seeds)
 
 
 def _incomplete(seeds: np.ndarray, rows: np.ndarray) -> list:
