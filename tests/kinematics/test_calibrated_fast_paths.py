@@ -346,7 +346,7 @@ def test_float_kernels_give_the_batched_quantities():
     targets = np.array([_targets(g, pose)[1] for pose in model.fk_batch(q + 1e-3)])
     rotation, position = calibrated._target_matrices(targets)
     error, frames = calibrated._matrix_residual(calibrated._joint_terms(g), q, (rotation, position))
-    step = calibrated._matrix_step(frames, error, calibrated.DAMPING_MATRIX)
+    step = calibrated._matrix_step(frames, error)
     joints = newton_floats.float_joints(g.joints)
     for row in range(len(q)):
         end, row_frames = newton_floats.float_frames(joints, q[row].tolist())

@@ -4,7 +4,8 @@ A step of calibrated._refine_batch's batched kernels costs ~50 µs whatever its 
 arrays); the same step in floats, with one numpy solve of its 6×6 normal equations, costs ~15 µs a row
 (measured), so the rows left after the others converged — stragglers that may run all CALIBRATED_MAX_STEPS — and
 single rows step here. The quantities and their order of operations are those of calibrated._column_frames and
-_column_residual, the step _matrix_step's.
+_column_residual, the step that of the damped normal equations (_column_step's; _matrix_step solves J·Δq = e
+itself, the same step to rounding where J is regular).
 """
 from __future__ import annotations
 
@@ -107,7 +108,7 @@ def float_jacobian(frames: list) -> list:
 def float_step(frames: list, error: tuple, damping: np.ndarray) -> list:
     """Joint step (6 floats) solving (JᵀJ + λ²I)·Δq = Jᵀe, ``damping`` = λ²I (6, 6) (DAMPING_MATRIX): the Jacobian
     of float_frames' frames in floats (float_jacobian), the 6×6 solve numpy's
-    LAPACK one (as calibrated._matrix_step's, one matrix: ~5 µs, a Cholesky written out in floats costs 13)."""
+    LAPACK one (one matrix: ~5 µs, a Cholesky written out in floats costs 13)."""
     transposed = np.array(float_jacobian(frames))   # Jᵀ: a row per joint
     return damped_solve(transposed @ transposed.T + damping, (transposed @ error)[:, None])[:, 0].tolist()
 
