@@ -59,9 +59,9 @@ solves the 8 branches with the equations written out for a regular wrist (single
 each from the closed-form flange rotation and position, what the branches share computed once (the rotation per
 θ1: the elbow pair shares θ1, θ2 + θ3 + θ4, θ5, θ6 and the wrist flip keeps the rotation; each branch adds its
 planar 2-link term): fk_filter._nominal_meets, cross-checked against the per-branch fk_filter._nominal_check;
-`ik` walks the branches θ1 → wrist → elbow cheapest first, with the equations written out for a regular wrist,
-and stops solving a branch that can no longer be the nearest; the ±2π variant nearest q_ref inside the limits is
-chosen per joint (the cost is separable), and the FK filter checks the joints it returns. Batches of a nominal model run a closed-form
+`ik` walks the branches θ1 → wrist → elbow cheapest first, with the equations written out for a regular wrist, and stops
+solving a branch that can no longer be the nearest; the ±2π variant nearest q_ref inside the limits is chosen per joint
+(the cost is separable), and the FK filter checks the joints it returns. Batches of a nominal model run a closed-form
 kernel (batch_kernels._regular_branches) in numpy over blocks of IK_BLOCK poses, all branches at once
 (joint-major (6, 8, B) arrays): what the branches share is computed once (θ1 per pose, the wrist per θ1, both θ5
 signs from the same terms), and the FK filter evaluates the closed-form FK kernel (ur_fk) on every branch's final
@@ -81,10 +81,10 @@ themselves should compare the (θ1, θ5, θ3) signs of consecutive answers.
 
 The package, one concern a module: ``geometry`` (the model as floats, tolerances), ``equations`` (the thesis'
 equations for floats and arrays), ``fk_filter`` (pose checks, the FK filter, the duplicate rule), ``calibrated``
-(Newton on the full DH chain), ``wrist_turns`` (its seeds beside a singular wrist), ``single`` (``ik_all``),
-``nearest`` (``ik``), ``batch`` and ``batch_kernels`` (``ik_all_batch``, ``ik_batch``). Each performance copy of the equations (``single._nominal_branches``,
-``nearest._nearest_branch``, ``batch_kernels._regular_branches``) is cross-checked against ``equations._branches``
-by the tests.
+(Newton on the full DH chain), ``wrist_turns`` (its seeds beside a singular wrist), ``single`` (``ik_all``), ``nearest``
+(``ik``), ``batch`` and ``batch_kernels`` (``ik_all_batch``, ``ik_batch``). Each performance copy of the equations
+(``single._nominal_branches``, ``nearest._nearest_branch``, ``batch_kernels._regular_branches``) is cross-checked
+against ``equations._branches`` by the tests.
 """
 from __future__ import annotations
 

@@ -208,9 +208,9 @@ def _solved_blocks(model, g: _Geometry, poses: np.ndarray, theta6_ref: np.ndarra
 
     ``rows`` (slice or index array) says which poses a block holds; ``ambiguous`` marks the poses where two
     branches may coincide (merged θ1, θ5 or θ3 signs) and need the duplicate check. Nominal models take the
-    closed-form kernel; its poses near a wrist or elbow singularity are collected and redone last, one by
-    one, by ik_all's own scalar path (single._branch_table), so that both paths merge the same branch pairs. Calibrated models take the general equations and
-    Newton throughout.
+    closed-form kernel; its poses near a wrist or elbow singularity are collected and redone last, one by one, by
+    ik_all's own scalar path (single._branch_table), so that both paths merge the same branch pairs. Calibrated models
+    take the general equations and Newton throughout.
     """
     if g.calibrated:
         columns = _batch_candidates(g, _batch_flange_targets(g, poses), theta6_ref)

@@ -4,10 +4,10 @@ Where θ5 is small (or near π) only θ234 + θ6 (θ234 − θ6) of a pose is we
 off the calibrated solution's by about the calibration's angular offsets over |sin θ5|, up to any angle. Newton from
 such a seed then diverges, or reaches the solution another seed reaches too, and ik_all missed a real solution (issue
 11: a UR3 factory table at θ5 = −0.0015, found 1.3 rad from the nominal seeds; 13 % of 2800 configurations of the 14
-factory tables, three quarters beside a wrist or elbow singularity, missed their own). A (θ1, elbow) pair has usually two
-calibrated solutions beside a singular wrist, as it has two regular ones (θ5 of either sign): where the seeds of such
-a pair did not give two new ones, Newton runs again from the pair's seeds turned by k·2π/TURNS along the family (θ6 +
-δ, θ234 ∓ δ, the shoulder and elbow solved again for the new θ234) and fills the pair's slots with what it reaches.
+factory tables, three quarters beside a wrist or elbow singularity, missed their own). A (θ1, elbow) pair has usually
+two calibrated solutions beside a singular wrist, as it has two regular ones (θ5 of either sign): where the seeds of
+such a pair did not give two new ones, Newton runs again from the pair's seeds turned by k·2π/TURNS along the family
+(θ6 + δ, θ234 ∓ δ, the shoulder and elbow solved again for the new θ234) and fills the pair's slots with what it reaches.
 A pair may have more (a calibrated arm, unlike the nominal one, up to 16 in all): beyond its two slots they stay
 unlisted (measured, ~2.5 % of those configurations).
 """
