@@ -8,8 +8,8 @@ factory tables, three quarters beside a wrist or elbow singularity, missed their
 two calibrated solutions beside a singular wrist, as it has two regular ones (θ5 of either sign): where the seeds of
 such a pair did not give two new ones, Newton runs again from the pair's seeds turned by k·2π/TURNS along the family
 (θ6 + δ, θ234 ∓ δ, the shoulder and elbow solved again for the new θ234) and fills the pair's slots with what it
-reaches. A pair may have more (a calibrated arm, unlike the nominal one, up to 16 in all): beyond its two slots they stay
-unlisted (measured, ~2.5 % of those configurations).
+reaches. A pair may have more (a calibrated arm, unlike the nominal one, up to 16 in all): beyond its two slots they
+stay unlisted (measured, ~2.5 % of those configurations).
 """
 from __future__ import annotations
 
