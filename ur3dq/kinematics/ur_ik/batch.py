@@ -64,14 +64,16 @@ def _batch_candidates(g: _Geometry, targets: tuple, theta6_ref) -> np.ndarray:
         flat = columns.reshape(6, -1).T
         repeated = np.tile(np.stack(targets, axis=-1), (8, 1))
         usable = np.all(np.isfinite(flat), axis=1)
+        # Per pose its seeds' least |sin θ5| (NaN: no seed), for both of ik_all's wrist rules below.
+        wrist = np.fmin.reduce(np.abs(np.sin(columns[4])), axis=0)
         # As ik_all: a wandering seed gives up early unless its pose lies beside a singular wrist.
-        patient = np.tile((np.abs(np.sin(columns[4])) < PATIENT_SINE).any(axis=0), 8)
+        patient = np.tile(wrist < PATIENT_SINE, 8)
         refined, residual = _refine_batch(g, flat[usable], repeated[usable], patient=patient[usable])
         flat = flat.copy()
         flat[usable] = np.where((residual <= CALIBRATED_TOLERANCE)[:, None], refined, np.nan)
         seeds, columns = columns, np.ascontiguousarray(flat.T).reshape(6, 8, len(targets[0]))
         # Beside a singular wrist a pair's seeds may miss its solutions: as ik_all, Newton again from their turns.
-        for pose in np.flatnonzero((np.abs(np.sin(seeds[4])) < TURN_SINE).any(axis=0)):
+        for pose in np.flatnonzero(wrist < TURN_SINE):
             pair = [float(part[pose]) for part in targets]
             columns[:, :, pose] = turned(g, seeds[:, :, pose].T, columns[:, :, pose].T, pair).T
     # θ2, θ3 come from atan2 already in (−π, π]; θ1, θ4, θ6 are sums and θ5 may be −π.

@@ -370,8 +370,8 @@ def _refine_batch(g: _Geometry, q: np.ndarray, targets: np.ndarray, normals=None
                          else _matrix_residual(terms, current, target))
         pose_error = error[:, :6]
         norm = np.sqrt(np.einsum("ij,ij->i", pose_error, pose_error))
-        # Rows at or above ROUNDING_CEILING all go on (going_on): one reduction instead of its six operations and
-        # two more, in most steps. False for NaN (an absent branch), which going_on stops.
+        # Before HOPELESS_STEP, rows at or above ROUNDING_CEILING all go on (going_on): one reduction instead of its
+        # six operations and two more, in most steps. False for NaN (an absent branch), which going_on stops.
         every = step < HOPELESS_STEP and len(norm) > 0 and norm.min() >= ROUNDING_CEILING
         going = None if every else going_on(norm, previous, step, patient)
         if step == CALIBRATED_MAX_STEPS or not (every or going.any()):
@@ -410,8 +410,13 @@ def _refine_in_floats(g: _Geometry, q: np.ndarray, residual: np.ndarray, state: 
     joints, (rotation_t, position_t) = _cached_terms(g)[2], target
     for row, start, previous, patient in zip(*(part.tolist() for part in state)):
         pose = 0 if len(position_t) == 1 else row
-        pair = tuple(rotation_t[pose].ravel().tolist()) + tuple(position_t[pose].tolist())
+        pair = _float_pair(rotation_t[pose], position_t[pose])
         q[row], residual[row] = refine_row(joints, start, pair, (step, previous), patient)
+
+
+def _float_pair(rotation: np.ndarray, position: np.ndarray) -> tuple:
+    """A target rotation (3, 3) and position (3,) (_target_matrices') as the 12 floats newton_floats takes."""
+    return tuple(rotation.ravel().tolist()) + tuple(position.tolist())
 
 
 #: Bound on |F(x) − F(x′)| for two solutions accepted at CALIBRATED_TOLERANCE (F as in _curvature_bound): each is

@@ -11,6 +11,7 @@ from ur3dq.kinematics.ur_ik.calibrated import (
     _cached_terms,
     _curvature_bound,
     _fk_implied,
+    _float_pair,
     _isolated,
     _refine_batch,
     _target_matrices,
@@ -239,7 +240,7 @@ def _too_far_to_prove(g: _Geometry, target, reference) -> bool:
     """
     bound = math.sqrt(1.0 + g.joints[5][0] ** 2) / _curvature_bound(g)
     rotation, position = _target_matrices(np.array(target)[None])
-    pair = tuple(rotation[0].ravel().tolist()) + tuple(position[0].tolist())
+    pair = _float_pair(rotation[0], position[0])
     end, frames = float_frames(_cached_terms(g)[2], reference)
     step = float_step(frames, float_residual(end, frames, pair)[:6], DAMPING_MATRIX)
     return math.sqrt(sum(v * v for v in step)) > bound

@@ -39,7 +39,7 @@ from ur3dq.kinematics.ur_ik.geometry import (
     _TWO_PI,
     _geometry,
 )
-from ur3dq.kinematics.ur_ik.wrist_turns import beside_singular_wrist, beside_wandering_wrist, turned
+from ur3dq.kinematics.ur_ik.wrist_turns import PATIENT_SINE, beside_singular_wrist, turned
 
 
 def _unreachable_reason(g: _Geometry, target, branches_existed: bool) -> str:
@@ -90,7 +90,7 @@ def _solution_candidates(g: _Geometry, target, theta6_ref: float, reference_row=
         refined = []
     elif not beside_singular_wrist(branches):
         # A wandering seed gives up early unless a seed lies near a singular wrist; the reference's row never does.
-        patient = [beside_wandering_wrist(branches)] * len(candidates) + [True] * (reference is not None)
+        patient = [beside_singular_wrist(branches, PATIENT_SINE)] * len(candidates) + [True] * (reference is not None)
         refined = _refine_calibrated(g, starts, target, patient)
     else:   # a pair's seeds may miss its solutions there: Newton again from their turns where they did
         rows = np.full((8, 6), math.nan)

@@ -41,15 +41,11 @@ TURNS = 8
 _PAIRS = ((0, 2), (1, 3), (4, 6), (5, 7))
 
 
-def beside_singular_wrist(seeds) -> bool:
-    """Whether some of the 8 seeds (6 floats each, NaN where absent) has |sin θ5| < TURN_SINE: turned can only
-    change rows then (~1 µs, against ~20 for its pairwise comparisons)."""
-    return any(abs(math.sin(seed[4])) < TURN_SINE for seed in seeds)
-
-
-def beside_wandering_wrist(seeds) -> bool:
-    """Whether some of the 8 seeds (6 floats each, NaN where absent) has |sin θ5| < PATIENT_SINE."""
-    return any(abs(math.sin(seed[4])) < PATIENT_SINE for seed in seeds)
+def beside_singular_wrist(seeds, sine: float = TURN_SINE) -> bool:
+    """Whether some of the 8 seeds (6 floats each, NaN where absent) has |sin θ5| < ``sine``: with TURN_SINE,
+    turned can only change rows then (~1 µs, against ~20 for its pairwise comparisons); with PATIENT_SINE, the
+    pose's seeds are refined patiently."""
+    return any(abs(math.sin(seed[4])) < sine for seed in seeds)
 
 
 def _incomplete(seeds: np.ndarray, rows: np.ndarray) -> list:
