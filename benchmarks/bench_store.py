@@ -1,4 +1,4 @@
-"""A big pose store (issue 10 item 5): 93,587 poses, ~50 MB. Goal: ≤ 3 s and ≤ 300 MB to list or plan it.
+"""A big pose store (issue 10 item 5): 93,587 poses, ~50 MB. Goal: ≤ 3 s CPU and ≤ 300 MB to list or plan it.
 
 Each command runs as a real `ur3dq` process (best of N by CPU time, user + system, children's rusage) and its
 peak RSS is read from the kernel; the peer call measured in the same run is a bare
@@ -98,7 +98,7 @@ def main() -> None:
                                ("ur3dq run-poses --dry-run --from pose-1", ["run-poses", "--dry-run", "--from",
                                                                              "pose-1"])):
             cpu, wall, rss = measure(ur3dq + command, args.repeat)
-            ok = wall <= GOAL_SECONDS and rss <= GOAL_MB
+            ok = cpu <= GOAL_SECONDS and rss <= GOAL_MB
             failed |= not ok
             print(f"{label:44s} cpu {cpu:6.2f} s  wall {wall:6.2f} s  rss {rss:6.0f} MB  "
                   f"ratio to peer {cpu / peer[0]:5.1f}×  goal ≤ {GOAL_SECONDS:g} s, ≤ {GOAL_MB:g} MB: "
