@@ -11,6 +11,7 @@ removed by the next write.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import os
 import re
 import tempfile
@@ -185,16 +186,13 @@ class PoseStore:
 
     def __init__(self, path):
         self.path = Path(path)
-        self._write_lock = None
 
-    @property
+    @functools.cached_property
     def _lock(self):
         """The inter-process write lock `<path>.lock` (of the link's target), made on the first write: filelock is
         imported only then (reads need no lock, and its import is ~20 ms of every command's start)."""
-        if self._write_lock is None:
-            import filelock
-            self._write_lock = filelock.FileLock(os.path.realpath(self.path) + ".lock", timeout=LOCK_TIMEOUT_S)
-        return self._write_lock
+        import filelock
+        return filelock.FileLock(os.path.realpath(self.path) + ".lock", timeout=LOCK_TIMEOUT_S)
 
     def __repr__(self):
         return f"PoseStore({str(self.path)!r})"
