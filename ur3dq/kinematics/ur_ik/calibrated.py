@@ -474,6 +474,12 @@ def _row_frames(frames: tuple, rows) -> tuple:
     return tuple([vectors[0]] + [v[:, rows] for v in vectors[1:]] for vectors in frames)
 
 
+def _largest_isolation_radius(g: _Geometry) -> float:
+    """A bound on every _isolation_radius of the geometry: the radius is at most 2σ/M, and σ ≤ |J·e6| =
+    |(z6 × (p − o6), z6)| = √(1 + a6²) (a reference ~0.04 rad or more from the answer is beyond it on a UR3)."""
+    return 2.0 * math.sqrt(1.0 + g.joints[5][0] ** 2) / _curvature_bound(g)
+
+
 def _isolated(g: _Geometry, q: np.ndarray, reach: np.ndarray, normal=None) -> np.ndarray:
     """(M,) whether reach (M,) < _isolation_radius of solutions q (M, 6): no other accepted solution within it.
     ``normal`` (optional, (6, 6, M), NaN where unknown): _column_normal's JᵀJ of rows that _refine_batch computed
@@ -484,9 +490,7 @@ def _isolated(g: _Geometry, q: np.ndarray, reach: np.ndarray, normal=None) -> np
     passes t), i.e. when JᵀJ − σ_t²·I is positive definite: a Cholesky written out per entry, every pivot > 0.
     """
     bound, gap = _curvature_bound(g), _SOLUTION_GAP
-    # The radius is at most 2σ/M, and σ ≤ |J·e6| = |(z6 × (p − o6), z6)| = √(1 + a6²): farther reaches fail
-    # without a Jacobian (a reference ~0.04 rad or more from the answer).
-    possible = reach < 2.0 * math.sqrt(1.0 + g.joints[5][0] ** 2) / bound
+    possible = reach < _largest_isolation_radius(g)   # farther reaches fail without a Jacobian
     if not possible.all():
         decided = np.zeros(len(q), dtype=bool)
         if possible.any():

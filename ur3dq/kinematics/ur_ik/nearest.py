@@ -9,10 +9,10 @@ from ur3dq.errors import UnreachablePoseError
 from ur3dq.kinematics.ur_ik.calibrated import (
     VARIANT_SHIFT,
     _cached_terms,
-    _curvature_bound,
     _fk_implied,
     _float_pair,
     _isolated,
+    _largest_isolation_radius,
     _refine_batch,
     _target_matrices,
 )
@@ -231,14 +231,14 @@ def _too_far_to_prove(g: _Geometry, target, reference) -> bool:
     batched Newton step costs ~50 µs for 1 row as for 9, and a far reference takes 5–6 steps), for a ranking that
     runs anyway.
 
-    The proof needs 2·reach = 4·(√(c / min w) + …) ≥ 4·|Δ| below 2·√(1 + a6²)/M (_isolated's first test, M the
-    curvature bound, Δ the joints' distance to the answer), and c = 0 needs Δ = 0. Newton's first step estimates
+    The proof needs 2·reach = 4·(√(c / min w) + …) ≥ 4·|Δ| below calibrated._largest_isolation_radius
+    (_isolated's first test, Δ the joints' distance to the answer), and c = 0 needs Δ = 0. Newton's first step estimates
     Δ (to first order); one beyond twice that bound is taken as too far. The answer is the full ranking's either
     way (the proof only ever returns that answer): this is a choice of path, a wrong guess costs time only. A
     reference 0.05 rad per joint off the answer (the benchmark's: |Δ| ≈ 0.12) is far beyond it (|Δ| < 0.043 on a
     UR3 factory table).
     """
-    bound = math.sqrt(1.0 + g.joints[5][0] ** 2) / _curvature_bound(g)
+    bound = 0.5 * _largest_isolation_radius(g)
     rotation, position = _target_matrices(np.array(target)[None])
     pair = _float_pair(rotation[0], position[0])
     end, frames = float_frames(_cached_terms(g)[2], reference)
