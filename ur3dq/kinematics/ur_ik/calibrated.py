@@ -85,12 +85,13 @@ def _implied_by_residual(g: _Geometry, reach: float) -> bool:
 
 
 def _joint_terms(g: _Geometry) -> tuple:
-    """(angle shifts (6, 1, 1, 2), cos/sin basis (6, 1, 2, 16), constant part (6, 1, 1, 16)) of the geometry's joints.
+    """(angle shifts (6, 1, 3), terms (6, 3, 16)) of the geometry's joints.
 
-    A standard DH joint is T(θ) = cos θ·A + sin θ·B + C with constant A, B, C (4×4, flattened to 16): all six
-    joints of M configurations are one (6, M, 1, 2) @ (6, 1, 2, 16) matmul, cos and sin one np.cos of
-    θ + offset − (0, π/2). Cached per geometry (kept alive with its entry, so its id cannot be reused), like
-    geometry._geometry, together with _curvature_bound's value.
+    A standard DH joint is T(θ) = cos θ·A + sin θ·B + 1·C with constant A, B, C (4×4, flattened to 16): all six
+    joints of M configurations are one (6, M, 3) @ (6, 3, 16) matmul, its left side (cos θ, sin θ, 1) one np.cos
+    of (θ, θ, 0) + (offset, offset − π/2, 0). Each entry of T is one of the three products (the others are exact
+    zeros), so the matmul rounds nothing. Cached per geometry (kept alive with its entry, so its id cannot be
+    reused), like geometry._geometry, together with _curvature_bound's value.
     """
     return _cached_terms(g)[0]
 
@@ -113,14 +114,14 @@ def _cached_terms(g: _Geometry) -> tuple:
     cached = _TERMS.get(id(g))
     if cached is not None and cached[0] is g:
         return cached[1]
-    shift = np.array([[joint[2], joint[2] - 0.5 * math.pi] for joint in g.joints])
-    basis, constant = np.zeros((6, 2, 4, 4)), np.zeros((6, 1, 4, 4))
+    shift = np.array([[joint[2], joint[2] - 0.5 * math.pi, 0.0] for joint in g.joints])
+    basis = np.zeros((6, 3, 4, 4))
     for i, (a, d, _, cos_half, sin_half) in enumerate(g.joints):
         cos_alpha, sin_alpha = cos_half * cos_half - sin_half * sin_half, 2.0 * cos_half * sin_half
         basis[i, 0] = [[1.0, 0.0, 0.0, a], [0.0, cos_alpha, -sin_alpha, 0.0], [0.0] * 4, [0.0] * 4]
         basis[i, 1] = [[0.0, -cos_alpha, sin_alpha, 0.0], [1.0, 0.0, 0.0, a], [0.0] * 4, [0.0] * 4]
-        constant[i, 0] = [[0.0] * 4, [0.0] * 4, [0.0, sin_alpha, cos_alpha, d], [0.0, 0.0, 0.0, 1.0]]
-    terms = (shift.reshape(6, 1, 1, 2), basis.reshape(6, 1, 2, 16), constant.reshape(6, 1, 1, 16))
+        basis[i, 2] = [[0.0] * 4, [0.0] * 4, [0.0, sin_alpha, cos_alpha, d], [0.0, 0.0, 0.0, 1.0]]
+    terms = (shift.reshape(6, 1, 3), basis.reshape(6, 3, 16))
     frames = _chain_frames(terms, np.zeros((1, 6)))[:, 0]
     foot, reach = np.zeros(3), 0.0
     for axis, origin in [(np.array([0.0, 0.0, 1.0]), np.zeros(3))] + [(f[:3, 2], f[:3, 3]) for f in frames[:5]]:
@@ -136,6 +137,10 @@ def _cached_terms(g: _Geometry) -> tuple:
     return value
 
 
+#: Multiplies each joint angle into _joint_terms' three cosines: θ, θ and 0 (the constant term's cos 0 = 1).
+_ANGLE_SCALE = np.array([1.0, 1.0, 0.0])
+
+
 def _chain_frames(terms: tuple, q: np.ndarray) -> np.ndarray:
     """(6, M, 4, 4) frames 1…6 of standard DH joints q (M, 6) in the base frame (frame 0 is the identity).
 
@@ -145,9 +150,9 @@ def _chain_frames(terms: tuple, q: np.ndarray) -> np.ndarray:
     twice as much). What a solution is accepted on is still the FK filter (fk_filter._fk_check /
     batch._fk_filter).
     """
-    shift, basis, constant = terms
-    trig = np.cos(q.T[..., None, None] + shift)        # (6, M, 1, 2): cos θ, sin θ
-    joints = (trig @ basis + constant).reshape(6, len(q), 4, 4)
+    shift, basis = terms
+    trig = np.cos(q.T[..., None] * _ANGLE_SCALE + shift)        # (6, M, 3): cos θ, sin θ, 1
+    joints = (trig @ basis).reshape(6, len(q), 4, 4)
     frames = np.empty_like(joints)   # a separate output: an out= overlapping an input makes numpy copy first
     frames[0] = joints[0]
     for i in range(1, 6):
