@@ -49,8 +49,9 @@ factory tables; whatever it returns is FK-verified; ik then picks the nearest of
 solution when it provably is the one the full ranking picks (no other solution can lie nearer: its isolation radius,
 from the Jacobian's least singular value and a bound on the chain's curvature, calibrated._isolation_radius, covers
 every configuration nearer q_ref); otherwise, beside a singularity or far from q_ref, all candidates are ranked. A
-q_ref whose first Newton step is already beyond what that proof can cover (nearest._too_far_to_prove) is not
-refined alone: it joins the nominal branches' Newton batch.
+q_ref whose first Newton step already says that proof will fail (nearest._proof_expected: the step against the
+isolation radius of q_ref's own least singular value) is not refined alone: it joins the nominal branches' Newton
+batch.
 ``ik_batch`` likewise refines one row per pose from q_ref and keeps the proven ones (``ik``'s answers); the other
 poses rank their refined nominal branches (which, beside a singularity, can miss the solution the q_ref row finds).
 

@@ -439,7 +439,11 @@ def _isolation_radius(g: _Geometry, q: np.ndarray) -> np.ndarray:
     solution has |F(x′) − F(x)| ≤ _SOLUTION_GAP, so σ·t − ½·M·t² ≤ gap for t = |d|: t lies below the smaller root
     (the same solution) or beyond the larger, (σ + √(σ² − 2·M·gap))/M, returned here."""
     # σ² is the least eigenvalue of JᵀJ (eigvalsh costs 60 % of an SVD of J and is as exact: 1e-16·|J|²).
-    sigma = np.sqrt(np.maximum(np.linalg.eigvalsh(_normal_matrices(g, q))[:, 0], 0.0))
+    return _radius_of_sigma(g, np.sqrt(np.maximum(np.linalg.eigvalsh(_normal_matrices(g, q))[:, 0], 0.0)))
+
+
+def _radius_of_sigma(g: _Geometry, sigma: np.ndarray) -> np.ndarray:
+    """_isolation_radius of solutions whose Jacobians' least singular values are ``sigma`` (any shape)."""
     bound = _curvature_bound(g)
     discriminant = sigma * sigma - 2.0 * bound * _SOLUTION_GAP
     return np.where(discriminant > 0.0, (sigma + np.sqrt(np.maximum(discriminant, 0.0))) / bound, 0.0)

@@ -78,7 +78,7 @@ def _solution_candidates(g: _Geometry, target, theta6_ref: float, reference_row=
     Near a singularity two nominal branches can converge to the same calibrated solution and miss the one beside
     the reference, which a solve started at the reference finds (so ``ik(fk(q), q)`` gives q back). ``reference``
     (6 floats, optional, instead of ``reference_row``): that solve is not done yet; it runs here, in the branches'
-    batch (nearest._too_far_to_prove), its converged row last alike.
+    batch (nearest._proof_expected), its converged row last alike.
     """
     branches = _nominal_branches(g, target, theta6_ref)
     exists = [branch[1] == branch[1] and branch[0] == branch[0] for branch in branches]   # NaN: absent
