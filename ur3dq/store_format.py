@@ -10,6 +10,7 @@ quaternion, UR pose agreeing with it), then the poses are built without repeatin
 """
 from __future__ import annotations
 
+import itertools
 import json
 import re
 import sys
@@ -83,34 +84,42 @@ def pose_from_dict(obj, who: str) -> Pose:
     """A Pose from its JSON object; ValueError naming `who` (e.g. "pose #3 'pick'") and the field at fault."""
     _check_pose_fields(obj, who)
     fields = {key: obj[key] for key in POSE_FIELDS if key in obj}
-    fields["tcp_offset"] = fields.get("tcp_offset") if fields.get("tcp_offset") is not None else (0.0,) * 6
+    fields["tcp_offset"] = fields.get("tcp_offset") if fields.get("tcp_offset") is not None else _ZERO_ROW
     fields["note"] = fields.get("note") or ""
     _check_magnitudes([fields], who)
     return Pose(**fields)
 
 
 def _vectors(entries, field: str, length: int, who_of) -> np.ndarray:
-    """(N, length) floats of `field` of every entry; ValueError naming the first entry that is not numbers."""
+    """(N, length) floats of `field` of every entry; ValueError naming the first entry that is not numbers.
+
+    A number is a JSON number: np.fromiter and np.array would also take the string "1.5" and the literal true (a
+    bool is an int in Python) as 1.5 and 1.0, so a hand-edited or corrupt file would load with them."""
+    rows = [entry[field] for entry in entries]
     try:
         # a third faster than np.array's nested-list scan; None (or an error) sends the rows to the loop below,
-        # which names the first bad one
-        packed = packed_rows([entry[field] for entry in entries], length, list)
-        if packed is not None:
+        # which names the first bad one. The item types, one set of every row's (~25 ns an item, ~60 ms CPU on a
+        # store of 93,587 poses), find a string or a bool among them.
+        packed = packed_rows(rows, length, list)
+        if packed is not None and set(map(type, itertools.chain.from_iterable(rows))) <= _JSON_NUMBERS:
             return packed
     except (TypeError, ValueError, OverflowError):
         pass
-    for index, entry in enumerate(entries):
-        value = entry[field]
-        try:
-            row = np.array(value, dtype=float)
-        except OverflowError:
-            raise ValueError(f"{who_of(index)}: {field} holds a number too large for a float") from None
-        except (TypeError, ValueError):
-            raise ValueError(f"{who_of(index)}: {field} must be {length} numbers, got {value!r}") from None
-        if row.shape != (length,) or any(isinstance(v, bool) for v in value):
-            got = row.size if row.ndim == 1 else repr(value)
+    for index, value in enumerate(rows):
+        if isinstance(value, (str, dict)) or not hasattr(value, "__len__") or len(value) != length:
+            got = len(value) if isinstance(value, (list, tuple)) else repr(value)
             raise ValueError(f"{who_of(index)}: {field} must be {length} numbers, got {got}")
-    raise ValueError(f"{field}: must be {length} numbers")  # unreachable: some row had to fail above
+        for item in value:
+            if isinstance(item, bool) or not isinstance(item, (int, float)):
+                shown = json.dumps(item) if isinstance(item, (str, bool)) or item is None else repr(item)
+                raise ValueError(f"{who_of(index)}: {field} must be {length} numbers, got {shown} among them")
+            if isinstance(item, int) and abs(item) > sys.float_info.max:
+                raise ValueError(f"{who_of(index)}: {field} holds a number too large for a float")
+    return np.array(rows, dtype=float).reshape(-1, length)   # numbers all; some rows tuples, not lists
+
+
+#: The item types of a JSON number array as parsed (orjson and json alike): never bool, never str.
+_JSON_NUMBERS = {int, float}
 
 
 def _first_bad(mask: np.ndarray) -> int | None:
@@ -168,6 +177,8 @@ def _check_magnitudes(fields_list, who, who_of=None) -> tuple:
 
 
 _NO_TCP_OFFSET = (0.0,) * 6
+#: A missing tcp_offset's numbers, a list as JSON gives them (_vectors' fast path takes lists only); never mutated.
+_ZERO_ROW = [0.0] * 6
 _WAYPOINT_KEYS = frozenset(POSE_FIELDS) | {"type"} | frozenset(MOTION_FIELDS)
 _REQUIRED_KEYS = frozenset(REQUIRED_POSE_FIELDS)
 CHUNK = 4096  # entries parsed and checked per vectorised pass: big enough for numpy, small enough to bound memory
@@ -185,7 +196,7 @@ def _poses_of_chunk(entries, chunk, who_of) -> list[Pose]:
         if not (type(fields) is dict and fields.keys() <= _WAYPOINT_KEYS and _REQUIRED_KEYS <= fields.keys()):
             _check_pose_fields(fields, who_of(index), extra=("type", *MOTION_FIELDS))  # says what is wrong
         if fields.get("tcp_offset") is None:
-            fields["tcp_offset"] = _NO_TCP_OFFSET
+            fields["tcp_offset"] = _ZERO_ROW
         if not fields.get("note"):
             fields["note"] = ""
         fields_list.append(fields)

@@ -184,6 +184,15 @@ BAD_POSES = {
     "six digits": (broken_pose("joints", "123456"), "joints must be 6 numbers, got '123456'"),
     "an object of six numbered keys": (broken_pose("joints", {str(k): 0 for k in range(6)}), "joints must be 6 numbers"),
     "rows of one": (broken_pose("joints", [[0]] * 6), "joints must be 6 numbers"),
+    # np.fromiter and np.array read both as numbers (1.5 and 1.0): a JSON number only
+    "a number in quotes": (broken_pose("joints", [0, "1.5", 0, 0, 0, 0]),
+                           'joints must be 6 numbers, got "1.5" among them'),
+    "a literal true": (broken_pose("dual_quaternion", [True, 0, 0, 0, 0, 0, 0, 0]),
+                       "dual_quaternion must be 8 numbers, got true among them"),
+    "a literal false in the TCP": (broken_pose("tcp_offset", [0, 0, 0, 0, 0, False]),
+                                   "tcp_offset must be 6 numbers, got false among them"),
+    "a null coefficient": (broken_pose("ur_pose", [0, 0, None, 0, 0, 0]),
+                           "ur_pose must be 6 numbers, got null among them"),
     "infinite coefficient": (broken_pose("dual_quaternion", [1, 0, 0, 0, 0, math.inf, 0, 0]), "dual_quaternion contains NaN or infinity"),
     "non-unit rotation": (broken_pose("dual_quaternion", [2, 0, 0, 0, 0, 0, 0, 0]), "dual_quaternion rotation part has norm 2, not 1"),
     "not rigid": (broken_pose("dual_quaternion", [1, 0, 0, 0, 0.5, 0, 0, 0]), "dual_quaternion is not a rigid transform"),
@@ -210,6 +219,28 @@ def test_invalid_pose_names_the_pose_and_what_is_wrong(tmp_path, case):
     with pytest.raises(StoreError):
         PoseStore(path).add(make_pose("new"))
     assert path.read_bytes() == before
+
+
+def test_a_pose_without_its_optional_tcp_offset_loads_with_a_zero_tcp(tmp_path):
+    """tcp_offset is optional (docs/store-schema.md): a store from another tool may leave it out, for some poses
+    or all of them, in ur3dq's own layout or any other (it failed to load, "tcp_offset: must be 6 numbers")."""
+    tcp = [0.0, 0.0, 0.1, 0.0, 0.0, 0.0]
+    poses = [make_pose(name, i, tcp_offset=tcp) for i, name in enumerate(["a", "b", "c"])]
+    own_layout = format_store(poses)
+    for left_out in (["b"], ["a", "b", "c"]):
+        entries = [pose_to_dict(pose) for pose in poses]
+        lines = own_layout.splitlines()
+        for entry in entries:
+            if entry["name"] in left_out:
+                del entry["tcp_offset"]
+                at = next(k for k, line in enumerate(lines) if f'"name": "{entry["name"]}"' in line)
+                lines[at] = lines[at].replace('"tcp_offset": [0.0, 0.0, 0.1, 0.0, 0.0, 0.0], ', "")
+        for text in (store_text_with(entries), "\n".join(lines) + "\n"):
+            path = tmp_path / "poses.json"
+            path.write_text(text)
+            assert [pose.tcp_offset for pose in PoseStore(path).load()] == [
+                (0.0,) * 6 if pose.name in left_out else tuple(tcp) for pose in poses], text
+        assert store_format.pose_from_dict(entries[1], "pose 'b'").tcp_offset == (0.0,) * 6
 
 
 def test_error_line_points_at_the_pose_in_the_store_layout(tmp_path):
