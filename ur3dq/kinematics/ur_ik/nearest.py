@@ -35,13 +35,7 @@ from ur3dq.kinematics.ur_ik.geometry import (
     _UNIT_WEIGHTS,
     _geometry,
 )
-from ur3dq.kinematics.ur_ik.newton_floats import (
-    DAMPING_MATRIX,
-    damped_solve,
-    float_frames,
-    float_jacobian,
-    float_residual,
-)
+from ur3dq.kinematics.ur_ik.newton_floats import DAMPING_MATRIX, float_frames, float_residual, float_step_and_normal
 from ur3dq.kinematics.ur_ik.single import _solution_candidates, _unreachable_reason
 
 
@@ -250,10 +244,8 @@ def _proof_expected(g: _Geometry, target, reference, weights) -> bool:
     error = float_residual(end, frames, _float_pair(rotation[0], position[0]))[:6]
     if math.sqrt(sum(e * e for e in error)) <= 0.01 * CALIBRATED_TOLERANCE:   # going_on's first test: no step
         return True
-    transposed = np.array(float_jacobian(frames))   # Jᵀ: a row per joint
-    normal = transposed @ transposed.T
-    step = damped_solve(normal + DAMPING_MATRIX, (transposed @ error)[:, None])[:, 0]
-    cost = sum(w * v * v for w, v in zip(weights, step.tolist()))
+    step, normal = float_step_and_normal(frames, error, DAMPING_MATRIX)
+    cost = sum(w * v * v for w, v in zip(weights, step))
     reach = 2.0 * (math.sqrt(cost / min(weights)) + math.sqrt(6.0) * LIMIT_ROUNDING)
     if 2.0 * reach >= _largest_isolation_radius(g):   # beyond every radius: no eigenvalues needed
         return False

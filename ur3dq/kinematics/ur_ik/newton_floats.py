@@ -109,8 +109,15 @@ def float_step(frames: list, error: tuple, damping: np.ndarray) -> list:
     """Joint step (6 floats) solving (JᵀJ + λ²I)·Δq = Jᵀe, ``damping`` = λ²I (6, 6) (DAMPING_MATRIX): the Jacobian
     of float_frames' frames in floats (float_jacobian), the 6×6 solve numpy's
     LAPACK one (one matrix: ~5 µs, a Cholesky written out in floats costs 13)."""
+    return float_step_and_normal(frames, error, damping)[0]
+
+
+def float_step_and_normal(frames: list, error: tuple, damping: np.ndarray) -> tuple:
+    """(float_step's step (6 floats), the undamped JᵀJ (6, 6) it solved with): for a caller that also wants J's
+    least singular value (nearest._proof_expected)."""
     transposed = np.array(float_jacobian(frames))   # Jᵀ: a row per joint
-    return damped_solve(transposed @ transposed.T + damping, (transposed @ error)[:, None])[:, 0].tolist()
+    normal = transposed @ transposed.T
+    return damped_solve(normal + damping, (transposed @ error)[:, None])[:, 0].tolist(), normal
 
 
 def damped_solve(normal: np.ndarray, rhs: np.ndarray) -> np.ndarray:
