@@ -31,6 +31,9 @@ def pick_waypoint(joints=Q_PICK, motion=Motion("linear", 0.1)):
     (lambda: pick_waypoint(motion=Motion("joint", blend=1e9)), r"blend must be a radius 0..1 m"),
     (lambda: pick_waypoint(motion=Motion("joint", speed=0)), r"speed must be a finite number > 0"),
     (lambda: RelativeWaypoint("up", "pick", note="\ud800"), r"step 'up' \(relative waypoint\): note holds a lone"),
+    # float() reads both as numbers: a relative waypoint's offset holds JSON numbers only, as a pose's fields do
+    (lambda: RelativeWaypoint("up", "pick", (0, 0, "0.1", 0, 0, 0)), r"offset must be 6 numbers, got '0.1' among them"),
+    (lambda: RelativeWaypoint("up", "pick", (0, 0, True, 0, 0, 0)), r"offset must be 6 numbers, got True among them"),
 ])
 def test_bad_steps_are_refused_naming_the_step(build, message):
     with pytest.raises(ValueError, match=message):

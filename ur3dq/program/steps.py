@@ -28,11 +28,16 @@ MAX_OFFSET_M = 5.0         # a relative waypoint further than this from its base
 DEFAULT_WAIT_INPUT_TIMEOUT_S = 10.0
 
 
+def _is_number(value) -> bool:
+    """Whether ``value`` is a real number: not a bool (an int in Python), not a string float() would parse."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
 def _positive(value, what: str, who: str, allow_none: bool = True, upper: float | None = None):
     """`value` as a float > 0 (≤ upper), None when allowed; ValueError naming `who` and `what`."""
     if value is None and allow_none:
         return None
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
+    if not _is_number(value):
         raise ValueError(f"{who}: {what} must be a number, got {value!r}")
     try:
         number = float(value)
@@ -86,8 +91,7 @@ class Motion:
             raise ValueError(f"{who}: move {self.move!r} is not one of {', '.join(MOVE_TYPES)}")
         blend = self.blend
         if blend is not None:
-            if isinstance(blend, bool) or not isinstance(blend, (int, float)) or not math.isfinite(float(blend)) \
-                    or not 0 <= float(blend) <= MAX_BLEND_M:
+            if not _is_number(blend) or not math.isfinite(float(blend)) or not 0 <= float(blend) <= MAX_BLEND_M:
                 raise ValueError(f"{who}: blend must be a radius 0..{MAX_BLEND_M:g} m, got {blend!r}")
             blend = float(blend)
         return Motion(self.move, _positive(self.speed, "speed", who), _positive(self.acceleration, "acceleration",
@@ -168,15 +172,17 @@ class RelativeWaypoint(Step):
         if self.frame not in FRAMES:
             raise ValueError(f"{self.who}: frame {self.frame!r} is not one of {', '.join(FRAMES)}")
         try:
-            offset = tuple(float(v) for v in self.offset)
+            items = tuple(self.offset)
+            offset = tuple(float(v) for v in items)
         except (TypeError, ValueError, OverflowError):
             raise ValueError(f"{self.who}: offset must be 6 numbers, got {self.offset!r}") from None
+        strange = [v for v in items if not _is_number(v)]   # float() took "0.1" and True as well
+        if strange:
+            raise ValueError(f"{self.who}: offset must be 6 numbers, got {strange[0]!r} among them")
         if len(offset) != 6 or not all(math.isfinite(v) for v in offset):
             raise ValueError(f"{self.who}: offset must be 6 finite numbers, got {self.offset!r}")
         if math.dist(offset[:3], (0, 0, 0)) > MAX_OFFSET_M or math.dist(offset[3:], (0, 0, 0)) > 2 * math.pi:
             raise ValueError(f"{self.who}: offset {offset} is larger than {MAX_OFFSET_M} m or 2π rad")
-        if any(isinstance(v, bool) for v in self.offset):
-            raise ValueError(f"{self.who}: offset must be numbers")
         if not isinstance(self.note, str):
             raise ValueError(f"{self.who}: note must be text")
         problem = unstorable_text_problem(self.note, "note")
