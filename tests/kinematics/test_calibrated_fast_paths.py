@@ -16,7 +16,6 @@ from calibrated_arms import factory_model
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import UnreachablePoseError
 from ur3dq.kinematics.ur_ik import calibrated, nearest, newton_floats, single, wrist_turns
-from ur3dq.kinematics.ur_ik.calibrated import _refine_calibrated
 from ur3dq.kinematics.ur_ik.equations import _ScalarOps, _branches, _wrap_float, wrap_angle
 from ur3dq.kinematics.ur_ik.fk_filter import _fk_check, _reference, _targets
 from ur3dq.kinematics.ur_ik.geometry import LIMIT_ROUNDING, _geometry
@@ -71,6 +70,12 @@ def other_copy_at_a_limit(model, answer, expected, atol) -> bool:
     return same and (at_a_limit(model, answer) or at_a_limit(model, expected))
 
 
+def converged(g, starts: list, target) -> list:
+    """The rows (6-tuples) Newton refines from ``starts`` to CALIBRATED_TOLERANCE, in one batch."""
+    refined, residual = calibrated._refine_batch(g, np.array(starts, dtype=float), np.array(target)[None])
+    return [tuple(q) for q, r in zip(refined.tolist(), residual.tolist()) if r <= calibrated.CALIBRATED_TOLERANCE]
+
+
 def ranked(model, pose, reference, weights=None):
     """ik's answer by the full ranking (the path before the fast one), or the UnreachablePoseError's type."""
     g = _geometry(model)
@@ -82,7 +87,7 @@ def ranked(model, pose, reference, weights=None):
     branches = _branches(_ScalarOps, g, target, _wrap_float(reference[5]))
     exists = [branch[0] == branch[0] and branch[1] == branch[1] for branch in branches]
     seeds = [branch for branch, present in zip(branches, exists) if present]
-    candidates = _refine_calibrated(g, seeds + [reference], target)
+    candidates = converged(g, seeds + [reference], target)
     if seeds:
         rows = np.full((8, 6), np.nan)
         refined, residual = calibrated._refine_batch(g, np.array(seeds), np.array(target)[None])
@@ -471,8 +476,8 @@ def test_a_row_at_zero_error_facing_away_from_its_target_is_no_solution():
     pair = tuple(rotation[0].ravel()) + tuple(position[0])
     joints = newton_floats.float_joints(g.joints)
     assert newton_floats.refine_row(joints, q.tolist(), pair, (0, math.inf), True)[1] == math.inf
-    assert _refine_calibrated(g, [tuple(q)], turned) == []
-    assert len(_refine_calibrated(g, [tuple(q)], target)) == 1
+    assert converged(g, [tuple(q)], turned) == []
+    assert len(converged(g, [tuple(q)], target)) == 1
 
 
 @pytest.mark.parametrize("name, seed", MODELS[1:3])

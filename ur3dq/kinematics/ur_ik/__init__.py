@@ -54,6 +54,9 @@ isolation radius of q_ref's own least singular value) is not refined alone: it j
 batch.
 ``ik_batch`` likewise refines one row per pose from q_ref and keeps the proven ones (``ik``'s answers); the other
 poses rank their refined nominal branches (which, beside a singularity, can miss the solution the q_ref row finds).
+Both batches take a calibrated pose beside a singular wrist (|sin θ5| < wrist_turns.TURN_SINE for a nominal seed)
+from ``ik_all``'s and ``ik``'s own code, one by one (batch._singular_wrist_poses): which solution a wandering seed
+reaches there depends on the rounding of every step, and one implementation gives one answer.
 
 Single poses run in plain floats (no pyquaternion or numpy objects on the hot path); on a nominal model `ik_all`
 solves the 8 branches with the equations written out for a regular wrist (single._nominal_branches) and FK-checks

@@ -6,6 +6,7 @@ import math
 import numpy as np
 
 from ur3dq import dqarray
+from ur3dq.errors import UnreachablePoseError
 from ur3dq.kinematics.ur_ik.batch_kernels import _joints_fk_filter, _regular_branches, _regular_fk_filter
 from ur3dq.kinematics.ur_ik.calibrated import VARIANT_SHIFT, _fk_implied, _isolated, _refine_batch
 from ur3dq.kinematics.ur_ik.equations import _ArrayOps, _branches, wrap_angle
@@ -22,9 +23,9 @@ from ur3dq.kinematics.ur_ik.geometry import (
     _geometry,
     _translation_columns,
 )
-from ur3dq.kinematics.ur_ik.nearest import _weights
+from ur3dq.kinematics.ur_ik.nearest import _weights, ik
 from ur3dq.kinematics.ur_ik.single import _branch_table, _nominal_branches
-from ur3dq.kinematics.ur_ik.wrist_turns import PATIENT_SINE, TURN_SINE, turned
+from ur3dq.kinematics.ur_ik.wrist_turns import PATIENT_SINE, TURN_SINE
 
 
 def _batch_poses(poses) -> np.ndarray:
@@ -53,29 +54,26 @@ def _batch_flange_targets(g: _Geometry, poses: np.ndarray) -> tuple:
     return tuple(poses[:, i] for i in range(4)) + tuple(translation[:, i] for i in range(3))
 
 
-def _batch_candidates(g: _Geometry, targets: tuple, theta6_ref) -> np.ndarray:
+def _batch_candidates(g: _Geometry, targets: tuple, theta6_ref, seeds=None) -> np.ndarray:
     """(6, 8, N) canonical analytic branches (joint, branch, pose) of flange targets (seven (N,) arrays).
 
     Joint-major layout: every joint of every branch is one contiguous run, which is what the elementwise
-    kernels (and the model's fk_batch, reading columns) want; refined by Newton first on calibrated models.
+    kernels (and the model's fk_batch, reading columns) want; refined by Newton first on calibrated models, from
+    ``seeds`` (optional: the targets' _nominal_candidates, computed already). The batches take the poses beside a
+    singular wrist (_singular_wrist_poses) from ik_all's and ik's own code: the turns of wrist_turns are theirs.
     """
-    columns = _nominal_candidates(g, targets, theta6_ref)
+    columns = _nominal_candidates(g, targets, theta6_ref) if seeds is None else seeds
     if g.calibrated:
         flat = columns.reshape(6, -1).T
         repeated = np.tile(np.stack(targets, axis=-1), (8, 1))
         usable = np.all(np.isfinite(flat), axis=1)
-        # Per pose its seeds' least |sin θ5| (NaN: no seed), for both of ik_all's wrist rules below.
-        wrist = np.fmin.reduce(np.abs(np.sin(columns[4])), axis=0)
         # As ik_all: a wandering seed gives up early unless its pose lies beside a singular wrist.
+        wrist = np.fmin.reduce(np.abs(np.sin(columns[4])), axis=0)
         patient = np.tile(wrist < PATIENT_SINE, 8)
         refined, residual = _refine_batch(g, flat[usable], repeated[usable], patient=patient[usable])
         flat = flat.copy()
         flat[usable] = np.where((residual <= CALIBRATED_TOLERANCE)[:, None], refined, np.nan)
-        seeds, columns = columns, np.ascontiguousarray(flat.T).reshape(6, 8, len(targets[0]))
-        # Beside a singular wrist a pair's seeds may miss its solutions: as ik_all, Newton again from their turns.
-        for pose in np.flatnonzero(wrist < TURN_SINE):
-            pair = [float(part[pose]) for part in targets]
-            columns[:, :, pose] = turned(g, seeds[:, :, pose].T, columns[:, :, pose].T, pair).T
+        columns = np.ascontiguousarray(flat.T).reshape(6, 8, len(targets[0]))
     # θ2, θ3 come from atan2 already in (−π, π]; θ1, θ4, θ6 are sums and θ5 may be −π.
     for j in (0, 3, 4, 5):
         columns[j] = wrap_angle(columns[j])
@@ -101,6 +99,21 @@ def _nominal_candidates(g: _Geometry, targets: tuple, theta6_ref) -> np.ndarray:
         for j, value in enumerate(branch):
             columns[j, k] = value
     return columns
+
+
+def _singular_wrist_poses(seeds: np.ndarray) -> np.ndarray:
+    """(N,) whether some seed of a pose (seeds (6, 8, N), _nominal_candidates) lies beside a singular wrist
+    (|sin θ5| < TURN_SINE; False where no seed exists), as wrist_turns.beside_singular_wrist tells for ik_all.
+
+    There a seed's θ6 can be off by up to π, Newton runs again from turned seeds (wrist_turns), and which solution
+    a row reaches depends on every rounding of its steps: refined in the batch's kernels, 5 of 3,360 hard poses of
+    the 14 factory tables had other solution counts in ik_all_batch than in ik_all, and ik_batch picked a
+    configuration 1.57 rad from ik's on one. The batches take these poses (~3 % of random configurations) from
+    single._branch_table and nearest.ik, one by one, as the nominal model takes its near-singular poses from
+    single._branch_table: one implementation gives one answer. Farther from the singularity (up to PATIENT_SINE,
+    where seeds are refined patiently) the batch's rows gave the same solutions (3,360 poses there, measured).
+    """
+    return np.fmin.reduce(np.abs(np.sin(seeds[4])), axis=0) < TURN_SINE
 
 
 def _calibrated_nearest(model, g: _Geometry, poses: np.ndarray, reference: np.ndarray, weight) -> tuple:
@@ -155,12 +168,14 @@ def _shifted_rows_filter(model, g: _Geometry, joints: np.ndarray, refined: np.nd
     return passed
 
 
-def _calibrated_ranking(model, g: _Geometry, poses: np.ndarray, theta6_ref: np.ndarray, rows: np.ndarray) -> tuple:
-    """(branches (6, 9, R), FK-filter mask (9, R)) to rank for poses (R, 8) of a calibrated model: the refined
-    nominal branches (_solved_blocks) and, last, the Newton rows from the references (R, 6), NaN where they did not
-    converge (_calibrated_nearest), the candidates of ik's ranking (single._solution_candidates): beside a
-    singularity the nominal branches can miss the solution the reference's row reaches."""
-    _, columns, valid, _ = next(_solved_blocks(model, g, poses, theta6_ref))
+def _calibrated_ranking(model, g: _Geometry, poses: np.ndarray, seeds: tuple, rows: np.ndarray) -> tuple:
+    """(branches (6, 9, R), FK-filter mask (9, R)) to rank for poses (R, 8) of a calibrated model: their refined
+    nominal branches (``seeds`` = (flange targets, _nominal_candidates)) and, last, the Newton rows from the
+    references (R, 6), NaN where they did not converge (_calibrated_nearest), the candidates of ik's ranking
+    (single._solution_candidates): beside a singularity the nominal branches can miss the solution the reference's
+    row reaches."""
+    columns = _batch_candidates(g, seeds[0], None, seeds[1])
+    valid = _refined_filter(model, g, columns, poses)
     reference_rows = wrap_angle(rows.T)[:, None, :]
     return (np.concatenate((columns, reference_rows), axis=1),
             np.concatenate((valid, _refined_filter(model, g, reference_rows, poses))))
@@ -212,12 +227,19 @@ def _solved_blocks(model, g: _Geometry, poses: np.ndarray, theta6_ref: np.ndarra
     branches may coincide (merged θ1, θ5 or θ3 signs) and need the duplicate check. Nominal models take the
     closed-form kernel; its poses near a wrist or elbow singularity are collected and redone last, one by one, by
     ik_all's own scalar path (single._branch_table), so that both paths merge the same branch pairs. Calibrated models
-    take the general equations and Newton throughout.
+    take the general equations and Newton, their poses beside a singular wrist (_singular_wrist_poses) ik_all's
+    path too.
     """
     if g.calibrated:
-        columns = _batch_candidates(g, _batch_flange_targets(g, poses), theta6_ref)
-        yield (slice(0, len(poses)), columns, _refined_filter(model, g, columns, poses),
-               np.ones(len(poses), dtype=bool))
+        targets = _batch_flange_targets(g, poses)
+        seeds = _nominal_candidates(g, targets, theta6_ref)
+        alone = _singular_wrist_poses(seeds)
+        rows = np.flatnonzero(~alone)
+        columns = _batch_candidates(g, tuple(part[rows] for part in targets), None, seeds[:, :, rows])
+        yield rows, columns, _refined_filter(model, g, columns, poses[rows]), np.ones(len(rows), dtype=bool)
+        if alone.any():
+            rows = np.flatnonzero(alone)
+            yield (rows,) + _redone_rows(model, poses, rows, theta6_ref) + (np.zeros(len(rows), dtype=bool),)
         return
     redo = []
     for rows, pair, columns, exists, merged, near_singular in _kernel_blocks(g, poses, IK_BLOCK):
@@ -247,7 +269,7 @@ def _kernel_blocks(g: _Geometry, poses: np.ndarray, size: int):
 
 def _redone_rows(model, poses: np.ndarray, rows: np.ndarray, theta6_ref: np.ndarray) -> tuple:
     """(branches (6, 8, R), FK-filter mask (8, R)) of the poses ``rows`` (near a singularity) by ik_all's own
-    scalar code, one by one (single._branch_table)."""
+    code, one by one (single._branch_table)."""
     columns, valid = np.empty((6, 8, len(rows))), np.empty((8, len(rows)), dtype=bool)
     for i, row in enumerate(rows):
         columns[:, :, i].T[:], valid[:, i] = _branch_table(model, poses[row], float(theta6_ref[row]))
@@ -429,9 +451,16 @@ def ik_batch(model, poses, q_ref, weights=None) -> np.ndarray:
     theta6_ref = wrap_angle(reference[:, 5])
     if g.calibrated:   # the proven winners of one Newton row per pose (from q_ref); the others ranked as ik ranks
         out[:], proven, reference_rows = _calibrated_nearest(model, g, poses, reference, weight)
-        rows = np.flatnonzero(~proven)
-        blocks = ([(rows,) + _calibrated_ranking(model, g, poses[rows], theta6_ref[rows], reference_rows[rows])]
-                  if rows.size else [])
+        rows, blocks = np.flatnonzero(~proven), []
+        if rows.size:   # beside a singular wrist ik's own code, the others ranked in one block
+            targets = _batch_flange_targets(g, poses[rows])
+            seeds = _nominal_candidates(g, targets, theta6_ref[rows])
+            alone = _singular_wrist_poses(seeds)
+            for row in rows[alone]:
+                out[row] = _nearest_alone(model, poses[row], reference[row], weight)
+            rows, kept = rows[~alone], np.flatnonzero(~alone)
+            seeds = (tuple(part[kept] for part in targets), seeds[:, :, kept])
+            blocks = [(rows,) + _calibrated_ranking(model, g, poses[rows], seeds, reference_rows[rows])]
     else:   # the closed-form kernel, FK filter on the winners; near-singular poses redone by ik_all's code
         redo = []
         for block in _kernel_blocks(g, poses, NEAREST_BLOCK):
@@ -445,6 +474,15 @@ def ik_batch(model, poses, q_ref, weights=None) -> np.ndarray:
         variants, cost = _variant_costs(g, columns, reference[rows].T[:, None, :], weight)
         out[rows] = _ranked_choice(model, g, (columns, variants, cost, valid), poses[rows]).T
     return out
+
+
+def _nearest_alone(model, pose: np.ndarray, reference: np.ndarray, weight) -> np.ndarray:
+    """(6,) ``ik``'s answer for one pose (8,) of a batch (_singular_wrist_poses), NaN where ik finds it
+    unreachable."""
+    try:
+        return ik(model, pose, reference, weight)
+    except UnreachablePoseError:
+        return np.full(6, np.nan)
 
 
 def _ranked_choice(model, g: _Geometry, ranking: tuple, poses: np.ndarray) -> np.ndarray:

@@ -37,13 +37,6 @@ _TERMS: dict = {}
 _TERMS_LOCK = threading.Lock()   # drivers solve IK from their own threads
 
 
-def _refine_calibrated(g: _Geometry, branches: list, target, patient=None) -> list:
-    """Newton steps on the calibrated FK from the nominal branches; those that converge, as float tuples.
-    ``patient``: as _refine_batch's."""
-    refined, residual = _refine_batch(g, np.array(branches, dtype=float), np.array(target)[None], patient=patient)
-    return [tuple(q) for q, r in zip(refined.tolist(), residual.tolist()) if r <= CALIBRATED_TOLERANCE]
-
-
 #: Rounding allowance (m per metre of the chain's Σ|a| + Σ|d| + |TCP|) of one FK evaluation in floats: six joints
 #: each turn the frame's columns (a few ε each, ≲ 30ε accumulated) that the offsets, up to the length, then scale,
 #: and add (ε·length): ≲ 33ε = 7e-15. Measured, the 4×4 chain and the model's dual quaternion FK differ by at most

@@ -7,7 +7,7 @@ from itertools import compress
 import numpy as np
 
 from ur3dq.errors import UnreachablePoseError
-from ur3dq.kinematics.ur_ik.calibrated import _fk_implied, _refine_batch, _refine_calibrated
+from ur3dq.kinematics.ur_ik.calibrated import _fk_implied, _refine_batch
 from ur3dq.kinematics.ur_ik.equations import (
     _ScalarOps,
     _elbow_for_wrist,
@@ -80,26 +80,45 @@ def _solution_candidates(g: _Geometry, target, theta6_ref: float, reference_row=
     (6 floats, optional, instead of ``reference_row``): that solve is not done yet; it runs here, in the branches'
     batch (nearest._proof_expected), its converged row last alike.
     """
-    branches = _nominal_branches(g, target, theta6_ref)
-    exists = [branch[1] == branch[1] and branch[0] == branch[0] for branch in branches]   # NaN: absent
-    candidates = list(compress(branches, exists))
     if not g.calibrated:
-        return candidates
-    starts = candidates + ([tuple(reference)] if reference is not None else [])
+        return [branch for branch in _nominal_branches(g, target, theta6_ref) if _exists(branch)]
+    slots, reference_solve = _calibrated_slots(g, target, theta6_ref, reference)
+    extra = [row for row in (reference_solve, reference_row) if row is not None]
+    return [row for row in slots if row[0] == row[0]] + extra
+
+
+def _exists(branch) -> bool:
+    """Whether a branch of _nominal_branches exists (its first two joints are not NaN)."""
+    return branch[1] == branch[1] and branch[0] == branch[0]
+
+
+def _calibrated_slots(g: _Geometry, target, theta6_ref: float, reference=None) -> tuple:
+    """(8 rows (6 floats each) in branch order, NaN where the branch is absent or Newton did not converge; the
+    converged row from ``reference`` (6 floats, optional) or None) of a calibrated model's flange pair ``target``.
+
+    All starting rows are refined in one _refine_batch call, the reference's last. A wandering seed gives up early
+    unless a seed lies beside a singular wrist (PATIENT_SINE); the reference's row never does. Nearer the wrist
+    singularity (TURN_SINE) a pair's seeds may miss its solutions: Newton again from their turns where they did
+    (wrist_turns.turned). ik_all_batch and ik_batch take such poses from here, pose by pose (batch.py): the rows
+    there depend on the rounding of every step, and one implementation gives one answer.
+    """
+    branches = _nominal_branches(g, target, theta6_ref)
+    exists = [_exists(branch) for branch in branches]
+    seeds = list(compress(branches, exists))
+    starts = seeds + ([tuple(reference)] if reference is not None else [])
+    slots = np.full((8, 6), math.nan)
     if not starts:
-        refined = []
-    elif not beside_singular_wrist(branches):
-        # A wandering seed gives up early unless a seed lies near a singular wrist; the reference's row never does.
-        patient = [beside_singular_wrist(branches, PATIENT_SINE)] * len(candidates) + [True] * (reference is not None)
-        refined = _refine_calibrated(g, starts, target, patient)
-    else:   # a pair's seeds may miss its solutions there: Newton again from their turns where they did
-        rows = np.full((8, 6), math.nan)
-        refined, residual = _refine_batch(g, np.array(starts, dtype=float).reshape(-1, 6), np.array(target)[None])
-        converged = np.where((residual <= CALIBRATED_TOLERANCE)[:, None], refined, math.nan)
-        rows[np.flatnonzero(exists)] = converged[:len(candidates)]
-        filled = np.concatenate((turned(g, np.array(branches), rows, target), converged[len(candidates):]))
-        refined = [tuple(row) for row in filled.tolist() if row[0] == row[0]]
-    return refined + ([reference_row] if reference_row is not None else [])
+        return [tuple(row) for row in slots.tolist()], None
+    patient = [beside_singular_wrist(branches, PATIENT_SINE)] * len(seeds) + [True] * (reference is not None)
+    refined, residual = _refine_batch(g, np.array(starts, dtype=float), np.array(target)[None], patient=patient)
+    converged = np.where((residual <= CALIBRATED_TOLERANCE)[:, None], refined, math.nan)
+    slots[np.flatnonzero(exists)] = converged[:len(seeds)]
+    if beside_singular_wrist(branches):
+        slots = turned(g, np.array(branches), slots, target)
+    reference_solve = None
+    if reference is not None and converged[-1, 0] == converged[-1, 0]:
+        reference_solve = tuple(converged[-1].tolist())
+    return [tuple(row) for row in slots.tolist()], reference_solve
 
 
 def _nominal_branches(g: _Geometry, target, theta6_ref: float) -> list:
@@ -226,19 +245,33 @@ def _canonical(solutions: list) -> np.ndarray:
 
 
 def _branch_table(model, pose, theta6_ref: float) -> tuple:
-    """(branches (8, 6) in (−π, π], NaN where absent; kept (8,) bools) of one TCP pose on a nominal model, computed
-    exactly as ik_all computes them (same float operations, same merge rule), in branch order.
+    """(branches (8, 6) in (−π, π], NaN where absent; kept (8,) bools) of one TCP pose, computed exactly as ik_all
+    computes them (same float operations, same merge rule), in branch order (a calibrated model's Newton rows in
+    their seeds' slots, _calibrated_slots).
 
-    ik_all_batch takes its poses near a wrist or elbow singularity from here: there the elbow pair's separation is
-    rounding noise amplified up to ~1e-3 rad (θ6 is ill-conditioned at θ5 ≈ 0 and moves the wrist centre), so two
-    implementations that round differently merge different pairs whatever the tolerance; one implementation cannot.
+    ik_all_batch takes its poses near a singularity from here: on a nominal model near a wrist or elbow singularity
+    the elbow pair's separation is rounding noise amplified up to ~1e-3 rad (θ6 is ill-conditioned at θ5 ≈ 0 and
+    moves the wrist centre), on a calibrated one beside a singular wrist Newton's seeds wander for several steps and
+    where they land depends on every rounding; two implementations that round differently merge different pairs or
+    reach different solutions whatever the tolerance, one implementation cannot.
     """
     g = _geometry(model)
     tcp_coefficients, target = _targets(g, pose)
-    candidates = _nominal_branches(g, target, theta6_ref)
-    kept = _nominal_kept(g, candidates, tcp_coefficients)
+    candidates, kept = _kept_branches(model, g, target, tcp_coefficients, theta6_ref)
     table = _canonical([c if ok else (math.nan,) * 6 for c, ok in zip(candidates, kept)])
     return table, np.array(kept)
+
+
+def _kept_branches(model, g: _Geometry, target, tcp_coefficients, theta6_ref: float) -> tuple:
+    """(8 candidates in branch order, NaN where absent; kept (8 bools), _verified's rule) of flange pair ``target``:
+    the nominal branches, or on a calibrated model their Newton rows (_calibrated_slots)."""
+    if g.calibrated:
+        candidates = _calibrated_slots(g, target, theta6_ref)[0]
+        # Newton's acceptance usually implies the FK filter's (calibrated._fk_implied): ~10 µs a candidate saved.
+        return candidates, _verified(candidates, _always if _fk_implied(g) else _fk_check(model, g, tcp_coefficients))
+    # All 8 in branch order (NaN where absent): _nominal_kept reads the pairs from their places.
+    candidates = _nominal_branches(g, target, theta6_ref)
+    return candidates, _nominal_kept(g, candidates, tcp_coefficients)
 
 
 def ik_all(model, pose, q_ref=None) -> list:
@@ -251,15 +284,9 @@ def ik_all(model, pose, q_ref=None) -> list:
     g = _geometry(model)
     tcp_coefficients, target = _targets(g, pose)
     theta6_ref = 0.0 if q_ref is None else _wrap_float(_reference(q_ref)[5])
-    if g.calibrated:
-        candidates = _solution_candidates(g, target, theta6_ref)
-        # Newton's acceptance usually implies the FK filter's (calibrated._fk_implied): ~10 µs a candidate saved.
-        kept = _verified(candidates, _always if _fk_implied(g) else _fk_check(model, g, tcp_coefficients))
-    else:   # all 8 in branch order (NaN where absent): _nominal_kept reads the pairs from their places
-        candidates = _nominal_branches(g, target, theta6_ref)
-        kept = _nominal_kept(g, candidates, tcp_coefficients)
+    candidates, kept = _kept_branches(model, g, target, tcp_coefficients, theta6_ref)
     solutions = list(compress(candidates, kept))
     if not solutions:
-        existed = any(c[1] == c[1] and c[0] == c[0] for c in candidates)   # as _solution_candidates keeps them
+        existed = any(_exists(c) for c in candidates)
         raise UnreachablePoseError(f"pose unreachable for {model.name}: {_unreachable_reason(g, target, existed)}")
     return list(_canonical(solutions))   # one (6,) row per solution
