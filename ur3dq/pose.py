@@ -33,6 +33,12 @@ def utc_now_iso() -> str:
     return datetime.now(timezone.utc).isoformat(timespec="milliseconds").replace("+00:00", "Z")
 
 
+def is_number(value) -> bool:
+    """Whether ``value`` is a real number as a JSON document holds one (an int or a float; numpy's float64 is a
+    float): not a bool (an int in Python), nor a string that float() would read."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
 def name_problem(name) -> str | None:
     """Why `name` cannot name a pose (None if it can): non-empty text, ≤ 100 characters, no control characters,
     no leading or trailing blanks."""

@@ -23,7 +23,7 @@ from ur3dq.collector import cyclic_gc_paused
 from ur3dq.errors import StoreError
 from ur3dq.pose import (
     MAX_JOINT_ABS, MAX_TRANSLATION_ABS, POSE_AGREEMENT_TOLERANCE, UNIT_TOLERANCE, Pose, check_pose_text_fields,
-    text_fields_all_valid,
+    is_number, text_fields_all_valid,
 )
 from ur3dq.program.resolve import check_program
 from ur3dq.program.steps import (
@@ -110,7 +110,7 @@ def _vectors(entries, field: str, length: int, who_of) -> np.ndarray:
             got = len(value) if isinstance(value, (list, tuple)) else repr(value)
             raise ValueError(f"{who_of(index)}: {field} must be {length} numbers, got {got}")
         for item in value:
-            if isinstance(item, bool) or not isinstance(item, (int, float)):
+            if not is_number(item):
                 shown = json.dumps(item) if isinstance(item, (str, bool)) or item is None else repr(item)
                 raise ValueError(f"{who_of(index)}: {field} must be {length} numbers, got {shown} among them")
             if isinstance(item, int) and abs(item) > sys.float_info.max:

@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ur3dq.errors import StoreError
+from ur3dq.pose import is_number
 
 DEFAULT_CELL_MARGIN = 0.01
 _KEYS = {"floor", "boxes", "keep_in", "margin", "tool"}
@@ -147,7 +148,7 @@ def _tool(tool) -> ToolShape | None:
 
 
 def _number(value, what: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+    if not is_number(value) or not math.isfinite(value):
         raise ValueError(f"{what} must be a finite number, got {value!r}")
     return float(value)
 

@@ -11,7 +11,7 @@ import dataclasses
 import math
 import unicodedata
 
-from ur3dq.pose import Pose, name_problem, unstorable_text_problem
+from ur3dq.pose import Pose, is_number, name_problem, unstorable_text_problem
 from ur3dq.slots import slot_builder
 
 MOVE_TYPES = ("joint", "linear", "process")    # movej, movel, movep
@@ -28,16 +28,11 @@ MAX_OFFSET_M = 5.0         # a relative waypoint further than this from its base
 DEFAULT_WAIT_INPUT_TIMEOUT_S = 10.0
 
 
-def _is_number(value) -> bool:
-    """Whether ``value`` is a real number: not a bool (an int in Python), not a string float() would parse."""
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
-
-
 def _positive(value, what: str, who: str, allow_none: bool = True, upper: float | None = None):
     """`value` as a float > 0 (≤ upper), None when allowed; ValueError naming `who` and `what`."""
     if value is None and allow_none:
         return None
-    if not _is_number(value):
+    if not is_number(value):
         raise ValueError(f"{who}: {what} must be a number, got {value!r}")
     try:
         number = float(value)
@@ -91,7 +86,7 @@ class Motion:
             raise ValueError(f"{who}: move {self.move!r} is not one of {', '.join(MOVE_TYPES)}")
         blend = self.blend
         if blend is not None:
-            if not _is_number(blend) or not math.isfinite(float(blend)) or not 0 <= float(blend) <= MAX_BLEND_M:
+            if not is_number(blend) or not math.isfinite(float(blend)) or not 0 <= float(blend) <= MAX_BLEND_M:
                 raise ValueError(f"{who}: blend must be a radius 0..{MAX_BLEND_M:g} m, got {blend!r}")
             blend = float(blend)
         return Motion(self.move, _positive(self.speed, "speed", who), _positive(self.acceleration, "acceleration",
@@ -176,7 +171,7 @@ class RelativeWaypoint(Step):
             offset = tuple(float(v) for v in items)
         except (TypeError, ValueError, OverflowError):
             raise ValueError(f"{self.who}: offset must be 6 numbers, got {self.offset!r}") from None
-        strange = [v for v in items if not _is_number(v)]   # float() took "0.1" and True as well
+        strange = [v for v in items if not is_number(v)]   # float() took "0.1" and True as well
         if strange:
             raise ValueError(f"{self.who}: offset must be 6 numbers, got {strange[0]!r} among them")
         if len(offset) != 6 or not all(math.isfinite(v) for v in offset):
@@ -219,8 +214,7 @@ class AnalogOut(Step):
     def __post_init__(self):
         self._check_name()
         _pin(self.pin, ANALOG_PIN_COUNT, "analog", self.who)
-        if isinstance(self.value, bool) or not isinstance(self.value, (int, float)) \
-                or not 0.0 <= float(self.value) <= 1.0:
+        if not is_number(self.value) or not 0.0 <= float(self.value) <= 1.0:
             raise ValueError(f"{self.who}: value must be a fraction 0..1 of the output's range, got {self.value!r}")
         object.__setattr__(self, "value", float(self.value))
 
