@@ -106,19 +106,22 @@ def _calibrated_slots(g: _Geometry, target, theta6_ref: float, reference=None) -
     exists = [_exists(branch) for branch in branches]
     seeds = list(compress(branches, exists))
     starts = seeds + ([tuple(reference)] if reference is not None else [])
-    slots = np.full((8, 6), math.nan)
     if not starts:
-        return [tuple(row) for row in slots.tolist()], None
+        return [_ABSENT] * 8, None
     patient = [beside_singular_wrist(branches, PATIENT_SINE)] * len(seeds) + [True] * (reference is not None)
     refined, residual = _refine_batch(g, np.array(starts, dtype=float), np.array(target)[None], patient=patient)
-    converged = np.where((residual <= CALIBRATED_TOLERANCE)[:, None], refined, math.nan)
-    slots[np.flatnonzero(exists)] = converged[:len(seeds)]
+    converged = [tuple(row) if error <= CALIBRATED_TOLERANCE else _ABSENT
+                 for row, error in zip(refined.tolist(), residual.tolist())]
+    rows = iter(converged)
+    slots = [next(rows) if present else _ABSENT for present in exists]
     if beside_singular_wrist(branches):
-        slots = turned(g, np.array(branches), slots, target)
-    reference_solve = None
-    if reference is not None and converged[-1, 0] == converged[-1, 0]:
-        reference_solve = tuple(converged[-1].tolist())
-    return [tuple(row) for row in slots.tolist()], reference_solve
+        slots = [tuple(row) for row in turned(g, np.array(branches), np.array(slots), target).tolist()]
+    reference_solve = converged[-1] if reference is not None and converged[-1] is not _ABSENT else None
+    return slots, reference_solve
+
+
+#: A slot of _calibrated_slots without a solution.
+_ABSENT = (math.nan,) * 6
 
 
 def _nominal_branches(g: _Geometry, target, theta6_ref: float) -> list:
