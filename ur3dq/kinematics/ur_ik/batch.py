@@ -68,8 +68,7 @@ def _batch_candidates(g: _Geometry, targets: tuple, theta6_ref, seeds=None) -> n
         repeated = np.tile(np.stack(targets, axis=-1), (8, 1))
         usable = np.all(np.isfinite(flat), axis=1)
         # As ik_all: a wandering seed gives up early unless its pose lies beside a singular wrist.
-        wrist = np.fmin.reduce(np.abs(np.sin(columns[4])), axis=0)
-        patient = np.tile(wrist < PATIENT_SINE, 8)
+        patient = np.tile(_least_wrist_sines(columns) < PATIENT_SINE, 8)
         refined, residual = _refine_batch(g, flat[usable], repeated[usable], patient=patient[usable])
         flat = flat.copy()
         flat[usable] = np.where((residual <= CALIBRATED_TOLERANCE)[:, None], refined, np.nan)
@@ -101,6 +100,12 @@ def _nominal_candidates(g: _Geometry, targets: tuple, theta6_ref) -> np.ndarray:
     return columns
 
 
+def _least_wrist_sines(seeds: np.ndarray) -> np.ndarray:
+    """(N,) per pose the least |sin θ5| of its seeds (6, 8, N) (_nominal_candidates), NaN where none exists: what
+    wrist_turns.beside_singular_wrist compares with its band, for a batch."""
+    return np.fmin.reduce(np.abs(np.sin(seeds[4])), axis=0)
+
+
 def _singular_wrist_poses(seeds: np.ndarray) -> np.ndarray:
     """(N,) whether some seed of a pose (seeds (6, 8, N), _nominal_candidates) lies beside a singular wrist
     (|sin θ5| < TURN_SINE; False where no seed exists), as wrist_turns.beside_singular_wrist tells for ik_all.
@@ -113,7 +118,19 @@ def _singular_wrist_poses(seeds: np.ndarray) -> np.ndarray:
     single._branch_table: one implementation gives one answer. Farther from the singularity (up to PATIENT_SINE,
     where seeds are refined patiently) the batch's rows gave the same solutions (3,360 poses there, measured).
     """
-    return np.fmin.reduce(np.abs(np.sin(seeds[4])), axis=0) < TURN_SINE
+    return _least_wrist_sines(seeds) < TURN_SINE
+
+
+def _calibrated_split(model, g: _Geometry, poses: np.ndarray, theta6_ref: np.ndarray) -> tuple:
+    """(alone (N,) bools, branches (6, 8, R), FK-filter mask (8, R)) of a calibrated model's poses (N, 8): which lie
+    beside a singular wrist (_singular_wrist_poses: ik_all's and ik's own code solves them, one by one), and the
+    refined nominal branches of the R others with their mask (_refined_filter)."""
+    targets = _batch_flange_targets(g, poses)
+    seeds = _nominal_candidates(g, targets, theta6_ref)
+    alone = _singular_wrist_poses(seeds)
+    rows = np.flatnonzero(~alone)
+    columns = _batch_candidates(g, tuple(part[rows] for part in targets), None, seeds[:, :, rows])
+    return alone, columns, _refined_filter(model, g, columns, poses[rows])
 
 
 def _calibrated_nearest(model, g: _Geometry, poses: np.ndarray, reference: np.ndarray, weight) -> tuple:
@@ -168,14 +185,13 @@ def _shifted_rows_filter(model, g: _Geometry, joints: np.ndarray, refined: np.nd
     return passed
 
 
-def _calibrated_ranking(model, g: _Geometry, poses: np.ndarray, seeds: tuple, rows: np.ndarray) -> tuple:
+def _calibrated_ranking(model, g: _Geometry, poses: np.ndarray, solved: tuple, rows: np.ndarray) -> tuple:
     """(branches (6, 9, R), FK-filter mask (9, R)) to rank for poses (R, 8) of a calibrated model: their refined
-    nominal branches (``seeds`` = (flange targets, _nominal_candidates)) and, last, the Newton rows from the
-    references (R, 6), NaN where they did not converge (_calibrated_nearest), the candidates of ik's ranking
+    nominal branches and mask ``solved`` (_calibrated_split's) and, last, the Newton rows from the references
+    (R, 6), NaN where they did not converge (_calibrated_nearest), the candidates of ik's ranking
     (single._solution_candidates): beside a singularity the nominal branches can miss the solution the reference's
     row reaches."""
-    columns = _batch_candidates(g, seeds[0], None, seeds[1])
-    valid = _refined_filter(model, g, columns, poses)
+    columns, valid = solved
     reference_rows = wrap_angle(rows.T)[:, None, :]
     return (np.concatenate((columns, reference_rows), axis=1),
             np.concatenate((valid, _refined_filter(model, g, reference_rows, poses))))
@@ -231,12 +247,8 @@ def _solved_blocks(model, g: _Geometry, poses: np.ndarray, theta6_ref: np.ndarra
     path too.
     """
     if g.calibrated:
-        targets = _batch_flange_targets(g, poses)
-        seeds = _nominal_candidates(g, targets, theta6_ref)
-        alone = _singular_wrist_poses(seeds)
-        rows = np.flatnonzero(~alone)
-        columns = _batch_candidates(g, tuple(part[rows] for part in targets), None, seeds[:, :, rows])
-        yield rows, columns, _refined_filter(model, g, columns, poses[rows]), np.ones(len(rows), dtype=bool)
+        alone, columns, valid = _calibrated_split(model, g, poses, theta6_ref)
+        yield np.flatnonzero(~alone), columns, valid, np.ones(columns.shape[2], dtype=bool)
         if alone.any():
             rows = np.flatnonzero(alone)
             yield (rows,) + _redone_rows(model, poses, rows, theta6_ref) + (np.zeros(len(rows), dtype=bool),)
@@ -453,14 +465,11 @@ def ik_batch(model, poses, q_ref, weights=None) -> np.ndarray:
         out[:], proven, reference_rows = _calibrated_nearest(model, g, poses, reference, weight)
         rows, blocks = np.flatnonzero(~proven), []
         if rows.size:   # beside a singular wrist ik's own code, the others ranked in one block
-            targets = _batch_flange_targets(g, poses[rows])
-            seeds = _nominal_candidates(g, targets, theta6_ref[rows])
-            alone = _singular_wrist_poses(seeds)
+            alone, *solved = _calibrated_split(model, g, poses[rows], theta6_ref[rows])
             for row in rows[alone]:
                 out[row] = _nearest_alone(model, poses[row], reference[row], weight)
-            rows, kept = rows[~alone], np.flatnonzero(~alone)
-            seeds = (tuple(part[kept] for part in targets), seeds[:, :, kept])
-            blocks = [(rows,) + _calibrated_ranking(model, g, poses[rows], seeds, reference_rows[rows])]
+            rows = rows[~alone]
+            blocks = [(rows,) + _calibrated_ranking(model, g, poses[rows], tuple(solved), reference_rows[rows])]
     else:   # the closed-form kernel, FK filter on the winners; near-singular poses redone by ik_all's code
         redo = []
         for block in _kernel_blocks(g, poses, NEAREST_BLOCK):
