@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ur3dq.real_numbers import real_array
+
 #: How far from 1 a rotation quaternion's norm may be before it is refused as "not a unit rotation".
 UNIT_TOLERANCE = 1e-6
 
@@ -22,7 +24,7 @@ _SMALL = 1e-4
 def as_array(value, last: int | tuple, name: str) -> np.ndarray:
     """Convert ``value`` to a finite float array whose trailing shape is ``last``; ValueError naming ``name``."""
     try:
-        array = np.asarray(value, dtype=float)
+        array = real_array(value)
     except (TypeError, ValueError) as exc:
         raise ValueError(f"{name}: expected numbers, got {value!r}") from exc
     trailing = (last,) if isinstance(last, int) else tuple(last)

@@ -14,6 +14,7 @@ import numpy as np
 
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.kinematics.models import MODEL_NAMES
+from ur3dq.real_numbers import real_array
 from ur3dq.slots import slot_builder
 
 # How far the stored UR pose vector may drift from the dual quaternion (JSON floats round-trip exactly, so only
@@ -31,12 +32,6 @@ _NO_OFFSET = timedelta(0)  # the UTC offset a pose's time must have
 def utc_now_iso() -> str:
     """The current time as ISO 8601 UTC with milliseconds and a `Z` suffix, e.g. 2026-11-22T01:02:03.456Z."""
     return datetime.now(timezone.utc).isoformat(timespec="milliseconds").replace("+00:00", "Z")
-
-
-def is_number(value) -> bool:
-    """Whether ``value`` is a real number as a JSON document holds one (an int or a float; numpy's float64 is a
-    float): not a bool (an int in Python), nor a string that float() would read."""
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
 def name_problem(name) -> str | None:
@@ -72,7 +67,7 @@ def unstorable_text_problem(text, field: str) -> str | None:
 def _finite_vector(value, length: int, field: str, who: str) -> tuple[float, ...]:
     """`value` as a tuple of `length` finite floats, or ValueError naming `who` and `field`."""
     try:
-        array = np.asarray(value, dtype=float)
+        array = real_array(value)
     except OverflowError:
         raise ValueError(f"{who}: {field} holds a number too large for a float") from None
     except (TypeError, ValueError):

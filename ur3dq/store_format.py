@@ -23,9 +23,10 @@ from ur3dq.collector import cyclic_gc_paused
 from ur3dq.errors import StoreError
 from ur3dq.pose import (
     MAX_JOINT_ABS, MAX_TRANSLATION_ABS, POSE_AGREEMENT_TOLERANCE, UNIT_TOLERANCE, Pose, check_pose_text_fields,
-    is_number, text_fields_all_valid,
+    text_fields_all_valid,
 )
 from ur3dq.program.resolve import check_program
+from ur3dq.real_numbers import is_number
 from ur3dq.program.steps import (
     DEFAULT_MOTION, AnalogOut, DigitalOut, Message, Motion, RelativeWaypoint, Wait, WaitInput, Waypoint,
 )

@@ -17,7 +17,8 @@ def test_joint_vector_accepts_six_finite_values():
 
 
 @pytest.mark.parametrize("bad, fragment", [([0] * 5, "shape"), ([0, 0, math.nan, 0, 0, 0], "joint 3"),
-                                           ([0, 0, 0, 0, 0, math.inf], "joint 6"), ("abc", "six joint")])
+                                           ([0, 0, 0, 0, 0, math.inf], "joint 6"), ("abc", "six joint"),
+                                           (["0.1"] * 6, "six joint"), ([0.0] * 5 + [True], "six joint")])
 def test_joint_vector_rejects(bad, fragment):
     with pytest.raises(SafetyCheckError, match=fragment):
         safety.check_joint_vector(bad)
@@ -68,7 +69,7 @@ def test_clamped_motion_never_exceeds_any_joint_limit(delta, a, v):
         assert np.all(share * a2 <= max_acc * (1 + 1e-12))
 
 
-@pytest.mark.parametrize("a, v", [(0, 1), (1, -1), (math.nan, 1), ("x", 1)])
+@pytest.mark.parametrize("a, v", [(0, 1), (1, -1), (math.nan, 1), ("x", 1), ("1.5", 1), (1, True)])
 def test_clamp_rejects_bad_a_v(a, v):
     with pytest.raises(SafetyCheckError):
         safety.clamp_movej_speed([1] * 6, a, v, [1] * 6, [1] * 6)

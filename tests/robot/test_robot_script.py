@@ -29,7 +29,7 @@ def test_format_number_keeps_digits_urx_would_round():
     assert script.format_number(2) == "2.0"
 
 
-@pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf, "x", None])
+@pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf, "x", None, "1.5", True])
 def test_format_number_rejects_non_finite(bad):
     with pytest.raises(ValueError, match="speed"):
         script.format_number(bad, "speed")

@@ -52,6 +52,13 @@ def test_bad_joints_name_the_pose():
         Pose.from_dual_quaternion("a", A_POSE, "ur3", joints=[0, 0, float("nan"), 0, 0, 0])
 
 
+@pytest.mark.parametrize("joints", [["0.1"] * 6, [0.1] * 5 + [True], np.ones(6, dtype=bool)])
+def test_text_and_bools_are_not_joint_angles(joints):
+    # float() and numpy read "0.1" and True as numbers; a script passing them has a bug to hear about.
+    with pytest.raises(ValueError, match=r"pose 'a': joints must be 6 numbers, got"):
+        Pose.from_dual_quaternion("a", A_POSE, "ur3", joints=joints)
+
+
 def test_renamed_keeps_everything_else():
     pose = Pose.from_dual_quaternion("a", A_POSE, "ur3", joints=[0.1] * 6, note="n")
     other = pose.renamed("b")

@@ -27,12 +27,14 @@ import numpy as np
 
 from ur3dq import dqarray
 from ur3dq.dualquat import DualQuaternion, multiply_coefficients
+from ur3dq.real_numbers import real_array
 
 REVOLUTE = "revolute"
 PRISMATIC = "prismatic"
 JOINT_TYPES = (REVOLUTE, PRISMATIC)
 
 _IDENTITY = (1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+_POSE_FORMS = "expected a DualQuaternion, 8 coefficients or a UR pose vector of 6"
 
 
 def dh_joint(theta, d, a, alpha) -> np.ndarray:
@@ -91,12 +93,15 @@ def _as_coefficients(pose, name: str) -> tuple:
     if isinstance(pose, DualQuaternion):
         array = pose.to_array()
     else:
-        array = np.asarray(pose, dtype=float)
+        try:
+            array = real_array(pose)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"{name}: {_POSE_FORMS}, got {pose!r}") from exc
         if array.shape == (6,):
             array = dqarray.from_ur_pose(array)
     array = dqarray.check_unit(array, name)
     if array.shape != (8,):
-        raise ValueError(f"{name}: expected a DualQuaternion, 8 coefficients or a UR pose vector of 6")
+        raise ValueError(f"{name}: {_POSE_FORMS}")
     return tuple(float(c) for c in array)
 
 
@@ -119,7 +124,7 @@ class SerialChain:
         ``frame_offsets`` (n + 1 unit dual quaternions, default identity) turn the running products into the
         frames :meth:`frames` reports: frame_i = K_0·J_1·…·J_i·K_i·F_i (the builders undo what they folded into K_i).
         """
-        constants = dqarray.check_unit(np.asarray(constants, dtype=float), "constants")
+        constants = dqarray.check_unit(constants, "constants")
         joint_types = tuple(joint_types)
         if constants.ndim != 2 or len(constants) != len(joint_types) + 1:
             raise ValueError(f"constants: need {len(joint_types) + 1} dual quaternions for {len(joint_types)} joints")
@@ -131,7 +136,7 @@ class SerialChain:
         self._constants = tuple(tuple(float(c) for c in row) for row in constants)
         if frame_offsets is None:
             frame_offsets = [_IDENTITY] * len(constants)
-        frame_offsets = dqarray.check_unit(np.asarray(frame_offsets, dtype=float), "frame_offsets")
+        frame_offsets = dqarray.check_unit(frame_offsets, "frame_offsets")
         if frame_offsets.shape != constants.shape:
             raise ValueError(f"frame_offsets: expected {len(constants)} dual quaternions, got {frame_offsets.shape}")
         self._frame_offsets = tuple(tuple(float(c) for c in row) for row in frame_offsets)

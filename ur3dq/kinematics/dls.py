@@ -46,6 +46,7 @@ import numpy as np
 from ur3dq import dqarray
 from ur3dq.dualquat import DualQuaternion, conjugate_coefficients, multiply_coefficients
 from ur3dq.kinematics.chain import REVOLUTE, SerialChain
+from ur3dq.real_numbers import real_array
 
 PAPER = "paper"
 IMPROVED = "improved"
@@ -449,7 +450,7 @@ def _limits(values, n: int, default: float, name: str) -> np.ndarray:
     if values is None:
         return np.full(n, default)
     try:
-        array = np.asarray(values, dtype=float)
+        array = real_array(values)
     except (TypeError, ValueError) as exc:
         raise ValueError(f"{name}: expected {n} numbers, got {values!r}") from exc
     if array.shape != (n,):

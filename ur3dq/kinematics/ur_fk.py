@@ -11,10 +11,14 @@ import math
 import numpy as np
 
 from ur3dq.dqarray import sincos_of_half
+from ur3dq.real_numbers import is_number
 
 #: No joint angle is this large (even an unlimited wrist 3 would need 160,000 turns); beyond it sums of angles
 #: overflow and sines lose every digit, so such a value is refused by name rather than computed with.
 MAX_JOINT_ANGLE = 1e6
+
+#: Item types of a joint vector accepted at a glance; any other is judged by is_number.
+_NUMBER_TYPES = frozenset({float, int, np.float64})
 
 
 def joint_floats(q, name: str = "q") -> tuple:
@@ -23,7 +27,10 @@ def joint_floats(q, name: str = "q") -> tuple:
         if isinstance(q, np.ndarray) and q.dtype == np.float64 and q.ndim == 1:
             values = tuple(q.tolist())   # Python floats in one call (iterating yields slow numpy scalars)
         else:
-            values = tuple(map(float, q))
+            items = tuple(q)
+            if not _NUMBER_TYPES.issuperset(map(type, items)) and not all(map(is_number, items)):
+                raise TypeError("not numbers")   # float() would read "1.5" and True
+            values = tuple(map(float, items))
     except (TypeError, ValueError) as exc:
         raise ValueError(f"{name}: expected 6 joint angles (radians), got {q!r}") from exc
     if len(values) != 6:

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ur3dq.errors import StoreError
-from ur3dq.pose import is_number
+from ur3dq.real_numbers import is_number
 
 DEFAULT_CELL_MARGIN = 0.01
 _KEYS = {"floor", "boxes", "keep_in", "margin", "tool"}

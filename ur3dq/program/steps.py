@@ -11,7 +11,8 @@ import dataclasses
 import math
 import unicodedata
 
-from ur3dq.pose import Pose, is_number, name_problem, unstorable_text_problem
+from ur3dq.pose import Pose, name_problem, unstorable_text_problem
+from ur3dq.real_numbers import is_number
 from ur3dq.slots import slot_builder
 
 MOVE_TYPES = ("joint", "linear", "process")    # movej, movel, movep

@@ -8,6 +8,7 @@ import math
 import numpy as np
 
 from ur3dq.errors import SafetyCheckError
+from ur3dq.real_numbers import is_number, real_array
 
 # Default bound on any single joint's travel in one move: a surprising IK branch (a 2π wrist flip, an elbow
 # swap) travels more than this and is refused instead of swinging the arm.
@@ -17,7 +18,7 @@ DEFAULT_MAX_JOINT_TRAVEL = math.pi
 def check_joint_vector(q, name="q"):
     """`q` as a float array of six finite joint angles (radians), or SafetyCheckError naming the problem."""
     try:
-        array = np.asarray(q, dtype=float)
+        array = real_array(q)
     except (TypeError, ValueError):
         raise SafetyCheckError(f"{name} must be six joint angles in radians, got {q!r}") from None
     if array.shape != (6,):
@@ -31,7 +32,7 @@ def check_joint_vector(q, name="q"):
 def check_pose_vector(pose, name="pose"):
     """`pose` as a float array [x, y, z, rx, ry, rz] (metres, rotation vector) of six finite values."""
     try:
-        array = np.asarray(pose, dtype=float)
+        array = real_array(pose)
     except (TypeError, ValueError):
         raise SafetyCheckError(f"{name} must be a UR pose vector [x, y, z, rx, ry, rz], got {pose!r}") from None
     if array.shape != (6,) or not np.all(np.isfinite(array)):
@@ -95,10 +96,9 @@ def check_fk_consistency(model, q, pose, tol_m=1e-4, tol_rad=1e-3, name="q"):
 
 def _positive(value, name):
     """`value` as a float if finite and > 0, else SafetyCheckError."""
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        raise SafetyCheckError(f"{name} must be a positive number, got {value!r}") from None
+    if not is_number(value):   # float() would read "1.5" and True
+        raise SafetyCheckError(f"{name} must be a positive number, got {value!r}")
+    number = float(value)
     if not (math.isfinite(number) and number > 0):
         raise SafetyCheckError(f"{name} must be finite and > 0, got {number!r}")
     return number

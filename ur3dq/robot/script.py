@@ -12,6 +12,8 @@ import re
 
 import numpy as np
 
+from ur3dq.real_numbers import is_number
+
 _IDENTIFIER = re.compile(r"^[A-Za-z_][A-Za-z0-9_]{0,62}$")
 _SAFE_TEXT_CHARACTERS = frozenset(chr(code) for code in range(0x20, 0x7F)) - {'"', "\\"}
 _program_counter = itertools.count(1)
@@ -19,10 +21,9 @@ _program_counter = itertools.count(1)
 
 def format_number(value, name="value"):
     """A finite real as URScript text: positional, shortest digits that parse back to exactly `value`."""
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a real number, got {value!r}") from None
+    if not is_number(value):   # float() would read "1.5" and True
+        raise ValueError(f"{name} must be a real number, got {value!r}")
+    number = float(value)
     if not math.isfinite(number):
         raise ValueError(f"{name} must be finite, got {number!r}")
     return np.format_float_positional(number, unique=True, trim="0")

@@ -26,6 +26,7 @@ from ur3dq.kinematics.ur_ik.geometry import (
 from ur3dq.kinematics.ur_ik.nearest import _weights, ik
 from ur3dq.kinematics.ur_ik.single import _branch_table, _nominal_branches
 from ur3dq.kinematics.ur_ik.wrist_turns import PATIENT_SINE, TURN_SINE
+from ur3dq.real_numbers import real_array
 
 
 def _batch_poses(poses) -> np.ndarray:
@@ -33,7 +34,10 @@ def _batch_poses(poses) -> np.ndarray:
 
     Rows off unit by more than rounding (but within dqarray.UNIT_TOLERANCE) are normalised, as single poses are
     (fk_filter._pose_coefficients): the same pose gives the same answer in both paths."""
-    array = np.asarray(poses, dtype=float)
+    try:
+        array = real_array(poses)
+    except (TypeError, ValueError) as exc:
+        raise ValueError("poses: expected numbers, 8 coefficients per pose") from exc
     if array.ndim != 2 or array.shape[1] != 8:
         raise ValueError(f"poses: expected shape (N, 8), got {array.shape}")
     array = dqarray.check_unit(array, "poses")
@@ -316,7 +320,10 @@ def ik_all_batch(model, poses, q_ref=None) -> np.ndarray:
 
 def _batch_reference(q_ref, count: int) -> np.ndarray:
     """(count, 6) finite joint references from a (6,) or (count, 6) array; ValueError naming ``q_ref``."""
-    reference = np.asarray(q_ref, dtype=float)
+    try:
+        reference = real_array(q_ref)
+    except (TypeError, ValueError) as exc:
+        raise ValueError("q_ref: expected numbers: 6 joint angles (radians), or a row of 6 per pose") from exc
     if reference.shape == (6,):
         reference = np.broadcast_to(reference, (count, 6))
     if reference.shape != (count, 6):

@@ -19,6 +19,7 @@ from ur3dq.kinematics.ur_ik.geometry import (
     _geometry,
     _translation_columns,
 )
+from ur3dq.real_numbers import real_array
 
 
 def _pair_of(c) -> tuple:
@@ -37,7 +38,7 @@ def _pose_coefficients(pose, name: str) -> tuple:
         c = pose._c   # its 8 floats as they are: no array round trip on the single-pose path
     else:
         try:
-            values = np.asarray(pose, dtype=float)
+            values = real_array(pose)
         except (TypeError, ValueError) as exc:
             raise ValueError(f"{name}: expected a DualQuaternion or 8 coefficients, got {pose!r}") from exc
         if values.shape != (8,):
