@@ -88,3 +88,25 @@ def test_robot_reports_fit_80_columns(arm, run_cli, store):
     for command in (("status",), ("--deg", "status"), ("record-pose", "--yes", "--name", "recorded-at-80-columns"),
                     ("check",), ("run-poses", NAMES[0], "--yes")):
         assert_reads_at_80(run_cli(*host, *command, COLUMNS="80"), NAMES[:1] if "run-poses" in command else ())
+
+
+def _command_paths(command, path=()):
+    yield path
+    for name, sub in getattr(command, "commands", {}).items():
+        yield from _command_paths(sub, (*path, name))
+
+
+def test_every_help_page_fits_80_columns():
+    # Help pages are written by hand (examples, exit codes in click's verbatim \b blocks, which click never
+    # rewraps): each of them, the group's and every command's, is read here at 80 columns.
+    from click.testing import CliRunner
+
+    from ur3dq.cli import cli
+    runner = CliRunner()   # in-process: ~40 interpreter start-ups would teach nothing more
+    paths = list(_command_paths(cli))
+    assert len(paths) > 30   # the tree walked: groups and their commands
+    for path in paths:
+        result = runner.invoke(cli, [*path, "--help"], env={"COLUMNS": "80"})
+        assert result.exit_code == 0, (path, result.output)
+        too_wide = [line for line in result.output.splitlines() if len(line) > 80]
+        assert not too_wide, (path, too_wide)

@@ -48,14 +48,16 @@ Exit codes:
   {EXIT_CANCELLED}  cancelled at a question (answer it, or pass --yes)
   {EXIT_USAGE}  bad command line
   {EXIT_STORE}  pose store or file problem (StoreError; the store is left unchanged)
-  {EXIT_INPUT}  bad input: unreachable pose, joint limits, NaN, refused motion (ValueError, SafetyCheckError)
+  {EXIT_INPUT}  bad input: unreachable pose, joint limits, NaN, refused motion
+     (ValueError, SafetyCheckError)
   {EXIT_NO_ROBOT}  no robot configured or reachable (RobotConnectionError)
-  {EXIT_ROBOT}  robot fault: protective/emergency stop, program error, lost connection, timeout (RobotError)
+  {EXIT_ROBOT}  robot fault: protective/emergency stop, program error, lost
+     connection, timeout (RobotError)
   {EXIT_NOT_REACHED}  demo: a replayed pose was not reached within tolerance
   {EXIT_SIMULATOR}  the embedded simulator could not be started or stopped (`ur3dq sim ...`)
   {EXIT_INTERNAL}  internal error (set UR3DQ_DEBUG=1 for the traceback)
   {EXIT_INTERRUPTED}  interrupted (Ctrl-C); a moving arm was stopped with stopj
-  143/129  terminated by SIGTERM / SIGHUP (128 + signal number); handled like Ctrl-C
+  143/129  terminated by SIGTERM / SIGHUP (128 + signal), handled like Ctrl-C
 """
 
 NO_ROBOT_HINT = ("no robot configured: name one with --host ADDRESS (or export UR3DQ_HOST=ADDRESS), "
@@ -156,12 +158,12 @@ def cli(ctx, host, backend, model, store_path, as_json, deg):
 
     \b
     Examples:
-      ur3dq sim start                       # an embedded simulated UR3 in the background
-      ur3dq record-pose --name pick --yes   # store the arm's pose in ./poses.json
-      ur3dq run-poses --dry-run             # the replay plan: IK per pose, chosen joints, travel
+      ur3dq sim start                       # a simulated UR3 in the background
+      ur3dq record-pose --name pick --yes   # store the arm's pose in poses.json
+      ur3dq run-poses --dry-run             # the replay plan: IK, joints, travel
       ur3dq run-poses --speed 0.5 --yes     # replay; Ctrl-C stops the arm
       ur3dq --deg fk 0 -90 0 -90 0 0        # forward kinematics of the UR3
-      ur3dq demo                            # the whole job against a simulator it starts itself
+      ur3dq demo                            # the whole job on its own simulator
 
     Metres and radians unless --deg. Poses are TCP poses in the controller's base frame.
     """
@@ -271,8 +273,8 @@ def poses():
       ur3dq poses list
       ur3dq poses show pick --deg
       ur3dq poses rename pose-3 place
-      ur3dq poses import recorded.txt --prefix thesis     # the thesis' 8-coefficient lines
-      ur3dq poses export cell.txt pick place             # back to thesis lines
+      ur3dq poses import recorded.txt --prefix thesis   # thesis lines (8 numbers)
+      ur3dq poses export cell.txt pick place           # back to thesis lines
       ur3dq --store other.json poses export all.json --format json
       ur3dq poses offset approach --from pick --z -0.05 --before pick
       ur3dq poses set pick --move linear --speed 0.05

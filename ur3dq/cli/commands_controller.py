@@ -26,9 +26,9 @@ def robot_group():
     \b
     Examples:
       ur3dq robot power-on && ur3dq robot brake-release
-      ur3dq robot unlock              # after inspecting the cause of a protective stop
-      ur3dq robot freedrive on        # move the arm by hand; `ur3dq robot freedrive off` ends it
-      ur3dq robot stop                # decelerate the arm to rest (stopj)
+      ur3dq robot unlock           # after finding why a protective stop came
+      ur3dq robot freedrive on     # move the arm by hand; `... off` ends it
+      ur3dq robot stop             # decelerate the arm to rest (stopj)
     """
 
 

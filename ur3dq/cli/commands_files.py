@@ -67,7 +67,8 @@ def export_urscript(settings: Settings, names, output: Path, speed, acceleration
     \b
     Examples:
       ur3dq export-urscript -o cell.script
-      ur3dq export-urscript pick place --speed 0.5 --blend 0.01 --loop 10 -o cell.script
+      ur3dq export-urscript pick place --speed 0.5 --blend 0.01 --loop 10 \\
+          -o cell.script
     """
     check_blend(blend)
     if start or end or settings.store.version() == 2:  # a cell program: the same program run-poses sends

@@ -173,8 +173,8 @@ def export_poses(settings: Settings, file: Path, names, file_format, yes):
 
     \b
     Examples:
-      ur3dq poses export recorded.txt                    # thesis lines, every pose
-      ur3dq poses export - pick place                    # two thesis lines on stdout
+      ur3dq poses export recorded.txt       # thesis lines, every pose
+      ur3dq poses export - pick place       # two thesis lines on stdout
       ur3dq poses export backup.json --format json --yes
     """
     selected = settings.store.select(names)

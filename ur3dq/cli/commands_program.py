@@ -142,8 +142,10 @@ def offset(settings: Settings, new, base, dx, dy, dz, rx, ry, rz, frame, move, s
 
     \b
     Examples:
-      ur3dq poses offset approach --from pick --z -0.05 --before pick       # 5 cm above, along the tool's z
-      ur3dq poses offset lift --from place --z 0.1 --frame base --move linear --speed 0.1
+      ur3dq poses offset approach --from pick --z -0.05 --before pick
+          (5 cm back along the tool's z, run before pick)
+      ur3dq poses offset lift --from place --z 0.1 --frame base \\
+          --move linear --speed 0.1
     """
 
     def make(steps):

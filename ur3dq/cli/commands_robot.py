@@ -92,8 +92,8 @@ def record_pose(settings: Settings, name, note, yes, teach, move, speed, acceler
     \b
     Examples:
       ur3dq record-pose --name pick
-      ur3dq record-pose --yes --note "above the tray"      # for scripts
-      ur3dq record-pose --teach --name station             # station-1, station-2, ... by hand
+      ur3dq record-pose --yes --note "above the tray"   # for scripts
+      ur3dq record-pose --teach --name station   # station-1, -2, ... by hand
     """
     store = settings.store
     store.require_directory()
@@ -196,7 +196,7 @@ def run_poses(settings: Settings, names, dry_run, yes, speed, acceleration, blen
       ur3dq run-poses --dry-run
       ur3dq run-poses pick place --speed 0.5 --yes
       ur3dq run-poses --blend 0.02 --loop 3 --yes
-      ur3dq run-poses --joints --yes                         # the recorded joints, no IK
+      ur3dq run-poses --joints --yes            # the recorded joints, no IK
     """
     err = Console(stderr=True, highlight=False)
     speed = angular_option(speed, DEFAULT_SPEED, settings.deg)

@@ -41,7 +41,7 @@ def sim():
 
     \b
     Examples:
-      ur3dq sim start                     # a UR3 (CB3 3.15) on a free loopback address
+      ur3dq sim start           # a UR3 (CB3 3.15) on a free loopback address
       ur3dq --model ur5e sim start --address 127.0.0.3
       ur3dq sim status
       ur3dq sim stop
