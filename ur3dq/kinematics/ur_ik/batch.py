@@ -8,7 +8,7 @@ import numpy as np
 from ur3dq import dqarray
 from ur3dq.errors import UnreachablePoseError
 from ur3dq.kinematics.ur_ik.batch_kernels import _joints_fk_filter, _regular_branches, _regular_fk_filter
-from ur3dq.kinematics.ur_ik.calibrated import VARIANT_SHIFT, _fk_implied, _isolated, _refine_batch
+from ur3dq.kinematics.ur_ik.calibrated import VARIANT_SHIFT, _fk_implied, _isolated, _proof_span, _refine_batch
 from ur3dq.kinematics.ur_ik.equations import _ArrayOps, _branches, wrap_angle
 from ur3dq.kinematics.ur_ik.fk_filter import _EXACT_UNIT, _within_fk_tolerance
 from ur3dq.kinematics.ur_ik.geometry import (
@@ -157,12 +157,12 @@ def _calibrated_nearest(model, g: _Geometry, poses: np.ndarray, reference: np.nd
     fits = cost == cost   # False for NaN: some joint has no in-limit variant
     rows, joints, cost = rows[fits], joints[fits], cost[fits]
     smallest = 1.0 if weight is None else min(weight)
-    reach = 2.0 * (np.sqrt(cost / smallest) + math.sqrt(6.0) * LIMIT_ROUNDING)
+    span = _proof_span(cost, smallest)
     # A reference that is itself the solution (cost 0) is the answer whatever the ranking (as in nearest's).
     isolated = cost == 0.0
     others = np.flatnonzero(~isolated)
     if others.size:
-        isolated[others] = _isolated(g, refined[rows[others]], 2.0 * reach[others], normals[:, :, rows[others]])
+        isolated[others] = _isolated(g, refined[rows[others]], span[others], normals[:, :, rows[others]])
     rows, joints = rows[isolated], joints[isolated]
     passed = _shifted_rows_filter(model, g, joints, refined[rows], poses[rows])
     out = np.full((len(poses), 6), np.nan)

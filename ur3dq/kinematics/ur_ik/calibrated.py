@@ -11,6 +11,7 @@ from ur3dq.kinematics.ur_ik.geometry import (
     CALIBRATED_TOLERANCE,
     FK_TOLERANCE_M,
     FK_TOLERANCE_RAD,
+    LIMIT_ROUNDING,
     _Geometry,
 )
 from ur3dq.kinematics.ur_ik.newton_floats import (
@@ -480,6 +481,17 @@ def _largest_isolation_radius(g: _Geometry) -> float:
     """A bound on every _isolation_radius of the geometry: the radius is at most 2σ/M, and σ ≤ |J·e6| =
     |(z6 × (p − o6), z6)| = √(1 + a6²) (a reference ~0.04 rad or more from the answer is beyond it on a UR3)."""
     return 2.0 * math.sqrt(1.0 + g.joints[5][0] ** 2) / _curvature_bound(g)
+
+
+def _proof_span(cost, least_weight: float):
+    """The distance (rad, joint space; a float or an array like ``cost``) that _isolated must rule out around a
+    Newton answer at weighted cost ``cost`` (Σ wᵢ·Δqᵢ²) from its reference for it to be provably the nearest: a
+    solution nearer the reference than the answer lies within 2·(√(c / min w) + √6·LIMIT_ROUNDING) of it (both
+    within the first term of the reference, up to LIMIT_ROUNDING per joint), and twice that is required, for the
+    rounding of σ. nearest._reference_solution proves with it, nearest._proof_expected guesses with it and
+    batch._calibrated_nearest proves a batch's rows with it."""
+    root = np.sqrt(cost / least_weight) if isinstance(cost, np.ndarray) else math.sqrt(cost / least_weight)
+    return 4.0 * (root + math.sqrt(6.0) * LIMIT_ROUNDING)
 
 
 def _isolated(g: _Geometry, q: np.ndarray, reach: np.ndarray, normal=None) -> np.ndarray:

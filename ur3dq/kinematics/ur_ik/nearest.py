@@ -13,6 +13,7 @@ from ur3dq.kinematics.ur_ik.calibrated import (
     _float_pair,
     _isolated,
     _largest_isolation_radius,
+    _proof_span,
     _radius_of_sigma,
     _refine_batch,
     _target_matrices,
@@ -222,8 +223,7 @@ def _reference_solution(g: _Geometry, target, reference, weights) -> tuple:
         return None, row
     if cost == 0.0:   # the reference itself: the answer whatever the ranking (see above)
         return joints, row
-    reach = 2.0 * (math.sqrt(cost / min(weights)) + math.sqrt(6.0) * LIMIT_ROUNDING)
-    return (joints if _isolated(g, refined, np.array([2.0 * reach]))[0] else None), row
+    return (joints if _isolated(g, refined, np.array([_proof_span(cost, min(weights))]))[0] else None), row
 
 
 def _proof_expected(g: _Geometry, target, reference, weights) -> bool:
@@ -231,8 +231,8 @@ def _proof_expected(g: _Geometry, target, reference, weights) -> bool:
     ``target``), judged from Newton's first step Δ from it: refined alone, a row costs ~40 µs a step, as much as a
     batched step of the nine rows the full ranking refines anyway, so a proof that fails doubles ik's time.
 
-    The proof needs 2·reach = 4·(√(c / min w) + √6·LIMIT_ROUNDING) below the answer's isolation radius
-    (_isolated). To first order c = Σ wᵢ·Δᵢ² and the answer's least singular value σ is the reference's, whose
+    The proof needs calibrated._proof_span, 4·(√(c / min w) + √6·LIMIT_ROUNDING), below the answer's isolation
+    radius (_isolated). To first order c = Σ wᵢ·Δᵢ² and the answer's least singular value σ is the reference's, whose
     radius (calibrated._radius_of_sigma) stands in. A reference that is a solution already (error ≤ 1e-12: the
     row stops before a step, c = 0) needs no radius. The answer is the full ranking's either way (the proof only
     ever returns that answer): this is a choice of path, a wrong guess costs time only. Measured on 1,920
@@ -246,11 +246,11 @@ def _proof_expected(g: _Geometry, target, reference, weights) -> bool:
         return True
     step, normal = float_step_and_normal(frames, error, DAMPING_MATRIX)
     cost = sum(w * v * v for w, v in zip(weights, step))
-    reach = 2.0 * (math.sqrt(cost / min(weights)) + math.sqrt(6.0) * LIMIT_ROUNDING)
-    if 2.0 * reach >= _largest_isolation_radius(g):   # beyond every radius: no eigenvalues needed
+    span = _proof_span(cost, min(weights))
+    if span >= _largest_isolation_radius(g):   # beyond every radius: no eigenvalues needed
         return False
     sigma = math.sqrt(max(float(np.linalg.eigvalsh(normal)[0]), 0.0))
-    return 2.0 * reach < float(_radius_of_sigma(g, sigma))
+    return span < float(_radius_of_sigma(g, sigma))
 
 
 def joint_variants(model, q) -> np.ndarray:

@@ -84,11 +84,12 @@ def _solution_candidates(g: _Geometry, target, theta6_ref: float, reference_row=
         return [branch for branch in _nominal_branches(g, target, theta6_ref) if _exists(branch)]
     slots, reference_solve = _calibrated_slots(g, target, theta6_ref, reference)
     extra = [row for row in (reference_solve, reference_row) if row is not None]
-    return [row for row in slots if row[0] == row[0]] + extra
+    return [row for row in slots if _exists(row)] + extra
 
 
 def _exists(branch) -> bool:
-    """Whether a branch of _nominal_branches exists (its first two joints are not NaN)."""
+    """Whether a branch of _nominal_branches, or a slot of _calibrated_slots, exists (its first two joints are not
+    NaN)."""
     return branch[1] == branch[1] and branch[0] == branch[0]
 
 
