@@ -46,7 +46,8 @@ class WhenMoving(threading.Thread):
         self.join(5.0)
         if exc_type is None:
             assert self.fired_at is not None, (f"the motion was never seen running (furthest from the start: "
-                                               f"{self.furthest:.3f} rad; last state: {self.last_state})")
+                                               f"{self.furthest:.3f} rad; last state: {self.last_state}; the "
+                                               f"motion's own error: {_last_failure.get('error')!r})")
 
     def run(self):
         deadline = time.monotonic() + self.timeout
@@ -62,11 +63,18 @@ class WhenMoving(threading.Thread):
             self._cancelled.wait(0.01)
 
 
+#: The error of the last timed_failure, for WhenMoving to name when its watch never fired (the motion failed
+#: before the fault was injected, and the assertions after the block would not run).
+_last_failure = {}
+
+
 def timed_failure(robot, target, **kwargs):
     """(exception, seconds until it reached us) of a movej expected to fail."""
     started = time.monotonic()
+    _last_failure.clear()
     with pytest.raises(RobotError) as caught:
         robot.movej(target, **kwargs)
+    _last_failure["error"] = caught.value
     return caught.value, time.monotonic() - started
 
 
