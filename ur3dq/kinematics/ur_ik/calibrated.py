@@ -18,12 +18,12 @@ from ur3dq.kinematics.ur_ik.newton_floats import (
     DAMPING_MATRIX,
     HOPELESS_STEP,
     ROUNDING_CEILING,
-    damped_solve,
     float_frames,
     float_jacobian,
     float_joints,
     going_on,
     refine_row,
+    solve_or_least_squares,
 )
 
 
@@ -237,14 +237,53 @@ def _matrix_residual(terms: tuple, q: np.ndarray, target: tuple) -> tuple:
 
 def _matrix_step(frames: np.ndarray, error: np.ndarray) -> np.ndarray:
     """(R, 6) Newton steps solving J·Δq = e (numpy's batched LAPACK solve; where J is exactly singular, its
-    least-squares step: newton_floats.damped_solve) for frames (6, R, 4, 4) and errors e (R, ≥ 6: _pose_residual's,
-    the trace column unused).
+    least-squares step: newton_floats.solve_or_least_squares) for frames (6, R, 4, 4) and errors e (R, ≥ 6:
+    _pose_residual's, the trace column unused).
 
     The other kernels solve the damped normal equations (JᵀJ + λ²I)·Δq = Jᵀe; with λ = 1e-9 that is the same step
     to rounding wherever J is regular, and beside a singularity both are as long (|Δq| up to |e|/σ or |e|/2λ). J
     itself spares two matmuls and an addition: a step of 8 rows 24.3 → 18.7 µs, calibrated ik_all ~10 % (measured).
     """
-    return damped_solve(_jacobian_rows(frames).transpose(1, 2, 0), error[:, :6, None])[..., 0]
+    return _solved_matrix_step(frames, error)[0]
+
+
+def _solved_matrix_step(frames: np.ndarray, error: np.ndarray) -> tuple:
+    """(_matrix_step's steps (R, 6), whether LAPACK's LU solved J·Δq = e for every row: False where some J was
+    exactly singular and every row took its least-squares step)."""
+    jacobian = _jacobian_rows(frames).transpose(1, 2, 0)
+    delta, solved = solve_or_least_squares(jacobian, error[:, :6, None])
+    return delta[..., 0], solved
+
+
+#: Below this error norm a row's Newton step may be its last (_stepped_bound): a step there is ≲ 1e-6 rad, where
+#: ½·M·|Δq|² can fall under the stopping error (100× inside CALIBRATED_TOLERANCE); above it no bound is computed.
+_LAST_STEP_ERROR = 1e-7
+#: Allowance (in the residual's units) for what _stepped_bound leaves out, all rounding: q + Δq (each joint moves
+#: by ≤ ε·|q| ≲ 3e-15 rad, the flange by ≤ √6·3e-15·√(R² + 2) ≲ 2e-14 for R ≤ 2 m); LU's backward error,
+#: |e − J·Δq| ≤ γ₁₈·(growth ≤ 2⁵)·n·|J|·|Δq| ≲ 1e-12·|Δq| (Higham, Accuracy and Stability, thm 9.4), under
+#: 1e-18 at the steps it is asked for; the bound's own sums (~1e-16 of its terms).
+_STEP_ROUNDING = 1e-13
+#: _stepped_bound's factor of |e|·|Δq|: 1.25·√6 rounded up.
+_ROTATION_LEVER = 2.0 * math.sqrt(6.0)
+
+
+def _stepped_bound(error: np.ndarray, norm: np.ndarray, delta: np.ndarray, curvature: float) -> float:
+    """A bound on the residual norm of every row after its LU-solved Newton step Δq (R, 6) (J·Δq = e to
+    rounding), from the errors e (R, 7: _pose_residual's), of norms ``norm`` (R,), at the joints they step from; inf
+    where some flange is not within 60° of its target (trace of R_t·Rᵀ ≤ 2). ``curvature``: _curvature_bound's M.
+
+    The residual is affine in F = (position, the end rotation's three columns): e = L(F) (target minus position,
+    and ½·Σ_c r_c × t_c over the columns). So e(q + Δq) = e(q) + L′·F′(q)·Δq + L′·ρ with |L′·ρ| ≤ |ρ| ≤ ½·M·|Δq|²
+    (_curvature_bound). L′·F′(q)·Δq is −J·Δq in position; in rotation it is ½·(S·ω − tr S·ω) − ω, where ω = J_ω·Δq
+    (|ω| ≤ √6·|Δq|, six unit axes) and S = R·R_tᵀ − I: |S| ≤ φ, |tr S| ≤ φ², the flange φ < 60° from its target
+    with sin φ = |e_ω| ≤ |e|, so that term is below 1.25·|e|·|ω|. With e − J·Δq = 0 up to rounding
+    (_STEP_ROUNDING), |e(q + Δq)| ≤ 2·√6·|e|·|Δq| + ½·M·|Δq|² + _STEP_ROUNDING, here with the largest |e| and
+    |Δq| of the rows. It bounds the exact residual, as the one _refine_batch measures does up to the FK's rounding
+    (calibrated._fk_implied allows for both alike)."""
+    if not error[:, 6].min() > 2.0:
+        return math.inf
+    size = math.sqrt(np.einsum("ij,ij->i", delta, delta).max())
+    return size * (_ROTATION_LEVER * float(norm.max()) + 0.5 * curvature * size) + _STEP_ROUNDING
 
 
 def _column_residual(g: _Geometry, q: np.ndarray, target: tuple) -> tuple:
@@ -340,7 +379,10 @@ def _refine_batch(g: _Geometry, q: np.ndarray, targets: np.ndarray, normals=None
     lost 87 of 2001 solutions on 300 UR3 poses). A row still above HOPELESS_ERROR after HOPELESS_STEP steps stops
     unless it is ``patient`` ((M,) bools; default every row): the seeds of a pose beside a singular wrist converge
     linearly, or after wandering, to solutions no other seed reaches (newton_floats.going_on); patient stragglers
-    take up to CALIBRATED_MAX_STEPS, alone.
+    take up to CALIBRATED_MAX_STEPS, alone. In the batched-matrix kernels, when _stepped_bound proves that every
+    row's step takes it inside the stopping error, the rows stop after that step without the FK that would
+    measure them (mostly the third step: ~25 µs of ~250 for a calibrated ik_all; the FK's verdict would be the
+    same, to the table's rounding).
     Steps solve (JᵀJ + λ²I)·Δq = Jᵀe with a tiny λ (the batched matrices J·Δq = e itself, _matrix_step), a Newton
     step wherever J is regular (no SVD per step). A step of _COLUMN_ROWS rows or more runs the joint-major kernels
     (_column_residual, _column_step), a smaller one the batched-matrix kernels, and from _FLOAT_ROWS rows down
@@ -391,7 +433,17 @@ def _refine_batch(g: _Geometry, q: np.ndarray, targets: np.ndarray, normals=None
                 delta = delta[going]
             else:
                 frames, error = frames[:, going], error[going]
-        current = current + (delta if columns else _matrix_step(frames, error))
+        if not columns:
+            delta, solved = _solved_matrix_step(frames, error)
+            # When every row's step provably ends it (mostly the third), they stop without one more FK: the joints
+            # the FK would stop them at, as it would measure at most the bound plus its rounding (below the
+            # stopping error on factory tables; where a table's floor is above, the FK's rows would stir on).
+            bound = (_stepped_bound(error, norm, delta, _curvature_bound(g))
+                     if solved and norm.max() <= _LAST_STEP_ERROR else math.inf)
+            if bound <= 0.01 * CALIBRATED_TOLERANCE:
+                q[rows], residual[rows] = current + delta, bound
+                break
+        current = current + delta
         previous = norm
     return q, residual
 

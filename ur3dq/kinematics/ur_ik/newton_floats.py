@@ -126,8 +126,15 @@ def damped_solve(normal: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     Where J is exactly singular (a seed at θ5 = 0 or π, a clamped elbow) λ² = 1e-18 is below the rounding of JᵀJ's
     entries and LAPACK may meet an exact zero pivot: those matrices take their least-squares solution, the null
     direction dropped as the damping would (numpy raised LinAlgError out of ik_all before)."""
+    return solve_or_least_squares(normal, rhs)[0]
+
+
+def solve_or_least_squares(matrix: np.ndarray, rhs: np.ndarray) -> tuple:
+    """(damped_solve's solutions of matrices (…, 6, 6) and right-hand sides (…, 6, 1), whether LAPACK's LU solved
+    them all: False where some matrix met an exact zero pivot and every one took its least-squares solution)."""
     try:
-        return np.linalg.solve(normal, rhs)
+        return np.linalg.solve(matrix, rhs), True
     except np.linalg.LinAlgError:
-        pairs = zip(normal.reshape(-1, 6, 6), rhs.reshape(-1, 6, rhs.shape[-1]))
-        return np.array([np.linalg.lstsq(matrix, right, rcond=None)[0] for matrix, right in pairs]).reshape(rhs.shape)
+        pairs = zip(matrix.reshape(-1, 6, 6), rhs.reshape(-1, 6, rhs.shape[-1]))
+        solutions = [np.linalg.lstsq(square, right, rcond=None)[0] for square, right in pairs]
+        return np.array(solutions).reshape(rhs.shape), False
