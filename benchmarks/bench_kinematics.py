@@ -182,7 +182,7 @@ def main() -> None:
         goals.add_row(goal, ours.split("  ", 1)[1], f"{timings[ours] * 1e6:.2f}", peer.split("  ", 1)[1],
                       f"{timings[peer] * 1e6:.2f}", f"{ratio:.2f}×", f"{'≤' if sense == 'at most' else '≥'} {target:g}×",
                       "yes" if met else "NO")
-    calibrated, recovered = calibrated_figures(model.name, max(1, args.passes // 5))
+    calibrated, recovered = calibrated_figures(model.name, args.passes)
     for call, limit, peer in (("ik", 150e-6, "IK  ur-analytic-ik inverse_kinematics_closest"),
                               ("ik_all", 300e-6, "IK  ur-analytic-ik inverse_kinematics (all)"),
                               ("ik_batch", 5e-6, "IK  ur-analytic-ik inverse_kinematics_closest")):
