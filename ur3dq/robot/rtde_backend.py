@@ -53,27 +53,34 @@ class RTDEBackend:
     def status(self):
         """A RobotStatus from the newest RTDE package; ConnectionLostError if the stream has closed."""
         receive = self._receive
-        if receive is None or not receive.isConnected():
-            raise ConnectionLostError(f"the RTDE state stream from {self.host} is closed")
-        timestamp = receive.getTimestamp()
-        now = time.monotonic()
-        if timestamp != self._last_timestamp:
-            self._last_timestamp, self._last_fresh = timestamp, now
-        safety_mode = receive.getSafetyMode()
-        safety_bits = receive.getSafetyStatusBits()
-        return state.validated(state.RobotStatus(
-            joints=np.array(receive.getActualQ()),
-            joint_speeds=np.array(receive.getActualQd()),
-            tcp_pose=np.array(receive.getActualTCPPose()),
-            robot_mode=receive.getRobotMode(),
-            safety_mode=safety_mode,
-            program_running=state.program_running_from(receive.getRuntimeState(), receive.getRobotStatus()),
-            protective_stopped=state.protective_stopped_from(safety_bits, safety_mode),
-            emergency_stopped=state.emergency_stopped_from(safety_bits, safety_mode),
-            speed_scaling=receive.getSpeedScaling(),
-            target_speed_fraction=receive.getTargetSpeedFraction(),
-            age=now - self._last_fresh,
-        ), f"the RTDE stream from {self.host}")
+        try:
+            if receive is None or not receive.isConnected():
+                raise ConnectionLostError(f"the RTDE state stream from {self.host} is closed")
+            timestamp = receive.getTimestamp()
+            now = time.monotonic()
+            if timestamp != self._last_timestamp:
+                self._last_timestamp, self._last_fresh = timestamp, now
+            safety_mode = receive.getSafetyMode()
+            safety_bits = receive.getSafetyStatusBits()
+            status = state.RobotStatus(
+                joints=np.array(receive.getActualQ()),
+                joint_speeds=np.array(receive.getActualQd()),
+                tcp_pose=np.array(receive.getActualTCPPose()),
+                robot_mode=receive.getRobotMode(),
+                safety_mode=safety_mode,
+                program_running=state.program_running_from(receive.getRuntimeState(), receive.getRobotStatus()),
+                protective_stopped=state.protective_stopped_from(safety_bits, safety_mode),
+                emergency_stopped=state.emergency_stopped_from(safety_bits, safety_mode),
+                speed_scaling=receive.getSpeedScaling(),
+                target_speed_fraction=receive.getTargetSpeedFraction(),
+                age=now - self._last_fresh,
+            )
+        finally:
+            # An error raised here (or a KeyboardInterrupt) keeps this frame in its traceback, and a caller may keep
+            # the error in a reference cycle: the frame must not keep the interface, or close() (below) is not its
+            # last reference and a later garbage collection runs its 0.5 s destructor, holding the GIL.
+            receive = None
+        return state.validated(status, f"the RTDE stream from {self.host}")
 
     def send_program(self, script):
         """Send URScript on the open primary connection (port 30001)."""
@@ -86,7 +93,8 @@ class RTDEBackend:
         long but releases it). Left to the garbage collector, that destructor runs at whatever moment a later
         collection finds the connection in a reference cycle: during the next connection's motion, every thread
         of the process (the heartbeat included) then stops for 0.5 s and the controller's heartbeat watchdog
-        stops a healthy motion. Dropping the last reference here runs it while this connection moves nothing."""
+        stops a healthy motion. Dropping the last reference here runs it while this connection moves nothing
+        (status() keeps none in its frame, which a raised error's traceback may keep)."""
         receive, self._receive = self._receive, None
         if receive is None:
             return
