@@ -356,7 +356,7 @@ def test_float_kernels_give_the_batched_quantities():
     targets = np.array([_targets(g, pose)[1] for pose in model.fk_batch(q + 1e-3)])
     rotation, position = calibrated._target_matrices(targets)
     error, frames = calibrated._matrix_residual(calibrated._joint_terms(g), q, (rotation, position))
-    step = calibrated._matrix_step(frames, error)
+    step = calibrated._matrix_step(frames, error)[0]
     joints = newton_floats.float_joints(g.joints)
     for row in range(len(q)):
         end, row_frames = newton_floats.float_frames(joints, q[row].tolist())
@@ -427,7 +427,8 @@ def test_a_seed_with_an_exactly_singular_jacobian_takes_a_least_squares_step():
         assert model.fk(answer).is_close(pose, 1e-9, 1e-9), answer
     singular = np.zeros((1, 6, 6))
     singular[0, :5, :5] = np.eye(5)
-    step = newton_floats.damped_solve(singular, np.ones((1, 6, 1)))
+    step, solved = newton_floats.damped_solve(singular, np.ones((1, 6, 1)))
+    assert not solved
     np.testing.assert_allclose(step[0, :, 0], [1.0] * 5 + [0.0])
 
 

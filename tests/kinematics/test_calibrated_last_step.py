@@ -35,7 +35,7 @@ def exact_residual(g, q: np.ndarray, rotation_t: np.ndarray, position_t: np.ndar
 
 @pytest.mark.parametrize("name, seed", MODELS)
 def test_stepped_bound_holds_after_the_step(name, seed):
-    """Rows 1e-10 to 1e-3 rad from solutions: after one step, the exact residual is within _stepped_bound of each
+    """Rows 1e-10 to 1e-1 rad from solutions: after one step, the exact residual is within _stepped_bound of each
     row, up to the rounding of the measured error it stepped on (|e − e_exact|, which the bound takes as exact)."""
     model = factory_model(name, seed)
     g = _geometry(model)
@@ -46,9 +46,9 @@ def test_stepped_bound_holds_after_the_step(name, seed):
         pose = model.fk(joints)
         pair = np.concatenate((pose.to_array()[:4], pose.translation))[None]   # (qw, qx, qy, qz, px, py, pz)
         rotation_t, position_t = calibrated._target_matrices(pair)
-        q = joints + rng.normal(0.0, 1.0, (8, 6)) * 10.0 ** rng.uniform(-10.0, -3.0, (8, 1))
+        q = joints + rng.normal(0.0, 1.0, (8, 6)) * 10.0 ** rng.uniform(-10.0, -1.0, (8, 1))
         error, frames = calibrated._matrix_residual(terms, q, (rotation_t, position_t))
-        delta, solved = calibrated._solved_matrix_step(frames, error)
+        delta, solved = calibrated._matrix_step(frames, error)
         assert solved
         after = np.linalg.norm(exact_residual(g, q + delta, rotation_t[0], position_t[0]), axis=1)
         rounding = np.linalg.norm(exact_residual(g, q, rotation_t[0], position_t[0]) - error[:, :6], axis=1)

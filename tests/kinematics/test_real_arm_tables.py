@@ -197,4 +197,4 @@ def test_the_two_newton_kernels_compute_the_same_step():
     column_error, columns = calibrated._column_residual(g, q, target)
     np.testing.assert_allclose(column_error, matrix_error, atol=1e-12)
     np.testing.assert_allclose(calibrated._column_step(columns, column_error, damping),
-                               calibrated._matrix_step(frames, matrix_error), atol=1e-9)
+                               calibrated._matrix_step(frames, matrix_error)[0], atol=1e-9)

@@ -18,12 +18,12 @@ from ur3dq.kinematics.ur_ik.newton_floats import (
     DAMPING_MATRIX,
     HOPELESS_STEP,
     ROUNDING_CEILING,
+    damped_solve,
     float_frames,
     float_jacobian,
     float_joints,
     going_on,
     refine_row,
-    solve_or_least_squares,
 )
 
 
@@ -235,23 +235,16 @@ def _matrix_residual(terms: tuple, q: np.ndarray, target: tuple) -> tuple:
     return _pose_residual(frames[5], *target), frames
 
 
-def _matrix_step(frames: np.ndarray, error: np.ndarray) -> np.ndarray:
-    """(R, 6) Newton steps solving J·Δq = e (numpy's batched LAPACK solve; where J is exactly singular, its
-    least-squares step: newton_floats.solve_or_least_squares) for frames (6, R, 4, 4) and errors e (R, ≥ 6:
-    _pose_residual's, the trace column unused).
+def _matrix_step(frames: np.ndarray, error: np.ndarray) -> tuple:
+    """((R, 6) Newton steps solving J·Δq = e, whether LAPACK's LU solved every row: False where some J was exactly
+    singular and every row took its least-squares step, newton_floats.damped_solve) for frames (6, R, 4, 4) and
+    errors e (R, ≥ 6: _pose_residual's, the trace column unused).
 
     The other kernels solve the damped normal equations (JᵀJ + λ²I)·Δq = Jᵀe; with λ = 1e-9 that is the same step
     to rounding wherever J is regular, and beside a singularity both are as long (|Δq| up to |e|/σ or |e|/2λ). J
     itself spares two matmuls and an addition: a step of 8 rows 24.3 → 18.7 µs, calibrated ik_all ~10 % (measured).
     """
-    return _solved_matrix_step(frames, error)[0]
-
-
-def _solved_matrix_step(frames: np.ndarray, error: np.ndarray) -> tuple:
-    """(_matrix_step's steps (R, 6), whether LAPACK's LU solved J·Δq = e for every row: False where some J was
-    exactly singular and every row took its least-squares step)."""
-    jacobian = _jacobian_rows(frames).transpose(1, 2, 0)
-    delta, solved = solve_or_least_squares(jacobian, error[:, :6, None])
+    delta, solved = damped_solve(_jacobian_rows(frames).transpose(1, 2, 0), error[:, :6, None])
     return delta[..., 0], solved
 
 
@@ -434,7 +427,7 @@ def _refine_batch(g: _Geometry, q: np.ndarray, targets: np.ndarray, normals=None
             else:
                 frames, error = frames[:, going], error[going]
         if not columns:
-            delta, solved = _solved_matrix_step(frames, error)
+            delta, solved = _matrix_step(frames, error)
             # When every row's step provably ends it (mostly the third), they stop without one more FK: the joints
             # the FK would stop them at, as it would measure at most the bound plus its rounding (below the
             # stopping error on factory tables; where a table's floor is above, the FK's rows would stir on).

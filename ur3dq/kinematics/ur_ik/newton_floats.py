@@ -117,21 +117,16 @@ def float_step_and_normal(frames: list, error: tuple, damping: np.ndarray) -> tu
     least singular value (nearest._proof_expected)."""
     transposed = np.array(float_jacobian(frames))   # Jᵀ: a row per joint
     normal = transposed @ transposed.T
-    return damped_solve(normal + damping, (transposed @ error)[:, None])[:, 0].tolist(), normal
+    return damped_solve(normal + damping, (transposed @ error)[:, None])[0][:, 0].tolist(), normal
 
 
-def damped_solve(normal: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-    """normal⁻¹·rhs of damped normal matrices (…, 6, 6) and right-hand sides (…, 6, 1) (numpy's LAPACK solve).
+def damped_solve(matrix: np.ndarray, rhs: np.ndarray) -> tuple:
+    """(matrix⁻¹·rhs of matrices (…, 6, 6) — damped normal matrices, or Jacobians — and right-hand sides
+    (…, 6, 1) (numpy's LAPACK solve), whether LAPACK's LU solved them all).
 
     Where J is exactly singular (a seed at θ5 = 0 or π, a clamped elbow) λ² = 1e-18 is below the rounding of JᵀJ's
-    entries and LAPACK may meet an exact zero pivot: those matrices take their least-squares solution, the null
-    direction dropped as the damping would (numpy raised LinAlgError out of ik_all before)."""
-    return solve_or_least_squares(normal, rhs)[0]
-
-
-def solve_or_least_squares(matrix: np.ndarray, rhs: np.ndarray) -> tuple:
-    """(damped_solve's solutions of matrices (…, 6, 6) and right-hand sides (…, 6, 1), whether LAPACK's LU solved
-    them all: False where some matrix met an exact zero pivot and every one took its least-squares solution)."""
+    entries and LAPACK may meet an exact zero pivot: then every matrix takes its least-squares solution, the null
+    direction dropped as the damping would (numpy raised LinAlgError out of ik_all before), and the flag is False."""
     try:
         return np.linalg.solve(matrix, rhs), True
     except np.linalg.LinAlgError:
