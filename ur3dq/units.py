@@ -1,0 +1,182 @@
+"""The one units layer: every number a person types or reads goes through here.
+
+ur3dq keeps SI everywhere inside (metres, radians, seconds and their rates); people type and read the units of the
+pendant (mm, mm/s, °, °/s). A typed value either carries its unit (``250mm/s``, ``60deg/s``, ``-50mm``, ``5°``) or is
+a bare number, read in the user's chosen units (:class:`Units`: SI, or degrees for angles under ``--deg``).
+
+Examples
+--------
+>>> from ur3dq.units import Units, ANGULAR_SPEED, LENGTH, parse, show
+>>> round(parse("60deg/s", ANGULAR_SPEED), 6)
+1.047198
+>>> parse("-50mm", LENGTH)
+-0.05
+>>> round(parse("60", ANGULAR_SPEED, Units(angle="deg")), 6)     # a bare number under --deg
+1.047198
+>>> show(0.25, LENGTH, Units(length="mm"))
+'250 mm'
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import re
+
+__all__ = [
+    "ACCELERATION", "ANGLE", "ANGULAR_ACCELERATION", "ANGULAR_SPEED", "DURATION", "LENGTH", "LINEAR_ACCELERATION",
+    "LINEAR_SPEED", "SPEED", "Kind", "Units", "angular_kind", "parse", "show", "to_display", "unit_label",
+]
+
+
+@dataclasses.dataclass(frozen=True)
+class Kind:
+    """A physical quantity: its name in messages, its SI unit, and the units a person may type for it.
+
+    ``units`` maps each accepted spelling to the factor that turns it into SI; ``angular`` says whether the
+    user's angle preference applies to a bare number of this kind.
+    """
+
+    name: str
+    si: str
+    units: dict[str, float]
+    angular: bool
+    example: str
+
+
+_DEG = math.pi / 180.0
+
+
+def _spellings(base: dict[str, float], suffix: str, superscript: bool = False) -> dict[str, float]:
+    """Each of `base`'s spellings followed by `suffix` (and `²` for `^2` when `superscript`)."""
+    spelled = {name + suffix: factor for name, factor in base.items()}
+    if superscript:
+        spelled.update({name + suffix.replace("^2", "²"): factor for name, factor in base.items()})
+    return spelled
+
+
+_LENGTHS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2}
+_ANGLES = {"rad": 1.0, "deg": _DEG, "°": _DEG}
+
+LENGTH = Kind("distance", "m", dict(_LENGTHS), False, "-50mm")
+ANGLE = Kind("angle", "rad", dict(_ANGLES), True, "5deg")
+LINEAR_SPEED = Kind("linear speed", "m/s", _spellings(_LENGTHS, "/s"), False, "250mm/s")
+ANGULAR_SPEED = Kind("joint speed", "rad/s", _spellings(_ANGLES, "/s"), True, "60deg/s")
+LINEAR_ACCELERATION = Kind("linear acceleration", "m/s²", _spellings(_LENGTHS, "/s^2", True), False, "1200mm/s^2")
+ANGULAR_ACCELERATION = Kind("joint acceleration", "rad/s²", _spellings(_ANGLES, "/s^2", True), True, "80deg/s^2")
+DURATION = Kind("duration", "s", {"s": 1.0, "ms": 1e-3}, False, "500ms")
+
+# A move's speed is angular for a joint move and linear for a linear or process move: see angular_kind.
+SPEED = {True: ANGULAR_SPEED, False: LINEAR_SPEED}
+ACCELERATION = {True: ANGULAR_ACCELERATION, False: LINEAR_ACCELERATION}
+
+_NUMBER = re.compile(r"\s*([+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?)\s*(\S*)\s*\Z")
+_ALL_KINDS = (LENGTH, ANGLE, LINEAR_SPEED, ANGULAR_SPEED, LINEAR_ACCELERATION, ANGULAR_ACCELERATION, DURATION)
+
+
+def angular_kind(move: str) -> bool:
+    """True when a move of type `move` ('joint', 'linear', 'process') takes angular speeds and accelerations."""
+    return move == "joint"
+
+
+@dataclasses.dataclass(frozen=True)
+class Units:
+    """The units a person chose: ``angle`` 'rad' or 'deg', ``length`` 'm' or 'mm'.
+
+    A bare typed number is read in these units, and :func:`show` writes values in them. JSON output never uses
+    them: it is SI whatever the person chose.
+    """
+
+    angle: str = "rad"
+    length: str = "m"
+
+    def __post_init__(self) -> None:
+        if self.angle not in ("rad", "deg") or self.length not in ("m", "mm"):
+            raise ValueError(f"units: angle must be 'rad' or 'deg' and length 'm' or 'mm', got {self!r}")
+
+    def bare_unit(self, kind: Kind) -> str:
+        """The unit a bare number of `kind` is read in and values of `kind` are shown in."""
+        if kind is DURATION:
+            return "s"
+        base = self.angle if kind.angular else self.length
+        if kind.si == "rad":
+            return "°" if base == "deg" else "rad"
+        if kind.si == "m":
+            return base
+        rate = kind.si[kind.si.index("/"):]
+        return ("°" if base == "deg" else base) + rate
+
+
+def _kind_named_by(unit: str) -> Kind | None:
+    return next((kind for kind in _ALL_KINDS if unit in kind.units), None)
+
+
+def parse(text: str | float | int, kind: Kind, units: Units = Units(), name: str = "value") -> float:
+    """The SI value of `text`, a number a person typed for a quantity of `kind`.
+
+    Parameters
+    ----------
+    text : str or number
+        ``"250mm/s"``, ``"60 deg/s"``, ``"-50mm"``, ``"5°"``, or a bare number (``"0.05"``, ``0.05``), which is
+        read in `units` (degrees for angles, speeds and accelerations of angular kinds under ``Units(angle='deg')``).
+    kind : Kind
+        What the number is (``LENGTH``, ``ANGULAR_SPEED``, ...).
+    units : Units
+        The person's chosen units, for bare numbers.
+    name : str
+        The option or field the value came from, named in the error.
+
+    Returns
+    -------
+    float
+        The value in SI (m, rad, m/s, rad/s, m/s², rad/s², s).
+
+    Raises
+    ------
+    ValueError
+        One line naming `name`, what was typed, and how to write it: not a number, NaN or infinite, or a unit of
+        another kind (``--speed 250mm/s`` on a joint move).
+    """
+    if isinstance(text, bool):
+        raise ValueError(f"{name}: expected a {kind.name} such as {kind.example}, got {text!r}")
+    if isinstance(text, (int, float)):
+        value, unit = float(text), ""
+    else:
+        match = _NUMBER.match(str(text))
+        if match is None:
+            raise ValueError(f"{name}: {text!r} is not a {kind.name}; write a number with a unit, such as "
+                             f"{kind.example} (units: {', '.join(kind.units)})")
+        value, unit = float(match.group(1)), match.group(2)
+    if not math.isfinite(value):
+        raise ValueError(f"{name}: {text!r} is not a finite number")
+    if not unit:
+        unit = units.bare_unit(kind)
+    if unit not in kind.units:
+        other = _kind_named_by(unit)
+        what = f"{unit!r} is a unit of {other.name}" if other else f"{unit!r} is not a unit ur3dq knows"
+        raise ValueError(f"{name} takes a {kind.name} ({', '.join(kind.units)}), but {what}; for example "
+                         f"{kind.example}")
+    return value * kind.units[unit]
+
+
+def to_display(value: float, kind: Kind, units: Units = Units()) -> float:
+    """`value` (SI) in the unit `units` shows `kind` in (see :meth:`Units.bare_unit`)."""
+    return value / kind.units[units.bare_unit(kind)]
+
+
+def unit_label(kind: Kind, units: Units = Units()) -> str:
+    """The unit `units` shows `kind` in, as a table heading or after a number ('mm/s', '°', 'rad/s²')."""
+    return units.bare_unit(kind)
+
+
+def show(value: float, kind: Kind, units: Units = Units(), digits: int | None = None) -> str:
+    """`value` (SI) as a person reads it: the number in the chosen units and its unit (``'250 mm'``, ``'60 °/s'``).
+
+    `digits` after the point, by default enough for 0.1 mm / 0.01° resolution and no trailing zeros.
+    """
+    shown = to_display(value, kind, units)
+    label = unit_label(kind, units)
+    if digits is None:
+        text = f"{shown:.6g}" if abs(shown) >= 1e-4 or shown == 0 else f"{shown:.3g}"
+    else:
+        text = f"{shown:.{digits}f}"
+    return f"{text} {label}"
