@@ -123,7 +123,7 @@ def test_select_range_for_resume():
 
 def test_step_watch_reports_progress_end_and_a_failed_wait_naming_the_step():
     from ur3dq.errors import ProgramError
-    from ur3dq.program.run import StepWatch, expected_seconds
+    from ur3dq.program.runner import StepWatch, expected_seconds
     from ur3dq.robot.primary import TextMessage
 
     steps = [pick_waypoint(), Wait("settle", 0.5), WaitInput("part", "tool", 1, False, 3.0)]

@@ -8,6 +8,7 @@ from rich.markup import escape
 from ur3dq.cli.display import print_table
 from ur3dq.cli.program_workflow import PLAN_COLUMNS, plan_rows
 from ur3dq.errors import RobotError
+from ur3dq.program.runner import run
 from ur3dq.program.steps import DigitalOut, Motion, RelativeWaypoint, Wait, Waypoint
 
 APPROACH_M = 0.05   # the approach and retract stand this far back from the part along the tool's z axis
@@ -43,7 +44,7 @@ def run_pick_and_place(robot, store, program_store, pick: str, place: str, say) 
     def progress(position, step):
         console_print(escape(f"   step {position}: {step.name} ({step.kind})"))
 
-    plan, seconds = robot.run_program(steps, progress=progress)
+    plan, seconds = run(robot, steps, progress=progress)
     print_table(_Printer(say), "Pick-and-place plan (one URScript program)", PLAN_COLUMNS, plan_rows(plan, 1))
     error_m, _ = robot.tcp_pose().distance(plan[-2].pose)
     if error_m > 5e-4:

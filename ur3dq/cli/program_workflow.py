@@ -180,7 +180,7 @@ def run_program_command(settings: Settings, start, end, speed_scale, dry_run, ye
                                               "step)")
             require_clear_program_path(settings, model, plan, None, cell_path)
         return
-    from ur3dq.program.run import run_plan
+    from ur3dq.program.runner import run_plan
 
     with robot_session(settings, max_joint_travel=max_travel) as robot:
         with built_to_last():

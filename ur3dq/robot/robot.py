@@ -290,7 +290,7 @@ class Robot:
         """From now on every motion is refused (SafetyCheckError, nothing sent) unless the whole path it sweeps
         passes ur3dq.pathcheck.check_path in `cell` (a Cell, or None: self-collision, singularities, limits and
         speeds only) with `margins` (a Margins, or the defaults). movej/movej_path are sampled here; run_script
-        needs the PathPlan of its program (`path=`), which run_program gives; a script without one is refused."""
+        needs the PathPlan of its program (`path=`), which ur3dq.program.run gives; a script without one is refused."""
         from ur3dq.pathcheck import Margins
 
         self._path_check = (cell, margins or Margins())
@@ -364,21 +364,13 @@ class Robot:
         message is also given to `on_message` (which may raise to fail the run), and when `reached_end` is given
         the run is only done once it returns True (the program's own report that it ran to its end: the arm
         resting at a target it started from proves nothing). `path` (a PathPlan of the program's moves) is
-        checked when require_path_check is on. Returns the wall time (s). Used by ur3dq.program.run."""
+        checked when require_path_check is on. Returns the wall time (s). Used by ur3dq.program.runner."""
         status = self._ready_status()
         target = self._checked_target(target, "target")
         self._require_clear_path(path)
         timeout = motion.motion_timeout(duration, status.target_speed_fraction) + self.link_delay
         return self._run_motion(script.check_identifier(name), program, target, status.joints,
                                 status.program_running, timeout, on_message, reached_end)
-
-    def run_program(self, steps, **options):
-        """Plan the cell program `steps` (ur3dq.program.steps; Waypoint, RelativeWaypoint, actions) from the arm's
-        joints and run it as one URScript program, watched step by step; returns (plan, wall seconds). Options:
-        see ur3dq.program.run.run_program (defaults, speed_scale, start, end, progress)."""
-        from ur3dq.program.run import run_program  # the program package builds on this driver
-
-        return run_program(self, steps, **options)
 
     def _run_motion(self, name, program, target, q_start, running_at_send, timeout, on_message=None,
                     reached_end=None):

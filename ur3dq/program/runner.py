@@ -109,10 +109,13 @@ def _path_of(plan, start):
     return path_plan_of(plan, start) or PathPlan(start, [PathSegment("(no motion)", target_joints=start)])
 
 
-def run_program(robot, steps, defaults=None, speed_scale: float = 1.0, start: str | None = None,
-                end: str | None = None, progress=None):
+def run(robot, steps, defaults=None, speed_scale: float = 1.0, start: str | None = None, end: str | None = None,
+        progress=None):
     """Plan `steps` (a whole program; run the part `start`..`end`, names) from the arm's joints on the robot's
-    model and run it; returns (plan, wall seconds)."""
+    model and run it as one URScript program, watched step by step; returns (plan, wall seconds).
+
+    Also importable as `ur3dq.program.run`. `progress(position, step)` is called as each step starts.
+    """
     part = select_range(steps, start, end)
     first = [s.name for s in steps].index(part[0].name) + 1
     plan = plan_program(robot.model, part, robot.joints(), defaults or Defaults(), speed_scale,
