@@ -9,19 +9,26 @@ from rich.console import Console
 from ur3dq.cli.app import Settings, cli, confirm
 from ur3dq.cli.display import count_text
 from ur3dq.cli.options import (
-    DEFAULT_ACCELERATION, DEFAULT_SPEED, angular_option, cell_option, check_blend, check_max_travel, deg_option,
-    global_options, motion_options, speed_and_acceleration,
+    DEFAULT_ACCELERATION,
+    DEFAULT_SPEED,
+    angular_option,
+    cell_option,
+    check_blend,
+    check_max_travel,
+    deg_option,
+    global_options,
+    motion_options,
+    speed_and_acceleration,
 )
 from ur3dq.cli.path_report import check_program, check_replay
 from ur3dq.cli.program_workflow import export_program_text
 from ur3dq.errors import StoreError
 from ur3dq.pose import utc_now_iso
 from ur3dq.program.plan import plan_program
-from ur3dq.replay import plan_replay
+from ur3dq.replay import describe_speeds, plan_replay, replay_script
 from ur3dq.robot.safety import DEFAULT_MAX_JOINT_TRAVEL
 from ur3dq.store import write_atomically
 from ur3dq.store_format import PROGRAM_SCHEMA_VERSION
-from ur3dq.urscript_export import describe_speeds, replay_program
 
 
 def offline_plan(settings: Settings, names, speed, acceleration, replay_joints, max_travel):
@@ -91,8 +98,8 @@ def export_urscript(settings: Settings, names, output: Path, speed, acceleration
         describe_speeds(a, v, blend),
         "the first move starts wherever the arm is: check it at low speed first",
     ]
-    program = replay_program(steps, a, v, blend, loops, tcp_offset=offsets.pop() if len(offsets) == 1 else None,
-                             header=header)
+    program = replay_script(steps, a, v, blend, loops, tcp_offset=offsets.pop() if len(offsets) == 1 else None,
+                            header=header)
     _write_program(output, program, yes, count_text(len(steps), 'pose') + (f" × {loops}" if loops > 1 else ""))
 
 
