@@ -22,8 +22,8 @@ from ur3dq.errors import StoreError
 from ur3dq.pose import utc_now_iso
 from ur3dq.program.plan import Defaults, plan_program
 from ur3dq.program.resolve import select_range
-from ur3dq.program.steps import Motion, Waypoint, describe
 from ur3dq.program.script import program_script
+from ur3dq.program.steps import Motion, Waypoint, describe
 from ur3dq.store_format import PROGRAM_SCHEMA_VERSION, step_to_dict
 
 # ---------------------------------------------------------------- shared options and edits
