@@ -9,7 +9,8 @@ pose was recorded. IK runs once per pose (`ik_all`, every FK-verified solution);
 else to the previous target (the arm's joints for the first pose) — the same choice as `model.ik`.
 
 Replay (`execute_plan`) moves through the plan with `Robot.movej` (or one blended `movej_path`); every move is
-checked and watched to its end by the driver; Ctrl-C between moves sends stopj too.
+checked and watched to its end by the driver; Ctrl-C between moves sends stopj too. `replay_script` writes the
+same replay as one URScript program (a `.script` file for the pendant or the controller's port 30002).
 """
 from __future__ import annotations
 
@@ -19,6 +20,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
+from ur3dq import urscript
 from ur3dq.collector import cyclic_gc_paused
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import ConnectionLostError, JointLimitError, SafetyCheckError, UnreachablePoseError
@@ -303,3 +305,44 @@ def execute_plan(robot, steps: Sequence[PlanStep], a: float, v: float, blend: fl
         robot.stop()  # the driver already stops a motion it was watching; this covers a Ctrl-C between moves
         raise
     return results
+
+
+def replay_script(steps: Sequence[PlanStep], a: float, v: float, blend: float = 0.0, loops: int = 1,
+                  tcp_offset: Sequence[float] | None = None, program_name: str = "ur3dq_poses",
+                  header: Sequence[str] = ()) -> str:
+    """A URScript program moving through the planned `steps` with movej, `loops` times.
+
+    Parameters
+    ----------
+    steps : sequence of PlanStep
+        The plan (plan_replay); each step's pose name is written only in a comment.
+    a, v : float
+        movej acceleration (rad/s²) and speed (rad/s).
+    blend : float
+        Blend radius (m) between poses; the last move of each pass ends at rest.
+    loops : int
+        How many passes.
+    tcp_offset : UR pose vector, optional
+        Set with set_tcp before the first move.
+    program_name : str
+        The program's identifier.
+    header : sequence of str
+        Comment lines above the program.
+    """
+    if not steps:
+        raise ValueError("steps must hold at least one pose to export")
+    body = []
+    last = len(steps) - 1
+    for index, step in enumerate(steps):
+        body.append(f"# {index + 1}: {urscript.comment_text(step.pose.name)}")
+        body.append(urscript.movej_statement(step.joints, a, v, blend if index < last else 0.0))
+    if loops != 1:
+        body = urscript.repeat(loops, body)
+    first = [] if tcp_offset is None else [urscript.set_tcp_statement(tcp_offset)]
+    return urscript.program(program_name, first + body, header)
+
+
+def describe_speeds(a: float, v: float, blend: float) -> str:
+    """A one-line summary of replay_script's motion parameters, for its header."""
+    return (f"movej a = {urscript.format_number(a)} rad/s^2, v = {urscript.format_number(v)} rad/s, "
+            f"blend r = {urscript.format_number(blend)} m; joint targets in radians")

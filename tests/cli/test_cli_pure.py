@@ -8,17 +8,21 @@ import pytest
 
 from ur3dq.cli import display
 from ur3dq.cli.app import Cancelled, exit_code_for, one_line, quiet_client_libraries
-from ur3dq.cli.options import angular_option, clamp_to_model
-from ur3dq.replay import plan_replay
 from ur3dq.cli.background_simulator import process_is_simulator, read_state, state_directory
+from ur3dq.cli.options import angular_option, clamp_to_model
 from ur3dq.errors import (
-    ConnectionLostError, JointLimitError, ProtectiveStopError, RobotConnectionError, SafetyCheckError, StoreError,
+    ConnectionLostError,
+    JointLimitError,
+    ProtectiveStopError,
+    RobotConnectionError,
+    SafetyCheckError,
+    StoreError,
     UnreachablePoseError,
 )
 from ur3dq.kinematics import robot_model
 from ur3dq.plot import arm_points
 from ur3dq.pose import Pose
-from ur3dq.urscript_export import comment_text, replay_program
+from ur3dq.replay import plan_replay, replay_script
 
 UR3 = robot_model("ur3")
 
@@ -71,11 +75,6 @@ def test_angular_options_follow_deg():
     assert angular_option(0.5, 1.05, deg=False) == 0.5
 
 
-def test_comment_text_keeps_comments_single_line_ascii():
-    assert comment_text("café\n#2\tok") == "caf??#2?ok"
-    assert len(comment_text("x" * 500)) == 100 and comment_text("x" * 500).endswith("...")
-
-
 def two_step_plan():
     """A plan of two UR3 poses (joints A, B)."""
     poses = [Pose.from_dual_quaternion(name, UR3.fk(q), "ur3", joints=q)
@@ -83,25 +82,25 @@ def two_step_plan():
     return plan_replay(UR3, poses, None)
 
 
-def test_replay_program_blends_only_between_poses():
-    program = replay_program(two_step_plan(), a=1.4, v=1.05, blend=0.02, tcp_offset=[0, 0, 0.1, 0, 0, 0],
+def test_replay_script_blends_only_between_poses():
+    program = replay_script(two_step_plan(), a=1.4, v=1.05, blend=0.02, tcp_offset=[0, 0, 0.1, 0, 0, 0],
                              header=["made\nby test"])
     lines = program.splitlines()
     assert lines[0] == "# made?by test" and lines[1] == "def ur3dq_poses():" and lines[-1] == "end"
     assert lines[2] == "  set_tcp(p[0.0, 0.0, 0.1, 0.0, 0.0, 0.0])"
     moves = [line for line in lines if "movej(" in line]
     assert moves[0].endswith("r=0.02)") and moves[1].endswith("r=0.0)")
-    looped = replay_program(two_step_plan(), 1.4, 1.05, loops=3)
+    looped = replay_script(two_step_plan(), 1.4, 1.05, loops=3)
     assert "  while ur3dq_loop < 3:" in looped and looped.count("movej(") == 2
 
 
-def test_replay_program_refuses_bad_arguments():
+def test_replay_script_refuses_bad_arguments():
     with pytest.raises(ValueError, match="at least one pose"):
-        replay_program([], 1.4, 1.05)
+        replay_script([], 1.4, 1.05)
     with pytest.raises(ValueError, match="loops"):
-        replay_program(two_step_plan(), 1.4, 1.05, loops=0)
+        replay_script(two_step_plan(), 1.4, 1.05, loops=0)
     with pytest.raises(ValueError, match="identifier"):
-        replay_program(two_step_plan(), 1.4, 1.05, program_name="bad name")
+        replay_script(two_step_plan(), 1.4, 1.05, program_name="bad name")
 
 
 def test_arm_points_run_from_the_base_to_the_tcp():

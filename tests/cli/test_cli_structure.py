@@ -1,12 +1,16 @@
-"""The CLI's layout rule (docs/architecture.md): a command module never imports another command module; what
-several commands share lives in app.py, options.py, display.py, path_report.py or program_workflow.py."""
+"""The CLI's layout rules (docs/architecture.md): `ur3dq X ...` lives in cli/X.py (dashes as underscores), every
+subcommand of a group in its group's module; a command module never imports another; what several commands share
+lives in the shared modules (app.py, options.py, display.py, ...), which import no command module."""
 import ast
 import os
 import subprocess
 import sys
 from pathlib import Path
 
+import click
+
 import ur3dq.cli
+from ur3dq.cli import cli
 
 CLI = Path(ur3dq.cli.__file__).parent
 
@@ -17,23 +21,41 @@ def imported_modules(path: Path) -> set[str]:
     for node in ast.walk(tree):
         if isinstance(node, ast.ImportFrom) and node.module:
             names.add(node.module)
+            names.update(f"{node.module}.{alias.name}" for alias in node.names)
         elif isinstance(node, ast.Import):
             names.update(alias.name for alias in node.names)
     return names
 
 
+def callbacks(command: click.Command):
+    """The functions behind `command` and, for a group, every command under it."""
+    yield command.callback
+    for sub in getattr(command, "commands", {}).values():
+        yield from callbacks(sub)
+
+
+COMMAND_MODULES = {f"ur3dq.cli.{name.replace('-', '_')}" for name in cli.commands}
+
+
+def test_each_command_lives_in_the_module_its_name_gives():
+    misplaced = {name: sorted({f.__module__ for f in callbacks(command)} - {f"ur3dq.cli.{name.replace('-', '_')}"})
+                 for name, command in cli.commands.items()}
+    assert {name: modules for name, modules in misplaced.items() if modules} == {}
+    assert {"ur3dq.cli.robot", "ur3dq.cli.poses", "ur3dq.cli.sim", "ur3dq.cli.demo", "ur3dq.cli.run_poses"} <= \
+        COMMAND_MODULES
+
+
 def test_no_command_module_imports_another():
-    commands = sorted(CLI.glob("commands_*.py"))
-    assert len(commands) >= 8
-    offenders = {path.name: sorted(name for name in imported_modules(path) if name.startswith("ur3dq.cli.commands_"))
-                 for path in commands}
+    offenders = {module: sorted((imported_modules(CLI / f"{module.rsplit('.', 1)[1]}.py") & COMMAND_MODULES) - {module})
+                 for module in COMMAND_MODULES}
     assert {name: found for name, found in offenders.items() if found} == {}
 
 
 def test_shared_cli_modules_import_no_command_module():
-    shared = [path for path in CLI.glob("*.py") if not path.name.startswith("commands_") and path.name != "__init__.py"]
-    offenders = {path.name: sorted(name for name in imported_modules(path) if name.startswith("ur3dq.cli.commands_"))
-                 for path in shared}
+    shared = [path for path in CLI.glob("*.py") if f"ur3dq.cli.{path.stem}" not in COMMAND_MODULES
+              and path.name not in ("__init__.py", "__main__.py")]
+    assert {path.name for path in shared} >= {"app.py", "options.py", "display.py"}
+    offenders = {path.name: sorted(imported_modules(path) & COMMAND_MODULES) for path in shared}
     assert {name: found for name, found in offenders.items() if found} == {}
 
 

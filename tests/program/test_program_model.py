@@ -10,7 +10,7 @@ from ur3dq.pose import Pose
 from ur3dq.program.plan import plan_program
 from ur3dq.program.resolve import offset_pose, resolve_targets, select_range
 from ur3dq.program.steps import DigitalOut, Message, Motion, RelativeWaypoint, Wait, WaitInput, Waypoint
-from ur3dq.program.urscript import STEP_REGISTER, program_script
+from ur3dq.program.script import STEP_REGISTER, program_script
 
 MODEL = robot_model("ur3")
 Q_PICK = np.array([0.3, -1.2, 1.4, -1.8, -1.5708, 0.2])
@@ -123,7 +123,7 @@ def test_select_range_for_resume():
 
 def test_step_watch_reports_progress_end_and_a_failed_wait_naming_the_step():
     from ur3dq.errors import ProgramError
-    from ur3dq.program.run import StepWatch, expected_seconds
+    from ur3dq.program.runner import StepWatch, expected_seconds
     from ur3dq.robot.primary import TextMessage
 
     steps = [pick_waypoint(), Wait("settle", 0.5), WaitInput("part", "tool", 1, False, 3.0)]

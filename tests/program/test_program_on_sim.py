@@ -8,6 +8,7 @@ import time
 import numpy as np
 import pytest
 
+import ur3dq.program
 import ur3dq.robot
 from ur3dq.errors import ProgramError
 from ur3dq.kinematics import robot_model
@@ -75,7 +76,7 @@ def test_pick_and_place_program_runs_as_one_watched_program(setup):
     host, robot, receive = setup
     robot.movej(HOME)
     assert send_request(host, "set-digital-input", pin=3, on=False)["ok"]
-    robot.run_program([DigitalOut("release", "tool", 0, False)])  # when it turns on is measured below
+    ur3dq.program.run(robot, [DigitalOut("release", "tool", 0, False)])  # when it turns on is measured below
     assert wait_for(lambda: not receive.getActualDigitalOutputBits() & TOOL_OUT_0_BIT)
     pick = waypoint("pick", Q_PICK, Motion("linear", 0.05, 0.5))
     steps = [RelativeWaypoint("approach", "pick", (0, 0, -0.05, 0, 0, 0), "tool", Motion("joint", 1.0, 2.0)),
@@ -92,7 +93,7 @@ def test_pick_and_place_program_runs_as_one_watched_program(setup):
             threading.Timer(0.5, lambda: send_request(host, "set-digital-input", pin=3, on=True)).start()
 
     with Sampler(receive) as sampler:
-        plan, _ = robot.run_program(steps, progress=progress)
+        plan, _ = ur3dq.program.run(robot, steps, progress=progress)
     assert list(started) == ["approach", "pick", "grip", "settle", "part", "retract"]
     approach_tcp = np.asarray(plan[0].pose.translation)
     pick_tcp = np.asarray(plan[1].pose.translation)
@@ -129,7 +130,7 @@ def test_wait_input_timeout_fails_the_run_naming_the_step(setup):
     begun = time.monotonic()
     with pytest.raises(ProgramError, match=r"step 'sensor' \(wait-input\): input standard DI5 did not turn on "
                                            r"within 0.5 s"):
-        robot.run_program(steps)
+        ur3dq.program.run(robot, steps)
     assert time.monotonic() - begun < 10
     assert np.max(np.abs(np.array(receive.getActualQ()) - (HOME + [0.1, 0, 0, 0, 0, 0]))) < 1e-3
 
@@ -140,7 +141,7 @@ def test_relative_waypoint_follows_its_retouched_base(setup):
     for q in (Q_PICK, Q_PICK + [0.15, 0.1, -0.1, 0.05, 0.1, 0.2]):   # taught, then re-taught elsewhere
         base = waypoint("base", q)
         above = RelativeWaypoint("above", "base", (0.01, -0.02, -0.04, 0, 0, 0.3), "tool")
-        plan, _ = robot.run_program([base, above])
+        plan, _ = ur3dq.program.run(robot, [base, above])
         expected = plan[0].pose.transform_point([0.01, -0.02, -0.04])
         assert np.linalg.norm(np.array(receive.getActualTCPPose())[:3] - expected) <= 1e-4
 
@@ -152,7 +153,7 @@ def test_a_joint_move_blends_into_a_linear_one(setup):
     steps = [RelativeWaypoint("above", "pick", (0, 0, -0.08, 0, 0, 0), "tool", Motion("joint", 1.0, 2.0, 0.02)),
              pick]
     with Sampler(receive) as sampler:
-        plan, _ = robot.run_program(steps)
+        plan, _ = ur3dq.program.run(robot, steps)
     assert plan[0].blend == 0.02
     above = np.asarray(plan[0].pose.translation)
     # blended: the arm never stops at "above" (it passes within the radius without resting)

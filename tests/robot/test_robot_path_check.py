@@ -4,6 +4,7 @@ clear of it, while a clear path still moves."""
 import numpy as np
 import pytest
 
+import ur3dq.program
 import ur3dq.robot
 from robot_test_support import HOME, ready
 from ur3dq.errors import SafetyCheckError
@@ -49,7 +50,7 @@ def test_a_cell_program_through_the_box_is_refused_and_a_script_without_a_path_t
     model = checked_robot.model
     pose = Pose.from_dual_quaternion("swept", model.fk(SWEPT), "ur3", joints=tuple(SWEPT))
     with pytest.raises(SafetyCheckError, match=r"""path check: step 'swept' at .*keep-out box "fixture\""""):
-        checked_robot.run_program([Waypoint("swept", pose, Motion("joint", 0.5))])
+        ur3dq.program.run(checked_robot, [Waypoint("swept", pose, Motion("joint", 0.5))])
     with pytest.raises(SafetyCheckError, match="requires a path check before every motion"):
         checked_robot.run_script("bare", "def bare():\n  movej([0,0,0,0,0,0])\nend\n", HOME, 1.0)
     assert np.allclose(checked_robot.joints(), HOME, atol=1e-6)

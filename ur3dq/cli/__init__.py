@@ -7,10 +7,7 @@ import os
 for _variable in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_variable, "1")
 
+from ur3dq.cli import check, demo, export_urscript, fk, ik, plot, poses, record_pose, robot, run_poses, sim, status  # noqa: E402,F401  (importing registers the commands: `ur3dq X` lives in cli/X.py)
 from ur3dq.cli.app import cli, main  # noqa: E402  (after the thread count)
-from ur3dq.cli import (  # noqa: E402,F401  (importing registers the commands)
-    commands_check, commands_controller, commands_files, commands_kinematics, commands_poses, commands_program,
-    commands_robot, commands_sim,
-)
 
 __all__ = ["cli", "main"]

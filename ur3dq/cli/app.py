@@ -260,23 +260,3 @@ def robot_session(settings: Settings, **options):
                                        ) from None
         with robot:
             yield robot
-
-
-# Command groups that several command modules add to (a command module never imports another).
-@cli.group()
-def poses():
-    """Look after the pose store: list, show, rm, rename, import, export; and edit it as a cell program: set,
-    retouch, move, copy, offset, add-step (docs/store-schema.md, version 2).
-
-    \b
-    Examples:
-      ur3dq poses list
-      ur3dq poses show pick --deg
-      ur3dq poses rename pose-3 place
-      ur3dq poses import recorded.txt --prefix thesis   # thesis lines (8 numbers)
-      ur3dq poses export cell.txt pick place           # back to thesis lines
-      ur3dq --store other.json poses export all.json --format json
-      ur3dq poses offset approach --from pick --z -0.05 --before pick
-      ur3dq poses set pick --move linear --speed 0.05
-      ur3dq poses add-step --after pick tool-out 0 on
-    """

@@ -71,7 +71,7 @@ def running_simulator_host() -> str | None:
 
 def _lock(directory: Path) -> filelock.FileLock:
     """The lock that serialises `sim start` / `sim stop` (so two starts cannot both spawn)."""
-    import filelock   # here, not with the module: every command imports this one, few start a simulator
+    import filelock  # here, not with the module: every command imports this one, few start a simulator
     return filelock.FileLock(str(directory / "sim.lock"), timeout=START_TIMEOUT_S + STOP_TIMEOUT_S)
 
 

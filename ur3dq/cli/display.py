@@ -7,7 +7,6 @@ import functools
 import math
 
 import numpy as np
-
 from rich import box
 from rich.console import Console
 from rich.markup import escape  # user text (pose names) is shown as typed, never read as markup
@@ -15,6 +14,8 @@ from rich.measure import Measurement
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 from rich.text import Text
+
+from ur3dq.dualquat import DualQuaternion
 
 JOINT_LABELS = ("base", "shoulder", "elbow", "wrist 1", "wrist 2", "wrist 3")
 
@@ -349,3 +350,9 @@ def progress_bar(console: Console):
             progress.update(task, description=escape(description), completed=done, total=total)
 
         yield report
+
+
+def pose_summary(pose: DualQuaternion) -> dict:
+    """The JSON description of a pose: UR pose vector, dual-quaternion coefficients, thesis line (SI units)."""
+    return {"ur_pose": pose.to_ur_pose().tolist(), "dual_quaternion": pose.to_array().tolist(),
+            "thesis_line": pose.to_thesis_line()}

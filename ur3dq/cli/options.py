@@ -9,6 +9,8 @@ import numpy as np
 from rich.console import Console
 
 from ur3dq.cli.app import Settings
+from ur3dq.dualquat import DualQuaternion
+from ur3dq.kinematics import robot_model
 from ur3dq.program.steps import MOVE_TYPES
 
 MIN_SPEED = 1e-3           # rad/s: slower than this a move of one degree takes over 17 s; a typo, not a wish
@@ -18,6 +20,7 @@ DEFAULT_SPEED = 1.05         # rad/s, URScript's movej default
 DEFAULT_ACCELERATION = 1.4   # rad/s²
 # Negative numbers such as -90 are values here, not options.
 NUMBERS_CONTEXT = {"ignore_unknown_options": True}
+DEFAULT_MODEL = "ur3"   # the model of fk/ik without --model
 
 
 def _set_flag(ctx, param, value):
@@ -157,3 +160,40 @@ def cell_option(command):
     return click.option("--cell", "cell_path", envvar="UR3DQ_CELL", type=click.Path(dir_okay=False, path_type=Path),
                         help="Cell file (JSON: floor, keep-out boxes, keep-in box, margin, tool; env UR3DQ_CELL). "
                              "See docs/cell-file.md.")(command)
+
+
+def model_for(settings: Settings, fallback: str | None = None):
+    """The kinematic model the options name (else `fallback`, else the UR3)."""
+    return robot_model(settings.model or fallback or DEFAULT_MODEL)
+
+
+def joints_from_input(values, deg: bool, name: str = "joints") -> np.ndarray:
+    """Six joint angles typed by the user (degrees when `deg`) as radians; ValueError naming `name`."""
+    if len(values) != 6:
+        raise ValueError(f"{name}: expected 6 joint angles, got {len(values)}")
+    q = np.radians(values) if deg else np.asarray(values, dtype=float)
+    if not np.all(np.isfinite(q)):
+        raise ValueError(f"{name}: every joint angle must be finite, got {list(values)}")
+    return q
+
+
+def joints_in_limits(model, q: np.ndarray, deg: bool, name: str = "joints") -> np.ndarray:
+    """`q` if inside `model`'s joint limits, else ValueError naming the joint (with a --deg hint when the values
+    were read as radians: `fk 0 -90 0 -90 0 0` is almost always meant in degrees)."""
+    outside = (q < model.joint_lower) | (q > model.joint_upper)
+    if outside.any():
+        i = int(np.argmax(outside))
+        hint = "" if deg else "; did you mean --deg?"
+        shown = f"{math.degrees(q[i]):g}°" if deg else f"{q[i]:g} rad"
+        raise ValueError(f"{name}: joint {i + 1} = {shown} is outside the {model.name}'s limits "
+                         f"[{model.joint_lower[i]:g}, {model.joint_upper[i]:g}] rad{hint}")
+    return q
+
+
+def pose_from_input(values, deg: bool) -> DualQuaternion:
+    """The target of `ik`: 6 numbers are a UR pose vector, 8 are dual-quaternion coefficients [r | d]."""
+    if len(values) == 8:
+        return DualQuaternion.from_array(values)
+    if len(values) == 6:
+        return DualQuaternion.from_ur_pose(ur_pose_from_input(values, deg))
+    raise ValueError(f"pose: give 6 numbers (x y z rx ry rz) or 8 (dual-quaternion coefficients), got {len(values)}")

@@ -22,8 +22,8 @@ from ur3dq.errors import StoreError
 from ur3dq.pose import utc_now_iso
 from ur3dq.program.plan import Defaults, plan_program
 from ur3dq.program.resolve import select_range
+from ur3dq.program.script import program_script
 from ur3dq.program.steps import Motion, Waypoint, describe
-from ur3dq.program.urscript import program_script
 from ur3dq.store_format import PROGRAM_SCHEMA_VERSION, step_to_dict
 
 # ---------------------------------------------------------------- shared options and edits
@@ -180,7 +180,7 @@ def run_program_command(settings: Settings, start, end, speed_scale, dry_run, ye
                                               "step)")
             require_clear_program_path(settings, model, plan, None, cell_path)
         return
-    from ur3dq.program.run import run_plan
+    from ur3dq.program.runner import run_plan
 
     with robot_session(settings, max_joint_travel=max_travel) as robot:
         with built_to_last():

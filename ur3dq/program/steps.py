@@ -3,7 +3,7 @@
 A program is an ordered list of steps, each with a unique name (the namespace recorded poses use too). Every step
 validates itself when built and names itself in its errors, so a Step is always sound. Units: metres, radians,
 seconds; speeds rad/s and rad/s² for joint moves, m/s and m/s² for linear/process moves; blend radius metres.
-User text (names, messages) is data only: `ur3dq.program.urscript` never lets it become URScript code.
+User text (names, messages) is data only: `ur3dq.program.script` never lets it become URScript code.
 """
 from __future__ import annotations
 

@@ -19,6 +19,7 @@ import time
 import rtde_io
 
 from ur3dq.errors import RobotConnectionError
+from ur3dq.urscript import first_statement_added, rtde_set_watchdog_statement
 
 #: The RTDE input integer register the heartbeat counts on (ur_rtde's lower range is 18–22).
 HEARTBEAT_REGISTER = 20
@@ -36,17 +37,12 @@ PERIOD = 0.01
 
 def watchdog_statement() -> str:
     """The URScript statement that arms the heartbeat watchdog: a motion program's first line."""
-    return f'rtde_set_watchdog("input_int_register_{HEARTBEAT_REGISTER}", {WATCHDOG_FREQUENCY:g}, "stop")'
+    return rtde_set_watchdog_statement(f"input_int_register_{HEARTBEAT_REGISTER}", WATCHDOG_FREQUENCY, "stop")
 
 
 def armed(program: str, name: str) -> str:
     """`program` (URScript text holding `def name():`) with the watchdog armed as its first statement."""
-    head = f"def {name}():\n"
-    at = program.find(head)
-    if at < 0 or program.count(head) != 1:
-        raise ValueError(f"program {name!r}: expected exactly one line `def {name}():`")
-    at += len(head)
-    return program[:at] + f"  {watchdog_statement()}\n" + program[at:]
+    return first_statement_added(program, name, watchdog_statement())
 
 
 class Heartbeat:

@@ -15,6 +15,7 @@ from typing import Protocol
 
 import numpy as np
 
+from ur3dq import urscript
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import (
     ConnectionLostError,
@@ -27,7 +28,7 @@ from ur3dq.errors import (
     SafetyCheckError,
 )
 from ur3dq.kinematics import robot_model_from_dh
-from ur3dq.robot import motion, primary, safety, script, state
+from ur3dq.robot import motion, primary, safety, state
 from ur3dq.robot.dashboard import Dashboard, model_from_reply
 from ur3dq.robot.heartbeat import WATCHDOG_FREQUENCY, Heartbeat, armed
 from ur3dq.robot.primary_client import PrimaryClient, send_script
@@ -281,8 +282,8 @@ class Robot:
                 PathSegment(f"targets[{index}]", "joint", target_joints=q, speed=v, acceleration=a,
                             blend=0.0 if index == last else float(blend)) for index, q in enumerate(targets)]))
         duration = motion.path_duration(status.joints, targets, a, v)
-        name = script.new_program_name("move")
-        program = script.movej_program(name, targets, a, v, blend=float(blend))
+        name = urscript.new_program_name("move")
+        program = urscript.movej_program(name, targets, a, v, blend=float(blend))
         timeout = motion.motion_timeout(duration, status.target_speed_fraction) + self.link_delay
         return self._run_motion(name, program, targets[-1], status.joints, status.program_running, timeout)
 
@@ -290,7 +291,7 @@ class Robot:
         """From now on every motion is refused (SafetyCheckError, nothing sent) unless the whole path it sweeps
         passes ur3dq.pathcheck.check_path in `cell` (a Cell, or None: self-collision, singularities, limits and
         speeds only) with `margins` (a Margins, or the defaults). movej/movej_path are sampled here; run_script
-        needs the PathPlan of its program (`path=`), which run_program gives; a script without one is refused."""
+        needs the PathPlan of its program (`path=`), which ur3dq.program.run gives; a script without one is refused."""
         from ur3dq.pathcheck import Margins
 
         self._path_check = (cell, margins or Margins())
@@ -364,21 +365,13 @@ class Robot:
         message is also given to `on_message` (which may raise to fail the run), and when `reached_end` is given
         the run is only done once it returns True (the program's own report that it ran to its end: the arm
         resting at a target it started from proves nothing). `path` (a PathPlan of the program's moves) is
-        checked when require_path_check is on. Returns the wall time (s). Used by ur3dq.program.run."""
+        checked when require_path_check is on. Returns the wall time (s). Used by ur3dq.program.runner."""
         status = self._ready_status()
         target = self._checked_target(target, "target")
         self._require_clear_path(path)
         timeout = motion.motion_timeout(duration, status.target_speed_fraction) + self.link_delay
-        return self._run_motion(script.check_identifier(name), program, target, status.joints,
+        return self._run_motion(urscript.check_identifier(name), program, target, status.joints,
                                 status.program_running, timeout, on_message, reached_end)
-
-    def run_program(self, steps, **options):
-        """Plan the cell program `steps` (ur3dq.program.steps; Waypoint, RelativeWaypoint, actions) from the arm's
-        joints and run it as one URScript program, watched step by step; returns (plan, wall seconds). Options:
-        see ur3dq.program.run.run_program (defaults, speed_scale, start, end, progress)."""
-        from ur3dq.program.run import run_program  # the program package builds on this driver
-
-        return run_program(self, steps, **options)
 
     def _run_motion(self, name, program, target, q_start, running_at_send, timeout, on_message=None,
                     reached_end=None):
@@ -436,7 +429,7 @@ class Robot:
         a = min(float(a), float(np.min(self.model.max_joint_acceleration)))
         if not (math.isfinite(a) and a > 0):
             raise ValueError(f"a (deceleration) must be finite and > 0, got {a!r}")
-        stop_program = script.program(script.new_program_name("stop"), [script.stopj_statement(a)])
+        stop_program = urscript.program(urscript.new_program_name("stop"), [urscript.stopj_statement(a)])
         try:
             self._primary.send_script(stop_program)
         except ConnectionLostError:
@@ -480,8 +473,8 @@ class Robot:
     def set_tcp(self, tcp):
         """Set the controller's TCP offset (DualQuaternion or UR pose vector, flange frame); the model follows."""
         pose = tcp.to_ur_pose() if isinstance(tcp, DualQuaternion) else safety.check_pose_vector(tcp, "tcp")
-        name = script.new_program_name("tcp")
-        self._backend.send_program(script.program(name, [script.set_tcp_statement(pose)]))
+        name = urscript.new_program_name("tcp")
+        self._backend.send_program(urscript.program(name, [urscript.set_tcp_statement(pose)]))
         applied = self._primary.wait_for(
             lambda c: c.cartesian is not None and c.cartesian.tcp_offset is not None
             and np.allclose(c.cartesian.tcp_offset, pose, atol=1e-9), timeout=2.0)
@@ -491,10 +484,10 @@ class Robot:
 
     def teach_mode(self, on, hold_seconds=3600.0):
         """Freedrive on (a program holding freedrive for `hold_seconds`) or off; waits for the controller."""
-        name = script.new_program_name("teach")
-        statements = script.freedrive_statements(hold_seconds) if on else script.end_freedrive_statements()
+        name = urscript.new_program_name("teach")
+        statements = urscript.freedrive_statements(hold_seconds) if on else urscript.end_freedrive_statements()
         self._ready_status()
-        self._backend.send_program(script.program(name, statements))
+        self._backend.send_program(urscript.program(name, statements))
         wanted = 1 if on else 0  # primary controlMode: 1 TEACH, 0 POSITION
         if not self._primary.wait_for(lambda c: c.robot_mode.control_mode == wanted, timeout=2.0):
             raise ProgramError(f"the controller did not switch freedrive {'on' if on else 'off'} within 2 s")

@@ -12,7 +12,11 @@ from ur3dq.cli.app import Settings, cli, emit_json, robot_session
 from ur3dq.cli.background_simulator import running_simulator_host
 from ur3dq.cli.options import cell_option, display_options
 from ur3dq.cli.path_report import (
-    DEFAULT_JOINT_ACCELERATION, DEFAULT_JOINT_SPEED, DEFAULT_LINEAR_ACCELERATION, DEFAULT_LINEAR_SPEED, margins_table,
+    DEFAULT_JOINT_ACCELERATION,
+    DEFAULT_JOINT_SPEED,
+    DEFAULT_LINEAR_ACCELERATION,
+    DEFAULT_LINEAR_SPEED,
+    margins_table,
     path_plan_from_replay,
 )
 from ur3dq.errors import SafetyCheckError, StoreError

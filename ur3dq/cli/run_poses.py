@@ -1,29 +1,36 @@
-"""The commands that talk to the robot: `status`, `record-pose` (and --teach), `run-poses`."""
+"""`ur3dq run-poses`: replay the stored poses, or run the stored cell program, on the arm."""
 from __future__ import annotations
-
-import sys
 
 import click
 from rich.console import Console
 
-from ur3dq.cli.app import Settings, cli, confirm, emit_json, one_line, robot_session
+from ur3dq.cli.app import Settings, cli, confirm, emit_json, robot_session
 from ur3dq.cli.background_simulator import running_simulator_host
-from ur3dq.cli.display import (
-    angles_text, count_text, key_value_table, pose_rows, pose_vector_text, print_table, progress_bar, reached_table,
-    replay_plan,
-)
+from ur3dq.cli.display import count_text, print_table, progress_bar, reached_table, replay_plan
 from ur3dq.cli.options import (
-    DEFAULT_ACCELERATION, DEFAULT_SPEED, angular_option, cell_option, check_blend, check_max_travel, display_options,
-    motion_options, placement_options, speed_and_acceleration, waypoint_motion_options,
+    DEFAULT_ACCELERATION,
+    DEFAULT_SPEED,
+    angular_option,
+    cell_option,
+    check_blend,
+    check_max_travel,
+    display_options,
+    motion_options,
+    speed_and_acceleration,
 )
 from ur3dq.cli.path_report import require_clear_path
-from ur3dq.cli.program_workflow import check_waypoint_options, record_waypoint, run_program_command
+from ur3dq.cli.program_workflow import run_program_command
 from ur3dq.collector import built_to_last
-from ur3dq.errors import RobotError, SafetyCheckError, StoreError
+from ur3dq.errors import SafetyCheckError, StoreError
 from ur3dq.kinematics import robot_model
-from ur3dq.pose import next_free_name
 from ur3dq.replay import (
-    TCP_CURRENT, TCP_RECORDED, execute_plan, loop_closing_travel, plan_replay, read_pose, retarget_to_tcp, tcp_changed,
+    TCP_CURRENT,
+    TCP_RECORDED,
+    execute_plan,
+    loop_closing_travel,
+    plan_replay,
+    retarget_to_tcp,
+    tcp_changed,
 )
 from ur3dq.robot.safety import DEFAULT_MAX_JOINT_TRAVEL
 
@@ -33,133 +40,6 @@ def plan_to_json(steps) -> list[dict]:
     return [{"pose": step.pose.name, "joints": step.joints.tolist(), "source": step.source,
              "solutions": step.solutions, "travel": step.travel, "duration": step.duration,
              "fk_error_m": step.fk_error_m, "fk_error_rad": step.fk_error_rad} for step in steps]
-
-
-# ---------------------------------------------------------------- commands
-
-
-@cli.command()
-@display_options
-@click.pass_obj
-def status(settings: Settings):
-    """The robot: model, software, modes, joints, TCP pose and TCP offset.
-
-    \b
-    Examples:
-      ur3dq --host 192.168.1.10 status
-      ur3dq status --deg --json
-    """
-    with robot_session(settings) as robot:
-        state = robot.state()
-        version = ".".join(str(part) for part in robot.controller_version)
-        if settings.json:
-            emit_json({"host": robot.host, "backend": robot.backend_name, "model": robot.model_name,
-                       "controller_version": version, "robot_mode": state.robot_mode_name,
-                       "safety_mode": state.safety_mode_name, "program_running": state.program_running,
-                       "joints": state.joints.tolist(), "tcp_pose": state.tcp_pose.tolist(),
-                       "tcp_offset": robot.model.tcp.to_ur_pose().tolist(),
-                       "speed_slider": state.target_speed_fraction})
-            return
-        settings.out.print(key_value_table(f"{robot.model_name} at {robot.host} ({robot.backend_name})", [
-            ("controller software", version),
-            ("robot mode", state.robot_mode_name),
-            ("safety mode", state.safety_mode_name),
-            ("program running", "yes" if state.program_running else "no"),
-            ("joints", angles_text(state.joints, settings.deg)),
-            ("TCP pose", pose_vector_text(state.tcp_pose, settings.deg)),
-            ("TCP offset", pose_vector_text(robot.model.tcp.to_ur_pose(), settings.deg)),
-            ("speed slider", f"{state.target_speed_fraction * 100:.0f} %"),
-        ]))
-
-
-@cli.command("record-pose")
-@click.option("--name", help="Name of the pose (default: pose-N, the next free number); with --teach, the prefix.")
-@click.option("--note", default="", help="A note kept with the pose.")
-@click.option("--yes", "-y", is_flag=True, help="Record without asking.")
-@click.option("--teach", is_flag=True,
-              help="Freedrive on; each Enter records a pose (type a name first to name it), q ends.")
-@waypoint_motion_options
-@placement_options
-@display_options
-@click.pass_obj
-def record_pose(settings: Settings, name, note, yes, teach, move, speed, acceleration, blend, after, before):
-    """Record the arm's current pose: shows joints, TCP pose and dual quaternion, asks "Record this pose?".
-
-    Each pose keeps its name, time, model, joints, dual quaternion, UR pose vector and TCP offset. Two
-    record-pose at once both keep their poses; a taken --name is refused (the store stays unchanged). To
-    re-teach a pose: `ur3dq poses rm NAME`, then record it again (it then moves to the end of the replay order).
-
-    \b
-    Examples:
-      ur3dq record-pose --name pick
-      ur3dq record-pose --yes --note "above the tray"   # for scripts
-      ur3dq record-pose --teach --name station   # station-1, -2, ... by hand
-    """
-    store = settings.store
-    store.require_directory()
-    steps = store.load_program()  # also refuses a corrupt store before touching the robot
-    existing = [step.name for step in steps]
-    check_waypoint_options(name, move, speed, acceleration, blend, after, before, steps, settings.store_path)
-    if name and not teach and name in existing:
-        raise StoreError(f"a pose named {name!r} already exists in {settings.store_path}; choose another --name")
-    with robot_session(settings) as robot:
-        if teach:
-            _teach(settings, robot, name or "pose", note)
-            return
-        pose = read_pose(robot, name or next_free_name("pose", existing), note)
-        if not settings.json:
-            settings.out.print(key_value_table(f"{robot.model_name} at {robot.host}", pose_rows(robot.model, pose,
-                                                                                                 settings.deg)))
-        confirm("Record this pose?", yes, default=True)  # not a motion: Enter records
-        stored = record_waypoint(settings, pose, name is None, move, speed, acceleration, blend, after, before)
-    if settings.json:
-        emit_json({"recorded": stored.name, "store": str(settings.store_path)})
-    else:
-        click.echo(f"Recorded {stored.name!r} in {settings.store_path}.")
-
-
-def _teach(settings: Settings, robot, prefix: str, note: str) -> None:
-    """Freedrive on; every line on stdin records a pose (named by the line, else prefix-N) until `q` or end of
-    input; `f` switches freedrive on again after another program ended it. Freedrive goes off again at the end
-    (unless another program already ended it: switching it off would replace that program)."""
-    err = Console(stderr=True, highlight=False)
-    robot.teach_mode(True)
-    recorded = []
-    try:
-        err.print("Freedrive is on: move the arm by hand. Enter records the pose (type a name first to name it); "
-                  "q then Enter ends.")
-        for line in sys.stdin:
-            text = line.strip()
-            if text.lower() == "q":
-                break
-            if text.lower() == "f":
-                robot.teach_mode(True)
-                err.print("Freedrive is on again.")
-                continue
-            if not robot.freedrive_active():
-                err.print("not recorded: freedrive was switched off by another program sent to the controller; "
-                          "f then Enter switches it on again, q ends")
-                continue
-            taken = [pose.name for pose in settings.store.load()]
-            try:
-                pose = read_pose(robot, text or next_free_name(prefix, taken), note)
-                stored = settings.store.add(pose, number_if_taken=not text)
-            except (StoreError, ValueError) as error:  # a taken or bad name: say so and keep teaching
-                err.print(f"not recorded: {error}")
-                continue
-            except RobotError as error:  # e.g. a dropped stream: ur3dq's own message, and the session goes on
-                err.print(f"not recorded: {one_line(error)}; Enter tries again, q ends")
-                continue
-            recorded.append(stored.name)
-            err.print(f"recorded {stored.name!r}:\n  {pose_vector_text(stored.ur_pose, settings.deg)}")
-    finally:
-        if robot.freedrive_active():
-            robot.teach_mode(False)
-    if settings.json:
-        emit_json({"recorded": recorded, "store": str(settings.store_path)})
-    else:
-        click.echo(f"Freedrive off. Recorded {count_text(len(recorded), 'pose')} in {settings.store_path}"
-                   + (f": {', '.join(recorded)}." if recorded else "."))
 
 
 @cli.command("run-poses")

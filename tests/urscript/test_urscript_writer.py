@@ -1,4 +1,4 @@
-"""URScript generation: lossless numbers, safe text, identifiers, program layout."""
+"""The URScript writer (ur3dq.urscript): lossless numbers, safe text, identifiers, statements, program layout."""
 import math
 import re
 
@@ -6,7 +6,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from ur3dq.robot import script
+from ur3dq import urscript as script
 
 finite_floats = st.floats(allow_nan=False, allow_infinity=False)
 
@@ -106,3 +106,56 @@ def test_other_statements():
     assert script.set_tcp_statement([0, 0, 0.2, 0, 0, 0]) == "set_tcp(p[0.0, 0.0, 0.2, 0.0, 0.0, 0.0])"
     assert script.textmsg_statement('hi "x"') == 'textmsg("hi ?x?")'
     assert script.freedrive_statements(10) == ["freedrive_mode()", "sleep(10.0)", "end_freedrive_mode()"]
+
+
+def test_comment_text_keeps_comments_single_line_ascii():
+    assert script.comment_text("café\n#2\tok") == "caf??#2?ok"
+    assert len(script.comment_text("x" * 500)) == 100 and script.comment_text("x" * 500).endswith("...")
+
+
+def test_move_statements():
+    q = [0, -1.5, 1, 0, 0, 0.25]
+    assert script.move_statement("movel", q, 1.2, 0.25, 0.01, t=0) == (
+        "movel([0.0, -1.5, 1.0, 0.0, 0.0, 0.25], a=1.2, v=0.25, t=0, r=0.01)")
+    assert script.move_statement("movep", q, 1.2, 0.05) == (
+        "movep([0.0, -1.5, 1.0, 0.0, 0.0, 0.25], a=1.2, v=0.05, r=0.0)")
+    with pytest.raises(ValueError, match="move function"):
+        script.move_statement("servoj", q, 1, 1)
+    with pytest.raises(ValueError, match="v must be finite"):
+        script.move_statement("movej", q, 1, math.inf)
+
+
+def test_io_register_and_message_statements():
+    assert script.set_digital_out_statement("tool", 1, True) == "set_tool_digital_out(1, True)"
+    assert script.set_digital_out_statement("configurable", 3, False) == "set_configurable_digital_out(3, False)"
+    assert script.set_analog_out_statement(1, 0.25) == "set_standard_analog_out(1, 0.25)"
+    assert script.sleep_statement(2) == "sleep(2.0)"
+    assert script.write_output_integer_register_statement(22, -4) == "write_output_integer_register(22, -4)"
+    assert script.key_message_statement("ur3dq_step:", 3) == 'textmsg("ur3dq_step:", 3)'
+    assert script.rtde_set_watchdog_statement("input_int_register_20", 10, "stop") == (
+        'rtde_set_watchdog("input_int_register_20", 10.0, "stop")')
+    with pytest.raises(ValueError, match="I/O family"):
+        script.set_digital_out_statement("analog", 0, True)
+    with pytest.raises(ValueError, match="whole number"):
+        script.set_digital_out_statement("tool", "1); powerdown(", True)
+
+
+def test_wait_for_a_digital_input_runs_the_timeout_statements_inside_its_loop():
+    lines = script.wait_for_digital_input_statements("standard", 3, True, 2.5, ["halt"])
+    assert lines[:3] == ["ur3dq_waited = 0.0", "while get_standard_digital_in(3) != True:",
+                         "  if ur3dq_waited >= 2.5:"]
+    assert lines[3] == "    halt" and lines[-1] == "end"
+
+
+def test_program_header_loop_and_first_statement():
+    body = script.repeat(3, ["movej([0.0, 0.0, 0.0, 0.0, 0.0, 0.0], a=1.4, v=1.05, r=0.0)"])
+    text = script.program("p", body, header=["made\nby a test"])
+    assert text == ("# made?by a test\ndef p():\n  ur3dq_loop = 0\n  while ur3dq_loop < 3:\n"
+                    "    movej([0.0, 0.0, 0.0, 0.0, 0.0, 0.0], a=1.4, v=1.05, r=0.0)\n"
+                    "    ur3dq_loop = ur3dq_loop + 1\n  end\nend\n")
+    armed = script.first_statement_added(text, "p", "sync()")
+    assert armed.splitlines()[1:3] == ["def p():", "  sync()"]
+    with pytest.raises(ValueError, match="exactly one line"):
+        script.first_statement_added(text, "q", "sync()")
+    with pytest.raises(ValueError, match="loops"):
+        script.repeat(0, ["sync()"])

@@ -1,45 +1,27 @@
-"""Commands that turn the store into files: `export-urscript` (a pendant program) and `plot` (a PNG)."""
+"""`ur3dq export-urscript`: a URScript program (.script) of the stored poses or cell program."""
 from __future__ import annotations
 
 from pathlib import Path
 
 import click
-from rich.console import Console
 
-from ur3dq.cli.app import Settings, cli, confirm
+from ur3dq.cli.app import Settings, cli
 from ur3dq.cli.display import count_text
+from ur3dq.cli.offline_plans import confirm_overwrite, offline_plan
 from ur3dq.cli.options import (
-    DEFAULT_ACCELERATION, DEFAULT_SPEED, angular_option, cell_option, check_blend, check_max_travel, deg_option,
-    global_options, motion_options, speed_and_acceleration,
+    DEFAULT_ACCELERATION,
+    DEFAULT_SPEED,
+    angular_option,
+    check_blend,
+    check_max_travel,
+    deg_option,
+    motion_options,
 )
-from ur3dq.cli.path_report import check_program, check_replay
 from ur3dq.cli.program_workflow import export_program_text
-from ur3dq.errors import StoreError
 from ur3dq.pose import utc_now_iso
-from ur3dq.program.plan import plan_program
-from ur3dq.replay import plan_replay
+from ur3dq.replay import describe_speeds, replay_script
 from ur3dq.robot.safety import DEFAULT_MAX_JOINT_TRAVEL
 from ur3dq.store import write_atomically
-from ur3dq.store_format import PROGRAM_SCHEMA_VERSION
-from ur3dq.urscript_export import describe_speeds, replay_program
-
-
-def offline_plan(settings: Settings, names, speed, acceleration, replay_joints, max_travel):
-    """(model, plan, a, v) of the stored poses on the nominal model (--model, else the first pose's), no robot."""
-    from ur3dq.kinematics import robot_model
-
-    poses = settings.store.select(names)
-    if not poses:
-        raise StoreError(f"{settings.store_path} has no poses: record some with `ur3dq record-pose`")
-    model = robot_model(settings.model or poses[0].robot_model)
-    a, v = speed_and_acceleration(model, speed, acceleration, Console(stderr=True, highlight=False))
-    return model, plan_replay(model, poses, None, a, v, replay_joints, max_travel), a, v
-
-
-def _writable_target(path: Path, yes: bool) -> None:
-    """Ask before overwriting an existing file (unless --yes)."""
-    if path.exists():
-        confirm(f"Overwrite {path}?", yes, default=False)
 
 
 @cli.command("export-urscript")
@@ -91,8 +73,8 @@ def export_urscript(settings: Settings, names, output: Path, speed, acceleration
         describe_speeds(a, v, blend),
         "the first move starts wherever the arm is: check it at low speed first",
     ]
-    program = replay_program(steps, a, v, blend, loops, tcp_offset=offsets.pop() if len(offsets) == 1 else None,
-                             header=header)
+    program = replay_script(steps, a, v, blend, loops, tcp_offset=offsets.pop() if len(offsets) == 1 else None,
+                            header=header)
     _write_program(output, program, yes, count_text(len(steps), 'pose') + (f" × {loops}" if loops > 1 else ""))
 
 
@@ -101,37 +83,6 @@ def _write_program(output: Path, program: str, yes: bool, what: str) -> None:
     if str(output) == "-":
         click.echo(program, nl=False)
         return
-    _writable_target(output, yes)
+    confirm_overwrite(output, yes)
     write_atomically(output, program)
     click.echo(f"Wrote {output}: {what}.")
-
-
-@cli.command()
-@click.argument("names", nargs=-1)
-@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), default=Path("poses.png"),
-              show_default=True, help="The PNG to write.")
-@click.option("--yes", "-y", is_flag=True, help="Overwrite the output file without asking.")
-@global_options
-@cell_option
-@click.pass_obj
-def plot(settings: Settings, names, output: Path, yes, cell_path):
-    """A PNG of the recorded TCP path and the arm at each pose (all, or NAMES in order), on the nominal model.
-
-    \b
-    Examples:
-      ur3dq plot -o path.png
-      ur3dq plot pick place -o two.png --yes
-    """
-    from ur3dq.plot import plot_poses
-
-    model, steps, _, _ = offline_plan(settings, names, DEFAULT_SPEED, DEFAULT_ACCELERATION, False,
-                                      float("inf"))
-    _writable_target(output, yes)
-    check = None
-    if settings.store.version() == PROGRAM_SCHEMA_VERSION and not names:  # the program's own moves are checked
-        check, cell = check_program(model, plan_program(model, settings.store.load_program()), cell_path)
-    if check is None:
-        check, cell = check_replay(model, steps, cell_path)
-    plot_poses(output, model, steps, title=f"{count_text(len(steps), 'pose')} from {settings.store_path.name} on a "
-               f"{model.name}", path_check=check, cell=cell)
-    click.echo(f"Wrote {output}. Path check: {check.summary()}")

@@ -1,4 +1,4 @@
-"""`ur3dq fk` and `ur3dq ik`: the kinematics core from the command line, no robot needed."""
+"""`ur3dq ik`: inverse kinematics from the command line, no robot needed."""
 from __future__ import annotations
 
 import math
@@ -8,91 +8,25 @@ import numpy as np
 
 from ur3dq.cli.app import Settings, cli, emit_json
 from ur3dq.cli.display import (
-    NARROW_WIDTH, Column, angles_text, coefficients_text, distance_text, joint_solutions_table, key_value_table, pose_vector_text,
+    NARROW_WIDTH,
+    Column,
+    angles_text,
+    distance_text,
+    joint_solutions_table,
+    pose_summary,
+    pose_vector_text,
 )
-from ur3dq.cli.options import NUMBERS_CONTEXT, display_options, ur_pose_from_input
-from ur3dq.dualquat import DualQuaternion
-from ur3dq.kinematics import robot_model
+from ur3dq.cli.options import (
+    NUMBERS_CONTEXT,
+    display_options,
+    joints_from_input,
+    joints_in_limits,
+    model_for,
+    pose_from_input,
+    ur_pose_from_input,
+)
 from ur3dq.replay import nearest_variant
 from ur3dq.robot import motion
-
-DEFAULT_MODEL = "ur3"
-
-
-def model_for(settings: Settings, fallback: str | None = None):
-    """The kinematic model the options name (else `fallback`, else the UR3)."""
-    return robot_model(settings.model or fallback or DEFAULT_MODEL)
-
-
-def joints_from_input(values, deg: bool, name: str = "joints") -> np.ndarray:
-    """Six joint angles typed by the user (degrees when `deg`) as radians; ValueError naming `name`."""
-    if len(values) != 6:
-        raise ValueError(f"{name}: expected 6 joint angles, got {len(values)}")
-    q = np.radians(values) if deg else np.asarray(values, dtype=float)
-    if not np.all(np.isfinite(q)):
-        raise ValueError(f"{name}: every joint angle must be finite, got {list(values)}")
-    return q
-
-
-def joints_in_limits(model, q: np.ndarray, deg: bool, name: str = "joints") -> np.ndarray:
-    """`q` if inside `model`'s joint limits, else ValueError naming the joint (with a --deg hint when the values
-    were read as radians: `fk 0 -90 0 -90 0 0` is almost always meant in degrees)."""
-    outside = (q < model.joint_lower) | (q > model.joint_upper)
-    if outside.any():
-        i = int(np.argmax(outside))
-        hint = "" if deg else "; did you mean --deg?"
-        shown = f"{math.degrees(q[i]):g}°" if deg else f"{q[i]:g} rad"
-        raise ValueError(f"{name}: joint {i + 1} = {shown} is outside the {model.name}'s limits "
-                         f"[{model.joint_lower[i]:g}, {model.joint_upper[i]:g}] rad{hint}")
-    return q
-
-
-def pose_from_input(values, deg: bool) -> DualQuaternion:
-    """The target of `ik`: 6 numbers are a UR pose vector, 8 are dual-quaternion coefficients [r | d]."""
-    if len(values) == 8:
-        return DualQuaternion.from_array(values)
-    if len(values) == 6:
-        return DualQuaternion.from_ur_pose(ur_pose_from_input(values, deg))
-    raise ValueError(f"pose: give 6 numbers (x y z rx ry rz) or 8 (dual-quaternion coefficients), got {len(values)}")
-
-
-def pose_summary(pose: DualQuaternion) -> dict:
-    """The JSON description of a pose: UR pose vector, dual-quaternion coefficients, thesis line (SI units)."""
-    return {"ur_pose": pose.to_ur_pose().tolist(), "dual_quaternion": pose.to_array().tolist(),
-            "thesis_line": pose.to_thesis_line()}
-
-
-@cli.command(context_settings=NUMBERS_CONTEXT)
-@click.argument("joints", nargs=-1, type=float, metavar="J1 J2 J3 J4 J5 J6")
-@click.option("--tcp", nargs=6, type=float, metavar="X Y Z RX RY RZ",
-              help="TCP offset in the flange frame (metres, rotation vector; degrees with --deg).")
-@display_options
-@click.pass_obj
-def fk(settings: Settings, joints, tcp):
-    """Forward kinematics: the TCP pose at joint angles J1..J6 (base, shoulder, elbow, wrist 1-3).
-
-    \b
-    Examples:
-      ur3dq fk 0 -1.5708 0 -1.5708 0 0
-      ur3dq fk 0 -90 0 -90 0 0 --deg
-      ur3dq --model ur5e fk 0 -90 90 -90 -90 0 --deg --tcp 0 0 0.15 0 0 0 --json
-    """
-    model = model_for(settings)
-    q = joints_in_limits(model, joints_from_input(joints, settings.deg), settings.deg)
-    if tcp:
-        model = model.with_tcp(ur_pose_from_input(tcp, settings.deg, "--tcp"))
-    pose = model.fk(q)
-    if settings.json:
-        emit_json({"model": model.name, "joints": q.tolist(), "tcp_offset": model.tcp.to_ur_pose().tolist(),
-                   **pose_summary(pose)})
-        return
-    settings.out.print(key_value_table(f"Forward kinematics of the {model.name}", [
-        ("joints", angles_text(q, settings.deg)),
-        ("TCP offset", pose_vector_text(model.tcp.to_ur_pose(), settings.deg)),
-        ("TCP pose", pose_vector_text(pose.to_ur_pose(), settings.deg)),
-        ("dual quaternion", coefficients_text(pose.to_array())),
-        ("thesis line", pose.to_thesis_line()),
-    ]))
 
 
 @cli.command(context_settings=NUMBERS_CONTEXT)

@@ -1,6 +1,6 @@
 """Running a planned cell program on a Robot as ONE URScript program, watched step by step.
 
-The program (ur3dq.program.urscript) reports each step it starts with a `ur3dq_step:` k key text on the primary
+The program (ur3dq.program.script) reports each step it starts with a `ur3dq_step:` k key text on the primary
 interface; the driver's motion watch passes every robot message to `StepWatch.note`, which calls `progress(k,
 step)` as steps begin and turns a `ur3dq_fail:` k report (a wait-input timed out) into a ProgramError naming the
 step. Everything else is the driver's: checks before sending, the watch to the end with the arm at the final
@@ -17,9 +17,10 @@ from ur3dq.pathcheck import PathPlan, PathSegment
 from ur3dq.program.path import path_plan_of
 from ur3dq.program.plan import Defaults, plan_program
 from ur3dq.program.resolve import select_range
+from ur3dq.program.script import FAIL_KEY, STEP_KEY, program_script
 from ur3dq.program.steps import Wait, WaitInput
-from ur3dq.program.urscript import FAIL_KEY, STEP_KEY, program_script
-from ur3dq.robot import safety, script
+from ur3dq.robot import safety
+from ur3dq.urscript import new_program_name
 
 MAX_STATEMENT_SECONDS = 0.05   # each action's own time on the controller (a few control cycles), for the timeout
 
@@ -97,7 +98,7 @@ def run_plan(robot, plan, first_position: int = 1, progress=None) -> float:
     check_plan_for_robot(robot, plan, start)
     final = next((p.joints for p in reversed(plan) if p.joints is not None), start)
     watch = StepWatch(plan, first_position, progress)
-    name = script.new_program_name("program")
+    name = new_program_name("program")
     text = program_script(plan, program_name=name, first_position=first_position,
                           restore_tcp=tuple(robot.model.tcp.to_ur_pose()))
     return robot.run_script(name, text, final, expected_seconds(plan), on_message=watch.note,
@@ -109,10 +110,13 @@ def _path_of(plan, start):
     return path_plan_of(plan, start) or PathPlan(start, [PathSegment("(no motion)", target_joints=start)])
 
 
-def run_program(robot, steps, defaults=None, speed_scale: float = 1.0, start: str | None = None,
-                end: str | None = None, progress=None):
+def run(robot, steps, defaults=None, speed_scale: float = 1.0, start: str | None = None, end: str | None = None,
+        progress=None):
     """Plan `steps` (a whole program; run the part `start`..`end`, names) from the arm's joints on the robot's
-    model and run it; returns (plan, wall seconds)."""
+    model and run it as one URScript program, watched step by step; returns (plan, wall seconds).
+
+    Also importable as `ur3dq.program.run`. `progress(position, step)` is called as each step starts.
+    """
     part = select_range(steps, start, end)
     first = [s.name for s in steps].index(part[0].name) + 1
     plan = plan_program(robot.model, part, robot.joints(), defaults or Defaults(), speed_scale,

@@ -1,4 +1,6 @@
-"""`ur3dq sim start/stop/status` (the embedded simulator in the background) and `ur3dq demo` (the whole job)."""
+"""`ur3dq demo`: the whole job against a simulator it starts itself: record poses, replay them, then run a
+pick-and-place cell program built on them (approach above the part, a linear descent, close the gripper, wait, a
+linear retract, place, open)."""
 from __future__ import annotations
 
 import contextlib
@@ -12,11 +14,14 @@ from rich.console import Console
 from rich.markup import escape
 
 from ur3dq.cli.app import EXIT_NOT_REACHED, Settings, cli, emit_json
-from ur3dq.cli.background_simulator import SimulatorError, read_state, start_simulator, state_directory, stop_simulator
-from ur3dq.cli.demo_program import run_pick_and_place
-from ur3dq.cli.display import angles_text, plan_table, pose_vector_text, progress_bar, reached_table
+from ur3dq.cli.background_simulator import SimulatorError
+from ur3dq.cli.display import angles_text, plan_table, pose_vector_text, print_table, progress_bar, reached_table
 from ur3dq.cli.library_output import own_output
 from ur3dq.cli.options import angular_option, display_options, speed_and_acceleration
+from ur3dq.cli.program_workflow import PLAN_COLUMNS, plan_rows
+from ur3dq.errors import RobotError
+from ur3dq.program.runner import run
+from ur3dq.program.steps import DigitalOut, Motion, RelativeWaypoint, Wait, Waypoint
 from ur3dq.replay import execute_plan, plan_replay, read_pose
 from ur3dq.store import PoseStore
 
@@ -31,78 +36,6 @@ DEMO_PLACES = (
     (-0.7, -1.6, 1.6, -1.6, -1.57, -0.3),
     (0.3, -0.8, 0.7, -1.5, -1.2, 1.0),
 )
-
-
-@cli.group()
-def sim():
-    """The embedded simulator (sim_ursim) in the background, for trying ur3dq without a robot.
-
-    While it runs, robot commands use it when no --host / UR3DQ_HOST is given.
-
-    \b
-    Examples:
-      ur3dq sim start           # a UR3 (CB3 3.15) on a free loopback address
-      ur3dq --model ur5e sim start --address 127.0.0.3
-      ur3dq sim status
-      ur3dq sim stop
-    """
-
-
-@sim.command("start")
-@click.option("--address", help="Loopback address to serve on (127.x.y.z; default: a free one).")
-@click.option("--version", "software_version", help="Controller software, e.g. 3.15.8 or 5.11.1.")
-@click.option("--powered-off", is_flag=True,
-              help="Leave the arm powered off with brakes held, as a real controller boots (default: ready to move).")
-@display_options
-@click.pass_obj
-def sim_start(settings: Settings, address, software_version, powered_off):
-    """Start the simulator in the background: the arm at zero joints, powered on with its brakes released
-    (what an operator does at the pendant) unless --powered-off."""
-    state = start_simulator(settings.model or "ur3", address, software_version)
-    if not powered_off:
-        from ur3dq.robot import connect
-
-        try:
-            with connect(state["host"]) as robot:
-                robot.power_on()
-                robot.brake_release()
-        except BaseException:
-            stop_simulator()  # a half-started simulator would only confuse the next command
-            raise
-    if settings.json:
-        emit_json(state)
-    else:
-        click.echo(f"Simulated {state['model']} serving on {state['host']} (pid {state['pid']})\n  log {state['log']}")
-        click.echo(f"Robot commands now use it. For other tools, copy:\n  export UR3DQ_HOST={state['host']}")
-
-
-@sim.command("stop")
-@display_options
-@click.pass_obj
-def sim_stop(settings: Settings):
-    """Stop the simulator `ur3dq sim start` left running."""
-    state = stop_simulator()
-    if settings.json:
-        emit_json({"stopped": state})
-    elif state:
-        click.echo(f"Stopped the simulator on {state['host']} (pid {state['pid']}).")
-    else:
-        click.echo("No embedded simulator was running.")
-
-
-@sim.command("status")
-@display_options
-@click.pass_obj
-def sim_status(settings: Settings):
-    """Whether the simulator runs, and where."""
-    state = read_state(state_directory())
-    if settings.json:
-        emit_json({"running": state is not None, **(state or {})})
-    elif state:
-        click.echo(f"Running: simulated {state['model']} on {state['host']} (pid {state['pid']})\n"
-                   f"  since {state['started']}\n  log {state['log']}")
-    else:
-        click.echo("Not running (start it with `ur3dq sim start`).")
 
 
 @cli.command()
@@ -186,3 +119,53 @@ def demo(settings: Settings, save, speed, acceleration, tolerance_mm, tolerance_
     if not settings.json:
         say(f"[green]Every pose reached within {tolerance_mm} mm / {tolerance_deg}°.[/green]"
             + (escape(f" The poses are in {save}.") if save else ""))
+
+
+APPROACH_M = 0.05   # the approach and retract stand this far back from the part along the tool's z axis
+GRIPPER_PIN = 0     # tool digital output 0 closes the gripper
+
+
+def pick_and_place_steps(store, program_store, pick: str, place: str) -> list:
+    """Write the demo's cell program around the poses `pick` and `place` of `store` into `program_store` (a
+    version-2 store, replacing what it held) and return its steps."""
+    pick_pose, place_pose = store.get(pick), store.get(place)
+
+    def edit(_):
+        program = [
+            RelativeWaypoint("approach", pick, (0, 0, -APPROACH_M, 0, 0, 0), "tool", Motion("joint")),
+            Waypoint(pick, pick_pose, Motion("linear", 0.05, 0.5)),
+            DigitalOut("close-gripper", "tool", GRIPPER_PIN, True),
+            Wait("settle", 0.5),
+            RelativeWaypoint("retract", pick, (0, 0, -APPROACH_M, 0, 0, 0), "tool", Motion("linear", 0.1, 0.5)),
+            Waypoint(place, place_pose, Motion("joint")),
+            DigitalOut("open-gripper", "tool", GRIPPER_PIN, False),
+        ]
+        return program, program
+
+    return program_store.update_program(edit)
+
+
+def run_pick_and_place(robot, store, program_store, pick: str, place: str, say) -> None:
+    """Build the program into `program_store`, run it showing each step as the controller reports it, then its
+    plan; RobotError if the arm does not end at `place`."""
+    steps = pick_and_place_steps(store, program_store, pick, place)
+    console_print = say
+
+    def progress(position, step):
+        console_print(escape(f"   step {position}: {step.name} ({step.kind})"))
+
+    plan, seconds = run(robot, steps, progress=progress)
+    print_table(_Printer(say), "Pick-and-place plan (one URScript program)", PLAN_COLUMNS, plan_rows(plan, 1))
+    error_m, _ = robot.tcp_pose().distance(plan[-2].pose)
+    if error_m > 5e-4:
+        raise RobotError(f"the pick-and-place ended {error_m * 1000:.2f} mm from {place!r}")
+    say(f"   ran {len(plan)} steps in {seconds:.2f} s; the arm rests at {place!r} "
+        f"({error_m * 1000:.3f} mm)")
+
+
+class _Printer:
+    """A console-like wrapper so print_table can print through the demo's `say` (at the terminal's width)."""
+
+    def __init__(self, say):
+        self.print = say
+        self.width = Console().width

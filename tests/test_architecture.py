@@ -1,0 +1,114 @@
+"""The layering docs/architecture.md promises, checked on the source: no import cycle between ur3dq's packages or
+modules (imports inside functions count), and no module over 700 lines."""
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import ur3dq
+
+ROOT = Path(ur3dq.__file__).parent
+SOURCES = sorted(ROOT.rglob("*.py"))
+
+
+def module_name(path: Path) -> str:
+    parts = list(path.relative_to(ROOT.parent).with_suffix("").parts)
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+MODULES = {module_name(path): path for path in SOURCES}
+
+
+def imported_modules(path: Path) -> set[str]:
+    return imports_of(path.read_text(encoding="utf-8"), module_name(path), path.name == "__init__.py")
+
+
+def imports_of(source: str, name: str, is_package: bool) -> set[str]:
+    """The ur3dq modules module `name` imports anywhere in `source` (a function's deferred import included)."""
+    package = name.split(".") if is_package else name.split(".")[:-1]
+    found = set()
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Import):
+            targets = [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = ".".join(package[:len(package) - node.level + 1] + [node.module or ""]).strip(".") \
+                if node.level else node.module or ""
+            targets = [f"{base}.{alias.name}" if f"{base}.{alias.name}" in MODULES else base for alias in node.names]
+        else:
+            continue
+        for target in targets:
+            while target not in MODULES and "." in target:
+                target = target.rsplit(".", 1)[0]
+            if target in MODULES and target != name:
+                found.add(target)
+    return found
+
+
+def package_of(module: str) -> str:
+    """`ur3dq.robot.robot` -> `ur3dq.robot`; a top-level module is its own package (`ur3dq.store`)."""
+    return ".".join(module.split(".")[:2])
+
+
+def cycles(edges: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected components with more than one node (Tarjan), each sorted."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    found = []
+
+    def visit(node: str) -> None:
+        index[node] = low[node] = len(index)
+        stack.append(node)
+        for other in edges.get(node, ()):
+            if other not in index:
+                visit(other)
+                low[node] = min(low[node], low[other])
+            elif other in stack:
+                low[node] = min(low[node], index[other])
+        if low[node] == index[node]:
+            component = []
+            while True:
+                member = stack.pop()
+                component.append(member)
+                if member == node:
+                    break
+            if len(component) > 1:
+                found.append(sorted(component))
+
+    for node in sorted(edges):
+        if node not in index:
+            visit(node)
+    return found
+
+
+MODULE_EDGES = {name: imported_modules(path) for name, path in MODULES.items()}
+
+
+def test_no_import_cycle_between_packages():
+    edges: dict[str, set[str]] = {}
+    for module, targets in MODULE_EDGES.items():
+        edges.setdefault(package_of(module), set()).update(
+            package_of(target) for target in targets if package_of(target) != package_of(module))
+    assert cycles(edges) == []
+
+
+def test_no_import_cycle_between_modules():
+    assert cycles(MODULE_EDGES) == []
+
+
+def test_the_cycle_finder_finds_a_deferred_import_cycle():
+    assert cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+    deferred = "def f():\n    from ur3dq.program.runner import run\n    from . import heartbeat\n"
+    assert imports_of(deferred, "ur3dq.robot.robot", False) == {"ur3dq.program.runner", "ur3dq.robot.heartbeat"}
+
+
+def test_the_driver_knows_no_cell_program():
+    driver = {target for module, targets in MODULE_EDGES.items() if package_of(module) == "ur3dq.robot"
+              for target in targets}
+    assert not any(package_of(target) == "ur3dq.program" for target in driver)
+
+
+def test_no_module_is_over_700_lines():
+    long = {name: n for name, path in MODULES.items()
+            if (n := len(path.read_text(encoding="utf-8").splitlines())) > 700}
+    assert long == {}

@@ -1,0 +1,30 @@
+"""The stored poses planned on the nominal model, without a robot (what `plot` draws and `export-urscript`
+writes), and the question before a command overwrites a file."""
+from __future__ import annotations
+
+from pathlib import Path
+
+from rich.console import Console
+
+from ur3dq.cli.app import Settings, confirm
+from ur3dq.cli.options import speed_and_acceleration
+from ur3dq.errors import StoreError
+from ur3dq.replay import plan_replay
+
+
+def offline_plan(settings: Settings, names, speed, acceleration, replay_joints, max_travel):
+    """(model, plan, a, v) of the stored poses on the nominal model (--model, else the first pose's), no robot."""
+    from ur3dq.kinematics import robot_model
+
+    poses = settings.store.select(names)
+    if not poses:
+        raise StoreError(f"{settings.store_path} has no poses: record some with `ur3dq record-pose`")
+    model = robot_model(settings.model or poses[0].robot_model)
+    a, v = speed_and_acceleration(model, speed, acceleration, Console(stderr=True, highlight=False))
+    return model, plan_replay(model, poses, None, a, v, replay_joints, max_travel), a, v
+
+
+def confirm_overwrite(path: Path, yes: bool) -> None:
+    """Ask before overwriting an existing file (unless --yes)."""
+    if path.exists():
+        confirm(f"Overwrite {path}?", yes, default=False)
