@@ -15,7 +15,6 @@ import numpy as np
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.kinematics.models import MODEL_NAMES
 from ur3dq.real_numbers import real_array
-from ur3dq.slots import slot_builder
 
 # How far the stored UR pose vector may drift from the dual quaternion (JSON floats round-trip exactly, so only
 # hand edits can exceed this).
@@ -183,11 +182,17 @@ class Pose:
 
     @classmethod
     def checked(cls, name, time, robot_model, dual_quaternion, ur_pose, tcp_offset, joints, robot_serial, note):
-        """A Pose whose fields the caller has already validated exactly as __post_init__ would (the store checks
-        the numbers of a whole file in one vectorised pass, then the text with check_pose_text_fields); tuples of
-        floats expected. Skips the per-pose checks, which dominate loading a big store."""
-        return _checked_pose(name, time, robot_model, dual_quaternion, ur_pose, tcp_offset, joints, robot_serial,
-                             note)
+        """A Pose whose fields the caller has already validated exactly as __post_init__ would, built without
+        running those checks again.
+
+        The store checks the numbers of a whole file as arrays, then the text with check_pose_text_fields: one
+        Pose's own checks cost hundreds of times more than building it. Tuples of floats expected.
+        """
+        pose = object.__new__(cls)
+        values = (name, time, robot_model, dual_quaternion, ur_pose, tcp_offset, joints, robot_serial, note)
+        for field, value in zip(_FIELD_NAMES, values, strict=True):
+            object.__setattr__(pose, field, value)   # the frozen dataclass's own way to set a field
+        return pose
 
     @property
     def dq(self) -> DualQuaternion:
@@ -211,7 +216,7 @@ class Pose:
         return dataclasses.replace(self, name=name)
 
 
-_checked_pose = slot_builder(Pose)   # Pose.checked's parameters are its fields, in order
+_FIELD_NAMES = tuple(field.name for field in dataclasses.fields(Pose))
 
 
 def next_free_name(prefix: str, taken) -> str:

@@ -21,14 +21,11 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from ur3dq import urscript
-from ur3dq.collector import cyclic_gc_paused
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import ConnectionLostError, JointLimitError, SafetyCheckError, UnreachablePoseError
 from ur3dq.kinematics import ur_ik
 from ur3dq.pose import Pose
 from ur3dq.robot import motion
-from ur3dq.rows import float_rows
-from ur3dq.slots import slot_builder
 
 SOURCE_RECORDED = "recorded joints"
 SOURCE_IK_RECORDED = "IK nearest recorded"
@@ -58,10 +55,6 @@ class PlanStep:
     duration: float | None   # movej seconds at 100 % speed; None when the start is unknown
     fk_error_m: float        # model FK of the target vs the recorded pose
     fk_error_rad: float
-
-
-# A PlanStep from its values (plan_replay has checked them all): a big store's plan has 10⁵.
-_plan_step = slot_builder(PlanStep)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -159,7 +152,6 @@ def choose_joints(model, pose: Pose, previous, replay_recorded_joints: bool,
     return q, source, len(solutions)
 
 
-@cyclic_gc_paused()
 def plan_replay(model, poses: Sequence[Pose], start_joints=None, a: float = 1.4, v: float = 1.05,
                 replay_recorded_joints: bool = False, max_joint_travel: float | None = None) -> list[PlanStep]:
     """The replay plan of `poses` from `start_joints` (rad, or None if unknown) with movej a (rad/s²), v (rad/s).
@@ -189,7 +181,7 @@ def plan_replay(model, poses: Sequence[Pose], start_joints=None, a: float = 1.4,
     _check_travel(poses, travels, max_joint_travel)
     durations = _durations(travels, a, v)
     errors = model.fk_errors(joints, [pose.dual_quaternion for pose in poses], [pose.tcp_offset for pose in poses])
-    return [_plan_step(pose, q, source, count, travel, duration, metres, radians)
+    return [PlanStep(pose, q, source, count, travel, duration, metres, radians)
             for pose, (q, source, count), travel, duration, metres, radians
             in zip(poses, chosen, travels, durations, *errors)]
 
@@ -232,8 +224,8 @@ def _solve_recorded(model, poses: Sequence[Pose], solvers: dict) -> dict:
     solved = {}
     for tcp_offset, indices in groups.items():
         solver = _solver(model, tcp_offset, solvers)
-        targets = float_rows([poses[i].dual_quaternion for i in indices], 8)
-        hints = float_rows([poses[i].joints for i in indices], 6)
+        targets = np.array([poses[i].dual_quaternion for i in indices], dtype=float)
+        hints = np.array([poses[i].joints for i in indices], dtype=float)
         joints = solver.ik_batch(targets, hints)
         counts = np.sum(~np.isnan(ur_ik.ik_all_batch(solver, targets, q_ref=hints)[:, :, 0]), axis=1)
         # NaN rows (unreachable) compare False

@@ -19,7 +19,6 @@ import numpy as np
 import orjson
 
 from ur3dq import dqarray
-from ur3dq.collector import cyclic_gc_paused
 from ur3dq.errors import StoreError
 from ur3dq.pose import (
     MAX_JOINT_ABS, MAX_TRANSLATION_ABS, POSE_AGREEMENT_TOLERANCE, UNIT_TOLERANCE, Pose, check_pose_text_fields,
@@ -30,7 +29,6 @@ from ur3dq.real_numbers import is_number
 from ur3dq.program.steps import (
     DEFAULT_MOTION, AnalogOut, DigitalOut, Message, Motion, RelativeWaypoint, Wait, WaitInput, Waypoint,
 )
-from ur3dq.rows import packed_rows
 
 SCHEMA_NAME = "ur3dq.poses"
 SCHEMA_VERSION = 1            # a store of recorded poses only (what every ur3dq writes unless a program needs 2)
@@ -97,15 +95,14 @@ def _vectors(entries, field: str, length: int, who_of) -> np.ndarray:
     A number is a JSON number: np.fromiter and np.array would also take the string "1.5" and the literal true (a
     bool is an int in Python) as 1.5 and 1.0, so a hand-edited or corrupt file would load with them."""
     rows = [entry[field] for entry in entries]
-    try:
-        # a third faster than np.array's nested-list scan; None (or an error) sends the rows to the loop below,
-        # which names the first bad one. The item types, one set of every row's (~25 ns an item, ~60 ms CPU on a
-        # store of 93,587 poses), find a string or a bool among them.
-        packed = packed_rows(rows, length, list)
-        if packed is not None and set(map(type, itertools.chain.from_iterable(rows))) <= _JSON_NUMBERS:
-            return packed
-    except (TypeError, ValueError, OverflowError):
-        pass
+    # The whole column at once when every row is a list of `length` JSON numbers; otherwise the loop below names
+    # the first bad row.
+    if (all(type(row) is list and len(row) == length for row in rows)
+            and set(map(type, itertools.chain.from_iterable(rows))) <= _JSON_NUMBERS):
+        try:
+            return np.array(rows, dtype=float).reshape(-1, length)
+        except OverflowError:   # an integer too large for a float: named below
+            pass
     for index, value in enumerate(rows):
         if isinstance(value, (str, dict)) or not hasattr(value, "__len__") or len(value) != length:
             got = len(value) if isinstance(value, (list, tuple)) else repr(value)
@@ -451,11 +448,6 @@ def parse_document(text: str, source: str) -> tuple[int, list]:
 
     Text in ur3dq's own layout is read one entry per line, checked in chunks of CHUNK entries (bounded memory for
     big stores, exact line numbers); anything else (a hand-edited layout) is parsed as one JSON document."""
-    with cyclic_gc_paused():
-        return _parse_document(text, source)
-
-
-def _parse_document(text: str, source: str) -> tuple[int, list]:
     try:
         version, _, entries = _own_layout(text)
         return version, _steps_of(version, entries, text, source)

@@ -65,8 +65,8 @@ def test_cycles_and_missing_bases_name_the_step():
 
 def test_loading_planning_and_checking_a_program_leave_no_reference_cycle(tmp_path):
     """A big program's steps are freed by reference counting alone: its load, plan and path check build no
-    reference cycle (a recursive closure in resolve_targets once kept every step alive until the cyclic collector
-    ran, which the collector pauses of ur3dq/collector.py delayed)."""
+    reference cycle (a recursive closure in resolve_targets would keep every step alive until the cyclic collector
+    ran)."""
     from ur3dq.cli.path_report import check_program
     from ur3dq.store import PoseStore
 

@@ -17,7 +17,6 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from ur3dq.cli.app import Settings, confirm, emit_json, emit_json_list, robot_session
 from ur3dq.cli.display import Column, print_table
 from ur3dq.cli.path_report import require_clear_program_path
-from ur3dq.collector import built_to_last
 from ur3dq.errors import StoreError
 from ur3dq.pose import utc_now_iso
 from ur3dq.program.plan import Defaults, plan_program
@@ -165,29 +164,26 @@ def run_program_command(settings: Settings, start, end, speed_scale, dry_run, ye
     from ur3dq.kinematics import robot_model
 
     err = Console(stderr=True, highlight=False)
-    with built_to_last():   # the steps and the plan live until the command ends
-        steps, part, first = program_part(settings, start, end)
+    steps, part, first = program_part(settings, start, end)
     defaults = Defaults(joint_acceleration=acceleration, joint_speed=speed, blend=blend)
     if not (math.isfinite(speed_scale) and 0 < speed_scale <= 1):
         raise ValueError(f"--speed-scale must be a fraction 0 < F ≤ 1, got {speed_scale!r}")
     if dry_run and not (settings.host or running_simulator_host()):
         first_pose = next((s.pose for s in steps if isinstance(s, Waypoint)), None)
         model = robot_model(settings.model or (first_pose.robot_model if first_pose else "ur3"))
-        with built_to_last():
-            plan = plan_program(model, part, None, defaults, speed_scale, replay_joints, max_travel,
-                                resolve_from=steps)
-            _show_plan(settings, plan, first, f"Plan on a nominal {model.name} (no robot: travel from the first "
-                                              "step)")
-            require_clear_program_path(settings, model, plan, None, cell_path)
+        plan = plan_program(model, part, None, defaults, speed_scale, replay_joints, max_travel,
+                            resolve_from=steps)
+        _show_plan(settings, plan, first, f"Plan on a nominal {model.name} (no robot: travel from the first "
+                                          "step)")
+        require_clear_program_path(settings, model, plan, None, cell_path)
         return
     from ur3dq.program.runner import run_plan
 
     with robot_session(settings, max_joint_travel=max_travel) as robot:
-        with built_to_last():
-            plan = plan_program(robot.model, part, robot.joints(), defaults, speed_scale, replay_joints, max_travel,
-                                resolve_from=steps)
-            _show_plan(settings, plan, first, f"Plan on the {robot.model_name} at {robot.host}")
-            require_clear_program_path(settings, robot.model, plan, robot.joints(), cell_path)
+        plan = plan_program(robot.model, part, robot.joints(), defaults, speed_scale, replay_joints, max_travel,
+                            resolve_from=steps)
+        _show_plan(settings, plan, first, f"Plan on the {robot.model_name} at {robot.host}")
+        require_clear_program_path(settings, robot.model, plan, robot.joints(), cell_path)
         if dry_run:
             return
         confirm(f"Run {len(plan)} steps ({part[0].name!r} to {part[-1].name!r}) on the arm?", yes, default=False)

@@ -33,7 +33,6 @@ from ur3dq.errors import JointLimitError
 from ur3dq.kinematics import ur_ik
 from ur3dq.kinematics.chain import SerialChain, thesis_to_dh_flange
 from ur3dq.kinematics.ur_fk import BLOCK, dual_part_rows, flange_coefficients, flange_rows, joint_floats
-from ur3dq.rows import float_rows
 
 JOINT_NAMES = ("base", "shoulder", "elbow", "wrist 1", "wrist 2", "wrist 3")
 NOMINAL_ALPHA = (math.pi / 2, 0.0, 0.0, math.pi / 2, -math.pi / 2, 0.0)
@@ -196,7 +195,7 @@ class URModel:
             groups.setdefault(tuple(map(float, tcp_offsets[indices[0]])), []).extend(indices)
         for offset, indices in groups.items():
             reached = self.with_tcp(offset).fk_batch(np.array([joints[i] for i in indices]))
-            wanted = dqarray.normalise(float_rows([poses[i] for i in indices], 8))
+            wanted = dqarray.normalise(np.array([poses[i] for i in indices], dtype=float))
             distance = dqarray.pose_distance(reached, wanted)
             for i, m, r in zip(indices, *(values.tolist() for values in distance)):
                 metres[i], radians[i] = m, r

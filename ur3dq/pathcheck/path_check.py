@@ -12,7 +12,6 @@ from __future__ import annotations
 import numpy as np
 
 from ur3dq import dqarray
-from ur3dq.collector import cyclic_gc_paused
 from ur3dq.errors import UnreachablePoseError
 from ur3dq.kinematics import ur_ik
 from ur3dq.pathcheck import bounds, sampling
@@ -23,7 +22,6 @@ from ur3dq.pathcheck.reports import CertifiedMoves, PathCheckResult, StepReport,
 BRANCH_TOLERANCE = 1e-3   # rad: a linear move ending further than this from its planned joints ended elsewhere
 
 
-@cyclic_gc_paused()
 def check_path(model, plan: PathPlan, cell=None, margins: Margins | None = None,
                keep_samples: bool = True) -> PathCheckResult:
     """Check `plan` (a PathPlan) on `model` (a URModel with its TCP; a segment with its own `tcp_offset` runs with

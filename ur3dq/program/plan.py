@@ -14,14 +14,11 @@ import math
 import numpy as np
 
 from ur3dq import dqarray
-from ur3dq.collector import cyclic_gc_paused
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import JointLimitError, SafetyCheckError, UnreachablePoseError
 from ur3dq.program.resolve import resolve_targets
 from ur3dq.program.steps import Waypoint, is_waypoint
 from ur3dq.robot import motion
-from ur3dq.rows import float_rows
-from ur3dq.slots import slot_builder
 
 MAX_TCP_SPEED = 1.0          # m/s: the pendant's default tool speed limit region; faster is refused by clamping
 MAX_TCP_ACCELERATION = 4.0   # m/s²
@@ -70,10 +67,6 @@ class PlannedStep:
         return None if self.coefficients is None else DualQuaternion.from_array(self.coefficients)
 
 
-# A waypoint's PlannedStep from its values (plan_program has checked them all): a big program plans 10⁵.
-_planned_step = slot_builder(PlannedStep)
-
-
 def _clamp(value: float, limit: float, what: str, clamped: list) -> float:
     if value > limit:
         clamped.append(f"{what} {value:g} → {limit:g}")
@@ -117,8 +110,8 @@ def _solve_hinted(model, targets, replay_recorded_joints: bool) -> dict:
             groups.setdefault(target.tcp_offset, []).append(index)
     solved = {}
     for tcp_offset, indices in groups.items():
-        poses = float_rows([targets[i].coefficients for i in indices], 8)
-        hints = float_rows([targets[i].joints_hint for i in indices], 6)
+        poses = np.array([targets[i].coefficients for i in indices], dtype=float)
+        hints = np.array([targets[i].joints_hint for i in indices], dtype=float)
         joints = model.with_tcp(tcp_offset).ik_batch(poses, hints)
         for i, q, finite in zip(indices, joints, np.isfinite(joints).all(axis=1).tolist()):
             if finite:
@@ -126,7 +119,6 @@ def _solve_hinted(model, targets, replay_recorded_joints: bool) -> dict:
     return solved
 
 
-@cyclic_gc_paused()
 def plan_program(model, steps, start_joints=None, defaults: Defaults = Defaults(), speed_scale: float = 1.0,
                  replay_recorded_joints: bool = False, max_joint_travel: float | None = None,
                  resolve_from=None) -> list[PlannedStep]:
@@ -157,7 +149,7 @@ def plan_program(model, steps, start_joints=None, defaults: Defaults = Defaults(
     fk_errors, _ = model.fk_errors(solved, [t.coefficients for t in targets], [t.tcp_offset for t in targets])
     # travel and TCP path of every move at once: (N, 6) joints and (N, 3) TCP positions, the start prepended
     joints = np.array(solved).reshape(-1, 6)
-    poses = float_rows([t.coefficients for t in targets], 8).reshape(-1, 8)
+    poses = np.array([t.coefficients for t in targets], dtype=float).reshape(-1, 8)
     if start_joints is not None:
         joints = np.vstack([np.asarray(start_joints, dtype=float), joints])
         start_tcp = model.with_tcp(targets[0].tcp_offset).fk(joints[0]) if targets else model.fk(joints[0])
@@ -184,8 +176,8 @@ def plan_program(model, steps, start_joints=None, defaults: Defaults = Defaults(
         target, (move, a, v, blend, clamped) = targets[at], figures[at]
         if index + 1 == len(steps) or not moving[index + 1]:
             blend = 0.0   # the last waypoint, or an action follows: the action happens at the waypoint
-        plan.append(_planned_step(step, solved[at], target.coefficients, target.tcp_offset, move, a, v, blend,
-                                  durations[at][0], durations[at][1], fk_errors[at], clamped))
+        plan.append(PlannedStep(step, solved[at], target.coefficients, target.tcp_offset, move, a, v, blend,
+                                durations[at][0], durations[at][1], fk_errors[at], clamped))
         at += 1
     return plan
 

@@ -11,7 +11,6 @@ import dataclasses
 
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.program.steps import Waypoint, is_waypoint
-from ur3dq.slots import slot_builder
 
 
 @dataclasses.dataclass(frozen=True, slots=True)  # slots: one per waypoint, 10⁵ in a big program
@@ -29,9 +28,6 @@ class Target:
     @property
     def pose(self) -> DualQuaternion:
         return DualQuaternion.from_array(self.coefficients)
-
-
-_target = slot_builder(Target)   # a recorded waypoint's Target: step, coefficients, tcp_offset, model, joints
 
 
 def offset_pose(base: DualQuaternion, offset, frame: str) -> DualQuaternion:
@@ -62,7 +58,7 @@ def _recorded_target(step: Waypoint) -> Target:
     """The Target of a recorded waypoint: its pose's own fields (a Target checks nothing, so it is built past its
     frozen __init__, a third of a big program's resolve)."""
     pose = step.pose
-    return _target(step, pose.dual_quaternion, pose.tcp_offset, pose.robot_model, pose.joints)
+    return Target(step, pose.dual_quaternion, pose.tcp_offset, pose.robot_model, pose.joints)
 
 
 def _resolve(step, chain: list, by_name: dict, resolved: dict) -> Target:
