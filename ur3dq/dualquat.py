@@ -66,7 +66,20 @@ def multiply_coefficients(a: tuple, b: tuple) -> tuple:
 
 
 class DualQuaternion:
-    """A dual quaternion real + ε·dual; as a pose, σ = r + ε·½·t·r (rotate, then translate, parent frame)."""
+    """A dual quaternion real + ε·dual; as a pose, σ = r + ε·½·t·r (rotate, then translate, parent frame).
+
+    Examples
+    --------
+    >>> from pyquaternion import Quaternion
+    >>> turn = DualQuaternion.from_rotation_translation(Quaternion(axis=[0, 0, 1], angle=1.5707963267948966))
+    >>> shift = DualQuaternion.from_translation([0.1, 0.0, 0.0])
+    >>> (turn * shift).translation.round(6).tolist()         # shift in the turned frame
+    [0.0, 0.1, 0.0]
+    >>> (shift * turn).transform_point([0.1, 0.0, 0.0]).round(6).tolist()
+    [0.1, 0.1, 0.0]
+    >>> (turn * shift).is_close(-(turn * shift))              # σ and −σ are the same pose
+    True
+    """
 
     __slots__ = ("_c",)
 
@@ -119,7 +132,9 @@ class DualQuaternion:
 
     @classmethod
     def from_matrix(cls, matrix, tolerance: float = UNIT_TOLERANCE) -> "DualQuaternion":
-        """From a 4×4 homogeneous transform (rotation block orthonormal within ``tolerance``, det +1, last row
+        """From a 4×4 homogeneous transform.
+
+        From a 4×4 homogeneous transform (rotation block orthonormal within ``tolerance``, det +1, last row
         0 0 0 1); the quaternion is extracted (Shepperd) and normalised, so a looser tolerance admits rounded
         printouts at about their print precision."""
         matrix = dqarray.as_array(matrix, (4, 4), "matrix")

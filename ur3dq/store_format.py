@@ -181,7 +181,7 @@ _WAYPOINT_KEYS = frozenset(POSE_FIELDS) | {"type"} | frozenset(MOTION_FIELDS)
 _REQUIRED_KEYS = frozenset(REQUIRED_POSE_FIELDS)
 CHUNK = 4096  # entries parsed and checked per vectorised pass: big enough for numpy, small enough to bound memory
 #: lines of ur3dq's own layout parsed by one orjson call: a call per line costs as much as the parse, and bigger
-#: batches leave the allocator fragmented (measured on a 93,587-pose plan: 1024 lines +14 MB of peak RSS)
+#: batches leave the allocator fragmented (more peak memory)
 PARSED_LINES = 256
 
 
@@ -212,7 +212,7 @@ def _poses_of_chunk(entries, chunk, who_of) -> list[Pose]:
                 check_pose_text_fields(*text)
             except ValueError as error:
                 raise ValueError(f"{who_of(chunk[k])}: {_strip_pose_prefix(str(error))}") from None
-    # One shared zero TCP and model name: most poses of a store have them, and 10⁵ copies cost ~25 MB.
+    # One shared zero TCP and model name: most poses of a store have them, and a big store would hold 10⁵ copies.
     tcp = [_NO_TCP_OFFSET if zero else row for zero, row in zip((~tcp.any(axis=1)).tolist(), _tuples(tcp))]
     models = [sys.intern(model) for model in models]
     return list(map(Pose.checked, names, times, models, _tuples(dq), _tuples(ur), tcp, joints, serials, notes))
@@ -396,7 +396,7 @@ def _own_layout(text: str):
                     break
             last = stop >= end
             try:
-                # orjson parses the lines as one array: 6× faster than the stdlib's scanner, and a call per line
+                # orjson parses the lines as one array: much faster than the stdlib's scanner, and a call per line
                 # costs as much again. What it refuses (NaN, a number beyond a double, a lone surrogate,
                 # nesting past 1024) sends the file to the stdlib path, with its errors.
                 objects = orjson.loads("[" + text[position:stop - (1 if last else 2)] + "]")

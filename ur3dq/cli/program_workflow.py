@@ -55,6 +55,7 @@ def replace_step(steps, name, new, source):
 
 
 def find_step(steps, name, source):
+    """The step called `name`; StoreError naming `source` if there is none."""
     for step in steps:
         if step.name == name:
             return step
@@ -73,7 +74,9 @@ def add_step_at(settings: Settings, make_step, after, before):
 
 
 def check_waypoint_options(name: str | None, move, speed, acceleration, blend, after, before, steps, source):
-    """record-pose's --move/--speed/--acceleration/--blend/--after/--before checked before the arm is read:
+    """Check record-pose's waypoint options before the arm is read.
+
+    record-pose's --move/--speed/--acceleration/--blend/--after/--before checked before the arm is read:
     ValueError or StoreError naming what is wrong."""
     Motion(move or "joint", speed, acceleration, blend).check(f"waypoint {name or '(new)'!r}")
     insertion_index(steps, after, before, source)
@@ -81,7 +84,9 @@ def check_waypoint_options(name: str | None, move, speed, acceleration, blend, a
 
 def record_waypoint(settings: Settings, pose, number_if_taken: bool, move, speed, acceleration, blend, after,
                     before):
-    """Store `pose` as a waypoint with its own motion at --after/--before (the end by default), in one atomic
+    """Store a recorded pose as a waypoint of the program.
+
+    Store `pose` as a waypoint with its own motion at --after/--before (the end by default), in one atomic
     update (a taken name is refused, or numbered on with `number_if_taken`); returns the pose as stored."""
     from ur3dq.store import with_added
 
@@ -120,7 +125,9 @@ _TARGET_FORMAT = " ".join(["%.3f"] * 6)   # one %-format per row: a long program
 
 
 def plan_rows(plan, first: int):
-    """The run-poses plan table's rows, one at a time: #, name, type, target joints (rad, 3 decimals), speed,
+    """The rows of the cell program's plan table, one at a time.
+
+    The run-poses plan table's rows, one at a time: #, name, type, target joints (rad, 3 decimals), speed,
     blend, travel, time."""
     for offset, planned in enumerate(plan):
         step = planned.step
@@ -157,7 +164,9 @@ def program_part(settings: Settings, start, end):
 
 def run_program_command(settings: Settings, start, end, speed_scale, dry_run, yes, speed, acceleration, blend,
                         replay_joints, max_travel, cell_path=None):
-    """`run-poses` of a cell program (a version-2 store, or --from/--to/--speed-scale): plan, table, the whole-path
+    """`run-poses` of a cell program: plan, check, ask, run.
+
+    `run-poses` of a cell program (a version-2 store, or --from/--to/--speed-scale): plan, table, the whole-path
     check (in `cell_path`'s cell if given), ask, run as one URScript program with the running step shown. Joint
     speeds in rad/s (already converted from --deg)."""
     from ur3dq.cli.background_simulator import running_simulator_host
@@ -219,7 +228,9 @@ def _show_plan(settings: Settings, plan, first: int, title: str) -> None:
 
 def export_program_text(settings: Settings, start, end, speed, acceleration, blend, speed_scale, replay_joints,
                         max_travel) -> tuple[str, int]:
-    """(the .script text of the program or its --from/--to part on the nominal model, number of steps): the same
+    """The URScript text of the stored cell program and its number of steps.
+
+    (the .script text of the program or its --from/--to part on the nominal model, number of steps): the same
     program run-poses sends."""
     from ur3dq.kinematics import robot_model
 

@@ -46,10 +46,12 @@ class ToolShape:
 
     @classmethod
     def capsule(cls, a, b, radius) -> "ToolShape":
+        """A capsule tool from `a` to `b` (flange frame, m) with `radius` (m)."""
         return cls(_point(a, "tool capsule 'from'"), _point(b, "tool capsule 'to'"), _length(radius, "tool radius"))
 
     @classmethod
     def box(cls, lo, hi) -> "ToolShape":
+        """A box tool between corners `lo` and `hi` (flange frame, m), checked as its enclosing capsule."""
         lo, hi = _ordered(_point(lo, "tool box 'min'"), _point(hi, "tool box 'max'"), "tool box")
         size = hi - lo
         axis = int(np.argmax(size))

@@ -66,7 +66,9 @@ class PathSegment:
 
     @classmethod
     def joint_targets(cls, names, moves, targets, speeds, accelerations, blends, tcp_offsets) -> list[PathSegment]:
-        """Segments to joint targets, one per row: names (n,) and moves (n,) str, targets (n, 6) rad, speeds,
+        """Segments to joint targets, one per row.
+
+        Segments to joint targets, one per row: names (n,) and moves (n,) str, targets (n, 6) rad, speeds,
         accelerations, blends (n,) and tcp_offsets (n,) (each (6,) or None); each checked as PathSegment checks it.
 
         Examples
@@ -114,7 +116,7 @@ def _finite_vector(value, size: int, name: str, what: str) -> np.ndarray:
     array = np.array(value, dtype=float)
     if array.shape != (size,):
         raise ValueError(f"segment {name!r}: {what} must have {size} numbers, got shape {array.shape}")
-    if not all(map(math.isfinite, array.tolist())):   # floats: ~3× np.isfinite(array).all() on 6 numbers
+    if not all(map(math.isfinite, array.tolist())):   # on 6 numbers, cheaper than np.isfinite(array).all()
         raise ValueError(f"segment {name!r}: {what} contain NaN or infinite values")
     array.flags.writeable = False
     return array

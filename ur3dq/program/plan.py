@@ -28,7 +28,9 @@ DEFAULT_TCP_ACCELERATION = 1.2
 
 @dataclasses.dataclass(frozen=True)
 class Defaults:
-    """The run's defaults for waypoints that leave a value unset: joint a (rad/s²), v (rad/s), TCP a (m/s²),
+    """The run's defaults for what a waypoint leaves unset.
+
+    The run's defaults for waypoints that leave a value unset: joint a (rad/s²), v (rad/s), TCP a (m/s²),
     v (m/s), blend (m)."""
 
     joint_acceleration: float = 1.4
@@ -40,7 +42,9 @@ class Defaults:
 
 @dataclasses.dataclass(frozen=True, slots=True)  # slots: a big program plans 10⁵ of them
 class PlannedStep:
-    """One step of a planned program. Waypoints carry their joint target (rad), the TCP pose and offset they
+    """One step of a planned program.
+
+    One step of a planned program. Waypoints carry their joint target (rad), the TCP pose and offset they
     aim at, move type, clamped a/v, blend radius (m), travel (rad, largest joint) and time (s, at 100 %; None
     when the start is unknown). Action steps carry only `step`."""
 
@@ -59,6 +63,7 @@ class PlannedStep:
 
     @property
     def name(self) -> str:
+        """The step's name."""
         return self.step.name
 
     @property
@@ -122,14 +127,49 @@ def _solve_hinted(model, targets, replay_recorded_joints: bool) -> dict:
 def plan_program(model, steps, start_joints=None, defaults: Defaults = Defaults(), speed_scale: float = 1.0,
                  replay_recorded_joints: bool = False, max_joint_travel: float | None = None,
                  resolve_from=None) -> list[PlannedStep]:
-    """The plan of `steps` on `model` from `start_joints` (rad, or None when unknown).
+    """The plan of a cell program: a checked joint target and clamped speeds for every waypoint.
 
-    `resolve_from` (default `steps`) is the whole program relative waypoints are resolved in, so a --from/--to
-    part still finds bases outside it. `speed_scale` (0 < F ≤ 1) scales every speed. A waypoint's blend is 0
-    when it is the last waypoint or an action follows it (the action must happen at the waypoint). Raises,
-    naming the step, if a target is unreachable, outside the limits, or swings a joint further than
-    `max_joint_travel` (rad): nothing moves unless the whole plan is sound. Waypoints with known joints are
-    solved in one batch (10⁵ poses in well under a second).
+    Parameters
+    ----------
+    model : URModel
+        The arm; each waypoint is solved with its own taught TCP offset.
+    steps : sequence of Step
+        The steps to plan (a whole program or a --from/--to part of `resolve_from`).
+    start_joints : (6,) array_like, optional
+        Where the arm is (rad); None when unknown (a dry run).
+    defaults : Defaults
+        What a waypoint leaves unset.
+    speed_scale : float
+        0 < F ≤ 1, scales every speed.
+    replay_recorded_joints : bool
+        Use recorded joints instead of solving IK.
+    max_joint_travel : float, optional
+        Refuse a move that swings a joint further than this (rad).
+    resolve_from : sequence of Step, optional
+        The whole program relative waypoints are resolved in (default `steps`), so a part finds bases outside it.
+
+    Returns
+    -------
+    list of PlannedStep
+        One per step; a waypoint's blend is 0 when it is the last waypoint or an action follows it.
+
+    Raises
+    ------
+    UnreachablePoseError, JointLimitError, SafetyCheckError, ValueError
+        Naming the step: nothing moves unless the whole plan is sound.
+
+    Examples
+    --------
+    >>> from ur3dq.kinematics import robot_model
+    >>> from ur3dq.pose import Pose
+    >>> from ur3dq.program.steps import DigitalOut, Motion, RelativeWaypoint, Waypoint
+    >>> ur3 = robot_model("ur3")
+    >>> q = [0.0, -1.2, 1.0, -1.4, -1.57, 0.0]
+    >>> pick = Waypoint("pick", Pose.from_dual_quaternion("pick", ur3.fk(q), "ur3", joints=tuple(q)),
+    ...                 Motion("linear", speed=0.05))
+    >>> steps = [RelativeWaypoint("above", "pick", (0, 0, -0.05, 0, 0, 0)), pick, DigitalOut("grip", "tool", 0, True)]
+    >>> [(planned.name, planned.move, planned.speed) for planned in plan_program(ur3, steps, q)]
+    [('above', 'joint', 1.05), ('pick', 'linear', 0.05), ('grip', None, None)]
     """
     if not (isinstance(speed_scale, (int, float)) and math.isfinite(speed_scale) and 0 < speed_scale <= 1):
         raise ValueError(f"--speed-scale must be a fraction 0 < F ≤ 1, got {speed_scale!r}")

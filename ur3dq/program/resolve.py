@@ -15,7 +15,9 @@ from ur3dq.program.steps import Waypoint, is_waypoint
 
 @dataclasses.dataclass(frozen=True, slots=True)  # slots: one per waypoint, 10⁵ in a big program
 class Target:
-    """A resolved waypoint: the TCP pose to reach (base frame; its 8 coefficients, `pose` as a DualQuaternion),
+    """A resolved waypoint: the TCP pose to reach and how it was taught.
+
+    A resolved waypoint: the TCP pose to reach (base frame; its 8 coefficients, `pose` as a DualQuaternion),
     the TCP offset it was taught with (flange frame, UR pose vector), the model it was taught on, and joints to
     prefer when solving IK (the root recorded pose's joints, or None)."""
 
@@ -27,6 +29,7 @@ class Target:
 
     @property
     def pose(self) -> DualQuaternion:
+        """The TCP pose to reach, as a DualQuaternion."""
         return DualQuaternion.from_array(self.coefficients)
 
 
@@ -40,7 +43,9 @@ def offset_pose(base: DualQuaternion, offset, frame: str) -> DualQuaternion:
 
 
 def resolve_targets(steps, relative_only: bool = False) -> dict:
-    """{name: Target} for every waypoint of `steps` (only relative ones and their bases when `relative_only`);
+    """The Target of every waypoint, relative ones resolved.
+
+    {name: Target} for every waypoint of `steps` (only relative ones and their bases when `relative_only`);
     ValueError naming the step when a relative
     waypoint's base is missing or not a waypoint, or relative waypoints form a cycle."""
     by_name = {step.name: step for step in steps}
@@ -98,7 +103,9 @@ def check_program(steps) -> None:
 
 
 def select_range(steps, start: str | None = None, end: str | None = None) -> list:
-    """The steps from the one named `start` to the one named `end`, inclusive (the whole program by default);
+    """The steps from `start` to `end`, inclusive.
+
+    The steps from the one named `start` to the one named `end`, inclusive (the whole program by default);
     ValueError when a name is unknown or `end` comes before `start`."""
     names = [step.name for step in steps]
     for option, name in (("--from", start), ("--to", end)):

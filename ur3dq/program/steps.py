@@ -143,7 +143,9 @@ class Waypoint(Step):
 
 @dataclasses.dataclass(frozen=True)
 class RelativeWaypoint(Step):
-    """A waypoint at `offset` [dx, dy, dz, rx, ry, rz] (metres, rotation vector) from the waypoint `base`, in
+    """A waypoint at an offset from another waypoint.
+
+    A waypoint at `offset` [dx, dy, dz, rx, ry, rz] (metres, rotation vector) from the waypoint `base`, in
     its tool frame (σ_base · offset) or the base frame (offset · σ_base, the rotation about the TCP's own
     position). It follows `base` when `base` is re-taught."""
 

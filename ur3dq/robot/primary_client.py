@@ -138,7 +138,9 @@ class PrimaryClient:
 
 
 def send_script(host, script, port=SECONDARY_PORT, timeout=1.0):
-    """Send URScript on a connection of its own (for when the main one is gone), half-close it, and wait (≤ timeout)
+    """Send URScript on a connection of its own and wait until it is read.
+
+    Send URScript on a connection of its own (for when the main one is gone), half-close it, and wait (≤ timeout)
     for the controller to close its side, so the script is known to be read before the socket goes away."""
     try:
         with socket.create_connection((host, port), timeout=timeout) as connection:

@@ -33,7 +33,9 @@ def connect_timeout():
 
 
 def probe_rtde(host, port=RTDE_PORT, timeout=None):
-    """Ask `host:port` for RTDE protocol version 2 within `timeout` s (default connect_timeout());
+    """Check that `host:port` answers the RTDE protocol-version handshake.
+
+    Ask `host:port` for RTDE protocol version 2 within `timeout` s (default connect_timeout());
     RobotConnectionError naming the port if it cannot be reached, stays silent, or answers anything but a
     well-formed 4-byte 'V' reply."""
     timeout = connect_timeout() if timeout is None else timeout
