@@ -47,7 +47,7 @@ def write_big_store(path: Path, count: int) -> None:
     poses = model.fk_batch(joints)
     vectors = to_ur_pose(poses)
     with path.open("w", encoding="utf-8") as stream:
-        stream.write('{\n  "schema": "%s",\n  "version": %d,\n  "poses": [\n' % (SCHEMA_NAME, SCHEMA_VERSION))
+        stream.write(f'{{\n  "schema": "{SCHEMA_NAME}",\n  "version": {SCHEMA_VERSION},\n  "poses": [\n')
         for index in range(count):
             entry = {"name": f"pose-{index + 1}", "time": "2026-11-22T01:19:40.556Z", "robot_model": "ur3",
                      "robot_serial": None, "joints": joints[index].tolist(), "dual_quaternion": poses[index].tolist(),

@@ -220,7 +220,7 @@ class Pose:
         return DualQuaternion.from_array(self.dual_quaternion)
 
     @classmethod
-    def from_dual_quaternion(cls, name: str, pose: DualQuaternion, robot_model: str, **fields) -> "Pose":
+    def from_dual_quaternion(cls, name: str, pose: DualQuaternion, robot_model: str, **fields) -> Pose:
         """A Pose from a DualQuaternion (TCP in base); the UR pose vector is derived, the time defaults to now."""
         fields.setdefault("time", utc_now_iso())
         return cls(
@@ -231,7 +231,7 @@ class Pose:
             **fields,
         )
 
-    def renamed(self, name: str) -> "Pose":
+    def renamed(self, name: str) -> Pose:
         """The same pose under another name (validated)."""
         return dataclasses.replace(self, name=name)
 

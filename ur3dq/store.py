@@ -15,8 +15,8 @@ import functools
 import os
 import re
 import tempfile
+from collections.abc import Callable, Iterable
 from pathlib import Path
-from typing import Callable, Iterable
 
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import StoreError
@@ -24,9 +24,18 @@ from ur3dq.pose import Pose, next_free_name, numbering_prefix, utc_now_iso
 from ur3dq.program.resolve import check_program
 from ur3dq.program.steps import RelativeWaypoint, Waypoint
 from ur3dq.store_format import (  # noqa: F401  (re-exported: the store's public names)
-    PROGRAM_SCHEMA_VERSION, SCHEMA_NAME, SCHEMA_VERSION, format_program, format_program_v2, format_store,
-    needs_version_2, own_layout_version,
-    parse_document, parse_store, pose_from_dict, pose_to_dict,
+    PROGRAM_SCHEMA_VERSION,
+    SCHEMA_NAME,
+    SCHEMA_VERSION,
+    format_program,
+    format_program_v2,
+    format_store,
+    needs_version_2,
+    own_layout_version,
+    parse_document,
+    parse_store,
+    pose_from_dict,
+    pose_to_dict,
 )
 
 LOCK_TIMEOUT_S = 30.0
@@ -286,7 +295,7 @@ class PoseStore:
         self.require_directory()
         target = Path(os.path.realpath(self.path))
         lock = self._lock
-        from filelock import Timeout   # loaded with the lock (see _lock)
+        from filelock import Timeout  # loaded with the lock (see _lock)
         try:
             with lock:
                 remove_orphan_temporaries(target)

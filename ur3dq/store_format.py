@@ -21,14 +21,27 @@ import orjson
 from ur3dq import dqarray
 from ur3dq.errors import StoreError
 from ur3dq.pose import (
-    MAX_JOINT_ABS, MAX_TRANSLATION_ABS, POSE_AGREEMENT_TOLERANCE, UNIT_TOLERANCE, Pose, check_pose_text_fields,
+    MAX_JOINT_ABS,
+    MAX_TRANSLATION_ABS,
+    POSE_AGREEMENT_TOLERANCE,
+    UNIT_TOLERANCE,
+    Pose,
+    check_pose_text_fields,
     text_fields_all_valid,
 )
 from ur3dq.program.resolve import check_program
-from ur3dq.real_numbers import is_number
 from ur3dq.program.steps import (
-    DEFAULT_MOTION, AnalogOut, DigitalOut, Message, Motion, RelativeWaypoint, Wait, WaitInput, Waypoint,
+    DEFAULT_MOTION,
+    AnalogOut,
+    DigitalOut,
+    Message,
+    Motion,
+    RelativeWaypoint,
+    Wait,
+    WaitInput,
+    Waypoint,
 )
+from ur3dq.real_numbers import is_number
 
 SCHEMA_NAME = "ur3dq.poses"
 SCHEMA_VERSION = 1            # a store of recorded poses only (what every ur3dq writes unless a program needs 2)
@@ -386,7 +399,7 @@ def _own_layout(text: str):
             # The next PARSED_LINES lines, one entry each: each opens an object, and all but the file's last end
             # with a comma (checked in place: a copy of each line would cost as much memory as the text).
             stop, count = position, 0
-            for count in range(1, PARSED_LINES + 1):
+            for count in range(1, PARSED_LINES + 1):   # noqa: B007  (count is read after the loop)
                 if not text.startswith("    {", stop):
                     raise _NotOwnLayout
                 stop = text.index("\n", stop) + 1

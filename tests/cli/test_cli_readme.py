@@ -5,7 +5,6 @@ import subprocess
 import sys
 from pathlib import Path
 
-
 from robot_target import simulator_only
 
 README = Path(__file__).resolve().parents[2] / "README.md"

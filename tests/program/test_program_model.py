@@ -9,14 +9,17 @@ from ur3dq.kinematics import robot_model
 from ur3dq.pose import Pose
 from ur3dq.program.plan import plan_program
 from ur3dq.program.resolve import offset_pose, resolve_targets, select_range
-from ur3dq.program.steps import DigitalOut, Message, Motion, RelativeWaypoint, Wait, WaitInput, Waypoint
 from ur3dq.program.script import STEP_REGISTER, program_script
+from ur3dq.program.steps import DigitalOut, Message, Motion, RelativeWaypoint, Wait, WaitInput, Waypoint
 
 MODEL = robot_model("ur3")
 Q_PICK = np.array([0.3, -1.2, 1.4, -1.8, -1.5708, 0.2])
 
 
-def pick_waypoint(joints=Q_PICK, motion=Motion("linear", 0.1)):
+LINEAR = Motion("linear", 0.1)
+
+
+def pick_waypoint(joints=Q_PICK, motion=LINEAR):
     pose = Pose.from_dual_quaternion("pick", MODEL.fk(joints), "ur3", joints=tuple(joints))
     return Waypoint("pick", pose, motion)
 

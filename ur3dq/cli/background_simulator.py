@@ -110,7 +110,8 @@ def start_simulator(model: str = "ur3", host: str | None = None, version: str | 
                 process.kill()
             process.wait()
             tail = log_path.read_text(encoding="utf-8", errors="replace").strip().splitlines()[-1:]
-            raise SimulatorError(f"the simulator did not come up: {error}" + (f" ({tail[0]})" if tail else "")) from None
+            detail = f" ({tail[0]})" if tail else ""
+            raise SimulatorError(f"the simulator did not come up: {error}{detail}") from None
         state = {"pid": process.pid, "host": host, "model": model, "version": version, "log": str(log_path),
                  "started": utc_now_iso()}
         write_atomically(directory / STATE_FILE_NAME, json.dumps(state, indent=2) + "\n")

@@ -41,7 +41,7 @@ def angles_text(values, deg: bool) -> str:
     return _angles_format(bool(deg), len(numbers)) % tuple(numbers)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _angles_format(deg: bool, count: int) -> str:
     """The %-format of angles_text's line of `count` angles."""
     return "[" + ", ".join([_ANGLE_FORMAT[deg]] * count) + "]"

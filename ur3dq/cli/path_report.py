@@ -24,7 +24,8 @@ DEFAULT_LINEAR_ACCELERATION = 1.2
 # (margin key, header, scale, narrow header, narrow drop order: the speed room first, the collisions last)
 MARGIN_COLUMNS = (("wrist", "|sin θ5|", 1.0, "wrist", 5), ("elbow", "|sin θ3|", 1.0, "elbow", 4),
                   ("shoulder", "shoulder mm", 1000.0, "shldr", 3),
-                  ("joint_limit", "limit °", math.degrees(1.0), "limit", 2), ("joint_speed", "speed room", 1.0, "speed", 1),
+                  ("joint_limit", "limit °", math.degrees(1.0), "limit", 2),
+                  ("joint_speed", "speed room", 1.0, "speed", 1),
                   ("self_collision", "self mm", 1000.0, "self", 7), ("cell", "cell mm", 1000.0, "cell", 6))
 
 

@@ -220,7 +220,8 @@ def import_poses(settings: Settings, file: Path, prefix, tcp):
     if settings.json:
         emit_json([pose.name for pose in added])
     else:
-        click.echo(f"Imported {count_text(len(added), 'pose')} into {settings.store_path}: {', '.join(p.name for p in added)}")
+        names = ", ".join(p.name for p in added)
+        click.echo(f"Imported {count_text(len(added), 'pose')} into {settings.store_path}: {names}")
 
 
 @poses.command("export")

@@ -71,7 +71,7 @@ class DHParameters:
     theta: np.ndarray
 
     @classmethod
-    def nominal(cls, name: str) -> "DHParameters":
+    def nominal(cls, name: str) -> DHParameters:
         """The nominal (catalogue) DH of a UR model."""
         d1, a2, a3, d4, d5, d6 = _FAMILY[name][0]
         return cls(
@@ -81,7 +81,7 @@ class DHParameters:
             theta=_frozen(np.zeros(6)),
         )
 
-    def with_deltas(self, deltas: dict) -> "DHParameters":
+    def with_deltas(self, deltas: dict) -> DHParameters:
         """These parameters plus calibration deltas {'a','d','alpha','theta': 6 values each, missing keys = 0}."""
         if not isinstance(deltas, dict):
             raise ValueError(f"dh_deltas: expected a dict with keys {DH_DELTA_KEYS}, got {type(deltas).__name__}")
@@ -146,7 +146,7 @@ class URModel:
         calibrated = ", calibrated" if self.calibrated else ""
         return f"URModel({self.name!r}{calibrated}, tcp={self.tcp.to_ur_pose().round(6).tolist()})"
 
-    def with_tcp(self, tcp) -> "URModel":
+    def with_tcp(self, tcp) -> URModel:
         """The same arm with a TCP offset in the flange frame: a DualQuaternion or a UR pose vector [x,y,z,rx,ry,rz]."""
         if isinstance(tcp, DualQuaternion):
             if not tcp.is_unit():

@@ -78,7 +78,7 @@ class Motion:
     acceleration: float | None = None
     blend: float | None = None
 
-    def check(self, who: str) -> "Motion":
+    def check(self, who: str) -> Motion:
         """This Motion with numbers normalised; ValueError naming `who` when a value makes no sense."""
         if self is DEFAULT_MOTION:  # every v1 waypoint: nothing to check (a big store has 10⁵ of them)
             return self

@@ -95,7 +95,7 @@ class PrimaryClient:
             while not self._closing:
                 try:
                     chunk = self._socket.recv(65536)
-                except socket.timeout:
+                except TimeoutError:
                     continue
                 if not chunk:
                     raise ConnectionError("the controller closed the primary connection")
@@ -149,7 +149,7 @@ def send_script(host, script, port=SECONDARY_PORT, timeout=1.0):
             deadline = time.monotonic() + timeout
             while time.monotonic() < deadline and connection.recv(65536):
                 pass  # state messages the controller streams meanwhile
-    except socket.timeout:
+    except TimeoutError:
         pass  # sent; the controller just keeps the connection open
     except OSError as error:
         raise RobotConnectionError(f"cannot send a program to {host}:{port}: {error}") from None

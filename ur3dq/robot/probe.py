@@ -45,7 +45,7 @@ def probe_rtde(host, port=RTDE_PORT, timeout=None):
         with socket.create_connection((host, port), timeout=timeout) as sock:
             sock.sendall(_HEADER.pack(5, _REQUEST_PROTOCOL_VERSION) + struct.pack(">H", _PROTOCOL_VERSION))
             reply = _receive_exactly(sock, 4, deadline)
-    except socket.timeout:
+    except TimeoutError:
         raise RobotConnectionError(f"{where} did not answer the protocol version request within {timeout:g} s") \
             from None
     except OSError as error:
@@ -66,7 +66,7 @@ def _receive_exactly(sock, count, deadline):
     while len(data) < count:
         remaining = deadline - time.monotonic()
         if remaining <= 0:
-            raise socket.timeout
+            raise TimeoutError
         sock.settimeout(remaining)
         chunk = sock.recv(count - len(data))
         if not chunk:

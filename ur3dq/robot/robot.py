@@ -253,8 +253,8 @@ class Robot:
         """Move to joint target `q` (rad) on a trapezoid with acceleration a (rad/s²) and speed v (rad/s).
 
         Blocks until there is evidence that this program ran and ended (its own end key message, or the state
-        stream showing it running then not running) and the arm rests at `q`; returns the wall time in seconds. `expected_pose`
-        (DualQuaternion) marks a target that came from IK: the model's FK of `q` must reach it.
+        stream showing it running then not running) and the arm rests at `q`; returns the wall time in seconds.
+        `expected_pose` (DualQuaternion) marks a target that came from IK: the model's FK of `q` must reach it.
         """
         return self.movej_path([q], blend=0.0, a=a, v=v, expected_poses=None if expected_pose is None
                                else [expected_pose])
