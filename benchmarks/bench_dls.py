@@ -54,7 +54,7 @@ def print_paper_comparison():
         for value, (iterations, error) in table.items():
             parameters = dict(alpha=0.5, gamma=value) if vary == "gamma" else dict(alpha=value, gamma=0.9)
             ours = dls_ik(PLANAR, GOAL, START, **parameters)
-            note = "" if ours.converged else "  (cap; our pass 99: %.4f)" % ours.error_log[-2]
+            note = "" if ours.converged else f"  (cap; our pass 99: {ours.error_log[-2]:.4f})"
             print(f"  {value:.1f}   {iterations:4d} / {error:.4f}      {ours.iterations:4d} / {ours.error:.4f}{note}")
 
 
@@ -86,8 +86,10 @@ def print_ur3_runs(goals: int):
     for name, options in runs.items():
         results = [dls_ik(model, pose, start, max_iterations=300, **options) for pose, start in zip(poses, starts)]
         repeats = 1 if options["mode"] == PAPER else PASSES   # paper mode takes ~0.1 s a solve: one pass is plenty
-        timings[name] = seconds_per_call(lambda pose, start: dls_ik(model, pose, start, max_iterations=300, **options),
-                                         list(zip(poses, starts)), repeats)
+        def solve(pose, start, options=options):
+            return dls_ik(model, pose, start, max_iterations=300, **options)
+
+        timings[name] = seconds_per_call(solve, list(zip(poses, starts)), repeats)
         passes = np.array([r.iterations for r in results])
         converged = sum(r.converged for r in results)
         print(f"  ur3dq {name:26s} to {options.get('tolerance', 1e-10):.0e}: converged {converged}/{goals}, "

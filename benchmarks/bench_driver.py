@@ -18,10 +18,10 @@ import numpy as np
 from urx.urrobot import URRobot
 
 import ur3dq.robot
-from ur3dq.errors import ProtectiveStopError
-from ur3dq.robot import motion
 from sim_ursim.control_channel import send_request
 from sim_ursim.launch import simulator_process
+from ur3dq.errors import ProtectiveStopError
+from ur3dq.robot import motion
 
 CB3_CYCLE = 0.008
 A, V = 1.4, 1.05

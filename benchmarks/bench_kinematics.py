@@ -33,12 +33,11 @@ import ur_analytic_ik
 from dqrobotics.robot_modeling import DQ_SerialManipulatorDH
 from rich.console import Console
 from rich.table import Table
+
 from sim_ursim.calibration import factory_calibration
 from sim_ursim.models import robot_model as simulator_model
-
 from ur3dq import dqarray
-from ur3dq.kinematics import robot_model, robot_model_from_dh
-from ur3dq.kinematics import ur_ik
+from ur3dq.kinematics import robot_model, robot_model_from_dh, ur_ik
 
 SINGLE_CALLS = 500
 
@@ -180,7 +179,8 @@ def main() -> None:
         ratio = timings[ours] / timings[peer] if sense == "at most" else timings[peer] / timings[ours]
         met = ratio <= target if sense == "at most" else ratio >= target
         goals.add_row(goal, ours.split("  ", 1)[1], f"{timings[ours] * 1e6:.2f}", peer.split("  ", 1)[1],
-                      f"{timings[peer] * 1e6:.2f}", f"{ratio:.2f}×", f"{'≤' if sense == 'at most' else '≥'} {target:g}×",
+                      f"{timings[peer] * 1e6:.2f}", f"{ratio:.2f}×",
+                      f"{'≤' if sense == 'at most' else '≥'} {target:g}×",
                       "yes" if met else "NO")
     calibrated, recovered = calibrated_figures(model.name, args.passes)
     for call, limit, peer in (("ik", 150e-6, "IK  ur-analytic-ik inverse_kinematics_closest"),

@@ -75,7 +75,7 @@ def peer_check(model, plan: PathPlan, cell, margins: Margins, oracle) -> int:
                 joints.append(previous)
             joints = np.array(joints)
         previous_q = q
-        for fraction, sample in zip(fractions, joints):
+        for _fraction, sample in zip(fractions, joints):
             pair = np.vstack((previous_q, sample))
             tcp = dqarray.translation_unchecked(model.fk_batch(pair))
             checker.margins_of(segment, pair, np.array([0.0, 1.0 / len(fractions)]), tcp, np.zeros(2), 1.0)
@@ -120,7 +120,8 @@ def main() -> None:
     matrices = [dqarray.to_matrix(pose) for pose in poses]
     names.update({"  IK alone, same line samples: ur3dq ur_ik.ik_all_batch": lambda: ur_ik.ik_all_batch(
                       model, poses, q_ref=FIRST),
-                  "  IK alone, same line samples: peer loop of ur-analytic-ik inverse_kinematics_closest": lambda: peer_ik_only(
+                  "  IK alone, same line samples: peer loop of ur-analytic-ik inverse_kinematics_closest":
+                  lambda: peer_ik_only(
                       matrices, FIRST, oracle)})
     best = dict.fromkeys(names, math.inf)
     for _ in range(args.passes):

@@ -18,8 +18,8 @@ import time
 import numpy as np
 import rtde_receive
 
-from sim_ursim.rtde import protocol
 from sim_ursim.launch import simulator_process
+from sim_ursim.rtde import protocol
 
 CLOCK_TICKS = os.sysconf("SC_CLK_TCK")
 
@@ -110,7 +110,8 @@ def main(seconds=10.0):
         print(f"  raw reader got   {r['raw_rate']:7.1f} Hz  = {r['raw_ratio']:.3f} x nominal; p99 arrival interval "
               f"{r['raw_p99_ms']:.2f} ms  (peer: what the wire carried)")
         print(f"  simulator CPU    {r['streaming_cpu'] * 100:5.1f} % of a core streaming to ur_rtde vs "
-              f"{r['idle_cpu'] * 100:5.1f} % idle without clients (ratio {r['streaming_cpu'] / max(r['idle_cpu'], 1e-9):.2f})")
+              f"{r['idle_cpu'] * 100:5.1f} % idle without clients "
+              f"(ratio {r['streaming_cpu'] / max(r['idle_cpu'], 1e-9):.2f})")
 
 
 if __name__ == "__main__":

@@ -6,8 +6,8 @@ import sys
 
 import click
 
-from .control_channel import CONTROL_PORT, FAULT_COMMANDS, send_request
 from .calibration import factory_calibration
+from .control_channel import CONTROL_PORT, FAULT_COMMANDS, send_request
 from .models import MODEL_NAMES, robot_model
 
 

@@ -28,13 +28,24 @@ from . import kinematics, trajectories
 from .faults import Faults
 from .io import IOState
 from .messages import MessageBus
-from .modes import ModeMachine
 from .models import check_version_fits, default_version, parse_version, robot_model
+from .modes import ModeMachine
 from .motion_queue import DEFAULT_STOP_CODE, Motion, MotionEntry, MotionFault, MotionQueue
 from .vocabulary import (
-    PROTECTIVE_STOP_DECELERATION, PROTECTIVE_STOP_UNLOCK_DELAY, STATUS_BIT_POWER_ON, STATUS_BIT_PROGRAM_RUNNING,
-    STATUS_BIT_TEACH_BUTTON, CommandRefused, ControllerState, ControlMode, RobotMode, SafetyMode, frozen_array,
-    replaced_state, runtime_state_of, safety_status_bits,
+    PROTECTIVE_STOP_DECELERATION,
+    PROTECTIVE_STOP_UNLOCK_DELAY,
+    STATUS_BIT_POWER_ON,
+    STATUS_BIT_PROGRAM_RUNNING,
+    STATUS_BIT_TEACH_BUTTON,
+    CommandRefused,
+    ControllerState,
+    ControlMode,
+    RobotMode,
+    SafetyMode,
+    frozen_array,
+    replaced_state,
+    runtime_state_of,
+    safety_status_bits,
 )
 
 log = logging.getLogger("sim_ursim.controller")
@@ -430,7 +441,10 @@ class Controller:
 
     def servoj(self, q: Vector, a: float = 0.0, v: float = 0.0, t: float = 0.008, lookahead_time: float = 0.1,
                gain: float = 300) -> Motion:
-        """Servo towards q, arriving t s from now (a, v accepted; lookahead_time 0.03..0.2 and gain 100..2000 checked)."""
+        """Servo towards q, arriving t s from now.
+
+        a and v are accepted; lookahead_time (0.03..0.2) and gain (100..2000) are checked.
+        """
         q = kinematics.checked_vector(q, 6, "q")
         t = kinematics.checked_positive(t, "t")
         if not 0.03 <= float(lookahead_time) <= 0.2:

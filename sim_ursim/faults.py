@@ -7,6 +7,7 @@ import threading
 import time
 from collections.abc import Callable
 
+
 class Faults:
     """Transport faults shared by every server of one simulator; thread-safe."""
 

@@ -168,7 +168,10 @@ def _jacobian_of(frames: list[np.ndarray], tcp: np.ndarray) -> np.ndarray:
 
 
 def pose_error(target: np.ndarray, current: np.ndarray) -> np.ndarray:
-    """6-vector from `current` to `target` transforms: [Δposition; rotation vector of R_target · R_currentᵀ] (base frame)."""
+    """6-vector from `current` to `target` transforms (base frame).
+
+    [Δposition; rotation vector of R_target · R_currentᵀ].
+    """
     position_error = target[:3, 3] - current[:3, 3]
     rotation_error = matrix_to_rotation_vector(target[:3, :3] @ current[:3, :3].T)
     return np.concatenate([position_error, rotation_error])

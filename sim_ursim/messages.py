@@ -42,7 +42,10 @@ class ErrorCodeMessage:
 
 @dataclass(frozen=True)
 class RuntimeExceptionMessage:
-    """Robot message type 10: a URScript compile or runtime error at line/column, e.g. `compile_error_name_not_found:x:`."""
+    """Robot message type 10: a URScript compile or runtime error at line/column.
+
+    E.g. `compile_error_name_not_found:x:`.
+    """
 
     line: int
     column: int

@@ -72,7 +72,10 @@ def parse_version(text):
 
 
 def build_date(version):
-    """The build date PolyscopeVersion prints for `version` (a fixed plausible date for versions we have no record of)."""
+    """The build date PolyscopeVersion prints for `version`.
+
+    A fixed plausible date for versions we have no record of.
+    """
     return _BUILD_DATES.get(version, "Jan 01 2022")
 
 

@@ -49,7 +49,7 @@ class Simulator:
         self._started = True
         started = []
         try:
-            for name, server in self.servers.items():
+            for server in self.servers.values():
                 server.start()
                 started.append(server)
         except OSError:

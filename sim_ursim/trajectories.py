@@ -133,8 +133,8 @@ class LinearMove:
 
     kind = "movel"
 
-    def __init__(self, start_matrix: np.ndarray, end_matrix: np.ndarray, q_start: np.ndarray, q_end: np.ndarray, profile: Trapezoid,
-                 solve_ik: Callable[[np.ndarray, np.ndarray], np.ndarray]):
+    def __init__(self, start_matrix: np.ndarray, end_matrix: np.ndarray, q_start: np.ndarray, q_end: np.ndarray,
+                 profile: Trapezoid, solve_ik: Callable[[np.ndarray, np.ndarray], np.ndarray]):
         self.start_matrix = start_matrix
         self.end_matrix = end_matrix
         self.q_start = np.array(q_start, dtype=float)

@@ -10,6 +10,7 @@ def powered_simulator(model="ur3", **options):
     released through the dashboard, as an operator would, once RTDE shows it RUNNING."""
     import dashboard_client
     import rtde_receive
+
     from sim_ursim.launch import simulator_process
 
     with simulator_process(model=model, **options) as simulator:

@@ -112,3 +112,32 @@ def test_no_module_is_over_700_lines():
     long = {name: n for name, path in MODULES.items()
             if (n := len(path.read_text(encoding="utf-8").splitlines())) > 700}
     assert long == {}
+
+
+PROCESS_WIDE = {("gc", "disable"), ("gc", "freeze"), ("gc", "set_threshold")}
+
+
+def process_wide_tricks(source: str) -> list[str]:
+    """The calls in `source` that change the whole process or run generated code: gc.disable/freeze/set_threshold,
+    exec(...), eval(...) (a method of that name, such as an interpreter's own `self.eval`, is not one)."""
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        if not isinstance(node, ast.Call):
+            continue
+        function = node.func
+        if isinstance(function, ast.Name) and function.id in ("exec", "eval"):
+            found.append(f"{function.id}(")
+        elif (isinstance(function, ast.Attribute) and isinstance(function.value, ast.Name)
+              and (function.value.id, function.attr) in PROCESS_WIDE):
+            found.append(f"{function.value.id}.{function.attr}(")
+    return found
+
+
+def test_no_process_wide_tricks_in_library_code():
+    import sim_ursim
+
+    sources = SOURCES + sorted(Path(sim_ursim.__file__).parent.rglob("*.py"))
+    found = {str(path.relative_to(ROOT.parent)): tricks for path in sources
+             if (tricks := process_wide_tricks(path.read_text(encoding="utf-8")))}
+    assert found == {}
+    assert process_wide_tricks("import gc\ngc.freeze()\nexec('x = 1')\nself.eval(node)\n") == ["gc.freeze(", "exec("]

@@ -3,11 +3,24 @@ import doctest
 import math
 
 import pytest
-from hypothesis import given, strategies as st
+from hypothesis import given
+from hypothesis import strategies as st
 
 import ur3dq.units as units_module
-from ur3dq.units import (ANGLE, ANGULAR_ACCELERATION, ANGULAR_SPEED, DURATION, LENGTH, LINEAR_ACCELERATION,
-                         LINEAR_SPEED, Units, parse, show, to_display, unit_label)
+from ur3dq.units import (
+    ANGLE,
+    ANGULAR_ACCELERATION,
+    ANGULAR_SPEED,
+    DURATION,
+    LENGTH,
+    LINEAR_ACCELERATION,
+    LINEAR_SPEED,
+    Units,
+    parse,
+    show,
+    to_display,
+    unit_label,
+)
 
 DEG = Units(angle="deg")
 MM = Units(length="mm")

@@ -38,12 +38,10 @@ def as_array(value, last: int | tuple, name: str) -> np.ndarray:
 def sincos_of_half(half: np.ndarray) -> tuple:
     """(sin 2h, cos 2h) of an array of half angles h, IN PLACE, from t = tan h: sin = t·u, cos = u − 1, u = 2/(1+t²).
 
-    Why tan: measured on the AVX-512 development machine (numpy 2.x, 4096 angles, ns per element): tan 1.4,
-    sin 10.7, cos 10.0 — numpy's float64 tan has a SIMD loop there and sin/cos do not, so one tan plus a few
-    multiplications beats sin + cos by ~5×. On an AVX2-only machine numpy's tan has no SIMD loop (about as slow as
-    sin): there this costs about one sin instead of two. benchmarks/bench_kinematics.py prints the CPU's SIMD level
-    next to its figures. The identities stay accurate to a few ulp, also where t is huge (2h ≈ π). ``half`` is
-    overwritten (callers pass a temporary they could scale for free).
+    Why tan: on CPUs with AVX-512 numpy's float64 tan has a SIMD loop and sin/cos do not, so one tan plus a few
+    multiplications costs far less than sin + cos (docs/performance.md); where tan has no SIMD loop this costs
+    about one sin instead of two. The identities stay accurate to a few ulp, also where t is huge (2h ≈ π).
+    ``half`` is overwritten (callers pass a temporary they could scale for free).
     """
     tangent = np.tan(half, out=half)
     scale = np.multiply(tangent, tangent)

@@ -66,7 +66,20 @@ def multiply_coefficients(a: tuple, b: tuple) -> tuple:
 
 
 class DualQuaternion:
-    """A dual quaternion real + ε·dual; as a pose, σ = r + ε·½·t·r (rotate, then translate, parent frame)."""
+    """A dual quaternion real + ε·dual; as a pose, σ = r + ε·½·t·r (rotate, then translate, parent frame).
+
+    Examples
+    --------
+    >>> from pyquaternion import Quaternion
+    >>> turn = DualQuaternion.from_rotation_translation(Quaternion(axis=[0, 0, 1], angle=1.5707963267948966))
+    >>> shift = DualQuaternion.from_translation([0.1, 0.0, 0.0])
+    >>> (turn * shift).translation.round(6).tolist()         # shift in the turned frame
+    [0.0, 0.1, 0.0]
+    >>> (shift * turn).transform_point([0.1, 0.0, 0.0]).round(6).tolist()
+    [0.1, 0.1, 0.0]
+    >>> (turn * shift).is_close(-(turn * shift))              # σ and −σ are the same pose
+    True
+    """
 
     __slots__ = ("_c",)
 
@@ -77,7 +90,7 @@ class DualQuaternion:
         self._c = real_c + dual_c
 
     @classmethod
-    def _from_tuple(cls, coefficients: tuple) -> "DualQuaternion":
+    def _from_tuple(cls, coefficients: tuple) -> DualQuaternion:
         """Wrap 8 floats already known to be finite (internal fast path, no validation)."""
         instance = object.__new__(cls)
         instance._c = coefficients
@@ -85,24 +98,24 @@ class DualQuaternion:
 
     # ------------------------------------------------------------------------------------------- constructors
     @classmethod
-    def identity(cls) -> "DualQuaternion":
+    def identity(cls) -> DualQuaternion:
         """The identity transform 1 + ε·0."""
         return cls._from_tuple((1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
 
     @classmethod
-    def from_rotation_translation(cls, rotation, translation=(0.0, 0.0, 0.0)) -> "DualQuaternion":
+    def from_rotation_translation(cls, rotation, translation=(0.0, 0.0, 0.0)) -> DualQuaternion:
         """σ = r + ε·½·t·r: rotate by unit quaternion ``rotation``, then translate by ``translation`` (parent)."""
         r = _quaternion_coefficients(rotation, "rotation")
         t = _vector(translation, 3, "translation")
         return cls.from_array(dqarray.from_rotation_translation(np.array(r), t))
 
     @classmethod
-    def from_translation(cls, translation) -> "DualQuaternion":
+    def from_translation(cls, translation) -> DualQuaternion:
         """The pure translation 1 + ε·½·t."""
         return cls.from_rotation_translation((1.0, 0.0, 0.0, 0.0), translation)
 
     @classmethod
-    def from_axis_angle(cls, axis, angle: float) -> "DualQuaternion":
+    def from_axis_angle(cls, axis, angle: float) -> DualQuaternion:
         """A pure rotation by ``angle`` radians about ``axis`` (any non-zero length) through the origin."""
         axis = _vector(axis, 3, "axis")
         norm = float(np.linalg.norm(axis))
@@ -112,14 +125,16 @@ class DualQuaternion:
         return cls.from_rotation_translation(dqarray.rotation_vector_to_quaternion(axis / norm * angle))
 
     @classmethod
-    def from_array(cls, coefficients) -> "DualQuaternion":
+    def from_array(cls, coefficients) -> DualQuaternion:
         """From the 8 coefficients [rw rx ry rz dw dx dy dz] (real part, then dual part)."""
         array = _vector(coefficients, 8, "coefficients")
         return cls._from_tuple(tuple(float(c) for c in array))
 
     @classmethod
-    def from_matrix(cls, matrix, tolerance: float = UNIT_TOLERANCE) -> "DualQuaternion":
-        """From a 4×4 homogeneous transform (rotation block orthonormal within ``tolerance``, det +1, last row
+    def from_matrix(cls, matrix, tolerance: float = UNIT_TOLERANCE) -> DualQuaternion:
+        """From a 4×4 homogeneous transform.
+
+        From a 4×4 homogeneous transform (rotation block orthonormal within ``tolerance``, det +1, last row
         0 0 0 1); the quaternion is extracted (Shepperd) and normalised, so a looser tolerance admits rounded
         printouts at about their print precision."""
         matrix = dqarray.as_array(matrix, (4, 4), "matrix")
@@ -128,12 +143,12 @@ class DualQuaternion:
         return cls.from_array(dqarray.from_matrix(matrix, tolerance))
 
     @classmethod
-    def from_ur_pose(cls, pose) -> "DualQuaternion":
+    def from_ur_pose(cls, pose) -> DualQuaternion:
         """From a UR pose vector [x, y, z, rx, ry, rz] (metres, rotation vector in radians)."""
         return cls.from_array(dqarray.from_ur_pose(_vector(pose, 6, "pose")))
 
     @classmethod
-    def from_pair(cls, q, p, tolerance: float = UNIT_TOLERANCE) -> "DualQuaternion":
+    def from_pair(cls, q, p, tolerance: float = UNIT_TOLERANCE) -> DualQuaternion:
         """From the thesis pair (q, p): unit rotation q, position p (3 numbers or a pure ``Quaternion``)."""
         if isinstance(p, Quaternion):
             if abs(p.w) > tolerance:
@@ -146,7 +161,7 @@ class DualQuaternion:
         return cls.from_rotation_translation(r / norm, _vector(p, 3, "p"))
 
     @classmethod
-    def from_thesis_line(cls, line: str, tolerance: float = UNIT_TOLERANCE) -> "DualQuaternion":
+    def from_thesis_line(cls, line: str, tolerance: float = UNIT_TOLERANCE) -> DualQuaternion:
         """Parse the thesis' 8-coefficient line ``q.w q.x q.y q.z 0 p.x p.y p.z`` (spaces or commas).
 
         ``tolerance`` bounds |q| − 1 and the 5th coefficient; lines printed with few decimals need a larger one
@@ -219,7 +234,7 @@ class DualQuaternion:
         return dqarray.check_unit(np.array(self._c), name)
 
     # -------------------------------------------------------------------------------------------------- algebra
-    def __mul__(self, other: "DualQuaternion") -> "DualQuaternion":
+    def __mul__(self, other: DualQuaternion) -> DualQuaternion:
         """Composition self·other (σ_0→2 = σ_0→1 · σ_1→2); a number scales both parts."""
         if isinstance(other, DualQuaternion):
             return DualQuaternion._from_tuple(multiply_coefficients(self._c, other._c))
@@ -227,19 +242,19 @@ class DualQuaternion:
             return DualQuaternion._from_tuple(tuple(c * other for c in self._c))
         return NotImplemented
 
-    def __rmul__(self, other) -> "DualQuaternion":
+    def __rmul__(self, other) -> DualQuaternion:
         """Scalar times dual quaternion."""
         if isinstance(other, (int, float)) and math.isfinite(other):
             return DualQuaternion._from_tuple(tuple(c * other for c in self._c))
         return NotImplemented
 
-    def __add__(self, other: "DualQuaternion") -> "DualQuaternion":
+    def __add__(self, other: DualQuaternion) -> DualQuaternion:
         """Coefficient-wise sum (the algebra's addition, not a pose operation)."""
         if not isinstance(other, DualQuaternion):
             return NotImplemented
         return DualQuaternion._from_tuple(tuple(a + b for a, b in zip(self._c, other._c)))
 
-    def __neg__(self) -> "DualQuaternion":
+    def __neg__(self) -> DualQuaternion:
         """−σ: the same pose, the other sign."""
         return DualQuaternion._from_tuple(tuple(-c for c in self._c))
 
@@ -258,22 +273,22 @@ class DualQuaternion:
         d = " ".join(f"{c:+.6f}" for c in self._c[4:])
         return f"DualQuaternion([{r}] + ε[{d}])"
 
-    def conjugate(self) -> "DualQuaternion":
+    def conjugate(self) -> DualQuaternion:
         """Quaternion conjugate r* + ε·d* (the inverse of a unit dual quaternion)."""
         w, x, y, z, dw, dx, dy, dz = self._c
         return DualQuaternion._from_tuple((w, -x, -y, -z, dw, -dx, -dy, -dz))
 
-    def dual_conjugate(self) -> "DualQuaternion":
+    def dual_conjugate(self) -> DualQuaternion:
         """Dual conjugate r − ε·d."""
         w, x, y, z, dw, dx, dy, dz = self._c
         return DualQuaternion._from_tuple((w, x, y, z, -dw, -dx, -dy, -dz))
 
-    def combined_conjugate(self) -> "DualQuaternion":
+    def combined_conjugate(self) -> DualQuaternion:
         """Combined conjugate r* − ε·d*."""
         w, x, y, z, dw, dx, dy, dz = self._c
         return DualQuaternion._from_tuple((w, -x, -y, -z, -dw, dx, dy, dz))
 
-    def inverse(self) -> "DualQuaternion":
+    def inverse(self) -> DualQuaternion:
         """σ⁻¹ = r⁻¹ − ε·r⁻¹·d·r⁻¹ (any invertible dual quaternion, i.e. real part ≠ 0)."""
         norm2 = sum(c * c for c in self._c[:4])
         if norm2 < 1e-24:
@@ -285,7 +300,7 @@ class DualQuaternion:
         correction = multiply_coefficients(multiply_coefficients(r_inv, dual_only), r_inv)
         return DualQuaternion._from_tuple(r_inv[:4] + tuple(-c for c in correction[4:]))
 
-    def normalised(self) -> "DualQuaternion":
+    def normalised(self) -> DualQuaternion:
         """The nearest unit dual quaternion: real part scaled to norm 1, dual part made orthogonal (keeps t)."""
         return DualQuaternion.from_array(dqarray.normalise(np.array(self._c)))
 
@@ -306,16 +321,16 @@ class DualQuaternion:
         return dqarray.log(self._unit_array("self"))
 
     @classmethod
-    def exp(cls, screw) -> "DualQuaternion":
+    def exp(cls, screw) -> DualQuaternion:
         """The unit dual quaternion exp(ω + ε·v) of 6 numbers [ω, v] (the inverse of :meth:`log`)."""
         return cls.from_array(dqarray.exp(_vector(screw, 6, "screw")))
 
-    def power(self, exponent: float) -> "DualQuaternion":
+    def power(self, exponent: float) -> DualQuaternion:
         """σ^τ = exp(τ·log σ): the screw motion's fraction τ (shorter screw, σ ≡ −σ)."""
         exponent = float(_vector([exponent], 1, "exponent")[0])
         return DualQuaternion.exp(exponent * self.log())
 
-    def sclerp(self, other: "DualQuaternion", tau: float) -> "DualQuaternion":
+    def sclerp(self, other: DualQuaternion, tau: float) -> DualQuaternion:
         """Screw linear interpolation self·(self*·other)^τ: τ = 0 gives self, τ = 1 gives other (as a pose)."""
         if not isinstance(other, DualQuaternion):
             raise ValueError(f"other: expected a DualQuaternion, got {type(other).__name__}")
@@ -324,14 +339,14 @@ class DualQuaternion:
             dqarray.sclerp(self._unit_array("self"), other._unit_array("other"), tau)
         )
 
-    def distance(self, other: "DualQuaternion") -> tuple[float, float]:
+    def distance(self, other: DualQuaternion) -> tuple[float, float]:
         """(metres, radians): translation distance and rotation angle between two poses (σ ≡ −σ)."""
         if not isinstance(other, DualQuaternion):
             raise ValueError(f"other: expected a DualQuaternion, got {type(other).__name__}")
         metres, radians = dqarray.pose_distance(self._unit_array("self"), other._unit_array("other"))
         return float(metres), float(radians)
 
-    def is_close(self, other: "DualQuaternion", tol_m: float = 1e-9, tol_rad: float = 1e-9) -> bool:
+    def is_close(self, other: DualQuaternion, tol_m: float = 1e-9, tol_rad: float = 1e-9) -> bool:
         """True when the poses differ by at most ``tol_m`` metres and ``tol_rad`` radians (σ ≡ −σ)."""
         metres, radians = self.distance(other)
         return metres <= tol_m and radians <= tol_rad

@@ -15,13 +15,17 @@ from ur3dq.store import write_atomically
 
 
 def arm_points(model, joints) -> np.ndarray:
-    """(7, 3) points of the arm's stick figure in the base frame (metres): the origins of the model's own frames
+    """The arm's stick figure at `joints`: the origins of its frames.
+
+    (7, 3) points of the arm's stick figure in the base frame (metres): the origins of the model's own frames
     0..6 at `joints` (radians), the last one being the TCP."""
     return np.array([DualQuaternion.from_array(frame).translation for frame in model.frames(joints)])
 
 
 def plot_poses(path, model, steps, title: str = "", path_check=None, cell=None) -> None:
-    """Write a PNG to `path`: the TCP path through the planned `steps` (PlanStep: .pose, .joints) and the arm at
+    """Write a PNG of the planned TCP path and the arm at each pose.
+
+    Write a PNG to `path`: the TCP path through the planned `steps` (PlanStep: .pose, .joints) and the arm at
     each, labelled with the pose names, on `model` (a robot_model); with `path_check` (a PathCheckResult) also the
     swept TCP path, the arm's capsules at the worst sample and the obstacles of `cell` (ur3dq.pathcheck.drawing)."""
     import matplotlib

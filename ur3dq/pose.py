@@ -15,7 +15,6 @@ import numpy as np
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.kinematics.models import MODEL_NAMES
 from ur3dq.real_numbers import real_array
-from ur3dq.slots import slot_builder
 
 # How far the stored UR pose vector may drift from the dual quaternion (JSON floats round-trip exactly, so only
 # hand edits can exceed this).
@@ -35,7 +34,9 @@ def utc_now_iso() -> str:
 
 
 def name_problem(name) -> str | None:
-    """Why `name` cannot name a pose (None if it can): non-empty text, ≤ 100 characters, no control characters,
+    """Why `name` cannot name a pose, or None if it can.
+
+    Why `name` cannot name a pose (None if it can): non-empty text, ≤ 100 characters, no control characters,
     no leading or trailing blanks."""
     if not isinstance(name, str):
         return f"a pose name must be text, got {type(name).__name__}"
@@ -103,7 +104,9 @@ def _check_unit_dual_quaternion(coefficients: tuple[float, ...], who: str) -> No
 
 
 def check_pose_text_fields(name, time, robot_model, robot_serial, note) -> None:
-    """ValueError (naming the pose) unless the text fields of a pose are valid: name, UTC time, known model,
+    """Check the text fields of a pose; ValueError naming the pose.
+
+    ValueError (naming the pose) unless the text fields of a pose are valid: name, UTC time, known model,
     serial text or null, note text."""
     problem = name_problem(name)
     if problem:
@@ -126,7 +129,9 @@ _MODEL_NAME_SET = frozenset(MODEL_NAMES)
 
 
 def text_fields_all_valid(names, times, robot_models, robot_serials, notes) -> bool:
-    """True only if check_pose_text_fields passes for every pose (the i-th of each list), decided on the lists at
+    """Whether check_pose_text_fields passes for every pose of the lists.
+
+    True only if check_pose_text_fields passes for every pose (the i-th of each list), decided on the lists at
     once: a big store's 10⁵ poses in a few C passes instead of a call each. False means some pose may fail (or
     has non-ASCII text, which this does not inspect): check them one by one for the message."""
     if not (all(type(name) is str for name in names) and all(type(note) is str for note in notes)
@@ -152,6 +157,18 @@ class Pose:
     """One recorded TCP pose in the base frame (metres, radians); validated when built, so a Pose is always sound.
 
     `joints` is None for poses that did not come from a robot (e.g. imported thesis lines).
+
+    Examples
+    --------
+    >>> from ur3dq.kinematics import robot_model
+    >>> q = (0.0, -1.2, 1.0, -1.4, -1.57, 0.0)
+    >>> pose = Pose.from_dual_quaternion("pick", robot_model("ur3").fk(q), "ur3", joints=q)
+    >>> pose.name, len(pose.ur_pose), pose.joints == q
+    ('pick', 6, True)
+    >>> Pose.from_dual_quaternion("", pose.dq, "ur3")
+    Traceback (most recent call last):
+    ...
+    ValueError: a pose name must not be empty
     """
 
     name: str
@@ -183,11 +200,19 @@ class Pose:
 
     @classmethod
     def checked(cls, name, time, robot_model, dual_quaternion, ur_pose, tcp_offset, joints, robot_serial, note):
-        """A Pose whose fields the caller has already validated exactly as __post_init__ would (the store checks
-        the numbers of a whole file in one vectorised pass, then the text with check_pose_text_fields); tuples of
-        floats expected. Skips the per-pose checks, which dominate loading a big store."""
-        return _checked_pose(name, time, robot_model, dual_quaternion, ur_pose, tcp_offset, joints, robot_serial,
-                             note)
+        """A Pose from fields the caller has already validated.
+
+        A Pose whose fields the caller has already validated exactly as __post_init__ would, built without
+        running those checks again.
+
+        The store checks the numbers of a whole file as arrays, then the text with check_pose_text_fields: one
+        Pose's own checks cost hundreds of times more than building it. Tuples of floats expected.
+        """
+        pose = object.__new__(cls)
+        values = (name, time, robot_model, dual_quaternion, ur_pose, tcp_offset, joints, robot_serial, note)
+        for field, value in zip(_FIELD_NAMES, values, strict=True):
+            object.__setattr__(pose, field, value)   # the frozen dataclass's own way to set a field
+        return pose
 
     @property
     def dq(self) -> DualQuaternion:
@@ -195,7 +220,7 @@ class Pose:
         return DualQuaternion.from_array(self.dual_quaternion)
 
     @classmethod
-    def from_dual_quaternion(cls, name: str, pose: DualQuaternion, robot_model: str, **fields) -> "Pose":
+    def from_dual_quaternion(cls, name: str, pose: DualQuaternion, robot_model: str, **fields) -> Pose:
         """A Pose from a DualQuaternion (TCP in base); the UR pose vector is derived, the time defaults to now."""
         fields.setdefault("time", utc_now_iso())
         return cls(
@@ -206,12 +231,12 @@ class Pose:
             **fields,
         )
 
-    def renamed(self, name: str) -> "Pose":
+    def renamed(self, name: str) -> Pose:
         """The same pose under another name (validated)."""
         return dataclasses.replace(self, name=name)
 
 
-_checked_pose = slot_builder(Pose)   # Pose.checked's parameters are its fields, in order
+_FIELD_NAMES = tuple(field.name for field in dataclasses.fields(Pose))
 
 
 def next_free_name(prefix: str, taken) -> str:

@@ -21,14 +21,11 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from ur3dq import urscript
-from ur3dq.collector import cyclic_gc_paused
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import ConnectionLostError, JointLimitError, SafetyCheckError, UnreachablePoseError
 from ur3dq.kinematics import ur_ik
 from ur3dq.pose import Pose
 from ur3dq.robot import motion
-from ur3dq.rows import float_rows
-from ur3dq.slots import slot_builder
 
 SOURCE_RECORDED = "recorded joints"
 SOURCE_IK_RECORDED = "IK nearest recorded"
@@ -60,10 +57,6 @@ class PlanStep:
     fk_error_rad: float
 
 
-# A PlanStep from its values (plan_replay has checked them all): a big store's plan has 10⁵.
-_plan_step = slot_builder(PlanStep)
-
-
 @dataclasses.dataclass(frozen=True)
 class Reached:
     """Where one replayed move ended: the TCP the controller reports vs the pose the replay aimed that TCP at."""
@@ -88,7 +81,9 @@ def tcp_changed(pose: Pose, tcp_now: DualQuaternion, tol_m: float = 1e-4, tol_ra
 
 
 def retarget_to_tcp(pose: Pose, tcp_now: DualQuaternion) -> Pose:
-    """`pose` with the TCP offset `tcp_now`, same TCP pose: replaying it puts the current TCP where the recorded
+    """The pose with another TCP offset, the TCP pose kept.
+
+    `pose` with the TCP offset `tcp_now`, same TCP pose: replaying it puts the current TCP where the recorded
     TCP was (the flange ends elsewhere than when recorded). Recorded joints are dropped: they belong to the old TCP."""
     return dataclasses.replace(pose, tcp_offset=tuple(float(v) for v in tcp_now.to_ur_pose()), joints=None) \
         if tcp_changed(pose, tcp_now) else pose
@@ -106,7 +101,9 @@ def _closest_variant(angle: float, reference: float, lower: float, upper: float)
 
 
 def nearest_variant(model, solutions, reference: np.ndarray) -> np.ndarray:
-    """Among `solutions` (FK-verified, canonical) and their ±2π variants inside the limits, the one nearest
+    """The solution variant nearest a reference within the limits.
+
+    Among `solutions` (FK-verified, canonical) and their ±2π variants inside the limits, the one nearest
     `reference` (Σ Δq², per joint since the cost and the limits are per joint); UnreachablePoseError if none fits."""
     best, best_cost = None, math.inf
     for solution in solutions:
@@ -124,9 +121,11 @@ def nearest_variant(model, solutions, reference: np.ndarray) -> np.ndarray:
 
 def choose_joints(model, pose: Pose, previous, replay_recorded_joints: bool,
                   solvers: dict | None = None) -> tuple[np.ndarray, str, int]:
-    """(joint target (6,), source, number of IK solutions) for `pose` on `model` (a robot_model; its TCP is
+    """The joint target of one pose, how it was chosen, and its IK solution count.
+
+    (joint target (6,), source, number of IK solutions) for `pose` on `model` (a robot_model; its TCP is
     ignored: the pose's recorded TCP offset is used). `solvers` caches `model.with_tcp(offset)` per offset across
-    calls (building a model costs ~1 ms; a store's poses usually share one TCP)."""
+    calls (building a model is costly; a store's poses usually share one TCP)."""
     solver = _solver(model, pose.tcp_offset, {} if solvers is None else solvers)
     if replay_recorded_joints:
         if pose.joints is None:
@@ -159,14 +158,42 @@ def choose_joints(model, pose: Pose, previous, replay_recorded_joints: bool,
     return q, source, len(solutions)
 
 
-@cyclic_gc_paused()
 def plan_replay(model, poses: Sequence[Pose], start_joints=None, a: float = 1.4, v: float = 1.05,
                 replay_recorded_joints: bool = False, max_joint_travel: float | None = None) -> list[PlanStep]:
-    """The replay plan of `poses` from `start_joints` (rad, or None if unknown) with movej a (rad/s²), v (rad/s).
+    """The replay plan of `poses`: a joint target for each, chosen before the arm moves.
 
-    Raises (naming the pose) if one is unreachable, outside the limits, or (with `max_joint_travel`, rad) would
-    swing a joint further than that in one move: nothing moves unless the whole plan is sound. The poses with
-    recorded joints are solved first, in one batch per TCP offset (_solve_recorded), the others in order.
+    Parameters
+    ----------
+    model : URModel
+        The arm (``ur3dq.kinematics.robot_model``); each pose is solved with its own recorded TCP offset.
+    poses : sequence of Pose
+    start_joints : (6,) array_like, optional
+        Where the arm is (rad); None when unknown (a dry run), then the first move has no travel or time.
+    a, v : float
+        movej acceleration (rad/s²) and speed (rad/s), for the time figures.
+    replay_recorded_joints : bool
+        Use each pose's recorded joints instead of solving IK.
+    max_joint_travel : float, optional
+        Refuse a move that swings a joint further than this (rad).
+
+    Returns
+    -------
+    list of PlanStep
+
+    Raises
+    ------
+    UnreachablePoseError, JointLimitError, SafetyCheckError
+        Naming the pose: nothing moves unless the whole plan is sound.
+
+    Examples
+    --------
+    >>> from ur3dq.kinematics import robot_model
+    >>> from ur3dq.pose import Pose
+    >>> ur3 = robot_model("ur3")
+    >>> q = [0.0, -1.2, 1.0, -1.4, -1.57, 0.0]
+    >>> pick = Pose.from_dual_quaternion("pick", ur3.fk(q), "ur3", joints=tuple(q))
+    >>> [(step.pose.name, step.source) for step in plan_replay(ur3, [pick])]
+    [('pick', 'IK nearest recorded')]
     """
     motion.trapezoid_durations([], a, v)   # a and v checked before any IK (the durations come last)
     solvers = {}
@@ -189,7 +216,7 @@ def plan_replay(model, poses: Sequence[Pose], start_joints=None, a: float = 1.4,
     _check_travel(poses, travels, max_joint_travel)
     durations = _durations(travels, a, v)
     errors = model.fk_errors(joints, [pose.dual_quaternion for pose in poses], [pose.tcp_offset for pose in poses])
-    return [_plan_step(pose, q, source, count, travel, duration, metres, radians)
+    return [PlanStep(pose, q, source, count, travel, duration, metres, radians)
             for pose, (q, source, count), travel, duration, metres, radians
             in zip(poses, chosen, travels, durations, *errors)]
 
@@ -232,8 +259,8 @@ def _solve_recorded(model, poses: Sequence[Pose], solvers: dict) -> dict:
     solved = {}
     for tcp_offset, indices in groups.items():
         solver = _solver(model, tcp_offset, solvers)
-        targets = float_rows([poses[i].dual_quaternion for i in indices], 8)
-        hints = float_rows([poses[i].joints for i in indices], 6)
+        targets = np.array([poses[i].dual_quaternion for i in indices], dtype=float)
+        hints = np.array([poses[i].joints for i in indices], dtype=float)
         joints = solver.ik_batch(targets, hints)
         counts = np.sum(~np.isnan(ur_ik.ik_all_batch(solver, targets, q_ref=hints)[:, :, 0]), axis=1)
         # NaN rows (unreachable) compare False
@@ -258,7 +285,9 @@ def loop_closing_travel(steps: Sequence[PlanStep]) -> float:
 
 
 def read_pose(robot, name: str, note: str = "") -> Pose:
-    """The arm's current TCP pose as a Pose named `name` (one status reading, so joints and TCP belong together);
+    """The arm's current TCP pose as a Pose.
+
+    The arm's current TCP pose as a Pose named `name` (one status reading, so joints and TCP belong together);
     ConnectionLostError if the state stream is frozen."""
     status = robot.state()
     if status.age > MAX_STATUS_AGE_S:
@@ -279,7 +308,9 @@ def _no_progress(description: str, done: int, total: int) -> None:
 
 def execute_plan(robot, steps: Sequence[PlanStep], a: float, v: float, blend: float = 0.0, loops: int = 1,
                  progress: ProgressCallback = _no_progress) -> list[Reached]:
-    """Move `robot` through `steps` `loops` times; returns where each move ended (with `blend` > 0, metres, the
+    """Move the robot through a replay plan; return where each move ended.
+
+    Move `robot` through `steps` `loops` times; returns where each move ended (with `blend` > 0, metres, the
     whole run is one blended program and only its end is measured). `progress(description, done, total)` is
     called before each move and at the end. Each Reached compares the controller's TCP with where the replay
     aimed that TCP (the recorded pose when the TCP is unchanged). Ctrl-C or any fault stops the arm (the driver

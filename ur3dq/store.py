@@ -15,8 +15,8 @@ import functools
 import os
 import re
 import tempfile
+from collections.abc import Callable, Iterable
 from pathlib import Path
-from typing import Callable, Iterable
 
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import StoreError
@@ -24,9 +24,18 @@ from ur3dq.pose import Pose, next_free_name, numbering_prefix, utc_now_iso
 from ur3dq.program.resolve import check_program
 from ur3dq.program.steps import RelativeWaypoint, Waypoint
 from ur3dq.store_format import (  # noqa: F401  (re-exported: the store's public names)
-    PROGRAM_SCHEMA_VERSION, SCHEMA_NAME, SCHEMA_VERSION, format_program, format_program_v2, format_store,
-    needs_version_2, own_layout_version,
-    parse_document, parse_store, pose_from_dict, pose_to_dict,
+    PROGRAM_SCHEMA_VERSION,
+    SCHEMA_NAME,
+    SCHEMA_VERSION,
+    format_program,
+    format_program_v2,
+    format_store,
+    needs_version_2,
+    own_layout_version,
+    parse_document,
+    parse_store,
+    pose_from_dict,
+    pose_to_dict,
 )
 
 LOCK_TIMEOUT_S = 30.0
@@ -36,7 +45,9 @@ DEFAULT_STORE_PATH = "poses.json"
 
 
 def parse_thesis_lines(text: str, source: str) -> list[tuple[int, DualQuaternion]]:
-    """(line number, pose) for each thesis line `q.w q.x q.y q.z 0 p.x p.y p.z`; blank lines and `#` comments are
+    """The poses of thesis text lines, with their line numbers.
+
+    (line number, pose) for each thesis line `q.w q.x q.y q.z 0 p.x p.y p.z`; blank lines and `#` comments are
     skipped; StoreError `source:line` for a line that is not 8 numbers or not a rigid transform."""
     poses = []
     for number, line in enumerate(text.splitlines(), start=1):
@@ -60,7 +71,9 @@ def format_thesis_lines(poses: Iterable[DualQuaternion]) -> str:
 
 
 def with_added(steps: list, new: Iterable[Pose], number_if_taken: bool, position: int | None = None):
-    """(the whole new step list, the poses as added): each pose becomes a joint waypoint (inserted at `position`,
+    """The step list with `poses` added as joint waypoints.
+
+    (the whole new step list, the poses as added): each pose becomes a joint waypoint (inserted at `position`,
     else appended); a taken name is an error, or gets the next free `-N` name."""
     result = list(steps)
     added = []
@@ -123,7 +136,9 @@ def _fsync_directory(directory: Path) -> None:
 
 
 def write_atomically(path: Path, content) -> None:
-    """Replace `path` with `content` (text, or bytes): temp file in the same directory, fsync, rename over `path`,
+    """Replace a file's content atomically.
+
+    Replace `path` with `content` (text, or bytes): temp file in the same directory, fsync, rename over `path`,
     fsync the directory. A symlink is written through (its target is replaced, the link stays). StoreError naming
     `path` if it cannot be written; nothing is left behind then."""
     path = Path(os.path.realpath(path))
@@ -150,7 +165,9 @@ def write_atomically(path: Path, content) -> None:
 
 
 def remove_orphan_temporaries(path: Path) -> int:
-    """Delete the temporary files killed writers of the store `path` left (`.<name>.XXXXXXXX.tmp`, and those of
+    """Delete the temporary files killed writers of a store left.
+
+    Delete the temporary files killed writers of the store `path` left (`.<name>.XXXXXXXX.tmp`, and those of
     its upgrade backup `.<name>.v1.bak[.N].XXXXXXXX.tmp`); call it only while holding the store's lock, when no
     writer of this store can be mid-write. Returns how many went."""
     pattern = re.compile(r"^\." + re.escape(path.name) + r"(\.v1\.bak(\.[0-9]+)?)?\.[a-z0-9_]{8}\.tmp$")
@@ -180,9 +197,24 @@ def backup_path(path: Path) -> Path:
 
 
 class PoseStore:
-    """The JSON pose store at `path` (missing file = empty store): recorded poses, or a cell program (schema
-    version 2). Reads need no lock (writes are atomic renames); every write holds `<path>.lock` (of the link's
-    target when `path` is a symlink) across read-modify-write."""
+    """The JSON pose store at `path`: recorded poses or a cell program.
+
+    A missing file is an empty store. A cell program is schema version 2 (docs/store-schema.md). Reads need no
+    lock (writes are atomic renames); every write holds `<path>.lock` (of the link's target when `path` is a
+    symlink) across read-modify-write.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from ur3dq.kinematics import robot_model
+    >>> from ur3dq.pose import Pose
+    >>> store = PoseStore(pathlib.Path(tempfile.mkdtemp()) / "poses.json")
+    >>> pose = Pose.from_dual_quaternion("pick", robot_model("ur3").fk([0, -1.2, 1, -1.4, -1.57, 0]), "ur3")
+    >>> store.add(pose).name, store.add(pose, number_if_taken=True).name
+    ('pick', 'pick-1')
+    >>> [p.name for p in store.load()]
+    ['pick', 'pick-1']
+    """
 
     def __init__(self, path):
         self.path = Path(path)
@@ -190,7 +222,7 @@ class PoseStore:
     @functools.cached_property
     def _lock(self):
         """The inter-process write lock `<path>.lock` (of the link's target), made on the first write: filelock is
-        imported only then (reads need no lock, and its import is ~20 ms of every command's start)."""
+        imported only then (reads need no lock, and its import would slow every command's start)."""
         import filelock
         return filelock.FileLock(os.path.realpath(self.path) + ".lock", timeout=LOCK_TIMEOUT_S)
 
@@ -213,7 +245,9 @@ class PoseStore:
         return self._read()[2]
 
     def version(self) -> int | None:
-        """The schema version of the file on disk (None when it does not exist). A file in ur3dq's own layout is
+        """The schema version of the file on disk (None when there is none).
+
+        The schema version of the file on disk (None when it does not exist). A file in ur3dq's own layout is
         recognised from its first lines without parsing the rest (commands ask this before loading a big store);
         any other file is parsed (and must be valid)."""
         try:
@@ -261,7 +295,7 @@ class PoseStore:
         self.require_directory()
         target = Path(os.path.realpath(self.path))
         lock = self._lock
-        from filelock import Timeout   # loaded with the lock (see _lock)
+        from filelock import Timeout  # loaded with the lock (see _lock)
         try:
             with lock:
                 remove_orphan_temporaries(target)
@@ -281,7 +315,9 @@ class PoseStore:
         return result
 
     def add(self, pose: Pose, number_if_taken: bool = False) -> Pose:
-        """Store `pose`; a taken name is an error, or (number_if_taken) becomes the next free `name-N`.
+        """Store `pose`; return it as stored.
+
+        Store `pose`; a taken name is an error, or (number_if_taken) becomes the next free `name-N`.
         Returns the pose as stored."""
         return self.add_many([pose], number_if_taken)[0]
 
@@ -291,7 +327,9 @@ class PoseStore:
         return self.update_program(lambda existing: with_added(existing, new, number_if_taken))
 
     def remove(self, name: str):
-        """Delete the pose or step called `name` and return it; StoreError if there is none, ValueError naming
+        """Delete the pose or step called `name` and return it.
+
+        Delete the pose or step called `name` and return it; StoreError if there is none, ValueError naming
         the relative waypoint still based on it."""
 
         def edit(steps):
@@ -301,7 +339,9 @@ class PoseStore:
         return self.update_program(edit)
 
     def rename(self, old: str, new: str):
-        """Give the pose or step called `old` the name `new` (relative waypoints based on it follow); StoreError
+        """Rename a pose or step (relative waypoints based on it follow).
+
+        Give the pose or step called `old` the name `new` (relative waypoints based on it follow); StoreError
         if `old` is missing or `new` is taken."""
 
         def edit(steps):
@@ -319,7 +359,9 @@ class PoseStore:
 
     def import_thesis_lines(self, file, robot_model: str, tcp_offset=(0.0,) * 6, prefix: str | None = None,
                             note: str = "") -> list[Pose]:
-        """Add every pose of a thesis text file (8 coefficients a line) as `prefix-N` (default prefix: the file's
+        """Add every pose of a thesis text file.
+
+        Add every pose of a thesis text file (8 coefficients a line) as `prefix-N` (default prefix: the file's
         stem); no joints are known for them. All or nothing."""
         file = Path(file)
         try:

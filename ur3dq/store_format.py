@@ -19,18 +19,29 @@ import numpy as np
 import orjson
 
 from ur3dq import dqarray
-from ur3dq.collector import cyclic_gc_paused
 from ur3dq.errors import StoreError
 from ur3dq.pose import (
-    MAX_JOINT_ABS, MAX_TRANSLATION_ABS, POSE_AGREEMENT_TOLERANCE, UNIT_TOLERANCE, Pose, check_pose_text_fields,
+    MAX_JOINT_ABS,
+    MAX_TRANSLATION_ABS,
+    POSE_AGREEMENT_TOLERANCE,
+    UNIT_TOLERANCE,
+    Pose,
+    check_pose_text_fields,
     text_fields_all_valid,
 )
 from ur3dq.program.resolve import check_program
-from ur3dq.real_numbers import is_number
 from ur3dq.program.steps import (
-    DEFAULT_MOTION, AnalogOut, DigitalOut, Message, Motion, RelativeWaypoint, Wait, WaitInput, Waypoint,
+    DEFAULT_MOTION,
+    AnalogOut,
+    DigitalOut,
+    Message,
+    Motion,
+    RelativeWaypoint,
+    Wait,
+    WaitInput,
+    Waypoint,
 )
-from ur3dq.rows import packed_rows
+from ur3dq.real_numbers import is_number
 
 SCHEMA_NAME = "ur3dq.poses"
 SCHEMA_VERSION = 1            # a store of recorded poses only (what every ur3dq writes unless a program needs 2)
@@ -97,15 +108,14 @@ def _vectors(entries, field: str, length: int, who_of) -> np.ndarray:
     A number is a JSON number: np.fromiter and np.array would also take the string "1.5" and the literal true (a
     bool is an int in Python) as 1.5 and 1.0, so a hand-edited or corrupt file would load with them."""
     rows = [entry[field] for entry in entries]
-    try:
-        # a third faster than np.array's nested-list scan; None (or an error) sends the rows to the loop below,
-        # which names the first bad one. The item types, one set of every row's (~25 ns an item, ~60 ms CPU on a
-        # store of 93,587 poses), find a string or a bool among them.
-        packed = packed_rows(rows, length, list)
-        if packed is not None and set(map(type, itertools.chain.from_iterable(rows))) <= _JSON_NUMBERS:
-            return packed
-    except (TypeError, ValueError, OverflowError):
-        pass
+    # The whole column at once when every row is a list of `length` JSON numbers; otherwise the loop below names
+    # the first bad row.
+    if (all(type(row) is list and len(row) == length for row in rows)
+            and set(map(type, itertools.chain.from_iterable(rows))) <= _JSON_NUMBERS):
+        try:
+            return np.array(rows, dtype=float).reshape(-1, length)
+        except OverflowError:   # an integer too large for a float: named below
+            pass
     for index, value in enumerate(rows):
         if isinstance(value, (str, dict)) or not hasattr(value, "__len__") or len(value) != length:
             got = len(value) if isinstance(value, (list, tuple)) else repr(value)
@@ -184,7 +194,7 @@ _WAYPOINT_KEYS = frozenset(POSE_FIELDS) | {"type"} | frozenset(MOTION_FIELDS)
 _REQUIRED_KEYS = frozenset(REQUIRED_POSE_FIELDS)
 CHUNK = 4096  # entries parsed and checked per vectorised pass: big enough for numpy, small enough to bound memory
 #: lines of ur3dq's own layout parsed by one orjson call: a call per line costs as much as the parse, and bigger
-#: batches leave the allocator fragmented (measured on a 93,587-pose plan: 1024 lines +14 MB of peak RSS)
+#: batches leave the allocator fragmented (more peak memory)
 PARSED_LINES = 256
 
 
@@ -215,7 +225,7 @@ def _poses_of_chunk(entries, chunk, who_of) -> list[Pose]:
                 check_pose_text_fields(*text)
             except ValueError as error:
                 raise ValueError(f"{who_of(chunk[k])}: {_strip_pose_prefix(str(error))}") from None
-    # One shared zero TCP and model name: most poses of a store have them, and 10⁵ copies cost ~25 MB.
+    # One shared zero TCP and model name: most poses of a store have them, and a big store would hold 10⁵ copies.
     tcp = [_NO_TCP_OFFSET if zero else row for zero, row in zip((~tcp.any(axis=1)).tolist(), _tuples(tcp))]
     models = [sys.intern(model) for model in models]
     return list(map(Pose.checked, names, times, models, _tuples(dq), _tuples(ur), tcp, joints, serials, notes))
@@ -389,7 +399,7 @@ def _own_layout(text: str):
             # The next PARSED_LINES lines, one entry each: each opens an object, and all but the file's last end
             # with a comma (checked in place: a copy of each line would cost as much memory as the text).
             stop, count = position, 0
-            for count in range(1, PARSED_LINES + 1):
+            for count in range(1, PARSED_LINES + 1):   # noqa: B007  (count is read after the loop)
                 if not text.startswith("    {", stop):
                     raise _NotOwnLayout
                 stop = text.index("\n", stop) + 1
@@ -399,7 +409,7 @@ def _own_layout(text: str):
                     break
             last = stop >= end
             try:
-                # orjson parses the lines as one array: 6× faster than the stdlib's scanner, and a call per line
+                # orjson parses the lines as one array: much faster than the stdlib's scanner, and a call per line
                 # costs as much again. What it refuses (NaN, a number beyond a double, a lone surrogate,
                 # nesting past 1024) sends the file to the stdlib path, with its errors.
                 objects = orjson.loads("[" + text[position:stop - (1 if last else 2)] + "]")
@@ -451,11 +461,6 @@ def parse_document(text: str, source: str) -> tuple[int, list]:
 
     Text in ur3dq's own layout is read one entry per line, checked in chunks of CHUNK entries (bounded memory for
     big stores, exact line numbers); anything else (a hand-edited layout) is parsed as one JSON document."""
-    with cyclic_gc_paused():
-        return _parse_document(text, source)
-
-
-def _parse_document(text: str, source: str) -> tuple[int, list]:
     try:
         version, _, entries = _own_layout(text)
         return version, _steps_of(version, entries, text, source)

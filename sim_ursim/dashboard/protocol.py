@@ -10,8 +10,8 @@ import time
 import zipfile
 from dataclasses import dataclass
 
-from ..vocabulary import CommandRefused, RobotMode, SafetyMode, UnlockTooEarly
 from ..models import build_date
+from ..vocabulary import CommandRefused, RobotMode, SafetyMode, UnlockTooEarly
 
 log = logging.getLogger("sim_ursim.dashboard")
 

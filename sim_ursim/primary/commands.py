@@ -12,8 +12,8 @@ Refusals (an emergency stop, an unlock within 5 s) are logged and published as a
 """
 import logging
 
-from ..vocabulary import CommandRefused
 from ..messages import TextMessage
+from ..vocabulary import CommandRefused
 
 log = logging.getLogger("sim_ursim.primary")
 

@@ -260,7 +260,10 @@ def masterboard_data(state, version):
 
 
 def cartesian_info(state, version):
-    """CartesianInfo (4): TCP pose [x,y,z,rx,ry,rz] in the base frame, plus (3.2+) the TCP offset in the flange frame."""
+    """CartesianInfo (4): TCP pose [x,y,z,rx,ry,rz] in the base frame.
+
+    From 3.2 on, also the TCP offset in the flange frame.
+    """
     body = _SIX_DOUBLES.pack(*map(float, state.actual_tcp_pose))
     if _since(version, 3, 2):
         body += _SIX_DOUBLES.pack(*map(float, state.tcp_offset))

@@ -1,1 +1,4 @@
-"""RTDE server (port 30004): wire format (protocol), variable table (variables), input rules (inputs), sockets (server)."""
+"""RTDE server (port 30004).
+
+Wire format (protocol), variable table (variables), input rules (inputs), sockets (server).
+"""

@@ -33,7 +33,10 @@ def speed_slider_write(values: Mapping[str, Any], changed: Collection[str]) -> f
 
 
 def analog_output_writes(values: Mapping[str, Any], changed: Collection[str]) -> list[tuple[int, float, bool]]:
-    """[(index, ratio, is_voltage)] for the analog outputs selected by standard_analog_output_mask in a touched group."""
+    """[(index, ratio, is_voltage)] of the analog outputs a touched group writes.
+
+    The outputs are those standard_analog_output_mask selects.
+    """
     names = ("standard_analog_output_mask", "standard_analog_output_type", "standard_analog_output_0",
              "standard_analog_output_1")
     if not any(name in changed for name in names):

@@ -197,7 +197,8 @@ def parse_setup_inputs_request(payload):
 
 def pack_setup_inputs_reply(recipe_id, types):
     """I reply: uint8 recipe id (0 = invalid recipe) + types."""
-    return pack_package(PackageType.CONTROL_PACKAGE_SETUP_INPUTS, _UINT8.pack(recipe_id) + ",".join(types).encode("ascii"))
+    body = _UINT8.pack(recipe_id) + ",".join(types).encode("ascii")
+    return pack_package(PackageType.CONTROL_PACKAGE_SETUP_INPUTS, body)
 
 
 def parse_setup_inputs_reply(payload):
@@ -210,7 +211,10 @@ def parse_setup_inputs_reply(payload):
 # --- U: data packages ----------------------------------------------------------------------------------------------
 
 def recipe_struct(types):
-    """Precompiled big-endian struct of a recipe's values in order (no recipe id); ValueError for a type without layout."""
+    """Precompiled big-endian struct of a recipe's values in order (no recipe id).
+
+    ValueError for a type without layout.
+    """
     codes = []
     for position, type_name in enumerate(types):
         code = TYPE_CODES.get(type_name)
@@ -221,7 +225,10 @@ def recipe_struct(types):
 
 
 def data_package_header(recipe_id, payload_size):
-    """Header + optional recipe id byte of a U package whose values take payload_size bytes (recipe_id None: v1 output)."""
+    """Header + optional recipe id byte of a U package whose values take payload_size bytes.
+
+    recipe_id None: a version 1 output package (no recipe id byte).
+    """
     if recipe_id is None:
         return HEADER.pack(HEADER.size + payload_size, PackageType.DATA_PACKAGE)
     return HEADER.pack(HEADER.size + 1 + payload_size, PackageType.DATA_PACKAGE) + _UINT8.pack(recipe_id)

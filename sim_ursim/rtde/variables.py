@@ -7,14 +7,14 @@ Names UR's guide lists without a version get the earliest version a source shows
 docs/ursim.md); quantities the simulator does not model (TCP acceleration, energy, encoders) read as the constant of
 an idle, contact-free cell.
 """
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable, Optional, Tuple
 
 import numpy as np
 
 from sim_ursim.kinematics import rotation_vector_to_matrix
 
-Version3 = Tuple[int, int, int]
+Version3 = tuple[int, int, int]
 RTDE_FIRST = ((3, 4, 0), (5, 0, 0))  # RTDE exists since CB3 3.4 and on every e-series version
 UPPER_REGISTERS = ((3, 9, 0), (5, 3, 0))
 STANDARD_GRAVITY = 9.82  # m/s²: URScript set_gravity's default vector is [0, 0, 9.82] (base frame, pointing up)
@@ -26,9 +26,9 @@ class Variable:
 
     name: str
     type: str
-    introduced_cb3: Optional[Version3]
-    introduced_e_series: Optional[Version3]
-    read: Optional[Callable] = None  # outputs only: read(state) -> sequence of flat values in wire order
+    introduced_cb3: Version3 | None
+    introduced_e_series: Version3 | None
+    read: Callable | None = None  # outputs only: read(state) -> sequence of flat values in wire order
 
     def available_in(self, version):
         """True when a controller running `version` (major, minor, bugfix, ...) offers this variable."""
@@ -78,7 +78,10 @@ def _bit_word(field, first):
 
 
 def tool_accelerometer(tcp_pose, gravity=STANDARD_GRAVITY):
-    """Accelerometer of a resting tool in the TCP frame: the gravity reaction (0, 0, +g in base) rotated into the tool."""
+    """Accelerometer of a resting tool in the TCP frame.
+
+    The gravity reaction (0, 0, +g in base) rotated into the tool.
+    """
     rotation = rotation_vector_to_matrix(tcp_pose[3:6])
     return tuple((rotation.T @ np.array([0.0, 0.0, gravity])).tolist())
 
@@ -256,7 +259,8 @@ _INPUT_LIST = [
     _in("standard_digital_output", "UINT8"),
     _in("configurable_digital_output_mask", "UINT8"),
     _in("configurable_digital_output", "UINT8"),
-    # Not in UR's guide, but ur_rtde's RTDEIOInterface uses them and controllers accept them (URCL: "NOT IN OFFICIAL DOCS").
+    # Not in UR's guide, but ur_rtde's RTDEIOInterface uses them and controllers accept them
+    # (URCL: "NOT IN OFFICIAL DOCS").
     _in("tool_digital_output_mask", "UINT8"),
     _in("tool_digital_output", "UINT8"),
     _in("standard_analog_output_mask", "UINT8"),

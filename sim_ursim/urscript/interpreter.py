@@ -20,10 +20,10 @@ import threading
 from collections.abc import Callable, Collection, Mapping
 from dataclasses import dataclass
 
-from sim_ursim.vocabulary import CommandRefused
 from sim_ursim.urscript import nodes
 from sim_ursim.urscript.operators import BINARY, NUMERIC_FAST_PATH, PLAIN_NUMBERS, require_number
 from sim_ursim.urscript.values import Pose, ScriptError, copy_value, to_str, truth
+from sim_ursim.vocabulary import CommandRefused
 
 STATEMENTS_PER_SECOND = 25_000  # computation a script thread may do per second of controller time (see above)
 KILLED_MOVE_DECELERATION = 4.0  # rad/s²: the arm's stop when the thread running its move is killed

@@ -1,6 +1,5 @@
 """URScript syntax tree: plain immutable nodes, each carrying the 1-based line and column where it starts."""
 from dataclasses import dataclass, field
-from typing import Optional
 
 
 @dataclass(frozen=True)
@@ -132,7 +131,7 @@ class If(Node):
     """`if c: ... elif c: ... else: ... end` as (condition, body) branches plus an optional else body."""
 
     branches: tuple  # ((condition, body), ...)
-    orelse: Optional[tuple]
+    orelse: tuple | None
 
 
 @dataclass(frozen=True)
@@ -147,7 +146,7 @@ class While(Node):
 class Return(Node):
     """`return [value]`."""
 
-    value: Optional[Node]
+    value: Node | None
 
 
 @dataclass(frozen=True)
@@ -194,7 +193,7 @@ class Param(Node):
     """A function parameter with an optional default value."""
 
     name: str
-    default: Optional[Node]
+    default: Node | None
 
 
 @dataclass(frozen=True)

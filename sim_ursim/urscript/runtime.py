@@ -15,11 +15,11 @@ import logging
 import threading
 from collections.abc import Callable, Mapping
 
-from sim_ursim.vocabulary import PROTECTIVE_STOP_DECELERATION, CommandRefused
 from sim_ursim.messages import KeyMessage, RuntimeExceptionMessage
 from sim_ursim.urscript.builtins import BUILTINS
 from sim_ursim.urscript.interpreter import CompileError, Execution, compile_program
 from sim_ursim.urscript.parser import URScriptSyntaxError, parse
+from sim_ursim.vocabulary import PROTECTIVE_STOP_DECELERATION, CommandRefused
 
 log = logging.getLogger("sim_ursim.urscript")
 

@@ -26,8 +26,9 @@ def long_store(tmp_path):
                            "ur_pose": to_ur_pose(poses[i]).tolist(), "tcp_offset": [0.0] * 6, "note": ""})
                for i in range(count)]
     path = tmp_path / "long.json"
-    path.write_text('{"schema": "%s", "version": %d, "poses": [\n%s\n]}\n'
-                    % (SCHEMA_NAME, SCHEMA_VERSION, ",\n".join(entries)), encoding="utf-8")
+    body = ",\n".join(entries)
+    path.write_text(f'{{"schema": "{SCHEMA_NAME}", "version": {SCHEMA_VERSION}, "poses": [\n{body}\n]}}\n',
+                    encoding="utf-8")
     return path
 
 

@@ -3,16 +3,23 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from ur3dq.replay import (
-    SOURCE_IK_PREVIOUS, SOURCE_IK_RECORDED, SOURCE_IK_ZERO, SOURCE_RECORDED, choose_joints, loop_closing_travel,
-    plan_replay, tcp_pose_for,
-)
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import JointLimitError, SafetyCheckError, UnreachablePoseError
 from ur3dq.kinematics import robot_model
 from ur3dq.pose import Pose
+from ur3dq.replay import (
+    SOURCE_IK_PREVIOUS,
+    SOURCE_IK_RECORDED,
+    SOURCE_IK_ZERO,
+    SOURCE_RECORDED,
+    choose_joints,
+    loop_closing_travel,
+    plan_replay,
+    tcp_pose_for,
+)
 from ur3dq.robot import motion
 
 UR3 = robot_model("ur3")

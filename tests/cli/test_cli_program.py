@@ -136,7 +136,8 @@ def test_rich_markup_in_names_notes_and_paths_is_shown_as_typed(run_cli, tmp_pat
     store = tmp_path / "[bold]cell.json"
     shutil.copy(EXAMPLE, store)
     assert run_cli("--store", store, "poses", "rename", "demo-1", "[/]").returncode == 0
-    assert run_cli("--store", store, "poses", "add-step", "--name", "[red]say", "message", "[bold red]hi").returncode == 0
+    added = run_cli("--store", store, "poses", "add-step", "--name", "[red]say", "message", "[bold red]hi")
+    assert added.returncode == 0
     listed = run_cli("--store", store, "poses", "list")
     assert listed.returncode == 0, listed.stderr
     for text in ("[/]", "[red]say", "[bold red]hi", "[bold]cell.json"):
@@ -168,8 +169,7 @@ def test_plot_failure_names_the_file_and_leaves_no_empty_png(run_in_process, v1_
 @pytest.mark.parametrize("items", [[], [{"a": [1, 2], "b": {"c": None}}], [{"x": 1}, {"y": [1, "é"]}],
                                    [{"n": n} for n in range(2500)]])
 def test_streamed_json_list_is_exactly_what_emit_json_prints(items, capsys):
-    from ur3dq.cli.app import emit_json
-    from ur3dq.cli.app import emit_json_list
+    from ur3dq.cli.app import emit_json, emit_json_list
 
     emit_json(items)
     whole = capsys.readouterr().out

@@ -5,7 +5,6 @@ import subprocess
 import sys
 from pathlib import Path
 
-
 from robot_target import simulator_only
 
 README = Path(__file__).resolve().parents[2] / "README.md"
@@ -30,6 +29,9 @@ def test_the_python_api_tour_runs_as_written(tmp_path):
     assert [name for name, _ in ended] == ["pick", "place"], result.stdout
     assert all(float(mm) < 0.1 for _, mm in ended)
     assert (tmp_path / "api-poses.json").exists()
+    # the cell program at its end reported every step as it started, in order
+    steps = re.findall(r"^(\d) (approach|pick|grip|settle|retract)$", result.stdout, re.M)
+    assert steps == [("1", "approach"), ("2", "pick"), ("3", "grip"), ("4", "settle"), ("5", "retract")], result.stdout
 
 
 def test_the_cli_tour_does_not_hard_code_the_simulator_address():

@@ -8,8 +8,8 @@ import time
 import numpy as np
 import pytest
 
-from polling import wait_for
 from cli_support import UR3DQ, assert_one_line_error, cli_env, cli_process
+from polling import wait_for
 from robot_target import simulator_only
 from ur3dq.store import PoseStore
 
@@ -52,7 +52,7 @@ def test_record_several_poses_then_replay_them(arm, run_cli, tmp_path):
 
 
 def test_blended_loop_runs_every_pass_and_ends_at_the_last_pose(arm, run_cli, tmp_path):
-    for index, q in enumerate(PLACES, start=1):
+    for q in PLACES:
         arm.place(q)
         assert run_cli("--host", arm.host, "record-pose", "--yes").returncode == 0
     arm.place(PARK)
@@ -177,7 +177,7 @@ def test_unreachable_stored_pose_is_refused_before_moving(arm, run_cli, tmp_path
 
 
 def test_exported_program_runs_on_the_controller(arm, run_cli, tmp_path):
-    for index, q in enumerate(PLACES[:2], start=1):
+    for q in PLACES[:2]:
         arm.place(q)
         assert run_cli("--host", arm.host, "record-pose", "--yes").returncode == 0
     arm.place(PARK)

@@ -1,4 +1,7 @@
-"""SIGTERM and SIGHUP during `run-poses` are handled like Ctrl-C: stopj, one line, exit 128 + n; checked with ur_rtde."""
+"""SIGTERM and SIGHUP during `run-poses` are handled like Ctrl-C: stopj, one line, exit 128 + n.
+
+Checked with ur_rtde.
+"""
 import signal
 import time
 

@@ -14,8 +14,7 @@ from hypothesis import strategies as st
 
 from ur3dq import dqarray
 from ur3dq.errors import UnreachablePoseError
-from ur3dq.kinematics import MODEL_NAMES, robot_model
-from ur3dq.kinematics import ur_fk, ur_ik
+from ur3dq.kinematics import MODEL_NAMES, robot_model, ur_fk, ur_ik
 from ur3dq.kinematics.ur_ik import batch as ik_batch
 from ur3dq.kinematics.ur_ik import batch_kernels as ik_batch_kernels
 from ur3dq.kinematics.ur_ik import geometry as ik_geometry

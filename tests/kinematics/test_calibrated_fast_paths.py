@@ -16,7 +16,7 @@ from calibrated_arms import factory_model
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import UnreachablePoseError
 from ur3dq.kinematics.ur_ik import calibrated, nearest, newton_floats, single, wrist_turns
-from ur3dq.kinematics.ur_ik.equations import _ScalarOps, _branches, _wrap_float, wrap_angle
+from ur3dq.kinematics.ur_ik.equations import _branches, _ScalarOps, _wrap_float, wrap_angle
 from ur3dq.kinematics.ur_ik.fk_filter import _fk_check, _reference, _targets
 from ur3dq.kinematics.ur_ik.geometry import LIMIT_ROUNDING, _geometry
 
@@ -332,7 +332,7 @@ def test_a_reference_whose_proof_would_fail_is_refined_with_the_branches(name, s
         with monkeypatch.context() as patched:
             if too_far:   # ik must not run the row alone, and hands the reference to the ranking's batch
                 patched.setattr(nearest, "_reference_solution", lambda *arguments: pytest.fail("refined alone"))
-                patched.setattr(nearest, "_solution_candidates", lambda *arguments: (
+                patched.setattr(nearest, "_solution_candidates", lambda *arguments, starts=starts: (
                     starts.append(arguments[4]), single._solution_candidates(*arguments))[1])
             expected, answer = ranked(model, pose, reference), solved(model, pose, reference)
         assert starts == ([start] if too_far else []), (joints, reference)

@@ -14,8 +14,7 @@ import numpy as np
 import pytest
 
 from ur3dq import dqarray
-from ur3dq.kinematics import MODEL_NAMES, robot_model
-from ur3dq.kinematics import ur_ik
+from ur3dq.kinematics import MODEL_NAMES, robot_model, ur_ik
 
 ur_analytic_ik = pytest.importorskip("ur_analytic_ik")
 

@@ -12,9 +12,8 @@ from hypothesis import strategies as st
 from ik_cost import assert_least_cost
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import UnreachablePoseError
-from ur3dq.kinematics import MODEL_NAMES, DHParameters, URModel, robot_model
+from ur3dq.kinematics import MODEL_NAMES, DHParameters, URModel, robot_model, ur_ik
 from ur3dq.kinematics.models import NOMINAL_ALPHA
-from ur3dq.kinematics import ur_ik
 
 ANGLE = st.floats(-math.pi, math.pi, allow_nan=False)
 JOINTS = st.tuples(*(ANGLE,) * 6).map(np.array)

@@ -16,11 +16,10 @@ from hypothesis import strategies as st
 from ik_cost import assert_least_cost
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import UnreachablePoseError
-from ur3dq.kinematics import URModel, robot_model
-from ur3dq.kinematics import ur_ik
-from ur3dq.kinematics.ur_ik import fk_filter as ik_fk_filter
+from ur3dq.kinematics import URModel, robot_model, ur_ik
 from ur3dq.kinematics.ur_ik import batch as ik_batch
 from ur3dq.kinematics.ur_ik import batch_kernels as ik_batch_kernels
+from ur3dq.kinematics.ur_ik import fk_filter as ik_fk_filter
 from ur3dq.kinematics.ur_ik import geometry as ik_geometry
 from ur3dq.kinematics.ur_ik import nearest as ik_nearest
 

@@ -5,8 +5,7 @@ import numpy as np
 import pytest
 
 from ur3dq.kinematics import robot_model
-from ur3dq.pathcheck import Margins, PathPlan, PathSegment, bounds, cell_from_dict, check_path
-from ur3dq.pathcheck import checks
+from ur3dq.pathcheck import Margins, PathPlan, PathSegment, bounds, cell_from_dict, check_path, checks
 from ur3dq.pathcheck.checks import StepChecker
 
 CELL = cell_from_dict({

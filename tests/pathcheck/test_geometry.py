@@ -8,8 +8,7 @@ from hypothesis import strategies as st
 
 from ur3dq.errors import StoreError
 from ur3dq.kinematics import MODEL_NAMES, robot_model
-from ur3dq.pathcheck import ToolShape, cell_from_dict, load_cell
-from ur3dq.pathcheck import geometry
+from ur3dq.pathcheck import ToolShape, cell_from_dict, geometry, load_cell
 
 coordinate = st.floats(-1.0, 1.0, allow_nan=False)
 point = st.tuples(coordinate, coordinate, coordinate).map(np.array)

@@ -159,7 +159,7 @@ def error_code_messages(sock, until, timeout):
     while time.monotonic() < deadline and not until(found):
         try:
             buffer += sock.recv(65536)
-        except socket.timeout:
+        except TimeoutError:
             continue
         while len(buffer) >= 5 and len(buffer) >= int.from_bytes(buffer[:4], "big"):
             size = int.from_bytes(buffer[:4], "big")

@@ -46,7 +46,8 @@ def test_lazy_reports_read_as_the_reports_they_stand_for():
         if i % 7 == 3:
             segments.append(PathSegment(f"line{i}", "linear", target_pose=model.fk(target).to_array(), speed=0.2))
         else:   # two TCPs: the bounds certify a group of moves per TCP
-            segments.append(PathSegment("m19" if i == 0 else f"m{i}", target_joints=target,   # a name used twice blend=0.01 if i % 11 == 5 else 0.0,
+            segments.append(PathSegment("m19" if i == 0 else f"m{i}", target_joints=target,   # a name used twice
+                                        blend=0.01 if i % 11 == 5 else 0.0,
                                         tcp_offset=(0, 0, 0.05, 0, 0, 0) if i % 5 == 1 else None))
     tcp = model.fk(q[20]).translation   # a box around one target: the moves into and out of it fail
     cell = cell_from_dict({"boxes": [{"name": "fixture", "min": list(tcp - 0.02), "max": list(tcp + 0.02)}]})

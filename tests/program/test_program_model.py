@@ -9,14 +9,17 @@ from ur3dq.kinematics import robot_model
 from ur3dq.pose import Pose
 from ur3dq.program.plan import plan_program
 from ur3dq.program.resolve import offset_pose, resolve_targets, select_range
-from ur3dq.program.steps import DigitalOut, Message, Motion, RelativeWaypoint, Wait, WaitInput, Waypoint
 from ur3dq.program.script import STEP_REGISTER, program_script
+from ur3dq.program.steps import DigitalOut, Message, Motion, RelativeWaypoint, Wait, WaitInput, Waypoint
 
 MODEL = robot_model("ur3")
 Q_PICK = np.array([0.3, -1.2, 1.4, -1.8, -1.5708, 0.2])
 
 
-def pick_waypoint(joints=Q_PICK, motion=Motion("linear", 0.1)):
+LINEAR = Motion("linear", 0.1)
+
+
+def pick_waypoint(joints=Q_PICK, motion=LINEAR):
     pose = Pose.from_dual_quaternion("pick", MODEL.fk(joints), "ur3", joints=tuple(joints))
     return Waypoint("pick", pose, motion)
 
@@ -65,8 +68,8 @@ def test_cycles_and_missing_bases_name_the_step():
 
 def test_loading_planning_and_checking_a_program_leave_no_reference_cycle(tmp_path):
     """A big program's steps are freed by reference counting alone: its load, plan and path check build no
-    reference cycle (a recursive closure in resolve_targets once kept every step alive until the cyclic collector
-    ran, which the collector pauses of ur3dq/collector.py delayed)."""
+    reference cycle (a recursive closure in resolve_targets would keep every step alive until the cyclic collector
+    ran)."""
     from ur3dq.cli.path_report import check_program
     from ur3dq.store import PoseStore
 

@@ -10,12 +10,12 @@ import pytest
 
 import ur3dq.program
 import ur3dq.robot
+from polling import wait_for
+from sim_ursim.control_channel import send_request
 from ur3dq.errors import ProgramError
 from ur3dq.kinematics import robot_model
 from ur3dq.pose import Pose
 from ur3dq.program.steps import DigitalOut, Motion, RelativeWaypoint, Wait, WaitInput, Waypoint
-from polling import wait_for
-from sim_ursim.control_channel import send_request
 
 HOME = np.array([0.0, -1.5707963267948966, 1.2, -1.2, -1.5707963267948966, 0.0])
 Q_PICK = np.array([0.4, -1.3, 1.5, -1.8, -1.5707963267948966, 0.3])
@@ -25,6 +25,7 @@ TOOL_OUT_0_BIT = 1 << 16   # RTDE actual_digital_output_bits: 16-17 are the tool
 @pytest.fixture(scope="module")
 def setup():
     import rtde_receive
+
     from sim_ursim.launch import simulator_process
 
     with simulator_process(model="ur3", initial_q=list(HOME)) as simulator:
@@ -39,7 +40,10 @@ def setup():
 
 
 class Sampler:
-    """Samples (time, TCP pose vector, digital output bits, joints, joint speeds) through ur_rtde in a thread while a program runs."""
+    """Samples through ur_rtde in a thread while a program runs.
+
+    Each sample: time, TCP pose vector, digital output bits, joints, joint speeds.
+    """
 
     def __init__(self, receive):
         self.receive, self.samples, self._stop = receive, [], threading.Event()
@@ -61,8 +65,8 @@ class Sampler:
         self._thread.join()
 
 
-def waypoint(name, q, motion=Motion()):
-    model = robot_model("ur3")
+def waypoint(name, q, motion=None):
+    model, motion = robot_model("ur3"), motion or Motion()
     return Waypoint(name, Pose.from_dual_quaternion(name, model.fk(q), "ur3", joints=tuple(q)), motion)
 
 

@@ -104,7 +104,7 @@ def test_a_large_joint_swing_is_refused(robot, home):
 
 def test_the_travel_bound_is_configurable(arm_host, backend, home):
     with ur3dq.robot.connect(arm_host, backend=backend, max_joint_travel=0.1) as robot:
-        robot.model  # connected
+        assert robot.model is not None   # connected
         with pytest.raises(SafetyCheckError, match="0.1000 rad per move"):
             robot.movej(robot.joints() + np.array([0.2, 0, 0, 0, 0, 0]))
 

@@ -12,7 +12,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 import rtde_receive
 
 from polling import wait_for
@@ -288,6 +287,7 @@ class _RecordingSocket:
 def _urx_reader(sock):
     """ur3dq's urx 30002 reader on `sock`, without its constructor (which connects and starts the thread)."""
     from urx.ursecmon import ParserUtils
+
     from ur3dq.robot.urx_backend import _QuietSecondaryMonitor
 
     monitor = _QuietSecondaryMonitor.__new__(_QuietSecondaryMonitor)
@@ -341,6 +341,7 @@ def test_urx_reader_finds_the_packets_urx_finds():
     import struct
 
     from urx.ursecmon import ParserUtils
+
     from ur3dq.robot.urx_backend import take_packet
 
     def urx_packets(queue):

@@ -3,10 +3,9 @@ import numpy as np
 import pytest
 
 import ur3dq.robot
-from ur3dq.kinematics import robot_model
-
 from robot_target import simulator_only
 from robot_test_support import ready, simulator_with
+from ur3dq.kinematics import robot_model
 
 pytestmark = simulator_only("injecting a non-nominal calibration")
 

@@ -5,8 +5,8 @@ import time
 import pytest
 
 import ur3dq.robot
-from robot_target import needs_simulator
 from polling import wait_for
+from robot_target import needs_simulator
 from robot_test_support import inject
 from ur3dq.errors import ConnectionLostError
 from ur3dq.robot.rtde_backend import RTDEBackend

@@ -8,8 +8,8 @@ every one of 50+ calls against a simulator process of its own, for each backend.
 import numpy as np
 import pytest
 
-from ur3dq.robot import motion, state
 from robot_test_support import HOME
+from ur3dq.robot import motion, state
 
 A = HOME
 B = HOME + np.array([0.06, -0.04, 0.05, 0.0, 0.03, 0.05])

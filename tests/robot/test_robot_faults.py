@@ -8,13 +8,18 @@ import numpy as np
 import pytest
 
 import ur3dq.robot
-from ur3dq.errors import (ConnectionLostError, EmergencyStopError, MotionTimeoutError, ProgramError,
-                          ProtectiveStopError, RobotError)
-from ur3dq.robot import motion
-
 from polling import wait_for
 from robot_target import needs_simulator
 from robot_test_support import inject, set_speed_slider, simulator_state
+from ur3dq.errors import (
+    ConnectionLostError,
+    EmergencyStopError,
+    MotionTimeoutError,
+    ProgramError,
+    ProtectiveStopError,
+    RobotError,
+)
+from ur3dq.robot import motion
 
 pytestmark = needs_simulator
 

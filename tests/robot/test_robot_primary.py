@@ -125,7 +125,9 @@ def test_key_messages_for_a_named_program():
 
 
 def test_runtime_exception_error_code_text_and_safety_messages():
-    parse = lambda kind, data: primary.parse_robot_message(primary.split_messages(robot_message(kind, data))[0][0][1])
+    def parse(kind, data):
+        return primary.parse_robot_message(primary.split_messages(robot_message(kind, data))[0][0][1])
+
     runtime = parse(primary.RUNTIME_EXCEPTION_MESSAGE, struct.pack(">II", 3, 5) + b"compile_error_name_not_found:x:")
     assert (runtime.line, runtime.column, runtime.text) == (3, 5, "compile_error_name_not_found:x:")
     error = parse(primary.ERROR_CODE_MESSAGE, struct.pack(">iiiII", 210, 0, 4, 0, 0) + b"refused")

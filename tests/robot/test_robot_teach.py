@@ -3,11 +3,10 @@ import numpy as np
 import pytest
 
 import ur3dq.robot
-from ur3dq.errors import RobotError
-
 from polling import wait_for
 from robot_target import simulator_only
 from robot_test_support import HOME, inject, ready, simulator_with
+from ur3dq.errors import RobotError
 
 pytestmark = simulator_only("moving the arm by hand")
 

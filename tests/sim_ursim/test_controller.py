@@ -13,13 +13,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from polling import wait_for
 from sim_ursim import kinematics
 from sim_ursim.controller import JOINT_HISTORY_CYCLES, Controller
+from sim_ursim.messages import SafetyModeMessage
 from sim_ursim.urscript.builtins import BUILTINS
 from sim_ursim.urscript.values import ScriptError
 from sim_ursim.vocabulary import CommandRefused, JointMode, RobotMode, RuntimeState, SafetyMode, UnlockTooEarly
-from sim_ursim.messages import SafetyModeMessage
-from polling import wait_for
 
 HOME = [0.0, -1.2, 1.2, -1.5, -1.5, 0.0]
 
@@ -299,7 +299,7 @@ def test_speedj_into_a_joint_limit_raises_a_protective_stop():
 
 def test_servoj_tracks_a_stream_of_targets(controller):
     q = np.array(HOME)
-    for step in range(50):
+    for _ in range(50):
         q = q + [0.002, 0, 0, 0, 0, 0]
         controller.servoj(q, t=0.008, lookahead_time=0.1, gain=300)
         controller.wait_cycle(controller.state().cycle, 1)

@@ -5,11 +5,11 @@ import time
 
 import pytest
 
+from polling import wait_for
 from robot_target import needs_simulator
 from sim_ursim.control_channel import CONTROL_PORT, MAX_REQUEST_BYTES, execute, send_request
-from sim_ursim.vocabulary import RobotMode, SafetyMode
 from sim_ursim.faults import Faults
-from polling import wait_for
+from sim_ursim.vocabulary import RobotMode, SafetyMode
 
 pytestmark = needs_simulator
 
@@ -170,7 +170,8 @@ def test_faults_from_the_command_line_are_seen_by_ur_rtde():
         receiver = rtde_receive.RTDEReceiveInterface(sim.host)
         try:
             assert send_request(sim.host, "emergency-stop")["ok"]
-            assert wait_for(receiver.isEmergencyStopped, timeout=5.0) and receiver.getSafetyMode() == SafetyMode.ROBOT_EMERGENCY_STOP
+            assert wait_for(receiver.isEmergencyStopped, timeout=5.0)
+            assert receiver.getSafetyMode() == SafetyMode.ROBOT_EMERGENCY_STOP
             assert send_request(sim.host, "release-emergency-stop")["ok"]
             assert wait_for(lambda: not receiver.isEmergencyStopped(), timeout=5.0)
             before = receiver.getTimestamp()
@@ -179,7 +180,8 @@ def test_faults_from_the_command_line_are_seen_by_ur_rtde():
             frozen_at = receiver.getTimestamp()
             time.sleep(0.3)
             assert receiver.getTimestamp() == frozen_at and receiver.isConnected()  # nothing arrives, link kept
-            assert wait_for(lambda: receiver.getTimestamp() > frozen_at + 0.5, timeout=5.0)  # streaming again, time moved on
+            # streaming again, time moved on
+            assert wait_for(lambda: receiver.getTimestamp() > frozen_at + 0.5, timeout=5.0)
             assert frozen_at - before < 0.1
             assert send_request(sim.host, "drop-connections")["ok"]
             assert wait_for(lambda: not receiver.isConnected(), timeout=5.0)

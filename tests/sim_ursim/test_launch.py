@@ -8,9 +8,14 @@ import time
 import numpy as np
 import pytest
 
+from sim_ursim.launch import (
+    free_loopback_address,
+    ports_bindable,
+    random_loopback_address,
+    running_simulator,
+    wait_until_serving,
+)
 from sim_ursim.simulator import STANDARD_PORTS, Simulator
-from sim_ursim.launch import (free_loopback_address, ports_bindable, random_loopback_address, running_simulator,
-                               wait_until_serving)
 
 
 def settled_thread_count(expected, timeout=5.0):

@@ -185,7 +185,8 @@ def test_kinematics_and_configuration_publish_the_calibrated_dh():
     config = struct.unpack(">iB12d12d5d24d4i", found[6])
     limits, speeds = config[2:14], config[14:26]
     assert limits[0] == pytest.approx(-2 * math.pi) and limits[1] == pytest.approx(2 * math.pi)
-    assert speeds[0] == pytest.approx(math.pi) and speeds[6] == pytest.approx(2 * math.pi)  # base 180°/s, wrist 1 360°/s
+    # base 180°/s, wrist 1 360°/s
+    assert speeds[0] == pytest.approx(math.pi) and speeds[6] == pytest.approx(2 * math.pi)
     assert config[26:31] == (1.0472, 1.3963, 0.25, 1.2, 0.25)
     dh_a = config[31:37]
     assert list(dh_a) == list(model.a)

@@ -15,12 +15,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from polling import wait_for
+from sim_ursim.launch import running_simulator, simulator_process
 from sim_ursim.messages import TextMessage
 from sim_ursim.primary import server as server_module
-from sim_ursim.primary.script_intake import (MAX_PENDING_BYTES, MAX_PENDING_LINES, IntakeOverflow,
-                                              ScriptAssembler)
-from sim_ursim.launch import running_simulator, simulator_process
-from polling import wait_for
+from sim_ursim.primary.script_intake import MAX_PENDING_BYTES, MAX_PENDING_LINES, IntakeOverflow, ScriptAssembler
 
 PRIMARY, SECONDARY, REALTIME, DASHBOARD = 30001, 30002, 30003, 29999
 ROBOT_STATE, ROBOT_MESSAGE = 16, 20
@@ -522,7 +521,8 @@ def test_ur_rtde_control_uploads_its_script_on_30003_and_moves_the_arm():
 # --- cutting the byte stream into programs (pure) ----------------------------------------------------------------
 
 BLOCKS = [
-    "def first():\n  if True:\n    textmsg(\"a\")\n  elif False:\n    textmsg(\"b\")\n  else:\n    sleep(1)\n  end\nend\n",
+    "def first():\n  if True:\n    textmsg(\"a\")\n  elif False:\n    textmsg(\"b\")\n  else:\n    sleep(1)\n"
+    "  end\nend\n",
     "sec watcher():\n  while False:\n    sync()\n  end\nend\n",
     "def threaded():\n  thread worker():\n    sleep(0.1)\n  end\n  t = run worker()\n  join t\nend\n",
     "def tricky():\n  textmsg(\"end\")  # the word end inside a string and this comment: end\n"
@@ -587,7 +587,7 @@ def test_a_program_sent_then_closed_at_once_always_runs(sim, port):
     for n in range(1, 61):
         with socket.create_connection((sim.host, port), timeout=3.0) as sock:
             sock.sendall(f"write_output_integer_register(7, {n})\n".encode())
-        assert wait_for(lambda: sim.controller.state().output_int_registers[7] == n, timeout=3.0), (
+        assert wait_for(lambda n=n: sim.controller.state().output_int_registers[7] == n, timeout=3.0), (
             f"program {n} sent to {port} then closed did not run")
 
 
@@ -610,7 +610,7 @@ def _flood_until_dropped(host, port, opening, line, limit_bytes):
                 pass
         except ConnectionResetError:
             pass
-        except socket.timeout:
+        except TimeoutError:
             return None
         return sent
 

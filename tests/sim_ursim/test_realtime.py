@@ -4,10 +4,11 @@ import struct
 
 import numpy as np
 import pytest
-from test_primary_packets import snapshot
 from urx.urrtmon import URRTMonitor
 
 from sim_ursim.primary import realtime
+from test_primary_packets import snapshot
+
 
 def package(version, state=None):
     return realtime.realtime_package(version, realtime.realtime_values(state or snapshot()))

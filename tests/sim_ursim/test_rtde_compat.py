@@ -13,10 +13,10 @@ import pytest
 
 from polling import wait_for
 from sim_ursim import kinematics
-from sim_ursim.rtde import variables
 from sim_ursim.launch import running_simulator
+from sim_ursim.rtde import variables
 
-V, v_, O, I, S, P, U = 86, 118, 79, 73, 83, 80, 85
+V, v_, O, I, S, P, U = 86, 118, 79, 73, 83, 80, 85   # noqa: E741  (RTDE's package type letters)
 FORMATS = {"BOOL": "?", "UINT8": "B", "UINT32": "I", "UINT64": "Q", "INT32": "i", "DOUBLE": "d",
            "VECTOR3D": "3d", "VECTOR6D": "6d", "VECTOR6INT32": "6i", "VECTOR6UINT32": "6I"}
 

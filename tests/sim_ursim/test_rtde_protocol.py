@@ -35,7 +35,8 @@ def test_package_header_counts_itself_and_carries_the_type():
 def test_split_package_waits_for_the_whole_package():
     package = protocol.pack_protocol_version_request(2)
     assert protocol.split_package(bytearray(package[:4])) is None
-    assert protocol.split_package(bytearray(package + b"\x00")) == (PackageType.REQUEST_PROTOCOL_VERSION, b"\x00\x02", 5)
+    split = protocol.split_package(bytearray(package + b"\x00"))
+    assert split == (PackageType.REQUEST_PROTOCOL_VERSION, b"\x00\x02", 5)
 
 
 def test_split_package_rejects_a_size_smaller_than_the_header():
@@ -78,7 +79,8 @@ def test_setup_replies_round_trip(recipe_id, types):
     assert protocol.parse_setup_outputs_reply(outputs_v2, 2) == (recipe_id, types)
     outputs_v1 = protocol.pack_setup_outputs_reply(recipe_id, types, 1)[3:]
     assert protocol.parse_setup_outputs_reply(outputs_v1, 1) == (None, types)
-    assert protocol.parse_setup_inputs_reply(protocol.pack_setup_inputs_reply(recipe_id, types)[3:]) == (recipe_id, types)
+    inputs = protocol.pack_setup_inputs_reply(recipe_id, types)[3:]
+    assert protocol.parse_setup_inputs_reply(inputs) == (recipe_id, types)
 
 
 def test_controller_version_reply_is_four_uint32():

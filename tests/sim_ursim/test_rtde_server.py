@@ -5,11 +5,11 @@ import time
 
 import pytest
 
+from polling import wait_for
 from sim_ursim.controller import Controller
 from sim_ursim.rtde import protocol
 from sim_ursim.rtde.protocol import PackageType
 from sim_ursim.rtde.server import RTDEServer
-from polling import wait_for
 
 
 class RawClient:
@@ -232,7 +232,7 @@ def test_pause_stops_the_stream(clients):
     try:
         while client.receive(timeout=0.1)[0] == PackageType.DATA_PACKAGE:
             pass
-    except socket.timeout:
+    except TimeoutError:
         pass
     with pytest.raises(socket.timeout):
         client.receive(timeout=0.3)

@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 
 from sim_ursim.controller import Controller
+from sim_ursim.launch import free_loopback_address
 from sim_ursim.rtde import protocol
 from sim_ursim.rtde.server import RTDEServer
-from sim_ursim.launch import free_loopback_address
 
 CLIENT_TIMEOUT = 60
 # UR3 standard DH (docs/conventions.md): d1, a2, a3, d4, d5, d6; alpha = (π/2, 0, 0, π/2, −π/2, 0).
@@ -143,7 +143,8 @@ def _task_io_twice(host):
     return {"second_error": second_error, "third_works": third_works}
 
 
-_TASKS = {"io_twice": _task_io_twice, "snapshot": _task_snapshot, "record": _task_record, "io": _task_io, "not_found": _task_not_found,
+_TASKS = {"io_twice": _task_io_twice, "snapshot": _task_snapshot, "record": _task_record, "io": _task_io,
+          "not_found": _task_not_found,
           "several": _task_several}
 
 

@@ -15,9 +15,9 @@ import pytest
 
 from sim_ursim import messages
 from sim_ursim.controller import Controller, RobotMode
+from sim_ursim.launch import running_simulator
 from sim_ursim.models import robot_model
 from sim_ursim.primary import packets
-from sim_ursim.launch import running_simulator
 from tests.polling import wait_for
 
 

@@ -78,7 +78,8 @@ def test_wrench_trans_matches_the_rigid_body_transform(controller):
 
 def test_errors_name_the_problem(controller):
     for source, fragment in [('x = str_at("ab", 5)\n', "str_at"), ("x = inv([[1, 2], [2, 4]])\n", "singular"),
-                             ("set_tool_voltage(5)\n", "set_tool_voltage"), ("x = [1, 2] + [1, 2, 3]\n", "equal length")]:
+                             ("set_tool_voltage(5)\n", "set_tool_voltage"),
+                             ("x = [1, 2] + [1, 2, 3]\n", "equal length")]:
         _, error = run(controller, source)
         assert error is not None and fragment in error.text
 

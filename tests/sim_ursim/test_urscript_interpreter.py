@@ -9,13 +9,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from polling import wait_for
 from sim_ursim import kinematics
 from sim_ursim.controller import Controller
 from sim_ursim.messages import TextMessage
 from sim_ursim.urscript.builtins import BUILTINS
 from sim_ursim.urscript.interpreter import CompileError, Execution, compile_program
 from sim_ursim.urscript.parser import parse
-from polling import wait_for
 
 HOME = [0.0, -1.2, 1.0, -1.0, -1.5, 0.3]
 
@@ -283,7 +283,7 @@ end
 
 
 def test_killing_a_moving_thread_aborts_its_move(controller):
-    source = f"""def prog():
+    source = """def prog():
   thread mover():
     movej([1.5, -1.2, 1.0, -1.0, -1.5, 0.3], a=1.0, v=0.5)
   end

@@ -7,13 +7,13 @@ import time
 import numpy as np
 import pytest
 
-from sim_ursim.controller import Controller
-from sim_ursim.vocabulary import RuntimeState
-from sim_ursim.messages import KeyMessage, RuntimeExceptionMessage, TextMessage
-from sim_ursim.urscript.runtime import ProgramRunner
+from controller_time import wait_cycles
 from polling import wait_for
 from powered_simulator import powered_simulator
-from controller_time import wait_cycles
+from sim_ursim.controller import Controller
+from sim_ursim.messages import KeyMessage, RuntimeExceptionMessage, TextMessage
+from sim_ursim.urscript.runtime import ProgramRunner
+from sim_ursim.vocabulary import RuntimeState
 
 HOME = [0.0, -1.2, 1.0, -1.0, -1.5, 0.3]
 LONG_MOVE = "movej([1.5, -1.2, 1.0, -1.0, -1.5, 0.3], a=0.5, v=0.2)\n"

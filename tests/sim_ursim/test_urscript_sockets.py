@@ -69,7 +69,8 @@ ROBOT_PROGRAM = """def externalControlLike():
       if params_mult[8] == -2:
         keep_running = False
       else:
-        q = [params_mult[2], params_mult[3], params_mult[4], params_mult[5], params_mult[6], params_mult[7]] / MULT_jointstate
+        q = [params_mult[2], params_mult[3], params_mult[4], params_mult[5], params_mult[6],
+             params_mult[7]] / MULT_jointstate
         servoj(q, t=0.008, lookahead_time=0.1, gain=300)
       end
     end

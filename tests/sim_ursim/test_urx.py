@@ -8,8 +8,8 @@ import pytest
 import urx
 from urx.urrobot import RobotException
 
-from sim_ursim.launch import running_simulator
 from polling import wait_for
+from sim_ursim.launch import running_simulator
 
 pytestmark = [
     pytest.mark.filterwarnings("ignore:notifyAll:DeprecationWarning"),  # inside urx 0.11 itself

@@ -6,15 +6,22 @@ import stat
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from pyquaternion import Quaternion
 
+from ur3dq import store_format
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import StoreError
 from ur3dq.pose import Pose
-from ur3dq import store_format
 from ur3dq.store import (
-    SCHEMA_NAME, SCHEMA_VERSION, PoseStore, format_store, parse_store, pose_to_dict, write_atomically,
+    SCHEMA_NAME,
+    SCHEMA_VERSION,
+    PoseStore,
+    format_store,
+    parse_store,
+    pose_to_dict,
+    write_atomically,
 )
 
 
@@ -142,11 +149,14 @@ def test_write_atomically_leaves_no_temporary_and_keeps_the_mode(tmp_path):
 # ---------------------------------------------------------------- broken files: clear error, never overwritten
 
 BROKEN_STORES = {
-    "truncated JSON": ('{\n  "schema": "ur3dq.poses",\n  "version": 1,\n  "poses": [\n    {"name": "a"', r":5:\d+: not valid JSON"),
+    "truncated JSON": ('{\n  "schema": "ur3dq.poses",\n  "version": 1,\n  "poses": [\n    {"name": "a"',
+                       r":5:\d+: not valid JSON"),
     "not an object": ("[1, 2]", r":1: not a pose store"),
     "wrong schema": ('{"schema": "other", "version": 1, "poses": []}', r":1: not a pose store: \"schema\" is 'other'"),
-    "newer version": ('{"schema": "ur3dq.poses", "version": 3, "steps": []}', r":1: store version 3 is not supported .*newer"),
-    "version true": ('{"schema": "ur3dq.poses", "version": true, "poses": []}', r":1: store version True is not supported"),
+    "newer version": ('{"schema": "ur3dq.poses", "version": 3, "steps": []}',
+                      r":1: store version 3 is not supported .*newer"),
+    "version true": ('{"schema": "ur3dq.poses", "version": true, "poses": []}',
+                     r":1: store version True is not supported"),
     "100,000-deep nesting": ('{"schema": "ur3dq.poses", "version": 1, "poses": [\n' + "[" * 100_000 + "]" * 100_000
                              + "]}", r":2: not a pose store: JSON nested deeper than"),
     "poses not a list": ('{"schema": "ur3dq.poses", "version": 1, "poses": {}}', r":1: \"poses\" must be a list"),
@@ -182,7 +192,8 @@ BAD_POSES = {
     "five joints": (broken_pose("joints", [0, 0, 0, 0, 0]), "joints must be 6 numbers, got 5"),
     "text joints": (broken_pose("joints", "zero"), "joints must be 6 numbers"),
     "six digits": (broken_pose("joints", "123456"), "joints must be 6 numbers, got '123456'"),
-    "an object of six numbered keys": (broken_pose("joints", {str(k): 0 for k in range(6)}), "joints must be 6 numbers"),
+    "an object of six numbered keys": (broken_pose("joints", {str(k): 0 for k in range(6)}),
+                                       "joints must be 6 numbers"),
     "rows of one": (broken_pose("joints", [[0]] * 6), "joints must be 6 numbers"),
     # np.fromiter and np.array read both as numbers (1.5 and 1.0): a JSON number only
     "a number in quotes": (broken_pose("joints", [0, "1.5", 0, 0, 0, 0]),
@@ -193,9 +204,12 @@ BAD_POSES = {
                                    "tcp_offset must be 6 numbers, got false among them"),
     "a null coefficient": (broken_pose("ur_pose", [0, 0, None, 0, 0, 0]),
                            "ur_pose must be 6 numbers, got null among them"),
-    "infinite coefficient": (broken_pose("dual_quaternion", [1, 0, 0, 0, 0, math.inf, 0, 0]), "dual_quaternion contains NaN or infinity"),
-    "non-unit rotation": (broken_pose("dual_quaternion", [2, 0, 0, 0, 0, 0, 0, 0]), "dual_quaternion rotation part has norm 2, not 1"),
-    "not rigid": (broken_pose("dual_quaternion", [1, 0, 0, 0, 0.5, 0, 0, 0]), "dual_quaternion is not a rigid transform"),
+    "infinite coefficient": (broken_pose("dual_quaternion", [1, 0, 0, 0, 0, math.inf, 0, 0]),
+                             "dual_quaternion contains NaN or infinity"),
+    "non-unit rotation": (broken_pose("dual_quaternion", [2, 0, 0, 0, 0, 0, 0, 0]),
+                          "dual_quaternion rotation part has norm 2, not 1"),
+    "not rigid": (broken_pose("dual_quaternion", [1, 0, 0, 0, 0.5, 0, 0, 0]),
+                  "dual_quaternion is not a rigid transform"),
     "pose vector disagrees": (broken_pose("ur_pose", [9, 9, 9, 0, 0, 0]), "ur_pose and dual_quaternion disagree"),
     "typo field": ({**pose_to_dict(make_pose("p", 5)), "jionts": []}, "unknown field 'jionts'"),
     "missing field": (broken_pose("time", ...), "missing field 'time'"),

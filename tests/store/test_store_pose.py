@@ -9,7 +9,13 @@ from pyquaternion import Quaternion
 
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.pose import (
-    Pose, check_pose_text_fields, name_problem, next_free_name, numbering_prefix, text_fields_all_valid, utc_now_iso,
+    Pose,
+    check_pose_text_fields,
+    name_problem,
+    next_free_name,
+    numbering_prefix,
+    text_fields_all_valid,
+    utc_now_iso,
 )
 
 A_POSE = DualQuaternion.from_rotation_translation(Quaternion(axis=[0, 0, 1], angle=0.5), [0.1, -0.2, 0.3])

@@ -5,11 +5,10 @@ import os
 
 import pytest
 
+from tests.store.test_store_file import make_pose
 from ur3dq.errors import StoreError
 from ur3dq.program.steps import DigitalOut, Message, Motion, RelativeWaypoint, Wait, WaitInput, Waypoint
 from ur3dq.store import PoseStore, format_store, parse_document
-
-from tests.store.test_store_file import make_pose
 
 
 def v1_store(tmp_path, names=("pick", "place")):

@@ -2,12 +2,13 @@
 import os
 
 # One BLAS thread, set before numpy is first imported (ur3dq's own package imports none). A command's matrices are
-# small; OpenBLAS's extra threads only spin, 0.05–0.12 s of CPU at numpy's import alone (measured), taken from the
-# heartbeat and state threads of a driver on a 2-core cell PC. A value the user set is kept.
+# small; OpenBLAS's extra threads only spin, taking CPU from the heartbeat and state threads of a driver on a small
+# cell PC (docs/performance.md). A value the user set is kept.
 for _variable in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_variable, "1")
 
-from ur3dq.cli import check, demo, export_urscript, fk, ik, plot, poses, record_pose, robot, run_poses, sim, status  # noqa: E402,F401  (importing registers the commands: `ur3dq X` lives in cli/X.py)
+# Importing the command modules registers their commands; `ur3dq X` lives in cli/X.py.
+from ur3dq.cli import check, demo, export_urscript, fk, ik, plot, poses, record_pose, robot, run_poses, sim, status  # noqa: E402,F401,I001
 from ur3dq.cli.app import cli, main  # noqa: E402  (after the thread count)
 
 __all__ = ["cli", "main"]

@@ -103,10 +103,13 @@ def emit_json(data) -> None:
 
 
 def emit_json_list(items) -> None:
-    """Print a JSON array of `items` on stdout, as emit_json would (indent 2), one item at a time (a list of 10⁵
-    poses as one string would need hundreds of MB). orjson, not the stdlib: with an indent the stdlib encodes in
-    pure Python, 10× slower (93,587 poses: 6.0 s against 0.55 s of CPU). The values are the same; a small float
-    may be spelt without an exponent (0.00008570859774087447 where the stdlib writes 8.570859774087447e-05)."""
+    """Print `items` as one JSON array on stdout, an item at a time.
+
+    The layout is emit_json's (indent 2), without holding the whole text (a big store's list as one string would
+    need hundreds of MB). orjson, not the stdlib: with an indent the stdlib encodes in pure Python, far slower
+    (docs/performance.md). The values are the same; a small float may be spelt without an exponent
+    (0.00008570859774087447 where the stdlib writes 8.570859774087447e-05).
+    """
     parts, count = ["["], 0
     for item in items:
         text = orjson.dumps(item, option=orjson.OPT_INDENT_2 | orjson.OPT_SERIALIZE_NUMPY).decode()
@@ -120,7 +123,9 @@ def emit_json_list(items) -> None:
 
 
 def confirm(question: str, assume_yes: bool, default: bool = False) -> None:
-    """Ask `question` unless `assume_yes` (Enter alone means `default`, No unless told: every motion question
+    """Ask a yes/no question; raise Cancelled unless the answer is yes.
+
+    Ask `question` unless `assume_yes` (Enter alone means `default`, No unless told: every motion question
     defaults to No); Cancelled if the answer is no or stdin has no answer."""
     if assume_yes:
         return
@@ -244,7 +249,9 @@ def _report_interrupt(interrupt):
 
 @contextlib.contextmanager
 def robot_session(settings: Settings, **options):
-    """A connected Robot for the host the options (or the running embedded simulator) name; closed afterwards.
+    """A connected Robot for the command, closed when the block ends.
+
+    A connected Robot for the host the options (or the running embedded simulator) name; closed afterwards.
     `options` go to the driver's connect (e.g. max_joint_travel)."""
     from ur3dq.robot import connect  # the driver loads both client libraries: only for robot commands
 

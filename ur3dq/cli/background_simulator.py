@@ -76,7 +76,9 @@ def _lock(directory: Path) -> filelock.FileLock:
 
 
 def start_simulator(model: str = "ur3", host: str | None = None, version: str | None = None) -> dict:
-    """Start `python -m sim_ursim` detached on `host` (default: a free loopback address) and wait until it
+    """Start the embedded simulator in the background and record where it serves.
+
+    Start `python -m sim_ursim` detached on `host` (default: a free loopback address) and wait until it
     serves every port; returns the recorded state. SimulatorError if one runs already or it does not come up."""
     from sim_ursim.launch import free_loopback_address, ports_bindable, wait_until_serving
 
@@ -108,7 +110,8 @@ def start_simulator(model: str = "ur3", host: str | None = None, version: str | 
                 process.kill()
             process.wait()
             tail = log_path.read_text(encoding="utf-8", errors="replace").strip().splitlines()[-1:]
-            raise SimulatorError(f"the simulator did not come up: {error}" + (f" ({tail[0]})" if tail else "")) from None
+            detail = f" ({tail[0]})" if tail else ""
+            raise SimulatorError(f"the simulator did not come up: {error}{detail}") from None
         state = {"pid": process.pid, "host": host, "model": model, "version": version, "log": str(log_path),
                  "started": utc_now_iso()}
         write_atomically(directory / STATE_FILE_NAME, json.dumps(state, indent=2) + "\n")
@@ -116,7 +119,9 @@ def start_simulator(model: str = "ur3", host: str | None = None, version: str | 
 
 
 def stop_simulator() -> dict | None:
-    """Stop the recorded simulator (SIGTERM, then SIGKILL after 10 s) and forget it; returns its state, or None
+    """Stop the simulator `start_simulator` started.
+
+    Stop the recorded simulator (SIGTERM, then SIGKILL after 10 s) and forget it; returns its state, or None
     if none was running."""
     directory = state_directory()
     if not directory.is_dir():

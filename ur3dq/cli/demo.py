@@ -51,7 +51,9 @@ DEMO_PLACES = (
 @display_options
 @click.pass_obj
 def demo(settings: Settings, save, speed, acceleration, tolerance_mm, tolerance_deg):
-    """The whole job against a simulator it starts itself: power on, release the brakes, move the arm to a few
+    """Run the whole job on a simulator: record poses, replay them, run a cell program.
+
+    The whole job against a simulator it starts itself: power on, release the brakes, move the arm to a few
     places and record each into a pose store, park the arm, replay the store (IK nearest the recorded joints,
     as run-poses does), and show where the arm ended vs where each pose was recorded.
 
@@ -126,7 +128,9 @@ GRIPPER_PIN = 0     # tool digital output 0 closes the gripper
 
 
 def pick_and_place_steps(store, program_store, pick: str, place: str) -> list:
-    """Write the demo's cell program around the poses `pick` and `place` of `store` into `program_store` (a
+    """Write the demo's pick-and-place cell program and return its steps.
+
+    Write the demo's cell program around the poses `pick` and `place` of `store` into `program_store` (a
     version-2 store, replacing what it held) and return its steps."""
     pick_pose, place_pose = store.get(pick), store.get(place)
 
@@ -146,7 +150,9 @@ def pick_and_place_steps(store, program_store, pick: str, place: str) -> list:
 
 
 def run_pick_and_place(robot, store, program_store, pick: str, place: str, say) -> None:
-    """Build the program into `program_store`, run it showing each step as the controller reports it, then its
+    """Build and run the demo's pick-and-place program, showing each step.
+
+    Build the program into `program_store`, run it showing each step as the controller reports it, then its
     plan; RobotError if the arm does not end at `place`."""
     steps = pick_and_place_steps(store, program_store, pick, place)
     console_print = say

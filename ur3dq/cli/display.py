@@ -41,7 +41,7 @@ def angles_text(values, deg: bool) -> str:
     return _angles_format(bool(deg), len(numbers)) % tuple(numbers)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _angles_format(deg: bool, count: int) -> str:
     """The %-format of angles_text's line of `count` angles."""
     return "[" + ", ".join([_ANGLE_FORMAT[deg]] * count) + "]"
@@ -78,7 +78,9 @@ def unit_label(deg: bool) -> str:
 
 
 class VectorCell:
-    """A bracketed 6-number text (joints, a UR pose vector) that, when its cell is too narrow for one line, breaks
+    """A table cell of 6 numbers that wraps between its halves.
+
+    A bracketed 6-number text (joints, a UR pose vector) that, when its cell is too narrow for one line, breaks
     between its halves (x y z | rx ry rz, base-shoulder-elbow | wrists) instead of wherever the width ends."""
 
     def __init__(self, text: str):
@@ -106,7 +108,9 @@ def key_value_table(title: str, rows) -> Table:
 
 @dataclasses.dataclass(frozen=True)
 class Column:
-    """A column of `fitted_table`: its header (and a shorter one for narrow terminals), how its cells align, whether
+    """One column of `fitted_table`: headers, alignment, wrapping, drop order.
+
+    A column of `fitted_table`: its header (and a shorter one for narrow terminals), how its cells align, whether
     they may wrap between words, and when it is left out on a narrow terminal (1 = first; None = never)."""
 
     header: str
@@ -213,7 +217,9 @@ def _shared_widths(minimum, natural, room: int) -> list[int]:
 
 
 def joint_solutions_table(title: str, solutions, deg: bool, extra_columns=(), width: int | None = None) -> Table:
-    """A table with one row per joint vector; `extra_columns` = [(Column, [text per row])]. Narrower than
+    """A table of joint vectors, one row each.
+
+    A table with one row per joint vector; `extra_columns` = [(Column, [text per row])]. Narrower than
     NARROW_WIDTH the angles have 4 decimals (2 in degrees) so the six joints fit 80 columns."""
     narrow = width is not None and width < NARROW_WIDTH
     unit = unit_label(deg)
@@ -262,7 +268,9 @@ PLAIN_TABLE_ROWS = 2000  # beyond this, tables are printed as tab-separated line
 
 
 def print_table(console: Console, title: str, columns, rows, count: int | None = None) -> None:
-    """A table of Columns on `console` that reads at its width (names are never cut or dropped); user text is
+    """Print a table of Columns at the console's width.
+
+    A table of Columns on `console` that reads at its width (names are never cut or dropped); user text is
     shown as typed (no markup). `rows`: a sequence of rows (lists of text), or an iterable of `count` rows. A table
     of more than PLAIN_TABLE_ROWS rows is written as tab-separated lines as the rows come (10⁵ rows need no list of
     them), straight to the console's file (stderr under --json, like the table would be)."""
@@ -294,7 +302,9 @@ def plan_table(steps, deg: bool, title: str, width: int | None = None) -> Table:
 
 
 def replay_plan(steps, deg: bool, width: int | None = None) -> tuple:
-    """(Columns, an iterator of the rows in plain text) of the replay plan (ur3dq.replay.PlanStep list): chosen
+    """The columns and rows of a replay plan's table.
+
+    (Columns, an iterator of the rows in plain text) of the replay plan (ur3dq.replay.PlanStep list): chosen
     joints, how they were chosen, travel, time, FK residual. Narrower than NARROW_WIDTH columns, the joints are
     compact and wrap three per line, and the FK check, the time and how the joints were chosen are left out in that
     order while the table would not fit; the pose name is never cut."""
@@ -325,7 +335,9 @@ def _replay_rows(steps, deg: bool, narrow: bool):
 
 
 def reached_table(results, title: str, width: int | None = None) -> Table:
-    """Where each replayed pose ended (ur3dq.replay.Reached list) vs where the replay aimed the current TCP: the
+    """A table of where each replayed pose ended.
+
+    Where each replayed pose ended (ur3dq.replay.Reached list) vs where the replay aimed the current TCP: the
     recorded TCP pose, or — replaying the flange of a pose recorded with another TCP — a point that far from it."""
     columns = [Column("#", justify="right", no_wrap=True), Column("pose", no_wrap=True), Column("aimed at"),
                Column("error"), Column("move time", narrow_header="time", justify="right", drop_order=1)]

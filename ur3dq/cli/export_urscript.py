@@ -62,10 +62,10 @@ def export_urscript(settings: Settings, names, output: Path, speed, acceleration
             check_max_travel(angular_option(max_travel, DEFAULT_MAX_JOINT_TRAVEL, settings.deg)))
         _write_program(output, program, yes, count_text(count, "step"))
         return
+    travel = check_max_travel(angular_option(max_travel, DEFAULT_MAX_JOINT_TRAVEL, settings.deg))
     model, steps, a, v = offline_plan(settings, names, angular_option(speed, DEFAULT_SPEED, settings.deg),
                                       angular_option(acceleration, DEFAULT_ACCELERATION, settings.deg),
-                                      replay_joints, check_max_travel(angular_option(max_travel, DEFAULT_MAX_JOINT_TRAVEL,
-                                                                                     settings.deg)))
+                                      replay_joints, travel)
     offsets = {step.pose.tcp_offset for step in steps}
     header = [
         f"ur3dq export-urscript: {count_text(len(steps), 'pose')} from {settings.store_path} for a {model.name}",

@@ -91,4 +91,5 @@ def ik(settings: Settings, values, pose_name, tcp, near):
         + pose_vector_text(target.to_ur_pose(), settings.deg),
         sent if reference is not None else solutions, settings.deg, extra, settings.out.width))
     if chosen is not None:
-        settings.out.print(f"Closest to the reference (◀, what a replay moves to):\n  {angles_text(chosen, settings.deg)}")
+        settings.out.print("Closest to the reference (◀, what a replay moves to):\n  "
+                           f"{angles_text(chosen, settings.deg)}")

@@ -1,4 +1,4 @@
-"""Keep ur_rtde's own console text off ur3dq's screen (issue 14 item 7).
+"""Keep ur_rtde's own console text off ur3dq's screen.
 
 ur_rtde's C++ threads write diagnostics straight to the process's file descriptors 1 and 2, e.g.
 `RTDEReceiveInterface boost system Exception: (asio.misc:2) End of file` when a connection drops. That text sits in
@@ -35,7 +35,9 @@ NOTE_REPEAT_PERIOD = 2.0  # one drop makes several threads print; the user needs
 
 
 def translated(line: str) -> "str | None":
-    """What the user sees for one console line (without its newline): a ur_rtde line becomes its note or None
+    """What the user sees for one line a client library printed.
+
+    What the user sees for one console line (without its newline): a ur_rtde line becomes its note or None
     (nothing); any other line is returned as it is."""
     if not line.startswith(LIBRARY_PREFIXES):
         return line

@@ -53,7 +53,9 @@ def global_options(command):
 
 
 def deg_option(command):
-    """Add --deg to a command too, so `ur3dq fk ... --deg` works as well as `ur3dq --deg fk ...` (and the global
+    """Accept --deg after the command name too.
+
+    Add --deg to a command too, so `ur3dq fk ... --deg` works as well as `ur3dq --deg fk ...` (and the global
     options, see global_options)."""
     command = click.option("--deg", "deg", is_flag=True, expose_value=False, callback=_set_flag,
                            help="Angles in degrees (input and display).")(command)
@@ -78,7 +80,9 @@ def ur_pose_from_input(values, deg: bool, name: str = "pose") -> np.ndarray:
 
 
 def angular_option(value: float | None, default: float, deg: bool) -> float:
-    """An angular option (speed, acceleration, travel) in radians: `default` when not given, else the typed value,
+    """An angular option's value in radians.
+
+    An angular option (speed, acceleration, travel) in radians: `default` when not given, else the typed value,
     read as degrees when `deg` (so `--deg --speed 30` is 30°/s, never 30 rad/s)."""
     if value is None:
         return default
@@ -102,7 +106,9 @@ def motion_options(command):
 
 
 def clamp_to_model(value: float, limits, name: str, minimum: float = 0.0) -> tuple[float, bool]:
-    """(value, clamped?) with `value` lowered to the slowest joint's limit; ValueError naming the valid range
+    """A speed or acceleration lowered to the slowest joint's limit.
+
+    (value, clamped?) with `value` lowered to the slowest joint's limit; ValueError naming the valid range
     unless finite and ≥ `minimum` (> 0 when `minimum` is 0)."""
     limit = float(np.min(limits))
     if not (math.isfinite(value) and value > 0 and value >= minimum):
@@ -178,7 +184,9 @@ def joints_from_input(values, deg: bool, name: str = "joints") -> np.ndarray:
 
 
 def joints_in_limits(model, q: np.ndarray, deg: bool, name: str = "joints") -> np.ndarray:
-    """`q` if inside `model`'s joint limits, else ValueError naming the joint (with a --deg hint when the values
+    """Typed joints, refused outside the model's limits.
+
+    `q` if inside `model`'s joint limits, else ValueError naming the joint (with a --deg hint when the values
     were read as radians: `fk 0 -90 0 -90 0 0` is almost always meant in degrees)."""
     outside = (q < model.joint_lower) | (q > model.joint_upper)
     if outside.any():

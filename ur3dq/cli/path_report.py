@@ -24,13 +24,16 @@ DEFAULT_LINEAR_ACCELERATION = 1.2
 # (margin key, header, scale, narrow header, narrow drop order: the speed room first, the collisions last)
 MARGIN_COLUMNS = (("wrist", "|sin θ5|", 1.0, "wrist", 5), ("elbow", "|sin θ3|", 1.0, "elbow", 4),
                   ("shoulder", "shoulder mm", 1000.0, "shldr", 3),
-                  ("joint_limit", "limit °", math.degrees(1.0), "limit", 2), ("joint_speed", "speed room", 1.0, "speed", 1),
+                  ("joint_limit", "limit °", math.degrees(1.0), "limit", 2),
+                  ("joint_speed", "speed room", 1.0, "speed", 1),
                   ("self_collision", "self mm", 1000.0, "self", 7), ("cell", "cell mm", 1000.0, "cell", 6))
 
 
 def path_plan_from_replay(steps, start_joints, move: str, speed: float, acceleration: float,
                           blend: float) -> PathPlan:
-    """The PathPlan of replay `steps` (ur3dq.replay.PlanStep) from `start_joints`; without a start (dry run, no
+    """The PathPlan of a replay plan.
+
+    The PathPlan of replay `steps` (ur3dq.replay.PlanStep) from `start_joints`; without a start (dry run, no
     robot) the plan starts at the first pose, whose configuration is then checked as a move of length 0."""
     start = steps[0].joints if start_joints is None else start_joints
     count = len(steps)
@@ -42,7 +45,9 @@ def path_plan_from_replay(steps, start_joints, move: str, speed: float, accelera
 
 def check_replay(model, steps, cell_path, start_joints=None, blend: float = 0.0, loops: int = 1,
                  keep_samples: bool = True) -> tuple:
-    """(PathCheckResult, Cell or None) of a movej replay of `steps`; `loops` > 1 adds the move from the last pose
+    """The path check of a movej replay.
+
+    (PathCheckResult, Cell or None) of a movej replay of `steps`; `loops` > 1 adds the move from the last pose
     back to the first; `keep_samples` as check_path's (a drawing needs them, a margins table does not)."""
     plan = path_plan_from_replay(steps, start_joints, "joint", DEFAULT_JOINT_SPEED, DEFAULT_JOINT_ACCELERATION,
                                  blend)
@@ -55,14 +60,18 @@ def check_replay(model, steps, cell_path, start_joints=None, blend: float = 0.0,
 
 def require_clear_path(settings: Settings, model, steps, start_joints, blend: float, cell_path,
                        loops: int = 1) -> None:
-    """The path check of a movej replay before anything moves (run-poses): prints each move's smallest margins
+    """Check a replay's whole path before anything moves; raise if it fails.
+
+    The path check of a movej replay before anything moves (run-poses): prints each move's smallest margins
     (on stderr with --json), then SafetyCheckError (exit 4, one line) naming the step, where and what failed."""
     result, _ = check_replay(model, steps, cell_path, start_joints, blend, loops, keep_samples=False)
     report_path_check(settings, result, cell_path)
 
 
 def check_program(model, plan, cell_path, start_joints=None, keep_samples: bool = True) -> tuple:
-    """(PathCheckResult or None when no step moves the arm, Cell or None) of a cell program
+    """The path check of a planned cell program.
+
+    (PathCheckResult or None when no step moves the arm, Cell or None) of a cell program
     (ur3dq.program.plan.PlannedStep list): every joint, linear and process move with its own speed, blend and
     taught TCP; `keep_samples` as check_replay's."""
     cell = load_cell(cell_path) if cell_path else None
@@ -90,7 +99,9 @@ def report_path_check(settings: Settings, result, cell_path) -> None:
 
 
 def margins_table(result, title: str, width: int | None = None) -> Table:
-    """Each checked move's smallest margins: how far the worst sample is above the check's limit (negative = failed;
+    """A table of each checked move's smallest margins.
+
+    Each checked move's smallest margins: how far the worst sample is above the check's limit (negative = failed;
     speed room = the part of the joints' maximum speed left). Narrower than NARROW_WIDTH columns the headers are
     short and the sample count is left out, then margins in MARGIN_COLUMNS' drop order while the table would not
     fit (the caption names them; `check --json` has them all); the step name is never cut."""

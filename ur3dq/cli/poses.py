@@ -57,7 +57,9 @@ from ur3dq.store import format_store, format_thesis_lines, parse_store, pose_to_
 
 @cli.group()
 def poses():
-    """Look after the pose store: list, show, rm, rename, import, export; and edit it as a cell program: set,
+    """Look after the pose store and edit it as a cell program.
+
+    Look after the pose store: list, show, rm, rename, import, export; and edit it as a cell program: set,
     retouch, move, copy, offset, add-step (docs/store-schema.md, version 2).
 
     \b
@@ -81,7 +83,9 @@ PLAIN_LIST_ROWS = 2000
 @display_options
 @click.pass_obj
 def list_poses(settings: Settings):
-    """Every stored pose: name, time, model, TCP position and orientation, whether joints are known; for a cell
+    """List the stored poses, or the cell program's steps.
+
+    Every stored pose: name, time, model, TCP position and orientation, whether joints are known; for a cell
     program (store version 2) every step with its move type and parameters."""
     if list_program(settings):
         return
@@ -192,7 +196,9 @@ def rename(settings: Settings, old, new):
 @display_options
 @click.pass_obj
 def import_poses(settings: Settings, file: Path, prefix, tcp):
-    """Add the poses of FILE: the thesis' text lines (`q.w q.x q.y q.z 0 p.x p.y p.z`, one pose a line,
+    """Add the poses of FILE (thesis lines or a ur3dq store).
+
+    Add the poses of FILE: the thesis' text lines (`q.w q.x q.y q.z 0 p.x p.y p.z`, one pose a line,
     `#` comments allowed) or another ur3dq JSON store. All or nothing; taken names are numbered on.
 
     Thesis lines carry no joints and no model: --model (default ur3) and --tcp say what they were recorded with.
@@ -214,7 +220,8 @@ def import_poses(settings: Settings, file: Path, prefix, tcp):
     if settings.json:
         emit_json([pose.name for pose in added])
     else:
-        click.echo(f"Imported {count_text(len(added), 'pose')} into {settings.store_path}: {', '.join(p.name for p in added)}")
+        names = ", ".join(p.name for p in added)
+        click.echo(f"Imported {count_text(len(added), 'pose')} into {settings.store_path}: {names}")
 
 
 @poses.command("export")
@@ -278,7 +285,9 @@ def set_waypoint(settings: Settings, name, move, speed, acceleration, blend, cle
 @click.option("--yes", "-y", is_flag=True, help="Re-record without asking.")
 @click.pass_obj
 def retouch(settings: Settings, name, yes):
-    """Re-record the waypoint NAME from the arm's current pose, in place: its move, speed, blend and its position
+    """Re-record the waypoint NAME from the arm's current pose.
+
+    Re-record the waypoint NAME from the arm's current pose, in place: its move, speed, blend and its position
     in the program stay; relative waypoints based on it move with it. Asks first.
 
     \b

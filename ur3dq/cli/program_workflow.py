@@ -17,7 +17,6 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from ur3dq.cli.app import Settings, confirm, emit_json, emit_json_list, robot_session
 from ur3dq.cli.display import Column, print_table
 from ur3dq.cli.path_report import require_clear_program_path
-from ur3dq.collector import built_to_last
 from ur3dq.errors import StoreError
 from ur3dq.pose import utc_now_iso
 from ur3dq.program.plan import Defaults, plan_program
@@ -56,6 +55,7 @@ def replace_step(steps, name, new, source):
 
 
 def find_step(steps, name, source):
+    """The step called `name`; StoreError naming `source` if there is none."""
     for step in steps:
         if step.name == name:
             return step
@@ -74,7 +74,9 @@ def add_step_at(settings: Settings, make_step, after, before):
 
 
 def check_waypoint_options(name: str | None, move, speed, acceleration, blend, after, before, steps, source):
-    """record-pose's --move/--speed/--acceleration/--blend/--after/--before checked before the arm is read:
+    """Check record-pose's waypoint options before the arm is read.
+
+    record-pose's --move/--speed/--acceleration/--blend/--after/--before checked before the arm is read:
     ValueError or StoreError naming what is wrong."""
     Motion(move or "joint", speed, acceleration, blend).check(f"waypoint {name or '(new)'!r}")
     insertion_index(steps, after, before, source)
@@ -82,7 +84,9 @@ def check_waypoint_options(name: str | None, move, speed, acceleration, blend, a
 
 def record_waypoint(settings: Settings, pose, number_if_taken: bool, move, speed, acceleration, blend, after,
                     before):
-    """Store `pose` as a waypoint with its own motion at --after/--before (the end by default), in one atomic
+    """Store a recorded pose as a waypoint of the program.
+
+    Store `pose` as a waypoint with its own motion at --after/--before (the end by default), in one atomic
     update (a taken name is refused, or numbered on with `number_if_taken`); returns the pose as stored."""
     from ur3dq.store import with_added
 
@@ -121,7 +125,9 @@ _TARGET_FORMAT = " ".join(["%.3f"] * 6)   # one %-format per row: a long program
 
 
 def plan_rows(plan, first: int):
-    """The run-poses plan table's rows, one at a time: #, name, type, target joints (rad, 3 decimals), speed,
+    """The rows of the cell program's plan table, one at a time.
+
+    The run-poses plan table's rows, one at a time: #, name, type, target joints (rad, 3 decimals), speed,
     blend, travel, time."""
     for offset, planned in enumerate(plan):
         step = planned.step
@@ -158,36 +164,35 @@ def program_part(settings: Settings, start, end):
 
 def run_program_command(settings: Settings, start, end, speed_scale, dry_run, yes, speed, acceleration, blend,
                         replay_joints, max_travel, cell_path=None):
-    """`run-poses` of a cell program (a version-2 store, or --from/--to/--speed-scale): plan, table, the whole-path
+    """`run-poses` of a cell program: plan, check, ask, run.
+
+    `run-poses` of a cell program (a version-2 store, or --from/--to/--speed-scale): plan, table, the whole-path
     check (in `cell_path`'s cell if given), ask, run as one URScript program with the running step shown. Joint
     speeds in rad/s (already converted from --deg)."""
     from ur3dq.cli.background_simulator import running_simulator_host
     from ur3dq.kinematics import robot_model
 
     err = Console(stderr=True, highlight=False)
-    with built_to_last():   # the steps and the plan live until the command ends
-        steps, part, first = program_part(settings, start, end)
+    steps, part, first = program_part(settings, start, end)
     defaults = Defaults(joint_acceleration=acceleration, joint_speed=speed, blend=blend)
     if not (math.isfinite(speed_scale) and 0 < speed_scale <= 1):
         raise ValueError(f"--speed-scale must be a fraction 0 < F ≤ 1, got {speed_scale!r}")
     if dry_run and not (settings.host or running_simulator_host()):
         first_pose = next((s.pose for s in steps if isinstance(s, Waypoint)), None)
         model = robot_model(settings.model or (first_pose.robot_model if first_pose else "ur3"))
-        with built_to_last():
-            plan = plan_program(model, part, None, defaults, speed_scale, replay_joints, max_travel,
-                                resolve_from=steps)
-            _show_plan(settings, plan, first, f"Plan on a nominal {model.name} (no robot: travel from the first "
-                                              "step)")
-            require_clear_program_path(settings, model, plan, None, cell_path)
+        plan = plan_program(model, part, None, defaults, speed_scale, replay_joints, max_travel,
+                            resolve_from=steps)
+        _show_plan(settings, plan, first, f"Plan on a nominal {model.name} (no robot: travel from the first "
+                                          "step)")
+        require_clear_program_path(settings, model, plan, None, cell_path)
         return
     from ur3dq.program.runner import run_plan
 
     with robot_session(settings, max_joint_travel=max_travel) as robot:
-        with built_to_last():
-            plan = plan_program(robot.model, part, robot.joints(), defaults, speed_scale, replay_joints, max_travel,
-                                resolve_from=steps)
-            _show_plan(settings, plan, first, f"Plan on the {robot.model_name} at {robot.host}")
-            require_clear_program_path(settings, robot.model, plan, robot.joints(), cell_path)
+        plan = plan_program(robot.model, part, robot.joints(), defaults, speed_scale, replay_joints, max_travel,
+                            resolve_from=steps)
+        _show_plan(settings, plan, first, f"Plan on the {robot.model_name} at {robot.host}")
+        require_clear_program_path(settings, robot.model, plan, robot.joints(), cell_path)
         if dry_run:
             return
         confirm(f"Run {len(plan)} steps ({part[0].name!r} to {part[-1].name!r}) on the arm?", yes, default=False)
@@ -223,7 +228,9 @@ def _show_plan(settings: Settings, plan, first: int, title: str) -> None:
 
 def export_program_text(settings: Settings, start, end, speed, acceleration, blend, speed_scale, replay_joints,
                         max_travel) -> tuple[str, int]:
-    """(the .script text of the program or its --from/--to part on the nominal model, number of steps): the same
+    """The URScript text of the stored cell program and its number of steps.
+
+    (the .script text of the program or its --from/--to part on the nominal model, number of steps): the same
     program run-poses sends."""
     from ur3dq.kinematics import robot_model
 

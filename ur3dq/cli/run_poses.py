@@ -20,7 +20,6 @@ from ur3dq.cli.options import (
 )
 from ur3dq.cli.path_report import require_clear_path
 from ur3dq.cli.program_workflow import run_program_command
-from ur3dq.collector import built_to_last
 from ur3dq.errors import SafetyCheckError, StoreError
 from ur3dq.kinematics import robot_model
 from ur3dq.replay import (
@@ -88,32 +87,29 @@ def run_poses(settings: Settings, names, dry_run, yes, speed, acceleration, blen
         check_blend(blend)
         return run_program_command(settings, start, end, 1.0 if speed_scale is None else speed_scale, dry_run,
                                    yes, speed, acceleration, blend, replay_joints, max_travel, cell_path)
-    with built_to_last():   # the poses and the plan live until the command ends
-        poses = settings.store.select(names)
+    poses = settings.store.select(names)
     if not poses:
         raise StoreError(f"{settings.store_path} has no poses: record some with `ur3dq record-pose`")
     check_blend(blend)
     if dry_run and not (settings.host or running_simulator_host()):
         model = robot_model(settings.model or poses[0].robot_model)
         a, v = speed_and_acceleration(model, speed, acceleration, err)
-        with built_to_last():
-            steps = plan_replay(model, poses, None, a, v, replay_joints, max_travel)
-            _show_plan(settings, steps, loops, f"Plan on a nominal {model.name} (no robot: travel from the first "
-                                               "pose)")
-            require_clear_path(settings, model, steps, None, blend, cell_path, loops)
+        steps = plan_replay(model, poses, None, a, v, replay_joints, max_travel)
+        _show_plan(settings, steps, loops, f"Plan on a nominal {model.name} (no robot: travel from the first "
+                                           "pose)")
+        require_clear_path(settings, model, steps, None, blend, cell_path, loops)
         if settings.json:
             emit_json({"plan": plan_to_json(steps)})
         return
     with robot_session(settings, max_joint_travel=max_travel) as robot:
         a, v = speed_and_acceleration(robot.model, speed, acceleration, err)
         poses = _for_the_current_tcp(poses, robot.model.tcp, tcp_choice, replay_joints, err)
-        with built_to_last():
-            steps = plan_replay(robot.model, poses, robot.joints(), a, v, replay_joints, max_travel)
-            if loops > 1 and loop_closing_travel(steps) > max_travel:
-                raise SafetyCheckError(f"--loop: going back from {steps[-1].pose.name!r} to {steps[0].pose.name!r} "
-                                       f"swings a joint further than --max-travel {max_travel:.3f} rad")
-            _show_plan(settings, steps, loops, f"Plan on the {robot.model_name} at {robot.host}")
-            require_clear_path(settings, robot.model, steps, robot.joints(), blend, cell_path, loops)
+        steps = plan_replay(robot.model, poses, robot.joints(), a, v, replay_joints, max_travel)
+        if loops > 1 and loop_closing_travel(steps) > max_travel:
+            raise SafetyCheckError(f"--loop: going back from {steps[-1].pose.name!r} to {steps[0].pose.name!r} "
+                                   f"swings a joint further than --max-travel {max_travel:.3f} rad")
+        _show_plan(settings, steps, loops, f"Plan on the {robot.model_name} at {robot.host}")
+        require_clear_path(settings, robot.model, steps, robot.joints(), blend, cell_path, loops)
         if dry_run:
             if settings.json:
                 emit_json({"plan": plan_to_json(steps)})

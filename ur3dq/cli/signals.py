@@ -40,7 +40,9 @@ def _raise_terminated(signum, _frame):
 
 @contextlib.contextmanager
 def polite_signals_interrupt():
-    """While inside, SIGTERM and SIGHUP raise Terminated and SIGINT raises KeyboardInterrupt (even if it was
+    """Turn SIGTERM, SIGHUP and SIGINT into exceptions inside the block.
+
+    While inside, SIGTERM and SIGHUP raise Terminated and SIGINT raises KeyboardInterrupt (even if it was
     ignored) in the main thread; the old handlers come back after. Does nothing outside the main thread (Python
     only delivers signals there)."""
     if threading.current_thread() is not threading.main_thread():

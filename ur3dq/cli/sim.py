@@ -31,7 +31,9 @@ def sim():
 @display_options
 @click.pass_obj
 def sim_start(settings: Settings, address, software_version, powered_off):
-    """Start the simulator in the background: the arm at zero joints, powered on with its brakes released
+    """Start the simulator in the background, ready to move.
+
+    Start the simulator in the background: the arm at zero joints, powered on with its brakes released
     (what an operator does at the pendant) unless --powered-off."""
     state = start_simulator(settings.model or "ur3", address, software_version)
     if not powered_off:

@@ -146,7 +146,7 @@ class SerialChain:
 
     # ---------------------------------------------------------------------------------------------- builders
     @classmethod
-    def from_dh(cls, a, d, alpha, theta=None, joint_types=None, base=None, tool=None) -> "SerialChain":
+    def from_dh(cls, a, d, alpha, theta=None, joint_types=None, base=None, tool=None) -> SerialChain:
         """From standard DH rows (metres, radians): joint i = rz(θ_i + q_i)·tz(d_i)·tx(a_i)·rx(α_i).
 
         For a prismatic joint q adds to d instead (θ_i stays fixed). ``base`` and ``tool`` (DualQuaternion, 8
@@ -176,7 +176,7 @@ class SerialChain:
         return cls(constants, joint_types, frame_offsets=frame_offsets)
 
     @classmethod
-    def from_axes(cls, directions, points, home, joint_types=None, base=None, tool=None) -> "SerialChain":
+    def from_axes(cls, directions, points, home, joint_types=None, base=None, tool=None) -> SerialChain:
         """From joint axes in the base frame at q = 0 (``directions``, ``points``: n×3) and the flange pose at q = 0.
 
         σ(q) = Π_i exp(ξ_i q_i)·home (thesis §4.2, product of exponentials): exp(ξ_i q_i) = P_i·J_i(q_i)·P_i*, P_i
@@ -201,13 +201,13 @@ class SerialChain:
         # frame n is the end pose.
         return cls(constants, joint_types, frame_offsets=inverse + [_IDENTITY])
 
-    def with_tool(self, tool) -> "SerialChain":
+    def with_tool(self, tool) -> SerialChain:
         """The same chain with ``tool`` (in the current end frame) appended."""
         constants = list(self._constants)
         constants[-1] = multiply_coefficients(constants[-1], _as_coefficients(tool, "tool"))
         return SerialChain(constants, self.joint_types, self.joint_offsets, self._frame_offsets)
 
-    def with_base(self, base) -> "SerialChain":
+    def with_base(self, base) -> SerialChain:
         """The same chain seen from a new frame: ``base`` (pose of the old base in the new frame) prepended."""
         constants = list(self._constants)
         constants[0] = multiply_coefficients(_as_coefficients(base, "base"), constants[0])

@@ -33,7 +33,6 @@ from ur3dq.errors import JointLimitError
 from ur3dq.kinematics import ur_ik
 from ur3dq.kinematics.chain import SerialChain, thesis_to_dh_flange
 from ur3dq.kinematics.ur_fk import BLOCK, dual_part_rows, flange_coefficients, flange_rows, joint_floats
-from ur3dq.rows import float_rows
 
 JOINT_NAMES = ("base", "shoulder", "elbow", "wrist 1", "wrist 2", "wrist 3")
 NOMINAL_ALPHA = (math.pi / 2, 0.0, 0.0, math.pi / 2, -math.pi / 2, 0.0)
@@ -72,7 +71,7 @@ class DHParameters:
     theta: np.ndarray
 
     @classmethod
-    def nominal(cls, name: str) -> "DHParameters":
+    def nominal(cls, name: str) -> DHParameters:
         """The nominal (catalogue) DH of a UR model."""
         d1, a2, a3, d4, d5, d6 = _FAMILY[name][0]
         return cls(
@@ -82,7 +81,7 @@ class DHParameters:
             theta=_frozen(np.zeros(6)),
         )
 
-    def with_deltas(self, deltas: dict) -> "DHParameters":
+    def with_deltas(self, deltas: dict) -> DHParameters:
         """These parameters plus calibration deltas {'a','d','alpha','theta': 6 values each, missing keys = 0}."""
         if not isinstance(deltas, dict):
             raise ValueError(f"dh_deltas: expected a dict with keys {DH_DELTA_KEYS}, got {type(deltas).__name__}")
@@ -147,7 +146,7 @@ class URModel:
         calibrated = ", calibrated" if self.calibrated else ""
         return f"URModel({self.name!r}{calibrated}, tcp={self.tcp.to_ur_pose().round(6).tolist()})"
 
-    def with_tcp(self, tcp) -> "URModel":
+    def with_tcp(self, tcp) -> URModel:
         """The same arm with a TCP offset in the flange frame: a DualQuaternion or a UR pose vector [x,y,z,rx,ry,rz]."""
         if isinstance(tcp, DualQuaternion):
             if not tcp.is_unit():
@@ -196,7 +195,7 @@ class URModel:
             groups.setdefault(tuple(map(float, tcp_offsets[indices[0]])), []).extend(indices)
         for offset, indices in groups.items():
             reached = self.with_tcp(offset).fk_batch(np.array([joints[i] for i in indices]))
-            wanted = dqarray.normalise(float_rows([poses[i] for i in indices], 8))
+            wanted = dqarray.normalise(np.array([poses[i] for i in indices], dtype=float))
             distance = dqarray.pose_distance(reached, wanted)
             for i, m, r in zip(indices, *(values.tolist() for values in distance)):
                 metres[i], radians[i] = m, r

@@ -43,7 +43,9 @@ _BLOCK = 2048
 
 @dataclasses.dataclass(frozen=True)
 class Certification:
-    """The bound check of M joint moves. certified (M,) bool: every point of the move keeps every margin (and the
+    """The result of the bound check of M joint moves.
+
+    The bound check of M joint moves. certified (M,) bool: every point of the move keeps every margin (and the
     move need not be sampled densely); lower {check: (M,)} a lower bound of the move's smallest margin over the
     whole move; margins {check: (M,)} the smallest margin at the move's evaluated samples; worst {check: (M,)}
     the index of that sample among the move's samples in path order; samples (M,) how many were evaluated.
@@ -58,7 +60,9 @@ class Certification:
 
 
 def lever_arms(model, capsules) -> np.ndarray:
-    """(6, C) m: a bound, in every configuration, of the distance of capsule c's points from joint k + 1's axis;
+    """How far each capsule's points can be from each joint's axis.
+
+    (6, C) m: a bound, in every configuration, of the distance of capsule c's points from joint k + 1's axis;
     0 where that joint does not move the capsule (k + 1 > the capsule's frame)."""
     link = np.hypot(model.dh.a, model.dh.d)
     reach = np.maximum(np.linalg.norm(capsules.a, axis=1), np.linalg.norm(capsules.b, axis=1))
@@ -71,7 +75,9 @@ def lever_arms(model, capsules) -> np.ndarray:
 
 
 def column_rates(checker, levers: np.ndarray) -> np.ndarray:
-    """(K, 6) m/rad: how fast each clearance column of checker.clearance_margins can change per radian of each
+    """How fast each clearance column can change per radian of each joint.
+
+    (K, 6) m/rad: how fast each clearance column of checker.clearance_margins can change per radian of each
     joint (self-collision pairs, then cell capsule × obstacle columns)."""
     frame = checker.capsules.frame
     rows = []
@@ -92,7 +98,9 @@ def _on_axis(capsules, c: int) -> bool:
 
 
 def certify_joint_moves(checker, q0: np.ndarray, q1: np.ndarray) -> Certification:
-    """Certify the joint moves q0 → q1 ((M, 6) rad each) on `checker` (a checks.StepChecker: model, capsules,
+    """Certify joint moves by clearance bounds, without dense samples.
+
+    Certify the joint moves q0 → q1 ((M, 6) rad each) on `checker` (a checks.StepChecker: model, capsules,
     cell, margins). See the module docstring."""
     count = len(q0)
     rates = column_rates(checker, lever_arms(checker.model, checker.capsules))   # (K, 6)
@@ -152,7 +160,9 @@ def _bisect(checker, q0, delta, slopes, move, m0, m1, records, failed, pending) 
 
 
 def column_offsets(checker) -> np.ndarray:
-    """(K,) m: what each clearance column of checker.clearance_margins subtracts from a distance — the capsules'
+    """What each clearance column subtracts from a distance.
+
+    (K,) m: what each clearance column of checker.clearance_margins subtracts from a distance — the capsules'
     radii and the check's margin (the distance is the margin plus this)."""
     radius = checker.capsules.radius
     pairs = radius[checker.pair_a] + radius[checker.pair_b] + checker.margins.self_collision
@@ -161,7 +171,9 @@ def column_offsets(checker) -> np.ndarray:
 
 
 def column_slopes(rates: np.ndarray, steps: np.ndarray) -> tuple:
-    """(L (M, K) m, H (M, K) m) of M joint moves with joint steps |Δq| `steps` (M, 6) rad and column rates `rates`
+    """The rate and bend bounds of each column along each move.
+
+    (L (M, K) m, H (M, K) m) of M joint moves with joint steps |Δq| `steps` (M, 6) rad and column rates `rates`
     (K, 6) m/rad: how fast each column's points move and how fast that speed turns, per unit of the move's
     parameter s (see the module docstring). A joint with rate 0 does not move the column's pair apart."""
     moving = steps[:, None, :] * (rates > 0)            # (M, K, 6): the joints that move each column
@@ -179,7 +191,9 @@ class _Slopes:
 
 
 def interval_bound(m0, m1, width, rate, bend, offset) -> np.ndarray:
-    """A lower bound of a column's margin over an interval of `width` (of the move's parameter s; (B, 1)) from lower
+    """A lower bound of a column's margin over an interval of a move.
+
+    A lower bound of a column's margin over an interval of `width` (of the move's parameter s; (B, 1)) from lower
     bounds m0, m1 of it at the ends, the move's column_slopes `rate`, `bend` and the columns' `offset` (all (B, K)
     or broadcastable): the larger of the Lipschitz bound and the chord bound (module docstring). +inf ends (columns
     not evaluated) give +inf."""

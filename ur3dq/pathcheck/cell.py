@@ -45,11 +45,13 @@ class ToolShape:
     radius: float
 
     @classmethod
-    def capsule(cls, a, b, radius) -> "ToolShape":
+    def capsule(cls, a, b, radius) -> ToolShape:
+        """A capsule tool from `a` to `b` (flange frame, m) with `radius` (m)."""
         return cls(_point(a, "tool capsule 'from'"), _point(b, "tool capsule 'to'"), _length(radius, "tool radius"))
 
     @classmethod
-    def box(cls, lo, hi) -> "ToolShape":
+    def box(cls, lo, hi) -> ToolShape:
+        """A box tool between corners `lo` and `hi` (flange frame, m), checked as its enclosing capsule."""
         lo, hi = _ordered(_point(lo, "tool box 'min'"), _point(hi, "tool box 'max'"), "tool box")
         size = hi - lo
         axis = int(np.argmax(size))
@@ -71,7 +73,7 @@ class Cell:
     margin: float = DEFAULT_CELL_MARGIN
     tool: ToolShape | None = None
 
-    def with_margin(self, margin: float) -> "Cell":
+    def with_margin(self, margin: float) -> Cell:
         """The same cell with another clearance margin (m)."""
         return dataclasses.replace(self, margin=_length(margin, "cell margin"))
 

@@ -78,6 +78,7 @@ class Problem:
                 f"{self.message}; {self.hint}")
 
     def to_dict(self) -> dict:
+        """The problem as JSON-ready values."""
         return {"step": self.step, "step_index": self.step_index, "check": self.check,
                 "fraction": self.fraction, "tcp": list(self.tcp), "message": self.message, "hint": self.hint}
 
@@ -172,7 +173,9 @@ class StepChecker:
         return gap, flat
 
     def clearance_margins(self, joints, pairs=slice(None), cell: bool = True) -> tuple:
-        """(self-collision margins (n, p), cell margins (n, cell capsules × obstacles)) m at joints (n, 6): each
+        """Self-collision and cell clearance margins at joint vectors.
+
+        (self-collision margins (n, p), cell margins (n, cell capsules × obstacles)) m at joints (n, 6): each
         capsule pair's (of `pairs`, indices or a slice of pair_a/pair_b) and, if `cell`, each capsule/obstacle
         column's clearance minus its margin (≥ 0 passes); an absent check gives (n, 0). A cell column may be a
         lower bound of its clearance (EXACT_RANGE)."""

@@ -13,7 +13,9 @@ _PREFERENCE = ("cell", "self_collision", "wrist", "elbow", "shoulder", "joint_li
 
 
 def worst_sample(result) -> tuple | None:
-    """(StepReport, sample index, label) where the path is worst: the first problem's place when a check failed,
+    """Where the path is worst: the step, the sample and a label.
+
+    (StepReport, sample index, label) where the path is worst: the first problem's place when a check failed,
     else the sample with the smallest clearance (cell, then self-collision, ...). None if no step was sampled."""
     steps = [step for step in result.steps if step.samples]
     if not steps:

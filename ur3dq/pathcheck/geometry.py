@@ -47,7 +47,9 @@ SELF_PAIRS = tuple((a, b) for a in (0, 1) for b in (3, 4, 5, 6, TOOL)) + \
 
 @dataclasses.dataclass(frozen=True)
 class Capsules:
-    """C capsules: body (C,) index into BODY_NAMES, frame (C,) DH frame 0..6 they are fixed in, a/b (C, 3) end
+    """The link capsules of an arm, as arrays.
+
+    C capsules: body (C,) index into BODY_NAMES, frame (C,) DH frame 0..6 they are fixed in, a/b (C, 3) end
     points in that frame, radius (C,)."""
 
     body: np.ndarray
@@ -105,7 +107,7 @@ def capsule_points(frames: np.ndarray, capsules: Capsules) -> tuple:
     """(A, B): (N, C, 3) capsule end points in the base frame for frames (N, 7, 4, 4)."""
     chosen = frames[:, capsules.frame]                       # (N, C, 4, 4)
     rotation, origin = chosen[..., :3, :3], chosen[..., :3, 3]
-    # R·p + o as three column products: ~4× faster than einsum on these tiny matrices (measured)
+    # R·p + o as three column products: cheaper than einsum on these tiny matrices
     return tuple(rotation[..., 0] * p[:, 0, None] + rotation[..., 1] * p[:, 1, None] + rotation[..., 2] * p[:, 2, None]
                  + origin for p in (capsules.a, capsules.b))
 
@@ -134,7 +136,9 @@ def segment_segment_distance(p0, p1, q0, q1) -> np.ndarray:
 
 
 def segment_box_bound(p0, p1, lo, hi) -> np.ndarray:
-    """A lower bound of the distance from segments p0→p1 to boxes [lo, hi] (broadcast (..., 3)): the gap between
+    """A cheap lower bound of segment-to-box distances.
+
+    A lower bound of the distance from segments p0→p1 to boxes [lo, hi] (broadcast (..., 3)): the gap between
     the box and the segment's own bounding box (0 where they overlap). Cheap; exact when the gap is along an axis."""
     gap = np.maximum(np.maximum(lo - np.maximum(p0, p1), np.minimum(p0, p1) - hi), 0.0)
     return np.sqrt(np.einsum("...i,...i->...", gap, gap))

@@ -12,7 +12,6 @@ from __future__ import annotations
 import numpy as np
 
 from ur3dq import dqarray
-from ur3dq.collector import cyclic_gc_paused
 from ur3dq.errors import UnreachablePoseError
 from ur3dq.kinematics import ur_ik
 from ur3dq.pathcheck import bounds, sampling
@@ -23,19 +22,42 @@ from ur3dq.pathcheck.reports import CertifiedMoves, PathCheckResult, StepReport,
 BRANCH_TOLERANCE = 1e-3   # rad: a linear move ending further than this from its planned joints ended elsewhere
 
 
-@cyclic_gc_paused()
 def check_path(model, plan: PathPlan, cell=None, margins: Margins | None = None,
                keep_samples: bool = True) -> PathCheckResult:
-    """Check `plan` (a PathPlan) on `model` (a URModel with its TCP; a segment with its own `tcp_offset` runs with
-    that one instead) in `cell` (a Cell, or None: no obstacles, no tool) with `margins` (defaults: Margins()).
-    `keep_samples=False` leaves each StepReport's samples out (fraction, joints, tcp are None; the problems are the
-    same): a 10⁵-move plan's samples take gigabytes, and only a drawing of the path needs them.
-    Never raises for a failed check: read `.ok` / `.problems`.
+    """Check a whole path before the arm moves.
 
-    Without samples, joint moves between known joints are first checked by clearance bounds, all at once
-    (pathcheck.bounds): a move whose every point provably keeps its margins is not sampled densely, and its
-    StepReport gives the smallest margins at the samples the bounds needed. The problems are the same, and no
-    point of a certified move is more than margins.tcp_resolution below a check's smallest margin over the plan."""
+    Parameters
+    ----------
+    model : URModel
+        The arm with its TCP (a segment with its own `tcp_offset` runs with that one instead).
+    plan : PathPlan
+        The start joints and the moves, in execution order.
+    cell : Cell, optional
+        Floor, keep-out and keep-in boxes, tool (``load_cell``); None: no obstacles, no tool.
+    margins : Margins, optional
+        The checks' limits and resolutions (default ``Margins()``).
+    keep_samples : bool
+        False leaves each StepReport's samples out (fraction, joints, tcp are None; the problems are the same):
+        a big plan's samples take gigabytes, and only a drawing of the path needs them. Joint moves between
+        known joints are then first checked by clearance bounds, all at once (pathcheck.bounds): a move whose
+        every point provably keeps its margins is not sampled densely, and no point of it is more than
+        margins.tcp_resolution below a check's smallest margin over the plan.
+
+    Returns
+    -------
+    PathCheckResult
+        Never raises for a failed check: read ``.ok`` and ``.problems``.
+
+    Examples
+    --------
+    >>> from ur3dq.kinematics import robot_model
+    >>> from ur3dq.pathcheck import PathPlan, PathSegment
+    >>> q0 = [0.0, -1.2, 1.0, -1.4, -1.57, 0.0]
+    >>> plan = PathPlan(q0, [PathSegment("turn", target_joints=[0.5, -1.2, 1.0, -1.4, -1.57, 0.0])])
+    >>> result = check_path(robot_model("ur3"), plan)
+    >>> result.ok, result.steps[0].name
+    (True, 'turn')
+    """
     margins = margins or Margins()
     by_tcp = {}   # tcp_offset -> (model with that TCP, its StepChecker): built once per TCP the plan uses
 

@@ -13,8 +13,6 @@ import math
 import numpy as np
 
 from ur3dq import dqarray
-from ur3dq.collector import cyclic_gc_paused
-from ur3dq.slots import slot_builder
 
 MOVE_TYPES = ("joint", "linear", "process")
 
@@ -67,49 +65,33 @@ class PathSegment:
             object.__setattr__(self, "tcp_offset", _finite_tuple(self.tcp_offset, 6, self.name, "tcp_offset"))
 
     @classmethod
-    @cyclic_gc_paused()
-    def joint_targets(cls, names, moves, targets, speeds, accelerations, blends, tcp_offsets) -> list:
-        """Segments to joint targets, many at once: names (n,) and moves (n,) str, targets (n, 6) rad, speeds,
-        accelerations, blends (n,) and tcp_offsets (n,) (each (6,) or None), checked as PathSegment checks one
-        but as arrays (a big plan has 10⁵ moves; one at a time they cost more than their whole path check). Each
-        segment's target_joints is a read-only row of one (n, 6) array."""
+    def joint_targets(cls, names, moves, targets, speeds, accelerations, blends, tcp_offsets) -> list[PathSegment]:
+        """Segments to joint targets, one per row.
+
+        Segments to joint targets, one per row: names (n,) and moves (n,) str, targets (n, 6) rad, speeds,
+        accelerations, blends (n,) and tcp_offsets (n,) (each (6,) or None); each checked as PathSegment checks it.
+
+        Examples
+        --------
+        >>> segments = PathSegment.joint_targets(["a", "b"], ["joint"] * 2, [[0.0] * 6, [0.1] * 6], [1.0] * 2,
+        ...                                      [1.4] * 2, [0.0] * 2, [None] * 2)
+        >>> [segment.name for segment in segments], segments[1].target_joints.tolist()
+        (['a', 'b'], [0.1, 0.1, 0.1, 0.1, 0.1, 0.1])
+        """
         names, moves = list(names), list(moves)
         count = len(names)
         targets = np.array(targets, dtype=float).reshape(-1, 6) if count else np.zeros((0, 6))
-        numbers = np.array([speeds, accelerations, blends], dtype=float).reshape(3, count)
         if len(targets) != count or len(moves) != count or len(tcp_offsets) != count:
             raise ValueError(f"{count} names need as many moves, targets and TCP offsets")
-        for name, move in zip(names, moves):
-            if not isinstance(name, str) or not name or move not in MOVE_TYPES:
-                return [cls(*fields) for fields in zip(names, moves, targets, [None] * count, *numbers,
-                                                       tcp_offsets)]   # the one-at-a-time check names the fault
-        bad = ~np.isfinite(targets).all(axis=1) | ~(numbers[:2] > 0).all(axis=0) | ~np.isfinite(numbers).all(axis=0) \
-            | ~(numbers[2] >= 0)
-        if bad.any():
-            i = int(np.argmax(bad))
-            cls(names[i], moves[i], targets[i], None, *numbers[:, i].tolist(), tcp_offsets[i])   # raises
-        targets.flags.writeable = False
-        offsets = {}   # id -> checked tuple: moves share a few offset objects (all alive in tcp_offsets)
-        segments = []
-        # the callers' own float objects where they are floats: 10⁵ moves would hold 3·10⁵ copies
-        speeds, accelerations, blends = ([value if type(value) is float else float(value) for value in column]
-                                         for column in (speeds, accelerations, blends))
-        for name, move, target, speed, acceleration, blend, offset in zip(names, moves, targets, speeds,
-                                                                           accelerations, blends, tcp_offsets):
-            if offset is not None:
-                if id(offset) not in offsets:
-                    offsets[id(offset)] = _finite_tuple(offset, 6, name, "tcp_offset")
-                offset = offsets[id(offset)]
-            segments.append(_checked_segment(name, move, target, None, speed, acceleration, blend, offset))
-        return segments
+        return [cls(name, move, target, None, speed, acceleration, blend, offset)
+                for name, move, target, speed, acceleration, blend, offset
+                in zip(names, moves, targets, speeds, accelerations, blends, tcp_offsets, strict=True)]
 
     @property
     def cartesian(self) -> bool:
         """True for moves whose TCP follows a straight line (linear, process)."""
         return self.move != "joint"
 
-
-_checked_segment = slot_builder(PathSegment)   # joint_targets' segments: their fields in order, checked as arrays
 
 
 @dataclasses.dataclass(frozen=True)
@@ -134,7 +116,7 @@ def _finite_vector(value, size: int, name: str, what: str) -> np.ndarray:
     array = np.array(value, dtype=float)
     if array.shape != (size,):
         raise ValueError(f"segment {name!r}: {what} must have {size} numbers, got shape {array.shape}")
-    if not all(map(math.isfinite, array.tolist())):   # floats: ~3× np.isfinite(array).all() on 6 numbers
+    if not all(map(math.isfinite, array.tolist())):   # on 6 numbers, cheaper than np.isfinite(array).all()
         raise ValueError(f"segment {name!r}: {what} contain NaN or infinite values")
     array.flags.writeable = False
     return array

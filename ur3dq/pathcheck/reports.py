@@ -3,8 +3,8 @@ report's margins and worst samples.
 
 The reports of a big plan are a StepReports sequence: the sampled moves' reports as check_path built them, and the
 joint moves the clearance bounds certified (pathcheck.bounds) as the bounds' columns, each of their reports built
-when it is read. A big store's plan has 10⁵ certified moves: their reports, built one by one, cost a third of the
-whole check, and a margins table reads a few of them (StepReports.smallest_margins, positions_named).
+when it is read: a big store's plan has 10⁵ certified moves, whose reports would cost much of the whole check,
+and a margins table reads a few of them (StepReports.smallest_margins, positions_named).
 """
 from __future__ import annotations
 
@@ -15,9 +15,11 @@ import numpy as np
 
 
 class Figures(Mapping):
-    """An immutable {check: number} of a StepReport (its margins, or its worst samples): a tuple of the numbers
-    beside a tuple of the check names that reports share. A big plan has 10⁵ reports, and a dict of two or three
-    entries takes 184 bytes; reports with the same worst samples share one."""
+    """An immutable {check: number} mapping of a StepReport.
+
+    A StepReport's margins, or its worst samples: a tuple of the numbers beside a tuple of the check names that
+    reports share (smaller than a dict, and a big plan has 10⁵ reports); reports with the same worst samples share
+    one."""
 
     __slots__ = ("_keys", "_values")
 
@@ -41,12 +43,15 @@ class Figures(Mapping):
 
     # Tuples, not the mixins' views: those look each value up again, and a margins table reads 10⁵ reports.
     def keys(self) -> tuple:
+        """The check names."""
         return self._keys
 
     def values(self) -> tuple:
+        """The numbers, in the order of keys()."""
         return self._values
 
     def items(self) -> tuple:
+        """(check, number) pairs."""
         return tuple(zip(self._keys, self._values))
 
     def __repr__(self) -> str:
@@ -80,13 +85,16 @@ class StepReport:
     samples: int
 
     def to_dict(self) -> dict:
+        """The report as JSON-ready values (margins rounded to 6 decimals, no samples)."""
         return {"name": self.name, "move": self.move, "samples": self.samples,
                 "margins": {k: round(float(v), 6) for k, v in self.margins.items()},
                 "end_joints": None if self.end_joints is None else [float(v) for v in self.end_joints]}
 
 
 class CertifiedMoves:
-    """The joint moves the bounds certified, as columns: row r is segments[r] (a PathSegment, which it ends on), with
+    """The joint moves the bounds certified, as columns.
+
+    The joint moves the bounds certified, as columns: row r is segments[r] (a PathSegment, which it ends on), with
     margins[check][r], worst[check][r] (sample index) and samples[r] from a bounds.Certification; row_of maps the
     plan's move index to its row. Rows are added a group of moves at a time (one group per TCP). `position[r]`: the
     move's place among the StepReports, set by check_path as it goes."""
@@ -100,7 +108,9 @@ class CertifiedMoves:
         self._shared: dict = {}   # worst samples (tuple) -> their Figures: reports with equal ones share one
 
     def add(self, index: list, segments: list, margins: dict, worst: dict, samples: np.ndarray) -> None:
-        """Add a group of M rows: move indices and PathSegments (M each), margins and worst {check: (M,) array},
+        """Add a group of certified moves.
+
+        Add a group of M rows: move indices and PathSegments (M each), margins and worst {check: (M,) array},
         samples (M,)."""
         first, count = len(self.segments), len(segments)
         if not count:
@@ -139,11 +149,14 @@ class CertifiedMoves:
         return found
 
     def samples(self) -> int:
+        """How many samples the bounds evaluated, over all certified moves."""
         return sum(self._samples)
 
 
 class StepReports(Sequence):
-    """The StepReports of a check in plan order (PathCheckResult.steps): each entry a StepReport, or the int row of
+    """The StepReports of a check, in plan order.
+
+    The StepReports of a check in plan order (PathCheckResult.steps): each entry a StepReport, or the int row of
     a move in `certified` (CertifiedMoves), whose report is built when read."""
 
     __slots__ = ("_entries", "_certified")
@@ -188,7 +201,9 @@ class StepReports(Sequence):
 
 @dataclasses.dataclass(frozen=True)
 class PathCheckResult:
-    """ok: no problem; problems: every failed check (at most one per move and check, at its worst sample);
+    """The result of check_path.
+
+    ok: no problem; problems: every failed check (at most one per move and check, at its worst sample);
     steps: one StepReport per checked move (StepReports); unchecked: names of moves that could not be
     checked (no start)."""
 
@@ -198,6 +213,7 @@ class PathCheckResult:
 
     @property
     def ok(self) -> bool:
+        """True when no check failed and every move was checked."""
         return not self.problems and not self.unchecked
 
     def summary(self) -> str:
@@ -210,5 +226,6 @@ class PathCheckResult:
         return f"path clear: {len(self.steps)} moves, {self.steps.samples()} samples checked"
 
     def to_dict(self) -> dict:
+        """The result as JSON-ready values."""
         return {"ok": self.ok, "problems": [p.to_dict() for p in self.problems],
                 "steps": [s.to_dict() for s in self.steps], "unchecked": list(self.unchecked)}

@@ -35,7 +35,9 @@ MAX_SAMPLES_PER_MOVE = 200_000
 
 @dataclasses.dataclass(frozen=True)
 class SampledMove:
-    """fraction (n,) in [0, 1]; joints (n, 6) rad (only the reachable prefix); poses (n, 8) TCP poses of those
+    """The samples of one move.
+
+    fraction (n,) in [0, 1]; joints (n, 6) rad (only the reachable prefix); poses (n, 8) TCP poses of those
     joints; unreachable_at: the fraction where the IK found no solution (None if the whole move is reachable)
     and the TCP pose (8,) asked for there."""
 
@@ -47,7 +49,9 @@ class SampledMove:
 
 
 def sample_joint_move(model, q0, q1, tcp_resolution: float, joint_resolution: float) -> SampledMove:
-    """Samples of the synchronised joint interpolation q0 → q1: ≤ joint_resolution (rad) per joint and ≤
+    """Sample a joint move q0 → q1.
+
+    Samples of the synchronised joint interpolation q0 → q1: ≤ joint_resolution (rad) per joint and ≤
     tcp_resolution (m) of TCP chord between neighbours."""
     q0, q1 = np.asarray(q0, dtype=float), np.asarray(q1, dtype=float)
     count = max(1, math.ceil(float(np.max(np.abs(q1 - q0))) / joint_resolution))
@@ -114,7 +118,9 @@ def _solve_line(model, q0, pose0, pose1, count: int) -> SampledMove:
 
 
 def follow_branch(model, poses: np.ndarray, q0: np.ndarray) -> tuple:
-    """(joints (m, 6), m): IK of `poses` (n, 8) along the branch of q0 (poses[0] is q0's own pose), unwrapped from
+    """IK of poses along the branch of a start configuration.
+
+    (joints (m, 6), m): IK of `poses` (n, 8) along the branch of q0 (poses[0] is q0's own pose), unwrapped from
     q0; m ≤ n is the number of leading samples that have any solution at all."""
     solutions = ur_ik.ik_all_batch(model, poses, q_ref=q0)                    # (n, 8, 6), NaN where absent
     reachable = ~np.all(np.isnan(solutions[:, :, 0]), axis=1)

@@ -9,7 +9,9 @@ from ur3dq.pathcheck import PathPlan, PathSegment
 
 
 def path_plan_of(plan, start_joints=None) -> PathPlan | None:
-    """The PathPlan of `plan` (ur3dq.program.plan.PlannedStep list) from `start_joints` (6,) rad; without a start
+    """The PathPlan of a planned cell program.
+
+    The PathPlan of `plan` (ur3dq.program.plan.PlannedStep list) from `start_joints` (6,) rad; without a start
     (a dry run with no robot) from the first waypoint's joints, whose configuration is then checked as a move of
     length 0. None when the plan has no waypoint (nothing moves)."""
     moves = [planned for planned in plan if planned.joints is not None]

@@ -14,14 +14,11 @@ import math
 import numpy as np
 
 from ur3dq import dqarray
-from ur3dq.collector import cyclic_gc_paused
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import JointLimitError, SafetyCheckError, UnreachablePoseError
 from ur3dq.program.resolve import resolve_targets
 from ur3dq.program.steps import Waypoint, is_waypoint
 from ur3dq.robot import motion
-from ur3dq.rows import float_rows
-from ur3dq.slots import slot_builder
 
 MAX_TCP_SPEED = 1.0          # m/s: the pendant's default tool speed limit region; faster is refused by clamping
 MAX_TCP_ACCELERATION = 4.0   # m/s²
@@ -31,7 +28,9 @@ DEFAULT_TCP_ACCELERATION = 1.2
 
 @dataclasses.dataclass(frozen=True)
 class Defaults:
-    """The run's defaults for waypoints that leave a value unset: joint a (rad/s²), v (rad/s), TCP a (m/s²),
+    """The run's defaults for what a waypoint leaves unset.
+
+    The run's defaults for waypoints that leave a value unset: joint a (rad/s²), v (rad/s), TCP a (m/s²),
     v (m/s), blend (m)."""
 
     joint_acceleration: float = 1.4
@@ -43,7 +42,9 @@ class Defaults:
 
 @dataclasses.dataclass(frozen=True, slots=True)  # slots: a big program plans 10⁵ of them
 class PlannedStep:
-    """One step of a planned program. Waypoints carry their joint target (rad), the TCP pose and offset they
+    """One step of a planned program.
+
+    One step of a planned program. Waypoints carry their joint target (rad), the TCP pose and offset they
     aim at, move type, clamped a/v, blend radius (m), travel (rad, largest joint) and time (s, at 100 %; None
     when the start is unknown). Action steps carry only `step`."""
 
@@ -62,16 +63,13 @@ class PlannedStep:
 
     @property
     def name(self) -> str:
+        """The step's name."""
         return self.step.name
 
     @property
     def pose(self):
         """The target TCP pose as a DualQuaternion (None for an action step)."""
         return None if self.coefficients is None else DualQuaternion.from_array(self.coefficients)
-
-
-# A waypoint's PlannedStep from its values (plan_program has checked them all): a big program plans 10⁵.
-_planned_step = slot_builder(PlannedStep)
 
 
 def _clamp(value: float, limit: float, what: str, clamped: list) -> float:
@@ -117,8 +115,8 @@ def _solve_hinted(model, targets, replay_recorded_joints: bool) -> dict:
             groups.setdefault(target.tcp_offset, []).append(index)
     solved = {}
     for tcp_offset, indices in groups.items():
-        poses = float_rows([targets[i].coefficients for i in indices], 8)
-        hints = float_rows([targets[i].joints_hint for i in indices], 6)
+        poses = np.array([targets[i].coefficients for i in indices], dtype=float)
+        hints = np.array([targets[i].joints_hint for i in indices], dtype=float)
         joints = model.with_tcp(tcp_offset).ik_batch(poses, hints)
         for i, q, finite in zip(indices, joints, np.isfinite(joints).all(axis=1).tolist()):
             if finite:
@@ -126,18 +124,52 @@ def _solve_hinted(model, targets, replay_recorded_joints: bool) -> dict:
     return solved
 
 
-@cyclic_gc_paused()
 def plan_program(model, steps, start_joints=None, defaults: Defaults = Defaults(), speed_scale: float = 1.0,
                  replay_recorded_joints: bool = False, max_joint_travel: float | None = None,
                  resolve_from=None) -> list[PlannedStep]:
-    """The plan of `steps` on `model` from `start_joints` (rad, or None when unknown).
+    """The plan of a cell program: a checked joint target and clamped speeds for every waypoint.
 
-    `resolve_from` (default `steps`) is the whole program relative waypoints are resolved in, so a --from/--to
-    part still finds bases outside it. `speed_scale` (0 < F ≤ 1) scales every speed. A waypoint's blend is 0
-    when it is the last waypoint or an action follows it (the action must happen at the waypoint). Raises,
-    naming the step, if a target is unreachable, outside the limits, or swings a joint further than
-    `max_joint_travel` (rad): nothing moves unless the whole plan is sound. Waypoints with known joints are
-    solved in one batch (10⁵ poses in well under a second).
+    Parameters
+    ----------
+    model : URModel
+        The arm; each waypoint is solved with its own taught TCP offset.
+    steps : sequence of Step
+        The steps to plan (a whole program or a --from/--to part of `resolve_from`).
+    start_joints : (6,) array_like, optional
+        Where the arm is (rad); None when unknown (a dry run).
+    defaults : Defaults
+        What a waypoint leaves unset.
+    speed_scale : float
+        0 < F ≤ 1, scales every speed.
+    replay_recorded_joints : bool
+        Use recorded joints instead of solving IK.
+    max_joint_travel : float, optional
+        Refuse a move that swings a joint further than this (rad).
+    resolve_from : sequence of Step, optional
+        The whole program relative waypoints are resolved in (default `steps`), so a part finds bases outside it.
+
+    Returns
+    -------
+    list of PlannedStep
+        One per step; a waypoint's blend is 0 when it is the last waypoint or an action follows it.
+
+    Raises
+    ------
+    UnreachablePoseError, JointLimitError, SafetyCheckError, ValueError
+        Naming the step: nothing moves unless the whole plan is sound.
+
+    Examples
+    --------
+    >>> from ur3dq.kinematics import robot_model
+    >>> from ur3dq.pose import Pose
+    >>> from ur3dq.program.steps import DigitalOut, Motion, RelativeWaypoint, Waypoint
+    >>> ur3 = robot_model("ur3")
+    >>> q = [0.0, -1.2, 1.0, -1.4, -1.57, 0.0]
+    >>> pick = Waypoint("pick", Pose.from_dual_quaternion("pick", ur3.fk(q), "ur3", joints=tuple(q)),
+    ...                 Motion("linear", speed=0.05))
+    >>> steps = [RelativeWaypoint("above", "pick", (0, 0, -0.05, 0, 0, 0)), pick, DigitalOut("grip", "tool", 0, True)]
+    >>> [(planned.name, planned.move, planned.speed) for planned in plan_program(ur3, steps, q)]
+    [('above', 'joint', 1.05), ('pick', 'linear', 0.05), ('grip', None, None)]
     """
     if not (isinstance(speed_scale, (int, float)) and math.isfinite(speed_scale) and 0 < speed_scale <= 1):
         raise ValueError(f"--speed-scale must be a fraction 0 < F ≤ 1, got {speed_scale!r}")
@@ -157,7 +189,7 @@ def plan_program(model, steps, start_joints=None, defaults: Defaults = Defaults(
     fk_errors, _ = model.fk_errors(solved, [t.coefficients for t in targets], [t.tcp_offset for t in targets])
     # travel and TCP path of every move at once: (N, 6) joints and (N, 3) TCP positions, the start prepended
     joints = np.array(solved).reshape(-1, 6)
-    poses = float_rows([t.coefficients for t in targets], 8).reshape(-1, 8)
+    poses = np.array([t.coefficients for t in targets], dtype=float).reshape(-1, 8)
     if start_joints is not None:
         joints = np.vstack([np.asarray(start_joints, dtype=float), joints])
         start_tcp = model.with_tcp(targets[0].tcp_offset).fk(joints[0]) if targets else model.fk(joints[0])
@@ -184,8 +216,8 @@ def plan_program(model, steps, start_joints=None, defaults: Defaults = Defaults(
         target, (move, a, v, blend, clamped) = targets[at], figures[at]
         if index + 1 == len(steps) or not moving[index + 1]:
             blend = 0.0   # the last waypoint, or an action follows: the action happens at the waypoint
-        plan.append(_planned_step(step, solved[at], target.coefficients, target.tcp_offset, move, a, v, blend,
-                                  durations[at][0], durations[at][1], fk_errors[at], clamped))
+        plan.append(PlannedStep(step, solved[at], target.coefficients, target.tcp_offset, move, a, v, blend,
+                                durations[at][0], durations[at][1], fk_errors[at], clamped))
         at += 1
     return plan
 

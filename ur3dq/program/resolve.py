@@ -11,12 +11,13 @@ import dataclasses
 
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.program.steps import Waypoint, is_waypoint
-from ur3dq.slots import slot_builder
 
 
 @dataclasses.dataclass(frozen=True, slots=True)  # slots: one per waypoint, 10⁵ in a big program
 class Target:
-    """A resolved waypoint: the TCP pose to reach (base frame; its 8 coefficients, `pose` as a DualQuaternion),
+    """A resolved waypoint: the TCP pose to reach and how it was taught.
+
+    A resolved waypoint: the TCP pose to reach (base frame; its 8 coefficients, `pose` as a DualQuaternion),
     the TCP offset it was taught with (flange frame, UR pose vector), the model it was taught on, and joints to
     prefer when solving IK (the root recorded pose's joints, or None)."""
 
@@ -28,10 +29,8 @@ class Target:
 
     @property
     def pose(self) -> DualQuaternion:
+        """The TCP pose to reach, as a DualQuaternion."""
         return DualQuaternion.from_array(self.coefficients)
-
-
-_target = slot_builder(Target)   # a recorded waypoint's Target: step, coefficients, tcp_offset, model, joints
 
 
 def offset_pose(base: DualQuaternion, offset, frame: str) -> DualQuaternion:
@@ -44,7 +43,9 @@ def offset_pose(base: DualQuaternion, offset, frame: str) -> DualQuaternion:
 
 
 def resolve_targets(steps, relative_only: bool = False) -> dict:
-    """{name: Target} for every waypoint of `steps` (only relative ones and their bases when `relative_only`);
+    """The Target of every waypoint, relative ones resolved.
+
+    {name: Target} for every waypoint of `steps` (only relative ones and their bases when `relative_only`);
     ValueError naming the step when a relative
     waypoint's base is missing or not a waypoint, or relative waypoints form a cycle."""
     by_name = {step.name: step for step in steps}
@@ -62,7 +63,7 @@ def _recorded_target(step: Waypoint) -> Target:
     """The Target of a recorded waypoint: its pose's own fields (a Target checks nothing, so it is built past its
     frozen __init__, a third of a big program's resolve)."""
     pose = step.pose
-    return _target(step, pose.dual_quaternion, pose.tcp_offset, pose.robot_model, pose.joints)
+    return Target(step, pose.dual_quaternion, pose.tcp_offset, pose.robot_model, pose.joints)
 
 
 def _resolve(step, chain: list, by_name: dict, resolved: dict) -> Target:
@@ -102,7 +103,9 @@ def check_program(steps) -> None:
 
 
 def select_range(steps, start: str | None = None, end: str | None = None) -> list:
-    """The steps from the one named `start` to the one named `end`, inclusive (the whole program by default);
+    """The steps from `start` to `end`, inclusive.
+
+    The steps from the one named `start` to the one named `end`, inclusive (the whole program by default);
     ValueError when a name is unknown or `end` comes before `start`."""
     names = [step.name for step in steps]
     for option, name in (("--from", start), ("--to", end)):

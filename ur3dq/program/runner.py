@@ -26,7 +26,9 @@ MAX_STATEMENT_SECONDS = 0.05   # each action's own time on the controller (a few
 
 
 class StepWatch:
-    """Follows the step reports of one running program (positions first_position .. first_position+N−1);
+    """Follow the step reports of one running program.
+
+    Follows the step reports of one running program (positions first_position .. first_position+N−1);
     `done` once the program reported first_position+N, after its last step."""
 
     def __init__(self, plan, first_position: int = 1, progress=None):
@@ -72,7 +74,9 @@ def expected_seconds(plan) -> float:
 
 
 def check_plan_for_robot(robot, plan, start_joints) -> None:
-    """Every joint target inside the limits, FK-consistent with its target pose, and within the travel limit from
+    """Check every joint target of a plan as the driver checks a motion.
+
+    Every joint target inside the limits, FK-consistent with its target pose, and within the travel limit from
     the previous one (SafetyCheckError naming the step): the checks every driver motion gets."""
     previous = np.asarray(start_joints, dtype=float)
     for planned in plan:
@@ -90,7 +94,9 @@ def check_plan_for_robot(robot, plan, start_joints) -> None:
 
 
 def run_plan(robot, plan, first_position: int = 1, progress=None) -> float:
-    """Run `plan` (PlannedStep list, planned from the arm's current joints) as one program; returns the wall time
+    """Run a planned program on the robot as one URScript program.
+
+    Run `plan` (PlannedStep list, planned from the arm's current joints) as one program; returns the wall time
     (s). `progress(position, step)` is called as each step starts."""
     if not plan:
         raise ValueError("the program has no steps to run")
@@ -112,10 +118,37 @@ def _path_of(plan, start):
 
 def run(robot, steps, defaults=None, speed_scale: float = 1.0, start: str | None = None, end: str | None = None,
         progress=None):
-    """Plan `steps` (a whole program; run the part `start`..`end`, names) from the arm's joints on the robot's
-    model and run it as one URScript program, watched step by step; returns (plan, wall seconds).
+    """Plan a cell program from the arm's joints and run it.
 
-    Also importable as `ur3dq.program.run`. `progress(position, step)` is called as each step starts.
+    The program runs as one URScript program, watched step by step; every target is checked first (limits, FK,
+    travel, and the path check when the robot requires it). Also importable as ``ur3dq.program.run``.
+
+    Parameters
+    ----------
+    robot : Robot
+        A connected robot (``ur3dq.robot.connect``).
+    steps : sequence of Step
+        The whole program (``ur3dq.program.steps``); relative waypoints are resolved in it.
+    defaults : Defaults, optional
+        What a waypoint leaves unset.
+    speed_scale : float
+        0 < F ≤ 1, scales every speed.
+    start, end : str, optional
+        Run only the steps from the one named `start` to the one named `end`.
+    progress : callable, optional
+        ``progress(position, step)``, called as each step starts (positions count from 1 in the whole program).
+
+    Returns
+    -------
+    (list of PlannedStep, float)
+        The plan and the run's wall time in seconds.
+
+    Examples
+    --------
+    >>> import ur3dq.program
+    >>> from ur3dq.program.steps import Wait
+    >>> with ur3dq.robot.connect(host) as robot:                       # doctest: +SKIP
+    ...     plan, seconds = ur3dq.program.run(robot, [Wait("settle", 0.5)])
     """
     part = select_range(steps, start, end)
     first = [s.name for s in steps].index(part[0].name) + 1

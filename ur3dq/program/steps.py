@@ -13,7 +13,6 @@ import unicodedata
 
 from ur3dq.pose import Pose, name_problem, unstorable_text_problem
 from ur3dq.real_numbers import is_number
-from ur3dq.slots import slot_builder
 
 MOVE_TYPES = ("joint", "linear", "process")    # movej, movel, movep
 FRAMES = ("tool", "base")                       # the frame a relative waypoint's offset is expressed in
@@ -79,7 +78,7 @@ class Motion:
     acceleration: float | None = None
     blend: float | None = None
 
-    def check(self, who: str) -> "Motion":
+    def check(self, who: str) -> Motion:
         """This Motion with numbers normalised; ValueError naming `who` when a value makes no sense."""
         if self is DEFAULT_MOTION:  # every v1 waypoint: nothing to check (a big store has 10⁵ of them)
             return self
@@ -137,18 +136,16 @@ class Waypoint(Step):
         object.__setattr__(self, "motion", self.motion.check(self.who))
 
     @classmethod
-    def of_checked_pose(cls, pose: Pose) -> "Waypoint":
-        """The plain joint waypoint of a validated Pose, built without re-running the checks above (nothing to
-        check: the name is the pose's and the motion the default); a big store has 10⁵ of them."""
-        return _checked_waypoint(pose.name, pose, DEFAULT_MOTION)
-
-
-_checked_waypoint = slot_builder(Waypoint)   # Waypoint.of_checked_pose's: name, pose, motion
+    def of_checked_pose(cls, pose: Pose) -> Waypoint:
+        """The plain joint waypoint of a Pose (its name, the default motion)."""
+        return cls(pose.name, pose, DEFAULT_MOTION)
 
 
 @dataclasses.dataclass(frozen=True)
 class RelativeWaypoint(Step):
-    """A waypoint at `offset` [dx, dy, dz, rx, ry, rz] (metres, rotation vector) from the waypoint `base`, in
+    """A waypoint at an offset from another waypoint.
+
+    A waypoint at `offset` [dx, dy, dz, rx, ry, rz] (metres, rotation vector) from the waypoint `base`, in
     its tool frame (σ_base · offset) or the base frame (offset · σ_base, the rotation about the TCP's own
     position). It follows `base` when `base` is re-taught."""
 

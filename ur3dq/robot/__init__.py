@@ -3,11 +3,27 @@ watched URScript programs (docs/architecture.md, Contract 4)."""
 
 
 def connect(host, backend="rtde", model=None, **options):
-    """A Robot connected to the controller at `host` through `backend` ('rtde' or 'urx'); use it with `with`.
+    """A Robot connected to the controller at `host`; use it with `with`.
 
-    `model` (e.g. 'ur3') is checked against what the controller reports; options go to Robot (max_joint_travel,
-    connect_timeout, heartbeat=False to send motions without the heartbeat that stops them if ur3dq dies,
-    path_check=True or a pathcheck Cell to refuse every motion whose whole path does not pass the path check).
+    Parameters
+    ----------
+    host : str
+        The controller's address (a robot, an official URSim, or `ur3dq sim start`'s address).
+    backend : {"rtde", "urx"}
+        The state/program backend: ur_rtde or python-urx.
+    model : str, optional
+        E.g. "ur3": checked against what the controller reports.
+    **options
+        Passed to Robot: max_joint_travel (rad per move), connect_timeout (s), heartbeat=False (send motions
+        without the heartbeat that stops them if ur3dq dies), path_check=True or a pathcheck Cell (refuse every
+        motion whose whole path does not pass the path check).
+
+    Examples
+    --------
+    >>> from ur3dq.robot import connect
+    >>> with connect("127.0.0.2") as robot:                          # doctest: +SKIP
+    ...     robot.movej([0.0, -1.2, 1.0, -1.4, -1.57, 0.0], v=0.5)
+    ...     print(robot.tcp_pose_vector())
     """
     from ur3dq.robot.robot import Robot
 

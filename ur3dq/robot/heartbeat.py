@@ -24,12 +24,10 @@ from ur3dq.urscript import first_statement_added, rtde_set_watchdog_statement
 #: The RTDE input integer register the heartbeat counts on (ur_rtde's lower range is 18–22).
 HEARTBEAT_REGISTER = 20
 #: The controller stops a motion program this long (1/frequency) after the last heartbeat: 100 ms. The thread is
-#: Python, so anything holding the GIL longer than that stops the arm. The one such stall found, ur_rtde's
-#: RTDEReceiveInterface destructor (0.5 s with the GIL held) run by a garbage collection mid-motion, is gone: the
-#: driver destroys it when it closes (rtde_backend.close). Largest gap between two heartbeats measured over a whole
-#: `make test` on 2 loaded cores after that: 60 ms client side, 42 ms as the controller saw it; with more load
-#: beside it (a busy loop, urx spinning on garbage) 114-155 ms, and then a motion stops: its ProgramError says so
-#: (Heartbeat.longest_gap).
+#: Python, so anything holding the GIL longer than that stops the arm: ur_rtde's RTDEReceiveInterface destructor
+#: holds it for 0.5 s, which is why the driver destroys that interface itself when it closes (rtde_backend.close).
+#: A motion stopped this way says so in its ProgramError (Heartbeat.longest_gap). The gaps seen under load are in
+#: docs/performance.md.
 WATCHDOG_FREQUENCY = 10.0
 #: Seconds between heartbeats: twenty per watchdog period, so a loaded machine that delays a few is not a stop.
 PERIOD = 0.01
@@ -91,7 +89,9 @@ class Heartbeat:
         self._watched_from, self._longest_gap = time.monotonic(), 0.0
 
     def longest_gap(self) -> float:
-        """The longest time (s) since watch_gaps without a write, the time since the last write included. At
+        """The longest time (s) without a heartbeat since watch_gaps.
+
+        The longest time (s) since watch_gaps without a write, the time since the last write included. At
         1/WATCHDOG_FREQUENCY or more the controller's watchdog may have stopped the program: the beat thread was
         held back (a starved CPU, or another thread holding the GIL) or the connection broke."""
         since = max(self._last_write or 0.0, self._watched_from)

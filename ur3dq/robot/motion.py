@@ -25,7 +25,9 @@ def trapezoid_duration(distance, a, v):
 
 
 def trapezoid_durations(distances, a, v) -> np.ndarray:
-    """trapezoid_duration of every distance (N,) at once (the same arithmetic, element by element; a plan of 10⁵
+    """trapezoid_duration of many distances at once.
+
+    trapezoid_duration of every distance (N,) at once (the same arithmetic, element by element; a plan of 10⁵
     moves), with a and v numbers or (N,) arrays (each move its own): seconds (N,); ValueError as
     trapezoid_duration's for the first a, v or distance that is not finite and ≥ 0 (a and v: > 0)."""
     distance = np.asarray(distances, dtype=float)

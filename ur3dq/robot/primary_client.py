@@ -95,7 +95,7 @@ class PrimaryClient:
             while not self._closing:
                 try:
                     chunk = self._socket.recv(65536)
-                except socket.timeout:
+                except TimeoutError:
                     continue
                 if not chunk:
                     raise ConnectionError("the controller closed the primary connection")
@@ -138,7 +138,9 @@ class PrimaryClient:
 
 
 def send_script(host, script, port=SECONDARY_PORT, timeout=1.0):
-    """Send URScript on a connection of its own (for when the main one is gone), half-close it, and wait (≤ timeout)
+    """Send URScript on a connection of its own and wait until it is read.
+
+    Send URScript on a connection of its own (for when the main one is gone), half-close it, and wait (≤ timeout)
     for the controller to close its side, so the script is known to be read before the socket goes away."""
     try:
         with socket.create_connection((host, port), timeout=timeout) as connection:
@@ -147,7 +149,7 @@ def send_script(host, script, port=SECONDARY_PORT, timeout=1.0):
             deadline = time.monotonic() + timeout
             while time.monotonic() < deadline and connection.recv(65536):
                 pass  # state messages the controller streams meanwhile
-    except socket.timeout:
+    except TimeoutError:
         pass  # sent; the controller just keeps the connection open
     except OSError as error:
         raise RobotConnectionError(f"cannot send a program to {host}:{port}: {error}") from None

@@ -33,7 +33,9 @@ def connect_timeout():
 
 
 def probe_rtde(host, port=RTDE_PORT, timeout=None):
-    """Ask `host:port` for RTDE protocol version 2 within `timeout` s (default connect_timeout());
+    """Check that `host:port` answers the RTDE protocol-version handshake.
+
+    Ask `host:port` for RTDE protocol version 2 within `timeout` s (default connect_timeout());
     RobotConnectionError naming the port if it cannot be reached, stays silent, or answers anything but a
     well-formed 4-byte 'V' reply."""
     timeout = connect_timeout() if timeout is None else timeout
@@ -43,7 +45,7 @@ def probe_rtde(host, port=RTDE_PORT, timeout=None):
         with socket.create_connection((host, port), timeout=timeout) as sock:
             sock.sendall(_HEADER.pack(5, _REQUEST_PROTOCOL_VERSION) + struct.pack(">H", _PROTOCOL_VERSION))
             reply = _receive_exactly(sock, 4, deadline)
-    except socket.timeout:
+    except TimeoutError:
         raise RobotConnectionError(f"{where} did not answer the protocol version request within {timeout:g} s") \
             from None
     except OSError as error:
@@ -64,7 +66,7 @@ def _receive_exactly(sock, count, deadline):
     while len(data) < count:
         remaining = deadline - time.monotonic()
         if remaining <= 0:
-            raise socket.timeout
+            raise TimeoutError
         sock.settimeout(remaining)
         chunk = sock.recv(count - len(data))
         if not chunk:

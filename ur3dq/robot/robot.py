@@ -58,15 +58,20 @@ class StateBackend(Protocol):
     primary: PrimaryClient
 
     @property
-    def connected(self) -> bool: ...
+    def connected(self) -> bool:
+        """Whether the backend's connections are up."""
 
-    def reconnect(self) -> None: ...
+    def reconnect(self) -> None:
+        """Open the connections again after a drop."""
 
-    def status(self) -> state.RobotStatus: ...
+    def status(self) -> state.RobotStatus:
+        """The newest validated RobotStatus, without waiting on the network."""
 
-    def send_program(self, script: str) -> None: ...
+    def send_program(self, script: str) -> None:
+        """Send one URScript program to the controller."""
 
-    def close(self) -> None: ...
+    def close(self) -> None:
+        """Close every connection (idempotent)."""
 
 
 def calibrated_model(name, kinematics, tcp_offset=None):
@@ -168,8 +173,8 @@ class Robot:
         major = self._primary.version.major
         asked = time.monotonic()
         reply = self._dashboard.robot_model_reply()
-        # The link's measured round trip: every report of a motion (its start, its end) comes that late, so each
-        # motion's timeout is extended by it (issue 10 item 7: a slow link is no motion timeout).
+        # The link's round trip, timed here: every report of a motion (its start, its end) comes that late, so each
+        # motion's timeout is extended by it (a slow link is no motion timeout).
         self.link_delay = time.monotonic() - asked
         identified = model_from_reply(reply, major)
         configuration = self._primary.configuration
@@ -248,8 +253,8 @@ class Robot:
         """Move to joint target `q` (rad) on a trapezoid with acceleration a (rad/s²) and speed v (rad/s).
 
         Blocks until there is evidence that this program ran and ended (its own end key message, or the state
-        stream showing it running then not running) and the arm rests at `q`; returns the wall time in seconds. `expected_pose`
-        (DualQuaternion) marks a target that came from IK: the model's FK of `q` must reach it.
+        stream showing it running then not running) and the arm rests at `q`; returns the wall time in seconds.
+        `expected_pose` (DualQuaternion) marks a target that came from IK: the model's FK of `q` must reach it.
         """
         return self.movej_path([q], blend=0.0, a=a, v=v, expected_poses=None if expected_pose is None
                                else [expected_pose])
@@ -288,7 +293,9 @@ class Robot:
         return self._run_motion(name, program, targets[-1], status.joints, status.program_running, timeout)
 
     def require_path_check(self, cell=None, margins=None):
-        """From now on every motion is refused (SafetyCheckError, nothing sent) unless the whole path it sweeps
+        """Refuse from now on every motion whose whole path fails the path check.
+
+        From now on every motion is refused (SafetyCheckError, nothing sent) unless the whole path it sweeps
         passes ur3dq.pathcheck.check_path in `cell` (a Cell, or None: self-collision, singularities, limits and
         speeds only) with `margins` (a Margins, or the defaults). movej/movej_path are sampled here; run_script
         needs the PathPlan of its program (`path=`), which ur3dq.program.run gives; a script without one is refused."""
@@ -360,7 +367,9 @@ class Robot:
         return status
 
     def run_script(self, name, program, target, duration, on_message=None, reached_end=None, path=None):
-        """Run a whole generated `program` (URScript text of `def name(): ... end`, its targets checked by the
+        """Run a whole generated URScript program and watch it to its end.
+
+        Run a whole generated `program` (URScript text of `def name(): ... end`, its targets checked by the
         caller) that ends with the arm at joint `target`, expected to take `duration` s at 100 %; each robot
         message is also given to `on_message` (which may raise to fail the run), and when `reached_end` is given
         the run is only done once it returns True (the program's own report that it ran to its end: the arm
@@ -450,7 +459,9 @@ class Robot:
         self._wait_for_mode({ROBOT_MODE_POWER_OFF}, "power off")
 
     def brake_release(self):
-        """Release the brakes and wait until the arm is RUNNING; RobotError at once unless it is powered on (IDLE)
+        """Release the brakes and wait until the arm is running.
+
+        Release the brakes and wait until the arm is RUNNING; RobotError at once unless it is powered on (IDLE)
         or already RUNNING (the controller would not release them)."""
         mode = self.state().robot_mode
         if mode == state.ROBOT_MODE_RUNNING:
@@ -493,7 +504,9 @@ class Robot:
             raise ProgramError(f"the controller did not switch freedrive {'on' if on else 'off'} within 2 s")
 
     def freedrive_active(self) -> bool:
-        """True while the controller is in freedrive (primary controlMode TEACH): another program sent to the
+        """Whether the controller is in freedrive now.
+
+        True while the controller is in freedrive (primary controlMode TEACH): another program sent to the
         controller ends ur3dq's freedrive program, so a teach session checks this before each recording."""
         self._ensure_streams()
         asked = time.monotonic()  # a state message sent after the question, not one from before a change

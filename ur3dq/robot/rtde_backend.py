@@ -89,8 +89,8 @@ class RTDEBackend:
     def close(self):
         """Disconnect the RTDE stream and destroy ur_rtde's interface now (idempotent).
 
-        ur_rtde's RTDEReceiveInterface destructor waits 0.5 s holding the GIL (measured; `disconnect()` waits as
-        long but releases it). Left to the garbage collector, that destructor runs at whatever moment a later
+        ur_rtde's RTDEReceiveInterface destructor waits 0.5 s holding the GIL (`disconnect()` waits as long but
+        releases it). Left to the garbage collector, that destructor runs at whatever moment a later
         collection finds the connection in a reference cycle: during the next connection's motion, every thread
         of the process (the heartbeat included) then stops for 0.5 s and the controller's heartbeat watchdog
         stops a healthy motion. Dropping the last reference here runs it while this connection moves nothing

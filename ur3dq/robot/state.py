@@ -100,7 +100,9 @@ def at_rest_at(status, target, position_tolerance=2e-3, speed_tolerance=5e-3):
 
 
 def validated(status, source, safety_mode_reported=True):
-    """`status` unchanged if it can be true; else InvalidStateError naming `source` (e.g. 'RTDE from 10.0.0.2')
+    """`status` unchanged if it can be true, else InvalidStateError.
+
+    `status` unchanged if it can be true; else InvalidStateError naming `source` (e.g. 'RTDE from 10.0.0.2')
     and the first implausible field. Called before any state is used or stored. `safety_mode_reported=False`
     accepts safety mode 0 (the urx backend's "not reported yet")."""
     vectors = (("joints", status.joints, MAX_PLAUSIBLE_JOINT, 6), ("joint speeds", status.joint_speeds,

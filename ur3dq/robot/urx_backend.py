@@ -107,14 +107,16 @@ _MIN_PACKET, _MAX_PACKET = 5, 2000
 
 
 def take_packet(queue: bytes):
-    """(packet, rest) for the first span of `queue` urx would take for a packet, or (None, rest) when there is none
+    """Split the first packet urx would take off the front of `queue`.
+
+    (packet, rest) for the first span of `queue` urx would take for a packet, or (None, rest) when there is none
     yet: `rest` then keeps only what could still begin one, so garbage is dropped as it is read.
 
     The same packet as urx's `ParserUtils.find_first_packet`, which steps one byte at a time with a copy of the
     rest per step and keeps the skipped garbage until a packet turns up; its reader rescans that whole queue after
-    every 1,024-byte read, so a stream of garbage costs time quadratic in its length (one second of the bad-peer
-    test's garbage, 200 kB, took 44 s of CPU). That reader held the GIL nearly all the time, and the heartbeat
-    thread (ur3dq.robot.heartbeat) then missed the controller's 0.1 s watchdog and the program stopped before the
+    every 1,024-byte read, so a stream of garbage costs time quadratic in its length. That reader holds the GIL
+    nearly all the time, and the heartbeat
+    thread (ur3dq.robot.heartbeat) would then miss the controller's 0.1 s watchdog and the program stop before the
     driver could report the stream as garbage. Here the type byte is found by `bytes.find`, in C, and the queue
     holds at most one incomplete packet and the 1,024 bytes read after it."""
     start = 0

@@ -55,7 +55,9 @@ def repeat(count: int, statements: Iterable[str], counter: str = "ur3dq_loop") -
 
 
 def movej_program(name: str, targets: Iterable[Iterable[object]], a: float, v: float, blend: float = 0.0) -> str:
-    """One program moving through joint `targets` in order; every target but the last blends with radius `blend`
+    """One program moving through joint `targets` in order.
+
+    One program moving through joint `targets` in order; every target but the last blends with radius `blend`
     (the last move ends at rest)."""
     targets = list(targets)
     if not targets:

@@ -94,7 +94,9 @@ def write_output_integer_register_statement(register: int, value: int) -> str:
 
 
 def rtde_set_watchdog_statement(variable: str, min_frequency: float, action: str) -> str:
-    """``rtde_set_watchdog("variable", f, "action")``: the controller acts (e.g. ``"stop"``) when the RTDE input
+    """``rtde_set_watchdog(...)``: act when an RTDE input is not written often enough.
+
+    ``rtde_set_watchdog("variable", f, "action")``: the controller acts (e.g. ``"stop"``) when the RTDE input
     `variable` is not written at least `min_frequency` times a second."""
     frequency = format_number(min_frequency, "min_frequency")
     return f"rtde_set_watchdog({sanitise_text(variable, 'variable')}, {frequency}, {sanitise_text(action, 'action')})"
@@ -112,7 +114,9 @@ def end_freedrive_statements() -> list[str]:
 
 def wait_for_digital_input_statements(input_family: str, pin: int, on: bool, timeout: float,
                                       on_timeout: Sequence[str]) -> list[str]:
-    """Statements that wait, one control cycle at a time, until a digital input reads `on`; after `timeout`
+    """Statements that wait for a digital input, with a timeout.
+
+    Statements that wait, one control cycle at a time, until a digital input reads `on`; after `timeout`
     seconds they run `on_timeout` (statements; end them with ``halt`` to stop the program there)."""
     getter = _family(DIGITAL_INPUT_GETTERS, input_family)
     return [

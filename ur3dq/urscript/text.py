@@ -103,7 +103,9 @@ def comment_text(text: object) -> str:
 
 
 def check_identifier(name: object) -> str:
-    """`name` unchanged if it is a URScript identifier (a letter or _, then letters, digits, _; ≤ 63), else
+    """`name` unchanged if it is a URScript identifier, else ValueError.
+
+    `name` unchanged if it is a URScript identifier (a letter or _, then letters, digits, _; ≤ 63), else
     ValueError."""
     if not isinstance(name, str) or not _IDENTIFIER.match(name):
         raise ValueError(f"program name {name!r} is not a URScript identifier ([A-Za-z_][A-Za-z0-9_]*, ≤ 63 chars)")

@@ -13,7 +13,17 @@ Every built-in is `f(ctx, *args)` where `ctx` is the calling script thread's Thr
 ScriptError (the interpreter adds line and column).
 """
 from sim_ursim.urscript.builtins import (  # noqa: F401
-    clients, compat, io, kinematics, maths, messages, motion, poses, settings, sockets)
+    clients,
+    compat,
+    io,
+    kinematics,
+    maths,
+    messages,
+    motion,
+    poses,
+    settings,
+    sockets,
+)
 from sim_ursim.urscript.builtins.registry import BUILTINS, builtin, register
 
 __all__ = ["BUILTINS", "builtin", "register"]

@@ -1,6 +1,7 @@
 """URScript built-ins that UR's client programs reach beyond the core families:
 URCL's External Control script, ur_rtde's control script, urx.  Strings, lists, matrices, analog inputs, tool
-power (movec is with the other moves in motion.py).  Each follows UR's script manual; where the simulator approximates, the docstring says how.
+power (movec is with the other moves in motion.py).  Each follows UR's script manual; where the simulator
+approximates, the docstring says how.
 """
 import random as _random
 

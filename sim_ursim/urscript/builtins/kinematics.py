@@ -31,7 +31,8 @@ def get_inverse_kin(ctx: ThreadContext, x, qnear=None, maxPositionError=1e-10, m
 
 
 @builtin
-def get_inverse_kin_has_solution(ctx: ThreadContext, pose, qnear=None, maxPositionError=1e-10, maxOrientationError=1e-10, tcp=None):
+def get_inverse_kin_has_solution(ctx: ThreadContext, pose, qnear=None, maxPositionError=1e-10,
+                                 maxOrientationError=1e-10, tcp=None):
     """True when get_inverse_kin would find joints for `pose`."""
     try:
         get_inverse_kin(ctx, pose, qnear, maxPositionError, maxOrientationError, tcp)

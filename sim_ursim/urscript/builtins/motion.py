@@ -6,7 +6,6 @@ Blocking moves go through `ctx.run_motion`, which returns when this motion has e
 import numpy as np
 
 from sim_ursim import kinematics
-
 from sim_ursim.urscript.builtins.arguments import as_number, controller_call
 from sim_ursim.urscript.builtins.registry import builtin
 from sim_ursim.urscript.interpreter import ThreadContext

@@ -51,7 +51,7 @@ class _ScriptSocket:
         self.sock.settimeout(timeout if timeout > 0 else 0.0)
         try:
             chunk = self.sock.recv(65536)
-        except (socket.timeout, BlockingIOError):
+        except (TimeoutError, BlockingIOError):
             return
         except OSError:
             chunk = b""

@@ -12,14 +12,14 @@ from ur3dq.kinematics.ur_ik.calibrated import VARIANT_SHIFT, _fk_implied, _isola
 from ur3dq.kinematics.ur_ik.equations import _ArrayOps, _branches, wrap_angle
 from ur3dq.kinematics.ur_ik.fk_filter import _EXACT_UNIT, _within_fk_tolerance
 from ur3dq.kinematics.ur_ik.geometry import (
-    LIMIT_ROUNDING,
-    _flange_of,
+    _TWO_PI,
     CALIBRATED_TOLERANCE,
     DUPLICATE_TOLERANCE,
     IK_BLOCK,
+    LIMIT_ROUNDING,
     NEAREST_BLOCK,
+    _flange_of,
     _Geometry,
-    _TWO_PI,
     _geometry,
     _translation_columns,
 )

@@ -10,14 +10,14 @@ from ur3dq.dqarray import sincos_of_half
 from ur3dq.kinematics.ur_fk import flange_rows
 from ur3dq.kinematics.ur_ik.equations import _wrist_centre
 from ur3dq.kinematics.ur_ik.geometry import (
+    _CHORD_LIMIT,
+    _HALF_SQRT2,
+    _TWO_PI,
     DUPLICATE_TOLERANCE,
     ELBOW_NEAR_TOLERANCE,
     FK_TOLERANCE_M,
     WRIST_NEAR_TOLERANCE,
-    _CHORD_LIMIT,
     _Geometry,
-    _HALF_SQRT2,
-    _TWO_PI,
 )
 
 

@@ -26,7 +26,6 @@ from ur3dq.kinematics.ur_ik.newton_floats import (
     refine_row,
 )
 
-
 #: Rows up to which Newton steps in Python floats (newton_floats), a row at a time: ~15 µs a row against ~50 µs
 #: for a batched step of any few rows (measured).
 _FLOAT_ROWS = 2

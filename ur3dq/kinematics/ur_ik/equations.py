@@ -6,11 +6,11 @@ import math
 import numpy as np
 
 from ur3dq.kinematics.ur_ik.geometry import (
+    _HALF_SQRT2,
+    _TWO_PI,
     WRIST_NEAR_TOLERANCE,
     WRIST_SINGULAR_TOLERANCE,
     _Geometry,
-    _HALF_SQRT2,
-    _TWO_PI,
 )
 
 

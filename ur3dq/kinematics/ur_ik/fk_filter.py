@@ -9,12 +9,12 @@ from ur3dq import dqarray
 from ur3dq.dualquat import DualQuaternion, multiply_quaternion_coefficients
 from ur3dq.kinematics.ur_fk import flange_rotation_position, joint_floats
 from ur3dq.kinematics.ur_ik.geometry import (
-    _flange_of,
+    _CHORD_LIMIT,
     _HALF_SQRT2,
+    _TWO_PI,
     DUPLICATE_TOLERANCE,
     FK_TOLERANCE_M,
-    _CHORD_LIMIT,
-    _TWO_PI,
+    _flange_of,
     _Geometry,
     _geometry,
     _translation_columns,

@@ -8,7 +8,6 @@ from dataclasses import dataclass
 from ur3dq.dualquat import conjugate_coefficients, multiply_quaternion_coefficients
 from ur3dq.kinematics.ur_fk import BLOCK
 
-
 #: FK filter (thesis eq. 4.45): a branch is a solution when its FK is within these of the pose asked for.
 #: Justification: the closed forms lose a few ulps on metre-sized arms (benchmarks/bench_kinematics.py measures the
 #: residual of every solution of 10^5 random poses: ≈ 1e-15 m / 5e-15 rad), six orders below; near singular

@@ -18,22 +18,16 @@ from ur3dq.kinematics.ur_ik.calibrated import (
     _refine_batch,
     _target_matrices,
 )
-from ur3dq.kinematics.ur_ik.equations import (
-    _ScalarOps,
-    _elbow_for_wrist,
-    _theta1_floats,
-    _wrap_float,
-    _wrist_pair,
-)
+from ur3dq.kinematics.ur_ik.equations import _elbow_for_wrist, _ScalarOps, _theta1_floats, _wrap_float, _wrist_pair
 from ur3dq.kinematics.ur_ik.fk_filter import _fk_check, _meets, _reference, _targets
 from ur3dq.kinematics.ur_ik.geometry import (
+    _HALF_SQRT2,
+    _TWO_PI,
+    _UNIT_WEIGHTS,
     CALIBRATED_TOLERANCE,
     LIMIT_ROUNDING,
     WRIST_NEAR_TOLERANCE,
     _Geometry,
-    _HALF_SQRT2,
-    _TWO_PI,
-    _UNIT_WEIGHTS,
     _geometry,
 )
 from ur3dq.kinematics.ur_ik.newton_floats import DAMPING_MATRIX, float_frames, float_residual, float_step_and_normal
@@ -175,7 +169,7 @@ def _nearest_branch(g: _Geometry, target, reference, weights):
             theta3 = atan2(sin3, cos3)
             along, across = a2 + a3 * cos3, a3 * sin3
             near_x, near_z, far_x, far_z = x4 * along, z4 * along, x4 * across, z4 * across
-            for theta3, sign in ((theta3, 1.0), (-theta3, -1.0)):
+            for theta3, sign in ((theta3, 1.0), (-theta3, -1.0)):   # noqa: B020  (both signs of theta3)
                 variant3 = _closest_variant(theta3, ref3, lower[2], upper[2])
                 cost = cost156 + weight3 * (variant3 - ref3) ** 2
                 if cost >= best_cost:

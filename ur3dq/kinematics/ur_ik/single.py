@@ -9,10 +9,10 @@ import numpy as np
 from ur3dq.errors import UnreachablePoseError
 from ur3dq.kinematics.ur_ik.calibrated import _fk_implied, _refine_batch
 from ur3dq.kinematics.ur_ik.equations import (
-    _ScalarOps,
     _elbow_for_wrist,
     _planar_arm,
     _reduced_rotation,
+    _ScalarOps,
     _shoulder_elbow_pair,
     _theta1_floats,
     _theta1_pair,
@@ -30,13 +30,13 @@ from ur3dq.kinematics.ur_ik.fk_filter import (
     _targets,
 )
 from ur3dq.kinematics.ur_ik.geometry import (
-    DOMAIN_TOLERANCE,
+    _HALF_SQRT2,
+    _TWO_PI,
     CALIBRATED_TOLERANCE,
+    DOMAIN_TOLERANCE,
     DUPLICATE_TOLERANCE,
     WRIST_NEAR_TOLERANCE,
     _Geometry,
-    _HALF_SQRT2,
-    _TWO_PI,
     _geometry,
 )
 from ur3dq.kinematics.ur_ik.wrist_turns import PATIENT_SINE, beside_singular_wrist, turned
@@ -159,7 +159,7 @@ def _nominal_branches(g: _Geometry, target, theta6_ref: float) -> list:
         half_sum, half_diff = atan2(z, w), atan2(x, -y)
         theta5 = 2.0 * atan2(sin_half5, cos_half5)
         upper = (theta5, half_sum - half_diff, half_sum + half_diff)
-        for theta5, theta6, theta234 in (upper, (-theta5, upper[1] - math.pi, upper[2] + math.pi)):
+        for theta5, theta6, theta234 in (upper, (-theta5, upper[1] - math.pi, upper[2] + math.pi)):  # noqa: B020
             c234, s234, s5 = cos(theta234), sin(theta234), sin(theta5)   # _planar_arm
             x4 = cos1 * px + sin1 * py - s234 * d5 + c234 * s5 * d6
             z4 = pz - d1 + c234 * d5 + s234 * s5 * d6

@@ -18,7 +18,7 @@ import math
 import numpy as np
 
 from ur3dq.kinematics.ur_ik.calibrated import _refine_batch
-from ur3dq.kinematics.ur_ik.equations import _ScalarOps, _elbow_cosine, _planar_arm, _shoulder_elbow_pair
+from ur3dq.kinematics.ur_ik.equations import _elbow_cosine, _planar_arm, _ScalarOps, _shoulder_elbow_pair
 from ur3dq.kinematics.ur_ik.fk_filter import _is_new
 from ur3dq.kinematics.ur_ik.geometry import CALIBRATED_TOLERANCE, _Geometry
 
