@@ -360,10 +360,10 @@ class Controller:
         self._touch()
         self._decelerate(PROTECTIVE_STOP_DECELERATION, f"protective stop: {reason}")
 
-    def unlock_protective_stop(self) -> None:
-        """Back to NORMAL; raises UnlockTooEarly within 5 s of the stop, CommandRefused if not protective-stopped."""
+    def unlock_protective_stop(self, enforce_delay: bool = True) -> None:
+        """Back to NORMAL; UnlockTooEarly within 5 s of the stop unless not `enforce_delay`; CommandRefused if none."""
         with self._lock:
-            self._modes.unlock_protective_stop()
+            self._modes.unlock_protective_stop(enforce_delay)
             self._commit_status()
 
     def emergency_stop(self) -> None:

@@ -10,6 +10,7 @@ types are skipped whole.  Written from URCL's sources, not from sim_ursim's seri
 """
 import socket
 import struct
+import time
 
 import pytest
 
@@ -18,6 +19,7 @@ from sim_ursim.controller import Controller, RobotMode
 from sim_ursim.launch import running_simulator
 from sim_ursim.models import robot_model
 from sim_ursim.primary import packets
+from sim_ursim.vocabulary import SafetyMode
 from tests.polling import wait_for
 
 
@@ -257,6 +259,26 @@ def test_primary_commands_power_brakes_unlock_and_stop_like_urcl_primary_client(
         while not exceptions.empty():
             received.append(exceptions.get_nowait())
     assert not [m for m in received if isinstance(m, messages.RuntimeExceptionMessage)]
+
+
+def test_a_primary_unlock_clears_a_stop_at_once_the_dashboard_keeps_the_5_s_rule():
+    """URCL's PrimaryClientTest unlocks through the primary interface right after a protective stop and waits up to
+    5 s for it to clear; the dashboard (PolyScope) refuses within 5 s."""
+    with running_simulator(model="ur5e") as sim, socket.create_connection((sim.host, 30001), timeout=5) as sock:
+        controller = sim.controller
+        controller.power_up()
+        controller.protective_stop("test")
+        with socket.create_connection((sim.host, 29999), timeout=5) as dashboard:
+            reader = dashboard.makefile("r", encoding="utf-8")
+            reader.readline()
+            dashboard.sendall(b"unlock protective stop\n")
+            assert reader.readline().startswith("Cannot unlock protective stop until 5s after occurrence")
+        assert controller.state().protective_stopped
+        stopped_at = time.monotonic()
+        sock.sendall(b"set unlock protective stop\n")
+        assert wait_for(lambda: not controller.state().protective_stopped, timeout=5)
+        assert time.monotonic() - stopped_at < 1.0
+        assert controller.state().safety_mode == SafetyMode.NORMAL
 
 
 def test_primary_command_mixed_with_urscript_stays_urscript():
