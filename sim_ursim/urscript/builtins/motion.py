@@ -139,6 +139,14 @@ def _held_speed(ctx: ThreadContext, command, speed, acceleration, duration):
     ctx.check()
 
 
+def _within_speed_limits(qd: np.ndarray, limits: np.ndarray) -> np.ndarray:
+    """qd scaled down (all joints alike, so the direction is kept) until no joint exceeds its speed limit, as a
+    controller's trajectory generator saturates an over-fast speedj instead of failing the program (URCL's spline
+    interpolation can ask a few parts per million over the limit at a spline's peak)."""
+    overspeed = float(np.max(np.abs(qd) / limits))
+    return qd / overspeed if overspeed > 1.0 else qd
+
+
 @builtin
 def speedj(ctx: ThreadContext, qd, a, t=None):
     """Accelerate the joints to speeds qd [rad/s] at a [rad/s²] and keep them; returns after t [s] of controller
@@ -151,6 +159,7 @@ def speedj(ctx: ThreadContext, qd, a, t=None):
         # interpolation sends a = 0 when consecutive speeds are equal; controllers accept it).
         qd = np.array(ctx.controller.state().target_qd)
         acceleration = 1.0
+    qd = _within_speed_limits(qd, ctx.controller.model.max_joint_speed)
     duration = None if t is None else as_number(t, "t")
     if duration is not None and duration > 0:
         _held_speed(ctx, ctx.controller.speedj, qd, acceleration, duration)
