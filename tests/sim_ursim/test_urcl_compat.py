@@ -305,8 +305,7 @@ def test_protective_stop_flag_goes_out_with_the_safety_mode_message():
     assert modes_before and modes_before[-1]["protective_stopped"] is True
 
 
-@pytest.mark.parametrize("motion", ["movel(p[2.0, 0, 0.3, 0, 3.14, 0])", "movej(p[2.0, 0, 0.3, 0, 3.14, 0])",
-                                    "movep(p[2.0, 0, 0.3, 0, 3.14, 0])",
+@pytest.mark.parametrize("motion", ["movel(p[2.0, 0, 0.3, 0, 3.14, 0])", "movep(p[2.0, 0, 0.3, 0, 3.14, 0])",
                                     "movec(p[0.5, 0.5, 0.3, 0, 3.14, 0], p[2.0, 0, 0.3, 0, 3.14, 0])"])
 def test_unreachable_target_is_a_robot_error_with_a_protective_stop(motion):
     """Issue 15 §11: URCL's clients see an error-code message (ErrorCodeMessage, logged as C209A0 by URCL) and the
@@ -323,3 +322,19 @@ def test_unreachable_target_is_a_robot_error_with_a_protective_stop(motion):
     errors = [m for m in received if isinstance(m, messages.ErrorCodeMessage)]
     assert errors and errors[0].code == 209 and "unreachable" in errors[0].text
     assert not [m for m in received if isinstance(m, messages.RuntimeExceptionMessage)]
+
+
+def test_a_movej_to_a_pose_no_joints_reach_is_a_runtime_exception_without_a_stop():
+    """URCL's PrimaryClientTest.test_send_script_blocking_fail_on_runtime_exception: movej(p[10,0,0,0,0,0]) is a
+    runtime exception ("non-invertible goal"), while the same movel is a robot error code (protective stop)."""
+    with running_simulator(model="ur5e") as sim:
+        sim.controller.power_up()
+        bus = sim.controller.messages.subscribe()
+        assert sim.controller.run_program("def unreachable():\n  movej(p[10, 0, 0, 0, 0, 0])\nend\n", "test")
+        assert wait_for(lambda: not sim.controller.state().program_running, timeout=5)
+        received = []
+        while not bus.empty():
+            received.append(bus.get_nowait())
+        assert not sim.controller.state().protective_stopped
+    assert [m for m in received if isinstance(m, messages.RuntimeExceptionMessage)]
+    assert not [m for m in received if isinstance(m, messages.ErrorCodeMessage)]

@@ -24,10 +24,11 @@ def _unreachable_stops(ctx: ThreadContext, function, *args):
 
 
 def _joint_target(ctx: ThreadContext, q):
-    """movej's target: a joint list, or a pose solved by IK near the joints where the queued motion ends."""
+    """movej's target: a joint list, or a pose solved by IK near the joints where the queued motion ends. A pose no
+    joints reach is a runtime exception, as on a controller (its IK fails before any motion is planned; URCL's
+    PrimaryClientTest expects RobotRuntimeException for movej(p[10,0,0,0,0,0]) and a robot error code for movel)."""
     if isinstance(q, Pose):
-        state = ctx.controller.state()
-        return controller_call(_unreachable_stops, ctx, ctx.controller.ik, np.array(q), state.target_q)
+        return controller_call(ctx.controller.ik, np.array(q), ctx.controller.state().target_q)
     return np.array(number_list(q, 6, "q"))
 
 
