@@ -2,6 +2,7 @@
 
 - urp_file.py     the hardened reader: gzip XML of bounded size and depth, no DTD or entities (defusedxml),
                   XStream references (`reference="../../Set/pin"`) resolved
+- installation.py the program's installation: the names it gave to I/O pins
 - expressions.py  expression nodes and I/O pin names -> URScript text
 - translation.py  the program tree -> one URScript `def <name>():` program, nodes in order, as PolyScope writes it
 - moves.py        Move containers and their Fixed / Relative / Variable waypoints

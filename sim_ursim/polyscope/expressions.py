@@ -3,8 +3,8 @@
 An expression is stored as a sequence of parts, one XML element each: `<ExpressionChar character="x"/>` (typed
 characters), `<ExpressionToken token=" and "/>`, `<ExpressionVariable>` (a program variable, by name or reference)
 and `<ExpressionIO>` (an I/O pin by its PolyScope name, read as the matching getter). A pin is named
-`digital_in[2]`, `config_out[0]`, `tool_in[1]`, `analog_in[0]`, `GP_bool_out[64]`, ...: PolyScope's default names;
-names given to pins in an installation are not known here and are refused.
+`digital_in[2]`, `config_out[0]`, `tool_in[1]`, `analog_in[0]`, `GP_bool_out[64]`, ...: PolyScope's default names,
+or the names the program's installation gave them (installation.py; `ProgramTree.pin_aliases`).
 
 >>> read_pin("digital_in[3]"), write_pin("config_out[1]", "True")
 ('get_standard_digital_in(3)', 'set_configurable_digital_out(1, True)')
@@ -26,7 +26,7 @@ _PINS = {
     "tool_in": ("get_tool_digital_in", None),
     "tool_out": ("get_tool_digital_out", "set_tool_digital_out"),
     "analog_in": ("get_standard_analog_in", None),
-    "analog_out": (None, "set_standard_analog_out"),
+    "analog_out": ("get_standard_analog_out", "set_standard_analog_out"),
     "tool_analog_in": ("get_tool_analog_in", None),
     "GP_bool_in": ("read_input_boolean_register", None),
     "GP_bool_out": ("read_output_boolean_register", "write_output_boolean_register"),
@@ -40,8 +40,8 @@ _PINS = {
 def _pin_functions(name: str) -> tuple[str | None, str | None, int]:
     match = _PIN.match(name.strip())
     if match is None or match.group(1) not in _PINS:
-        raise UrpError(f"I/O pin {name!r} is not one of PolyScope's default pin names "
-                       "(pins renamed in an installation are not supported by sim_ursim)")
+        raise UrpError(f"I/O pin {name!r} is neither one of PolyScope's default pin names nor named in the "
+                       "program's installation")
     getter, setter = _PINS[match.group(1)]
     return getter, setter, int(match.group(2))
 
@@ -69,7 +69,7 @@ def pin_name(tree: ProgramTree, pin: Element | None, where: Element) -> str:
     name = tree.resolve(pin).get("referencedName") or tree.resolve(pin).get("name")
     if not name:
         raise UrpError(f"{tree.path_of(pin)}: the pin has no name")
-    return name
+    return tree.pin_aliases.get(name, name)
 
 
 def variable_name(tree: ProgramTree, variable: Element | None, where: Element) -> str:

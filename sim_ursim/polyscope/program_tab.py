@@ -20,6 +20,7 @@ from xml.etree.ElementTree import Element
 
 from ..vocabulary import ControllerState
 from .external_control import ExternalControl, ExternalControlSettings, check_supported
+from .installation import with_installation
 from .translation import program_urscript
 from .urp_file import ProgramTree, UrpError, read_urp
 
@@ -80,7 +81,7 @@ class ProgramTab:
 
     def _read(self, path: str) -> "str | ProgramTree":
         if path.lower().endswith(".urp"):
-            tree = read_urp(path)
+            tree = with_installation(read_urp(path), path)
             program_urscript(tree, _checked_only)  # what would not run is refused now, as PolyScope's load does
             return tree
         if os.path.getsize(path) > MAX_SCRIPT_BYTES:

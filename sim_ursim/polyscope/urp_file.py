@@ -16,7 +16,7 @@ import io
 import os
 import re
 import zlib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from xml.etree.ElementTree import Element, ParseError
 
 import defusedxml.ElementTree as safe_xml
@@ -42,6 +42,7 @@ class ProgramTree:
     root: Element
     parents: dict[Element, Element]
     source: str
+    pin_aliases: dict[str, str] = field(default_factory=dict)  # an installation's I/O names -> PolyScope's defaults
 
     @property
     def name(self) -> str:
@@ -95,21 +96,29 @@ class ProgramTree:
 
 def read_urp(path: str) -> ProgramTree:
     """Parse the `.urp` at `path`; UrpError (one line naming the problem) when it is not a readable program."""
+    return parse_urp_bytes(_read_bounded(path), path)
+
+
+def parse_urp_bytes(compressed: bytes, source: str = "<urp>") -> ProgramTree:
+    """Parse the bytes of a `.urp` (gzip-compressed XML); `source` names it in messages."""
+    return _parse_xml(_decompressed(compressed, source), source, "URProgram")
+
+
+def read_installation(path: str) -> ProgramTree:
+    """Parse a PolyScope `.installation` (gzip XML, root `<Installation>`) under the same bounds as a program."""
+    return _parse_xml(_decompressed(_read_bounded(path), path), path, "Installation")
+
+
+def _read_bounded(path: str) -> bytes:
     try:
         size = os.path.getsize(path)
         if size > MAX_FILE_BYTES:
             raise UrpError(f"{path}: {size / 1e6:.0f} MB is larger than a PolyScope program can be "
                            f"(at most {MAX_FILE_BYTES // (1024 * 1024)} MB)")
         with open(path, "rb") as urp:
-            compressed = urp.read(MAX_FILE_BYTES + 1)
+            return urp.read(MAX_FILE_BYTES + 1)
     except OSError as error:
         raise UrpError(f"{path}: cannot be read: {error.strerror or error}") from None
-    return parse_urp_bytes(compressed, path)
-
-
-def parse_urp_bytes(compressed: bytes, source: str = "<urp>") -> ProgramTree:
-    """Parse the bytes of a `.urp` (gzip-compressed XML); `source` names it in messages."""
-    return _parse_xml(_decompressed(compressed, source), source)
 
 
 def _decompressed(compressed: bytes, source: str) -> bytes:
@@ -128,7 +137,7 @@ def _decompressed(compressed: bytes, source: str) -> bytes:
     return xml
 
 
-def _parse_xml(xml: bytes, source: str) -> ProgramTree:
+def _parse_xml(xml: bytes, source: str, root_tag: str) -> ProgramTree:
     parents: dict[Element, Element] = {}
     stack: list[Element] = []
     root: Element | None = None
@@ -153,9 +162,10 @@ def _parse_xml(xml: bytes, source: str) -> ProgramTree:
             from None
     except ParseError as error:
         raise UrpError(f"{source}: not a PolyScope program (its XML does not parse: {error})") from None
-    if root is None or root.tag != "URProgram":
+    if root is None or root.tag != root_tag:
         found = "empty" if root is None else f"<{root.tag}>"
-        raise UrpError(f"{source}: not a PolyScope program (the XML's root is {found}, not <URProgram>)")
+        what = "program" if root_tag == "URProgram" else "installation"
+        raise UrpError(f"{source}: not a PolyScope {what} (the XML's root is {found}, not <{root_tag}>)")
     return ProgramTree(root, parents, source)
 
 

@@ -1,6 +1,7 @@
 """`.urp` programs loaded and played through the dashboard (29999) over real sockets, as URCL and URSim users do:
 load / play / pause / stop / programState / get loaded program / isProgramSaved, PolyScope's load errors,
 sub-directories, a Move program that moves the arm, and the External Control URCap node fetching its program."""
+import gzip
 import queue
 import socket
 import threading
@@ -197,3 +198,28 @@ def test_without_the_remote_pc_the_program_stops_with_the_urcaps_message(tmp_pat
     assert [(p.title, p.error) for p in popups] == [("Receive program failed", True)]
     assert popups[0].text.startswith(f"The connection to the remote PC at {sim.host}:{port} could not be "
                                      "established. Reason: Connection refused")
+
+
+def test_pins_named_in_the_programs_installation_are_played_by_their_default_names(tmp_path):
+    write_urp(tmp_path / "grip.urp", program_xml(
+        '<Set type="DigitalOutput"><pin referencedName="gripper"/><digitalValue>1</digitalValue></Set>', name="grip"))
+    installation = ('<Installation><IOs><DigitalOutputNames value=", , , gripper, , , , "/>'
+                    '<AnalogOutputNames value="a, b"/></IOs></Installation>')
+    (tmp_path / "default.installation").write_bytes(gzip.compress(installation.encode()))
+    write_urp(tmp_path / "elsewhere" / "grip.urp", program_xml(
+        '<Set type="DigitalOutput"><pin referencedName="gripper"/><digitalValue>1</digitalValue></Set>'))
+    (tmp_path / "broken").mkdir()
+    write_urp(tmp_path / "broken" / "wait.urp", E_SERIES_WAIT_PROGRAM)
+    (tmp_path / "broken" / "default.installation").write_bytes(b"\x1f\x8b")
+    with running_simulator(model="ur5e", programs_directory=str(tmp_path)) as sim:
+        sim.controller.power_up()
+        client = LineClient(sim.host)
+        try:
+            assert client.ask("load elsewhere/grip.urp") == "Error while loading program: elsewhere/grip.urp"
+            assert client.ask("load broken/wait.urp") == "Error while loading program: broken/wait.urp"
+            assert client.ask("load grip.urp") == "Loading program: grip.urp"
+            assert client.ask("play") == "Starting program"
+            assert wait_for(lambda: client.ask("programState") == "STOPPED grip.urp", timeout=10)
+        finally:
+            client.close()
+        assert sim.controller.state().standard_digital_output_bits & (1 << 3)

@@ -224,7 +224,7 @@ def test_3x_positions_relative_and_variable_waypoints():
     ("<Pallet/>", r"MainProgram/Pallet: node <Pallet> is not supported by sim_ursim"),
     ('<Move motionType="MoveC"><children/></Move>', r"motion type 'MoveC' is not supported"),
     ('<Set type="DigitalOutput"><pin referencedName="gripper"/><digitalValue>1</digitalValue></Set>',
-     r"MainProgram/Set: I/O pin 'gripper' is not one of PolyScope's default pin names"),
+     r"MainProgram/Set: I/O pin 'gripper' is neither one of PolyScope's default pin names nor named"),
     ('<Set type="DigitalOutput"><pin referencedName="digital_in[1]"/><digitalValue>1</digitalValue></Set>',
      r"is an input: it cannot be set"),
     ('<Assignment valueSource="Operator"><variable name="x"/></Assignment>', r"operator input"),
