@@ -242,7 +242,8 @@ def _set_operational_mode(controller, argument):
     if mode not in OPERATIONAL_MODES:
         return Reply(f"Failed setting operational mode: {argument}")
     _settings(controller).operational_mode = mode.upper()
-    return Reply(f"Operational mode '{mode}' is set")
+    # The mode as the client wrote it: URCL matches "(?:Operational mode ).*(?:AUTOMATIC).*", case-sensitive.
+    return Reply(f"Operational mode '{argument.strip()}' is set")
 
 
 def _clear_operational_mode(controller, argument):

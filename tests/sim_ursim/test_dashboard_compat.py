@@ -96,11 +96,11 @@ def test_cb3_user_role_is_stored_and_serial_number_answered_from_3_12():
 
 def test_e_series_operational_mode_flight_report_and_support_file(tmp_path):
     with running_simulator(model="ur5e", programs_directory=str(tmp_path)) as sim:
-        replies = _ask_all(sim.host, ["get operational mode", "set operational mode manual", "get operational mode",
+        replies = _ask_all(sim.host, ["get operational mode", "set operational mode MANUAL", "get operational mode",
                                       "clear operational mode", "generate flight report controller",
                                       f"generate support file {tmp_path}", "getUserRole"])
     assert replies[0] == "NONE"
-    assert re.fullmatch(r"(?:Operational mode ).*(?:manual).*", replies[1])
+    assert re.fullmatch(r"(?:Operational mode ).*(?:MANUAL).*", replies[1])  # URCL's pattern, as it sends the mode
     assert replies[2] == "MANUAL"
     assert re.fullmatch(r"(?:No longer controlling the operational mode.).*", replies[3])
     assert re.fullmatch(r"(?:Flight Report generated with id:).*", replies[4])
