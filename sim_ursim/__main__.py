@@ -50,10 +50,17 @@ def load_calibration(path, model):
                    "'factory[:SEED]': a slightly imperfect arm whose Kinematics Info is a factory-style table "
                    "(huge cancelling offsets on the parallel joints, as real controllers report).")
 @click.option("--programs-dir", type=click.Path(file_okay=False), default=None,
-              help="Where dashboard `load` finds relative program paths (default: current directory).")
+              help="Where dashboard `load` finds programs (.urp or URScript), sub-directories included "
+                   "(default: current directory).")
+@click.option("--external-control-host", default=None,
+              help="Where the External Control URCap node of a played .urp fetches its program (the remote PC of "
+                   "the URCap's settings; a loopback address). Default: the simulator's own --host.")
+@click.option("--external-control-port", type=click.IntRange(1, 65535), default=50002, show_default=True,
+              help="The External Control URCap's port.")
 @click.option("--log-level", type=click.Choice(["DEBUG", "INFO", "WARNING"]), default="INFO", show_default=True)
 @click.pass_context
-def main(ctx, model, software_version, host, initial_q, frequency, calibration, programs_dir, log_level):
+def main(ctx, model, software_version, host, initial_q, frequency, calibration, programs_dir,
+         external_control_host, external_control_port, log_level):
     """Run a protocol-level UR controller simulator (dashboard 29999, primary 30001, secondary 30002,
     real-time 30003, RTDE 30004, fault control 29998) until Ctrl-C, SIGTERM or the dashboard's `shutdown`."""
     if ctx.invoked_subcommand is not None:
@@ -65,7 +72,9 @@ def main(ctx, model, software_version, host, initial_q, frequency, calibration, 
         simulator = Simulator(model=model, version=software_version, host=host,
                               initial_q=parse_joint_list(initial_q) if initial_q else None,
                               calibration=load_calibration(calibration, model) if calibration else None,
-                              frequency=frequency, programs_directory=programs_dir)
+                              frequency=frequency, programs_directory=programs_dir,
+                              external_control_host=external_control_host,
+                              external_control_port=external_control_port)
     except (ValueError, OSError) as error:   # OSError: a --calibration file that cannot be read
         raise click.BadParameter(str(error)) from None
     try:

@@ -360,10 +360,10 @@ class Controller:
         self._touch()
         self._decelerate(PROTECTIVE_STOP_DECELERATION, f"protective stop: {reason}")
 
-    def unlock_protective_stop(self) -> None:
-        """Back to NORMAL; raises UnlockTooEarly within 5 s of the stop, CommandRefused if not protective-stopped."""
+    def unlock_protective_stop(self, enforce_delay: bool = True) -> None:
+        """Back to NORMAL; UnlockTooEarly within 5 s of the stop unless not `enforce_delay`; CommandRefused if none."""
         with self._lock:
-            self._modes.unlock_protective_stop()
+            self._modes.unlock_protective_stop(enforce_delay)
             self._commit_status()
 
     def emergency_stop(self) -> None:
@@ -649,8 +649,8 @@ class Controller:
     def _plan_movel(self, start_q, pose, q_end, a, v, t):
         start_matrix = self._arm.tcp_matrix(start_q)
         end_matrix = kinematics.pose_to_matrix(pose)
-        distance = trajectories.linear_distance(start_matrix, end_matrix)
-        profile = trajectories.timed_trapezoid(distance, t, a) if t > 0 else trajectories.trapezoid(distance, v, a)
+        profile = trajectories.linear_profile(start_matrix, end_matrix, start_q, a, v, t, self.model.max_joint_speed,
+                                              self._solve_ik)
         return trajectories.LinearMove(start_matrix, end_matrix, start_q, q_end, profile, self._solve_ik)
 
     def _enqueue(self, entry, plan):

@@ -15,6 +15,10 @@ from collections.abc import Callable
 from .messages import ErrorCodeMessage, SafetyModeMessage
 from .vocabulary import CommandRefused, JointMode, RobotMode, SafetyMode, UnlockTooEarly
 
+# A protective stop's error code is reported at WARNING level (2; URCL's ReportLevel), as URCL's
+# sendScriptBlocking(fail_on_warnings=false) expects of the stop `protective_stop()` raises.
+PROTECTIVE_STOP_REPORT_LEVEL = 2
+
 log = logging.getLogger("sim_ursim.controller")
 
 _POWERED = (RobotMode.POWER_ON, RobotMode.IDLE, RobotMode.RUNNING)
@@ -102,14 +106,16 @@ class ModeMachine:
         log.warning("protective stop: %s (C%dA%d)", reason, code[0], code[1])
         self._protective_stop_at = time.monotonic()
         self._set_safety_mode(SafetyMode.PROTECTIVE_STOP)
-        self._publish(ErrorCodeMessage(code=code[0], argument=code[1], report_level=3, data_type=0, data=0,
+        self._publish(ErrorCodeMessage(code=code[0], argument=code[1], report_level=PROTECTIVE_STOP_REPORT_LEVEL,
+                                       data_type=0, data=0,
                                        text=f"Protective stop: {reason}"))
 
-    def unlock_protective_stop(self) -> None:
-        """Back to NORMAL; UnlockTooEarly within unlock_delay of the stop, CommandRefused if not protective-stopped."""
+    def unlock_protective_stop(self, enforce_delay: bool = True) -> None:
+        """Back to NORMAL; UnlockTooEarly within unlock_delay of the stop (unless not `enforce_delay`),
+        CommandRefused if not protective-stopped."""
         if self.safety_mode != SafetyMode.PROTECTIVE_STOP:
             raise CommandRefused(f"not in protective stop (safety mode {SafetyMode.NAMES[self.safety_mode]})")
-        if time.monotonic() - self._protective_stop_at < self.unlock_delay:
+        if enforce_delay and time.monotonic() - self._protective_stop_at < self.unlock_delay:
             raise UnlockTooEarly("Cannot unlock protective stop until 5s after occurrence. "
                                  "Always inspect cause of protective stop before unlocking")
         self._set_safety_mode(SafetyMode.NORMAL)

@@ -5,6 +5,9 @@ import threading
 from .control_channel import CONTROL_PORT, ControlChannelServer
 from .controller import Controller
 from .dashboard.server import DashboardServer
+from .polyscope.external_control import DEFAULT_PORT as EXTERNAL_CONTROL_PORT
+from .polyscope.external_control import ExternalControlSettings
+from .polyscope.program_tab import ProgramTab
 from .primary.server import PrimaryServer, RealtimeServer, SecondaryServer
 from .rtde.server import RTDEServer
 from .urscript.runtime import ProgramRunner
@@ -19,15 +22,21 @@ class Simulator:
     """Controller and servers of one emulated robot bound on `host` (the robot's standard ports)."""
 
     def __init__(self, model="ur3", version=None, host="127.0.0.1", initial_q=None, calibration=None,
-                 frequency=None, programs_directory=None, **controller_options):
+                 frequency=None, programs_directory=None, external_control_host=None,
+                 external_control_port=EXTERNAL_CONTROL_PORT, **controller_options):
+        """`external_control_host`/`_port`: where an External Control URCap node fetches its program (the remote
+        PC of the URCap's installation settings; default this simulator's own address, port 50002)."""
         self.host = host
         self.controller = Controller(model=model, version=version, initial_q=initial_q, calibration=calibration,
                                      frequency=frequency, **controller_options)
         self.controller.programs_directory = programs_directory
         self.runner = ProgramRunner(self.controller)
         self.controller.attach_program_runner(self.runner)
+        self.programs = ProgramTab(self.controller, ExternalControlSettings(external_control_host or host,
+                                                                            external_control_port))
         self.servers = {
-            "dashboard": DashboardServer(self.controller, host, DASHBOARD_PORT, on_shutdown=self.request_stop),
+            "dashboard": DashboardServer(self.controller, host, DASHBOARD_PORT, on_shutdown=self.request_stop,
+                                         programs=self.programs),
             "primary": PrimaryServer(self.controller, host, PRIMARY_PORT),
             "secondary": SecondaryServer(self.controller, host, SECONDARY_PORT),
             "realtime": RealtimeServer(self.controller, host, REALTIME_PORT),

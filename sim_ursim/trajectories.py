@@ -162,6 +162,43 @@ class LinearMove:
         return self.sample()
 
 
+def linear_profile(start_matrix: np.ndarray, end_matrix: np.ndarray, start_q: np.ndarray, acceleration: float,
+                   speed: float, duration: float, max_speeds: np.ndarray,
+                   solve_ik: Callable[[np.ndarray, np.ndarray], np.ndarray]) -> Trapezoid:
+    """Profile of a movel: with speed and acceleration, or in the time t = `duration` > 0 — exactly t when the
+    joints can follow, else slowed as a controller's speed scaling slows it: the fastest trapezoid (same
+    acceleration) whose joint speeds stay within FEASIBLE_SPEED_FRACTION of `max_speeds`.
+
+    The joints' travel per metre of path is sampled by IK at LINEAR_FEASIBILITY_SAMPLES points along the line; a
+    point without IK solution leaves the timed profile (the motion then stops the arm where it fails, as before).
+    """
+    if duration <= 0:
+        return trapezoid(linear_distance(start_matrix, end_matrix), speed, acceleration)
+    distance = linear_distance(start_matrix, end_matrix)
+    profile = timed_trapezoid(distance, duration, acceleration)
+    if distance == 0.0:
+        return profile
+    step = distance / LINEAR_FEASIBILITY_SAMPLES
+    q = np.asarray(start_q, dtype=float)
+    steepest = np.zeros(6)  # rad of joint travel per metre of path, per joint
+    for k in range(1, LINEAR_FEASIBILITY_SAMPLES + 1):
+        target = kinematics.interpolate_pose(start_matrix, end_matrix, k / LINEAR_FEASIBILITY_SAMPLES)
+        try:
+            q_next = solve_ik(kinematics.matrix_to_pose(target), q)
+        except kinematics.IKError:
+            return profile
+        steepest = np.maximum(steepest, np.abs(q_next - q) / step)
+        q = q_next
+    overspeed = float(np.max(steepest * profile.peak / np.asarray(max_speeds, dtype=float)))
+    if overspeed <= FEASIBLE_SPEED_FRACTION:
+        return profile
+    return trapezoid(distance, profile.peak * FEASIBLE_SPEED_FRACTION / overspeed, profile.acceleration)
+
+
+LINEAR_FEASIBILITY_SAMPLES = 32
+FEASIBLE_SPEED_FRACTION = 0.9  # of the joint speed limit: margin for the joint speeds between samples
+
+
 def linear_distance(start_matrix: np.ndarray, end_matrix: np.ndarray) -> float:
     """Leading 'distance' of a movel: the larger of the path length (m) and the rotation angle (rad, read as m)."""
     length = float(np.linalg.norm(end_matrix[:3, 3] - start_matrix[:3, 3]))

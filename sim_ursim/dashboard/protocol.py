@@ -11,6 +11,7 @@ import zipfile
 from dataclasses import dataclass
 
 from ..models import build_date
+from ..polyscope.program_tab import ProgramTab
 from ..vocabulary import CommandRefused, RobotMode, SafetyMode, UnlockTooEarly
 
 log = logging.getLogger("sim_ursim.dashboard")
@@ -50,13 +51,16 @@ def unknown(text):
     return Reply(f"could not understand: '{text}'")
 
 
-def handle(line, controller):
-    """The Reply to one request `line` for `controller` (which it may command)."""
+def handle(line, controller, programs=None):
+    """The Reply to one request `line` for `controller` (which it may command); `programs` is the ProgramTab that
+    loads and plays programs (a default one, External Control on 127.0.0.1, when None)."""
     command, argument = parse_command(line)
     if command is None:
         return unknown(argument)
     if not available(command, controller.version):
         return unknown(line.strip())
+    if command in _PROGRAM_HANDLERS:
+        return _PROGRAM_HANDLERS[command](programs or ProgramTab(controller), argument)
     return _HANDLERS[command](controller, argument)
 
 
@@ -120,29 +124,16 @@ def _try(action, name):
         log.warning("%s: %s", name, refusal)
 
 
-def _load(controller, argument):
-    """Load a program: a `.urp` runs the `.script` PolyScope saved beside it; any other file is URScript itself."""
+def _load(programs, argument):
+    """Load a program (sim_ursim.polyscope.program_tab): a `.urp`'s tree, any other file as URScript."""
     if not argument:
         return unknown("load")
-    path = resolve_program_path(argument, controller.programs_directory)
-    if not os.path.isfile(path):
-        return Reply(f"File not found: {argument}")
-    script_path = os.path.splitext(path)[0] + ".script" if path.endswith(".urp") else path
-    try:
-        with open(script_path, encoding="utf-8") as program:
-            source = program.read()
-    except (OSError, UnicodeDecodeError) as error:
-        # A .urp without its generated script cannot be run by a controller that only executes URScript.
-        log.warning("load %s: %s", path, error)
-        return Reply(f"Error while loading program: {argument}")
-    if controller.state().program_running:
-        controller.stop_program()
-    controller.loaded_program = path
-    controller.loaded_program_source = source
-    return Reply(f"Loading program: {argument}")
+    return Reply(programs.load(argument))
 
 
-def _play(controller, argument):
+def _play(programs, argument):
+    """Resume a paused program, or start the loaded one (a `.urp`'s script is generated now, as PolyScope does)."""
+    controller = programs.controller
     state = controller.state()
     if state.program_running and state.program_paused:
         controller.resume_program()
@@ -150,10 +141,11 @@ def _play(controller, argument):
     runnable = (controller.loaded_program_source is not None and controller.program_runner is not None
                 and state.robot_mode == RobotMode.RUNNING and state.safety_mode == SafetyMode.NORMAL
                 and not state.program_running)
-    if not runnable:
+    source = programs.script_for_play() if runnable else None
+    if source is None:
         return Reply("Failed to execute: play")
     try:
-        started = controller.run_program(controller.loaded_program_source, "dashboard")
+        started = controller.run_program(source, "dashboard")
     except (CommandRefused, ValueError) as error:
         log.warning("play: %s", error)
         return Reply("Failed to execute: play")
@@ -250,7 +242,8 @@ def _set_operational_mode(controller, argument):
     if mode not in OPERATIONAL_MODES:
         return Reply(f"Failed setting operational mode: {argument}")
     _settings(controller).operational_mode = mode.upper()
-    return Reply(f"Operational mode '{mode}' is set")
+    # The mode as the client wrote it: URCL matches "(?:Operational mode ).*(?:AUTOMATIC).*", case-sensitive.
+    return Reply(f"Operational mode '{argument.strip()}' is set")
 
 
 def _clear_operational_mode(controller, argument):
@@ -291,12 +284,11 @@ def _loaded_program(controller, argument):
     return Reply(f"Loaded program: {controller.loaded_program}")
 
 
+_PROGRAM_HANDLERS = {"load": _load, "play": _play}
 _HANDLERS = {
     "power on": _power_on,
     "power off": _power_off,
     "brake release": _brake_release,
-    "load": _load,
-    "play": _play,
     "stop": _stop,
     "pause": _pause,
     "unlock protective stop": _unlock,
@@ -331,7 +323,7 @@ _HANDLERS = {
 }
 _TAKES_ARGUMENT = {"load", "popup", "addtolog", "setuserrole", "load installation", "set operational mode",
                    "generate flight report", "generate support file"}
-_COMMANDS_LONGEST_FIRST = sorted(_HANDLERS, key=len, reverse=True)
+_COMMANDS_LONGEST_FIRST = sorted([*_HANDLERS, *_PROGRAM_HANDLERS], key=len, reverse=True)
 
 # Commands that exist only from a given software version on, as (CB3, e-series) minimums; None: never on that
 # platform.  URCL's dashboard command table (src/ur/dashboard_client_implementation_g5.cpp) and docs/protocols.md §2.

@@ -5,6 +5,7 @@ new drop generation closes every connection (the base's watcher). A line longer 
 """
 import logging
 
+from ..polyscope.program_tab import ProgramTab
 from ..tcp_server import Connection, TCPServer
 from . import protocol
 
@@ -17,9 +18,10 @@ SEND_TIMEOUT = 2.0  # s a client may leave a reply unread before it is disconnec
 class DashboardServer(TCPServer):
     """Serves the dashboard protocol for `controller` on host:port (29999 by default)."""
 
-    def __init__(self, controller, host="127.0.0.1", port=29999, on_shutdown=None):
+    def __init__(self, controller, host="127.0.0.1", port=29999, on_shutdown=None, programs=None):
         super().__init__(controller, host, port)
         self.on_shutdown = on_shutdown  # called after a `shutdown` command has been answered; must not block
+        self.programs = programs or ProgramTab(controller)  # load/play: sim_ursim.polyscope.program_tab
 
     def serve(self, connection: Connection) -> None:
         log.info("dashboard: client %s connected", connection)
@@ -39,7 +41,7 @@ class DashboardServer(TCPServer):
 
     def _answer(self, connection: Connection, line: str) -> bool:
         """Reply to one line; False when the connection must close afterwards."""
-        reply = protocol.handle(line, self.controller)
+        reply = protocol.handle(line, self.controller, self.programs)
         log.info("dashboard: %s %r -> %r", connection, line.strip(), reply.text)
         sent = self._send(connection, reply.text)
         if reply.shutdown and self.on_shutdown is not None:

@@ -8,7 +8,13 @@ URCL's `PrimaryClient` relies on exactly these (src/primary/primary_client.cpp: 
 
 `set robotmode run` is URCL's brake release (the arm ends RUNNING, powered on first if it was off).  A chunk of
 text is treated as commands only when *every* non-blank line is one; anything else is URScript for the runner.
-Refusals (an emergency stop, an unlock within 5 s) are logged and published as a text message, never raised.
+Refusals (an emergency stop, nothing to unlock) are logged and published as a text message, never raised.
+
+`set unlock protective stop` clears a protective stop at once, also within 5 s of the stop: the 5 s rule ("Cannot
+unlock protective stop until 5s after occurrence") is PolyScope's, the pendant's and the dashboard server's, and
+the primary interface talks to the controller itself. URCL's PrimaryClientTest, which passes against URSim 3.14
+and 5.9 in URCL's CI, sends this command right after a `protective_stop()` or an unreachable movel and expects
+the stop cleared within its 5 s wait; the dashboard's `unlock protective stop` keeps the rule.
 """
 import logging
 
@@ -19,7 +25,7 @@ log = logging.getLogger("sim_ursim.primary")
 
 
 def _unlock(controller):
-    controller.unlock_protective_stop()
+    controller.unlock_protective_stop(enforce_delay=False)
 
 
 def _stop_program(controller):

@@ -9,8 +9,7 @@ import pytest
 
 from polling import wait_for
 from sim_ursim.launch import running_simulator
-
-WAIT_SCRIPT = "def wait_program():\n  while True:\n    sleep(0.1)\n  end\nend\n"
+from urp_samples import E_SERIES_WAIT_PROGRAM, write_urp
 
 
 class LineClient:
@@ -31,10 +30,9 @@ class LineClient:
 
 @pytest.fixture
 def programs(tmp_path):
-    """A PolyScope programs folder: wait_program.urp (content irrelevant here) and its generated script."""
-    (tmp_path / "wait_program.urp").write_bytes(b"\x1f\x8b placeholder for PolyScope's gzip XML")
-    (tmp_path / "wait_program.script").write_text(WAIT_SCRIPT)
-    (tmp_path / "no_script.urp").write_bytes(b"\x1f\x8b")
+    """A PolyScope programs folder: URCL's wait_program.urp and a broken (truncated) program."""
+    write_urp(tmp_path / "wait_program.urp", E_SERIES_WAIT_PROGRAM)
+    (tmp_path / "broken.urp").write_bytes(b"\x1f\x8b")
     return tmp_path
 
 
@@ -46,7 +44,7 @@ def _ask_all(host, commands):
         client.close()
 
 
-def test_load_urp_runs_its_script_and_the_urcl_dashboard_sequence_passes(programs):
+def test_load_urp_plays_its_program_tree_and_the_urcl_dashboard_sequence_passes(programs):
     with running_simulator(model="ur5e", programs_directory=str(programs)) as sim:
         sim.controller.power_up()
         client = LineClient(sim.host)
@@ -64,10 +62,10 @@ def test_load_urp_runs_its_script_and_the_urcl_dashboard_sequence_passes(program
             client.close()
 
 
-def test_a_urp_without_its_script_and_a_missing_file_give_the_controller_errors(programs):
+def test_a_broken_urp_and_a_missing_file_give_the_controller_errors(programs):
     with running_simulator(model="ur3", programs_directory=str(programs)) as sim:
-        replies = _ask_all(sim.host, ["load no_script.urp", "load absent.urp", "get loaded program"])
-    assert replies == ["Error while loading program: no_script.urp", "File not found: absent.urp",
+        replies = _ask_all(sim.host, ["load broken.urp", "load absent.urp", "get loaded program"])
+    assert replies == ["Error while loading program: broken.urp", "File not found: absent.urp",
                        "No program loaded"]
 
 
@@ -98,11 +96,11 @@ def test_cb3_user_role_is_stored_and_serial_number_answered_from_3_12():
 
 def test_e_series_operational_mode_flight_report_and_support_file(tmp_path):
     with running_simulator(model="ur5e", programs_directory=str(tmp_path)) as sim:
-        replies = _ask_all(sim.host, ["get operational mode", "set operational mode manual", "get operational mode",
+        replies = _ask_all(sim.host, ["get operational mode", "set operational mode MANUAL", "get operational mode",
                                       "clear operational mode", "generate flight report controller",
                                       f"generate support file {tmp_path}", "getUserRole"])
     assert replies[0] == "NONE"
-    assert re.fullmatch(r"(?:Operational mode ).*(?:manual).*", replies[1])
+    assert re.fullmatch(r"(?:Operational mode ).*(?:MANUAL).*", replies[1])  # URCL's pattern, as it sends the mode
     assert replies[2] == "MANUAL"
     assert re.fullmatch(r"(?:No longer controlling the operational mode.).*", replies[3])
     assert re.fullmatch(r"(?:Flight Report generated with id:).*", replies[4])

@@ -155,7 +155,7 @@ def test_a_protective_stop_is_announced_on_30001_and_flagged_in_the_state(powere
     safety = [data for subtype, data in seen if subtype == SAFETY_MODE]
     assert safety and struct.unpack_from(">iiB", safety[0], 15)[2] == 3  # PROTECTIVE_STOP
     code, _, report_level = struct.unpack_from(">iii", seen[-1][1], 15)
-    assert (code, report_level) == (209, 3) and b"Protective stop" in seen[-1][1]
+    assert (code, report_level) == (209, 2) and b"Protective stop" in seen[-1][1]
     robot_mode_data = next_state(primary)[5:]
     assert struct.unpack_from(">?", robot_mode_data, 5 + 8 + 4)[0] is True  # isProtectiveStopped
 

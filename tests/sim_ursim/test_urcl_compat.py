@@ -10,6 +10,7 @@ types are skipped whole.  Written from URCL's sources, not from sim_ursim's seri
 """
 import socket
 import struct
+import time
 
 import pytest
 
@@ -18,6 +19,7 @@ from sim_ursim.controller import Controller, RobotMode
 from sim_ursim.launch import running_simulator
 from sim_ursim.models import robot_model
 from sim_ursim.primary import packets
+from sim_ursim.vocabulary import SafetyMode
 from tests.polling import wait_for
 
 
@@ -259,6 +261,26 @@ def test_primary_commands_power_brakes_unlock_and_stop_like_urcl_primary_client(
     assert not [m for m in received if isinstance(m, messages.RuntimeExceptionMessage)]
 
 
+def test_a_primary_unlock_clears_a_stop_at_once_the_dashboard_keeps_the_5_s_rule():
+    """URCL's PrimaryClientTest unlocks through the primary interface right after a protective stop and waits up to
+    5 s for it to clear; the dashboard (PolyScope) refuses within 5 s."""
+    with running_simulator(model="ur5e") as sim, socket.create_connection((sim.host, 30001), timeout=5) as sock:
+        controller = sim.controller
+        controller.power_up()
+        controller.protective_stop("test")
+        with socket.create_connection((sim.host, 29999), timeout=5) as dashboard:
+            reader = dashboard.makefile("r", encoding="utf-8")
+            reader.readline()
+            dashboard.sendall(b"unlock protective stop\n")
+            assert reader.readline().startswith("Cannot unlock protective stop until 5s after occurrence")
+        assert controller.state().protective_stopped
+        stopped_at = time.monotonic()
+        sock.sendall(b"set unlock protective stop\n")
+        assert wait_for(lambda: not controller.state().protective_stopped, timeout=5)
+        assert time.monotonic() - stopped_at < 1.0
+        assert controller.state().safety_mode == SafetyMode.NORMAL
+
+
 def test_primary_command_mixed_with_urscript_stays_urscript():
     from sim_ursim.primary import commands
 
@@ -283,8 +305,7 @@ def test_protective_stop_flag_goes_out_with_the_safety_mode_message():
     assert modes_before and modes_before[-1]["protective_stopped"] is True
 
 
-@pytest.mark.parametrize("motion", ["movel(p[2.0, 0, 0.3, 0, 3.14, 0])", "movej(p[2.0, 0, 0.3, 0, 3.14, 0])",
-                                    "movep(p[2.0, 0, 0.3, 0, 3.14, 0])",
+@pytest.mark.parametrize("motion", ["movel(p[2.0, 0, 0.3, 0, 3.14, 0])", "movep(p[2.0, 0, 0.3, 0, 3.14, 0])",
                                     "movec(p[0.5, 0.5, 0.3, 0, 3.14, 0], p[2.0, 0, 0.3, 0, 3.14, 0])"])
 def test_unreachable_target_is_a_robot_error_with_a_protective_stop(motion):
     """Issue 15 §11: URCL's clients see an error-code message (ErrorCodeMessage, logged as C209A0 by URCL) and the
@@ -301,3 +322,19 @@ def test_unreachable_target_is_a_robot_error_with_a_protective_stop(motion):
     errors = [m for m in received if isinstance(m, messages.ErrorCodeMessage)]
     assert errors and errors[0].code == 209 and "unreachable" in errors[0].text
     assert not [m for m in received if isinstance(m, messages.RuntimeExceptionMessage)]
+
+
+def test_a_movej_to_a_pose_no_joints_reach_is_a_runtime_exception_without_a_stop():
+    """URCL's PrimaryClientTest.test_send_script_blocking_fail_on_runtime_exception: movej(p[10,0,0,0,0,0]) is a
+    runtime exception ("non-invertible goal"), while the same movel is a robot error code (protective stop)."""
+    with running_simulator(model="ur5e") as sim:
+        sim.controller.power_up()
+        bus = sim.controller.messages.subscribe()
+        assert sim.controller.run_program("def unreachable():\n  movej(p[10, 0, 0, 0, 0, 0])\nend\n", "test")
+        assert wait_for(lambda: not sim.controller.state().program_running, timeout=5)
+        received = []
+        while not bus.empty():
+            received.append(bus.get_nowait())
+        assert not sim.controller.state().protective_stopped
+    assert [m for m in received if isinstance(m, messages.RuntimeExceptionMessage)]
+    assert not [m for m in received if isinstance(m, messages.ErrorCodeMessage)]

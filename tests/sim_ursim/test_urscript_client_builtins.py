@@ -175,6 +175,14 @@ def test_speedj_with_zero_acceleration_keeps_the_current_speeds(controller):
     assert error is None and abs(controller.state().target_qd[5]) < 1e-9
 
 
+def test_an_over_fast_speedj_saturates_at_the_joint_speed_limit_keeping_its_direction(controller):
+    limit = float(controller.model.max_joint_speed[0])
+    values, error = run(controller, f"speedj([{2 * limit}, {limit}, 0, 0, 0, 0], 20.0, 0.5)\n"
+                                    "qd = get_target_joint_speeds()\nstopj(20.0)\n")
+    assert error is None  # URCL's spline asks a few ppm over the limit; a controller saturates, not fails
+    assert values["qd"][:2] == pytest.approx([limit, limit / 2], rel=1e-6)
+
+
 def test_force_mode_in_free_space_drifts_along_the_compliant_axis_until_ended(controller):
     run(controller, f"movej({HOME})\n")
     start = np.array(controller.state().actual_tcp_pose)

@@ -89,6 +89,16 @@ def set_standard_analog_out(ctx: ThreadContext, n, f):
     controller_call(ctx.controller.io.set_analog_out, as_integer(n, "n"), as_number(f, "f"))
 
 
+@builtin
+def get_standard_analog_out(ctx: ThreadContext, n):
+    """The ratio (0..1) standard analog output n (0-1) is set to (PolyScope reads an analog output so)."""
+    index = as_integer(n, "n")
+    outputs = ctx.controller.io.analog_outputs
+    if not 0 <= index < len(outputs):
+        raise ScriptError(f"runtime_error:analog output {index} does not exist (0..{len(outputs) - 1}):")
+    return float(outputs[index])
+
+
 # register kind -> (URScript name of the kind, the Python value a read returns, how a written value is checked)
 _REGISTER_KINDS: dict[str, tuple[str, Callable[[Any], Any], Callable[[Any], Any]]] = {
     "int": ("integer", int, lambda v: as_integer(v, "value")),

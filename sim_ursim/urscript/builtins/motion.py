@@ -24,10 +24,11 @@ def _unreachable_stops(ctx: ThreadContext, function, *args):
 
 
 def _joint_target(ctx: ThreadContext, q):
-    """movej's target: a joint list, or a pose solved by IK near the joints where the queued motion ends."""
+    """movej's target: a joint list, or a pose solved by IK near the joints where the queued motion ends. A pose no
+    joints reach is a runtime exception, as on a controller (its IK fails before any motion is planned; URCL's
+    PrimaryClientTest expects RobotRuntimeException for movej(p[10,0,0,0,0,0]) and a robot error code for movel)."""
     if isinstance(q, Pose):
-        state = ctx.controller.state()
-        return controller_call(_unreachable_stops, ctx, ctx.controller.ik, np.array(q), state.target_q)
+        return controller_call(ctx.controller.ik, np.array(q), ctx.controller.state().target_q)
     return np.array(number_list(q, 6, "q"))
 
 
@@ -139,6 +140,14 @@ def _held_speed(ctx: ThreadContext, command, speed, acceleration, duration):
     ctx.check()
 
 
+def _within_speed_limits(qd: np.ndarray, limits: np.ndarray) -> np.ndarray:
+    """qd scaled down (all joints alike, so the direction is kept) until no joint exceeds its speed limit, as a
+    controller's trajectory generator saturates an over-fast speedj instead of failing the program (URCL's spline
+    interpolation can ask a few parts per million over the limit at a spline's peak)."""
+    overspeed = float(np.max(np.abs(qd) / limits))
+    return qd / overspeed if overspeed > 1.0 else qd
+
+
 @builtin
 def speedj(ctx: ThreadContext, qd, a, t=None):
     """Accelerate the joints to speeds qd [rad/s] at a [rad/s²] and keep them; returns after t [s] of controller
@@ -151,6 +160,7 @@ def speedj(ctx: ThreadContext, qd, a, t=None):
         # interpolation sends a = 0 when consecutive speeds are equal; controllers accept it).
         qd = np.array(ctx.controller.state().target_qd)
         acceleration = 1.0
+    qd = _within_speed_limits(qd, ctx.controller.model.max_joint_speed)
     duration = None if t is None else as_number(t, "t")
     if duration is not None and duration > 0:
         _held_speed(ctx, ctx.controller.speedj, qd, acceleration, duration)

@@ -1,0 +1,105 @@
+"""PolyScope expressions and I/O pins as URScript text.
+
+An expression is stored as a sequence of parts, one XML element each: `<ExpressionChar character="x"/>` (typed
+characters), `<ExpressionToken token=" and "/>`, `<ExpressionVariable>` (a program variable, by name or reference)
+and `<ExpressionIO>` (an I/O pin by its PolyScope name, read as the matching getter). A pin is named
+`digital_in[2]`, `config_out[0]`, `tool_in[1]`, `analog_in[0]`, `GP_bool_out[64]`, ...: PolyScope's default names,
+or the names the program's installation gave them (installation.py; `ProgramTree.pin_aliases`).
+
+>>> read_pin("digital_in[3]"), write_pin("config_out[1]", "True")
+('get_standard_digital_in(3)', 'set_configurable_digital_out(1, True)')
+"""
+import re
+from xml.etree.ElementTree import Element
+
+from .urp_file import ProgramTree, UrpError
+
+_PIN = re.compile(r"^([A-Za-z_]+)\[(\d+)\]$")
+# PolyScope pin family -> (URScript getter, URScript setter or None)
+_PINS = {
+    "digital_in": ("get_standard_digital_in", None),
+    "digital_out": ("get_standard_digital_out", "set_standard_digital_out"),
+    "config_in": ("get_configurable_digital_in", None),
+    "configurable_in": ("get_configurable_digital_in", None),
+    "config_out": ("get_configurable_digital_out", "set_configurable_digital_out"),
+    "configurable_out": ("get_configurable_digital_out", "set_configurable_digital_out"),
+    "tool_in": ("get_tool_digital_in", None),
+    "tool_out": ("get_tool_digital_out", "set_tool_digital_out"),
+    "analog_in": ("get_standard_analog_in", None),
+    "analog_out": ("get_standard_analog_out", "set_standard_analog_out"),
+    "tool_analog_in": ("get_tool_analog_in", None),
+    "GP_bool_in": ("read_input_boolean_register", None),
+    "GP_bool_out": ("read_output_boolean_register", "write_output_boolean_register"),
+    "GP_int_in": ("read_input_integer_register", None),
+    "GP_int_out": ("read_output_integer_register", "write_output_integer_register"),
+    "GP_float_in": ("read_input_float_register", None),
+    "GP_float_out": ("read_output_float_register", "write_output_float_register"),
+}
+
+
+def _pin_functions(name: str) -> tuple[str | None, str | None, int]:
+    match = _PIN.match(name.strip())
+    if match is None or match.group(1) not in _PINS:
+        raise UrpError(f"I/O pin {name!r} is neither one of PolyScope's default pin names nor named in the "
+                       "program's installation")
+    getter, setter = _PINS[match.group(1)]
+    return getter, setter, int(match.group(2))
+
+
+def read_pin(name: str) -> str:
+    """URScript that reads pin `name` (e.g. `digital_in[3]` -> `get_standard_digital_in(3)`)."""
+    getter, _, number = _pin_functions(name)
+    if getter is None:
+        raise UrpError(f"I/O pin {name!r} cannot be read by sim_ursim")
+    return f"{getter}({number})"
+
+
+def write_pin(name: str, value: str) -> str:
+    """URScript that sets pin `name` to the URScript expression `value`."""
+    _, setter, number = _pin_functions(name)
+    if setter is None:
+        raise UrpError(f"I/O pin {name!r} is an input: it cannot be set")
+    return f"{setter}({number}, {value})"
+
+
+def pin_name(tree: ProgramTree, pin: Element | None, where: Element) -> str:
+    """The PolyScope name of a `<pin>` element (following a reference)."""
+    if pin is None:
+        raise UrpError(f"{tree.path_of(where)}: the node names no I/O pin")
+    name = tree.resolve(pin).get("referencedName") or tree.resolve(pin).get("name")
+    if not name:
+        raise UrpError(f"{tree.path_of(pin)}: the pin has no name")
+    return tree.pin_aliases.get(name, name)
+
+
+def variable_name(tree: ProgramTree, variable: Element | None, where: Element) -> str:
+    """The name of a program variable element (`<variable name=...>` or a reference to one)."""
+    if variable is None:
+        raise UrpError(f"{tree.path_of(where)}: the node names no variable")
+    name = tree.resolve(variable).get("name")
+    if not name or not re.match(r"^[A-Za-z_]\w*$", name):
+        raise UrpError(f"{tree.path_of(variable)}: {name!r} is not a variable name")
+    return name
+
+
+def expression_text(tree: ProgramTree, expression: Element | None, where: Element) -> str:
+    """The URScript text of an `<expression>` element; UrpError for an empty or unknown expression part."""
+    if expression is None:
+        raise UrpError(f"{tree.path_of(where)}: the node has no expression")
+    parts = [_part_text(tree, part) for part in expression]
+    text = "".join(parts).strip()
+    if not text:
+        raise UrpError(f"{tree.path_of(where)}: the node's expression is empty (PolyScope would not run it either)")
+    return text
+
+
+def _part_text(tree: ProgramTree, part: Element) -> str:
+    if part.tag == "ExpressionChar":
+        return part.get("character", "")
+    if part.tag == "ExpressionToken":
+        return part.get("token", "")
+    if part.tag == "ExpressionVariable":
+        return variable_name(tree, next(iter(part), None), part)
+    if part.tag == "ExpressionIO":
+        return read_pin(pin_name(tree, part.find("pin"), part))
+    raise UrpError(f"{tree.path_of(part)}: expression part <{part.tag}> is not supported by sim_ursim")

@@ -1,0 +1,80 @@
+"""The hardened `.urp` reader (sim_ursim.polyscope.urp_file): hostile and broken files end in one clear UrpError,
+quickly and without exhausting memory; XStream references resolve as PolyScope wrote them."""
+import gzip
+import zlib
+
+import pytest
+
+from sim_ursim.polyscope import urp_file
+from sim_ursim.polyscope.urp_file import UrpError, parse_urp_bytes, read_urp
+from urp_samples import E_SERIES_WAIT_PROGRAM, program_xml, write_urp
+
+pytestmark = pytest.mark.timeout(30)  # a hostile file must never hang the reader
+
+BILLION_LAUGHS = ('<?xml version="1.0"?><!DOCTYPE lolz [<!ENTITY lol "lol">'
+                  + "".join(f'<!ENTITY lol{n} "{("&lol" + str(n - 1) + ";") * 10 if n > 1 else "&lol;" * 10}">'
+                            for n in range(1, 10))
+                  + ']><URProgram name="x"><children>&lol9;</children></URProgram>')
+
+
+def test_a_real_program_reads_with_its_name(tmp_path):
+    tree = read_urp(str(write_urp(tmp_path / "wait_program.urp", E_SERIES_WAIT_PROGRAM)))
+    assert tree.name == "wait_program"
+    assert tree.root.find("children/MainProgram/children/Wait/waitTime").text == "0.01"
+
+
+def test_references_resolve_relative_to_the_referring_element():
+    xml = program_xml('<Set type="DigitalOutput"><pin referencedName="digital_out[0]"/></Set>'
+                      '<Set type="DigitalOutput"><pin referencedName="digital_out[5]"/></Set>'
+                      '<Set type="DigitalOutput"><pin reference="../../Set[2]/pin"/></Set>')
+    tree = parse_urp_bytes(gzip.compress(xml.encode()))
+    referring = tree.root.findall("children/MainProgram/children/Set")[2].find("pin")
+    assert tree.resolve(referring).get("referencedName") == "digital_out[5]"
+    assert tree.path_of(referring) == "URProgram/MainProgram/Set[3]/pin"
+
+
+@pytest.mark.parametrize("content, message", [
+    (b"def wait_program():\n  sleep(1)\nend\n", r"not gzip"),
+    (gzip.compress(E_SERIES_WAIT_PROGRAM.encode())[:-40], r"truncated"),
+    (gzip.compress(b"this is not XML"), r"its XML does not parse"),
+    (gzip.compress(b"<Installation><IOs/></Installation>"), r"the XML's root is <Installation>, not <URProgram>"),
+    (gzip.compress(b""), r"its XML does not parse"),
+    (gzip.compress(BILLION_LAUGHS.encode()), r"refused: the XML declares a DTD"),
+    (gzip.compress(b'<!DOCTYPE x SYSTEM "file:///etc/passwd"><URProgram/>'), r"refused: the XML declares a DTD"),
+    (gzip.compress(b"<URProgram>" + b"<children>" * 100_000 + b"</children>" * 100_000 + b"</URProgram>"),
+     r"nested deeper than 200 levels"),
+    (gzip.compress(b"<URProgram>" + b"<a/>" * 300_000 + b"</URProgram>"), r"more than 250000 elements"),
+    (b"\x1f\x8b\x08\x00garbage after the gzip magic", r"corrupt gzip data"),
+])
+def test_broken_and_hostile_contents_are_refused_with_one_clear_line(content, message):
+    with pytest.raises(UrpError, match=message) as refused:
+        parse_urp_bytes(content, "prog.urp")
+    assert str(refused.value).startswith("prog.urp: ") and "\n" not in str(refused.value)
+
+
+def test_a_gzip_bomb_is_refused_before_it_is_expanded():
+    bomb = gzip.compress(b"<URProgram>" + b" " * (urp_file.MAX_XML_BYTES + 1024) + b"</URProgram>")
+    assert len(bomb) < 100_000  # 32 MB of spaces compress to ~32 KB
+    with pytest.raises(UrpError, match=r"decompresses to more than 32 MB of XML"):
+        parse_urp_bytes(bomb, "bomb.urp")
+
+
+def test_a_100_mb_file_is_refused_by_its_size(tmp_path):
+    huge = tmp_path / "huge.urp"
+    with open(huge, "wb") as sparse:  # a sparse file: 100 MB long, nothing written to disk
+        sparse.write(b"\x1f\x8b")
+        sparse.truncate(100 * 1000 * 1000)
+    with pytest.raises(UrpError, match=r"huge.urp: 100 MB is larger than a PolyScope program can be"):
+        read_urp(str(huge))
+
+
+def test_a_missing_file_and_a_directory_name_the_problem(tmp_path):
+    with pytest.raises(UrpError, match=r"cannot be read"):
+        read_urp(str(tmp_path / "absent.urp"))
+
+
+def test_a_second_gzip_member_or_trailing_bytes_do_not_hide_a_truncation():
+    stream = zlib.compressobj(wbits=16 + zlib.MAX_WBITS)
+    partial = stream.compress(E_SERIES_WAIT_PROGRAM.encode()) + stream.flush(zlib.Z_SYNC_FLUSH)
+    with pytest.raises(UrpError, match=r"truncated"):
+        parse_urp_bytes(partial, "sync-flushed.urp")
