@@ -249,7 +249,10 @@ def _strip_pose_prefix(message: str) -> str:
 def _motion_from(obj, who: str) -> Motion:
     if not any(key in obj for key in MOTION_FIELDS):
         return DEFAULT_MOTION
-    return Motion(obj.get("move", "joint"), obj.get("speed"), obj.get("acceleration"), obj.get("blend"))
+    try:
+        return Motion(obj.get("move", "joint"), obj.get("speed"), obj.get("acceleration"), obj.get("blend"))
+    except ValueError as error:
+        raise ValueError(f"{who}: {str(error).removeprefix('motion: ')}") from None
 
 
 def _motion_fields(motion: Motion) -> dict:

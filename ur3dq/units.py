@@ -24,7 +24,8 @@ import re
 
 __all__ = [
     "ACCELERATION", "ANGLE", "ANGULAR_ACCELERATION", "ANGULAR_SPEED", "DURATION", "LENGTH", "LINEAR_ACCELERATION",
-    "LINEAR_SPEED", "SPEED", "Kind", "Units", "angular_kind", "parse", "show", "to_display", "unit_label",
+    "LINEAR_SPEED", "SPEED", "Kind", "Units", "angular_kind", "parse", "plain_number", "show", "to_display",
+    "unit_label",
 ]
 
 
@@ -106,6 +107,11 @@ class Units:
         return ("°" if base == "deg" else base) + rate
 
 
+def _a(noun: str) -> str:
+    """`noun` with its indefinite article: 'an angle', 'a distance'."""
+    return ("an " if noun[0] in "aeiou" else "a ") + noun
+
+
 def _kind_named_by(unit: str) -> Kind | None:
     return next((kind for kind in _ALL_KINDS if unit in kind.units), None)
 
@@ -137,13 +143,13 @@ def parse(text: str | float | int, kind: Kind, units: Units = Units(), name: str
         another kind (``--speed 250mm/s`` on a joint move).
     """
     if isinstance(text, bool):
-        raise ValueError(f"{name}: expected a {kind.name} such as {kind.example}, got {text!r}")
+        raise ValueError(f"{name}: expected {_a(kind.name)} such as {kind.example}, got {text!r}")
     if isinstance(text, (int, float)):
         value, unit = float(text), ""
     else:
         match = _NUMBER.match(str(text))
         if match is None:
-            raise ValueError(f"{name}: {text!r} is not a {kind.name}; write a number with a unit, such as "
+            raise ValueError(f"{name}: {text!r} is not {_a(kind.name)}; write a number with a unit, such as "
                              f"{kind.example} (units: {', '.join(kind.units)})")
         value, unit = float(match.group(1)), match.group(2)
     if not math.isfinite(value):
@@ -153,9 +159,25 @@ def parse(text: str | float | int, kind: Kind, units: Units = Units(), name: str
     if unit not in kind.units:
         other = _kind_named_by(unit)
         what = f"{unit!r} is a unit of {other.name}" if other else f"{unit!r} is not a unit ur3dq knows"
-        raise ValueError(f"{name} takes a {kind.name} ({', '.join(kind.units)}), but {what}; for example "
+        raise ValueError(f"{name} takes {_a(kind.name)} ({', '.join(kind.units)}), but {what}; for example "
                          f"{kind.example}")
     return value * kind.units[unit]
+
+
+def plain_number(text: str | float | int, name: str = "value") -> float:
+    """A number without a unit (a fraction, a coefficient, a count of something), as typed; ValueError naming
+    `name` when it is not one, carries a unit, or is not finite.
+
+    >>> plain_number("0.5")
+    0.5
+    """
+    match = None if isinstance(text, bool) else _NUMBER.match(str(text))
+    if match is None or match.group(2):
+        raise ValueError(f"{name}: expected a plain number such as 0.5, got {text!r}")
+    value = float(match.group(1))
+    if not math.isfinite(value):
+        raise ValueError(f"{name}: {text!r} is not a finite number")
+    return value
 
 
 def to_display(value: float, kind: Kind, units: Units = Units()) -> float:

@@ -33,7 +33,7 @@ def long_store(tmp_path):
 
 
 @pytest.mark.parametrize("selection, header", [((), "#\tpose\tjoints (rad)\tchosen by"),
-                                               (("--from", "pose-1"), "#\tstep\ttype\ttarget (rad) / action")])
+                                               (("--from", "pose-1"), "#\tstep\ttype\ttarget joints (rad) / action")])
 def test_a_long_plan_is_tab_separated_and_json_output_stays_one_document(run_cli, long_store, selection, header):
     result = run_cli("--json", "--store", long_store, "run-poses", "--dry-run", *selection, timeout=120)
     assert result.returncode == 0, result.stderr

@@ -73,15 +73,15 @@ def test_unreachable_pose_is_one_clear_error(run_in_process):
 
 def test_bad_numbers_are_one_clear_error(run_in_process):
     assert_one_line_error(run_in_process("fk", 0, 0, 0), 4, "expected 6 joint angles, got 3")
-    assert_one_line_error(run_in_process("fk", 0, 0, 0, 0, 0, "nan"), 4, "finite")
-    assert run_in_process("fk", 0, 0, 0, 0, 0, "x").returncode == 2
+    assert_one_line_error(run_in_process("fk", 0, 0, 0, 0, 0, "nan"), 4, "'nan' is not an angle")
+    assert_one_line_error(run_in_process("fk", 0, 0, 0, 0, 0, "x"), 4, "'x' is not an angle", "5deg")
 
 
 def test_poses_import_list_show_rename_rm_export(tmp_path, run_cli, thesis_store):
-    listed = json.loads(run_cli("poses", "list", "--json").stdout)
+    listed = json.loads(run_cli("poses", "list", "--json").stdout)["poses"]
     assert [p["name"] for p in listed] == ["cell-1", "cell-2"]
     assert all(p["joints"] is None and p["robot_model"] == "ur3" for p in listed)
-    shown = json.loads(run_cli("poses", "show", "cell-2", "--json").stdout)
+    shown = json.loads(run_cli("poses", "show", "cell-2", "--json").stdout)["step"]
     expected = DualQuaternion.from_matrix(ur_analytic_ik.ur3.forward_kinematics(*CONFIGS[1]))
     assert DualQuaternion.from_array(shown["dual_quaternion"]).is_close(expected, 1e-12, 1e-12)
     assert run_cli("poses", "rename", "cell-2", "place").returncode == 0
@@ -93,7 +93,7 @@ def test_poses_import_list_show_rename_rm_export(tmp_path, run_cli, thesis_store
     assert run_cli("poses", "export", "backup.json", "--format", "json").returncode == 0
     assert [p.name for p in PoseStore(tmp_path / "backup.json").load()] == ["place"]
     reimported = run_cli("poses", "import", "backup.json", "--json")
-    assert json.loads(reimported.stdout) == ["place-1"]
+    assert json.loads(reimported.stdout)["imported"] == ["place-1"]
 
 
 def test_rm_without_an_answer_changes_nothing(run_in_process, thesis_store):

@@ -19,6 +19,7 @@ from ur3dq.cli.program_workflow import PLAN_COLUMNS, plan_rows
 from ur3dq.kinematics import robot_model
 from ur3dq.program.plan import plan_program
 from ur3dq.store import PoseStore
+from ur3dq.units import Units
 
 EXAMPLE = Path(__file__).parents[2] / "poses" / "example-poses.json"
 
@@ -34,7 +35,8 @@ def v1_store(tmp_path):
      ["step 'digital-out-1' (digital-out): standard pin 9 is out of range (0..7)"]),
     (("poses", "add-step", "tool-out", "2", "on"), 4, ["step 'tool-out-1' (digital-out): tool pin 2 is out of range"]),
     (("poses", "add-step", "wait", "--", "-1"), 4, ["step 'wait-1' (wait): seconds must be a finite number > 0"]),
-    (("poses", "add-step", "wait-input", "3", "on", "--timeout", "nan"), 4, ["step 'wait-input-1' (wait-input)"]),
+    (("poses", "add-step", "wait-input", "3", "on", "--timeout", "nan"), 4, ["--timeout: 'nan' is not a duration"]),
+    (("poses", "add-step", "wait-input", "3", "on", "--timeout", "1e6"), 4, ["step 'wait-input-1' (wait-input)"]),
     (("poses", "add-step", "--after", "nowhere", "wait", "1"), 3, ["no step named 'nowhere'"]),
     (("poses", "set", "demo-1", "--speed", "0"), 4, ["step 'demo-1' (waypoint): speed must be a finite number > 0"]),
     (("poses", "set", "demo-1", "--blend", "1e9"), 4, ["step 'demo-1' (waypoint): blend must be a radius 0..1 m"]),
@@ -154,7 +156,7 @@ def test_plan_table_fits_80_columns_and_keeps_every_name():
         Message("a-very-long-step-name-that-must-wrap-but-never-vanish", "x" * 120)]
     plan = plan_program(robot_model("ur3"), steps)
     console = Console(width=80, record=True)
-    print_table(console, "plan", PLAN_COLUMNS, plan_rows(plan, 1))
+    print_table(console, "plan", PLAN_COLUMNS, plan_rows(plan, 1, Units()))
     assert_fits_with_every_name_whole(console.export_text(), 80, [step.name for step in steps])
 
 
@@ -171,9 +173,9 @@ def test_plot_failure_names_the_file_and_leaves_no_empty_png(run_in_process, v1_
 def test_streamed_json_list_is_exactly_what_emit_json_prints(items, capsys):
     from ur3dq.cli.app import emit_json, emit_json_list
 
-    emit_json(items)
+    emit_json({"store": "s", "steps": items})
     whole = capsys.readouterr().out
-    emit_json_list(iter(items))
+    emit_json_list({"store": "s"}, "steps", iter(items))
     assert capsys.readouterr().out == whole
 
 
@@ -191,7 +193,7 @@ def test_the_v1_replay_plan_table_fits_80_columns_with_every_pose_name():
 
     steps = plan_replay(robot_model("ur3"), PoseStore(EXAMPLE).load(), None)
     console = Console(width=80, record=True)
-    console.print(plan_table(steps, False, "Plan", 80))
+    console.print(plan_table(steps, Units(), "Plan", 80))
     assert_fits_with_every_name_whole(console.export_text(), 80, [step.pose.name for step in steps])
 
 
@@ -216,7 +218,7 @@ def test_poses_show_of_a_step_shows_its_fields(run_in_process, v1_store):
     assert run_in_process("poses", "add-step", "wait-input", "2", "off", "--timeout", "4").returncode == 0
     shown = run_in_process("poses", "show", "wait-input-1", "--json")
     assert shown.returncode == 0, shown.stderr
-    assert json.loads(shown.stdout) == {"type": "wait-input", "name": "wait-input-1", "input": "standard", "pin": 2,
-                                        "on": False, "timeout": 4.0}
+    assert json.loads(shown.stdout)["step"] == {"type": "wait-input", "name": "wait-input-1", "input": "standard",
+                                                "pin": 2, "on": False, "timeout": 4.0}
     assert "Step 'wait-input-1'" in run_in_process("poses", "show", "wait-input-1").stdout
     assert "Pose 'demo-1'" in run_in_process("poses", "show", "demo-1").stdout

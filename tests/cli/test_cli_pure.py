@@ -9,7 +9,7 @@ import pytest
 from ur3dq.cli import display
 from ur3dq.cli.app import Cancelled, exit_code_for, one_line, quiet_client_libraries
 from ur3dq.cli.background_simulator import process_is_simulator, read_state, state_directory
-from ur3dq.cli.options import angular_option, clamp_to_model
+from ur3dq.cli.options import clamp_to_model
 from ur3dq.errors import (
     ConnectionLostError,
     JointLimitError,
@@ -23,16 +23,23 @@ from ur3dq.kinematics import robot_model
 from ur3dq.plot import arm_points
 from ur3dq.pose import Pose
 from ur3dq.replay import plan_replay, replay_script
+from ur3dq.units import ANGULAR_SPEED, Units
 
 UR3 = robot_model("ur3")
 
 
+DEG = Units(angle="deg")
+
+
 def test_angles_in_degrees_or_radians():
-    assert display.angle_text(math.pi / 2, deg=True) == "90.000°"
-    assert display.angle_text(math.pi / 2, deg=False) == "1.570796"
-    assert display.angles_text([0, -math.pi], True) == "[0.000°, -180.000°]"
-    assert display.pose_vector_text([0.1, 0.2, 0.3, 0, 0, math.pi], True) == \
+    assert display.angle_text(math.pi / 2, DEG) == "90.000°"
+    assert display.angle_text(math.pi / 2, Units()) == "1.570796"
+    assert display.angles_text([0, -math.pi], DEG) == "[0.000°, -180.000°]"
+    assert display.pose_vector_text([0.1, 0.2, 0.3, 0, 0, math.pi], DEG) == \
         "p[0.100000, 0.200000, 0.300000, 0.000°, 0.000°, 180.000°]"
+    assert display.pose_vector_text([0.1, 0.2, 0.3, 0, 0, math.pi], Units("deg", "mm")) == \
+        "p[100.000, 200.000, 300.000, 0.000°, 0.000°, 180.000°]"
+    assert display.pose_label("TCP pose", Units("deg", "mm")) == "TCP pose (mm, °)"
     assert display.coefficients_text(range(8)) == ("[0.000000000 1.000000000 2.000000000 3.000000000 | 4.000000000 "
                                                   "5.000000000 6.000000000 7.000000000]")
     assert display.distance_text(0.0015, math.radians(2)) == "1.500 mm / 2.000°"
@@ -62,17 +69,14 @@ def test_client_library_warnings_are_quiet_unless_debugging():
 
 
 def test_clamp_to_model():
-    assert clamp_to_model(0.5, UR3.max_joint_speed, "--speed") == (0.5, False)
-    assert clamp_to_model(10.0, UR3.max_joint_speed, "--speed") == (pytest.approx(math.pi), True)
+    assert clamp_to_model(0.5, UR3.max_joint_speed, "--speed", ANGULAR_SPEED, Units()) == (0.5, False)
+    assert clamp_to_model(10.0, UR3.max_joint_speed, "--speed", ANGULAR_SPEED, Units()) == \
+        (pytest.approx(math.pi), True)
     for bad in (0.0, -1.0, math.nan, math.inf):
-        with pytest.raises(ValueError, match=r"--speed must be a number in \[0, "):
-            clamp_to_model(bad, UR3.max_joint_speed, "--speed")
-
-
-def test_angular_options_follow_deg():
-    assert angular_option(None, 1.05, deg=True) == 1.05  # defaults are radians whatever --deg says
-    assert angular_option(30.0, 1.05, deg=True) == pytest.approx(math.pi / 6)
-    assert angular_option(0.5, 1.05, deg=False) == 0.5
+        with pytest.raises(ValueError, match=r"--speed must be in \[0 rad/s, 3.14159 rad/s\]"):
+            clamp_to_model(bad, UR3.max_joint_speed, "--speed", ANGULAR_SPEED, Units())
+    with pytest.raises(ValueError, match=r"--speed must be in \[0 °/s, 180 °/s\]"):
+        clamp_to_model(-1.0, UR3.max_joint_speed, "--speed", ANGULAR_SPEED, DEG)
 
 
 def two_step_plan():

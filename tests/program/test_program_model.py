@@ -30,7 +30,7 @@ def pick_waypoint(joints=Q_PICK, motion=LINEAR):
     (lambda: Wait("pause", -1), r"step 'pause' \(wait\): seconds must be a finite number > 0"),
     (lambda: WaitInput("part", "standard", 0, True, float("nan")), r"step 'part' \(wait-input\): timeout"),
     (lambda: Message("say", "a\nb"), r"step 'say' \(message\): text contains control characters"),
-    (lambda: pick_waypoint(motion=Motion("teleport")), r"step 'pick' \(waypoint\): move 'teleport'"),
+    (lambda: pick_waypoint(motion=Motion("teleport")), r"motion: move 'teleport' is not one of joint, linear, process"),
     (lambda: pick_waypoint(motion=Motion("joint", blend=1e9)), r"blend must be a radius 0..1 m"),
     (lambda: pick_waypoint(motion=Motion("joint", speed=0)), r"speed must be a finite number > 0"),
     (lambda: RelativeWaypoint("up", "pick", note="\ud800"), r"step 'up' \(relative waypoint\): note holds a lone"),

@@ -7,7 +7,9 @@ import json
 import logging
 import os
 import sys
+from collections.abc import Iterable
 from pathlib import Path
+from typing import Any
 
 import click
 import orjson
@@ -19,6 +21,7 @@ from ur3dq.cli.signals import exit_code_for_interrupt, polite_signals_interrupt,
 from ur3dq.errors import RobotConnectionError, RobotError, SafetyCheckError, StoreError, UR3DQError
 from ur3dq.kinematics import MODEL_NAMES
 from ur3dq.store import DEFAULT_STORE_PATH, PoseStore
+from ur3dq.units import Units
 
 EXIT_OK = 0
 EXIT_CANCELLED = 1
@@ -83,6 +86,13 @@ class Settings:
     json: bool
     deg: bool
     out: Console = dataclasses.field(repr=False)
+    mm: bool = False
+    host_source: str = "default"   # where --host came from: 'option', 'environment' or 'default'
+
+    @property
+    def units(self) -> Units:
+        """The units bare numbers are typed and values are shown in (--deg, --mm); JSON is always SI."""
+        return Units(angle="deg" if self.deg else "rad", length="mm" if self.mm else "m")
 
     @property
     def store(self) -> PoseStore:
@@ -97,29 +107,41 @@ def make_console() -> Console:
     return Console(width=fixed, highlight=False, soft_wrap=False)
 
 
-def emit_json(data) -> None:
-    """Print `data` as indented JSON on stdout."""
-    click.echo(json.dumps(data, indent=2, ensure_ascii=False))
+JSON_SCHEMA = 1   # the "schema" key of every --json document (docs/json.md); raised when a key changes meaning
 
 
-def emit_json_list(items) -> None:
-    """Print `items` as one JSON array on stdout, an item at a time.
+def emit_json(data: dict[str, Any]) -> None:
+    """Print `data`, one JSON object, on stdout (indent 2) with the "schema" key first (docs/json.md)."""
+    click.echo(json.dumps({"schema": JSON_SCHEMA, **data}, indent=2, ensure_ascii=False))
+
+
+def emit_json_list(head: dict[str, Any], key: str, items: Iterable[Any]) -> None:
+    """Print the JSON object `head` with the list `items` under `key` on stdout, an item at a time.
 
     The layout is emit_json's (indent 2), without holding the whole text (a big store's list as one string would
     need hundreds of MB). orjson, not the stdlib: with an indent the stdlib encodes in pure Python, far slower
     (docs/performance.md). The values are the same; a small float may be spelt without an exponent
     (0.00008570859774087447 where the stdlib writes 8.570859774087447e-05).
     """
-    parts, count = ["["], 0
+    opening = json.dumps({"schema": JSON_SCHEMA, **head, key: []}, indent=2, ensure_ascii=False)
+    parts, count = [opening[:-len("[]\n}")] + "["], 0
     for item in items:
         text = orjson.dumps(item, option=orjson.OPT_INDENT_2 | orjson.OPT_SERIALIZE_NUMPY).decode()
-        parts.append(("\n  " if count == 0 else ",\n  ") + text.replace("\n", "\n  "))
+        parts.append(("\n    " if count == 0 else ",\n    ") + text.replace("\n", "\n    "))
         count += 1
         if len(parts) >= 1000:  # write in blocks: one write per item costs more than the encoding
             click.echo("".join(parts), nl=False)
             parts = []
-    parts.append("]" if count == 0 else "\n]")
+    parts.append("]\n}" if count == 0 else "\n  ]\n}")
     click.echo("".join(parts))
+
+
+def report(settings: Settings, data: dict[str, Any], text: str) -> None:
+    """What a command did: the JSON object `data` under --json, else the line `text`."""
+    if settings.json:
+        emit_json(data)
+    else:
+        click.echo(text)
 
 
 def confirm(question: str, assume_yes: bool, default: bool = False) -> None:
@@ -154,11 +176,13 @@ def confirm(question: str, assume_yes: bool, default: bool = False) -> None:
               help="Robot model: checked against the controller; for fk/ik/plot without a robot (default ur3).")
 @click.option("--store", "store_path", envvar="UR3DQ_STORE", default=DEFAULT_STORE_PATH, show_default=True,
               type=click.Path(dir_okay=False, path_type=Path), help="The JSON pose store (env UR3DQ_STORE).")
-@click.option("--json", "as_json", is_flag=True, help="Machine-readable JSON on stdout.")
-@click.option("--deg", is_flag=True, help="Angles in degrees (what you type and what is shown).")
+@click.option("--json", "as_json", is_flag=True, help="Machine-readable JSON on stdout (SI units, docs/json.md).")
+@click.option("--deg", is_flag=True, help="Bare angles typed and shown in degrees (default radians).")
+@click.option("--mm", is_flag=True, help="Bare lengths typed and shown in mm (default metres).")
 @click.version_option(package_name="ur3dq")
 @click.pass_context
-def cli(ctx, host, backend, model, store_path, as_json, deg):
+def cli(ctx: click.Context, host: str | None, backend: str, model: str | None, store_path: Path, as_json: bool,
+        deg: bool, mm: bool) -> None:
     """ur3dq: record and replay Universal Robots poses through dual-quaternion kinematics.
 
     \b
@@ -172,8 +196,11 @@ def cli(ctx, host, backend, model, store_path, as_json, deg):
 
     Metres and radians unless --deg. Poses are TCP poses in the controller's base frame.
     """
+    source = ctx.get_parameter_source("host")
     ctx.obj = Settings(host=host or None, backend=backend, model=model.lower() if model else None,
-                       store_path=store_path, json=as_json, deg=deg, out=make_console())
+                       store_path=store_path, json=as_json, deg=deg, out=make_console(), mm=mm,
+                       host_source="environment" if source == click.core.ParameterSource.ENVIRONMENT
+                       else "option" if host else "default")
 
 
 def one_line(error: BaseException) -> str:

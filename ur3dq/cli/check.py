@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import math
 import sys
+from pathlib import Path
 
 import click
 from rich.console import Console
 
 from ur3dq.cli.app import Settings, cli, emit_json, robot_session
 from ur3dq.cli.background_simulator import running_simulator_host
-from ur3dq.cli.options import cell_option, display_options
+from ur3dq.cli.options import Quantity, Typed, TypedValue, cell_option, display_options
 from ur3dq.cli.path_report import (
     DEFAULT_JOINT_ACCELERATION,
     DEFAULT_JOINT_SPEED,
@@ -26,6 +27,7 @@ from ur3dq.program.path import path_plan_of
 from ur3dq.program.plan import plan_program
 from ur3dq.replay import plan_replay
 from ur3dq.store_format import PROGRAM_SCHEMA_VERSION
+from ur3dq.units import ANGULAR_SPEED, LENGTH, LINEAR_SPEED
 
 
 @cli.command("check")
@@ -33,21 +35,26 @@ from ur3dq.store_format import PROGRAM_SCHEMA_VERSION
 @cell_option
 @click.option("--move", type=click.Choice(MOVE_TYPES), default="joint", show_default=True,
               help="How the arm goes to each pose (joint = movej, linear = movel, process = movep).")
-@click.option("--speed", type=float, default=None,
-              help=f"rad/s for joint moves [{DEFAULT_JOINT_SPEED}], m/s for linear/process [{DEFAULT_LINEAR_SPEED}].")
-@click.option("--blend", type=float, default=0.0, show_default=True, help="Blend radius between moves (m).")
-@click.option("--margin", type=float, default=None, help="Clearance to the cell (m) [default: the cell file's].")
-@click.option("--self-margin", type=float, default=0.0, show_default=True,
-              help="Clearance between the arm's own links (m).")
+@click.option("--speed", type=Typed([ANGULAR_SPEED, LINEAR_SPEED]), default=None, metavar="V",
+              help=f"Joint moves: e.g. 60deg/s [{DEFAULT_JOINT_SPEED} rad/s]; linear/process: e.g. 250mm/s "
+                   f"[{DEFAULT_LINEAR_SPEED * 1000:g} mm/s].")
+@click.option("--blend", type=Quantity(LENGTH), default=0.0, metavar="R",
+              help="Blend radius between moves, e.g. 10mm [default: 0].")
+@click.option("--margin", type=Quantity(LENGTH), default=None, metavar="D",
+              help="Clearance kept from the cell, e.g. 20mm [default: the cell file's].")
+@click.option("--self-margin", type=Quantity(LENGTH), default=0.0, metavar="D",
+              help="Clearance between the arm's own links [default: 0 mm].")
 @click.option("--wrist", type=float, default=Margins.wrist, show_default=True, help="Smallest |sin θ5| on a line.")
 @click.option("--elbow", type=float, default=Margins.elbow, show_default=True, help="Smallest |sin θ3| on a line.")
-@click.option("--shoulder", type=float, default=Margins.shoulder, show_default=True,
-              help="Smallest wrist-centre distance from the base axis on a line (m).")
+@click.option("--shoulder", type=Quantity(LENGTH), default=Margins.shoulder, metavar="D",
+              help=f"Smallest wrist-centre distance from the base axis on a line [default: "
+                   f"{Margins.shoulder * 1000:g} mm].")
 @click.option("--joints", "replay_joints", is_flag=True, help="Check the recorded joint angles instead of IK.")
 @display_options
 @click.pass_obj
-def check(settings: Settings, names, cell_path, move, speed, blend, margin, self_margin, wrist, elbow, shoulder,
-          replay_joints):
+def check(settings: Settings, names: tuple[str, ...], cell_path: Path | None, move: str,
+          speed: TypedValue | None, blend: float, margin: float | None, self_margin: float, wrist: float,
+          elbow: float, shoulder: float, replay_joints: bool) -> None:
     """Check the whole path through the stored poses (all, or NAMES) before the arm moves.
 
     Every move is sampled as the controller runs it (≤ 1 mm of TCP, ≤ 0.5° of any joint between samples) and each
@@ -61,15 +68,16 @@ def check(settings: Settings, names, cell_path, move, speed, blend, margin, self
     \b
     Examples:
       ur3dq check --cell cell.json
-      ur3dq check pick place --move linear --speed 0.1 --json
+      ur3dq check pick place --move linear --speed 100mm/s --json
     """
     poses = settings.store.select(names)
     if not poses:
         raise StoreError(f"{settings.store_path} has no poses: record some with `ur3dq record-pose`")
     cartesian = move != "joint"
-    speed = speed if speed is not None else (DEFAULT_LINEAR_SPEED if cartesian else DEFAULT_JOINT_SPEED)
+    speed_si = speed.si(LINEAR_SPEED if cartesian else ANGULAR_SPEED) if speed is not None else (
+        DEFAULT_LINEAR_SPEED if cartesian else DEFAULT_JOINT_SPEED)
     acceleration = DEFAULT_LINEAR_ACCELERATION if cartesian else DEFAULT_JOINT_ACCELERATION
-    for option, value in (("--speed", speed), ("--blend", blend)):
+    for option, value in (("--speed", speed_si), ("--blend", blend)):
         if not (math.isfinite(value) and (value > 0 or (option == "--blend" and value == 0))):
             raise ValueError(f"{option} must be a number {'≥' if option == '--blend' else '>'} 0, got {value!r}")
     margins = Margins(cell=margin, self_collision=self_margin, wrist=wrist, elbow=elbow, shoulder=shoulder)
@@ -88,7 +96,7 @@ def check(settings: Settings, names, cell_path, move, speed, blend, margin, self
             raise StoreError(f"the cell program in {settings.store_path} has no waypoint: nothing moves")
     else:
         steps = plan_replay(model, poses, start, replay_recorded_joints=replay_joints)
-        path = path_plan_from_replay(steps, start, move, speed, acceleration, blend)
+        path = path_plan_from_replay(steps, start, move, speed_si, acceleration, blend)
     result = check_path(model, path, cell, margins, keep_samples=False)   # a table and lines: no drawing
     err = Console(stderr=True, highlight=False, width=None if sys.stderr.isatty() else 160)
     title = f"Path check on {where}{f', cell {cell_path}' if cell_path else ''}: smallest margins per move"

@@ -17,13 +17,14 @@ from ur3dq.cli.app import EXIT_NOT_REACHED, Settings, cli, emit_json
 from ur3dq.cli.background_simulator import SimulatorError
 from ur3dq.cli.display import angles_text, plan_table, pose_vector_text, print_table, progress_bar, reached_table
 from ur3dq.cli.library_output import own_output
-from ur3dq.cli.options import angular_option, display_options, speed_and_acceleration
-from ur3dq.cli.program_workflow import PLAN_COLUMNS, plan_rows
+from ur3dq.cli.options import Quantity, display_options, or_default, speed_and_acceleration
+from ur3dq.cli.program_workflow import plan_columns, plan_rows
 from ur3dq.errors import RobotError
 from ur3dq.program.runner import run
 from ur3dq.program.steps import DigitalOut, Motion, RelativeWaypoint, Wait, Waypoint
 from ur3dq.replay import execute_plan, plan_replay, read_pose
 from ur3dq.store import PoseStore
+from ur3dq.units import ANGULAR_ACCELERATION, ANGULAR_SPEED, Units
 
 # Where the demo parks the arm and the places it records (rad): distinct, comfortably reachable, away from the
 # wrist singularity (wrist 2 ≠ 0, π), and each within π of the last so no move is refused for its travel.
@@ -41,9 +42,10 @@ DEMO_PLACES = (
 @cli.command()
 @click.option("--save", type=click.Path(dir_okay=False, path_type=Path),
               help="Keep the demo's pose store in this file (default: a temporary one, removed afterwards).")
-@click.option("--speed", type=float, default=None, help="movej speed, rad/s (°/s with --deg) [default: 1.5 rad/s].")
-@click.option("--acceleration", type=float, default=None,
-              help="movej acceleration, rad/s² (°/s² with --deg) [default: 3 rad/s²].")
+@click.option("--speed", type=Quantity(ANGULAR_SPEED), default=None, metavar="V",
+              help="movej speed, e.g. 60deg/s (bare: rad/s, °/s under --deg) [default: 1.5 rad/s].")
+@click.option("--acceleration", type=Quantity(ANGULAR_ACCELERATION), default=None, metavar="A",
+              help="movej acceleration, e.g. 150deg/s^2 [default: 3 rad/s²].")
 @click.option("--tolerance-mm", type=float, default=0.5, show_default=True,
               help="A replayed pose counts as reached within this distance.")
 @click.option("--tolerance-deg", type=float, default=0.1, show_default=True,
@@ -82,9 +84,9 @@ def demo(settings: Settings, save, speed, acceleration, tolerance_mm, tolerance_
             say(f"   serving on {simulator.host}; powering on and releasing the brakes")
             robot.power_on()
             robot.brake_release()
-            a, v = speed_and_acceleration(robot.model, angular_option(speed, DEMO_SPEED, settings.deg),
-                                          angular_option(acceleration, DEMO_ACCELERATION, settings.deg),
-                                          Console(stderr=True))
+            a, v = speed_and_acceleration(robot.model, or_default(speed, DEMO_SPEED),
+                                          or_default(acceleration, DEMO_ACCELERATION), Console(stderr=True),
+                                          settings.units)
             say(f"[bold]2.[/bold] Moving the arm to {len(DEMO_PLACES)} places and recording each into "
                 f"{escape(str(store.path))}")
             recorded = []
@@ -93,12 +95,12 @@ def demo(settings: Settings, save, speed, acceleration, tolerance_mm, tolerance_
                 stored = store.add(read_pose(robot, f"demo-{index}", note="recorded by ur3dq demo"),
                                    number_if_taken=True)
                 recorded.append(stored.name)
-                say(f"   recorded {stored.name} at TCP {pose_vector_text(stored.ur_pose, settings.deg)}")
-            say(f"[bold]3.[/bold] Parking the arm at {angles_text(DEMO_PARK, settings.deg)}")
+                say(f"   recorded {stored.name} at TCP {pose_vector_text(stored.ur_pose, settings.units)}")
+            say(f"[bold]3.[/bold] Parking the arm at {angles_text(DEMO_PARK, settings.units)}")
             robot.movej(np.array(DEMO_PARK), a=a, v=v)
             say("[bold]4.[/bold] Replaying the store as run-poses does (IK of each dual quaternion, FK-checked)")
             steps = plan_replay(robot.model, store.select(recorded), robot.joints(), a, v)
-            say(plan_table(steps, settings.deg, "Plan", settings.out.width))
+            say(plan_table(steps, settings.units, "Plan", settings.out.width))
             with progress_bar(Console(stderr=True)) as progress:
                 results = execute_plan(robot, steps, a, v, 0.0, 1, progress)
             say("[bold]5.[/bold] A cell program from the same store: approach, linear descent, gripper output, "
@@ -161,7 +163,8 @@ def run_pick_and_place(robot, store, program_store, pick: str, place: str, say) 
         console_print(escape(f"   step {position}: {step.name} ({step.kind})"))
 
     plan, seconds = run(robot, steps, progress=progress)
-    print_table(_Printer(say), "Pick-and-place plan (one URScript program)", PLAN_COLUMNS, plan_rows(plan, 1))
+    print_table(_Printer(say), "Pick-and-place plan (one URScript program)", plan_columns(Units()),
+                plan_rows(plan, 1, Units()))
     error_m, _ = robot.tcp_pose().distance(plan[-2].pose)
     if error_m > 5e-4:
         raise RobotError(f"the pick-and-place ended {error_m * 1000:.2f} mm from {place!r}")

@@ -4,7 +4,8 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import functools
-import math
+from collections.abc import Iterator
+from typing import Any
 
 import numpy as np
 from rich import box
@@ -16,47 +17,57 @@ from rich.table import Table
 from rich.text import Text
 
 from ur3dq.dualquat import DualQuaternion
+from ur3dq.units import ANGLE, LENGTH, Units, show, to_display, unit_label
 
 JOINT_LABELS = ("base", "shoulder", "elbow", "wrist 1", "wrist 2", "wrist 3")
 
 
-_ANGLE_FORMAT = {True: "%.3f°", False: "%.6f"}   # deg → the %-format of one angle (degrees or radians)
+# (angle unit, length unit) → the %-format of one angle / one length: 3 decimals of ° or mm, 6 of rad or m
+_ANGLE_FORMAT = {"deg": "%.3f°", "rad": "%.6f"}
+_LENGTH_FORMAT = {"mm": "%.3f", "m": "%.6f"}
+FINE = Units(angle="deg", length="mm")   # small errors and distances: mm and degrees whatever the person chose
 
 
-def angle_text(radians: float, deg: bool) -> str:
-    """One angle as text: degrees with 3 decimals and a ° sign when `deg`, else radians with 6 decimals."""
-    return _ANGLE_FORMAT[bool(deg)] % (math.degrees(radians) if deg else radians)
+def angle_text(radians: float, units: Units) -> str:
+    """One angle as text: degrees with 3 decimals and a ° sign under --deg, else radians with 6 decimals."""
+    return _ANGLE_FORMAT[units.angle] % to_display(radians, ANGLE, units)
 
 
-_POSE_VECTOR_FORMAT = {deg: "p[%.6f, %.6f, %.6f, " + ", ".join([angle] * 3) + "]"
-                       for deg, angle in _ANGLE_FORMAT.items()}   # deg → the %-format of a whole pose vector
-
-
-def angles_text(values, deg: bool) -> str:
-    """Joint angles (radians in) as one bracketed line in degrees or radians."""
-    numbers = np.asarray(values, dtype=float).tolist()
-    if deg:
-        numbers = [math.degrees(v) for v in numbers]
+def angles_text(values: Any, units: Units) -> str:
+    """Joint angles (radians in) as one bracketed line in the person's angle unit."""
+    scale = to_display(1.0, ANGLE, units)
+    numbers = [v * scale for v in np.asarray(values, dtype=float).tolist()]
     # One %-format per line, not one per angle: a long replay plan formats 10⁵ of them.
-    return _angles_format(bool(deg), len(numbers)) % tuple(numbers)
+    return _angles_format(units.angle, len(numbers)) % tuple(numbers)
 
 
 @functools.cache
-def _angles_format(deg: bool, count: int) -> str:
+def _angles_format(angle: str, count: int) -> str:
     """The %-format of angles_text's line of `count` angles."""
-    return "[" + ", ".join([_ANGLE_FORMAT[deg]] * count) + "]"
+    return "[" + ", ".join([_ANGLE_FORMAT[angle]] * count) + "]"
 
 
-def pose_vector_text(pose, deg: bool) -> str:
-    """A UR pose vector [x, y, z, rx, ry, rz]: metres with 6 decimals, rotation vector in degrees or radians."""
-    x, y, z, *rotation = (float(v) for v in pose)
+@functools.cache
+def _pose_vector_format(units: Units) -> str:
+    """The %-format of a whole pose vector in `units`."""
+    return ("p[" + ", ".join([_LENGTH_FORMAT[units.length]] * 3) + ", "
+            + ", ".join([_ANGLE_FORMAT[units.angle]] * 3) + "]")
+
+
+def pose_vector_text(pose: Any, units: Units) -> str:
+    """A UR pose vector [x, y, z, rx, ry, rz] in the person's units (pose_label names them)."""
+    length, angle = to_display(1.0, LENGTH, units), to_display(1.0, ANGLE, units)
+    x, y, z, rx, ry, rz = (float(v) for v in pose)
     # One %-format per pose, not a call per number: `poses list` formats 10⁵ of them.
-    if deg:
-        rotation = [math.degrees(r) for r in rotation]
-    return _POSE_VECTOR_FORMAT[bool(deg)] % (x, y, z, *rotation)
+    return _pose_vector_format(units) % (x * length, y * length, z * length, rx * angle, ry * angle, rz * angle)
 
 
-def coefficients_text(values) -> str:
+def pose_label(what: str, units: Units) -> str:
+    """A row label for a pose vector that names its units: 'TCP pose (mm, °)'."""
+    return f"{what} ({unit_label(LENGTH, units)}, {unit_label(ANGLE, units)})"
+
+
+def coefficients_text(values: Any) -> str:
     """Dual-quaternion coefficients [rw rx ry rz | dw dx dy dz] on one line, 9 decimals."""
     values = [float(v) for v in values]
     return "[" + " ".join(f"{v:.9f}" for v in values[:4]) + " | " + " ".join(f"{v:.9f}" for v in values[4:]) + "]"
@@ -64,7 +75,7 @@ def coefficients_text(values) -> str:
 
 def distance_text(metres: float, radians: float) -> str:
     """A pose distance as millimetres and degrees."""
-    return f"{metres * 1000:.3f} mm / {math.degrees(radians):.3f}°"
+    return f"{show(metres, LENGTH, FINE, 3)} / {to_display(radians, ANGLE, FINE):.3f}°"
 
 
 def count_text(count: int, noun: str) -> str:
@@ -72,9 +83,9 @@ def count_text(count: int, noun: str) -> str:
     return f"{count} {noun}" + ("" if count == 1 else "s")
 
 
-def unit_label(deg: bool) -> str:
-    """The angle unit shown in column headers."""
-    return "deg" if deg else "rad"
+def angle_unit(units: Units) -> str:
+    """The angle unit shown in column headers ('deg' or 'rad')."""
+    return units.angle
 
 
 class VectorCell:
@@ -216,20 +227,22 @@ def _shared_widths(minimum, natural, room: int) -> list[int]:
     return widths
 
 
-def joint_solutions_table(title: str, solutions, deg: bool, extra_columns=(), width: int | None = None) -> Table:
+def joint_solutions_table(title: str, solutions: Any, units: Units, extra_columns: Any = (),
+                          width: int | None = None) -> Table:
     """A table of joint vectors, one row each.
 
     A table with one row per joint vector; `extra_columns` = [(Column, [text per row])]. Narrower than
     NARROW_WIDTH the angles have 4 decimals (2 in degrees) so the six joints fit 80 columns."""
     narrow = width is not None and width < NARROW_WIDTH
-    unit = unit_label(deg)
+    unit = angle_unit(units)
+    deg = units.angle == "deg"
     columns = [Column("#", justify="right")]
     columns += [Column(f"{label} ({unit})", narrow_header=label, justify="right") for label in JOINT_LABELS]
     columns += [column for column, _ in extra_columns]
     rows = []
     for index, q in enumerate(solutions):
-        angles = [(f"{math.degrees(float(v)):.2f}" if deg else f"{float(v):.4f}") if narrow
-                  else angle_text(float(v), deg) for v in q]
+        angles = [(f"{to_display(float(v), ANGLE, units):.2f}" if deg else f"{float(v):.4f}") if narrow
+                  else angle_text(float(v), units) for v in q]
         rows.append([str(index + 1), *angles, *(values[index] for _, values in extra_columns)])
     table = fitted_table(title, columns, rows, width)
     if narrow:  # the unit leaves the headers for the caption
@@ -238,15 +251,15 @@ def joint_solutions_table(title: str, solutions, deg: bool, extra_columns=(), wi
     return table
 
 
-def pose_rows(model, pose, deg: bool) -> list[tuple[str, str]]:
+def pose_rows(model: Any, pose: Any, units: Units) -> list[tuple[str, str]]:
     """What record-pose shows about a reading: joints, TCP pose, dual quaternion, and `model`'s FK check."""
     metres, radians = model.fk(pose.joints).distance(pose.dq)
     return [
-        ("joints", angles_text(pose.joints, deg)),
-        ("TCP pose", pose_vector_text(pose.ur_pose, deg)),
+        (f"joints ({unit_label(ANGLE, units)})", angles_text(pose.joints, units)),
+        (pose_label("TCP pose", units), pose_vector_text(pose.ur_pose, units)),
         ("dual quaternion", coefficients_text(pose.dual_quaternion)),
         ("thesis line", pose.dq.to_thesis_line()),
-        ("TCP offset", pose_vector_text(pose.tcp_offset, deg)),
+        (pose_label("TCP offset", units), pose_vector_text(pose.tcp_offset, units)),
         ("model FK check", f"{distance_text(metres, radians)} from the controller's TCP"),
     ]
 
@@ -254,14 +267,19 @@ def pose_rows(model, pose, deg: bool) -> list[tuple[str, str]]:
 NARROW_WIDTH = 120  # below this many columns the tables use compact numbers that wrap between values
 
 
-def compact_angles_text(values, deg: bool) -> str:
+def compact_angles_text(values: Any, units: Units) -> str:
     """Joint angles on a narrow terminal: space-separated (so they wrap between values), 3 decimals (1 in °)."""
-    return " ".join(f"{math.degrees(float(v)):.1f}°" if deg else f"{float(v):.3f}" for v in values)
+    if units.angle == "deg":
+        return " ".join(f"{to_display(float(v), ANGLE, units):.1f}°" for v in values)
+    return " ".join(f"{float(v):.3f}" for v in values)
 
 
-def compact_pose_text(pose, deg: bool) -> str:
-    """A UR pose vector on a narrow terminal: metres with 3 decimals, then the rotation as compact_angles_text."""
-    return " ".join(f"{float(v):.3f}" for v in pose[:3]) + " " + compact_angles_text(pose[3:], deg)
+def compact_pose_text(pose: Any, units: Units) -> str:
+    """A UR pose vector on a narrow terminal: metres with 3 decimals (mm with 1), then the rotation as
+    compact_angles_text."""
+    length = "%.1f" if units.length == "mm" else "%.3f"
+    return " ".join(length % to_display(float(v), LENGTH, units) for v in pose[:3]) + " " + \
+        compact_angles_text(pose[3:], units)
 
 
 PLAIN_TABLE_ROWS = 2000  # beyond this, tables are printed as tab-separated lines (rich takes minutes to lay out)
@@ -295,13 +313,13 @@ def print_table(console: Console, title: str, columns, rows, count: int | None =
     console.print(fitted_table(None, columns, [[escape(cell) for cell in row] for row in rows], console.width))
 
 
-def plan_table(steps, deg: bool, title: str, width: int | None = None) -> Table:
+def plan_table(steps: Any, units: Units, title: str, width: int | None = None) -> Table:
     """The replay plan (ur3dq.replay.PlanStep list) as a table: replay_plan's columns and rows."""
-    columns, rows = replay_plan(steps, deg, width)
+    columns, rows = replay_plan(steps, units, width)
     return fitted_table(title, columns, [[escape(cell) for cell in row] for row in rows], width)
 
 
-def replay_plan(steps, deg: bool, width: int | None = None) -> tuple:
+def replay_plan(steps: Any, units: Units, width: int | None = None) -> tuple:
     """The columns and rows of a replay plan's table.
 
     (Columns, an iterator of the rows in plain text) of the replay plan (ur3dq.replay.PlanStep list): chosen
@@ -309,26 +327,27 @@ def replay_plan(steps, deg: bool, width: int | None = None) -> tuple:
     compact and wrap three per line, and the FK check, the time and how the joints were chosen are left out in that
     order while the table would not fit; the pose name is never cut."""
     narrow = width is not None and width < NARROW_WIDTH
-    unit = unit_label(deg)
-    joints_width = len(compact_angles_text([-3.14159] * 3, deg)) if narrow else None
+    unit = angle_unit(units)
+    joints_width = len(compact_angles_text([-3.14159] * 3, units)) if narrow else None
     columns = [Column("#", justify="right", no_wrap=True), Column("pose", no_wrap=True),
                Column(f"joints ({unit})", min_width=joints_width), Column("chosen by", drop_order=3),
                Column("travel", justify="right", no_wrap=True, drop_order=4),
                Column("time", justify="right", no_wrap=True, drop_order=2),
                Column("FK check", drop_order=1)]
-    return columns, _replay_rows(steps, deg, narrow)
+    return columns, _replay_rows(steps, units, narrow)
 
 
-def _replay_rows(steps, deg: bool, narrow: bool):
+def _replay_rows(steps: Any, units: Units, narrow: bool) -> Iterator[tuple[str, ...]]:
     """replay_plan's rows, one at a time."""
+    deg = units.angle == "deg"
     for index, step in enumerate(steps, start=1):
         if narrow:
-            joints = compact_angles_text(step.joints, deg)
-            travel = "—" if step.travel is None else (f"{math.degrees(step.travel):.1f}°" if deg
+            joints = compact_angles_text(step.joints, units)
+            travel = "—" if step.travel is None else (f"{to_display(step.travel, ANGLE, units):.1f}°" if deg
                                                       else f"{step.travel:.3f}")
         else:
-            joints, travel = angles_text(step.joints, deg), "—" if step.travel is None else angle_text(step.travel,
-                                                                                                       deg)
+            joints = angles_text(step.joints, units)
+            travel = "—" if step.travel is None else angle_text(step.travel, units)
         yield (str(index), step.pose.name, joints, step.source + (f" (of {step.solutions})" if step.solutions else ""),
                travel, "—" if step.duration is None else f"{step.duration:.2f} s",
                distance_text(step.fk_error_m, step.fk_error_rad))

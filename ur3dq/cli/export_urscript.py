@@ -11,17 +11,19 @@ from ur3dq.cli.offline_plans import confirm_overwrite, offline_plan
 from ur3dq.cli.options import (
     DEFAULT_ACCELERATION,
     DEFAULT_SPEED,
-    angular_option,
+    Quantity,
     check_blend,
     check_max_travel,
-    deg_option,
+    display_options,
     motion_options,
+    or_default,
 )
 from ur3dq.cli.program_workflow import export_program_text
 from ur3dq.pose import utc_now_iso
 from ur3dq.replay import describe_speeds, replay_script
 from ur3dq.robot.safety import DEFAULT_MAX_JOINT_TRAVEL
 from ur3dq.store import write_atomically
+from ur3dq.units import LENGTH
 
 
 @cli.command("export-urscript")
@@ -29,14 +31,15 @@ from ur3dq.store import write_atomically
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), default=Path("-"),
               show_default=True, help="The .script file to write (`-`: stdout).")
 @motion_options
-@click.option("--blend", type=float, default=0.0, show_default=True, help="Blend radius between poses, metres.")
+@click.option("--blend", type=Quantity(LENGTH), default=0.0, metavar="R",
+              help="Blend radius between poses, e.g. 10mm [default: 0].")
 @click.option("--loop", "loops", type=click.IntRange(min=1), default=1, show_default=True,
               help="Repeat the sequence this many times.")
 @click.option("--joints", "replay_joints", is_flag=True, help="Use the recorded joints instead of solving IK.")
 @click.option("--yes", "-y", is_flag=True, help="Overwrite the output file without asking.")
 @click.option("--from", "start", metavar="N", help="A cell program: start at the step N.")
 @click.option("--to", "end", metavar="N", help="A cell program: end at the step N.")
-@deg_option
+@display_options
 @click.pass_obj
 def export_urscript(settings: Settings, names, output: Path, speed, acceleration, blend, loops, replay_joints,
                     max_travel, yes, start, end):
@@ -57,15 +60,13 @@ def export_urscript(settings: Settings, names, output: Path, speed, acceleration
         if names or loops > 1:
             raise click.UsageError("a cell program is exported as a whole or --from/--to: no NAMES, no --loop")
         program, count = export_program_text(
-            settings, start, end, angular_option(speed, DEFAULT_SPEED, settings.deg),
-            angular_option(acceleration, DEFAULT_ACCELERATION, settings.deg), blend, 1.0, replay_joints,
-            check_max_travel(angular_option(max_travel, DEFAULT_MAX_JOINT_TRAVEL, settings.deg)))
+            settings, start, end, or_default(speed, DEFAULT_SPEED), or_default(acceleration, DEFAULT_ACCELERATION),
+            blend, 1.0, replay_joints, check_max_travel(or_default(max_travel, DEFAULT_MAX_JOINT_TRAVEL)))
         _write_program(output, program, yes, count_text(count, "step"))
         return
-    travel = check_max_travel(angular_option(max_travel, DEFAULT_MAX_JOINT_TRAVEL, settings.deg))
-    model, steps, a, v = offline_plan(settings, names, angular_option(speed, DEFAULT_SPEED, settings.deg),
-                                      angular_option(acceleration, DEFAULT_ACCELERATION, settings.deg),
-                                      replay_joints, travel)
+    model, steps, a, v = offline_plan(settings, names, or_default(speed, DEFAULT_SPEED),
+                                      or_default(acceleration, DEFAULT_ACCELERATION), replay_joints,
+                                      check_max_travel(or_default(max_travel, DEFAULT_MAX_JOINT_TRAVEL)))
     offsets = {step.pose.tcp_offset for step in steps}
     header = [
         f"ur3dq export-urscript: {count_text(len(steps), 'pose')} from {settings.store_path} for a {model.name}",

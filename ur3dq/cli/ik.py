@@ -1,8 +1,6 @@
 """`ur3dq ik`: inverse kinematics from the command line, no robot needed."""
 from __future__ import annotations
 
-import math
-
 import click
 import numpy as np
 
@@ -18,30 +16,37 @@ from ur3dq.cli.display import (
 )
 from ur3dq.cli.options import (
     NUMBERS_CONTEXT,
+    Quantity,
+    Typed,
+    TypedValue,
     display_options,
     joints_from_input,
     joints_in_limits,
     model_for,
     pose_from_input,
+    pose_vector_type,
     ur_pose_from_input,
 )
 from ur3dq.replay import nearest_variant
 from ur3dq.robot import motion
+from ur3dq.units import ANGLE, LENGTH, to_display
 
 
 @cli.command(context_settings=NUMBERS_CONTEXT)
-@click.argument("values", nargs=-1, type=float, metavar="[X Y Z RX RY RZ | RW RX RY RZ DW DX DY DZ]")
+@click.argument("values", nargs=-1, type=Typed([LENGTH, ANGLE]), metavar="[X Y Z RX RY RZ | RW .. DZ]")
 @click.option("--pose", "pose_name", metavar="NAME", help="Solve a pose of the store (with its TCP offset).")
-@click.option("--tcp", nargs=6, type=float, metavar="X Y Z RX RY RZ",
-              help="TCP offset in the flange frame (metres, rotation vector; degrees with --deg).")
-@click.option("--near", nargs=6, type=float, metavar="J1 .. J6",
+@click.option("--tcp", type=pose_vector_type(), default=None, metavar="X Y Z RX RY RZ",
+              help="TCP offset in the flange frame (e.g. 0 0 150mm 0 0 0; bare: m and rad, or --mm/--deg).")
+@click.option("--near", type=click.Tuple([Quantity(ANGLE)] * 6), default=None, metavar="J1 .. J6",
               help="Mark the solution `ik` would pick: the closest to these joints (±2π variants in limits).")
 @display_options
 @click.pass_obj
-def ik(settings: Settings, values, pose_name, tcp, near):
+def ik(settings: Settings, values: tuple[TypedValue, ...], pose_name: str | None, tcp: tuple[float, ...] | None,
+       near: tuple[float, ...] | None) -> None:
     """Inverse kinematics: every joint solution of a TCP pose, each checked by forward kinematics.
 
-    The pose is a UR pose vector (6 numbers), dual-quaternion coefficients (8 numbers) or --pose NAME.
+    The pose is a UR pose vector (6 numbers: x y z in m, or with units such as 300mm; the rotation vector in rad,
+    ° under --deg, or 180deg), dual-quaternion coefficients (8 plain numbers) or --pose NAME.
     Solutions are canonical in (-180°, 180°]; with --near (or a stored pose's recorded joints) the table
     also shows each solution's largest joint travel from there and marks the one a replay would choose.
 
@@ -52,8 +57,8 @@ def ik(settings: Settings, values, pose_name, tcp, near):
       ur3dq ik --pose pick --json
     """
     model = model_for(settings)
-    reference = joints_in_limits(model, joints_from_input(near, settings.deg, "--near"), settings.deg, "--near") \
-        if near else None
+    units = settings.units
+    reference = joints_in_limits(model, joints_from_input(near, "--near"), units, "--near") if near else None
     if pose_name:
         if values:
             raise ValueError("give either pose numbers or --pose NAME, not both")
@@ -63,9 +68,9 @@ def ik(settings: Settings, values, pose_name, tcp, near):
         if reference is None and stored.joints is not None:
             reference = np.asarray(stored.joints)
     else:
-        target = pose_from_input(values, settings.deg)
+        target = pose_from_input(values)
     if tcp:
-        model = model.with_tcp(ur_pose_from_input(tcp, settings.deg, "--tcp"))
+        model = model.with_tcp(ur_pose_from_input(tcp, "--tcp"))
     solutions = model.ik_all(target)
     errors = [model.fk(q).distance(target) for q in solutions]
     chosen = model.ik(target, reference) if reference is not None else None
@@ -83,13 +88,14 @@ def ik(settings: Settings, values, pose_name, tcp, near):
         sent = [nearest_variant(model, [q], reference) if np.all(np.isfinite(q)) else q for q in solutions]
         travels = [motion.leading_travel(reference, q) for q in sent]
         extra.append((Column("travel from ref", narrow_header="travel", justify="right", drop_order=2),
-                      [f"{math.degrees(t):.1f}°" if settings.deg else f"{t:.4f}" for t in travels]))
+                      [f"{to_display(t, ANGLE, units):.1f}°" if units.angle == "deg" else f"{t:.4f}"
+                       for t in travels]))
         extra.append((Column("chosen", narrow_header="◀"), ["◀" if chosen is not None and
                                                             np.allclose(q, chosen, atol=1e-9) else "" for q in sent]))
     settings.out.print(joint_solutions_table(
         f"{len(solutions)} IK solutions on the {model.name} for" + (" " if settings.out.width >= NARROW_WIDTH else "\n")
-        + pose_vector_text(target.to_ur_pose(), settings.deg),
-        sent if reference is not None else solutions, settings.deg, extra, settings.out.width))
+        + pose_vector_text(target.to_ur_pose(), units),
+        sent if reference is not None else solutions, units, extra, settings.out.width))
     if chosen is not None:
         settings.out.print("Closest to the reference (◀, what a replay moves to):\n  "
-                           f"{angles_text(chosen, settings.deg)}")
+                           f"{angles_text(chosen, units)}")

@@ -20,7 +20,7 @@ def offline_plan(settings: Settings, names, speed, acceleration, replay_joints, 
     if not poses:
         raise StoreError(f"{settings.store_path} has no poses: record some with `ur3dq record-pose`")
     model = robot_model(settings.model or poses[0].robot_model)
-    a, v = speed_and_acceleration(model, speed, acceleration, Console(stderr=True, highlight=False))
+    a, v = speed_and_acceleration(model, speed, acceleration, Console(stderr=True, highlight=False), settings.units)
     return model, plan_replay(model, poses, None, a, v, replay_joints, max_travel), a, v
 
 

@@ -8,7 +8,7 @@ import click
 from ur3dq.cli.app import Settings, cli
 from ur3dq.cli.display import count_text
 from ur3dq.cli.offline_plans import confirm_overwrite, offline_plan
-from ur3dq.cli.options import DEFAULT_ACCELERATION, DEFAULT_SPEED, cell_option, global_options
+from ur3dq.cli.options import DEFAULT_ACCELERATION, DEFAULT_SPEED, cell_option, display_options
 from ur3dq.cli.path_report import check_program, check_replay
 from ur3dq.program.plan import plan_program
 from ur3dq.store_format import PROGRAM_SCHEMA_VERSION
@@ -19,7 +19,7 @@ from ur3dq.store_format import PROGRAM_SCHEMA_VERSION
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), default=Path("poses.png"),
               show_default=True, help="The PNG to write.")
 @click.option("--yes", "-y", is_flag=True, help="Overwrite the output file without asking.")
-@global_options
+@display_options
 @cell_option
 @click.pass_obj
 def plot(settings: Settings, names, output: Path, yes, cell_path):

@@ -2,12 +2,14 @@
 tables, and the program paths of `record-pose`, `run-poses` and `export-urscript`.
 
 Every edit is one locked, atomic store update (PoseStore.update_program): the new program is checked first and a
-bad one changes nothing (one line naming the step, exit 4). Speeds are SI: rad/s, rad/s² for joint moves, m/s,
-m/s² for linear/process moves; blend radius and offsets in metres, offset rotations in radians.
+bad one changes nothing (one line naming the step, exit 4). The store is SI: rad/s, rad/s² for joint moves, m/s,
+m/s² for linear/process moves; blend radius and offsets in metres, offset rotations in radians. What a person
+types and reads goes through ur3dq.units (options.Quantity / options.Typed in, motion_text / describe_step out).
 """
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 
 import click
 from rich.console import Console
@@ -15,23 +17,125 @@ from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from ur3dq.cli.app import Settings, confirm, emit_json, emit_json_list, robot_session
-from ur3dq.cli.display import Column, print_table
+from ur3dq.cli.display import Column, pose_label, pose_vector_text, print_table
+from ur3dq.cli.options import TypedValue
 from ur3dq.cli.path_report import require_clear_program_path
 from ur3dq.errors import StoreError
-from ur3dq.pose import utc_now_iso
-from ur3dq.program.plan import Defaults, plan_program
+from ur3dq.kinematics.models import URModel
+from ur3dq.pose import Pose, utc_now_iso
+from ur3dq.program.plan import Defaults, PlannedStep, motion_ranges, plan_program
 from ur3dq.program.resolve import select_range
 from ur3dq.program.script import program_script
-from ur3dq.program.steps import Motion, Waypoint, describe
+from ur3dq.program.steps import Motion, RelativeWaypoint, Step, Wait, Waypoint, describe
 from ur3dq.store_format import PROGRAM_SCHEMA_VERSION, step_to_dict
+from ur3dq.units import ACCELERATION, ANGLE, DURATION, LENGTH, SPEED, Units, angular_kind, show, to_display, unit_label
 
 # ---------------------------------------------------------------- shared options and edits
 
 
-def motion_from_options(base: Motion, move, speed, acceleration, blend) -> Motion:
-    """`base` with the options that were given replacing its values (validated when the step is built)."""
-    return Motion(move or base.move, base.speed if speed is None else speed,
-                  base.acceleration if acceleration is None else acceleration, base.blend if blend is None else blend)
+def motion_from_options(base: Motion, move: str | None, speed: TypedValue | None,
+                        acceleration: TypedValue | None, blend: float | None, who: str,
+                        model: URModel) -> Motion:
+    """`base` with the options that were given replacing its values: the speed and acceleration read as the
+    resulting move type's kind (joint: angular, linear/process: linear) and refused, naming `who` and the valid
+    range on `model`, when outside it; a move type change without a new speed keeps none that would not fit."""
+    new_move = move or base.move
+    angular = angular_kind(new_move)
+    keep = move is None or angular_kind(base.move) == angular   # the stored numbers still mean the same kind
+    values = []
+    for typed, stored, kinds in ((speed, base.speed, SPEED), (acceleration, base.acceleration, ACCELERATION)):
+        if typed is None:
+            values.append(stored if keep else None)
+            continue
+        try:
+            values.append(typed.si(kinds[angular]))
+        except ValueError as error:
+            other = "joint" if not angular else "linear"
+            raise ValueError(f"{who} is a {new_move} move: {error} (or make it a {other} move with --move "
+                             f"{other})") from None
+    try:
+        motion = Motion(new_move, values[0], values[1], base.blend if blend is None else blend)
+    except ValueError as error:
+        raise ValueError(f"{who}: {str(error).removeprefix('motion: ')}") from None
+    check_motion_range(motion, model, who, typed_units(speed, acceleration))
+    return motion
+
+
+def typed_units(*values: TypedValue | None) -> Units:
+    """The units the person typed in (those of the first value given), for messages."""
+    return next((value.units for value in values if value is not None), Units())
+
+
+def check_motion_range(motion: Motion, model: URModel, who: str, units: Units) -> None:
+    """ValueError naming `who` and the valid range (in `units`) when the motion's speed or acceleration is outside
+    what `model` allows for its move type (ur3dq.program.plan.motion_ranges)."""
+    angular = angular_kind(motion.move)
+    speeds, accelerations = motion_ranges(model, motion.move)
+    for value, (low, high), kind, what, example in (
+            (motion.speed, speeds, SPEED[angular], "speed", "60deg/s" if angular else "250mm/s"),
+            (motion.acceleration, accelerations, ACCELERATION[angular], "acceleration",
+             "80deg/s^2" if angular else "1200mm/s^2")):
+        if value is not None and not low <= value <= high:
+            shown = Units(units.angle, "mm")   # linear speeds read best in mm/s, as on the pendant
+            raise ValueError(f"{who}: {what} {show(value, kind, shown)} is outside the {model.name}'s range for a "
+                             f"{motion.move} move, {show(low, kind, shown)} to {show(high, kind, shown)} (e.g. "
+                             f"--{what} {example})")
+
+
+def program_model(settings: Settings, steps: list[Step]) -> URModel:
+    """The model a program's limits are checked against: --model, else the first recorded pose's, else the UR3."""
+    from ur3dq.kinematics import robot_model
+
+    first_pose = next((s.pose for s in steps if isinstance(s, Waypoint)), None)
+    return robot_model(settings.model or (first_pose.robot_model if first_pose else "ur3"))
+
+
+def motion_text(motion: Motion, units: Units) -> str:
+    """How the arm moves to a waypoint, in the person's units: 'linear 250 mm/s, blend 20 mm'."""
+    angular = angular_kind(motion.move)
+    parts = [motion.move]
+    if motion.speed is not None:
+        parts.append(show(motion.speed, SPEED[angular], _move_units(units, angular)))
+    if motion.acceleration is not None:
+        parts.append("a " + show(motion.acceleration, ACCELERATION[angular], _move_units(units, angular)))
+    if motion.blend is not None:
+        parts.append("blend " + show(motion.blend, LENGTH, Units(units.angle, "mm")))
+    return ", ".join([" ".join(parts[:2]), *parts[2:]])
+
+
+def _move_units(units: Units, angular: bool) -> Units:
+    """Speeds shown as the pendant shows them: joint moves in the person's angle unit, linear moves in mm."""
+    return units if angular else Units(units.angle, "mm")
+
+
+def describe_step(step: Step, units: Units) -> str:
+    """One short line saying what the step does, in the person's units (for tables; user text as typed)."""
+    if isinstance(step, Waypoint):
+        return motion_text(step.motion, units)
+    if isinstance(step, RelativeWaypoint):
+        mm = Units(units.angle, "mm")
+        x, y, z = (to_display(v, LENGTH, mm) for v in step.offset[:3])
+        turn = math.hypot(*step.offset[3:])
+        rotation = f" turn {show(turn, ANGLE, units, 2 if units.angle == 'deg' else 4)}" if turn else ""
+        return (f"{motion_text(step.motion, units)}; {step.base} {x:+.1f},{y:+.1f},{z:+.1f} mm {step.frame}"
+                f"{rotation}")
+    if isinstance(step, Wait):
+        return show(step.seconds, DURATION)
+    return describe(step)
+
+
+def step_fields_text(step: Step, units: Units) -> list[tuple[str, str]]:
+    """`poses show` of a step that is not a recorded pose: its stored fields, numbers in the person's units."""
+    fields = step_to_dict(step)
+    rows = [(key, str(value)) for key, value in fields.items()
+            if key not in ("offset", "speed", "acceleration", "blend", "seconds", "timeout")]
+    if isinstance(step, RelativeWaypoint):
+        rows.append((pose_label("offset", units), pose_vector_text(step.offset, units)))
+        rows.append(("move", motion_text(step.motion, units)))
+    for key in ("seconds", "timeout"):
+        if key in fields:
+            rows.append((key, show(fields[key], DURATION)))
+    return rows
 
 
 def insertion_index(steps, after: str | None, before: str | None, source) -> int:
@@ -73,39 +177,57 @@ def add_step_at(settings: Settings, make_step, after, before):
     return settings.store.update_program(edit)
 
 
-def check_waypoint_options(name: str | None, move, speed, acceleration, blend, after, before, steps, source):
+def check_waypoint_options(settings: Settings, name: str | None, move: str | None, speed: TypedValue | None,
+                           acceleration: TypedValue | None, blend: float | None, after: str | None,
+                           before: str | None, steps: list[Step]) -> Motion:
     """Check record-pose's waypoint options before the arm is read.
 
-    record-pose's --move/--speed/--acceleration/--blend/--after/--before checked before the arm is read:
-    ValueError or StoreError naming what is wrong."""
-    Motion(move or "joint", speed, acceleration, blend).check(f"waypoint {name or '(new)'!r}")
-    insertion_index(steps, after, before, source)
+    record-pose's --move/--speed/--acceleration/--blend/--after/--before: the new waypoint's Motion, or
+    ValueError / StoreError naming what is wrong."""
+    motion = motion_from_options(Motion(), move, speed, acceleration, blend, f"waypoint {name or '(new)'!r}",
+                                 program_model(settings, steps))
+    insertion_index(steps, after, before, settings.store_path)
+    return motion
 
 
-def record_waypoint(settings: Settings, pose, number_if_taken: bool, move, speed, acceleration, blend, after,
-                    before):
+def record_waypoint(settings: Settings, pose: Pose, number_if_taken: bool, motion: Motion, after: str | None,
+                    before: str | None) -> Pose:
     """Store a recorded pose as a waypoint of the program.
 
-    Store `pose` as a waypoint with its own motion at --after/--before (the end by default), in one atomic
+    Store `pose` as a waypoint moved to with `motion` at --after/--before (the end by default), in one atomic
     update (a taken name is refused, or numbered on with `number_if_taken`); returns the pose as stored."""
     from ur3dq.store import with_added
 
-    def edit(steps):
+    def edit(steps: list[Step]) -> tuple[list[Step], Pose]:
         index = insertion_index(steps, after, before, settings.store_path)
         result, (added,) = with_added(steps, [pose], number_if_taken, position=index)
-        motion = motion_from_options(Motion(), move, speed, acceleration, blend)
         result[index] = Waypoint(added.name, added, motion)
         return result, added
 
     return settings.store.update_program(edit)
 
 
+SAME_SPOT_M = 5e-4       # two recorded poses closer than this (and SAME_SPOT_RAD) are "the same spot"
+SAME_SPOT_RAD = 1e-3
+
+
+def same_spot_as(pose: Pose, steps: list[Step]) -> str | None:
+    """The name of a recorded waypoint of `steps` at `pose`'s spot (within 0.5 mm and 0.06°), or None: a pose
+    recorded twice without moving the arm in between is almost always a slip."""
+    for step in steps:
+        if isinstance(step, Waypoint) and step.name != pose.name:
+            metres, radians = step.pose.dq.distance(pose.dq)
+            if metres < SAME_SPOT_M and radians < SAME_SPOT_RAD:
+                return step.name
+    return None
+
+
 # ---------------------------------------------------------------- display
 
 
-def program_rows(steps):
+def program_rows(steps: list[Step], units: Units) -> list[tuple[str, str, str, str]]:
     """(position, name, type, what it does) text of each step."""
-    return [(str(index), step.name, step.kind, describe(step)) for index, step in enumerate(steps, start=1)]
+    return [(str(index), step.name, step.kind, describe_step(step, units)) for index, step in enumerate(steps, start=1)]
 
 
 def list_program(settings: Settings) -> bool:
@@ -114,38 +236,51 @@ def list_program(settings: Settings) -> bool:
         return False
     steps = settings.store.load_program()
     if settings.json:
-        emit_json_list(step_to_dict(step) for step in steps)
+        emit_json_list({"store": str(settings.store_path), "version": PROGRAM_SCHEMA_VERSION}, "steps",
+                       (step_to_dict(step) for step in steps))
         return True
     print_table(settings.out, f"{len(steps)} steps in {settings.store_path}", LIST_COLUMNS,
-                program_rows(steps))
+                program_rows(steps, settings.units))
     return True
 
 
-_TARGET_FORMAT = " ".join(["%.3f"] * 6)   # one %-format per row: a long program's table has 10⁵ of them
+# one %-format per row: a long program's table has 10⁵ of them (radians with 3 decimals, degrees with 1)
+_TARGET_FORMAT = {"rad": " ".join(["%.3f"] * 6), "deg": " ".join(["%.1f"] * 6)}
 
 
-def plan_rows(plan, first: int):
+def plan_rows(plan: list[PlannedStep], first: int, units: Units) -> Iterator[tuple[str, ...]]:
     """The rows of the cell program's plan table, one at a time.
 
-    The run-poses plan table's rows, one at a time: #, name, type, target joints (rad, 3 decimals), speed,
-    blend, travel, time."""
+    #, name, type, target joints, speed, blend (mm), travel (largest joint), time; numbers in the person's units
+    (plan_columns names them)."""
+    scale = to_display(1.0, ANGLE, units)
+    mm = Units(units.angle, "mm")
     for offset, planned in enumerate(plan):
         step = planned.step
         if planned.joints is None:
-            yield str(first + offset), step.name, step.kind, describe(step), "", "", "", ""
+            yield str(first + offset), step.name, step.kind, describe_step(step, units), "", "", "", ""
             continue
-        unit = "rad/s" if planned.move == "joint" else "m/s"
-        yield (str(first + offset), step.name, planned.move, _TARGET_FORMAT % tuple(planned.joints.tolist()),
-               f"{planned.speed:.3g} {unit}", f"{planned.blend:.3g}",
-               "—" if planned.travel is None else f"{planned.travel:.3f}",
+        angular = angular_kind(planned.move or "joint")
+        yield (str(first + offset), step.name, planned.move or "", _TARGET_FORMAT[units.angle] % tuple(
+                   v * scale for v in planned.joints.tolist()),
+               show(planned.speed or 0.0, SPEED[angular], _move_units(units, angular), 3 if angular else 0),
+               f"{to_display(planned.blend, LENGTH, mm):.0f}",
+               "—" if planned.travel is None else f"{planned.travel * scale:.{1 if units.angle == 'deg' else 3}f}",
                "—" if planned.duration is None else f"{planned.duration:.2f} s")
 
 
-PLAN_COLUMNS = (Column("#", justify="right", no_wrap=True), Column("step", no_wrap=True), Column("type"),
-                Column("target (rad) / action", min_width=len("-3.142 -3.142 -3.142")),
-                Column("speed", drop_order=3), Column("blend m", narrow_header="blend", drop_order=1),
-                Column("travel", justify="right", no_wrap=True, drop_order=2),
-                Column("time", justify="right", no_wrap=True, drop_order=4))
+def plan_columns(units: Units) -> tuple[Column, ...]:
+    """The columns of plan_rows, their headers naming the units."""
+    unit = unit_label(ANGLE, units)
+    return (Column("#", justify="right", no_wrap=True), Column("step", no_wrap=True), Column("type"),
+            Column(f"target joints ({unit}) / action", narrow_header=f"target ({unit}) / action",
+                   min_width=len("-180.0 -180.0 -180.0")),
+            Column("speed", drop_order=3), Column("blend mm", narrow_header="blend", drop_order=1),
+            Column(f"travel {unit}", justify="right", no_wrap=True, drop_order=2),
+            Column("time", justify="right", no_wrap=True, drop_order=4))
+
+
+PLAN_COLUMNS = plan_columns(Units())
 LIST_COLUMNS = (Column("#", justify="right", no_wrap=True), Column("name", no_wrap=True), Column("type"),
                 Column("details"))
 
@@ -215,15 +350,28 @@ def run_program_command(settings: Settings, start, end, speed_scale, dry_run, ye
 
 def _show_plan(settings: Settings, plan, first: int, title: str) -> None:
     console = Console(stderr=True, highlight=False) if settings.json else settings.out
-    print_table(console, title, PLAN_COLUMNS, plan_rows(plan, first), len(plan))
-    for planned in plan:  # say what was lowered to the model's (or the TCP's) limits
-        if planned.clamped:
-            click.echo(f"{planned.step.who}: clamped {', '.join(planned.clamped)}", err=True)
+    print_table(console, title, plan_columns(settings.units), plan_rows(plan, first, settings.units), len(plan))
+    for warning in clamp_warnings(plan, settings.units):  # say what was lowered to the model's (or the TCP's) limits
+        click.echo(warning, err=True)
     if settings.json:
         emit_json({"plan": [{"step": p.step.name, "type": p.move or p.step.kind,
                              "joints": None if p.joints is None else p.joints.tolist(), "speed": p.speed,
                              "acceleration": p.acceleration, "blend": p.blend, "travel": p.travel,
                              "duration": p.duration} for p in plan]})
+
+
+def clamp_warnings(plan: list[PlannedStep], units: Units) -> list[str]:
+    """One line per step whose speed or acceleration the plan lowered to the model's limits, in `units`."""
+    lines = []
+    for planned in plan:
+        if planned.clamped:
+            angular = angular_kind(planned.move or "joint")
+            shown = _move_units(units, angular)
+            lowered = [f"{what} lowered to {show(value, kinds[angular], shown)}" for what, value, kinds in (
+                ("speed", planned.speed, SPEED), ("acceleration", planned.acceleration, ACCELERATION))
+                if any(text.startswith(what) for text in planned.clamped) and value is not None]
+            lines.append(f"{planned.step.who}: {', '.join(lowered)} (the {planned.move} move's limit)")
+    return lines
 
 
 def export_program_text(settings: Settings, start, end, speed, acceleration, blend, speed_scale, replay_joints,

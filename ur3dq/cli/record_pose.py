@@ -2,17 +2,22 @@
 from __future__ import annotations
 
 import sys
+from typing import TYPE_CHECKING
 
 import click
 from rich.console import Console
+from rich.markup import escape
 
 from ur3dq.cli.app import Settings, cli, confirm, emit_json, one_line, robot_session
 from ur3dq.cli.display import count_text, key_value_table, pose_rows, pose_vector_text
-from ur3dq.cli.options import display_options, placement_options, waypoint_motion_options
-from ur3dq.cli.program_workflow import check_waypoint_options, record_waypoint
+from ur3dq.cli.options import TypedValue, display_options, placement_options, waypoint_motion_options
+from ur3dq.cli.program_workflow import check_waypoint_options, record_waypoint, same_spot_as
 from ur3dq.errors import RobotError, StoreError
 from ur3dq.pose import next_free_name
 from ur3dq.replay import read_pose
+
+if TYPE_CHECKING:
+    from ur3dq.robot.robot import Robot
 
 
 @cli.command("record-pose")
@@ -25,7 +30,9 @@ from ur3dq.replay import read_pose
 @placement_options
 @display_options
 @click.pass_obj
-def record_pose(settings: Settings, name, note, yes, teach, move, speed, acceleration, blend, after, before):
+def record_pose(settings: Settings, name: str | None, note: str, yes: bool, teach: bool, move: str | None,
+                speed: TypedValue | None, acceleration: TypedValue | None, blend: float | None, after: str | None,
+                before: str | None) -> None:
     """Record the arm's current pose: shows joints, TCP pose and dual quaternion, asks "Record this pose?".
 
     Each pose keeps its name, time, model, joints, dual quaternion, UR pose vector and TCP offset. Two
@@ -35,6 +42,7 @@ def record_pose(settings: Settings, name, note, yes, teach, move, speed, acceler
     \b
     Examples:
       ur3dq record-pose --name pick
+      ur3dq record-pose --name pick --move linear --speed 100mm/s
       ur3dq record-pose --yes --note "above the tray"   # for scripts
       ur3dq record-pose --teach --name station   # station-1, -2, ... by hand
     """
@@ -42,7 +50,7 @@ def record_pose(settings: Settings, name, note, yes, teach, move, speed, acceler
     store.require_directory()
     steps = store.load_program()  # also refuses a corrupt store before touching the robot
     existing = [step.name for step in steps]
-    check_waypoint_options(name, move, speed, acceleration, blend, after, before, steps, settings.store_path)
+    motion = check_waypoint_options(settings, name, move, speed, acceleration, blend, after, before, steps)
     if name and not teach and name in existing:
         raise StoreError(f"a pose named {name!r} already exists in {settings.store_path}; choose another --name")
     with robot_session(settings) as robot:
@@ -52,16 +60,20 @@ def record_pose(settings: Settings, name, note, yes, teach, move, speed, acceler
         pose = read_pose(robot, name or next_free_name("pose", existing), note)
         if not settings.json:
             settings.out.print(key_value_table(f"{robot.model_name} at {robot.host}", pose_rows(robot.model, pose,
-                                                                                                 settings.deg)))
-        confirm("Record this pose?", yes, default=True)  # not a motion: Enter records
-        stored = record_waypoint(settings, pose, name is None, move, speed, acceleration, blend, after, before)
+                                                                                                 settings.units)))
+        twin = same_spot_as(pose, steps)
+        if twin:   # said before the question, whose default then becomes No
+            Console(stderr=True, highlight=False).print(
+                f"Warning: this is the spot of {escape(repr(twin))} (within 0.5 mm): did you forget to move the arm?")
+        confirm("Record this pose?", yes, default=twin is None)  # not a motion: Enter records
+        stored = record_waypoint(settings, pose, name is None, motion, after, before)
     if settings.json:
-        emit_json({"recorded": stored.name, "store": str(settings.store_path)})
+        emit_json({"recorded": stored.name, "store": str(settings.store_path), "same_spot_as": twin})
     else:
         click.echo(f"Recorded {stored.name!r} in {settings.store_path}.")
 
 
-def _teach(settings: Settings, robot, prefix: str, note: str) -> None:
+def _teach(settings: Settings, robot: Robot, prefix: str, note: str) -> None:
     """Freedrive on; every line on stdin records a pose (named by the line, else prefix-N) until `q` or end of
     input; `f` switches freedrive on again after another program ended it. Freedrive goes off again at the end
     (unless another program already ended it: switching it off would replace that program)."""
@@ -94,7 +106,11 @@ def _teach(settings: Settings, robot, prefix: str, note: str) -> None:
                 err.print(f"not recorded: {one_line(error)}; Enter tries again, q ends")
                 continue
             recorded.append(stored.name)
-            err.print(f"recorded {stored.name!r}:\n  {pose_vector_text(stored.ur_pose, settings.deg)}")
+            err.print(f"recorded {stored.name!r}:\n  {pose_vector_text(stored.ur_pose, settings.units)}")
+            twin = same_spot_as(stored, settings.store.load_program())
+            if twin:
+                err.print(f"Warning: {stored.name!r} is at the spot of {twin!r} (the arm did not move?); "
+                          f"`ur3dq poses rm {stored.name}` removes it")
     finally:
         if robot.freedrive_active():
             robot.teach_mode(False)

@@ -10,12 +10,13 @@ from ur3dq.cli.display import count_text, print_table, progress_bar, reached_tab
 from ur3dq.cli.options import (
     DEFAULT_ACCELERATION,
     DEFAULT_SPEED,
-    angular_option,
+    Quantity,
     cell_option,
     check_blend,
     check_max_travel,
     display_options,
     motion_options,
+    or_default,
     speed_and_acceleration,
 )
 from ur3dq.cli.path_report import require_clear_path
@@ -32,6 +33,7 @@ from ur3dq.replay import (
     tcp_changed,
 )
 from ur3dq.robot.safety import DEFAULT_MAX_JOINT_TRAVEL
+from ur3dq.units import LENGTH
 
 
 def plan_to_json(steps) -> list[dict]:
@@ -46,8 +48,8 @@ def plan_to_json(steps) -> list[dict]:
 @click.option("--dry-run", is_flag=True, help="Show the plan and stop (no robot needed; uses it if one is set).")
 @click.option("--yes", "-y", is_flag=True, help="Move without asking.")
 @motion_options
-@click.option("--blend", type=float, default=0.0, show_default=True,
-              help="Blend radius in metres: the poses become one smooth path (0: stop at each pose).")
+@click.option("--blend", type=Quantity(LENGTH), default=0.0, metavar="R",
+              help="Blend radius, e.g. 20mm: the poses become one smooth path [default: 0, stop at each pose].")
 @click.option("--loop", "loops", type=click.IntRange(min=1), default=1, show_default=True,
               help="Run the sequence this many times.")
 @click.option("--joints", "replay_joints", is_flag=True,
@@ -57,7 +59,8 @@ def plan_to_json(steps) -> list[dict]:
                    "`recorded` puts the flange where it was, `current` puts the current TCP on the recorded pose.")
 @click.option("--from", "start", metavar="N", help="Run the program from the step N (resume after a stop).")
 @click.option("--to", "end", metavar="N", help="Run the program up to the step N.")
-@click.option("--speed-scale", type=float, default=None, help="Scale every step's speed by F (0 < F ≤ 1).")
+@click.option("--speed-scale", type=float, default=None, metavar="F",
+              help="Scale every step's speed by F (0 < F ≤ 1).")
 @cell_option
 @display_options
 @click.pass_obj
@@ -78,9 +81,9 @@ def run_poses(settings: Settings, names, dry_run, yes, speed, acceleration, blen
       ur3dq run-poses --joints --yes            # the recorded joints, no IK
     """
     err = Console(stderr=True, highlight=False)
-    speed = angular_option(speed, DEFAULT_SPEED, settings.deg)
-    acceleration = angular_option(acceleration, DEFAULT_ACCELERATION, settings.deg)
-    max_travel = check_max_travel(angular_option(max_travel, DEFAULT_MAX_JOINT_TRAVEL, settings.deg))
+    speed = or_default(speed, DEFAULT_SPEED)
+    acceleration = or_default(acceleration, DEFAULT_ACCELERATION)
+    max_travel = check_max_travel(or_default(max_travel, DEFAULT_MAX_JOINT_TRAVEL))
     if start or end or speed_scale is not None or settings.store.version() == 2:  # a cell program
         if names or loops > 1:
             raise click.UsageError("a cell program runs as a whole or --from/--to: no NAMES, no --loop")
@@ -93,7 +96,7 @@ def run_poses(settings: Settings, names, dry_run, yes, speed, acceleration, blen
     check_blend(blend)
     if dry_run and not (settings.host or running_simulator_host()):
         model = robot_model(settings.model or poses[0].robot_model)
-        a, v = speed_and_acceleration(model, speed, acceleration, err)
+        a, v = speed_and_acceleration(model, speed, acceleration, err, settings.units)
         steps = plan_replay(model, poses, None, a, v, replay_joints, max_travel)
         _show_plan(settings, steps, loops, f"Plan on a nominal {model.name} (no robot: travel from the first "
                                            "pose)")
@@ -102,7 +105,7 @@ def run_poses(settings: Settings, names, dry_run, yes, speed, acceleration, blen
             emit_json({"plan": plan_to_json(steps)})
         return
     with robot_session(settings, max_joint_travel=max_travel) as robot:
-        a, v = speed_and_acceleration(robot.model, speed, acceleration, err)
+        a, v = speed_and_acceleration(robot.model, speed, acceleration, err, settings.units)
         poses = _for_the_current_tcp(poses, robot.model.tcp, tcp_choice, replay_joints, err)
         steps = plan_replay(robot.model, poses, robot.joints(), a, v, replay_joints, max_travel)
         if loops > 1 and loop_closing_travel(steps) > max_travel:
@@ -150,5 +153,5 @@ def _for_the_current_tcp(poses, tcp_now, choice, replay_joints: bool, err: Conso
 def _show_plan(settings: Settings, steps, loops: int, title: str) -> None:
     """Print the plan table (to stderr with --json, so stdout carries exactly one JSON document)."""
     console = Console(stderr=True, highlight=False) if settings.json else settings.out
-    columns, rows = replay_plan(steps, settings.deg, console.width)
+    columns, rows = replay_plan(steps, settings.units, console.width)
     print_table(console, title + (f", × {loops}" if loops > 1 else ""), columns, rows, len(steps))

@@ -4,8 +4,9 @@ from __future__ import annotations
 import click
 
 from ur3dq.cli.app import Settings, cli, emit_json, robot_session
-from ur3dq.cli.display import angles_text, key_value_table, pose_vector_text
+from ur3dq.cli.display import angles_text, key_value_table, pose_label, pose_vector_text
 from ur3dq.cli.options import display_options
+from ur3dq.units import ANGLE, unit_label
 
 
 @cli.command()
@@ -35,8 +36,9 @@ def status(settings: Settings):
             ("robot mode", state.robot_mode_name),
             ("safety mode", state.safety_mode_name),
             ("program running", "yes" if state.program_running else "no"),
-            ("joints", angles_text(state.joints, settings.deg)),
-            ("TCP pose", pose_vector_text(state.tcp_pose, settings.deg)),
-            ("TCP offset", pose_vector_text(robot.model.tcp.to_ur_pose(), settings.deg)),
+            (f"joints ({unit_label(ANGLE, settings.units)})", angles_text(state.joints, settings.units)),
+            (pose_label("TCP pose", settings.units), pose_vector_text(state.tcp_pose, settings.units)),
+            (pose_label("TCP offset", settings.units), pose_vector_text(robot.model.tcp.to_ur_pose(),
+                                                                         settings.units)),
             ("speed slider", f"{state.target_speed_fraction * 100:.0f} %"),
         ]))

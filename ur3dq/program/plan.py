@@ -22,8 +22,27 @@ from ur3dq.robot import motion
 
 MAX_TCP_SPEED = 1.0          # m/s: the pendant's default tool speed limit region; faster is refused by clamping
 MAX_TCP_ACCELERATION = 4.0   # m/s²
+MIN_JOINT_SPEED = 1e-3       # rad/s: slower, a move of one degree takes over 17 s; a typo, not a wish
+MIN_JOINT_ACCELERATION = 1e-3
+MIN_TCP_SPEED = 1e-3         # m/s: 1 mm/s
+MIN_TCP_ACCELERATION = 1e-3
 DEFAULT_TCP_SPEED = 0.25     # m/s, URScript movel's default
 DEFAULT_TCP_ACCELERATION = 1.2
+
+
+def motion_ranges(model, move: str) -> tuple[tuple[float, float], tuple[float, float]]:
+    """((lowest, highest) speed, (lowest, highest) acceleration) a waypoint of `move` may ask for on `model`: rad/s
+    and rad/s² up to the slowest joint's limits for a joint move, m/s and m/s² up to MAX_TCP_SPEED and
+    MAX_TCP_ACCELERATION for a linear or process move (what plan_program would otherwise clamp to).
+
+    >>> from ur3dq.kinematics import robot_model
+    >>> motion_ranges(robot_model("ur3"), "linear")
+    ((0.001, 1.0), (0.001, 4.0))
+    """
+    if move == "joint":
+        return ((MIN_JOINT_SPEED, float(np.min(model.max_joint_speed))),
+                (MIN_JOINT_ACCELERATION, float(np.min(model.max_joint_acceleration))))
+    return (MIN_TCP_SPEED, MAX_TCP_SPEED), (MIN_TCP_ACCELERATION, MAX_TCP_ACCELERATION)
 
 
 @dataclasses.dataclass(frozen=True)

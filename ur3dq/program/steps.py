@@ -70,7 +70,15 @@ class Motion:
     """How the arm gets to a waypoint: `move` (joint|linear|process) and optional speed, acceleration, blend.
 
     None means "the run's default" (run-poses --speed etc.), which keeps a v1 store replaying exactly as before.
-    Clamping to the model happens when a program is planned, where the model is known.
+    Checked when built (ValueError: an unknown move type, a speed, acceleration or blend that is not a positive
+    finite number); the model's limits are checked where the model is known (ur3dq.program.plan.motion_ranges).
+
+    >>> Motion("linear", speed=0.25).speed
+    0.25
+    >>> Motion("lin")
+    Traceback (most recent call last):
+    ...
+    ValueError: motion: move 'lin' is not one of joint, linear, process
     """
 
     move: str = "joint"
@@ -78,19 +86,22 @@ class Motion:
     acceleration: float | None = None
     blend: float | None = None
 
-    def check(self, who: str) -> Motion:
-        """This Motion with numbers normalised; ValueError naming `who` when a value makes no sense."""
-        if self is DEFAULT_MOTION:  # every v1 waypoint: nothing to check (a big store has 10⁵ of them)
-            return self
+    def __post_init__(self) -> None:
         if self.move not in MOVE_TYPES:
-            raise ValueError(f"{who}: move {self.move!r} is not one of {', '.join(MOVE_TYPES)}")
+            raise ValueError(f"motion: move {self.move!r} is not one of {', '.join(MOVE_TYPES)}")
+        if self.speed is None and self.acceleration is None and self.blend is None:
+            return   # the run's defaults (a big store's plain waypoints): nothing to check
         blend = self.blend
         if blend is not None:
             if not is_number(blend) or not math.isfinite(float(blend)) or not 0 <= float(blend) <= MAX_BLEND_M:
-                raise ValueError(f"{who}: blend must be a radius 0..{MAX_BLEND_M:g} m, got {blend!r}")
-            blend = float(blend)
-        return Motion(self.move, _positive(self.speed, "speed", who), _positive(self.acceleration, "acceleration",
-                                                                                  who), blend)
+                raise ValueError(f"motion: blend must be a radius 0..{MAX_BLEND_M:g} m, got {blend!r}")
+            object.__setattr__(self, "blend", float(blend))
+        object.__setattr__(self, "speed", _positive(self.speed, "speed", "motion"))
+        object.__setattr__(self, "acceleration", _positive(self.acceleration, "acceleration", "motion"))
+
+    def check(self, who: str) -> Motion:
+        """This Motion (checked when built); kept for callers that name the step they check it for."""
+        return self
 
     @property
     def is_default(self) -> bool:
