@@ -91,7 +91,8 @@ def report_path_check(settings: Settings, result, cell_path) -> None:
     console = Console(stderr=True, highlight=False, width=None if sys.stderr.isatty() else 160) \
         if settings.json else settings.out
     table = margins_table(result, "Path check: smallest margins per move", console.width)
-    table.caption = "; ".join(filter(None, [table.caption, f"cell: {escape(str(cell_path))}" if cell_path else None]))
+    cell = f"cell: {escape(str(cell_path))}" if cell_path else None
+    table.caption = "; ".join(filter(None, [str(table.caption or ""), cell]))
     table.caption_justify = "left"
     console.print(table)   # a long cell path wraps in the caption, not in the title
     if not result.ok:
@@ -122,7 +123,7 @@ def margins_table(result, title: str, width: int | None = None) -> Table:
     if narrow:  # the sample count first: it says how fine the check was, not how safe the path is
         columns, rows = columns[:2] + columns[3:], [row[:2] + row[3:] for row in rows]
     table = fitted_table(title, columns, rows, width)
-    notes = ["shldr, self, cell in mm; limit in °" if narrow else None, table.caption,
+    notes = ["shldr, self, cell in mm; limit in °" if narrow else None, str(table.caption or ""),
              None if len(shown) == len(result.steps) else
              f"{len(shown)} of {len(result.steps)} moves shown: those with a problem or a check's smallest margin"]
     table.caption = "; ".join(filter(None, notes)) or None

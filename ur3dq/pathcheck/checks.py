@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import Any
 
 import numpy as np
 
@@ -86,7 +87,7 @@ class Problem:
 class StepChecker:
     """Runs every check on the samples of one move; holds the model's capsules and the cell (built once)."""
 
-    def __init__(self, model, cell, margins: Margins):
+    def __init__(self, model, cell, margins: Margins) -> None:
         self.model = model
         self.cell = cell
         self.margins = margins
@@ -117,7 +118,7 @@ class StepChecker:
         `extra` (n,) m is added to the clearance margins (blend zones); `path_scale` = the controller's path
         'distance' of a Cartesian move (m or rad, for the joint speeds)."""
         m = self.margins
-        out = {}
+        out: dict[str, tuple[Any, ...]] = {}
         steps = np.abs(np.diff(joints, axis=0))
         if len(steps) and segment.cartesian:   # a joint move interpolates the joints: it cannot change branch
             out["branch"] = (m.max_joint_step - steps.max(axis=1), np.argmax(steps, axis=1), steps.max(axis=1))

@@ -9,18 +9,27 @@ target, stopj on any fault or Ctrl-C, no re-send.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Iterable, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
+import numpy.typing as npt
 
 from ur3dq.errors import ProgramError, SafetyCheckError
 from ur3dq.pathcheck import PathPlan, PathSegment
 from ur3dq.program.path import path_plan_of
-from ur3dq.program.plan import Defaults, plan_program
+from ur3dq.program.plan import Defaults, PlannedStep, plan_program
 from ur3dq.program.resolve import select_range
 from ur3dq.program.script import FAIL_KEY, STEP_KEY, program_script
-from ur3dq.program.steps import Wait, WaitInput
+from ur3dq.program.steps import Step, Wait, WaitInput
 from ur3dq.robot import safety
 from ur3dq.urscript import new_program_name
+
+if TYPE_CHECKING:
+    from ur3dq.robot.robot import Robot
+
+#: progress(position, step): called as each step of a running program starts
+Progress = Callable[[int, Step], None]
 
 MAX_STATEMENT_SECONDS = 0.05   # each action's own time on the controller (a few control cycles), for the timeout
 
@@ -31,14 +40,14 @@ class StepWatch:
     Follows the step reports of one running program (positions first_position .. first_position+N−1);
     `done` once the program reported first_position+N, after its last step."""
 
-    def __init__(self, plan, first_position: int = 1, progress=None):
+    def __init__(self, plan: Iterable[PlannedStep], first_position: int = 1, progress: Progress | None = None) -> None:
         self.plan = list(plan)
         self.first = first_position
         self.progress = progress
-        self.current = None      # index into plan of the step running now
+        self.current: int | None = None      # index into plan of the step running now
         self.done = False
 
-    def note(self, message) -> None:
+    def note(self, message: object) -> None:
         """Update from one robot message; ProgramError when the program reports a failed step."""
         text = getattr(message, "text", None)
         if not isinstance(text, str):
@@ -46,8 +55,9 @@ class StepWatch:
         for key in (STEP_KEY, FAIL_KEY):
             if text.startswith(key) and text[len(key):].strip().lstrip("-").isdigit():
                 index = int(text[len(key):].strip()) - self.first
-                if key == FAIL_KEY and 0 <= index < len(self.plan):
-                    step = self.plan[index].step
+                failed = self.plan[index].step if key == FAIL_KEY and 0 <= index < len(self.plan) else None
+                if isinstance(failed, WaitInput):
+                    step = failed
                     raise ProgramError(f"{step.who}: input {step.input} DI{step.pin} did not turn "
                                        f"{'on' if step.on else 'off'} within {step.timeout:g} s; the program stopped")
                 if key == STEP_KEY:
@@ -59,7 +69,7 @@ class StepWatch:
                             self.progress(self.first + index, self.plan[index].step)
 
 
-def expected_seconds(plan) -> float:
+def expected_seconds(plan: Iterable[PlannedStep]) -> float:
     """An upper bound of the program's duration at 100 % speed: moves (each from rest), waits, input timeouts."""
     total = 0.0
     for planned in plan:
@@ -73,7 +83,7 @@ def expected_seconds(plan) -> float:
     return total
 
 
-def check_plan_for_robot(robot, plan, start_joints) -> None:
+def check_plan_for_robot(robot: Robot, plan: Iterable[PlannedStep], start_joints: npt.ArrayLike) -> None:
     """Check every joint target of a plan as the driver checks a motion.
 
     Every joint target inside the limits, FK-consistent with its target pose, and within the travel limit from
@@ -93,7 +103,8 @@ def check_plan_for_robot(robot, plan, start_joints) -> None:
         previous = planned.joints
 
 
-def run_plan(robot, plan, first_position: int = 1, progress=None) -> float:
+def run_plan(robot: Robot, plan: Sequence[PlannedStep], first_position: int = 1,
+             progress: Progress | None = None) -> float:
     """Run a planned program on the robot as one URScript program.
 
     Run `plan` (PlannedStep list, planned from the arm's current joints) as one program; returns the wall time
@@ -111,13 +122,14 @@ def run_plan(robot, plan, first_position: int = 1, progress=None) -> float:
                             reached_end=lambda: watch.done, path=_path_of(plan, start))
 
 
-def _path_of(plan, start):
+def _path_of(plan: Sequence[PlannedStep], start: np.ndarray) -> PathPlan:
     """The PathPlan the driver's path check sees; a program without waypoints checks where the arm rests."""
     return path_plan_of(plan, start) or PathPlan(start, [PathSegment("(no motion)", target_joints=start)])
 
 
-def run(robot, steps, defaults=None, speed_scale: float = 1.0, start: str | None = None, end: str | None = None,
-        progress=None):
+def run(robot: Robot, steps: Sequence[Step], defaults: Defaults | None = None, speed_scale: float = 1.0,
+        start: str | None = None, end: str | None = None,
+        progress: Progress | None = None) -> tuple[list[PlannedStep], float]:
     """Plan a cell program from the arm's joints and run it.
 
     The program runs as one URScript program, watched step by step; every target is checked first (limits, FK,

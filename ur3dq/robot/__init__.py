@@ -2,7 +2,7 @@
 watched URScript programs (docs/architecture.md, Contract 4)."""
 
 
-def connect(host, backend="rtde", model=None, **options):
+def connect(host, backend: str="rtde", model=None, **options):
     """A Robot connected to the controller at `host`; use it with `with`.
 
     Parameters

@@ -50,9 +50,9 @@ class Heartbeat:
     connection dropped): a motion must not start then, since nothing would stop it if ur3dq died.
     """
 
-    def __init__(self, host: str):
+    def __init__(self, host: str) -> None:
         self.host = host
-        self._last_write = None      # monotonic time of the last write that went through
+        self._last_write: float | None = None      # monotonic time of the last write that went through
         self._watched_from = 0.0     # see watch_gaps
         self._longest_gap = 0.0
         try:
@@ -63,7 +63,7 @@ class Heartbeat:
                 f"writing them?): {error}") from None
         self._start()
 
-    def _start(self):
+    def _start(self) -> None:
         self._stop = threading.Event()
         self._failed = threading.Event()
         written = threading.Event()
@@ -84,7 +84,7 @@ class Heartbeat:
             raise RobotConnectionError(f"the heartbeat to {self.host}:30004 cannot reconnect")
         self._start()
 
-    def watch_gaps(self):
+    def watch_gaps(self) -> None:
         """From now on, measure the longest time without a write (longest_gap): call it when a motion is sent."""
         self._watched_from, self._longest_gap = time.monotonic(), 0.0
 
@@ -102,7 +102,7 @@ class Heartbeat:
         """True while the thread runs and its last write went through."""
         return self._thread.is_alive() and not self._failed.is_set()
 
-    def _beat(self, stop: threading.Event, failed: threading.Event, written: threading.Event):
+    def _beat(self, stop: threading.Event, failed: threading.Event, written: threading.Event) -> None:
         count = 0
         while True:
             count = (count + 1) % 2 ** 31
@@ -120,12 +120,12 @@ class Heartbeat:
             if stop.wait(PERIOD):
                 return
 
-    def _halt(self):
+    def _halt(self) -> None:
         self._stop.set()
         if self._thread.is_alive() and self._thread is not threading.current_thread():
             self._thread.join(1.0)
 
-    def close(self):
+    def close(self) -> None:
         """Stop the beats and disconnect (idempotent). A running program armed on them then stops by itself."""
         self._halt()
         try:

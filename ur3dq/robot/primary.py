@@ -254,8 +254,9 @@ def parse_configuration_data(data):
     defaults = struct.unpack_from(">5d", data, 192)
     dh = np.array(struct.unpack_from(">24d", data, 232)).reshape(4, 6)
     board, box, robot_type, sub_type = struct.unpack_from(">4i", data, 424)
+    v_joint, a_joint, v_tool, a_tool, eq_radius = defaults
     return ConfigurationData(
-        limits[:, 0], limits[:, 1], dynamics[:, 0], dynamics[:, 1], *defaults,
+        limits[:, 0], limits[:, 1], dynamics[:, 0], dynamics[:, 1], v_joint, a_joint, v_tool, a_tool, eq_radius,
         dh[0], dh[1], dh[2], dh[3], board, box, robot_type, sub_type,
     )
 

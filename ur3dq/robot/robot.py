@@ -11,9 +11,11 @@ import functools
 import math
 import queue
 import time
-from typing import Protocol
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
+import numpy.typing as npt
 
 from ur3dq import urscript
 from ur3dq.dualquat import DualQuaternion
@@ -32,6 +34,9 @@ from ur3dq.robot import motion, primary, safety, state
 from ur3dq.robot.dashboard import Dashboard, model_from_reply
 from ur3dq.robot.heartbeat import WATCHDOG_FREQUENCY, Heartbeat, armed
 from ur3dq.robot.primary_client import PrimaryClient, send_script
+
+if TYPE_CHECKING:
+    from ur3dq.pathcheck import Cell, Margins, PathPlan
 
 URSCRIPT_DEFAULT_A = 1.4  # rad/s², URScript movej default
 URSCRIPT_DEFAULT_V = 1.05  # rad/s
@@ -91,8 +96,12 @@ def effective_speed_limits(model, configuration):
 class Robot:
     """A connection to one UR controller. Use `ur3dq.robot.connect(...)`; close with `close()` or `with`."""
 
-    def __init__(self, host, backend="rtde", model=None, max_joint_travel=safety.DEFAULT_MAX_JOINT_TRAVEL,
-                 connect_timeout=3.0, heartbeat=True, path_check=None):
+    _primary: PrimaryClient
+    _dashboard: Dashboard
+    _backend: StateBackend
+
+    def __init__(self, host, backend: str="rtde", model=None, max_joint_travel=safety.DEFAULT_MAX_JOINT_TRAVEL,
+                 connect_timeout: float=3.0, heartbeat: bool=True, path_check=None) -> None:
         if backend not in ("rtde", "urx"):
             raise ValueError(f"backend must be 'rtde' or 'urx', got {backend!r}")
         if not (isinstance(max_joint_travel, (int, float)) and max_joint_travel > 0):
@@ -101,17 +110,19 @@ class Robot:
         self.backend_name = backend
         self.max_joint_travel = float(max_joint_travel)
         self._connect_timeout = connect_timeout
-        self._primary = self._backend = self._dashboard = self._heartbeat = None
+        # _primary, _dashboard and _backend exist once connected (close() also runs on a half-made Robot)
+        self._heartbeat: Heartbeat | None = None
         # Every motion program stops by itself when ur3dq dies (kill -9, a crash, a hang): ur3dq.robot.heartbeat.
         # Started with the first motion, so that reading, recording or a second ur3dq watching the same arm never
         # contend for its RTDE input registers.
         self._use_heartbeat = bool(heartbeat)
-        self._path_check = None
+        self._path_check: tuple[Cell | None, Margins] | None = None
         self.link_delay = 0.0   # s, measured while connecting (_identify_model)
         if path_check is not None:
             self.require_path_check(*(() if path_check is True else (path_check,)))
         try:
             self._primary = self._open_primary()
+            self._version: primary.VersionMessage = self._primary.version   # type: ignore[assignment]  # waited for
             self._dashboard = Dashboard(host)
             self.model_name = self._identify_model(model)
             self.model = calibrated_model(self.model_name, self._primary.kinematics,
@@ -126,19 +137,20 @@ class Robot:
     def __enter__(self):
         return self
 
-    def __exit__(self, *exc_info):
+    def __exit__(self, *exc_info) -> None:
         self.close()
 
-    def close(self):
+    def close(self) -> None:
         """Close every connection (idempotent). Never moves or stops the arm (no motion runs between calls)."""
-        for part in (self._heartbeat, self._backend, self._dashboard, self._primary):
+        for name in ("_heartbeat", "_backend", "_dashboard", "_primary"):
+            part = getattr(self, name, None)
             if part is not None:
                 part.close()
 
     @property
     def controller_version(self):
         """(major, minor, bugfix, build) of the controller software, from the primary version message."""
-        version = self._primary.version
+        version = self._version
         return (version.major, version.minor, version.bugfix, version.build)
 
     @functools.cached_property
@@ -170,7 +182,7 @@ class Robot:
 
     def _identify_model(self, requested):
         """The model name from the dashboard and Configuration Data; RobotError if they or `requested` disagree."""
-        major = self._primary.version.major
+        major = self._version.major
         asked = time.monotonic()
         reply = self._dashboard.robot_model_reply()
         # The link's round trip, timed here: every report of a motion (its start, its end) comes that late, so each
@@ -188,7 +200,8 @@ class Robot:
 
     def _controller_tcp_offset(self):
         """The controller's active TCP offset (UR pose vector, flange frame), or None before software 3.2."""
-        return self._primary.cartesian.tcp_offset
+        cartesian = self._primary.cartesian
+        return None if cartesian is None else cartesian.tcp_offset
 
     def _ensure_streams(self):
         """Reconnect dead state streams (and the heartbeat) with exponential backoff; ConnectionLostError if they
@@ -221,7 +234,7 @@ class Robot:
         self._ensure_streams()
         return self._backend.status()
 
-    def joints(self):
+    def joints(self) -> np.ndarray:
         """The actual joint angles (radians, 6); ConnectionLostError if the stream is frozen."""
         return self._fresh_status().joints
 
@@ -259,7 +272,7 @@ class Robot:
         return self.movej_path([q], blend=0.0, a=a, v=v, expected_poses=None if expected_pose is None
                                else [expected_pose])
 
-    def movej_path(self, targets, blend=0.0, a=None, v=None, expected_poses=None):
+    def movej_path(self, targets, blend: float=0.0, a=None, v=None, expected_poses=None):
         """Move through joint `targets` in one blended program (blend radius in metres); returns wall time (s)."""
         targets = [self._checked_target(q, f"targets[{index}]") for index, q in enumerate(targets)]
         if not targets:
@@ -292,7 +305,7 @@ class Robot:
         timeout = motion.motion_timeout(duration, status.target_speed_fraction) + self.link_delay
         return self._run_motion(name, program, targets[-1], status.joints, status.program_running, timeout)
 
-    def require_path_check(self, cell=None, margins=None):
+    def require_path_check(self, cell=None, margins=None) -> None:
         """Refuse from now on every motion whose whole path fails the path check.
 
         From now on every motion is refused (SafetyCheckError, nothing sent) unless the whole path it sweeps
@@ -323,7 +336,7 @@ class Robot:
         q = self.model.ik(pose, self.joints())
         return self.movej(q, a=a, v=v, expected_pose=pose)
 
-    def stop(self, a=SAFE_STOP_DECELERATION):
+    def stop(self, a=SAFE_STOP_DECELERATION) -> None:
         """Decelerate the arm to rest with `stopj(a)` (rad/s², clamped to the model's limit)."""
         self._send_stop(a)
 
@@ -366,7 +379,9 @@ class Robot:
             raise ConnectionLostError(f"the primary interface of {self.host} closed: {self._primary.error}")
         return status
 
-    def run_script(self, name, program, target, duration, on_message=None, reached_end=None, path=None):
+    def run_script(self, name: str, program: str, target: npt.ArrayLike, duration: float,
+                   on_message: Callable[[object], None] | None = None,
+                   reached_end: Callable[[], bool] | None = None, path: PathPlan | None = None) -> float:
         """Run a whole generated URScript program and watch it to its end.
 
         Run a whole generated `program` (URScript text of `def name(): ... end`, its targets checked by the
@@ -394,7 +409,7 @@ class Robot:
                                           "ur3dq died, so none is sent (reconnect)")
             program = armed(program, name)
         watcher = self._primary.watch()
-        if self._use_heartbeat:
+        if self._heartbeat is not None and self._use_heartbeat:
             self._heartbeat.watch_gaps()
         sent = time.monotonic()
         try:
@@ -425,7 +440,7 @@ class Robot:
         finally:
             self._primary.unwatch(watcher)
 
-    def _stop_after(self, error):
+    def _stop_after(self, error) -> None:
         """Best-effort stopj after a failed or interrupted motion; a failing stop is attached, never raised."""
         try:
             self._send_stop(SAFE_STOP_DECELERATION)
@@ -453,7 +468,7 @@ class Robot:
         self._dashboard.power_on()
         self._wait_for_mode({state.ROBOT_MODE_IDLE, state.ROBOT_MODE_RUNNING}, "power on")
 
-    def power_off(self):
+    def power_off(self) -> None:
         """Power the arm off (brakes engage) and wait until it is POWER_OFF."""
         self._dashboard.power_off()
         self._wait_for_mode({ROBOT_MODE_POWER_OFF}, "power off")
@@ -493,7 +508,7 @@ class Robot:
             raise ProgramError(f"the controller did not apply TCP offset {list(pose)} within 2 s")
         self.model = self.model.with_tcp(pose)
 
-    def teach_mode(self, on, hold_seconds=3600.0):
+    def teach_mode(self, on, hold_seconds: float=3600.0):
         """Freedrive on (a program holding freedrive for `hold_seconds`) or off; waits for the controller."""
         name = urscript.new_program_name("teach")
         statements = urscript.freedrive_statements(hold_seconds) if on else urscript.end_freedrive_statements()
@@ -514,7 +529,8 @@ class Robot:
                                       timeout=self._backend.freeze_timeout):
             raise ConnectionLostError(f"the primary interface of {self.host} sent no robot state for "
                                       f"{self._backend.freeze_timeout} s")
-        return self._primary.robot_mode.control_mode == 1
+        robot_mode = self._primary.robot_mode
+        return robot_mode is not None and robot_mode.control_mode == 1
 
     def _wait_for_mode(self, modes, action):
         """Wait until the robot mode is one of `modes`; RobotError naming `action` after MODE_CHANGE_TIMEOUT."""
@@ -539,7 +555,7 @@ class _MotionWatch:
     on the target proves nothing by itself: a closed path [B, A] or a zero-length move starts there.
     """
 
-    def __init__(self, name: str, target, running_at_send: bool, heartbeat=None):
+    def __init__(self, name: str, target, running_at_send: bool, heartbeat=None) -> None:
         self.name = name
         self.heartbeat = heartbeat  # the Heartbeat the program is armed on (None: not armed)
         self.target = np.asarray(target, dtype=float)
@@ -550,10 +566,11 @@ class _MotionWatch:
         self._running_is_ours = not running_at_send
         self._seen_running = False  # the state stream showed our program running
         self._ended_on_state = False  # ... and then not running
-        self.last_error_text = None
-        self.runtime_error = None  # raised once the state had time to show a safety stop behind it instead
-        self._ended_at = None
-        self._error_at = None
+        self.last_error_text: str | None = None
+        # raised once the state had time to show a safety stop behind it instead
+        self.runtime_error: ProgramError | None = None
+        self._ended_at: float | None = None
+        self._error_at: float | None = None
 
     def note_message(self, message) -> None:
         """Update from one robot message (key messages, runtime exceptions, error codes)."""

@@ -22,7 +22,7 @@ class RTDEBackend:
     poll_period = 0.001  # RTDE delivers every 2-8 ms; polling faster than that only burns CPU
     freeze_timeout = 1.0  # 125 CB3 cycles without fresh data: frozen, not just late (even on a loaded machine)
 
-    def __init__(self, host, primary):
+    def __init__(self, host, primary) -> None:
         self.host = host
         self.primary = primary
         probe_rtde(host)  # bounded: ur_rtde's own constructor would block without limit on a silent port
@@ -82,11 +82,11 @@ class RTDEBackend:
             receive = None
         return state.validated(status, f"the RTDE stream from {self.host}")
 
-    def send_program(self, script):
+    def send_program(self, script) -> None:
         """Send URScript on the open primary connection (port 30001)."""
         self.primary.send_script(script)
 
-    def close(self):
+    def close(self) -> None:
         """Disconnect the RTDE stream and destroy ur_rtde's interface now (idempotent).
 
         ur_rtde's RTDEReceiveInterface destructor waits 0.5 s holding the GIL (`disconnect()` waits as long but

@@ -15,7 +15,7 @@ from ur3dq.real_numbers import is_number, real_array
 DEFAULT_MAX_JOINT_TRAVEL = math.pi
 
 
-def check_joint_vector(q, name="q"):
+def check_joint_vector(q, name: str="q"):
     """`q` as a float array of six finite joint angles (radians), or SafetyCheckError naming the problem."""
     try:
         array = real_array(q)
@@ -29,7 +29,7 @@ def check_joint_vector(q, name="q"):
     return array
 
 
-def check_pose_vector(pose, name="pose"):
+def check_pose_vector(pose, name: str="pose"):
     """`pose` as a float array [x, y, z, rx, ry, rz] (metres, rotation vector) of six finite values."""
     try:
         array = real_array(pose)
@@ -40,7 +40,7 @@ def check_pose_vector(pose, name="pose"):
     return array
 
 
-def check_joint_limits(q, lower, upper, name="q"):
+def check_joint_limits(q, lower, upper, name: str="q"):
     """`q` unchanged if every joint lies within [lower, upper] (radians), else SafetyCheckError naming the joint."""
     q = check_joint_vector(q, name)
     for index in range(6):
@@ -52,7 +52,7 @@ def check_joint_limits(q, lower, upper, name="q"):
     return q
 
 
-def check_travel(q_from, q_to, max_travel, name="q"):
+def check_travel(q_from, q_to, max_travel, name: str="q"):
     """`q_to` unchanged if no joint travels more than `max_travel` radians from `q_from`, else SafetyCheckError."""
     travel = np.abs(check_joint_vector(q_to, name) - check_joint_vector(q_from, "current joints"))
     worst = int(np.argmax(travel))
@@ -82,7 +82,7 @@ def clamp_movej_speed(delta_q, a, v, max_acceleration, max_speed):
     return min(a, a_limit), min(v, v_limit)
 
 
-def check_fk_consistency(model, q, pose, tol_m=1e-4, tol_rad=1e-3, name="q"):
+def check_fk_consistency(model, q, pose, tol_m: float=1e-4, tol_rad: float=1e-3, name: str="q"):
     """`q` unchanged if the model's FK of `q` is `pose` (DualQuaternion) within tolerance, else SafetyCheckError."""
     reached = model.fk(check_joint_vector(q, name))
     metres, radians = reached.distance(pose)

@@ -91,7 +91,7 @@ def emergency_stopped_from(safety_status_bits, safety_mode):
     return bool(int(safety_status_bits) & _SAFETY_BIT_EMERGENCY_STOPPED) or int(safety_mode) in EMERGENCY_SAFETY_MODES
 
 
-def at_rest_at(status, target, position_tolerance=2e-3, speed_tolerance=5e-3):
+def at_rest_at(status, target, position_tolerance: float=2e-3, speed_tolerance: float=5e-3):
     """True if every joint is within `position_tolerance` rad of `target` and slower than `speed_tolerance` rad/s."""
     return bool(
         np.max(np.abs(status.joints - np.asarray(target, dtype=float))) <= position_tolerance
@@ -99,7 +99,7 @@ def at_rest_at(status, target, position_tolerance=2e-3, speed_tolerance=5e-3):
     )
 
 
-def validated(status, source, safety_mode_reported=True):
+def validated(status, source, safety_mode_reported: bool=True):
     """`status` unchanged if it can be true, else InvalidStateError.
 
     `status` unchanged if it can be true; else InvalidStateError naming `source` (e.g. 'RTDE from 10.0.0.2')

@@ -27,7 +27,7 @@ class URXBackend:
     poll_period = 0.005  # urx and the primary interface update at 10 Hz
     freeze_timeout = 1.5  # fifteen missed 10 Hz packets (urx itself gives up after a 0.5 s silence)
 
-    def __init__(self, host, primary):
+    def __init__(self, host, primary) -> None:
         self.host = host
         self.primary = primary
         self._robot = _open_urx(host)
@@ -37,7 +37,7 @@ class URXBackend:
         """True while urx's reader thread and our primary reader both run."""
         return self._robot.secmon.is_alive() and self.primary.alive
 
-    def reconnect(self):
+    def reconnect(self) -> None:
         """Open a fresh urx connection (the primary reader is reconnected by the Robot)."""
         self._shut(self._robot)
         self._robot = _open_urx(self.host)
@@ -79,12 +79,12 @@ class URXBackend:
         if sender.is_alive():
             raise ConnectionLostError(f"urx could not send the program to {self.host} within {SEND_TIMEOUT} s")
 
-    def close(self):
+    def close(self) -> None:
         """Stop urx's reader and close its socket (idempotent)."""
         self._shut(self._robot)
 
     @staticmethod
-    def _shut(robot):
+    def _shut(robot) -> None:
         """Close a URRobot without hanging. A healthy urx reader sees its stop flag after the next 10 Hz packet;
         on a dead or frozen peer it never would (it loops on recv), so then its socket is closed under it."""
         secmon = robot.secmon
@@ -137,15 +137,17 @@ class _QuietSecondaryMonitor(urx.ursecmon.SecondaryMonitor):
     """urx's 30002 reader thread, ending quietly when the stream breaks or falls silent (the error kept in `error`):
     urx's own run() dies there with a traceback on stderr, while the driver reports the loss as ConnectionLostError."""
 
+    _dataqueue: bytes   # urx's receive buffer
+
     error = None  # a class default: the thread starts inside urx's __init__ and may end before it returns
 
-    def start(self):
+    def start(self) -> None:
         # urx's reader is not a daemon: on a stream of garbage it spins looking for a packet forever, and a failed
         # connection (urx raises from its constructor, so nobody holds the thread) kept the process from exiting.
         self.daemon = True
         super().start()
 
-    def run(self):
+    def run(self) -> None:
         try:
             super().run()
         except OSError as error:  # closed, reset, or urx's 0.5 s receive timeout
@@ -164,7 +166,7 @@ class _QuietSecondaryMonitor(urx.ursecmon.SecondaryMonitor):
                 raise ConnectionResetError("the controller closed urx's connection (port 30002)")
             self._dataqueue += data
 
-    def wait(self, timeout=0.5):
+    def wait(self, timeout: float=0.5):
         """urx's wait for a fresh packet; on its timeout the reader is ended and its socket closed before the
         exception leaves (urx's constructor raises it, and the half-built connection would otherwise live on)."""
         try:
@@ -183,7 +185,7 @@ class _URRobot(URRobot):
     """urx's URRobot on a _QuietSecondaryMonitor (URRobot.__init__ hard-codes its monitor class); the monitor's
     constructor already waits for the first packet, and the 125 Hz real-time monitor stays off as in urx."""
 
-    def __init__(self, host):
+    def __init__(self, host) -> None:
         self.logger = logging.getLogger("urx")
         self.host = host
         self.csys = None
