@@ -6,7 +6,9 @@ import dataclasses
 import json
 import logging
 import os
+import shutil
 import sys
+import textwrap
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
@@ -252,19 +254,32 @@ def main(argv=None) -> None:
         code = _report_interrupt(interrupt)
     except Cancelled as cancelled:
         # a deliberate "no" is the user's choice, not an error: said plainly; a missing answer stays an error
-        click.echo(str(cancelled)[0].upper() + str(cancelled)[1:] if cancelled.deliberate
-                   else f"Error: {one_line(cancelled)}", err=True)
+        if cancelled.deliberate:
+            click.echo(str(cancelled)[0].upper() + str(cancelled)[1:], err=True)
+        else:
+            show_error(one_line(cancelled))
         code = EXIT_CANCELLED
     except (UR3DQError, ValueError, OSError) as error:
-        click.echo(f"Error: {one_line(error)}", err=True)
+        show_error(one_line(error))
         code = exit_code_for(error)
     except Exception as error:  # a bug: still one line, the traceback on request
         if os.environ.get("UR3DQ_DEBUG"):
             raise
-        click.echo(f"Error: internal error ({type(error).__name__}): {one_line(error)} "
-                   "(set UR3DQ_DEBUG=1 for the traceback)", err=True)
+        show_error(f"internal error ({type(error).__name__}): {one_line(error)} (set UR3DQ_DEBUG=1 for the "
+                   "traceback)")
         code = EXIT_INTERNAL
     sys.exit(code if isinstance(code, int) else EXIT_OK)
+
+
+def show_error(text: str) -> None:
+    """Print `Error: text` on stderr: one line for scripts and logs; on a terminal, wrapped between words to its
+    width (a terminal would cut a long line anywhere, mid-word)."""
+    line = f"Error: {text}"
+    if sys.stderr.isatty():
+        width = shutil.get_terminal_size().columns
+        line = textwrap.fill(line, width=max(40, width - 1), subsequent_indent="  ", break_long_words=False,
+                             break_on_hyphens=False)
+    click.echo(line, err=True)
 
 
 def _report_interrupt(interrupt):
@@ -282,15 +297,29 @@ def robot_session(settings: Settings, **options):
     `options` go to the driver's connect (e.g. max_joint_travel)."""
     from ur3dq.robot import connect  # the driver loads both client libraries: only for robot commands
 
-    host = settings.host or running_simulator_host()
+    simulator = running_simulator_host()
+    host = settings.host or simulator
     if not host:
         raise RobotConnectionError(NO_ROBOT_HINT)
     with own_output():
         try:
             robot = connect(host, backend=settings.backend, model=settings.model, **options)
-        except OSError as error:
-            raise RobotConnectionError(f"cannot reach a UR controller at {host}: {error.strerror or error}; check "
-                                       "--host or UR3DQ_HOST, or start the embedded simulator with `ur3dq sim start`"
+        except (OSError, RobotConnectionError) as error:
+            reason = (error.strerror or str(error)) if isinstance(error, OSError) else str(error)
+            raise RobotConnectionError(f"{reason.rstrip('.')}; {unreachable_hint(settings, host, simulator)}"
                                        ) from None
         with robot:
             yield robot
+
+
+def unreachable_hint(settings: Settings, host: str, simulator: str | None) -> str:
+    """What to do when `host` refuses: whether ur3dq's own simulator runs, and where, and how to point at it."""
+    given = {"environment": "UR3DQ_HOST", "option": "--host"}.get(settings.host_source)
+    if simulator and simulator != host:
+        fix = "`unset UR3DQ_HOST`" if given == "UR3DQ_HOST" else "leave out --host"
+        return (f"{given or 'the host'} names {host}, but `ur3dq sim start`'s simulator runs on {simulator}: "
+                f"{fix} (or export UR3DQ_HOST={simulator})")
+    if simulator == host:
+        return (f"the ur3dq simulator recorded on {host} does not answer: `ur3dq sim stop`, then `ur3dq sim start`")
+    return (f"no ur3dq simulator is running: check {given or '--host or UR3DQ_HOST'} and that the robot is on, or "
+            "start the simulator with `ur3dq sim start`")

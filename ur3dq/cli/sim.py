@@ -50,7 +50,11 @@ def sim_start(settings: Settings, address, software_version, powered_off):
         emit_json(state)
     else:
         click.echo(f"Simulated {state['model']} serving on {state['host']} (pid {state['pid']})\n  log {state['log']}")
-        click.echo(f"Robot commands now use it. For other tools, copy:\n  export UR3DQ_HOST={state['host']}")
+        if state.get("address_changed_from"):
+            click.echo(f"Note: {state['address_changed_from']} was taken, so the address changed: update an "
+                       "exported UR3DQ_HOST.")
+        click.echo("ur3dq commands use it when no --host is given; it keeps this address at the\n"
+                   f"next `ur3dq sim start`. For other tools:\n  export UR3DQ_HOST={state['host']}")
 
 
 @sim.command("stop")
