@@ -32,7 +32,7 @@ from ur3dq.store_format import PROGRAM_SCHEMA_VERSION
 from ur3dq.units import ANGULAR_SPEED, LENGTH, LINEAR_SPEED
 
 
-@cli.command("check")
+@cli.command("check", short_help="Check the whole path against the cell, no motion.")
 @click.argument("names", nargs=-1)
 @cell_option
 @click.option("--move", type=click.Choice(MOVE_TYPES), default="joint", show_default=True,

@@ -50,7 +50,7 @@ def plan_to_json(steps) -> list[dict]:
              "fk_error_m": step.fk_error_m, "fk_error_rad": step.fk_error_rad} for step in steps]
 
 
-@cli.command("run-poses")
+@cli.command("run-poses", short_help="Run the poses or cell program on the arm.")
 @click.argument("names", nargs=-1)
 @click.option("--dry-run", is_flag=True, help="Show the plan and stop (no robot needed; uses it if one is set).")
 @click.option("--plan", "full_plan", is_flag=True,
