@@ -39,7 +39,7 @@ DEMO_PLACES = (
 )
 
 
-@cli.command()
+@cli.command(short_help="The whole job on a simulator of its own.")
 @click.option("--save", type=click.Path(dir_okay=False, path_type=Path),
               help="Keep the demo's pose store in this file (default: a temporary one, removed afterwards).")
 @click.option("--speed", type=Quantity(ANGULAR_SPEED), default=None, metavar="V",

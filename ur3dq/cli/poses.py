@@ -67,7 +67,7 @@ from ur3dq.store_format import format_store, parse_store, pose_to_dict, step_to_
 from ur3dq.units import ANGLE, DURATION, LENGTH, plain_number, unit_label
 
 
-@cli.group(short_help="List, show, edit the stored poses and cell program.")
+@cli.group(short_help="List, show and edit the poses and cell program.")
 def poses() -> None:
     """Look after the pose store and edit it as a cell program.
 
@@ -208,7 +208,8 @@ def rename(settings: Settings, old: str, new: str) -> None:
     report(settings, {"renamed": old, "to": renamed.name}, f"Renamed {old!r} to {renamed.name!r}.")
 
 
-@poses.command("import", context_settings=NUMBERS_CONTEXT, short_help="Add poses from thesis lines or a store.")
+@poses.command("import", context_settings=NUMBERS_CONTEXT,
+               short_help="Add poses from thesis lines or a store.")
 @click.argument("file", type=click.Path(exists=True, dir_okay=False, path_type=Path))
 @click.option("--prefix", help="Name thesis poses PREFIX-1, PREFIX-2, ... (default: the file's name).")
 @click.option("--tcp", type=pose_vector_type(), default=None, metavar="X Y Z RX RY RZ",

@@ -1,8 +1,12 @@
 """`ur3dq run-poses`: replay the stored poses, or run the stored cell program, on the arm."""
 from __future__ import annotations
 
+from pathlib import Path
+
 import click
+import numpy as np
 from rich.console import Console
+from rich.text import Text
 
 from ur3dq.cli.app import Settings, cli, confirm, emit_json, robot_session
 from ur3dq.cli.background_simulator import running_simulator_host
@@ -19,13 +23,16 @@ from ur3dq.cli.options import (
     or_default,
     speed_and_acceleration,
 )
-from ur3dq.cli.path_report import require_clear_path
+from ur3dq.cli.path_report import check_replay, check_verdict, report_path_check, require_passed
+from ur3dq.cli.plan_summary import replay_figures, summary_lines
 from ur3dq.cli.program_workflow import run_program_command
 from ur3dq.errors import SafetyCheckError, StoreError
 from ur3dq.kinematics import robot_model
+from ur3dq.kinematics.models import URModel
 from ur3dq.replay import (
     TCP_CURRENT,
     TCP_RECORDED,
+    PlanStep,
     execute_plan,
     loop_closing_travel,
     plan_replay,
@@ -43,9 +50,11 @@ def plan_to_json(steps) -> list[dict]:
              "fk_error_m": step.fk_error_m, "fk_error_rad": step.fk_error_rad} for step in steps]
 
 
-@cli.command("run-poses")
+@cli.command("run-poses", short_help="Run the poses or cell program on the arm.")
 @click.argument("names", nargs=-1)
 @click.option("--dry-run", is_flag=True, help="Show the plan and stop (no robot needed; uses it if one is set).")
+@click.option("--plan", "full_plan", is_flag=True,
+              help="Show the full plan table and the path check's table before the question.")
 @click.option("--yes", "-y", is_flag=True, help="Move without asking.")
 @motion_options
 @click.option("--blend", type=Quantity(LENGTH), default=0.0, metavar="R",
@@ -64,20 +73,24 @@ def plan_to_json(steps) -> list[dict]:
 @cell_option
 @display_options
 @click.pass_obj
-def run_poses(settings: Settings, names, dry_run, yes, speed, acceleration, blend, loops, replay_joints,
-              max_travel, tcp_choice, start, end, speed_scale, cell_path):
+def run_poses(settings: Settings, names: tuple[str, ...], dry_run: bool, full_plan: bool, yes: bool,
+              speed: float | None, acceleration: float | None, blend: float, loops: int, replay_joints: bool,
+              max_travel: float | None, tcp_choice: str | None, start: str | None, end: str | None,
+              speed_scale: float | None, cell_path: Path | None) -> None:
     """Replay stored poses (all, or NAMES in that order) with movej.
 
     For each pose: IK of its dual quaternion (every solution FK-checked), the solution nearest the recorded
-    joints when the pose has them, else nearest the previous joints. The plan table shows each pose's chosen
-    joints, the travel and the time; nothing moves unless every pose is reachable and within --max-travel.
-    Ctrl-C stops the arm (stopj).
+    joints when the pose has them, else nearest the previous joints. The question comes under a short summary
+    (steps, time, travel, the path check's verdict, warnings); --plan shows the whole plan table first. Nothing
+    moves unless every pose is reachable, within --max-travel and through the path check. Ctrl-C stops the arm
+    (stopj). A cell program (after `poses set/offset/add-step`) runs as one URScript program.
 
     \b
     Examples:
       ur3dq run-poses --dry-run
-      ur3dq run-poses pick place --speed 0.5 --yes
-      ur3dq run-poses --blend 0.02 --loop 3 --yes
+      ur3dq run-poses --cell cell.json --plan
+      ur3dq run-poses pick place --speed 30deg/s --yes
+      ur3dq run-poses --blend 20mm --loop 3 --yes
       ur3dq run-poses --joints --yes            # the recorded joints, no IK
     """
     err = Console(stderr=True, highlight=False)
@@ -89,7 +102,7 @@ def run_poses(settings: Settings, names, dry_run, yes, speed, acceleration, blen
             raise click.UsageError("a cell program runs as a whole or --from/--to: no NAMES, no --loop")
         check_blend(blend)
         return run_program_command(settings, start, end, 1.0 if speed_scale is None else speed_scale, dry_run,
-                                   yes, speed, acceleration, blend, replay_joints, max_travel, cell_path)
+                                   yes, speed, acceleration, blend, replay_joints, max_travel, cell_path, full_plan)
     poses = settings.store.select(names)
     if not poses:
         raise StoreError(f"{settings.store_path} has no poses: record some with `ur3dq record-pose`")
@@ -98,11 +111,8 @@ def run_poses(settings: Settings, names, dry_run, yes, speed, acceleration, blen
         model = robot_model(settings.model or poses[0].robot_model)
         a, v = speed_and_acceleration(model, speed, acceleration, err, settings.units)
         steps = plan_replay(model, poses, None, a, v, replay_joints, max_travel)
-        _show_plan(settings, steps, loops, f"Plan on a nominal {model.name} (no robot: travel from the first "
-                                           "pose)")
-        require_clear_path(settings, model, steps, None, blend, cell_path, loops)
-        if settings.json:
-            emit_json({"plan": plan_to_json(steps)})
+        _present(settings, model, steps, None, blend, cell_path, loops, True, True,
+                 f"Plan on a nominal {model.name} (no robot: travel from the first pose)")
         return
     with robot_session(settings, max_joint_travel=max_travel) as robot:
         a, v = speed_and_acceleration(robot.model, speed, acceleration, err, settings.units)
@@ -111,11 +121,9 @@ def run_poses(settings: Settings, names, dry_run, yes, speed, acceleration, blen
         if loops > 1 and loop_closing_travel(steps) > max_travel:
             raise SafetyCheckError(f"--loop: going back from {steps[-1].pose.name!r} to {steps[0].pose.name!r} "
                                    f"swings a joint further than --max-travel {max_travel:.3f} rad")
-        _show_plan(settings, steps, loops, f"Plan on the {robot.model_name} at {robot.host}")
-        require_clear_path(settings, robot.model, steps, robot.joints(), blend, cell_path, loops)
+        _present(settings, robot.model, steps, robot.joints(), blend, cell_path, loops, dry_run or full_plan,
+                 dry_run, f"Plan on the {robot.model_name} at {robot.host}")
         if dry_run:
-            if settings.json:
-                emit_json({"plan": plan_to_json(steps)})
             return
         confirm(f"Move the arm through {count_text(len(steps), 'pose')}{f' {loops} times' if loops > 1 else ''}?", yes)
         with progress_bar(err) as progress:
@@ -150,7 +158,26 @@ def _for_the_current_tcp(poses, tcp_now, choice, replay_joints: bool, err: Conso
     return poses
 
 
-def _show_plan(settings: Settings, steps, loops: int, title: str) -> None:
+def _present(settings: Settings, model: URModel, steps: list[PlanStep], start_joints: np.ndarray | None,
+             blend: float, cell_path: Path | None, loops: int, full: bool, final: bool, title: str) -> None:
+    """Show the plan before the question: the full table and the check's margins when `full`, else a summary
+    that fits 24 rows with the question; the check's problems once; SafetyCheckError when it failed. A dry
+    run's (`final`) JSON is printed here."""
+    result, _ = check_replay(model, steps, cell_path, start_joints, blend, loops, keep_samples=False)
+    if full:
+        _show_plan(settings, steps, loops, title)
+        report_path_check(settings, result, cell_path)
+    if not full or not final:
+        err = Console(stderr=True, highlight=False)
+        for line in summary_lines(replay_figures(steps, loops), check_verdict(result, cell_path), [],
+                                  settings.units):
+            err.print(Text(line))
+    require_passed(settings, result)
+    if settings.json and final:
+        emit_json({"plan": plan_to_json(steps), "path_check": result.to_dict()})
+
+
+def _show_plan(settings: Settings, steps: list[PlanStep], loops: int, title: str) -> None:
     """Print the plan table (to stderr with --json, so stdout carries exactly one JSON document)."""
     console = Console(stderr=True, highlight=False) if settings.json else settings.out
     columns, rows = replay_plan(steps, settings.units, console.width)

@@ -100,7 +100,11 @@ def check_path(model, plan: PathPlan, cell=None, margins: Margins | None = None,
     if plan.segments:
         _check_move(plan, window, len(plan.segments) - 1, arm_for, problems, steps, certified)
     problems.sort(key=lambda p: (p.step_index, p.fraction))
-    return PathCheckResult(tuple(problems), StepReports(steps, certified), tuple(unchecked))
+    cell_margin = margins.cell if margins.cell is not None else (cell.margin if cell else 0.0)
+    limits = {"wrist": margins.wrist, "elbow": margins.elbow, "shoulder": margins.shoulder,
+              "joint_limit": margins.joint_limit, "joint_speed": margins.joint_speed,
+              "self_collision": margins.self_collision, "cell": cell_margin}
+    return PathCheckResult(tuple(problems), StepReports(steps, certified), tuple(unchecked), limits)
 
 
 def _check_move(plan, window, index, arm_for, problems, steps, certified) -> None:

@@ -208,11 +208,14 @@ class PathCheckResult:
 
     ok: no problem; problems: every failed check (at most one per move and check, at its worst sample);
     steps: one StepReport per checked move (StepReports); unchecked: names of moves that could not be
-    checked (no start)."""
+    checked (no start); limits: {check: the limit its margins are measured from} (a margin m means a measured
+    value of limit + m: |sin θ5| for "wrist", a clearance in metres for "cell", ...; "joint_speed" is the
+    fraction of the top speed allowed, and its margin the fraction left)."""
 
     problems: tuple
     steps: StepReports
     unchecked: tuple = ()
+    limits: dict = dataclasses.field(default_factory=dict)
 
     @property
     def ok(self) -> bool:

@@ -51,6 +51,10 @@ class Dashboard:
         """The controller's serial number, or None where the dashboard has no such command (before PolyScope 5.6)."""
         return serial_from_reply(self._ask("get serial number"))
 
+    def program_state(self) -> str:
+        """The reply to `programState`: the runtime state and the loaded program ('PLAYING prog.urp')."""
+        return str(self._ask("programState")).strip()
+
     def power_on(self) -> None:
         """Send `power on` (the caller watches the robot mode reach IDLE)."""
         self._call(lambda client: client.powerOn())

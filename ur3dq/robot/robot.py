@@ -33,6 +33,7 @@ from ur3dq.kinematics import robot_model_from_dh
 from ur3dq.robot import motion, primary, safety, state
 from ur3dq.robot.dashboard import Dashboard, model_from_reply
 from ur3dq.robot.heartbeat import WATCHDOG_FREQUENCY, Heartbeat, armed
+from ur3dq.robot.io_state import IOState
 from ur3dq.robot.primary_client import PrimaryClient, send_script
 
 if TYPE_CHECKING:
@@ -71,6 +72,9 @@ class StateBackend(Protocol):
 
     def status(self) -> state.RobotStatus:
         """The newest validated RobotStatus, without waiting on the network."""
+
+    def io_status(self) -> IOState:
+        """The newest digital and analog I/O and the program's runtime state (None where not reported)."""
 
     def send_program(self, script: str) -> None:
         """Send one URScript program to the controller."""
@@ -233,6 +237,15 @@ class Robot:
         """The newest RobotStatus (joints, TCP, robot/safety mode, program running, speed fractions, age)."""
         self._ensure_streams()
         return self._backend.status()
+
+    def io_state(self) -> IOState:
+        """The controller's digital and analog I/O and the program's runtime state (ur3dq.robot.io_state)."""
+        self._ensure_streams()
+        return self._backend.io_status()
+
+    def program_state(self) -> str:
+        """The dashboard's `programState` reply, e.g. 'PLAYING ur3dq_program' or 'STOPPED <unnamed>'."""
+        return self._dashboard.program_state()
 
     def joints(self) -> np.ndarray:
         """The actual joint angles (radians, 6); ConnectionLostError if the stream is frozen."""

@@ -6,12 +6,15 @@ import rtde_receive
 
 from ur3dq.errors import ConnectionLostError, RobotConnectionError
 from ur3dq.robot import state
+from ur3dq.robot.io_state import IOState
 from ur3dq.robot.probe import probe_rtde
 
 # Only what the driver reads, so no version-gated default variable can make the controller refuse the recipe.
 RTDE_VARIABLES = [
     "timestamp", "actual_q", "actual_qd", "actual_TCP_pose", "robot_mode", "safety_mode", "runtime_state",
     "robot_status_bits", "safety_status_bits", "speed_scaling", "target_speed_fraction",
+    "actual_digital_input_bits", "actual_digital_output_bits", "standard_analog_input0", "standard_analog_input1",
+    "standard_analog_output0", "standard_analog_output1",
 ]
 
 
@@ -81,6 +84,19 @@ class RTDEBackend:
             # last reference and a later garbage collection runs its 0.5 s destructor, holding the GIL.
             receive = None
         return state.validated(status, f"the RTDE stream from {self.host}")
+
+    def io_status(self) -> IOState:
+        """The I/O and the program's runtime state from the newest RTDE package."""
+        receive = self._receive
+        try:
+            if receive is None or not receive.isConnected():
+                raise ConnectionLostError(f"the RTDE state stream from {self.host} is closed")
+            return IOState(int(receive.getActualDigitalInputBits()), int(receive.getActualDigitalOutputBits()),
+                           (receive.getStandardAnalogInput0(), receive.getStandardAnalogInput1()),
+                           (receive.getStandardAnalogOutput0(), receive.getStandardAnalogOutput1()),
+                           int(receive.getRuntimeState()))
+        finally:
+            receive = None   # as in status(): no frame may keep the interface
 
     def send_program(self, script) -> None:
         """Send URScript on the open primary connection (port 30001)."""

@@ -14,6 +14,7 @@ from urx.urrobot import URRobot
 
 from ur3dq.errors import ConnectionLostError, RobotConnectionError
 from ur3dq.robot import state
+from ur3dq.robot.io_state import IOState
 
 # urx hands a program to its reader thread and waits on a condition with no timeout; if that thread has died
 # (urx ends it on any 0.5 s gap in the stream) the wait would never return, so it is bounded here.
@@ -68,6 +69,15 @@ class URXBackend:
             target_speed_fraction=mode.target_speed_fraction,
             age=max(urx_age, now - self.primary.last_state_time),
         ), f"the urx/primary state stream from {self.host}", safety_mode_reported=False)
+
+    def io_status(self) -> IOState:
+        """The I/O from urx's newest masterboard data (the primary interface reports no runtime state)."""
+        board = self._robot.secmon.get_all_data().get("MasterBoardData")
+        if not board:
+            raise ConnectionLostError(f"no masterboard data from {self.host} yet")
+        return IOState(int(board.get("digitalInputBits", 0)), int(board.get("digitalOutputBits", 0)),
+                       (board.get("analogInput0", 0.0), board.get("analogInput1", 0.0)),
+                       (board.get("analogOutput0", 0.0), board.get("analogOutput1", 0.0)), None)
 
     def send_program(self, script):
         """Send URScript through urx (port 30002); ConnectionLostError if urx cannot hand it over in time."""
