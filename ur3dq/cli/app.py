@@ -175,7 +175,7 @@ def confirm(question: str, assume_yes: bool, default: bool = False) -> None:
     if answer is None:
         raise Cancelled(f"no answer to {question!r}: pass --yes to answer yes in scripts")
     if not answer:
-        raise Cancelled(f"answered no to {question!r}: nothing done.", deliberate=True)
+        raise Cancelled("answered no: nothing done.", deliberate=True)   # the question is right above
 
 
 @click.group(

@@ -117,17 +117,18 @@ def _report_console(settings: Settings) -> Console:
 
 
 def require_passed(settings: Settings, result: PathCheckResult) -> None:
-    """Nothing when the check passed; else each problem once (words never cut), and a SafetyCheckError that
-    names how many and that nothing moved."""
+    """Nothing when the check passed; else a SafetyCheckError whose one line is the first problem (where, what,
+    the fix), each further problem printed once above it (words never cut)."""
     if result.ok:
         return
-    console = _report_console(settings)
-    for problem in result.problems:
-        console.print(Text(problem.line()), soft_wrap=False)
-    if result.unchecked:
+    if not result.problems:
         raise SafetyCheckError(f"path check: {result.summary()}")
-    count = len(result.problems)
-    raise SafetyCheckError(f"path check: {count_text(count, 'problem')} (above, each with a fix); nothing moved")
+    console = _report_console(settings)
+    for problem in result.problems[1:]:
+        console.print(Text(problem.line()), soft_wrap=False)
+    more = len(result.problems) - 1
+    raise SafetyCheckError(f"path check: {result.problems[0].line()}"
+                           + (f" (+{count_text(more, 'more problem')}, listed above)" if more else ""))
 
 
 def check_verdict(result: PathCheckResult | None, cell_path: Path | None) -> str:
