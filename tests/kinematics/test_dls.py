@@ -560,8 +560,8 @@ PANDA_LOWER = np.array([-2.8973, -1.7628, -2.8973, -3.0718, -2.8973, -0.0175, -2
 PANDA_UPPER = np.array([2.8973, 1.7628, 2.8973, -0.0698, 2.8973, 3.7525, 2.8973])
 # (goal joints, start) where roboticstoolbox's C++ Levenberg–Marquardt (ets.ik_LM, one search, 50 iterations,
 # ½‖e‖² < 5e-21) converges: found among 600 seeded goals uniform in the limits with starts within ±1 rad of them
-# (benchmarks/bench_dls.py repeats the comparison). The first ten stalled in the single search the improved mode
-# had (held on a limit short of the goal), the last three converged only past 50 passes (59 to 297).
+# (benchmarks/bench_dls.py repeats the comparison). From the first ten a single search within the limits stops held
+# on a limit short of the goal, from the last three it crawls past a near-singular solution (59 to 297 passes).
 PANDA_HARD_STARTS = [
     ([-1.237199, 1.576492, 2.67558, -1.131797, -1.281951, 2.664361, -1.641208],
      [-1.978994, 1.063615, 1.741953, -1.539316, -1.978252, 3.294402, -1.122947]),

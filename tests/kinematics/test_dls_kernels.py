@@ -128,3 +128,9 @@ def test_chain_axes_match_the_chain(chain):
     np.testing.assert_allclose(end, chain.fk(q).to_array(), rtol=0, atol=1e-15)
     for got, expected in zip((directions, points), chain.joint_axes(q), strict=True):
         np.testing.assert_allclose(got, expected, rtol=0, atol=1e-15)
+
+
+def test_warm_runs_every_mode():
+    from ur3dq.kinematics import dls
+
+    dls.warm()   # compiles or loads every DLS kernel; raises if one no longer compiles

@@ -344,6 +344,20 @@ def dls_ik(chain: object, goal: DualQuaternion | ArrayLike, q0: ArrayLike, *, mo
                      error_log=error_log, goal=goal_coefficients, searches=int(searches))
 
 
+def warm() -> None:
+    """Run every DLS kernel once (both modes, a second search, the building blocks): compiles them into numba's
+    cache, or loads them from it."""
+    planar = SerialChain.from_dh(a=[0.6, 1.0, 0.8], d=[0.0] * 3, alpha=[0.0] * 3)
+    goal = planar.fk([-1.95, -1.05, 0.38])
+    dls_ik(planar, goal, [0.0, -1.0, 0.3], mode=IMPROVED, lower=[0.0, -np.inf, -np.inf], upper=[6.0, np.inf, np.inf])
+    dls_ik(planar, goal, np.zeros(3), jacobian="exact")
+    dls_ik(planar, goal, np.zeros(3))
+    for building_block in (pose_jacobian, geometric_jacobian, paper_jacobian, characteristic_length):
+        building_block(planar, np.zeros(3))
+    pose_error(goal.to_array(), goal.to_array())
+    damped_least_squares_step(np.eye(3), np.ones(3), 1.0, 0.0)
+
+
 # ------------------------------------------------------------------------------------------------ validation
 def _chain_and_limits(chain: object) -> tuple[SerialChain, ArrayLike | None, ArrayLike | None]:
     """(SerialChain, lower, upper) from a SerialChain (no limits) or a model with .chain and joint limits."""
