@@ -7,14 +7,13 @@ module that commands without kinematics import (``ur3dq --help``, ``poses list``
 A kernel is plain Python: with ``NUMBA_DISABLE_JIT=1`` in the environment numba returns it unchanged, which is how
 the tests compare the interpreted reference with the compiled code.
 
-Example
--------
->>> from ur3dq.kinematics.jit import kernel
->>> @kernel
-... def twice(x: float) -> float:
-...     return 2.0 * x
->>> twice(1.5)
-3.0
+Example (in a module of its own: numba caches a kernel beside its source file)::
+
+    from ur3dq.kinematics.jit import kernel
+
+    @kernel
+    def twice(x: float) -> float:
+        return 2.0 * x
 """
 from __future__ import annotations
 
