@@ -275,7 +275,7 @@ def test_sclerp_endpoints(a, b):
 @given(poses(), poses())
 def test_sclerp_moves_at_constant_speed_along_one_screw(a, b):
     samples = [a.sclerp(b, tau) for tau in np.linspace(0.0, 1.0, 9)]
-    steps = [(first.inverse() * second) for first, second in zip(samples, samples[1:])]
+    steps = [(first.inverse() * second) for first, second in zip(samples, samples[1:], strict=False)]
     for step in steps[1:]:
         assert_same_pose(step, steps[0], tol=1e-8)
 
@@ -326,3 +326,22 @@ def test_sclerp_halfway_of_a_pure_translation_and_rotation():
 def test_bad_input_is_a_value_error_naming_the_problem(build, words):
     with pytest.raises(ValueError, match=words):
         build()
+
+
+@pytest.mark.parametrize("vector, message", [
+    ([1e300, 0.0, 0.0, 0.0, 0.0, 0.0], r"1e\+300 m is beyond ±100 m: give metres"),
+    ([0.0, -100.5, 0.0, 0.0, 0.0, 0.0], r"100 m is beyond ±100 m: give metres"),
+    ([0.0, 0.0, 0.0, 1e20, 0.0, 0.0], r"1e\+20 rad is beyond ±100 rad: a rotation vector in radians"),
+])
+def test_a_ur_pose_no_cell_holds_is_refused_naming_the_argument(vector, message):
+    from ur3dq.kinematics import robot_model
+
+    with pytest.raises(ValueError, match=rf"^pose: {message}"):
+        DualQuaternion.from_ur_pose(vector)
+    with pytest.raises(ValueError, match=rf"^tcp: {message}"):
+        robot_model("ur3").with_tcp(vector)
+
+
+def test_a_ur_pose_at_the_bounds_is_a_pose():
+    at_bounds = DualQuaternion.from_ur_pose([100.0, -100.0, 0.0, 0.0, 0.0, 100.0])
+    np.testing.assert_allclose(at_bounds.translation, [100.0, -100.0, 0.0])

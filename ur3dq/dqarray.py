@@ -18,6 +18,10 @@ from ur3dq.real_numbers import real_array
 
 #: How far from 1 a rotation quaternion's norm may be before it is refused as "not a unit rotation".
 UNIT_TOLERANCE = 1e-6
+#: The largest magnitude of each number of a UR pose vector: 100 m for x, y, z and 100 rad for rx, ry, rz, more
+#: than any cell needs (the pose store holds the same bound); beyond it a value is a unit or typing error, and a
+#: rotation vector past ~1e15 rad no longer has a defined angle in double precision.
+MAX_POSE_COORDINATE = 100.0
 
 # Below this |vector part| (= sin of the half angle) the closed forms switch to Taylor series, whose truncation
 # error there is far below double precision.
@@ -287,8 +291,15 @@ def to_ur_pose(a: npt.ArrayLike) -> np.ndarray:
 
 
 def from_ur_pose(pose: npt.ArrayLike) -> np.ndarray:
-    """(..., 8) unit dual quaternions of UR pose vectors (..., 6) [x, y, z, rx, ry, rz] (metres, rotation vector)."""
+    """(..., 8) unit dual quaternions of UR pose vectors (..., 6) [x, y, z, rx, ry, rz] (metres, rotation vector).
+
+    ValueError naming ``pose`` past MAX_POSE_COORDINATE (|x|, |y|, |z| ≤ 100 m; |rx|, |ry|, |rz| ≤ 100 rad).
+    """
     p = as_array(pose, 6, "pose")
+    for part, unit, hint in ((slice(0, 3), "m", "give metres"), (slice(3, 6), "rad", "a rotation vector in radians")):
+        largest = float(np.max(np.abs(p[..., part]), initial=0.0))
+        if largest > MAX_POSE_COORDINATE:
+            raise ValueError(f"pose: {largest:.3g} {unit} is beyond ±{MAX_POSE_COORDINATE:g} {unit}: {hint}")
     return from_rotation_translation(rotation_vector_to_quaternion(p[..., 3:]), p[..., :3])
 
 

@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from ur3dq.dqarray import MAX_POSE_COORDINATE
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.kinematics.models import MODEL_NAMES
 from ur3dq.real_numbers import real_array
@@ -26,7 +27,7 @@ UNIT_TOLERANCE = 1e-6
 MAX_NAME_LENGTH = 100
 # Plausible magnitudes: beyond these a reading or a hand edit went wrong (1e308 would overflow in later maths).
 MAX_JOINT_ABS = 100.0        # rad: the UR3's wrist 3 turns without limit, but no arm is wound up 16 turns
-MAX_TRANSLATION_ABS = 100.0  # m (and rad for rotation-vector components) in ur_pose and tcp_offset
+MAX_TRANSLATION_ABS = MAX_POSE_COORDINATE  # m (and rad for rotation-vector components) in ur_pose and tcp_offset
 _NO_OFFSET = timedelta(0)  # the UTC offset a pose's time must have
 
 

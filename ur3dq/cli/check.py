@@ -11,6 +11,7 @@ from rich.console import Console
 
 from ur3dq.cli.app import Settings, cli, emit_json, robot_session
 from ur3dq.cli.background_simulator import running_simulator_host
+from ur3dq.cli.display import recorded_joints_warnings
 from ur3dq.cli.options import Quantity, Typed, TypedValue, cell_option, display_options
 from ur3dq.cli.path_report import (
     DEFAULT_JOINT_ACCELERATION,
@@ -91,6 +92,8 @@ def check(settings: Settings, names: tuple[str, ...], cell_path: Path | None, mo
     else:
         model, start = robot_model(settings.model or poses[0].robot_model), None
         where = f"a nominal {model.name} (no robot: from the first pose)"
+    for line in recorded_joints_warnings(poses, model):
+        click.echo(line, err=True)
     if settings.store.version() == PROGRAM_SCHEMA_VERSION and not names:  # a cell program: its own moves
         plan = plan_program(model, settings.store.load_program(), start, replay_recorded_joints=replay_joints)
         path = path_plan_of(plan, start)

@@ -78,6 +78,15 @@ def distance_text(metres: float, radians: float) -> str:
     return f"{show(metres, LENGTH, FINE, 3)} / {to_display(radians, ANGLE, FINE):.3f}°"
 
 
+def recorded_joints_warnings(poses: Any, model: Any = None) -> list[str]:
+    """One line per pose whose recorded joints put its TCP elsewhere than its recorded pose (recorded_joints), on
+    `model` (None: each pose's own nominal model): the pose, how far, the fix; short enough for 80 columns."""
+    from ur3dq.recorded_joints import joints_off_pose  # imports the kinematics: only for commands that read poses
+
+    return [f"warning: pose {off.pose.name!r}: joints {show(off.metres, LENGTH, FINE, 0)}, "
+            f"{show(off.radians, ANGLE, FINE, 1)} off its pose; re-record it" for off in joints_off_pose(poses, model)]
+
+
 def count_text(count: int, noun: str) -> str:
     """`1 pose`, `2 poses`: a count with its noun in the right number (regular plurals only)."""
     return f"{count} {noun}" + ("" if count == 1 else "s")

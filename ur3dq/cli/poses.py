@@ -24,6 +24,7 @@ from ur3dq.cli.display import (
     key_value_table,
     pose_label,
     pose_vector_text,
+    recorded_joints_warnings,
 )
 from ur3dq.cli.options import (
     NUMBERS_CONTEXT,
@@ -101,9 +102,14 @@ def list_poses(settings: Settings) -> None:
 
     Every stored pose: name, time, model, TCP position and orientation, whether joints are known; for a cell
     program (store version 2) every step with its move type and parameters."""
-    if list_program(settings):
+    steps = list_program(settings)
+    if steps is not None:
+        for line in recorded_joints_warnings([step.pose for step in steps if isinstance(step, Waypoint)]):
+            click.echo(line, err=True)
         return
     stored = settings.store.load()
+    for line in recorded_joints_warnings(stored):
+        click.echo(line, err=True)
     if settings.json:
         emit_json_list({"store": str(settings.store_path), "version": 1}, "poses",
                        (pose_to_dict(pose) for pose in stored))

@@ -21,7 +21,7 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.text import Text
 
 from ur3dq.cli.app import Settings, confirm, emit_json, emit_json_list, robot_session
-from ur3dq.cli.display import Column, pose_label, pose_vector_text, print_table
+from ur3dq.cli.display import Column, pose_label, pose_vector_text, print_table, recorded_joints_warnings
 from ur3dq.cli.options import TypedValue
 from ur3dq.cli.path_report import check_program, check_verdict, report_path_check, require_passed
 from ur3dq.cli.plan_summary import program_figures, summary_lines
@@ -235,18 +235,18 @@ def program_rows(steps: list[Step], units: Units) -> list[tuple[str, str, str, s
     return [(str(index), step.name, step.kind, describe_step(step, units)) for index, step in enumerate(steps, start=1)]
 
 
-def list_program(settings: Settings) -> bool:
-    """`poses list` of a version-2 store: every step; False (nothing printed) for a version-1 store."""
+def list_program(settings: Settings) -> list[Step] | None:
+    """`poses list` of a version-2 store: every step, and the steps; None (nothing printed) for a version-1 store."""
     if settings.store.version() != PROGRAM_SCHEMA_VERSION:
-        return False
+        return None
     steps = settings.store.load_program()
     if settings.json:
         emit_json_list({"store": str(settings.store_path), "version": PROGRAM_SCHEMA_VERSION}, "steps",
                        (step_to_dict(step) for step in steps))
-        return True
+        return steps
     print_table(settings.out, f"{len(steps)} steps in {settings.store_path}", LIST_COLUMNS,
                 program_rows(steps, settings.units))
-    return True
+    return steps
 
 
 # one %-format per row: a long program's table has 10⁵ of them (radians with 3 decimals, degrees with 1)
@@ -322,6 +322,7 @@ def run_program_command(settings: Settings, start: str | None, end: str | None, 
     if dry_run and not (settings.host or running_simulator_host()):
         first_pose = next((s.pose for s in steps if isinstance(s, Waypoint)), None)
         model = robot_model(settings.model or (first_pose.robot_model if first_pose else "ur3"))
+        _warn_recorded_joints(part, model)
         plan = plan_program(model, part, None, defaults, speed_scale, replay_joints, max_travel,
                             resolve_from=steps)
         _present(settings, model, plan, None, first, cell_path, True,
@@ -330,6 +331,7 @@ def run_program_command(settings: Settings, start: str | None, end: str | None, 
     from ur3dq.program.runner import run_plan
 
     with robot_session(settings, max_joint_travel=max_travel) as robot:
+        _warn_recorded_joints(part, robot.model)
         plan = plan_program(robot.model, part, robot.joints(), defaults, speed_scale, replay_joints, max_travel,
                             resolve_from=steps)
         _present(settings, robot.model, plan, robot.joints(), first, cell_path, dry_run or full_plan,
@@ -400,6 +402,12 @@ def clamp_warnings(plan: list[PlannedStep], units: Units) -> list[str]:
                 if any(text.startswith(what) for text in planned.clamped) and value is not None]
             lines.append(f"{planned.step.name!r}: {', '.join(lowered)} ({planned.move} move limit)")
     return lines
+
+
+def _warn_recorded_joints(steps: list[Step], model: URModel) -> None:
+    """A line on stderr per recorded waypoint whose joints put its TCP elsewhere than its pose, on `model`."""
+    for line in recorded_joints_warnings([step.pose for step in steps if isinstance(step, Waypoint)], model):
+        click.echo(line, err=True)
 
 
 def export_program_text(settings: Settings, start, end, speed, acceleration, blend, speed_scale, replay_joints,

@@ -10,7 +10,14 @@ from rich.text import Text
 
 from ur3dq.cli.app import Settings, cli, confirm, emit_json, robot_session
 from ur3dq.cli.background_simulator import running_simulator_host
-from ur3dq.cli.display import count_text, print_table, progress_bar, reached_table, replay_plan
+from ur3dq.cli.display import (
+    count_text,
+    print_table,
+    progress_bar,
+    reached_table,
+    recorded_joints_warnings,
+    replay_plan,
+)
 from ur3dq.cli.options import (
     DEFAULT_ACCELERATION,
     DEFAULT_SPEED,
@@ -109,6 +116,8 @@ def run_poses(settings: Settings, names: tuple[str, ...], dry_run: bool, full_pl
     check_blend(blend)
     if dry_run and not (settings.host or running_simulator_host()):
         model = robot_model(settings.model or poses[0].robot_model)
+        for line in recorded_joints_warnings(poses, model):
+            click.echo(line, err=True)
         a, v = speed_and_acceleration(model, speed, acceleration, err, settings.units)
         steps = plan_replay(model, poses, None, a, v, replay_joints, max_travel)
         _present(settings, model, steps, None, blend, cell_path, loops, True, True,
@@ -117,6 +126,8 @@ def run_poses(settings: Settings, names: tuple[str, ...], dry_run: bool, full_pl
     with robot_session(settings, max_joint_travel=max_travel) as robot:
         a, v = speed_and_acceleration(robot.model, speed, acceleration, err, settings.units)
         poses = _for_the_current_tcp(poses, robot.model.tcp, tcp_choice, replay_joints, err)
+        for line in recorded_joints_warnings(poses, robot.model):
+            click.echo(line, err=True)
         steps = plan_replay(robot.model, poses, robot.joints(), a, v, replay_joints, max_travel)
         if loops > 1 and loop_closing_travel(steps) > max_travel:
             raise SafetyCheckError(f"--loop: going back from {steps[-1].pose.name!r} to {steps[0].pose.name!r} "

@@ -105,6 +105,22 @@ def _as_coefficients(pose, name: str) -> tuple:
     return tuple(float(c) for c in array)
 
 
+def joint_motion(pose: tuple, revolute: bool, value: float) -> tuple:
+    """pose·rz(value) (``revolute``) or pose·tz(value), an 8-tuple of floats, written out for the joint's sparse
+    coefficients (a leaf function: the compiled kernels use it as it is).
+
+    Revolute: both parts times rz = (c, 0, 0, s): (w c − z s, x c + y s, y c − x s, z c + w s).
+    Prismatic: (r + εd)(1 + ε(0, 0, 0, h)) = r + ε(d + r·(0, 0, 0, h)), r·(0,0,0,h) = (−z h, y h, −x h, w h).
+    """
+    w, x, y, z, dw, dx, dy, dz = pose
+    half = 0.5 * value
+    if revolute:
+        c, s = math.cos(half), math.sin(half)
+        return (w * c - z * s, x * c + y * s, y * c - x * s, z * c + w * s,
+                dw * c - dz * s, dx * c + dy * s, dy * c - dx * s, dz * c + dw * s)
+    return (w, x, y, z, dw - z * half, dx + y * half, dy - x * half, dz + w * half)
+
+
 _K = (0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0)           # the quaternion k: rz(θ) = cos(θ/2) + k·sin(θ/2)
 _EPSILON_K = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)   # ε·k: tz(t) = 1 + ε·k·t/2
 
@@ -143,6 +159,7 @@ class SerialChain:
         self.joint_types = joint_types
         self.joint_offsets = tuple(float(v) for v in offsets)
         self._maps = None   # fk_batch's per-joint matrices, built on first use
+        self._form = None   # product_form's arrays, built on first use
 
     # ---------------------------------------------------------------------------------------------- builders
     @classmethod
@@ -227,20 +244,8 @@ class SerialChain:
         return q
 
     def _after_joint(self, i: int, pose: tuple, value) -> tuple:
-        """pose·J_i(value + offset_i) (floats), written out for J_i's sparse coefficients.
-
-        Revolute: both parts times rz = (c, 0, 0, s): (w c − z s, x c + y s, y c − x s, z c + w s).
-        Prismatic: (r + εd)(1 + ε(0, 0, 0, h)) = r + ε(d + r·(0, 0, 0, h)), r·(0,0,0,h) = (−z h, y h, −x h, w h).
-        """
-        value = value + self.joint_offsets[i]
-        w, x, y, z, dw, dx, dy, dz = pose
-        if self.joint_types[i] == REVOLUTE:
-            half = 0.5 * value
-            c, s = math.cos(half), math.sin(half)
-            return (w * c - z * s, x * c + y * s, y * c - x * s, z * c + w * s,
-                    dw * c - dz * s, dx * c + dy * s, dy * c - dx * s, dz * c + dw * s)
-        h = 0.5 * value
-        return (w, x, y, z, dw - z * h, dx + y * h, dy - x * h, dz + w * h)
+        """pose·J_i(value + offset_i) (floats)."""
+        return joint_motion(pose, self.joint_types[i] == REVOLUTE, value + self.joint_offsets[i])
 
     def _accumulate(self, joint_values):
         """Yield the running products K_0·J_1·K_1·…·J_i·K_i for i = 0..n (coefficient tuples)."""
@@ -274,7 +279,7 @@ class SerialChain:
         for start in range(0, len(joint_matrix), BATCH_BLOCK):
             block = joint_matrix[start:start + BATCH_BLOCK]
             pose = np.broadcast_to(self._constants[0], (len(block), 8))
-            for column, kind, offset, matrix in zip(block.T, self.joint_types, self.joint_offsets, maps):
+            for column, kind, offset, matrix in zip(block.T, self.joint_types, self.joint_offsets, maps, strict=True):
                 both = pose @ matrix   # (B, 16): pose·K_i and pose·u·K_i
                 half = 0.5 * (column + offset)
                 if kind == REVOLUTE:
@@ -293,7 +298,7 @@ class SerialChain:
         if self._maps is None:
             identity = [tuple(row) for row in np.eye(8)]
             maps = []
-            for kind, constant in zip(self.joint_types, self._constants[1:]):
+            for kind, constant in zip(self.joint_types, self._constants[1:], strict=True):
                 unit = _K if kind == REVOLUTE else _EPSILON_K
                 maps.append(np.array([multiply_coefficients(e, constant)
                                       + multiply_coefficients(multiply_coefficients(e, unit), constant)
@@ -306,7 +311,8 @@ class SerialChain:
         for axis chains (frame 0 = base); frame n is always the end pose, tool included."""
         q = self.check_q(q)
         running = self._accumulate([float(v) for v in q])
-        return np.array([multiply_coefficients(pose, offset) for pose, offset in zip(running, self._frame_offsets)])
+        return np.array([multiply_coefficients(pose, offset)
+                         for pose, offset in zip(running, self._frame_offsets, strict=True)])
 
     def joint_axes(self, q) -> tuple[np.ndarray, np.ndarray]:
         """(directions, points), each (n, 3): every joint's unit axis and a point on it, base frame, at q."""
@@ -322,6 +328,19 @@ class SerialChain:
                            2.0 * (-dw * z - dx * y + dy * x + dz * w)))
             pose = multiply_coefficients(self._after_joint(i, pose, float(value)), self._constants[i + 1])
         return np.array(directions), np.array(points)
+
+    def product_form(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(constants (n + 1, 8), revolute (n,) bool, offsets (n,)): the chain as arrays, for compiled kernels.
+
+        σ(q) = K_0·J_1(q_1 + offset_1)·K_1·…·J_n(q_n + offset_n)·K_n, J_i = rz (revolute) or tz. Read-only, built once.
+        """
+        if self._form is None:
+            arrays = (np.array(self._constants), np.array([kind == REVOLUTE for kind in self.joint_types]),
+                      np.array(self.joint_offsets))
+            for array in arrays:
+                array.flags.writeable = False
+            self._form = arrays
+        return self._form
 
     def home(self) -> DualQuaternion:
         """End pose at q = 0."""

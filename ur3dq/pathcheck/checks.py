@@ -21,7 +21,7 @@ from ur3dq.pathcheck.geometry import BODY_NAMES
 EXACT_RANGE = 0.05
 
 CHECKS = ("reach", "branch", "wrist", "elbow", "shoulder", "joint_limit", "joint_speed", "self_collision", "cell",
-          "blend")
+          "blend", "sampling")
 
 
 @dataclasses.dataclass(frozen=True)

@@ -14,6 +14,7 @@ import numpy as np
 from ur3dq import dqarray
 from ur3dq.errors import UnreachablePoseError
 from ur3dq.kinematics import ur_ik
+from ur3dq.kinematics.models import JOINT_NAMES
 from ur3dq.pathcheck import bounds, sampling
 from ur3dq.pathcheck.checks import Margins, Problem, StepChecker
 from ur3dq.pathcheck.path_plan import PathPlan
@@ -137,6 +138,34 @@ def _check_move(plan, window, index, arm_for, problems, steps, certified) -> Non
 
 
 def _sample(model, segment, index, q, margins):
+    """(SampledMove, None) or (None, Problem) when the target itself cannot be solved or the move is too long to
+    sample (then it is not sampled)."""
+    try:
+        return _sampled(model, segment, index, q, margins)
+    except sampling.TooManySamples as error:
+        return None, _unsampled(model, segment, index, error)
+
+
+def _unsampled(model, segment, index, error: sampling.TooManySamples) -> Problem:
+    """The Problem of a move not sampled: a joint target outside the joint limits if that is why, else its length."""
+    target = segment.target_joints
+    pose = model.fk(target).to_array() if target is not None else segment.target_pose
+    where = tuple(float(v) for v in dqarray.translation_unchecked(pose))
+    if target is not None:
+        outside = (target < model.joint_lower) | (target > model.joint_upper)
+        if outside.any():
+            joint = int(np.argmax(outside))
+            return Problem(segment.name, index, "joint_limit", 1.0, where,
+                           f"target joint {joint + 1} ({JOINT_NAMES[joint]}) at {target[joint]:.4g} rad lies outside "
+                           f"its limits [{model.joint_lower[joint]:.4f}, {model.joint_upper[joint]:.4f}] (move not "
+                           f"sampled)", "use a target within the joint limits")
+    return Problem(segment.name, index, "sampling", 1.0, where,
+                   f"the move needs {error.needed:.3g} samples at the check's resolutions, more than "
+                   f"{sampling.MAX_SAMPLES_PER_MOVE} (not checked)", "split it into shorter moves, or check it at "
+                   "coarser resolutions")
+
+
+def _sampled(model, segment, index, q, margins):
     """(SampledMove, None) or (None, Problem) when the target itself cannot be solved."""
     if segment.move == "joint":
         target = segment.target_joints

@@ -14,6 +14,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ur3dq import dqarray
+from ur3dq.pose import MAX_JOINT_ABS
 
 MOVE_TYPES = ("joint", "linear", "process")
 
@@ -28,12 +29,16 @@ class PathSegment:
     target_joints: (6,) joint target in rad. Required for joint moves unless `target_pose` is given (then the IK
                    solution nearest the start is used); optional for linear/process moves, where the controller
                    reaches the pose by IK continuity: a target on another IK branch is reported.
-    target_pose:   (8,) TCP pose; for linear/process moves required unless `target_joints` is given (its FK).
+    target_pose:   (8,) TCP pose; for linear/process moves required unless `target_joints` is given (its FK). A
+                   unit dual quaternion within dqarray.UNIT_TOLERANCE (normalised), as the IK takes it, its
+                   translation within ±dqarray.MAX_POSE_COORDINATE m.
     speed:         rad/s (joint) or m/s (linear/process); acceleration rad/s² or m/s² (kept for the time figures).
     blend:         blend radius (m) into the next segment; 0 = stop at the target.
     tcp_offset:    (6,) UR pose vector [x y z rx ry rz] (m, rad, flange frame) of the TCP this move runs with (a
                    cell program's waypoint taught with its own TCP: set_tcp before the move); None = the model's.
                    A linear move's straight line, and `target_pose`, belong to this TCP.
+    Joint values lie within ±pose.MAX_JOINT_ABS rad (as in the pose store). Bad input: ValueError naming the
+    segment and the field.
     """
 
     name: str
@@ -50,9 +55,8 @@ class PathSegment:
             raise ValueError(f"path segment name must be a non-empty string, got {self.name!r}")
         if self.move not in MOVE_TYPES:
             raise ValueError(f"segment {self.name!r}: move must be one of {', '.join(MOVE_TYPES)}, got {self.move!r}")
-        joints = None if self.target_joints is None else _finite_vector(self.target_joints, 6, self.name, "joints")
-        pose = None if self.target_pose is None else dqarray.normalise(
-            _finite_vector(self.target_pose, 8, self.name, "pose"))
+        joints = None if self.target_joints is None else _joint_vector(self.target_joints, self.name)
+        pose = None if self.target_pose is None else _unit_pose(self.target_pose, self.name)
         if joints is None and pose is None:
             raise ValueError(f"segment {self.name!r}: give target_joints or target_pose")
         for field, value in (("speed", self.speed), ("acceleration", self.acceleration)):
@@ -63,7 +67,7 @@ class PathSegment:
         object.__setattr__(self, "target_joints", joints)
         object.__setattr__(self, "target_pose", pose)
         if self.tcp_offset is not None:
-            object.__setattr__(self, "tcp_offset", _finite_tuple(self.tcp_offset, 6, self.name, "tcp_offset"))
+            object.__setattr__(self, "tcp_offset", _tcp_offset(self.tcp_offset, self.name))
 
     @classmethod
     def joint_targets(cls, names, moves, targets, speeds, accelerations, blends, tcp_offsets) -> list[PathSegment]:
@@ -103,7 +107,7 @@ class PathPlan:
     segments: Sequence[PathSegment]   # kept as a tuple
 
     def __post_init__(self):
-        object.__setattr__(self, "start_joints", _finite_vector(self.start_joints, 6, "start", "joints"))
+        object.__setattr__(self, "start_joints", _joint_vector(self.start_joints, "start"))
         segments = tuple(self.segments)
         if not segments:
             raise ValueError("a path plan needs at least one segment")
@@ -121,6 +125,42 @@ def _finite_vector(value, size: int, name: str, what: str) -> np.ndarray:
         raise ValueError(f"segment {name!r}: {what} contain NaN or infinite values")
     array.flags.writeable = False
     return array
+
+
+def _joint_vector(value: object, name: str) -> np.ndarray:
+    """(6,) read-only finite joint values within ±MAX_JOINT_ABS rad (no arm is wound up 16 turns); ValueError
+    naming the segment."""
+    array = _finite_vector(value, 6, name, "joints")
+    if not float(np.max(np.abs(array))) <= MAX_JOINT_ABS:
+        raise ValueError(f"segment {name!r}: joints must lie within ±{MAX_JOINT_ABS:g} rad (radians, not "
+                         f"degrees), got {float(np.max(np.abs(array))):.4g}")
+    return array
+
+
+def _unit_pose(value: object, name: str) -> np.ndarray:
+    """(8,) read-only unit pose, normalised from within dqarray.UNIT_TOLERANCE as the IK takes it, translation
+    within ±dqarray.MAX_POSE_COORDINATE m; ValueError naming the segment (a scaled or non-rigid 8-vector)."""
+    array = _finite_vector(value, 8, name, "pose")
+    try:
+        pose = dqarray.normalise(dqarray.check_unit(array, "pose"))
+    except ValueError as error:
+        raise ValueError(f"segment {name!r}: {error}") from None
+    translation = float(np.max(np.abs(dqarray.translation_unchecked(pose))))
+    if translation > dqarray.MAX_POSE_COORDINATE:
+        raise ValueError(f"segment {name!r}: pose translation {translation:.3g} m is beyond "
+                         f"±{dqarray.MAX_POSE_COORDINATE:g} m: give metres")
+    pose.flags.writeable = False
+    return pose
+
+
+def _tcp_offset(value: object, name: str) -> tuple:
+    """(6,) UR pose vector of a TCP offset, as dqarray.from_ur_pose accepts it; ValueError naming the segment."""
+    offset = _finite_tuple(value, 6, name, "tcp_offset")
+    try:
+        dqarray.from_ur_pose(offset)
+    except ValueError as error:
+        raise ValueError(f"segment {name!r}: tcp_offset {str(error).removeprefix('pose: ')}") from None
+    return offset
 
 
 def _finite_tuple(value, size: int, name: str, what: str) -> tuple:

@@ -33,6 +33,23 @@ MAX_REFINEMENT = 16
 MAX_SAMPLES_PER_MOVE = 200_000
 
 
+class TooManySamples(ValueError):
+    """A move whose resolutions ask more than MAX_SAMPLES_PER_MOVE samples (a move of many turns, or a very fine
+    resolution): it is not sampled, so the check stays bounded in time and memory."""
+
+    def __init__(self, needed: float) -> None:
+        super().__init__(f"{needed:.3g} samples needed")
+        self.needed = needed
+
+
+def _sample_count(*needed: float) -> int:
+    """The samples a move needs (≥ 1); TooManySamples past MAX_SAMPLES_PER_MOVE."""
+    count = max(1.0, *needed)
+    if not count <= MAX_SAMPLES_PER_MOVE:
+        raise TooManySamples(count)
+    return math.ceil(count)
+
+
 @dataclasses.dataclass(frozen=True)
 class SampledMove:
     """The samples of one move.
@@ -52,9 +69,10 @@ def sample_joint_move(model, q0, q1, tcp_resolution: float, joint_resolution: fl
     """Sample a joint move q0 → q1.
 
     Samples of the synchronised joint interpolation q0 → q1: ≤ joint_resolution (rad) per joint and ≤
-    tcp_resolution (m) of TCP chord between neighbours."""
+    tcp_resolution (m) of TCP chord between neighbours (TooManySamples if that asks more than MAX_SAMPLES_PER_MOVE
+    at the joint resolution; the TCP refinement stops there)."""
     q0, q1 = np.asarray(q0, dtype=float), np.asarray(q1, dtype=float)
-    count = max(1, math.ceil(float(np.max(np.abs(q1 - q0))) / joint_resolution))
+    count = _sample_count(float(np.max(np.abs(q1 - q0))) / joint_resolution)
     fraction, joints, poses = _joint_samples(model, q0, q1, count)
     chord = _largest_chord(poses)
     if chord > tcp_resolution:
@@ -94,11 +112,12 @@ def line_length(pose0, pose1) -> tuple:
 
 
 def sample_linear_move(model, q0, pose1, tcp_resolution: float, joint_resolution: float) -> SampledMove:
-    """Samples of the linear move from the joints q0 to the TCP pose pose1 (8,), IK with branch continuity."""
+    """Samples of the linear move from the joints q0 to the TCP pose pose1 (8,), IK with branch continuity
+    (TooManySamples if the resolutions ask more than MAX_SAMPLES_PER_MOVE)."""
     q0 = np.asarray(q0, dtype=float)
     pose0 = model.fk(q0).to_array()
     metres, radians = (float(x) for x in line_length(pose0, pose1))
-    count = max(1, math.ceil(metres / tcp_resolution), math.ceil(radians / joint_resolution))
+    count = _sample_count(metres / tcp_resolution, radians / joint_resolution)
     move = _solve_line(model, q0, pose0, pose1, count)
     steps = np.abs(np.diff(move.joints, axis=0))
     if len(steps) and float(steps.max()) > joint_resolution:
