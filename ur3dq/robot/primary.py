@@ -156,6 +156,14 @@ class SafetyModeMessage:
 
 
 @dataclass(frozen=True)
+class DigitalIO:
+    """The digital I/O bits of Masterboard Data (sub-package 3): bits 0-7 standard, 8-15 configurable, 16-17 tool."""
+
+    input_bits: int
+    output_bits: int
+
+
+@dataclass(frozen=True)
 class RobotState:
     """The parts of one robot-state message ur3dq uses; None where the message did not carry them."""
 
@@ -164,6 +172,7 @@ class RobotState:
     cartesian: CartesianInfo | None = None
     kinematics: KinematicsInfo | None = None
     configuration: ConfigurationData | None = None
+    digital_io: DigitalIO | None = None
 
 
 def split_messages(buffer):
@@ -202,6 +211,7 @@ def parse_robot_state(body):
             fields["robot_mode"] = parse_robot_mode_data(data)
         elif package_type == MASTERBOARD_DATA:
             fields["safety_mode"] = parse_masterboard_safety_mode(data)
+            fields["digital_io"] = parse_masterboard_digital_io(data)
         elif package_type == CARTESIAN_INFO:
             fields["cartesian"] = parse_cartesian_info(data)
         elif package_type == KINEMATICS_INFO:
@@ -224,6 +234,14 @@ def parse_masterboard_safety_mode(data):
     if len(data) < struct.calcsize(layout):
         raise PrimaryParseError(f"Masterboard Data has {len(data)} bytes; too short for the 3.0+ layout")
     return struct.unpack_from(layout, data)[-1]
+
+
+def parse_masterboard_digital_io(data) -> DigitalIO:
+    """DigitalIO of Masterboard Data (sub-package 3, software 3.0+ layout: two int32 bit fields first)."""
+    if len(data) < 8:
+        raise PrimaryParseError(f"Masterboard Data has {len(data)} bytes; too short for its digital I/O")
+    inputs, outputs = struct.unpack_from(">ii", data)
+    return DigitalIO(inputs, outputs)
 
 
 def parse_cartesian_info(data):
@@ -306,12 +324,12 @@ def parse_version_message(data):
     return VersionMessage(_text(name), major, minor, bugfix, build, _text(data[date_offset:]))
 
 
-def is_program_started(message, program_name):
+def is_program_started(message: object, program_name: str) -> bool:
     """True if `message` is the key message announcing that `program_name` started."""
     return isinstance(message, KeyMessage) and message.title.endswith("_STARTED") and message.text == program_name
 
 
-def is_program_stopped(message, program_name):
+def is_program_stopped(message: object, program_name: str) -> bool:
     """True if `message` is the key message announcing that `program_name` stopped."""
     return isinstance(message, KeyMessage) and message.title.endswith("_STOPPED") and message.text == program_name
 

@@ -35,6 +35,7 @@ class PrimaryClient:
         self.cartesian = None
         self.kinematics = None
         self.configuration = None
+        self.digital_io = None  # primary.DigitalIO of the last robot state
         self.last_state_time = None  # time.monotonic() of the last robot-state message
         self.error = None  # why the reader stopped, once it has
         self._thread = threading.Thread(target=self._read_forever, name=f"ur3dq-primary-{host}", daemon=True)
@@ -123,6 +124,8 @@ class PrimaryClient:
                     self.kinematics = state.kinematics
                 if state.configuration is not None:
                     self.configuration = state.configuration
+                if state.digital_io is not None:
+                    self.digital_io = state.digital_io
                 self.last_state_time = time.monotonic()
                 self._changed.notify_all()
         elif message_type == primary.ROBOT_MESSAGE:

@@ -12,6 +12,7 @@ from ur3dq.robot.probe import probe_rtde
 RTDE_VARIABLES = [
     "timestamp", "actual_q", "actual_qd", "actual_TCP_pose", "robot_mode", "safety_mode", "runtime_state",
     "robot_status_bits", "safety_status_bits", "speed_scaling", "target_speed_fraction",
+    "actual_digital_input_bits", "actual_digital_output_bits",
 ]
 
 
@@ -62,18 +63,22 @@ class RTDEBackend:
                 self._last_timestamp, self._last_fresh = timestamp, now
             safety_mode = receive.getSafetyMode()
             safety_bits = receive.getSafetyStatusBits()
+            runtime_state = receive.getRuntimeState()
             status = state.RobotStatus(
                 joints=np.array(receive.getActualQ()),
                 joint_speeds=np.array(receive.getActualQd()),
                 tcp_pose=np.array(receive.getActualTCPPose()),
                 robot_mode=receive.getRobotMode(),
                 safety_mode=safety_mode,
-                program_running=state.program_running_from(receive.getRuntimeState(), receive.getRobotStatus()),
+                program_running=state.program_running_from(runtime_state, receive.getRobotStatus()),
                 protective_stopped=state.protective_stopped_from(safety_bits, safety_mode),
                 emergency_stopped=state.emergency_stopped_from(safety_bits, safety_mode),
                 speed_scaling=receive.getSpeedScaling(),
                 target_speed_fraction=receive.getTargetSpeedFraction(),
                 age=now - self._last_fresh,
+                program_paused=state.program_paused_from(runtime_state),
+                digital_inputs=int(receive.getActualDigitalInputBits()),
+                digital_outputs=int(receive.getActualDigitalOutputBits()),
             )
         finally:
             # An error raised here (or a KeyboardInterrupt) keeps this frame in its traceback, and a caller may keep

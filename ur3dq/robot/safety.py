@@ -3,16 +3,27 @@
 Each function is pure: it takes the numbers (and, for FK consistency, the model) and either returns the safe
 values or raises SafetyCheckError (ValueError) naming the argument and the problem.
 """
+from __future__ import annotations
+
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
+from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import SafetyCheckError
 from ur3dq.real_numbers import is_number, real_array
+
+#: A pose argument: a DualQuaternion (TCP in the base frame) or a UR pose vector [x, y, z, rx, ry, rz].
+PoseLike = DualQuaternion | Sequence[float] | np.ndarray
 
 # Default bound on any single joint's travel in one move: a surprising IK branch (a 2π wrist flip, an elbow
 # swap) travels more than this and is refused instead of swinging the arm.
 DEFAULT_MAX_JOINT_TRAVEL = math.pi
+MAX_TCP_SPEED = 1.0          # m/s: the pendant's default tool speed limit region; faster is lowered to it
+MAX_TCP_ACCELERATION = 4.0   # m/s²
+DEFAULT_TCP_SPEED = 0.25     # m/s, URScript movel's default
+DEFAULT_TCP_ACCELERATION = 1.2   # m/s², URScript movel's default
 
 
 def check_joint_vector(q, name="q"):
@@ -38,6 +49,14 @@ def check_pose_vector(pose, name="pose"):
     if array.shape != (6,) or not np.all(np.isfinite(array)):
         raise SafetyCheckError(f"{name} must be a UR pose vector of six finite numbers, got {pose!r}")
     return array
+
+
+def pose_of(pose: PoseLike) -> DualQuaternion:
+    """`pose` as a DualQuaternion: itself, or the pose of a UR pose vector [x, y, z, rx, ry, rz] (metres, rotation
+    vector); SafetyCheckError for anything else."""
+    if isinstance(pose, DualQuaternion):
+        return pose
+    return DualQuaternion.from_ur_pose(check_pose_vector(pose, "pose"))
 
 
 def check_joint_limits(q, lower, upper, name="q"):
@@ -80,6 +99,14 @@ def clamp_movej_speed(delta_q, a, v, max_acceleration, max_speed):
         a_limit = float(np.min(np.asarray(max_acceleration, dtype=float)[moving] / share))
         v_limit = float(np.min(np.asarray(max_speed, dtype=float)[moving] / share))
     return min(a, a_limit), min(v, v_limit)
+
+
+def clamp_tcp_speed(a: float | None, v: float | None) -> tuple[float, float]:
+    """(a, v) of a linear or process move (m/s², m/s): URScript's defaults where None, lowered to MAX_TCP_ACCELERATION
+    and MAX_TCP_SPEED; SafetyCheckError unless each is a finite number > 0."""
+    a = DEFAULT_TCP_ACCELERATION if a is None else _positive(a, "a")
+    v = DEFAULT_TCP_SPEED if v is None else _positive(v, "v")
+    return min(a, MAX_TCP_ACCELERATION), min(v, MAX_TCP_SPEED)
 
 
 def check_fk_consistency(model, q, pose, tol_m=1e-4, tol_rad=1e-3, name="q"):

@@ -53,6 +53,8 @@ class URXBackend:
         if mode is None or "JointData" not in data or "CartesianInfo" not in data:
             raise ConnectionLostError(f"no complete robot state from {self.host} yet")
         joint_data, cartesian = data["JointData"], data["CartesianInfo"]
+        # urx 0.11 misreads Masterboard Data of 3.x controllers: the I/O bits come from our own primary reader
+        io = self.primary.digital_io
         now = time.monotonic()
         urx_age = time.time() - self._robot.secmon.lastpacket_timestamp
         return state.validated(state.RobotStatus(
@@ -67,6 +69,9 @@ class URXBackend:
             speed_scaling=mode.speed_scaling,
             target_speed_fraction=mode.target_speed_fraction,
             age=max(urx_age, now - self.primary.last_state_time),
+            program_paused=mode.program_paused,
+            digital_inputs=io.input_bits if io is not None else 0,
+            digital_outputs=io.output_bits if io is not None else 0,
         ), f"the urx/primary state stream from {self.host}", safety_mode_reported=False)
 
     def send_program(self, script):
