@@ -220,7 +220,7 @@ def plan_program(model, steps, start_joints=None, defaults: Defaults = Defaults(
     # controller times movel
     metres, radians = dqarray.pose_distance(poses[:-1], poses[1:]) if len(poses) > 1 else (np.zeros(0),) * 2
     paths = np.maximum(metres, radians)
-    if start_joints is None:  # the first move's start is unknown
+    if start_joints is None and targets:  # the first move's start is unknown
         travels, paths = np.concatenate([[np.nan], travels]), np.concatenate([[np.nan], paths])
     limits = (float(np.min(model.max_joint_speed)), float(np.min(model.max_joint_acceleration)))
     shared: dict = {}   # id(Motion) -> _motion_figures: a big program's waypoints share a few Motion objects
