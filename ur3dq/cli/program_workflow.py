@@ -13,8 +13,6 @@ from collections.abc import Iterator
 
 import click
 from rich.console import Console
-from rich.markup import escape
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from ur3dq.cli.app import Settings, confirm, emit_json, emit_json_list, robot_session
 from ur3dq.cli.display import Column, pose_label, pose_vector_text, print_table
@@ -298,16 +296,18 @@ def program_part(settings: Settings, start, end):
 
 
 def run_program_command(settings: Settings, start, end, speed_scale, dry_run, yes, speed, acceleration, blend,
-                        replay_joints, max_travel, cell_path=None):
+                        replay_joints, max_travel, cell_path=None, resume=None):
     """`run-poses` of a cell program: plan, check, ask, run.
 
     `run-poses` of a cell program (a version-2 store, or --from/--to/--speed-scale): plan, table, the whole-path
     check (in `cell_path`'s cell if given), ask, run as one URScript program with the running step shown. Joint
-    speeds in rad/s (already converted from --deg)."""
+    speeds in rad/s (already converted from --deg). `resume` (a ResumeState) goes on from its step on the arm it
+    stopped on: the plan starts from the arm's actual joints, so its first move is a new path, checked as such."""
     from ur3dq.cli.background_simulator import running_simulator_host
+    from ur3dq.cli.resume_state import store_digest
     from ur3dq.kinematics import robot_model
 
-    err = Console(stderr=True, highlight=False)
+    digest = store_digest(settings.store_path)   # the program the run plans, for a later --resume
     steps, part, first = program_part(settings, start, end)
     defaults = Defaults(joint_acceleration=acceleration, joint_speed=speed, blend=blend)
     if not (math.isfinite(speed_scale) and 0 < speed_scale <= 1):
@@ -321,27 +321,25 @@ def run_program_command(settings: Settings, start, end, speed_scale, dry_run, ye
                                           "step)")
         require_clear_program_path(settings, model, plan, None, cell_path)
         return
-    from ur3dq.program.runner import run_plan
+    from ur3dq.cli import run_session
 
     with robot_session(settings, max_joint_travel=max_travel) as robot:
+        if resume is not None:
+            resume.require_same_arm(robot)
         plan = plan_program(robot.model, part, robot.joints(), defaults, speed_scale, replay_joints, max_travel,
                             resolve_from=steps)
         _show_plan(settings, plan, first, f"Plan on the {robot.model_name} at {robot.host}")
         require_clear_program_path(settings, robot.model, plan, robot.joints(), cell_path)
+        if resume is not None:
+            run_session.announce_resume(settings, plan, first, len(steps), robot.joints())
         if dry_run:
             return
         confirm(f"Run {len(plan)} steps ({part[0].name!r} to {part[-1].name!r}) on the arm?", yes, default=False)
-        columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
-                   TimeElapsedColumn())
-        with Progress(*columns, console=err, transient=False) as progress:
-            task = progress.add_task("starting", total=len(plan))
-
-            def shown(position, step):
-                progress.update(task, description=escape(f"step {position}: {step.name} ({step.kind})"),
-                                completed=position - first)
-
-            seconds = run_plan(robot, plan, first, shown)
-            progress.update(task, completed=len(plan), description="done")
+        options = {"speed": speed, "acceleration": acceleration, "blend": blend, "speed_scale": speed_scale,
+                   "replay_joints": replay_joints, "max_travel": max_travel,
+                   "cell": None if cell_path is None else str(cell_path)}
+        record = run_session.run_record(settings, robot, "program", end, options, digest)
+        seconds = run_session.run_program(settings, robot, plan, first, len(steps), record)
     if settings.json:
         emit_json({"steps": [p.step.name for p in plan], "seconds": seconds})
     else:

@@ -442,7 +442,8 @@ class Robot:
 
     def run_script(self, name: str, program: str, target: Sequence[float] | np.ndarray, duration: float,
                    on_message: Callable[[object], None] | None = None,
-                   reached_end: Callable[[], bool] | None = None, path: PathPlan | None = None) -> float:
+                   reached_end: Callable[[], bool] | None = None, path: PathPlan | None = None,
+                   on_sent: Callable[[], None] | None = None) -> float:
         """Run a whole generated URScript program and watch it to its end.
 
         Run a whole generated `program` (URScript text of `def name(): ... end`, its targets checked by the
@@ -450,17 +451,19 @@ class Robot:
         message is also given to `on_message` (which may raise to fail the run; after a failure it still gets the
         program's last messages), and when `reached_end` is given the run is only done once it returns True (the
         program's own report that it ran to its end: the arm resting at a target it started from proves nothing).
-        `path` (a PathPlan of the program's moves) is checked when require_path_check is on. Returns the wall
-        time (s). Used by ur3dq.program.runner."""
+        `path` (a PathPlan of the program's moves) is checked when require_path_check is on. `on_sent()` is
+        called once the program is handed to the controller (an error before it: nothing was sent). Returns the
+        wall time (s). Used by ur3dq.program.runner."""
         status = self._ready_status()
         target = self._checked_target(target, "target")
         self._require_clear_path(path)
         return self._send_watched(urscript.check_identifier(name), program, target, status, duration, on_message,
-                                  reached_end)
+                                  reached_end, on_sent)
 
     def _send_watched(self, name: str, program: str, target: np.ndarray, status: state.RobotStatus,
                       duration: float, on_message: Callable[[object], None] | None = None,
-                      reached_end: Callable[[], bool] | None = None) -> float:
+                      reached_end: Callable[[], bool] | None = None,
+                      on_sent: Callable[[], None] | None = None) -> float:
         """Send `program` (armed on the heartbeat) from `status`, expected to take `duration` s at 100 %, then watch
         it to its end; any failure stops the arm before the exception leaves."""
         timeout = motion.motion_timeout(duration, status.target_speed_fraction) + self.link_delay
@@ -471,6 +474,8 @@ class Robot:
                               watchdog_period=1.0 / WATCHDOG_FREQUENCY)
         try:
             self._backend.send_program(program)
+            if on_sent is not None:
+                on_sent()
             while True:
                 for message in drain(watcher):
                     outcome.note_message(message)
