@@ -32,6 +32,7 @@ class RTDEInputs:
     def __init__(self, host: str) -> None:
         self.host = host
         self._lock = threading.Lock()
+        self._broken = False   # a write failed: the connection is gone until reconnect() opens it again
         try:
             self._io = rtde_io.RTDEIOInterface(host)
         except RuntimeError as error:
@@ -43,9 +44,11 @@ class RTDEInputs:
         """call(RTDEIOInterface) under the lock; False when it reports failure or raises (a dropped connection)."""
         with self._lock:
             try:
-                return bool(call(self._io))
+                written = bool(call(self._io))
             except RuntimeError:
-                return False
+                written = False
+            self._broken = self._broken or not written
+            return written
 
     def set_int_register(self, register: int, value: int) -> bool:
         """Write RTDE `input_int_register_<register>`; False when the write failed."""
@@ -64,10 +67,23 @@ class RTDEInputs:
         """Open the connection again after a failed write; False (or RobotConnectionError) if refused."""
         with self._lock:
             try:
-                return bool(self._io.reconnect())
+                reconnected = bool(self._io.reconnect())
             except RuntimeError as error:
                 raise RobotConnectionError(f"the RTDE inputs of {self.host}:30004 cannot reconnect: {error}") from None
+            self._broken = not reconnected
+            return reconnected
 
     def close(self) -> None:
-        """Disconnect (idempotent)."""
+        """Disconnect (idempotent).
+
+        After a failed write ur_rtde still takes the connection for open, and its disconnect — by hand or in its
+        destructor — writes to the dead socket and throws from C++ code that cannot pass the error on, which
+        aborts the process (SIGABRT, exit 134). So a broken connection is opened again first, then closed cleanly;
+        when the controller cannot be reached any more, that abort remains (a known ur_rtde 1.6 behaviour).
+        """
+        if self._broken:
+            try:
+                self.reconnect()
+            except RobotConnectionError:
+                pass
         self.write(lambda io: io.disconnect())
