@@ -69,6 +69,7 @@ def run_program(settings: Settings, robot: Any, plan: Sequence[PlannedStep], fir
         watch = StepWatch(plan, first, shown)
         describe = lambda: step_text(watch.position, plan[watch.position - first].step, program_length)  # noqa: E731
         with OperatorControls(robot, progress.console, describe) as controls:
+            failure: BaseException | None = None
             try:
                 seconds = run_plan(robot, plan, first, watch=watch)
             except BaseException as error:
@@ -76,7 +77,6 @@ def run_program(settings: Settings, robot: Any, plan: Sequence[PlannedStep], fir
                     raise
                 failure = error
             else:
-                failure = None
                 progress.update(task, completed=len(plan), description="done")
     if failure is not None:
         stop = failure.program_stop   # type: ignore[attr-defined]
@@ -215,14 +215,13 @@ def run_replay(settings: Settings, robot: Any, execute: Callable[[Callable[[str,
 
         describe = lambda: step_text(done[0] + 1, _PoseMove(names[done[0]]), len(names))  # noqa: E731
         with OperatorControls(robot, progress.console, describe) as controls:
+            failure: BaseException | None = None
             try:
                 results = execute(report)
             except (KeyboardInterrupt, Exception) as error:
                 if isinstance(error, SafetyCheckError) and done[0] == 0:
                     raise   # refused before anything moved
                 failure = error
-            else:
-                failure = None
     if failure is not None:
         stop = replay_stop(robot, done[0] + 1, names[done[0]])
         raise ended_early(settings, failure, stop, _PoseMove(names[done[0]]), len(names), record, controls,

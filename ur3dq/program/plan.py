@@ -17,7 +17,7 @@ from ur3dq import dqarray
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import JointLimitError, SafetyCheckError, UnreachablePoseError
 from ur3dq.program.resolve import resolve_targets
-from ur3dq.program.steps import Waypoint, is_waypoint
+from ur3dq.program.steps import Step, Waypoint, is_waypoint
 from ur3dq.robot import motion, safety
 
 # The driver's TCP limits and URScript's movel defaults: one source (ur3dq.robot.safety).
@@ -69,7 +69,7 @@ class PlannedStep:
     aim at, move type, clamped a/v, blend radius (m), travel (rad, largest joint) and time (s, at 100 %; None
     when the start is unknown). Action steps carry only `step`."""
 
-    step: object
+    step: Step
     joints: np.ndarray | None = None
     coefficients: tuple | None = None   # the target TCP pose's 8 dual-quaternion coefficients (base frame)
     tcp_offset: tuple | None = None

@@ -17,6 +17,7 @@ import dataclasses
 import math
 import time
 from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -34,6 +35,9 @@ MAX_STATEMENT_SECONDS = 0.05   # each action's own time on the controller (a few
 REST_TIMEOUT = 2.0             # s to wait for the arm to come to rest after a stop, before saying where it is
 REST_SPEED = 1e-3              # rad/s: every joint slower than this is at rest
 Progress = Callable[[int, Step], None]
+
+if TYPE_CHECKING:
+    from ur3dq.robot.robot import Robot
 
 
 @dataclasses.dataclass(frozen=True)
@@ -80,7 +84,7 @@ class StepWatch:
         """The 1-based position of the step running now (the first one before any report, the last once done)."""
         return self.first + (len(self.plan) - 1 if self.done else self.current or 0)
 
-    def note(self, message) -> None:
+    def note(self, message: object) -> None:
         """Update from one robot message; ProgramError when the program reports a failed step."""
         text = getattr(message, "text", None)
         if not isinstance(text, str):
@@ -88,8 +92,8 @@ class StepWatch:
         for key in (STEP_KEY, FAIL_KEY):
             if text.startswith(key) and text[len(key):].strip().lstrip("-").isdigit():
                 index = int(text[len(key):].strip()) - self.first
-                if key == FAIL_KEY and 0 <= index < len(self.plan):
-                    step = self.plan[index].step
+                step = self.plan[index].step if 0 <= index < len(self.plan) else None
+                if key == FAIL_KEY and isinstance(step, WaitInput):
                     raise ProgramError(f"{step.who}: input {step.input} DI{step.pin} did not turn "
                                        f"{'on' if step.on else 'off'} within {step.timeout:g} s; the program stopped")
                 if key == STEP_KEY:
@@ -101,7 +105,7 @@ class StepWatch:
                             self.progress(self.first + index, self.plan[index].step)
 
 
-def expected_seconds(plan) -> float:
+def expected_seconds(plan: Sequence[PlannedStep]) -> float:
     """An upper bound of the program's duration at 100 % speed: moves (each from rest), waits, input timeouts."""
     total = 0.0
     for planned in plan:
@@ -115,7 +119,7 @@ def expected_seconds(plan) -> float:
     return total
 
 
-def check_plan_for_robot(robot, plan, start_joints) -> None:
+def check_plan_for_robot(robot: Robot, plan: Sequence[PlannedStep], start_joints: np.ndarray) -> None:
     """Check every joint target of a plan as the driver checks a motion.
 
     Every joint target inside the limits, FK-consistent with its target pose, and within the travel limit from
@@ -135,7 +139,7 @@ def check_plan_for_robot(robot, plan, start_joints) -> None:
         previous = planned.joints
 
 
-def run_plan(robot, plan: Sequence[PlannedStep], first_position: int = 1, progress: Progress | None = None,
+def run_plan(robot: Robot, plan: Sequence[PlannedStep], first_position: int = 1, progress: Progress | None = None,
              watch: StepWatch | None = None) -> float:
     """Run a planned program on the robot as one URScript program.
 
@@ -167,7 +171,7 @@ def run_plan(robot, plan: Sequence[PlannedStep], first_position: int = 1, progre
         raise
 
 
-def program_stop(robot, watch: StepWatch) -> ProgramStop:
+def program_stop(robot: Robot, watch: StepWatch) -> ProgramStop:
     """The ProgramStop of a run `watch` followed: its running step, and (once the arm is at rest, at most
     REST_TIMEOUT s) where the arm is and which of the outputs the program switched on are still on."""
     index = watch.position - watch.first
@@ -191,7 +195,7 @@ def outputs_switched_on(plan: Sequence[PlannedStep]) -> list[tuple[str, int]]:
     return [output for output, on in last.items() if on]
 
 
-def status_at_rest(robot) -> state.RobotStatus | None:
+def status_at_rest(robot: Robot) -> state.RobotStatus | None:
     """The robot's status once every joint rests (or after REST_TIMEOUT); None when it cannot be read."""
     deadline = time.monotonic() + REST_TIMEOUT
     try:
@@ -204,13 +208,14 @@ def status_at_rest(robot) -> state.RobotStatus | None:
         return None
 
 
-def _path_of(plan, start):
+def _path_of(plan: Sequence[PlannedStep], start: np.ndarray) -> PathPlan:
     """The PathPlan the driver's path check sees; a program without waypoints checks where the arm rests."""
-    return path_plan_of(plan, start) or PathPlan(start, [PathSegment("(no motion)", target_joints=start)])
+    return path_plan_of(plan, start) or PathPlan(start, (PathSegment("(no motion)", target_joints=start),))
 
 
-def run(robot, steps, defaults=None, speed_scale: float = 1.0, start: str | None = None, end: str | None = None,
-        progress=None):
+def run(robot: Robot, steps: Sequence[Step], defaults: Defaults | None = None, speed_scale: float = 1.0,
+        start: str | None = None, end: str | None = None,
+        progress: Progress | None = None) -> tuple[list[PlannedStep], float]:
     """Plan a cell program from the arm's joints and run it.
 
     The program runs as one URScript program, watched step by step; every target is checked first (limits, FK,

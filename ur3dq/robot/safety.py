@@ -7,12 +7,16 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import SafetyCheckError
 from ur3dq.real_numbers import is_number, real_array
+
+if TYPE_CHECKING:
+    from ur3dq.kinematics.models import URModel
 
 #: A pose argument: a DualQuaternion (TCP in the base frame) or a UR pose vector [x, y, z, rx, ry, rz].
 PoseLike = DualQuaternion | Sequence[float] | np.ndarray
@@ -26,7 +30,7 @@ DEFAULT_TCP_SPEED = 0.25     # m/s, URScript movel's default
 DEFAULT_TCP_ACCELERATION = 1.2   # m/s², URScript movel's default
 
 
-def check_joint_vector(q, name="q"):
+def check_joint_vector(q: object, name: str = "q") -> np.ndarray:
     """`q` as a float array of six finite joint angles (radians), or SafetyCheckError naming the problem."""
     try:
         array = real_array(q)
@@ -40,7 +44,7 @@ def check_joint_vector(q, name="q"):
     return array
 
 
-def check_pose_vector(pose, name="pose"):
+def check_pose_vector(pose: object, name: str = "pose") -> np.ndarray:
     """`pose` as a float array [x, y, z, rx, ry, rz] (metres, rotation vector) of six finite values."""
     try:
         array = real_array(pose)
@@ -59,7 +63,8 @@ def pose_of(pose: PoseLike) -> DualQuaternion:
     return DualQuaternion.from_ur_pose(check_pose_vector(pose, "pose"))
 
 
-def check_joint_limits(q, lower, upper, name="q"):
+def check_joint_limits(q: object, lower: Sequence[float] | np.ndarray, upper: Sequence[float] | np.ndarray,
+                       name: str = "q") -> np.ndarray:
     """`q` unchanged if every joint lies within [lower, upper] (radians), else SafetyCheckError naming the joint."""
     q = check_joint_vector(q, name)
     for index in range(6):
@@ -71,7 +76,7 @@ def check_joint_limits(q, lower, upper, name="q"):
     return q
 
 
-def check_travel(q_from, q_to, max_travel, name="q"):
+def check_travel(q_from: object, q_to: object, max_travel: float, name: str = "q") -> np.ndarray:
     """`q_to` unchanged if no joint travels more than `max_travel` radians from `q_from`, else SafetyCheckError."""
     travel = np.abs(check_joint_vector(q_to, name) - check_joint_vector(q_from, "current joints"))
     worst = int(np.argmax(travel))
@@ -83,7 +88,9 @@ def check_travel(q_from, q_to, max_travel, name="q"):
     return np.asarray(q_to, dtype=float)
 
 
-def clamp_movej_speed(delta_q, a, v, max_acceleration, max_speed):
+def clamp_movej_speed(delta_q: Sequence[float] | np.ndarray, a: float, v: float,
+                      max_acceleration: Sequence[float] | np.ndarray,
+                      max_speed: Sequence[float] | np.ndarray) -> tuple[float, float]:
     """(a, v) for a movej of joint travel `delta_q`, lowered so that no joint exceeds its own max (rad/s², rad/s).
 
     The leading joint moves at a and v; joint i at a·|Δq_i|/D and v·|Δq_i|/D, D = max |Δq|.
@@ -109,7 +116,8 @@ def clamp_tcp_speed(a: float | None, v: float | None) -> tuple[float, float]:
     return min(a, MAX_TCP_ACCELERATION), min(v, MAX_TCP_SPEED)
 
 
-def check_fk_consistency(model, q, pose, tol_m=1e-4, tol_rad=1e-3, name="q"):
+def check_fk_consistency(model: URModel, q: object, pose: DualQuaternion, tol_m: float = 1e-4, tol_rad: float = 1e-3,
+                         name: str = "q") -> np.ndarray:
     """`q` unchanged if the model's FK of `q` is `pose` (DualQuaternion) within tolerance, else SafetyCheckError."""
     reached = model.fk(check_joint_vector(q, name))
     metres, radians = reached.distance(pose)
@@ -121,11 +129,11 @@ def check_fk_consistency(model, q, pose, tol_m=1e-4, tol_rad=1e-3, name="q"):
     return np.asarray(q, dtype=float)
 
 
-def _positive(value, name):
+def _positive(value: object, name: str) -> float:
     """`value` as a float if finite and > 0, else SafetyCheckError."""
     if not is_number(value):   # float() would read "1.5" and True
         raise SafetyCheckError(f"{name} must be a positive number, got {value!r}")
-    number = float(value)
+    number = float(value)   # type: ignore[arg-type]   # is_number checked it
     if not (math.isfinite(number) and number > 0):
         raise SafetyCheckError(f"{name} must be finite and > 0, got {number!r}")
     return number
