@@ -266,3 +266,31 @@ def test_a_replay_of_stored_poses_resumes_from_the_move_it_stopped_in(arm, run_c
     assert resumed.returncode == 0, resumed.stderr
     assert "Resuming the replay at move 2, to 'b'" in resumed.stderr
     np.testing.assert_allclose(arm.joints(), START, atol=1e-3)
+
+
+def test_in_a_terminal_p_pauses_s_stops_and_resume_goes_on(program_arm, run_cli, tmp_path):
+    from cli_support import Terminal
+
+    arm, recorder = program_arm
+    arm.place(START)
+    terminal = Terminal(tmp_path, "--host", arm.host, "run-poses", "--yes")
+    try:
+        terminal.wait_for("p pauses, s stops, q quits")
+        recorder.wait_for_a_step()
+        time.sleep(0.2)
+        terminal.press("p")
+        terminal.wait_for("Paused during step")
+        terminal.wait_for("r resume, s stop (go on later with --resume), q quit.")
+        assert np.max(np.abs(arm.joint_speeds())) < 1e-3   # "Paused" is said once the arm rests
+        held = arm.joints()
+        time.sleep(0.5)
+        np.testing.assert_allclose(arm.joints(), held, atol=1e-5)   # paused on its path: nothing moves
+        terminal.press("s")
+        terminal.wait_for("Error: stopped by the operator (during step ")
+        assert terminal.process.wait(20) == 130
+    finally:
+        terminal.close()
+    resumed = run(run_cli, arm, "--resume")
+    assert resumed.returncode == 0, resumed.stderr
+    assert np.linalg.norm(arm.tcp_pose()[:3] - MODEL.fk(Q_PLACE).translation) < 5e-4
+    assert recorder.changes == [True, False]

@@ -83,9 +83,9 @@ class OperatorControls:
 
     def _read_keys(self) -> None:
         """Read single keys from the terminal until the run ends; pass on what they ask."""
-        with _cbreak(sys.stdin.fileno()):
+        with cbreak(sys.stdin.fileno()):
             while not self._done.is_set():
-                key = _key(sys.stdin.fileno(), KEY_POLL)
+                key = read_key(sys.stdin.fileno(), KEY_POLL)
                 if key is None:
                     continue
                 if key == "s" or key == "q":
@@ -135,7 +135,7 @@ class OperatorControls:
 
 
 @contextlib.contextmanager
-def _cbreak(fd: int) -> Iterator[None]:
+def cbreak(fd: int) -> Iterator[None]:
     """The terminal `fd` in cbreak mode (keys one at a time, not echoed; Ctrl-C still a signal) while inside."""
     import termios
     import tty
@@ -148,11 +148,16 @@ def _cbreak(fd: int) -> Iterator[None]:
         termios.tcsetattr(fd, termios.TCSADRAIN, saved)
 
 
-def _key(fd: int, timeout: float) -> str | None:
-    """One key typed on `fd` within `timeout` s, or None (an escape sequence, such as an arrow key, as one
-    string)."""
+def read_key(fd: int, timeout: float) -> str | None:
+    """One key typed on `fd` within `timeout` s, or None; an escape sequence (an arrow key) comes as one string,
+    and keys typed together come one at a time."""
     ready, _, _ = select.select([fd], [], [], timeout)
     if not ready:
         return None
-    data = os.read(fd, 16)
+    data = os.read(fd, 1)
+    if data == b"\x1b":   # an escape sequence follows at once, or it was the Esc key alone
+        while len(data) < 8 and select.select([fd], [], [], 0.01)[0]:
+            data += os.read(fd, 1)
+            if data[-1:].isalpha() or data[-1:] == b"~":
+                break
     return data.decode("utf-8", "replace") if data else None
