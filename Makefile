@@ -1,11 +1,11 @@
-# The two commands of the README: `make demo` and `make test`.
+# The two commands of the README: `make demo` and `make test` (which runs `make lint` first).
 # Each creates its own virtual environment (.venv) from nothing but python3.
 PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test test-ursim bench clean
+.PHONY: demo lint test test-ursim bench clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -16,8 +16,13 @@ $(STAMP): pyproject.toml
 demo: $(STAMP)
 	$(BIN)/ur3dq demo
 
-# Two passes: the suite on two workers, then the timing measurements alone (marker `exclusive`).
-test: $(STAMP)
+# ruff (pycodestyle, pyflakes, isort, bugbear, pyupgrade) and mypy, both configured in pyproject.toml.
+lint: $(STAMP)
+	$(BIN)/ruff check .
+	$(BIN)/mypy
+
+# Lint, then two passes: the suite on two workers, then the timing measurements alone (marker `exclusive`).
+test: lint
 	$(BIN)/python -m pytest -m "not exclusive"
 	$(BIN)/python -m pytest -m exclusive -n 0
 

@@ -53,7 +53,7 @@ def dh_of_axes(frames) -> dict:
     z parallel to it (a6 = α6 = 0, as in every UR table). Each row runs along the common normal of two successive
     axes, so for nearly parallel axes its d is huge and the next one cancels it, as in a controller's table."""
     origin, x_axis, z_axis = frames[0][:3, 3], frames[0][:3, 0], frames[0][:3, 2]
-    rows = {"a": [], "d": [], "alpha": [], "theta": []}
+    rows: dict[str, list[float]] = {"a": [], "d": [], "alpha": [], "theta": []}
     for i in range(1, 7):
         point, direction = frames[i][:3, 3], frames[i][:3, 2]
         if i < 6:   # the common normal of joint i's axis (origin, z) and joint i+1's (point, direction)
@@ -81,7 +81,8 @@ def factory_calibration(nominal_dh, seed: int = 0) -> dict:
     moved by up to LENGTH_SPREAD; the flange sits on joint 6's axis at d6 ± LENGTH_SPREAD."""
     rng = np.random.default_rng(seed)
     nominal = [np.asarray(column, dtype=float) for column in nominal_dh]
-    frames = [np.array(frame) for frame in joint_frames(nominal, np.zeros(6))]
+    a, d, alpha, theta = nominal
+    frames = [np.array(frame) for frame in joint_frames((a, d, alpha, theta), np.zeros(6))]
     for i in range(1, 6):
         frames[i][:3, :3] = _small_rotation(rng, ANGLE_SPREAD) @ frames[i][:3, :3]
         frames[i][:3, 3] += rng.uniform(-LENGTH_SPREAD, LENGTH_SPREAD, 3)

@@ -108,7 +108,7 @@ class Controller:
         self.loaded_program = None  # path of the program `play` runs
         self.loaded_program_source = None
         self._changes = 0
-        self._idle_signature = (None, None, None)
+        self._idle_signature: tuple[object, object, object] = (None, None, None)
         self._execution_time = 0.0
         self._script_control_line = 0
         self._external_force_torque = frozen_array(np.zeros(6))

@@ -82,7 +82,7 @@ class Faults:
 def _non_negative(value: object, name: str) -> float:
     """`value` as a finite float ≥ 0; ValueError naming `name` otherwise."""
     try:
-        number = float(value)
+        number = float(value)  # type: ignore[arg-type]  # anything else raises, below
     except (TypeError, ValueError):
         raise ValueError(f"{name} must be a number, got {value!r}") from None
     if not (number >= 0.0) or number == float("inf"):

@@ -16,7 +16,7 @@ BIT_REGISTER_COUNT = 128
 INT32_MIN, INT32_MAX = -(2**31), 2**31 - 1
 
 
-def _frozen(array: object) -> np.ndarray:
+def _frozen(array: np.ndarray) -> np.ndarray:
     """`array` made read-only, so snapshots can share it safely."""
     array.setflags(write=False)
     return array

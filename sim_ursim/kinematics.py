@@ -5,6 +5,7 @@ Convention throughout: 4x4 homogeneous matrices map child to parent frame; a UR 
 """
 import math
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -124,7 +125,7 @@ def checked_vector(values: object, length: int, name: str) -> np.ndarray:
 def checked_number(value: object, name: str) -> float:
     """`value` as a finite float; ValueError naming `name` otherwise."""
     try:
-        number = float(value)
+        number = float(value)  # type: ignore[arg-type]  # anything else raises, below
     except (TypeError, ValueError):
         raise ValueError(f"{name} must be a number, got {value!r}") from None
     if not math.isfinite(number):
@@ -239,7 +240,7 @@ class ArmKinematics:
     def __init__(self, dh: DH, tcp_offset: Vector):
         self.dh = dh
         self.tcp_offset = _read_only(tcp_offset)
-        self._cache = (None, None)
+        self._cache: tuple[Any, Any] = (None, None)   # ((q, tcp_offset), poses_at's result)
 
     def tcp_matrix(self, q: Vector) -> np.ndarray:
         """Base→TCP transform at joints q."""
@@ -249,7 +250,7 @@ class ArmKinematics:
         """TCP pose vector in the base frame at joints q."""
         return tcp_pose(self.dh, q, self.tcp_offset)
 
-    def solve_ik(self, pose: Vector, q_near: Vector, **options: float) -> np.ndarray:
+    def solve_ik(self, pose: Vector, q_near: Vector, **options: Any) -> np.ndarray:
         """Joints reaching TCP `pose` nearest to q_near (options as `inverse_kinematics`); IKError if none."""
         return inverse_kinematics(self.dh, pose, q_near, self.tcp_offset, **options)
 

@@ -21,10 +21,12 @@ from .simulator import STANDARD_PORTS, Simulator
 
 ADDRESS_ATTEMPTS = 50
 SERVE_TIMEOUT = 20.0
+_RNG = random.Random()
 
 
-def random_loopback_address(rng: random.Random = random) -> str:
-    """A random 127.a.b.c address, avoiding 127.0.0.1 and the .0 / .255 host parts."""
+def random_loopback_address(rng: random.Random | None = None) -> str:
+    """A random 127.a.b.c address, avoiding 127.0.0.1 and the .0 / .255 host parts (`rng`: default, the module's)."""
+    rng = rng or _RNG
     return f"127.{rng.randrange(0, 256)}.{rng.randrange(0, 256)}.{rng.randrange(2, 255)}"
 
 
@@ -123,7 +125,7 @@ def simulator_process(model: str = "ur3", version: str | None = None, extra_args
         arguments += [flag, ",".join(str(v) for v in value) if isinstance(value, (list, tuple)) else str(value)]
     arguments += list(extra_args)
     own_log = log_path is None
-    if own_log:
+    if log_path is None:
         handle, log_path = tempfile.mkstemp(prefix="sim_ursim-", suffix=".log")
         os.close(handle)
     with open(log_path, "wb") as log_file:

@@ -87,7 +87,7 @@ class MessageBus:
 
     def subscribe(self) -> queue.Queue:
         """A new queue that receives every message published from now on."""
-        subscriber = queue.Queue(maxsize=self._queue_size)
+        subscriber: queue.Queue[object] = queue.Queue(maxsize=self._queue_size)
         with self._lock:
             self._subscribers.append(subscriber)
         return subscriber

@@ -115,7 +115,7 @@ class ModeMachine:
         CommandRefused if not protective-stopped."""
         if self.safety_mode != SafetyMode.PROTECTIVE_STOP:
             raise CommandRefused(f"not in protective stop (safety mode {SafetyMode.NAMES[self.safety_mode]})")
-        if enforce_delay and time.monotonic() - self._protective_stop_at < self.unlock_delay:
+        if enforce_delay and time.monotonic() - (self._protective_stop_at or 0.0) < self.unlock_delay:
             raise UnlockTooEarly("Cannot unlock protective stop until 5s after occurrence. "
                                  "Always inspect cause of protective stop before unlocking")
         self._set_safety_mode(SafetyMode.NORMAL)

@@ -210,15 +210,16 @@ class TCPServer:
 
     # ------------------------------------------------------------------------------------------------ threads
     def _accept_loop(self) -> None:
-        while not self._stopping.is_set():
+        listener = self._listener
+        while listener is not None and not self._stopping.is_set():
             try:
-                readable, _, _ = select.select([self._listener], [], [], POLL_INTERVAL)
+                readable, _, _ = select.select([listener], [], [], POLL_INTERVAL)
             except (OSError, ValueError):
                 return
             if not readable:
                 continue
             try:
-                sock, peer = self._listener.accept()
+                sock, peer = listener.accept()
             except (BlockingIOError, InterruptedError):
                 continue
             except OSError:

@@ -9,7 +9,10 @@ the leading ``...`` axes broadcast like numpy.
 """
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
+import numpy.typing as npt
 
 from ur3dq.real_numbers import real_array
 
@@ -21,7 +24,7 @@ UNIT_TOLERANCE = 1e-6
 _SMALL = 1e-4
 
 
-def as_array(value, last: int | tuple, name: str) -> np.ndarray:
+def as_array(value: npt.ArrayLike, last: int | tuple[int, ...], name: str) -> np.ndarray:
     """Convert ``value`` to a finite float array whose trailing shape is ``last``; ValueError naming ``name``."""
     try:
         array = real_array(value)
@@ -35,7 +38,7 @@ def as_array(value, last: int | tuple, name: str) -> np.ndarray:
     return array
 
 
-def sincos_of_half(half: np.ndarray) -> tuple:
+def sincos_of_half(half: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(sin 2h, cos 2h) of an array of half angles h, IN PLACE, from t = tan h: sin = t·u, cos = u − 1, u = 2/(1+t²).
 
     Why tan: on CPUs with AVX-512 numpy's float64 tan has a SIMD loop and sin/cos do not, so one tan plus a few
@@ -52,7 +55,7 @@ def sincos_of_half(half: np.ndarray) -> tuple:
     return sine, scale
 
 
-def sincos(angle) -> tuple:
+def sincos(angle: npt.ArrayLike) -> tuple[Any, Any]:
     """(sin, cos) of an angle array (see :func:`sincos_of_half`; ``angle`` is left unchanged)."""
     shape = np.shape(angle)
     sine, cosine = sincos_of_half(np.multiply(np.atleast_1d(angle), 0.5))
@@ -77,10 +80,10 @@ def quaternion_multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def quaternion_conjugate(q: np.ndarray) -> np.ndarray:
     """Quaternion conjugate (w, −x, −y, −z) of (..., 4) quaternions (no validation: an inner kernel)."""
-    return q * np.array([1.0, -1.0, -1.0, -1.0])
+    return np.asarray(q * np.array([1.0, -1.0, -1.0, -1.0]))
 
 
-def rotation_vector_to_quaternion(rotation_vector) -> np.ndarray:
+def rotation_vector_to_quaternion(rotation_vector: npt.ArrayLike) -> np.ndarray:
     """Unit quaternion (..., 4) of a rotation vector (..., 3) = axis·angle in radians (any angle, incl. 0)."""
     v = as_array(rotation_vector, 3, "rotation_vector")
     angle = np.linalg.norm(v, axis=-1)
@@ -91,7 +94,7 @@ def rotation_vector_to_quaternion(rotation_vector) -> np.ndarray:
     return np.concatenate((np.cos(half)[..., None], factor[..., None] * v), axis=-1)
 
 
-def quaternion_to_rotation_vector(q) -> np.ndarray:
+def quaternion_to_rotation_vector(q: npt.ArrayLike) -> np.ndarray:
     """Rotation vector (..., 3), angle in [0, π], of (..., 4) unit quaternions (q ≡ −q, handles 0 and π)."""
     q = as_array(q, 4, "quaternion")
     sign = np.where(q[..., 0] < 0.0, -1.0, 1.0)
@@ -102,7 +105,7 @@ def quaternion_to_rotation_vector(q) -> np.ndarray:
     small = n < _SMALL
     # angle / n, its limit near n = 0 being 2/w·(1 − n²/(3w²)) (w ≈ 1 there).
     factor = np.where(small, 2.0 / np.where(small, w, 1.0) * (1.0 - n * n / 3.0), angle / np.where(small, 1.0, n))
-    return factor[..., None] * v
+    return np.asarray(factor[..., None] * v)
 
 
 def quaternion_to_matrix(q: np.ndarray) -> np.ndarray:
@@ -116,7 +119,7 @@ def quaternion_to_matrix(q: np.ndarray) -> np.ndarray:
     return np.stack([np.stack(row, axis=-1) for row in rows], axis=-2)
 
 
-def matrix_to_quaternion(rotation) -> np.ndarray:
+def matrix_to_quaternion(rotation: npt.ArrayLike) -> np.ndarray:
     """Unit quaternion (..., 4) with w ≥ 0 of (..., 3, 3) rotation matrices (Shepperd's stable branch choice)."""
     m = as_array(rotation, (3, 3), "rotation")
     m00, m01, m02 = m[..., 0, 0], m[..., 0, 1], m[..., 0, 2]
@@ -136,11 +139,11 @@ def matrix_to_quaternion(rotation) -> np.ndarray:
     branch = np.argmax(np.stack((trace, m00, m11, m22), axis=-1), axis=-1)
     chosen = np.take_along_axis(candidates, branch[..., None, None], axis=-2)[..., 0, :]
     q = chosen / np.linalg.norm(chosen, axis=-1, keepdims=True)
-    return np.where(q[..., :1] < 0.0, -q, q)
+    return np.asarray(np.where(q[..., :1] < 0.0, -q, q))
 
 
 # ------------------------------------------------------------------------------------------ dual quaternions
-def multiply(a, b) -> np.ndarray:
+def multiply(a: npt.ArrayLike, b: npt.ArrayLike) -> np.ndarray:
     """Dual-quaternion product a·b of (..., 8) arrays: (ra + ε da)(rb + ε db) = ra rb + ε(ra db + da rb)."""
     a = as_array(a, 8, "a")
     b = as_array(b, 8, "b")
@@ -156,22 +159,22 @@ def multiply_unchecked(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.concatenate((real, dual), axis=-1)
 
 
-def conjugate(a) -> np.ndarray:
+def conjugate(a: npt.ArrayLike) -> np.ndarray:
     """Quaternion conjugate r* + ε d* of (..., 8) arrays (the inverse of a unit dual quaternion)."""
-    return as_array(a, 8, "a") * np.array([1.0, -1.0, -1.0, -1.0, 1.0, -1.0, -1.0, -1.0])
+    return np.asarray(as_array(a, 8, "a") * np.array([1.0, -1.0, -1.0, -1.0, 1.0, -1.0, -1.0, -1.0]))
 
 
-def dual_conjugate(a) -> np.ndarray:
+def dual_conjugate(a: npt.ArrayLike) -> np.ndarray:
     """Dual conjugate r − ε d of (..., 8) arrays."""
-    return as_array(a, 8, "a") * np.array([1.0, 1.0, 1.0, 1.0, -1.0, -1.0, -1.0, -1.0])
+    return np.asarray(as_array(a, 8, "a") * np.array([1.0, 1.0, 1.0, 1.0, -1.0, -1.0, -1.0, -1.0]))
 
 
-def combined_conjugate(a) -> np.ndarray:
+def combined_conjugate(a: npt.ArrayLike) -> np.ndarray:
     """Combined (quaternion and dual) conjugate r* − ε d* of (..., 8) arrays."""
-    return as_array(a, 8, "a") * np.array([1.0, -1.0, -1.0, -1.0, -1.0, 1.0, 1.0, 1.0])
+    return np.asarray(as_array(a, 8, "a") * np.array([1.0, -1.0, -1.0, -1.0, -1.0, 1.0, 1.0, 1.0]))
 
 
-def from_rotation_translation(rotation, translation) -> np.ndarray:
+def from_rotation_translation(rotation: npt.ArrayLike, translation: npt.ArrayLike) -> np.ndarray:
     """(..., 8) σ = r + ε·½·t·r from unit quaternions r (..., 4) and translations t (..., 3) in the parent frame."""
     r = as_array(rotation, 4, "rotation")
     t = as_array(translation, 3, "translation")
@@ -186,12 +189,12 @@ def from_rotation_translation(rotation, translation) -> np.ndarray:
     return np.concatenate((r, 0.5 * quaternion_multiply(pure_t, r)), axis=-1)
 
 
-def rotation(a) -> np.ndarray:
+def rotation(a: npt.ArrayLike) -> np.ndarray:
     """Rotation quaternions (..., 4): the real parts of (..., 8) dual quaternions."""
-    return as_array(a, 8, "a")[..., :4].copy()
+    return np.asarray(as_array(a, 8, "a")[..., :4].copy())
 
 
-def translation(a) -> np.ndarray:
+def translation(a: npt.ArrayLike) -> np.ndarray:
     """Translations (..., 3) t = 2·d·r* of unit dual quaternions (..., 8), in the parent frame."""
     a = as_array(a, 8, "a")
     return translation_unchecked(a)
@@ -212,7 +215,7 @@ def translation_unchecked(a: np.ndarray) -> np.ndarray:
     )
 
 
-def check_unit(a, name: str = "a", tolerance: float = UNIT_TOLERANCE) -> np.ndarray:
+def check_unit(a: npt.ArrayLike, name: str = "a", tolerance: float = UNIT_TOLERANCE) -> np.ndarray:
     """Return ``a`` as a (..., 8) array after checking |r| = 1 and r·d = 0 within ``tolerance``; else ValueError."""
     a = as_array(a, 8, name)
     real = a[..., :4]
@@ -226,7 +229,7 @@ def check_unit(a, name: str = "a", tolerance: float = UNIT_TOLERANCE) -> np.ndar
     return a
 
 
-def normalise(a) -> np.ndarray:
+def normalise(a: npt.ArrayLike) -> np.ndarray:
     """Nearest unit dual quaternions (..., 8): r/|r|, and the dual part made orthogonal to r (keeps t)."""
     a = as_array(a, 8, "a")
     norm = np.linalg.norm(a[..., :4], axis=-1, keepdims=True)
@@ -238,21 +241,21 @@ def normalise(a) -> np.ndarray:
     return np.concatenate((r, d), axis=-1)
 
 
-def canonical(a) -> np.ndarray:
+def canonical(a: npt.ArrayLike) -> np.ndarray:
     """The representative of σ ≡ −σ (..., 8) whose real w is ≥ 0 (for hashing, display and logs)."""
     a = as_array(a, 8, "a")
     return np.where(a[..., :1] < 0.0, -a, a)
 
 
-def transform_points(a, points) -> np.ndarray:
+def transform_points(a: npt.ArrayLike, points: npt.ArrayLike) -> np.ndarray:
     """Points (..., 3) mapped by unit dual quaternions (..., 8): r·p·r* + t."""
     a = as_array(a, 8, "a")
     p = as_array(points, 3, "points")
     rotated = np.einsum("...ij,...j->...i", quaternion_to_matrix(a[..., :4]), p)
-    return rotated + translation_unchecked(a)
+    return np.asarray(rotated + translation_unchecked(a))
 
 
-def to_matrix(a) -> np.ndarray:
+def to_matrix(a: npt.ArrayLike) -> np.ndarray:
     """4×4 homogeneous matrices (..., 4, 4) of (..., 8) unit dual quaternions."""
     a = as_array(a, 8, "a")
     shape = a.shape[:-1]
@@ -263,7 +266,7 @@ def to_matrix(a) -> np.ndarray:
     return matrix
 
 
-def from_matrix(matrix, tolerance: float = UNIT_TOLERANCE) -> np.ndarray:
+def from_matrix(matrix: npt.ArrayLike, tolerance: float = UNIT_TOLERANCE) -> np.ndarray:
     """(..., 8) unit dual quaternions of 4×4 homogeneous matrices; ValueError if the 3×3 block is no rotation."""
     m = as_array(matrix, (4, 4), "matrix")
     if np.any(np.abs(m[..., 3, :] - np.array([0.0, 0.0, 0.0, 1.0])) > tolerance):
@@ -277,19 +280,19 @@ def from_matrix(matrix, tolerance: float = UNIT_TOLERANCE) -> np.ndarray:
     return from_rotation_translation(matrix_to_quaternion(rot), m[..., :3, 3])
 
 
-def to_ur_pose(a) -> np.ndarray:
+def to_ur_pose(a: npt.ArrayLike) -> np.ndarray:
     """UR pose vectors (..., 6) [x, y, z, rx, ry, rz] (rotation vector, angle in [0, π]) of unit (..., 8)."""
     a = as_array(a, 8, "a")
     return np.concatenate((translation_unchecked(a), quaternion_to_rotation_vector(a[..., :4])), axis=-1)
 
 
-def from_ur_pose(pose) -> np.ndarray:
+def from_ur_pose(pose: npt.ArrayLike) -> np.ndarray:
     """(..., 8) unit dual quaternions of UR pose vectors (..., 6) [x, y, z, rx, ry, rz] (metres, rotation vector)."""
     p = as_array(pose, 6, "pose")
     return from_rotation_translation(rotation_vector_to_quaternion(p[..., 3:]), p[..., :3])
 
 
-def pose_distance(a, b) -> tuple[np.ndarray, np.ndarray]:
+def pose_distance(a: npt.ArrayLike, b: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """(metres, radians) between unit (..., 8) poses: |ta − tb| and the angle of ra*·rb in [0, π] (σ ≡ −σ)."""
     a = as_array(a, 8, "a")
     b = as_array(b, 8, "b")
@@ -299,7 +302,7 @@ def pose_distance(a, b) -> tuple[np.ndarray, np.ndarray]:
     return metres, radians
 
 
-def log(a) -> np.ndarray:
+def log(a: npt.ArrayLike) -> np.ndarray:
     """Screw logarithm (..., 6) [ω, v] of unit (..., 8): σ = exp(ω + ε v), ω = ½·angle·axis, on the w ≥ 0 sheet.
 
     For a pure translation t the result is [0, ½t]; for a pure rotation it is [½θn, 0] only when the axis passes
@@ -322,7 +325,7 @@ def log(a) -> np.ndarray:
     return np.concatenate((omega, v), axis=-1)
 
 
-def exp(screw) -> np.ndarray:
+def exp(screw: npt.ArrayLike) -> np.ndarray:
     """Unit dual quaternions (..., 8) exp(ω + ε v) of (..., 6) [ω, v]: the inverse of :func:`log`."""
     x = as_array(screw, 6, "screw")
     omega, v = x[..., :3], x[..., 3:]
@@ -341,7 +344,7 @@ def exp(screw) -> np.ndarray:
     return np.concatenate((real, dual), axis=-1)
 
 
-def sclerp(a, b, tau) -> np.ndarray:
+def sclerp(a: npt.ArrayLike, b: npt.ArrayLike, tau: npt.ArrayLike) -> np.ndarray:
     """Screw linear interpolation a·(a*·b)^τ of unit (..., 8) poses along the shorter screw; τ broadcasts."""
     a = check_unit(a, "a")
     b = check_unit(b, "b")

@@ -10,15 +10,17 @@ Conversions and the screw log/exp go through the array kernels of :mod:`ur3dq.dq
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 from pyquaternion import Quaternion
 
 from ur3dq import dqarray
 from ur3dq.dqarray import UNIT_TOLERANCE
 
 
-def _quaternion_coefficients(value, name: str) -> tuple:
+def _quaternion_coefficients(value: Quaternion | npt.ArrayLike, name: str) -> tuple[float, ...]:
     """Four finite floats (w, x, y, z) from a Quaternion or a sequence of 4 numbers; ValueError naming ``name``."""
     if isinstance(value, Quaternion):
         value = value.q
@@ -28,7 +30,7 @@ def _quaternion_coefficients(value, name: str) -> tuple:
     return tuple(float(c) for c in coefficients)
 
 
-def _vector(value, size: int, name: str) -> np.ndarray:
+def _vector(value: npt.ArrayLike, size: int, name: str) -> np.ndarray:
     """A finite float vector of exactly ``size`` values; ValueError naming ``name`` otherwise."""
     vector = dqarray.as_array(value, size, name)
     if vector.shape != (size,):
@@ -36,7 +38,7 @@ def _vector(value, size: int, name: str) -> np.ndarray:
     return vector
 
 
-def multiply_quaternion_coefficients(a: tuple, b: tuple) -> tuple:
+def multiply_quaternion_coefficients(a: tuple[Any, ...], b: tuple[Any, ...]) -> tuple[Any, ...]:
     """Hamilton product a·b of two (w, x, y, z) 4-tuples; floats or broadcastable arrays."""
     aw, ax, ay, az = a
     bw, bx, by, bz = b
@@ -44,12 +46,12 @@ def multiply_quaternion_coefficients(a: tuple, b: tuple) -> tuple:
             aw * by - ax * bz + ay * bw + az * bx, aw * bz + ax * by - ay * bx + az * bw)
 
 
-def conjugate_coefficients(c: tuple) -> tuple:
+def conjugate_coefficients(c: tuple[Any, ...]) -> tuple[Any, ...]:
     """r* + ε d* of an 8-tuple (quaternion conjugate of both parts): the inverse of a unit dual quaternion."""
     return (c[0], -c[1], -c[2], -c[3], c[4], -c[5], -c[6], -c[7])
 
 
-def multiply_coefficients(a: tuple, b: tuple) -> tuple:
+def multiply_coefficients(a: tuple[Any, ...], b: tuple[Any, ...]) -> tuple[Any, ...]:
     """Product of two 8-tuples (ra + ε da)(rb + ε db) = ra rb + ε(ra db + da rb); floats or broadcastable arrays."""
     aw, ax, ay, az, adw, adx, ady, adz = a
     bw, bx, by, bz, bdw, bdx, bdy, bdz = b
@@ -83,14 +85,14 @@ class DualQuaternion:
 
     __slots__ = ("_c",)
 
-    def __init__(self, real, dual=None):
+    def __init__(self, real: Quaternion | npt.ArrayLike, dual: Quaternion | npt.ArrayLike | None = None) -> None:
         """Build from the real and dual parts (``Quaternion`` or 4 numbers each); ``dual`` defaults to zero."""
         real_c = _quaternion_coefficients(real, "real")
         dual_c = (0.0, 0.0, 0.0, 0.0) if dual is None else _quaternion_coefficients(dual, "dual")
         self._c = real_c + dual_c
 
     @classmethod
-    def _from_tuple(cls, coefficients: tuple) -> DualQuaternion:
+    def _from_tuple(cls, coefficients: tuple[float, ...]) -> DualQuaternion:
         """Wrap 8 floats already known to be finite (internal fast path, no validation)."""
         instance = object.__new__(cls)
         instance._c = coefficients
@@ -103,19 +105,20 @@ class DualQuaternion:
         return cls._from_tuple((1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
 
     @classmethod
-    def from_rotation_translation(cls, rotation, translation=(0.0, 0.0, 0.0)) -> DualQuaternion:
+    def from_rotation_translation(cls, rotation: Quaternion | npt.ArrayLike,
+                                  translation: npt.ArrayLike = (0.0, 0.0, 0.0)) -> DualQuaternion:
         """σ = r + ε·½·t·r: rotate by unit quaternion ``rotation``, then translate by ``translation`` (parent)."""
         r = _quaternion_coefficients(rotation, "rotation")
         t = _vector(translation, 3, "translation")
         return cls.from_array(dqarray.from_rotation_translation(np.array(r), t))
 
     @classmethod
-    def from_translation(cls, translation) -> DualQuaternion:
+    def from_translation(cls, translation: npt.ArrayLike) -> DualQuaternion:
         """The pure translation 1 + ε·½·t."""
         return cls.from_rotation_translation((1.0, 0.0, 0.0, 0.0), translation)
 
     @classmethod
-    def from_axis_angle(cls, axis, angle: float) -> DualQuaternion:
+    def from_axis_angle(cls, axis: npt.ArrayLike, angle: float) -> DualQuaternion:
         """A pure rotation by ``angle`` radians about ``axis`` (any non-zero length) through the origin."""
         axis = _vector(axis, 3, "axis")
         norm = float(np.linalg.norm(axis))
@@ -125,13 +128,13 @@ class DualQuaternion:
         return cls.from_rotation_translation(dqarray.rotation_vector_to_quaternion(axis / norm * angle))
 
     @classmethod
-    def from_array(cls, coefficients) -> DualQuaternion:
+    def from_array(cls, coefficients: npt.ArrayLike) -> DualQuaternion:
         """From the 8 coefficients [rw rx ry rz dw dx dy dz] (real part, then dual part)."""
         array = _vector(coefficients, 8, "coefficients")
         return cls._from_tuple(tuple(float(c) for c in array))
 
     @classmethod
-    def from_matrix(cls, matrix, tolerance: float = UNIT_TOLERANCE) -> DualQuaternion:
+    def from_matrix(cls, matrix: npt.ArrayLike, tolerance: float = UNIT_TOLERANCE) -> DualQuaternion:
         """From a 4×4 homogeneous transform.
 
         From a 4×4 homogeneous transform (rotation block orthonormal within ``tolerance``, det +1, last row
@@ -143,12 +146,13 @@ class DualQuaternion:
         return cls.from_array(dqarray.from_matrix(matrix, tolerance))
 
     @classmethod
-    def from_ur_pose(cls, pose) -> DualQuaternion:
+    def from_ur_pose(cls, pose: npt.ArrayLike) -> DualQuaternion:
         """From a UR pose vector [x, y, z, rx, ry, rz] (metres, rotation vector in radians)."""
         return cls.from_array(dqarray.from_ur_pose(_vector(pose, 6, "pose")))
 
     @classmethod
-    def from_pair(cls, q, p, tolerance: float = UNIT_TOLERANCE) -> DualQuaternion:
+    def from_pair(cls, q: Quaternion | npt.ArrayLike, p: Quaternion | npt.ArrayLike,
+                  tolerance: float = UNIT_TOLERANCE) -> DualQuaternion:
         """From the thesis pair (q, p): unit rotation q, position p (3 numbers or a pure ``Quaternion``)."""
         if isinstance(p, Quaternion):
             if abs(p.w) > tolerance:
@@ -242,7 +246,7 @@ class DualQuaternion:
             return DualQuaternion._from_tuple(tuple(c * other for c in self._c))
         return NotImplemented
 
-    def __rmul__(self, other) -> DualQuaternion:
+    def __rmul__(self, other: object) -> DualQuaternion:
         """Scalar times dual quaternion."""
         if isinstance(other, (int, float)) and math.isfinite(other):
             return DualQuaternion._from_tuple(tuple(c * other for c in self._c))
@@ -258,7 +262,7 @@ class DualQuaternion:
         """−σ: the same pose, the other sign."""
         return DualQuaternion._from_tuple(tuple(-c for c in self._c))
 
-    def __eq__(self, other) -> bool:
+    def __eq__(self, other: object) -> bool:
         """Exact coefficient equality (use :meth:`is_close` to compare poses, which accepts σ ≡ −σ)."""
         if not isinstance(other, DualQuaternion):
             return NotImplemented
@@ -312,7 +316,7 @@ class DualQuaternion:
             return False
         return True
 
-    def transform_point(self, point) -> np.ndarray:
+    def transform_point(self, point: npt.ArrayLike) -> np.ndarray:
         """The point (3 numbers, child frame) expressed in the parent frame: r·p·r* + t."""
         return dqarray.transform_points(self._unit_array("self"), _vector(point, 3, "point"))
 
@@ -321,7 +325,7 @@ class DualQuaternion:
         return dqarray.log(self._unit_array("self"))
 
     @classmethod
-    def exp(cls, screw) -> DualQuaternion:
+    def exp(cls, screw: npt.ArrayLike) -> DualQuaternion:
         """The unit dual quaternion exp(ω + ε·v) of 6 numbers [ω, v] (the inverse of :meth:`log`)."""
         return cls.from_array(dqarray.exp(_vector(screw, 6, "screw")))
 

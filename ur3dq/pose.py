@@ -8,7 +8,9 @@ from __future__ import annotations
 
 import dataclasses
 import unicodedata
+from collections.abc import Iterable, Sequence
 from datetime import datetime, timedelta, timezone
+from typing import Any
 
 import numpy as np
 
@@ -33,7 +35,7 @@ def utc_now_iso() -> str:
     return datetime.now(timezone.utc).isoformat(timespec="milliseconds").replace("+00:00", "Z")
 
 
-def name_problem(name) -> str | None:
+def name_problem(name: object) -> str | None:
     """Why `name` cannot name a pose, or None if it can.
 
     Why `name` cannot name a pose (None if it can): non-empty text, ≤ 100 characters, no control characters,
@@ -51,7 +53,7 @@ def name_problem(name) -> str | None:
     return None
 
 
-def unstorable_text_problem(text, field: str) -> str | None:
+def unstorable_text_problem(text: str | None, field: str) -> str | None:
     """Why the text `text` of `field` cannot be written to a UTF-8 store (None if it can, or if it is None).
 
     JSON's \\u escapes can spell a lone UTF-16 surrogate (a hand edit, another tool's export); Python reads it, but
@@ -65,7 +67,7 @@ def unstorable_text_problem(text, field: str) -> str | None:
     return None
 
 
-def _finite_vector(value, length: int, field: str, who: str) -> tuple[float, ...]:
+def _finite_vector(value: object, length: int, field: str, who: str) -> tuple[float, ...]:
     """`value` as a tuple of `length` finite floats, or ValueError naming `who` and `field`."""
     try:
         array = real_array(value)
@@ -83,9 +85,11 @@ def _finite_vector(value, length: int, field: str, who: str) -> tuple[float, ...
     return tuple(float(x) for x in array)
 
 
-def _check_utc_time(time: str, who: str) -> None:
+def _check_utc_time(time: object, who: str) -> None:
     """Raise ValueError naming `who` unless `time` is ISO 8601 with a UTC offset of zero."""
     try:
+        if not isinstance(time, str):
+            raise TypeError
         parsed = datetime.fromisoformat(time)
     except (TypeError, ValueError):
         raise ValueError(f"{who}: time {time!r} is not ISO 8601 (e.g. 2026-11-22T01:02:03Z)") from None
@@ -103,7 +107,8 @@ def _check_unit_dual_quaternion(coefficients: tuple[float, ...], who: str) -> No
         raise ValueError(f"{who}: dual_quaternion is not a rigid transform (r·d = {float(real @ dual):.3g}, not 0)")
 
 
-def check_pose_text_fields(name, time, robot_model, robot_serial, note) -> None:
+def check_pose_text_fields(name: object, time: object, robot_model: object, robot_serial: object,
+                           note: object) -> None:
     """Check the text fields of a pose; ValueError naming the pose.
 
     ValueError (naming the pose) unless the text fields of a pose are valid: name, UTC time, known model,
@@ -128,7 +133,8 @@ def check_pose_text_fields(name, time, robot_model, robot_serial, note) -> None:
 _MODEL_NAME_SET = frozenset(MODEL_NAMES)
 
 
-def text_fields_all_valid(names, times, robot_models, robot_serials, notes) -> bool:
+def text_fields_all_valid(names: Sequence[Any], times: Sequence[Any], robot_models: Sequence[Any],
+                          robot_serials: Sequence[Any], notes: Sequence[Any]) -> bool:
     """Whether check_pose_text_fields passes for every pose of the lists.
 
     True only if check_pose_text_fields passes for every pose (the i-th of each list), decided on the lists at
@@ -181,7 +187,7 @@ class Pose:
     robot_serial: str | None = None
     note: str = ""
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         check_pose_text_fields(self.name, self.time, self.robot_model, self.robot_serial, self.note)
         who = f"pose {self.name!r}"
         set_field = object.__setattr__  # frozen dataclass: normalise fields once, here
@@ -199,7 +205,9 @@ class Pose:
             )
 
     @classmethod
-    def checked(cls, name, time, robot_model, dual_quaternion, ur_pose, tcp_offset, joints, robot_serial, note):
+    def checked(cls, name: str, time: str, robot_model: str, dual_quaternion: tuple[float, ...],
+                ur_pose: tuple[float, ...], tcp_offset: tuple[float, ...], joints: tuple[float, ...] | None,
+                robot_serial: str | None, note: str) -> Pose:
         """A Pose from fields the caller has already validated.
 
         A Pose whose fields the caller has already validated exactly as __post_init__ would, built without
@@ -220,7 +228,7 @@ class Pose:
         return DualQuaternion.from_array(self.dual_quaternion)
 
     @classmethod
-    def from_dual_quaternion(cls, name: str, pose: DualQuaternion, robot_model: str, **fields) -> Pose:
+    def from_dual_quaternion(cls, name: str, pose: DualQuaternion, robot_model: str, **fields: Any) -> Pose:
         """A Pose from a DualQuaternion (TCP in base); the UR pose vector is derived, the time defaults to now."""
         fields.setdefault("time", utc_now_iso())
         return cls(
@@ -239,7 +247,7 @@ class Pose:
 _FIELD_NAMES = tuple(field.name for field in dataclasses.fields(Pose))
 
 
-def next_free_name(prefix: str, taken) -> str:
+def next_free_name(prefix: str, taken: Iterable[str]) -> str:
     """`prefix-N` with N one more than the largest N already used with that prefix (1 if none)."""
     used = [0]
     for name in taken:

@@ -7,13 +7,15 @@ from __future__ import annotations
 
 import itertools
 import numbers
+from collections.abc import Iterator
+from typing import Any
 
 import numpy as np
 
 _BOOLS = frozenset({bool, np.bool_})
 
 
-def is_number(value) -> bool:
+def is_number(value: object) -> bool:
     """Whether `value` is a real number (not a bool, not text).
 
     Whether ``value`` is a real number: an int, a float or a numpy integer or floating scalar (any
@@ -24,7 +26,7 @@ def is_number(value) -> bool:
     return isinstance(value, numbers.Real) and kind not in _BOOLS
 
 
-def real_array(value) -> np.ndarray:
+def real_array(value: object) -> np.ndarray:
     """`value` as a float array, refusing text, bools and None.
 
     ``value`` as a float array, as np.asarray(value, dtype=float) gives it (its shapes, its ValueError for
@@ -46,8 +48,8 @@ def real_array(value) -> np.ndarray:
     return array.astype(float, copy=False)
 
 
-def _leaves(rows, depth: int):
+def _leaves(rows: Any, depth: int) -> Iterator[Any]:
     """The items of ``rows`` nested ``depth`` deep (regular: np.asarray has read them as that many dimensions)."""
     for _ in range(depth - 1):
         rows = itertools.chain.from_iterable(rows)
-    return rows
+    return iter(rows)

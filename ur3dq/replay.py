@@ -17,6 +17,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -196,10 +197,10 @@ def plan_replay(model, poses: Sequence[Pose], start_joints=None, a: float = 1.4,
     [('pick', 'IK nearest recorded')]
     """
     motion.trapezoid_durations([], a, v)   # a and v checked before any IK (the durations come last)
-    solvers = {}
+    solvers: dict[tuple[float, ...], Any] = {}
     batch = {} if replay_recorded_joints else _solve_recorded(model, poses, solvers)
     start = None if start_joints is None else np.asarray(start_joints, dtype=float)
-    chosen = []   # (joints, source, solutions) per pose
+    chosen: list[tuple[np.ndarray, str, int]] = []   # (joints, source, solutions) per pose
     for index, pose in enumerate(poses):
         found = batch.get(index)
         if found is None:
@@ -256,7 +257,7 @@ def _solve_recorded(model, poses: Sequence[Pose], solvers: dict) -> dict:
     for index, pose in enumerate(poses):
         if pose.joints is not None:   # a Pose's tcp_offset is a tuple of floats: a key as it is
             groups.setdefault(pose.tcp_offset, []).append(index)
-    solved = {}
+    solved: dict[int, tuple[np.ndarray, str, int]] = {}
     for tcp_offset, indices in groups.items():
         solver = _solver(model, tcp_offset, solvers)
         targets = np.array([poses[i].dual_quaternion for i in indices], dtype=float)
@@ -299,7 +300,8 @@ def read_pose(robot, name: str, note: str = "") -> Pose:
 
 def _reached(robot, step: PlanStep, target: DualQuaternion, seconds: float) -> Reached:
     """Where `robot` ended after the move of `step` aimed at `target`."""
-    return Reached(step, *robot.tcp_pose().distance(target), seconds, target, target.distance(step.pose.dq)[0])
+    error_m, error_rad = robot.tcp_pose().distance(target)
+    return Reached(step, error_m, error_rad, seconds, target, target.distance(step.pose.dq)[0])
 
 
 def _no_progress(description: str, done: int, total: int) -> None:

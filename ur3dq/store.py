@@ -15,14 +15,15 @@ import functools
 import os
 import re
 import tempfile
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
+from typing import Any, TypeVar
 
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import StoreError
 from ur3dq.pose import Pose, next_free_name, numbering_prefix, utc_now_iso
 from ur3dq.program.resolve import check_program
-from ur3dq.program.steps import RelativeWaypoint, Waypoint
+from ur3dq.program.steps import RelativeWaypoint, Step, Waypoint
 from ur3dq.store_format import (  # noqa: F401  (re-exported: the store's public names)
     PROGRAM_SCHEMA_VERSION,
     SCHEMA_NAME,
@@ -42,6 +43,9 @@ LOCK_TIMEOUT_S = 30.0
 DEFAULT_STORE_PATH = "poses.json"
 
 # ---------------------------------------------------------------- pure: thesis text lines <-> dual quaternions
+
+
+_Result = TypeVar("_Result")
 
 
 def parse_thesis_lines(text: str, source: str) -> list[tuple[int, DualQuaternion]]:
@@ -70,7 +74,8 @@ def format_thesis_lines(poses: Iterable[DualQuaternion]) -> str:
 # ---------------------------------------------------------------- pure: edits of a program
 
 
-def with_added(steps: list, new: Iterable[Pose], number_if_taken: bool, position: int | None = None):
+def with_added(steps: list[Step], new: Iterable[Pose], number_if_taken: bool,
+               position: int | None = None) -> tuple[list[Step], list[Pose]]:
     """The step list with `poses` added as joint waypoints.
 
     (the whole new step list, the poses as added): each pose becomes a joint waypoint (inserted at `position`,
@@ -90,7 +95,7 @@ def with_added(steps: list, new: Iterable[Pose], number_if_taken: bool, position
     return result, added
 
 
-def find_step(steps: list, name: str, source: str):
+def find_step(steps: Sequence[Step], name: str, source: str) -> Step:
     """The step called `name`, or StoreError listing the names there are."""
     for step in steps:
         if step.name == name:
@@ -100,7 +105,7 @@ def find_step(steps: list, name: str, source: str):
                                                                       else " (it is empty)"))
 
 
-def find_pose(poses: list, name: str, source: str) -> Pose:
+def find_pose(poses: Sequence[Step], name: str, source: str) -> Pose:
     """The recorded pose called `name` (among Poses or steps), or StoreError listing the names there are."""
     found = find_step(poses, name, source)
     if isinstance(found, Waypoint):
@@ -110,7 +115,7 @@ def find_pose(poses: list, name: str, source: str) -> Pose:
     raise StoreError(f"{name!r} in {source} is a {found.kind} step, not a recorded pose")
 
 
-def renamed_steps(steps: list, old: str, new: str) -> list:
+def renamed_steps(steps: list[Step], old: str, new: str) -> list[Step]:
     """`steps` with the step `old` called `new`, and relative waypoints based on `old` following it."""
     result = []
     for step in steps:
@@ -135,7 +140,7 @@ def _fsync_directory(directory: Path) -> None:
         os.close(fd)
 
 
-def write_atomically(path: Path, content) -> None:
+def write_atomically(path: Path, content: str | bytes) -> None:
     """Replace a file's content atomically.
 
     Replace `path` with `content` (text, or bytes): temp file in the same directory, fsync, rename over `path`,
@@ -216,20 +221,20 @@ class PoseStore:
     ['pick', 'pick-1']
     """
 
-    def __init__(self, path):
+    def __init__(self, path: str | os.PathLike[str]) -> None:
         self.path = Path(path)
 
     @functools.cached_property
-    def _lock(self):
+    def _lock(self) -> Any:
         """The inter-process write lock `<path>.lock` (of the link's target), made on the first write: filelock is
         imported only then (reads need no lock, and its import would slow every command's start)."""
         import filelock
         return filelock.FileLock(os.path.realpath(self.path) + ".lock", timeout=LOCK_TIMEOUT_S)
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return f"PoseStore({str(self.path)!r})"
 
-    def _read(self) -> tuple[str | None, int | None, list]:
+    def _read(self) -> tuple[str | None, int | None, list[Step]]:
         """(file text or None, version or None, steps); ([], None) when the file does not exist yet."""
         try:
             text = self.path.read_text(encoding="utf-8")
@@ -240,7 +245,7 @@ class PoseStore:
         version, steps = parse_document(text, str(self.path))
         return text, version, steps
 
-    def load_program(self) -> list:
+    def load_program(self) -> list[Step]:
         """Every step (Waypoint, RelativeWaypoint, actions), in program order; [] when there is no file yet."""
         return self._read()[2]
 
@@ -268,7 +273,7 @@ class PoseStore:
         """The pose called `name`; StoreError naming the known poses if there is none."""
         return find_pose(self.load_program(), name, str(self.path))
 
-    def get_step(self, name: str):
+    def get_step(self, name: str) -> Step:
         """The step (waypoint or action) called `name`; StoreError naming the known steps if there is none."""
         return find_step(self.load_program(), name, str(self.path))
 
@@ -285,7 +290,7 @@ class PoseStore:
         if not Path(os.path.realpath(self.path)).parent.is_dir():
             raise StoreError(f"{self.path}: directory {self.path.parent} does not exist")
 
-    def update_program(self, edit: Callable[[list], tuple[list, object]]):
+    def update_program(self, edit: Callable[[list[Step]], tuple[list[Step], _Result]]) -> _Result:
         """Apply `edit(steps) -> (new steps, result)` under the lock and write atomically; returns the result.
 
         The new program is checked first (ValueError naming the step; nothing written). It is written as version
@@ -303,7 +308,7 @@ class PoseStore:
                 steps, result = edit(steps)
                 check_program(steps)
                 upgrade = version == SCHEMA_VERSION and needs_version_2(steps)
-                if upgrade:
+                if upgrade and text is not None:   # a version-1 file exists
                     write_atomically(backup_path(target), text)
                 keep_version_2 = version == PROGRAM_SCHEMA_VERSION
                 write_atomically(target, format_program_v2(steps) if keep_version_2 else format_program(steps))
@@ -326,25 +331,25 @@ class PoseStore:
         new = list(poses)
         return self.update_program(lambda existing: with_added(existing, new, number_if_taken))
 
-    def remove(self, name: str):
+    def remove(self, name: str) -> Pose | Step:
         """Delete the pose or step called `name` and return it.
 
         Delete the pose or step called `name` and return it; StoreError if there is none, ValueError naming
         the relative waypoint still based on it."""
 
-        def edit(steps):
+        def edit(steps: list[Step]) -> tuple[list[Step], Pose | Step]:
             doomed = find_step(steps, name, str(self.path))
             return [step for step in steps if step is not doomed], getattr(doomed, "pose", doomed)
 
         return self.update_program(edit)
 
-    def rename(self, old: str, new: str):
+    def rename(self, old: str, new: str) -> Pose | Step:
         """Rename a pose or step (relative waypoints based on it follow).
 
         Give the pose or step called `old` the name `new` (relative waypoints based on it follow); StoreError
         if `old` is missing or `new` is taken."""
 
-        def edit(steps):
+        def edit(steps: list[Step]) -> tuple[list[Step], Pose | Step]:
             find_step(steps, old, str(self.path))
             if new != old and any(s.name == new for s in steps):
                 raise StoreError(f"a pose named {new!r} already exists")
@@ -357,7 +362,8 @@ class PoseStore:
 
         return self.update_program(edit)
 
-    def import_thesis_lines(self, file, robot_model: str, tcp_offset=(0.0,) * 6, prefix: str | None = None,
+    def import_thesis_lines(self, file: str | os.PathLike[str], robot_model: str,
+                            tcp_offset: Iterable[float] = (0.0,) * 6, prefix: str | None = None,
                             note: str = "") -> list[Pose]:
         """Add every pose of a thesis text file.
 
@@ -382,7 +388,7 @@ class PoseStore:
         ]
         return self.add_many(poses, number_if_taken=True)
 
-    def export_thesis_lines(self, file, names: Iterable[str] | None = None) -> int:
+    def export_thesis_lines(self, file: str | os.PathLike[str], names: Iterable[str] | None = None) -> int:
         """Write the poses (all, or those named) as thesis text lines to `file`, atomically; returns how many."""
         poses = self.select(names)
         file = Path(file)

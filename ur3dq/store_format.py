@@ -133,7 +133,7 @@ def _vectors(entries, field: str, length: int, who_of) -> np.ndarray:
 _JSON_NUMBERS = {int, float}
 
 
-def _first_bad(mask: np.ndarray) -> int | None:
+def _first_bad(mask: np.ndarray | np.bool_) -> int | None:
     rows = np.flatnonzero(mask)
     return int(rows[0]) if rows.size else None
 

@@ -6,6 +6,9 @@ and `<ExpressionIO>` (an I/O pin by its PolyScope name, read as the matching get
 `digital_in[2]`, `config_out[0]`, `tool_in[1]`, `analog_in[0]`, `GP_bool_out[64]`, ...: PolyScope's default names,
 or the names the program's installation gave them (installation.py; `ProgramTree.pin_aliases`).
 
+Comparisons typed on the pendant are stored as symbols (`≟`, `≠`, `≤`, `≥`, `≔`) and become `==`, `!=`, `<=`, `>=`,
+`=`.
+
 >>> read_pin("digital_in[3]"), write_pin("config_out[1]", "True")
 ('get_standard_digital_in(3)', 'set_configurable_digital_out(1, True)')
 """
@@ -35,6 +38,11 @@ _PINS = {
     "GP_float_in": ("read_input_float_register", None),
     "GP_float_out": ("read_output_float_register", "write_output_float_register"),
 }
+
+
+# The pendant's expression editor writes comparisons and assignment as symbols (a PolyScope 3.6 program stores
+# `read_input_integer_register(0)≟1 and setp≠p[0, 0, 0, 0, 0, 0]`); URScript spells them with ASCII.
+_PENDANT_SYMBOLS = str.maketrans({"≟": "==", "≠": "!=", "≤": "<=", "≥": ">=", "≔": "="})
 
 
 def _pin_functions(name: str) -> tuple[str | None, str | None, int]:
@@ -87,7 +95,7 @@ def expression_text(tree: ProgramTree, expression: Element | None, where: Elemen
     if expression is None:
         raise UrpError(f"{tree.path_of(where)}: the node has no expression")
     parts = [_part_text(tree, part) for part in expression]
-    text = "".join(parts).strip()
+    text = "".join(parts).strip().translate(_PENDANT_SYMBOLS)
     if not text:
         raise UrpError(f"{tree.path_of(where)}: the node's expression is empty (PolyScope would not run it either)")
     return text

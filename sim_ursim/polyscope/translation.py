@@ -19,7 +19,8 @@ Popup                   `popup("text", "Message|Warning|Error", warning, error, 
 Comment, Folder         `# text`; the folder's nodes in order
 Assignment              `global name=expr`
 Halt                    `halt`
-Thread                  `thread Thread_N(): while (True): ... sync() end end` and `run` before the main program
+Thread                  `thread <name>(): while (True): ... sync() end end` (no loop when it runs only once) and
+                        `threadId_<name> = run <name>()` before the main program
 CallSubProgram          `Name()`, with `def Name():` among the definitions
 Contributed             URCap nodes: the External Control URCap (external_control.py); others are refused
 ======================  ===========================================================================================
@@ -139,17 +140,26 @@ class Translation:
             name = program_def_name(thread.get("name") or thread.get("threadName") or f"Thread_{number_}")
             self.writer.line(f"thread {name}():")
             with self.writer.indented():
-                self.writer.line("while (True):")
-                with self.writer.indented():
+                if thread.get("runOnlyOnce", "false").lower() == "true":
                     self.writer.marker(name)
                     self.block(self.children_of(thread))
-                    self.writer.line("sync()")
-                self.writer.line("end")
+                else:
+                    self._thread_loop(thread, name)
             self.writer.line("end")
             self.writer.line(f"threadId_{name} = run {name}()")
         text = self.writer.text()
         saved.next_marker, self.writer = self.writer.next_marker, saved
         return text
+
+    def _thread_loop(self, thread: Element, name: str) -> None:
+        """A thread's nodes run again and again (a `sync()` each time round, so a pass that takes no time does not
+        hog the interpreter)."""
+        self.writer.line("while (True):")
+        with self.writer.indented():
+            self.writer.marker(name)
+            self.block(self.children_of(thread))
+            self.writer.line("sync()")
+        self.writer.line("end")
 
     def _collect_subprograms(self) -> None:
         for element in self.tree.root.iter():

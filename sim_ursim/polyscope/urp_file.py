@@ -1,8 +1,8 @@
-"""Read a PolyScope `.urp` file: gzip-compressed XML, read under hard bounds and parsed without DTDs or entities.
+"""Read a PolyScope `.urp` file: (gzip-compressed) XML, read under hard bounds and parsed without DTDs or entities.
 
-A `.urp` is what PolyScope's XStream serialiser writes, gzip-compressed: `<URProgram>` with `<kinematics>` and the
-program tree under `<children>`. An object that occurs twice is written once and referred to by a relative XPath,
-`<pin reference="../../Set/pin"/>`; `ProgramTree.resolve` follows such references.
+A `.urp` is what PolyScope's XStream serialiser writes, gzip-compressed by PolyScope 5 (3.x saved plain XML):
+`<URProgram>` with `<kinematics>` and the program tree under `<children>`. An object that occurs twice is written
+once and referred to by a relative XPath, `<pin reference="../../Set/pin"/>`; `ProgramTree.resolve` follows it.
 
 Hostile or broken files end in `UrpError` with one line naming the problem, never in a hang or an exhausted memory:
 the file's size, the decompressed size, the element count and the nesting depth are bounded before anything is
@@ -99,14 +99,25 @@ def read_urp(path: str) -> ProgramTree:
     return parse_urp_bytes(_read_bounded(path), path)
 
 
-def parse_urp_bytes(compressed: bytes, source: str = "<urp>") -> ProgramTree:
-    """Parse the bytes of a `.urp` (gzip-compressed XML); `source` names it in messages."""
-    return _parse_xml(_decompressed(compressed, source), source, "URProgram")
+def parse_urp_bytes(content: bytes, source: str = "<urp>") -> ProgramTree:
+    """Parse the bytes of a `.urp` (gzip-compressed XML, or plain XML as PolyScope 3.x saved it); `source` names it
+    in messages."""
+    return _parse_xml(_xml_bytes(content, source), source, "URProgram")
 
 
 def read_installation(path: str) -> ProgramTree:
     """Parse a PolyScope `.installation` (gzip XML, root `<Installation>`) under the same bounds as a program."""
-    return _parse_xml(_decompressed(_read_bounded(path), path), path, "Installation")
+    return _parse_xml(_xml_bytes(_read_bounded(path), path), path, "Installation")
+
+
+def _xml_bytes(content: bytes, source: str) -> bytes:
+    """The XML of a file: decompressed when gzip, as it is when it already is XML (PolyScope 3.x's plain files)."""
+    if content.startswith(GZIP_MAGIC):
+        return _decompressed(content, source)
+    if content.lstrip(b"\xef\xbb\xbf \t\r\n").startswith(b"<"):
+        return content
+    raise UrpError(f"{source}: not a PolyScope program (a .urp is XML, gzip-compressed by PolyScope 5; this file is "
+                   "neither)")
 
 
 def _read_bounded(path: str) -> bytes:
@@ -122,8 +133,6 @@ def _read_bounded(path: str) -> bytes:
 
 
 def _decompressed(compressed: bytes, source: str) -> bytes:
-    if not compressed.startswith(GZIP_MAGIC):
-        raise UrpError(f"{source}: not a PolyScope program (a .urp is gzip-compressed XML; this file is not gzip)")
     decompressor = zlib.decompressobj(wbits=16 + zlib.MAX_WBITS)
     try:
         xml = decompressor.decompress(compressed, MAX_XML_BYTES + 1)

@@ -57,9 +57,9 @@ class ScriptAssembler:
 
     def __init__(self) -> None:
         self._partial_line = ""
-        self._block_lines = []
+        self._block_lines: list[str] = []
         self._depth = 0
-        self._statement_lines = []
+        self._statement_lines: list[str] = []
         self._bracket_depth = 0
         self._held_bytes = 0  # text held in _block_lines and _statement_lines
 

@@ -41,6 +41,8 @@ class _InterfaceServer(TCPServer):
     """URScript intake shared by the three ports; a subclass names its `origin` (passed with each program) and says
     what a new client is sent (`_on_connect`)."""
 
+    origin: str
+
     def serve(self, connection: Connection) -> None:
         self._on_connect(connection)
         self._read_scripts(connection)
@@ -80,7 +82,7 @@ class DelayLine:
     """Outgoing data with the time each may be sent (the fault channel's added latency delays data, not the rate)."""
 
     def __init__(self):
-        self._items = collections.deque()
+        self._items: collections.deque[tuple[float, bytes]] = collections.deque()   # (due, data)
 
     def put(self, data: bytes, due: float) -> None:
         """Queue `data` for sending at monotonic time `due` (items keep their order)."""
@@ -194,7 +196,7 @@ class _RealtimeClient:
     def __init__(self, connection):
         self.connection = connection
         self.unsent = b""
-        self.stalled_since = None
+        self.stalled_since: float | None = None
         self.discontinued = False
 
     def offer(self, package: bytes, now: float) -> None:
@@ -205,7 +207,7 @@ class _RealtimeClient:
         if self.unsent:
             self.unsent = self._send(self.unsent)
             if self.unsent:
-                if now - self.stalled_since > REALTIME_STALL_LIMIT:
+                if self.stalled_since is not None and now - self.stalled_since > REALTIME_STALL_LIMIT:
                     self.discontinued = True
                     log.info("realtime client %s does not read: sending discontinued", self.connection.peer)
                 return

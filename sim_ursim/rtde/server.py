@@ -12,6 +12,8 @@ import socket
 import threading
 import time
 from collections import deque
+from collections.abc import Callable
+from typing import Any
 
 from ..tcp_server import Connection, TCPServer
 from . import inputs, protocol, variables
@@ -69,18 +71,18 @@ class Session:
         self.number = number
         self.backlog_limit = backlog_limit
         self.protocol_version = 1
-        self.output_recipe = None
+        self.output_recipe: OutputRecipe | None = None
         self.output_recipe_requested = False
-        self.input_recipes = {}
+        self.input_recipes: dict[int, Any] = {}
         self.next_input_recipe_id = 1
-        self.input_values = {}
+        self.input_values: dict[str, Any] = {}
         self.streaming = False
         self.next_cycle = 0
         self.closed = False
         self.close_reason = None
         self._lock = threading.Lock()
         self._pending = bytearray()
-        self._delayed = deque()  # (due monotonic time, package) while latency is injected
+        self._delayed: deque[tuple[float, bytes]] = deque()  # (due monotonic time, package) while latency is injected
 
     def __repr__(self) -> str:
         return f"RTDE client #{self.number} {self.peer[0]}:{self.peer[1]}"
@@ -341,7 +343,7 @@ class RTDEServer(TCPServer):
             self._reply(session, protocol.pack_text_message(text, "RTDE", protocol.MessageLevel.ERROR,
                                                             session.protocol_version))
 
-    _handlers = {
+    _handlers: dict[int, Callable[["RTDEServer", Session, bytes], None]] = {
         PackageType.REQUEST_PROTOCOL_VERSION: _on_protocol_version,
         PackageType.GET_URCONTROL_VERSION: _on_controller_version,
         PackageType.CONTROL_PACKAGE_SETUP_OUTPUTS: _on_setup_outputs,
@@ -371,7 +373,7 @@ class RTDEServer(TCPServer):
                 continue
             latency = faults.latency
             due = time.monotonic() + latency if latency > 0 else None
-            packed = {}
+            packed: dict[Any, bytes] = {}
             for session in sessions:
                 recipe = session.output_recipe
                 if not session.streaming or recipe is None:

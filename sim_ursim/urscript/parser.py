@@ -173,7 +173,7 @@ class _ToNodes(Transformer):
     def assign(self, children):
         target, value = children
         first = target
-        indices = []
+        indices: list[object] = []
         while isinstance(target, (nodes.Index, nodes.MatrixIndex)):
             if isinstance(target, nodes.MatrixIndex):
                 indices[:0] = [target.row_index, target.column_index]

@@ -105,7 +105,7 @@ def test_move_to_plans_checks_asks_and_moves_to_a_recorded_pose(arm, run_cli, tm
     arm.place(START)
     declined = run_cli("--host", arm.host, "move-to", "pick", input="\n")   # the question defaults to No
     assert declined.returncode == 1 and "Move to 'pick': a joint move at" in declined.stderr, declined.stderr
-    assert "Path check: smallest margins per move" in declined.stdout
+    assert "Path check (no cell file): clear" in declined.stderr
     np.testing.assert_allclose(arm.joints(), START, atol=1e-9)
     moved = run_cli("--host", arm.host, "move-to", "pick", "--yes")
     assert moved.returncode == 0, moved.stderr

@@ -211,7 +211,7 @@ def test_a_cell_program_runs_its_path_check_in_the_cell_it_was_given(run_in_proc
     (tmp_path / "cell.json").write_text('{"floor": {"z": 0.0}}')
     result = run_in_process("run-poses", "--from", "demo-1", "--dry-run", "--cell", "cell.json")
     assert result.returncode == 0, result.stderr
-    assert "Path check: smallest margins per move" in result.stdout and "cell: cell.json" in result.stdout
+    assert "Path check: the worst point of each move" in result.stdout and "cell: cell.json" in result.stdout
 
 
 def test_poses_show_of_a_step_shows_its_fields(run_in_process, v1_store):

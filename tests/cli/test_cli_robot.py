@@ -161,7 +161,8 @@ def test_taken_name_or_no_answer_records_nothing(arm, run_cli, tmp_path):
     assert_one_line_error(run_cli("--host", arm.host, "record-pose", "--name", "home", "--yes"), 3,
                           "'home' already exists")
     declined = run_cli("--host", arm.host, "record-pose", input="n\n")  # a deliberate no: not an error
-    assert declined.returncode == 1 and "Answered no to 'Record this pose?'" in declined.stderr
+    assert declined.returncode == 1 and "Record this pose?" in declined.stderr
+    assert "Answered no: nothing done." in declined.stderr
     assert "Error" not in declined.stderr
     assert store.read_bytes() == before
 

@@ -30,7 +30,8 @@ def run(tmp_path):
     def run_check(*args, command="check", **env):
         environment = {k: v for k, v in os.environ.items() if not k.startswith("UR3DQ_")}
         environment.update(UR3DQ_STATE_DIR=str(tmp_path / "state"), UR3DQ_STORE=str(tmp_path / "poses.json"),
-                           COLUMNS="200", **env)  # a wide terminal: the full headers
+                           COLUMNS="200")  # a wide terminal: the full headers
+        environment.update(env)
         return subprocess.run([UR3DQ, command, *map(str, args)], cwd=tmp_path, env=environment,
                               capture_output=True, text=True, timeout=60)
 
@@ -99,7 +100,7 @@ def test_run_poses_refuses_before_moving_when_the_path_check_fails(run, tmp_path
     assert result.returncode == 4, (result.stdout, result.stderr)
     assert result.stderr.startswith("Error: path check: step 'right' at")
     assert 'keep-out box "fixture"' in result.stderr
-    assert "Path check: smallest margins per move" in result.stdout and "cell mm" in result.stdout
+    assert "Path check: the worst point of each move" in result.stdout and "cell mm" in result.stdout
     clear = run("--dry-run", "--json", command="run-poses")             # no cell: the same plan passes
     assert clear.returncode == 0 and "Path check" in clear.stderr and json.loads(clear.stdout)["plan"]
     looped = run("--dry-run", "--loop", "2", "--cell", cell, command="run-poses")
@@ -159,3 +160,33 @@ def test_a_cell_programs_linear_move_through_the_wrist_singularity_is_refused(ru
     result = run("--dry-run", command="run-poses")
     assert result.returncode == 4, (result.stdout, result.stderr)
     assert "step 'after' at" in result.stderr and "wrist singular" in result.stderr, result.stderr
+
+
+def box_on_the_line(tmp_path):
+    """A box where the straight TCP line between the two stored poses passes, halfway."""
+    centre = (UR3.fk(JOINTS["left"]).translation + UR3.fk(JOINTS["right"]).translation) / 2
+    path = tmp_path / "line-cell.json"
+    path.write_text(json.dumps({"margin": 0.01, "boxes": [{"name": "fixture", "min": list(centre - 0.03),
+                                                           "max": list(centre + 0.03)}]}))
+    return path
+
+
+def test_a_failed_check_prints_each_problem_once_with_a_true_hint_and_columns_that_agree(run, tmp_path):
+    for move, cell, wrong_hint in (("joint", box_under_the_sweep(tmp_path), "make it a joint move"),
+                                   ("linear", box_on_the_line(tmp_path), "use a linear move there")):
+        result = run("--cell", cell, "--move", move, COLUMNS="80")
+        assert result.returncode == 4, result.stderr
+        both = result.stdout + result.stderr
+        assert both.count("step 'right' at") == 1, both   # once: in the error line
+        assert result.stderr.startswith("Error: path check: step 'right' at") and result.stderr.count("\n") == 1
+        assert wrong_hint not in " ".join(both.split()), both
+        assert max(len(line) for line in result.stdout.splitlines()) <= 80
+        inside = float(result.stderr.split(" mm inside")[0].split()[-1])      # "... capsule 62 mm inside ..."
+        row = next(line for line in result.stdout.splitlines() if line.startswith("right "))
+        assert float(row.split()[-1]) == pytest.approx(-inside, abs=1.0)   # the cell column: that clearance, in mm
+        assert "cell: mm to the nearest obstacle (≥ 10)" in result.stdout
+
+
+def test_the_wrist_is_said_in_degrees_from_singular(run):
+    result = run("--move", "linear", COLUMNS="80")
+    assert "wrist°" in result.stdout and "wrist, elbow: ° from singular (≥ 1.1°)" in result.stdout

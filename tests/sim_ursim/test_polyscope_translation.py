@@ -239,3 +239,31 @@ def test_3x_positions_relative_and_variable_waypoints():
 def test_what_the_simulator_cannot_run_is_refused_naming_the_node(main, message):
     with pytest.raises(UrpError, match=message):
         main_statements(main)
+
+
+def test_a_polyscope_3_program_with_pendant_symbols_variable_waypoints_and_a_thread():
+    """The shape of UR's RTDE example program rtde_control_loop.urp (saved by PolyScope 3.6, plain XML): an If whose
+    expression mixes typed characters with pendant symbols, tokens and a referenced variable; a Variable waypoint
+    referring to that variable; a thread looping a Forever loop."""
+    before_start = ('<SpecialSequence type="BeforeStart"><children>' + assignment("setp", "p[0,0,0,0,0,0]")
+                    + "</children></SpecialSequence>")
+    condition = ('<expression>' + expression("read_input_integer_register(0)≟1")[12:-13]
+                 + '<ExpressionToken token=" and "/><ExpressionVariable><ProgramVariable reference="../../../../../'
+                 '../SpecialSequence/children/Assignment/variable"/></ExpressionVariable>'
+                 + expression("≠p[0, 0, 0, 0, 0, 0]")[12:-13] + "</expression>")
+    main = (f'<If type="If" checkContinuously="false">{condition}<children>'
+            '<Move motionType="MoveL" speed="0.08" acceleration="1.2" useActiveTCP="false"><children>'
+            '<Waypoint type="Variable" name="Waypoint" kinematicsFlags="-1"><motionParameters/>'
+            '<variable reference="../../../../../../../../SpecialSequence/children/Assignment/variable"/>'
+            "</Waypoint></children></Move></children></If>")
+    thread = ('<Thread name="Thread_1" runOnlyOnce="false"><children><Loop type="Forever"><children>'
+              + assignment("setp", "p[0.1,0,0,0,0,0]") + "</children></Loop></children></Thread>"
+              '<Thread name="Once" runOnlyOnce="true"><children><Halt/></children></Thread>')
+    xml = program_xml(main, run_once=False, top=before_start).replace("</MainProgram>", "</MainProgram>" + thread)
+    assert statements(translated(xml)) == [
+        "def test_program():", "global setp=p[0,0,0,0,0,0]",
+        "thread Thread_1():", "while (True):", "while (True):", "global setp=p[0.1,0,0,0,0,0]", "end", "sync()",
+        "end", "end", "threadId_Thread_1 = run Thread_1()",
+        "thread Once():", "halt", "end", "threadId_Once = run Once()",
+        "while (True):", "if (read_input_integer_register(0)==1 and setp!=p[0, 0, 0, 0, 0, 0]):",
+        "movel(setp, a=1.2, v=0.08)", "end", "end", "end"]

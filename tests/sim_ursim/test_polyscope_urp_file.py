@@ -23,6 +23,12 @@ def test_a_real_program_reads_with_its_name(tmp_path):
     assert tree.root.find("children/MainProgram/children/Wait/waitTime").text == "0.01"
 
 
+def test_a_plain_xml_program_as_polyscope_3_saved_it_reads_too(tmp_path):
+    path = tmp_path / "plain.urp"
+    path.write_text(E_SERIES_WAIT_PROGRAM, encoding="utf-8")
+    assert read_urp(str(path)).root.find("children/MainProgram") is not None
+
+
 def test_references_resolve_relative_to_the_referring_element():
     xml = program_xml('<Set type="DigitalOutput"><pin referencedName="digital_out[0]"/></Set>'
                       '<Set type="DigitalOutput"><pin referencedName="digital_out[5]"/></Set>'
@@ -34,7 +40,9 @@ def test_references_resolve_relative_to_the_referring_element():
 
 
 @pytest.mark.parametrize("content, message", [
-    (b"def wait_program():\n  sleep(1)\nend\n", r"not gzip"),
+    (b"def wait_program():\n  sleep(1)\nend\n", r"gzip-compressed by PolyScope 5; this file is neither"),
+    (b"<Installation/>", r"the XML's root is <Installation>, not <URProgram>"),
+    (b'<URProgram><!DOCTYPE x [<!ENTITY a "b">]></URProgram>', r"does not parse|refused"),
     (gzip.compress(E_SERIES_WAIT_PROGRAM.encode())[:-40], r"truncated"),
     (gzip.compress(b"this is not XML"), r"its XML does not parse"),
     (gzip.compress(b"<Installation><IOs/></Installation>"), r"the XML's root is <Installation>, not <URProgram>"),

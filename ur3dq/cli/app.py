@@ -6,7 +6,9 @@ import dataclasses
 import json
 import logging
 import os
+import shutil
 import sys
+import textwrap
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
@@ -45,23 +47,36 @@ ERROR_EXIT_CODES = (
     (OSError, EXIT_STORE),
 )
 
-EXIT_CODES_EPILOG = f"""\b
-Exit codes:
-  {EXIT_OK}  done
-  {EXIT_CANCELLED}  cancelled at a question (answer it, or pass --yes)
-  {EXIT_USAGE}  bad command line
-  {EXIT_STORE}  pose store or file problem (StoreError; the store is left unchanged)
-  {EXIT_INPUT}  bad input: unreachable pose, joint limits, NaN, refused motion
-     (ValueError, SafetyCheckError)
-  {EXIT_NO_ROBOT}  no robot configured or reachable (RobotConnectionError)
-  {EXIT_ROBOT}  robot fault: protective/emergency stop, program error, lost
-     connection, timeout (RobotError)
-  {EXIT_NOT_REACHED}  demo: a replayed pose was not reached within tolerance
-  {EXIT_SIMULATOR}  the embedded simulator could not be started or stopped (`ur3dq sim ...`)
-  {EXIT_INTERNAL}  internal error (set UR3DQ_DEBUG=1 for the traceback)
-  {EXIT_INTERRUPTED}  interrupted (Ctrl-C); a moving arm was stopped with stopj
-  143/129  terminated by SIGTERM / SIGHUP (128 + signal), handled like Ctrl-C
-"""
+EXIT_CODES_EPILOG = (
+    f"Exit codes: {EXIT_OK} done, {EXIT_CANCELLED} cancelled at a question (or pass --yes), {EXIT_USAGE} bad command "
+    f"line, {EXIT_STORE} store or file problem (store unchanged), {EXIT_INPUT} bad input (unreachable pose, limits, "
+    f"NaN, out of range, failed path check), {EXIT_NO_ROBOT} no robot reachable, {EXIT_ROBOT} robot fault (stop, "
+    f"program error, lost connection, timeout), {EXIT_NOT_REACHED} demo missed a pose, {EXIT_SIMULATOR} simulator "
+    f"would not start/stop, {EXIT_INTERNAL} internal error (UR3DQ_DEBUG=1 shows it), {EXIT_INTERRUPTED} Ctrl-C (arm "
+    "stopped), 143/129 SIGTERM/SIGHUP (as Ctrl-C).")
+
+# The top-level help lists the commands by what they are for (a command not named here is listed under "More").
+COMMAND_SECTIONS = (
+    ("Teach and run", ("record-pose", "poses", "run-poses", "jog", "move-to")),
+    ("Check and export", ("check", "plot", "export-urscript")),
+    ("Robot and simulator", ("status", "robot", "sim", "demo")),
+    ("Kinematics", ("fk", "ik")),
+)
+
+
+class SectionedGroup(click.Group):
+    """A click group whose help lists its commands in COMMAND_SECTIONS, each summary whole."""
+
+    def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
+        commands = {name: command for name in self.list_commands(ctx)
+                    if (command := self.get_command(ctx, name)) is not None}
+        sections = [(title, [name for name in names if name in commands]) for title, names in COMMAND_SECTIONS]
+        sections.append(("More", [name for name in commands if all(name not in n for _, n in COMMAND_SECTIONS)]))
+        for title, names in sections:
+            rows = [(name, commands[name].get_short_help_str(200)) for name in names if not commands[name].hidden]
+            if rows:
+                with formatter.section(title):
+                    formatter.write_dl(rows)
 
 NO_ROBOT_HINT = ("no robot configured: name one with --host ADDRESS (or export UR3DQ_HOST=ADDRESS), "
                  "or start the embedded simulator with `ur3dq sim start`")
@@ -160,41 +175,43 @@ def confirm(question: str, assume_yes: bool, default: bool = False) -> None:
     if answer is None:
         raise Cancelled(f"no answer to {question!r}: pass --yes to answer yes in scripts")
     if not answer:
-        raise Cancelled(f"answered no to {question!r}: nothing done.", deliberate=True)
+        raise Cancelled("answered no: nothing done.", deliberate=True)   # the question is right above
 
 
 @click.group(
-    context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 110},
+    cls=SectionedGroup,
+    context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 80},
     epilog=EXIT_CODES_EPILOG,
 )
 @click.option("--host", envvar="UR3DQ_HOST", metavar="ADDRESS",
-              help="The robot or URSim to talk to (env UR3DQ_HOST). Default: the embedded simulator if "
-                   "`ur3dq sim start` is running.")
-@click.option("--backend", type=click.Choice(["rtde", "urx"]), default="rtde", show_default=True,
-              help="Client library the driver uses for state and programs.")
-@click.option("--model", type=click.Choice(MODEL_NAMES, case_sensitive=False),
-              help="Robot model: checked against the controller; for fk/ik/plot without a robot (default ur3).")
-@click.option("--store", "store_path", envvar="UR3DQ_STORE", default=DEFAULT_STORE_PATH, show_default=True,
-              type=click.Path(dir_okay=False, path_type=Path), help="The JSON pose store (env UR3DQ_STORE).")
-@click.option("--json", "as_json", is_flag=True, help="Machine-readable JSON on stdout (SI units, docs/json.md).")
-@click.option("--deg", is_flag=True, help="Bare angles typed and shown in degrees (default radians).")
-@click.option("--mm", is_flag=True, help="Bare lengths typed and shown in mm (default metres).")
+              help="Robot or URSim (env UR3DQ_HOST) [default: `ur3dq sim start`'s].")
+@click.option("--backend", type=click.Choice(["rtde", "urx"]), default="rtde", metavar="rtde|urx",
+              help="Client library for state and programs [default: rtde].")
+@click.option("--model", type=click.Choice(MODEL_NAMES, case_sensitive=False), metavar="MODEL",
+              help=f"{', '.join(MODEL_NAMES)}: checked against the controller [default: ur3].")
+@click.option("--store", "store_path", envvar="UR3DQ_STORE", default=DEFAULT_STORE_PATH,
+              type=click.Path(dir_okay=False, path_type=Path),
+              help=f"The pose store (env UR3DQ_STORE) [default: {DEFAULT_STORE_PATH}].")
+@click.option("--json", "as_json", is_flag=True, help="JSON on stdout, always SI (docs/json.md).")
+@click.option("--deg", is_flag=True, help="Bare angles typed and shown in degrees.")
+@click.option("--mm", is_flag=True, help="Bare lengths typed and shown in mm.")
 @click.version_option(package_name="ur3dq")
 @click.pass_context
 def cli(ctx: click.Context, host: str | None, backend: str, model: str | None, store_path: Path, as_json: bool,
         deg: bool, mm: bool) -> None:
-    """ur3dq: record and replay Universal Robots poses through dual-quaternion kinematics.
+    """ur3dq: teach, check and run Universal Robots programs (dual-quaternion kinematics).
 
     \b
-    Examples:
-      ur3dq sim start                       # a simulated UR3 in the background
-      ur3dq record-pose --name pick --yes   # store the arm's pose in poses.json
-      ur3dq run-poses --dry-run             # the replay plan: IK, joints, travel
-      ur3dq run-poses --speed 0.5 --yes     # replay; Ctrl-C stops the arm
-      ur3dq --deg fk 0 -90 0 -90 0 0        # forward kinematics of the UR3
-      ur3dq demo                            # the whole job on its own simulator
+    A first job:
+      ur3dq sim start                  # a simulated UR3 in the background
+      ur3dq record-pose --name pick    # record the arm's pose (--teach: many)
+      ur3dq poses offset above --from pick --z -50mm --before pick
+      ur3dq poses set pick --move linear --speed 100mm/s
+      ur3dq poses add-step --after pick tool-out 0 on
+      ur3dq run-poses --cell cell.json # the plan's summary, then "Run?"
 
-    Metres and radians unless --deg. Poses are TCP poses in the controller's base frame.
+    Numbers may carry units (250mm/s, 60deg/s, -50mm, 5deg, 500ms); bare ones are SI,
+    degrees under --deg, mm under --mm. Every option also works after the command.
     """
     source = ctx.get_parameter_source("host")
     ctx.obj = Settings(host=host or None, backend=backend, model=model.lower() if model else None,
@@ -252,19 +269,32 @@ def main(argv=None) -> None:
         code = _report_interrupt(interrupt)
     except Cancelled as cancelled:
         # a deliberate "no" is the user's choice, not an error: said plainly; a missing answer stays an error
-        click.echo(str(cancelled)[0].upper() + str(cancelled)[1:] if cancelled.deliberate
-                   else f"Error: {one_line(cancelled)}", err=True)
+        if cancelled.deliberate:
+            click.echo(str(cancelled)[0].upper() + str(cancelled)[1:], err=True)
+        else:
+            show_error(one_line(cancelled))
         code = EXIT_CANCELLED
     except (UR3DQError, ValueError, OSError) as error:
-        click.echo(f"Error: {one_line(error)}", err=True)
+        show_error(one_line(error))
         code = exit_code_for(error)
     except Exception as error:  # a bug: still one line, the traceback on request
         if os.environ.get("UR3DQ_DEBUG"):
             raise
-        click.echo(f"Error: internal error ({type(error).__name__}): {one_line(error)} "
-                   "(set UR3DQ_DEBUG=1 for the traceback)", err=True)
+        show_error(f"internal error ({type(error).__name__}): {one_line(error)} (set UR3DQ_DEBUG=1 for the "
+                   "traceback)")
         code = EXIT_INTERNAL
     sys.exit(code if isinstance(code, int) else EXIT_OK)
+
+
+def show_error(text: str) -> None:
+    """Print `Error: text` on stderr: one line for scripts and logs; on a terminal, wrapped between words to its
+    width (a terminal would cut a long line anywhere, mid-word)."""
+    line = f"Error: {text}"
+    if sys.stderr.isatty():
+        width = shutil.get_terminal_size().columns
+        line = textwrap.fill(line, width=max(40, width - 1), subsequent_indent="  ", break_long_words=False,
+                             break_on_hyphens=False)
+    click.echo(line, err=True)
 
 
 def _report_interrupt(interrupt):
@@ -285,15 +315,29 @@ def robot_session(settings: Settings, **options):
     `options` go to the driver's connect (e.g. max_joint_travel)."""
     from ur3dq.robot import connect  # the driver loads both client libraries: only for robot commands
 
-    host = settings.host or running_simulator_host()
+    simulator = running_simulator_host()
+    host = settings.host or simulator
     if not host:
         raise RobotConnectionError(NO_ROBOT_HINT)
     with own_output():
         try:
             robot = connect(host, backend=settings.backend, model=settings.model, **options)
-        except OSError as error:
-            raise RobotConnectionError(f"cannot reach a UR controller at {host}: {error.strerror or error}; check "
-                                       "--host or UR3DQ_HOST, or start the embedded simulator with `ur3dq sim start`"
+        except (OSError, RobotConnectionError) as error:
+            reason = (error.strerror or str(error)) if isinstance(error, OSError) else str(error)
+            raise RobotConnectionError(f"{reason.rstrip('.')}; {unreachable_hint(settings, host, simulator)}"
                                        ) from None
         with robot:
             yield robot
+
+
+def unreachable_hint(settings: Settings, host: str, simulator: str | None) -> str:
+    """What to do when `host` refuses: whether ur3dq's own simulator runs, and where, and how to point at it."""
+    given = {"environment": "UR3DQ_HOST", "option": "--host"}.get(settings.host_source)
+    if simulator and simulator != host:
+        fix = "`unset UR3DQ_HOST`" if given == "UR3DQ_HOST" else "leave out --host"
+        return (f"{given or 'the host'} names {host}, but `ur3dq sim start`'s simulator runs on {simulator}: "
+                f"{fix} (or export UR3DQ_HOST={simulator})")
+    if simulator == host:
+        return (f"the ur3dq simulator recorded on {host} does not answer: `ur3dq sim stop`, then `ur3dq sim start`")
+    return (f"no ur3dq simulator is running: check {given or '--host or UR3DQ_HOST'} and that the robot is on, or "
+            "start the simulator with `ur3dq sim start`")

@@ -1,13 +1,17 @@
 """The embedded simulator in the background: `python -m sim_ursim` detached, remembered in a small state file.
 
 The state file (`sim.json` in $UR3DQ_STATE_DIR, else $XDG_STATE_HOME/ur3dq, else ~/.local/state/ur3dq) holds the
-pid, address, model and log path. A pid only counts as our simulator while its command line still runs sim_ursim,
+pid, address, model and log path. The simulator keeps one address per user (per state directory): the one it
+last served on (`address` beside the state file), else one drawn from the user's id and the directory, so an
+exported UR3DQ_HOST stays right from one `sim start` to the next; only when that address is taken is another
+one chosen (and `sim start` says so). A pid only counts as our simulator while its command line still runs sim_ursim,
 so a stale file (reboot, kill -9, reused pid) is recognised and never leads to signalling an unrelated process.
 """
 from __future__ import annotations
 
 import json
 import os
+import random
 import signal
 import subprocess
 import sys
@@ -23,6 +27,7 @@ if TYPE_CHECKING:
     import filelock
 
 STATE_FILE_NAME = "sim.json"
+ADDRESS_FILE_NAME = "address"
 STOP_TIMEOUT_S = 10.0
 START_TIMEOUT_S = 20.0
 
@@ -80,7 +85,7 @@ def start_simulator(model: str = "ur3", host: str | None = None, version: str | 
 
     Start `python -m sim_ursim` detached on `host` (default: a free loopback address) and wait until it
     serves every port; returns the recorded state. SimulatorError if one runs already or it does not come up."""
-    from sim_ursim.launch import free_loopback_address, ports_bindable, wait_until_serving
+    from sim_ursim.launch import ports_bindable, wait_until_serving
 
     directory = state_directory()
     directory.mkdir(parents=True, exist_ok=True)
@@ -90,7 +95,7 @@ def start_simulator(model: str = "ur3", host: str | None = None, version: str | 
             raise SimulatorError(f"the embedded simulator already runs on {running['host']} (pid {running['pid']}); "
                                  "`ur3dq sim stop` first")
         if host is None:
-            host = free_loopback_address()
+            host = _preferred_address(directory)
         elif not host.startswith("127."):
             raise ValueError(f"--address {host!r}: the embedded simulator binds loopback addresses only (127.x.y.z)")
         elif not ports_bindable(host):
@@ -114,8 +119,33 @@ def start_simulator(model: str = "ur3", host: str | None = None, version: str | 
             raise SimulatorError(f"the simulator did not come up: {error}{detail}") from None
         state = {"pid": process.pid, "host": host, "model": model, "version": version, "log": str(log_path),
                  "started": utc_now_iso()}
+        previous = _remembered_address(directory)
+        state["address_changed_from"] = previous if previous and previous != host else None
         write_atomically(directory / STATE_FILE_NAME, json.dumps(state, indent=2) + "\n")
+        write_atomically(directory / ADDRESS_FILE_NAME, host + "\n")
         return state
+
+
+def _remembered_address(directory: Path) -> str | None:
+    """The address the simulator of this state directory last served on, if any."""
+    try:
+        text = (directory / ADDRESS_FILE_NAME).read_text(encoding="utf-8").strip()
+    except OSError:
+        return None
+    return text if text.startswith("127.") and text.count(".") == 3 else None
+
+
+def _preferred_address(directory: Path) -> str:
+    """This user's simulator address: the remembered one, else one drawn from the user's id and the state
+    directory (the same every time), else, when those are taken, any free loopback address."""
+    from sim_ursim.launch import free_loopback_address, ports_bindable, random_loopback_address
+
+    draw = random.Random(f"{os.getuid() if hasattr(os, 'getuid') else 0}:{directory.resolve()}")
+    candidates = [_remembered_address(directory), *(random_loopback_address(draw) for _ in range(3))]
+    for candidate in candidates:
+        if candidate and ports_bindable(candidate):
+            return candidate
+    return free_loopback_address()
 
 
 def stop_simulator() -> dict | None:

@@ -17,10 +17,12 @@ from ur3dq.cli.path_report import (
     DEFAULT_JOINT_SPEED,
     DEFAULT_LINEAR_ACCELERATION,
     DEFAULT_LINEAR_SPEED,
+    margins_legend,
     margins_table,
     path_plan_from_replay,
+    require_passed,
 )
-from ur3dq.errors import SafetyCheckError, StoreError
+from ur3dq.errors import StoreError
 from ur3dq.kinematics import robot_model
 from ur3dq.pathcheck import MOVE_TYPES, Margins, check_path, load_cell
 from ur3dq.program.path import path_plan_of
@@ -30,7 +32,7 @@ from ur3dq.store_format import PROGRAM_SCHEMA_VERSION
 from ur3dq.units import ANGULAR_SPEED, LENGTH, LINEAR_SPEED
 
 
-@cli.command("check")
+@cli.command("check", short_help="Check the whole path against the cell, no motion.")
 @click.argument("names", nargs=-1)
 @cell_option
 @click.option("--move", type=click.Choice(MOVE_TYPES), default="joint", show_default=True,
@@ -99,15 +101,12 @@ def check(settings: Settings, names: tuple[str, ...], cell_path: Path | None, mo
         path = path_plan_from_replay(steps, start, move, speed_si, acceleration, blend)
     result = check_path(model, path, cell, margins, keep_samples=False)   # a table and lines: no drawing
     err = Console(stderr=True, highlight=False, width=None if sys.stderr.isatty() else 160)
-    title = f"Path check on {where}{f', cell {cell_path}' if cell_path else ''}: smallest margins per move"
+    title = f"Path check on {where}{f', cell {cell_path}' if cell_path else ''}: the worst point of each move"
     console = err if settings.json else settings.out
     console.print(margins_table(result, title, console.width))
+    console.print(margins_legend(result), markup=False)
     if settings.json:
-        emit_json(result.to_dict())
-    else:
-        for problem in result.problems:
-            settings.out.print(problem.line(), markup=False)
-    if not result.ok:
-        raise SafetyCheckError(result.summary())
+        emit_json({**result.to_dict(), "limits": result.limits})
+    require_passed(settings, result)   # each problem once, then the one-line error
     if not settings.json:
         settings.out.print(result.summary())

@@ -39,7 +39,7 @@ DEMO_PLACES = (
 )
 
 
-@cli.command()
+@cli.command(short_help="The whole job on a simulator of its own.")
 @click.option("--save", type=click.Path(dir_okay=False, path_type=Path),
               help="Keep the demo's pose store in this file (default: a temporary one, removed afterwards).")
 @click.option("--speed", type=Quantity(ANGULAR_SPEED), default=None, metavar="V",
@@ -70,7 +70,8 @@ def demo(settings: Settings, save, speed, acceleration, tolerance_mm, tolerance_
     from ur3dq.robot import connect
 
     # with --json the story goes to stderr, so stdout carries only the JSON result
-    say = Console(stderr=True, highlight=False).print if settings.json else settings.out.print
+    story = Console(stderr=True, highlight=False) if settings.json else settings.out
+    say = story.print
     model_name = settings.model or "ur3"
     with tempfile.TemporaryDirectory(prefix="ur3dq-demo-") as scratch, contextlib.ExitStack() as stack:
         store = PoseStore(save or Path(scratch) / "demo-poses.json")
@@ -108,7 +109,7 @@ def demo(settings: Settings, save, speed, acceleration, tolerance_mm, tolerance_
             program_store = PoseStore(store.path.with_name(store.path.stem + "-program.json"))
             say(escape(f"   written to {program_store.path} (run it again with `ur3dq --store {program_store.path} "
                        "run-poses`)"))
-            run_pick_and_place(robot, store, program_store, recorded[0], recorded[1], say)
+            run_pick_and_place(robot, store, program_store, recorded[0], recorded[1], story)
     missed = [r for r in results
               if r.error_m * 1000 > tolerance_mm or math.degrees(r.error_rad) > tolerance_deg]
     if settings.json:
@@ -151,30 +152,23 @@ def pick_and_place_steps(store, program_store, pick: str, place: str) -> list:
     return program_store.update_program(edit)
 
 
-def run_pick_and_place(robot, store, program_store, pick: str, place: str, say) -> None:
-    """Build and run the demo's pick-and-place program, showing each step.
+def run_pick_and_place(robot, store, program_store, pick: str, place: str, console: Console) -> None:
+    """Build and run the demo's pick-and-place program, showing each step on `console`.
 
-    Build the program into `program_store`, run it showing each step as the controller reports it, then its
-    plan; RobotError if the arm does not end at `place`."""
+    The program goes into `program_store`; each step is shown as the controller reports it, then the plan.
+    RobotError if the arm does not end at `place`.
+    """
     steps = pick_and_place_steps(store, program_store, pick, place)
-    console_print = say
+    say = console_print = console.print
 
     def progress(position, step):
         console_print(escape(f"   step {position}: {step.name} ({step.kind})"))
 
     plan, seconds = run(robot, steps, progress=progress)
-    print_table(_Printer(say), "Pick-and-place plan (one URScript program)", plan_columns(Units()),
+    print_table(console, "Pick-and-place plan (one URScript program)", plan_columns(Units()),
                 plan_rows(plan, 1, Units()))
     error_m, _ = robot.tcp_pose().distance(plan[-2].pose)
     if error_m > 5e-4:
         raise RobotError(f"the pick-and-place ended {error_m * 1000:.2f} mm from {place!r}")
     say(f"   ran {len(plan)} steps in {seconds:.2f} s; the arm rests at {place!r} "
         f"({error_m * 1000:.3f} mm)")
-
-
-class _Printer:
-    """A console-like wrapper so print_table can print through the demo's `say` (at the terminal's width)."""
-
-    def __init__(self, say):
-        self.print = say
-        self.width = Console().width

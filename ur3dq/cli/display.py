@@ -197,7 +197,8 @@ def _column_measure(column: Column, cells, narrow: bool) -> tuple[int, int, int]
     """(longest word, longest unbreakable line, longest line) over the column's header and cells: its narrowest
     width when it may wrap, its narrowest when it may not, and its natural width."""
     measures = [_cell_widths(cell) for cell in [_header(column, narrow), *cells]]
-    return tuple(max(measure[k] for measure in measures) for k in range(3))
+    word, unbreakable, line = (max(measure[k] for measure in measures) for k in range(3))
+    return word, unbreakable, line
 
 
 def _cell_widths(cell) -> tuple[int, int, int]:
@@ -246,7 +247,7 @@ def joint_solutions_table(title: str, solutions: Any, units: Units, extra_column
         rows.append([str(index + 1), *angles, *(values[index] for _, values in extra_columns)])
     table = fitted_table(title, columns, rows, width)
     if narrow:  # the unit leaves the headers for the caption
-        table.caption = "; ".join(filter(None, [f"joints in {unit}", table.caption]))
+        table.caption = "; ".join(filter(None, [f"joints in {unit}", str(table.caption or "")]))
         table.caption_justify = "left"
     return table
 

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import click
 
-from ur3dq.cli.app import Settings, cli
+from ur3dq.cli.app import Settings, cli, emit_json, report
 from ur3dq.cli.display import count_text
 from ur3dq.cli.offline_plans import confirm_overwrite, offline_plan
 from ur3dq.cli.options import (
@@ -26,7 +26,7 @@ from ur3dq.store import write_atomically
 from ur3dq.units import LENGTH
 
 
-@cli.command("export-urscript")
+@cli.command("export-urscript", short_help="Write the program as a URScript .script file.")
 @click.argument("names", nargs=-1)
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), default=Path("-"),
               show_default=True, help="The .script file to write (`-`: stdout).")
@@ -41,19 +41,23 @@ from ur3dq.units import LENGTH
 @click.option("--to", "end", metavar="N", help="A cell program: end at the step N.")
 @display_options
 @click.pass_obj
-def export_urscript(settings: Settings, names, output: Path, speed, acceleration, blend, loops, replay_joints,
-                    max_travel, yes, start, end):
-    """Write a URScript program (.script) that moves through the stored poses (all, or NAMES in order).
+def export_urscript(settings: Settings, names: tuple[str, ...], output: Path, speed: float | None,
+                    acceleration: float | None, blend: float, loops: int, replay_joints: bool,
+                    max_travel: float | None, yes: bool, start: str | None, end: str | None) -> None:
+    """Write a URScript program (.script) of the cell program, or of the stored poses (all, or NAMES in order).
 
     Joint targets are planned as `run-poses` plans them (IK nearest the recorded joints), on the nominal model.
-    The program is `def ur3dq_poses(): ... end`: send it to the controller (port 30002) or load it on the
-    pendant. Pose names appear only in comments. The first move starts from wherever the arm is: check it.
+    A cell program is `def ur3dq_program(): ... end`; it writes the step number to general-purpose integer output
+    register 22 (RTDE output_int_register_22) and a "ur3dq_step:" log line before every step (a PLC or the
+    pendant can follow it; -N when step N's wait for an input timed out). Stored poses without a program are
+    `def ur3dq_poses(): ... end`. Send it to the controller (port 30002) or load it on the pendant. Pose names
+    appear only in comments. The first move starts from wherever the arm is: check it at low speed.
 
     \b
     Examples:
       ur3dq export-urscript -o cell.script
-      ur3dq export-urscript pick place --speed 0.5 --blend 0.01 --loop 10 \\
-          -o cell.script
+      ur3dq export-urscript pick place --speed 30deg/s --blend 10mm \\
+          --loop 10 -o cell.script
     """
     check_blend(blend)
     if start or end or settings.store.version() == 2:  # a cell program: the same program run-poses sends
@@ -62,7 +66,7 @@ def export_urscript(settings: Settings, names, output: Path, speed, acceleration
         program, count = export_program_text(
             settings, start, end, or_default(speed, DEFAULT_SPEED), or_default(acceleration, DEFAULT_ACCELERATION),
             blend, 1.0, replay_joints, check_max_travel(or_default(max_travel, DEFAULT_MAX_JOINT_TRAVEL)))
-        _write_program(output, program, yes, count_text(count, "step"))
+        _write_program(settings, output, program, yes, count_text(count, "step"), "ur3dq_program")
         return
     model, steps, a, v = offline_plan(settings, names, or_default(speed, DEFAULT_SPEED),
                                       or_default(acceleration, DEFAULT_ACCELERATION), replay_joints,
@@ -76,14 +80,19 @@ def export_urscript(settings: Settings, names, output: Path, speed, acceleration
     ]
     program = replay_script(steps, a, v, blend, loops, tcp_offset=offsets.pop() if len(offsets) == 1 else None,
                             header=header)
-    _write_program(output, program, yes, count_text(len(steps), 'pose') + (f" × {loops}" if loops > 1 else ""))
+    _write_program(settings, output, program, yes,
+                   count_text(len(steps), 'pose') + (f" × {loops}" if loops > 1 else ""), "ur3dq_poses")
 
 
-def _write_program(output: Path, program: str, yes: bool, what: str) -> None:
-    """The program on stdout (`-`) or into `output` (asking before overwriting), atomically."""
+def _write_program(settings: Settings, output: Path, program: str, yes: bool, what: str, name: str) -> None:
+    """The program on stdout (`-`) or into `output` (asking before overwriting), atomically; with --json, what
+    was written (and the script itself when it went to stdout)."""
     if str(output) == "-":
-        click.echo(program, nl=False)
+        if settings.json:
+            emit_json({"program": name, "script": program})
+        else:
+            click.echo(program, nl=False)
         return
     confirm_overwrite(output, yes)
     write_atomically(output, program)
-    click.echo(f"Wrote {output}: {what}.")
+    report(settings, {"program": name, "file": str(output)}, f"Wrote {output}: {what} (def {name}).")

@@ -25,7 +25,7 @@ from ur3dq.cli.options import (
 from ur3dq.units import ANGLE, unit_label
 
 
-@cli.command(context_settings=NUMBERS_CONTEXT)
+@cli.command(context_settings=NUMBERS_CONTEXT, short_help="Forward kinematics: TCP pose of 6 joints.")
 @click.argument("joints", nargs=-1, type=Quantity(ANGLE), metavar="J1 J2 J3 J4 J5 J6")
 @click.option("--tcp", type=pose_vector_type(), default=None, metavar="X Y Z RX RY RZ",
               help="TCP offset in the flange frame (e.g. 0 0 150mm 0 0 0; bare: m and rad, or --mm/--deg).")

@@ -32,7 +32,7 @@ from ur3dq.robot import motion
 from ur3dq.units import ANGLE, LENGTH, to_display
 
 
-@cli.command(context_settings=NUMBERS_CONTEXT)
+@cli.command(context_settings=NUMBERS_CONTEXT, short_help="Inverse kinematics: every joint solution.")
 @click.argument("values", nargs=-1, type=Typed([LENGTH, ANGLE]), metavar="[X Y Z RX RY RZ | RW .. DZ]")
 @click.option("--pose", "pose_name", metavar="NAME", help="Solve a pose of the store (with its TCP offset).")
 @click.option("--tcp", type=pose_vector_type(), default=None, metavar="X Y Z RX RY RZ",

@@ -17,7 +17,7 @@ from typing import Any, TextIO
 
 import click
 
-from ur3dq.cli.app import Settings, cli, robot_session
+from ur3dq.cli.app import Settings, cli, emit_json, robot_session
 from ur3dq.cli.operator_controls import cbreak, read_key
 from ur3dq.cli.options import display_options
 from ur3dq.cli.program_workflow import same_spot_as
@@ -121,7 +121,7 @@ def draw(stream: TextIO, lines: list[str]) -> None:
     stream.flush()
 
 
-@cli.command("jog")
+@cli.command("jog", short_help="Move the arm with the keyboard, one checked step per key.")
 @display_options
 @click.pass_obj
 def jog(settings: Settings) -> None:
@@ -138,27 +138,37 @@ def jog(settings: Settings) -> None:
       q        quit
 
     Each step is checked like any motion (joint limits, reach, singularities, the path) and runs to its end
-    before the next key is read. Ctrl-C stops the arm. To move the arm to a recorded pose: `ur3dq move-to NAME`.
+    before the next key is read. Ctrl-C stops the arm. Without a terminal the keys are read from stdin (a script:
+    `echo 2+rq | ur3dq jog`), each outcome printed as a line. To move the arm to a recorded pose: `ur3dq move-to`.
     """
-    if not (sys.stdin.isatty() and sys.stdout.isatty()):
-        raise click.UsageError("jog needs a terminal (its keys are read one at a time)")
+    fd = sys.stdin.fileno()
+    drawn = sys.stdout.isatty() and not settings.json
+    recorded: list[str] = []
     with robot_session(settings) as robot:
         screen = JogScreen()
         title = f"{robot.model_name} at {robot.host}"
-        with cbreak(sys.stdin.fileno()), full_screen(sys.stdout):
+        keys = cbreak(fd) if sys.stdin.isatty() else contextlib.nullcontext()
+        with keys, full_screen(sys.stdout) if drawn else contextlib.nullcontext():
             while True:
-                status = robot.state()
-                draw(sys.stdout, screen_lines(screen, title, status.joints, status.tcp_pose, str(settings.store_path)))
-                key = read_key(sys.stdin.fileno(), REFRESH)
-                if key == "q":
+                if drawn:
+                    status = robot.state()
+                    draw(sys.stdout, screen_lines(screen, title, status.joints, status.tcp_pose,
+                                                  str(settings.store_path)))
+                key = read_key(fd, REFRESH)
+                if key in ("q", ""):
                     break
                 if key is not None:
-                    _act(settings, robot, screen, key)
-    click.echo("Jog ended.")
+                    _act(settings, robot, screen, key, recorded)
+                    if not drawn:
+                        click.echo(screen.message, err=True)
+    if settings.json:
+        emit_json({"recorded": recorded, "store": str(settings.store_path)})
+    else:
+        click.echo("Jog ended." + (f" Recorded {', '.join(recorded)}." if recorded else ""))
 
 
-def _act(settings: Settings, robot: Any, screen: JogScreen, key: str) -> None:
-    """Carry out one key on `screen` and `robot`."""
+def _act(settings: Settings, robot: Any, screen: JogScreen, key: str, recorded: list[str]) -> None:
+    """Carry out one key on `screen` and `robot` (a recorded pose's name goes into `recorded`)."""
     if key in ("1", "2", "3", "4", "5", "6"):
         screen.axis, screen.message = int(key) - 1, f"Axis {screen.axes[int(key) - 1]}."
     elif key == "m":
@@ -174,9 +184,9 @@ def _act(settings: Settings, robot: Any, screen: JogScreen, key: str) -> None:
     elif key in PLUS_KEYS or key in MINUS_KEYS:
         _step(robot, screen, 1 if key in PLUS_KEYS else -1)
     elif key == "r":
-        screen.message = _record(settings, robot)
+        screen.message = _record(settings, robot, recorded)
     else:
-        screen.message = f"Key {key!r} does nothing here: see the keys above (q quits)."
+        screen.message = f"Key {key!r} does nothing here: see the keys (q quits)."
 
 
 def _step(robot: Any, screen: JogScreen, direction: int) -> None:
@@ -192,14 +202,16 @@ def _step(robot: Any, screen: JogScreen, direction: int) -> None:
         _drop_typed_ahead(sys.stdin.fileno())
 
 
-def _record(settings: Settings, robot: Any) -> str:
-    """Record the arm's pose into the store as pose-N; the line saying so (or why not)."""
+def _record(settings: Settings, robot: Any, recorded: list[str]) -> str:
+    """Record the arm's pose into the store as pose-N (its name appended to `recorded`); the line saying so, or
+    why not."""
     try:
         steps = settings.store.load_program()
         pose = read_pose(robot, next_free_name("pose", [step.name for step in steps]))
         stored = settings.store.add(pose, number_if_taken=True)
     except (StoreError, ValueError, RobotError) as error:
         return f"Not recorded: {' '.join(str(error).split())}"
+    recorded.append(stored.name)
     twin = same_spot_as(stored, steps)
     return f"Recorded {stored.name!r}" + (f" (the same spot as {twin!r})." if twin else ".")
 

@@ -119,7 +119,7 @@ def own_output():
     saved_streams = sys.stdout, sys.stderr
     for stream in saved_streams:
         stream.flush()
-    last_notes = {}
+    last_notes: dict[int, str] = {}
     filters = [_Filter(1, last_notes), _Filter(2, last_notes)]
     sys.stdout = _python_stream_on(filters[0].original, saved_streams[0])
     sys.stderr = _python_stream_on(filters[1].original, saved_streams[1])

@@ -9,7 +9,7 @@ from rich.markup import escape
 
 from ur3dq.cli.app import Settings, cli, confirm, emit_json, robot_session
 from ur3dq.cli.options import cell_option, display_options
-from ur3dq.cli.path_report import require_clear_program_path
+from ur3dq.cli.path_report import check_program, check_verdict, require_passed
 from ur3dq.errors import StoreError
 from ur3dq.program.plan import Defaults, PlannedStep, plan_program
 from ur3dq.program.runner import run_plan
@@ -17,7 +17,7 @@ from ur3dq.program.steps import is_waypoint
 from ur3dq.units import ANGLE, LENGTH, SPEED, Units, angular_kind, show
 
 
-@cli.command("move-to")
+@cli.command("move-to", short_help="Move the arm to one recorded pose (checked, asked).")
 @click.argument("name")
 @click.option("--yes", "-y", is_flag=True, help="Move without asking.")
 @click.option("--speed-scale", type=click.FloatRange(0.0, 1.0, min_open=True), default=1.0, show_default=True,
@@ -49,7 +49,10 @@ def move_to(settings: Settings, name: str, yes: bool, speed_scale: float, cell_p
                             max_joint_travel=robot.max_joint_travel, resolve_from=steps)
         err = Console(stderr=True, highlight=False)
         err.print(escape(move_summary(plan[0], settings)), soft_wrap=True)
-        require_clear_program_path(settings, robot.model, plan, robot.joints(), cell_path)
+        result, _ = check_program(robot.model, plan, cell_path, robot.joints(), keep_samples=False)
+        err.print(escape(check_verdict(result, cell_path)), soft_wrap=True)
+        if result is not None:
+            require_passed(settings, result)
         confirm(f"Move the arm to {name!r}?", yes, default=False)
         seconds = run_plan(robot, plan, steps.index(step) + 1)
         metres, radians = robot.tcp_pose().distance(plan[0].pose)

@@ -86,6 +86,8 @@ class OperatorControls:
         with cbreak(sys.stdin.fileno()):
             while not self._done.is_set():
                 key = read_key(sys.stdin.fileno(), KEY_POLL)
+                if key == "":   # the terminal closed
+                    return
                 if key is None:
                     continue
                 if key == "s" or key == "q":
@@ -149,15 +151,17 @@ def cbreak(fd: int) -> Iterator[None]:
 
 
 def read_key(fd: int, timeout: float) -> str | None:
-    """One key typed on `fd` within `timeout` s, or None; an escape sequence (an arrow key) comes as one string,
-    and keys typed together come one at a time."""
+    """One key typed on `fd` within `timeout` s, None when none came, "" at the end of the input (a pipe that
+    closed); an escape sequence (an arrow key) comes as one string, and keys typed together one at a time."""
     ready, _, _ = select.select([fd], [], [], timeout)
     if not ready:
         return None
     data = os.read(fd, 1)
+    if not data:
+        return ""
     if data == b"\x1b":   # an escape sequence follows at once, or it was the Esc key alone
         while len(data) < 8 and select.select([fd], [], [], 0.01)[0]:
             data += os.read(fd, 1)
             if data[-1:].isalpha() or data[-1:] == b"~":
                 break
-    return data.decode("utf-8", "replace") if data else None
+    return data.decode("utf-8", "replace")

@@ -64,7 +64,7 @@ def _option_name(param: click.Parameter | None) -> str:
     return (param.human_readable_name or "value").upper()
 
 
-class Quantity(click.ParamType):  # type: ignore[type-arg]  # generic only in newer click
+class Quantity(click.ParamType):  # type: ignore[type-arg, unused-ignore]  # generic only in newer click
     """A click type for one physical quantity: a number with or without its unit, converted to SI.
 
     A bare number is read in the person's units (degrees under --deg for angular kinds, mm under --mm for
@@ -101,7 +101,7 @@ class TypedValue:
         return parse(self.text, kind, self.units, self.option)
 
 
-class Typed(click.ParamType):  # type: ignore[type-arg]  # generic only in newer click
+class Typed(click.ParamType):  # type: ignore[type-arg, unused-ignore]  # generic only in newer click
     """A click type for a quantity whose kind depends on other options (a speed: joint or linear move): the
     value's form is checked now (a number with a unit ur3dq knows), its kind when the command knows it."""
 

@@ -1,32 +1,59 @@
 """The whole-path check of a replay as the CLI shows it: the adapter from replay.PlanStep lists to the path check's
-input (`path_plan_from_replay`), the check before anything moves (`require_clear_path`) and the margins table.
+input (`path_plan_from_replay`), the check before anything moves (`report_path_check`, `require_passed`), the
+margins table and its legend, and the verdict line of run-poses' summary.
 Shared by `ur3dq check`, `run-poses` and `plot`.
 """
 from __future__ import annotations
 
 import math
 import sys
+from pathlib import Path
 
 from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
+from rich.text import Text
 
 from ur3dq.cli.app import Settings
-from ur3dq.cli.display import NARROW_WIDTH, Column, fitted_table
+from ur3dq.cli.display import NARROW_WIDTH, Column, count_text, fitted_table
 from ur3dq.errors import SafetyCheckError
 from ur3dq.pathcheck import PathPlan, PathSegment, check_path, load_cell
+from ur3dq.pathcheck.reports import PathCheckResult
 from ur3dq.program.path import path_plan_of
 
 DEFAULT_JOINT_SPEED = 1.05     # rad/s (movej's default)
 DEFAULT_LINEAR_SPEED = 0.25    # m/s (movel's default)
 DEFAULT_JOINT_ACCELERATION = 1.4
 DEFAULT_LINEAR_ACCELERATION = 1.2
-# (margin key, header, scale, narrow header, narrow drop order: the speed room first, the collisions last)
-MARGIN_COLUMNS = (("wrist", "|sin θ5|", 1.0, "wrist", 5), ("elbow", "|sin θ3|", 1.0, "elbow", 4),
-                  ("shoulder", "shoulder mm", 1000.0, "shldr", 3),
-                  ("joint_limit", "limit °", math.degrees(1.0), "limit", 2),
-                  ("joint_speed", "speed room", 1.0, "speed", 1),
-                  ("self_collision", "self mm", 1000.0, "self", 7), ("cell", "cell mm", 1000.0, "cell", 6))
+
+
+def _degrees_from_singular(sine: float) -> float:
+    return math.degrees(math.asin(min(1.0, max(0.0, sine))))
+
+
+# (margin key, header, narrow header, narrow drop order, the measured value from (margin, limit), its text):
+# each column shows what the check measured, in the unit and the words of its problem message.
+MARGIN_COLUMNS = (
+    ("wrist", "wrist °", "wrist°", 5, lambda m, lim: _degrees_from_singular(m + lim), "{:.1f}"),
+    ("elbow", "elbow °", "elbow°", 4, lambda m, lim: _degrees_from_singular(m + lim), "{:.1f}"),
+    ("shoulder", "shoulder mm", "shldr", 3, lambda m, lim: 1000.0 * (m + lim), "{:.0f}"),
+    ("joint_limit", "limit °", "limit°", 2, lambda m, lim: math.degrees(m + lim), "{:.0f}"),
+    ("joint_speed", "speed %", "speed%", 1, lambda m, lim: 100.0 * (lim - m), "{:.0f}"),
+    ("self_collision", "self mm", "self", 7, lambda m, lim: 1000.0 * (m + lim), "{:.1f}"),
+    ("cell", "cell mm", "cell", 6, lambda m, lim: 1000.0 * (m + lim), "{:.1f}"),
+)
+
+
+def margins_legend(result: PathCheckResult) -> str:
+    """What the margins table's columns are, with the limit each must keep (fits 80 columns a line)."""
+    limits = result.limits
+    return "\n".join([
+        f"wrist, elbow: ° from singular (≥ {_degrees_from_singular(limits.get('wrist', 0.02)):.1f}°); "
+        f"shoulder: mm to base axis (≥ {1000 * limits.get('shoulder', 0.03):.0f})",
+        f"limit: ° to a joint limit; speed: % of top joint speed a line needs (≤ "
+        f"{100 * limits.get('joint_speed', 1.0):.0f})",
+        f"self: mm between the links (≥ {1000 * limits.get('self_collision', 0.0):.0f}); cell: mm to the "
+        f"nearest obstacle (≥ {1000 * limits.get('cell', 0.0):.0f})"])
 
 
 def path_plan_from_replay(steps, start_joints, move: str, speed: float, acceleration: float,
@@ -58,16 +85,6 @@ def check_replay(model, steps, cell_path, start_joints=None, blend: float = 0.0,
     return check_path(model, PathPlan(plan.start_joints, segments), cell, keep_samples=keep_samples), cell
 
 
-def require_clear_path(settings: Settings, model, steps, start_joints, blend: float, cell_path,
-                       loops: int = 1) -> None:
-    """Check a replay's whole path before anything moves; raise if it fails.
-
-    The path check of a movej replay before anything moves (run-poses): prints each move's smallest margins
-    (on stderr with --json), then SafetyCheckError (exit 4, one line) naming the step, where and what failed."""
-    result, _ = check_replay(model, steps, cell_path, start_joints, blend, loops, keep_samples=False)
-    report_path_check(settings, result, cell_path)
-
-
 def check_program(model, plan, cell_path, start_joints=None, keep_samples: bool = True) -> tuple:
     """The path check of a planned cell program.
 
@@ -79,51 +96,88 @@ def check_program(model, plan, cell_path, start_joints=None, keep_samples: bool 
     return (None if path is None else check_path(model, path, cell, keep_samples=keep_samples)), cell
 
 
-def require_clear_program_path(settings: Settings, model, plan, start_joints, cell_path) -> None:
-    """The check of require_clear_path for a cell program (see check_program)."""
-    result, _ = check_program(model, plan, cell_path, start_joints, keep_samples=False)
-    if result is not None:
-        report_path_check(settings, result, cell_path)
-
-
-def report_path_check(settings: Settings, result, cell_path) -> None:
-    """Print the margins table (stderr with --json); SafetyCheckError with the check's summary if it failed."""
-    console = Console(stderr=True, highlight=False, width=None if sys.stderr.isatty() else 160) \
-        if settings.json else settings.out
-    table = margins_table(result, "Path check: smallest margins per move", console.width)
-    table.caption = "; ".join(filter(None, [table.caption, f"cell: {escape(str(cell_path))}" if cell_path else None]))
+def report_path_check(settings: Settings, result: PathCheckResult, cell_path: Path | None) -> None:
+    """Print the margins table and its legend (stderr with --json), then the problems, each once; a failed check
+    is a SafetyCheckError that points at them."""
+    console = _report_console(settings)
+    table = margins_table(result, "Path check: the worst point of each move", console.width)
+    cell = f"cell: {escape(str(cell_path))}" if cell_path else None
+    table.caption = "; ".join(filter(None, [str(table.caption or ""), cell]))
     table.caption_justify = "left"
     console.print(table)   # a long cell path wraps in the caption, not in the title
-    if not result.ok:
+    console.print(margins_legend(result), markup=False)
+    require_passed(settings, result)
+
+
+def _report_console(settings: Settings) -> Console:
+    """Where the check's report goes: stdout, or stderr under --json (stdout carries one JSON document)."""
+    if settings.json:
+        return Console(stderr=True, highlight=False, width=None if sys.stderr.isatty() else 160)
+    return settings.out
+
+
+def require_passed(settings: Settings, result: PathCheckResult) -> None:
+    """Nothing when the check passed; else a SafetyCheckError whose one line is the first problem (where, what,
+    the fix), each further problem printed once above it (words never cut)."""
+    if result.ok:
+        return
+    if not result.problems:
         raise SafetyCheckError(f"path check: {result.summary()}")
+    console = _report_console(settings)
+    for problem in result.problems[1:]:
+        console.print(Text(problem.line()), soft_wrap=False)
+    more = len(result.problems) - 1
+    raise SafetyCheckError(f"path check: {result.problems[0].line()}"
+                           + (f" (+{count_text(more, 'more problem')}, listed above)" if more else ""))
 
 
-def margins_table(result, title: str, width: int | None = None) -> Table:
-    """A table of each checked move's smallest margins.
+def check_verdict(result: PathCheckResult | None, cell_path: Path | None) -> str:
+    """One line for the run question's summary: passed or not, and the nearest the path comes to an obstacle."""
+    where = f"cell {cell_path}" if cell_path else "no cell file"
+    if result is None:
+        return f"Path check ({where}): nothing moves"
+    if not result.ok:
+        return f"Path check ({where}): FAILED, {count_text(len(result.problems), 'problem')}"
+    smallest = result.steps.smallest_margins()
+    key = "cell" if "cell" in smallest else "self_collision" if "self_collision" in smallest else None
+    if key is None:
+        return f"Path check ({where}): clear"
+    margin, position = smallest[key]
+    clearance = 1000.0 * (margin + result.limits.get(key, 0.0))
+    what = "to the cell" if key == "cell" else "between links"
+    return (f"Path check ({where}): clear; closest {clearance:.1f} mm {what} at "
+            f"{result.steps[position].name!r}")
 
-    Each checked move's smallest margins: how far the worst sample is above the check's limit (negative = failed;
-    speed room = the part of the joints' maximum speed left). Narrower than NARROW_WIDTH columns the headers are
-    short and the sample count is left out, then margins in MARGIN_COLUMNS' drop order while the table would not
-    fit (the caption names them; `check --json` has them all); the step name is never cut."""
+
+def margins_table(result: PathCheckResult, title: str, width: int | None = None) -> Table:
+    """A table of each checked move's worst point per check.
+
+    Each cell is what the check measured at the move's worst sample, in the unit and words of its problem
+    message (margins_legend says what each column is and its limit; red: beyond the limit). Narrower than
+    NARROW_WIDTH columns the headers are short and the sample count is left out, then columns in MARGIN_COLUMNS'
+    drop order while the table would not fit (the caption names them; `check --json` has them all); the step
+    name is never cut."""
     narrow = width is not None and width < NARROW_WIDTH
     columns = [Column("step", no_wrap=True), Column("move", no_wrap=True),
                Column("samples", justify="right", drop_order=0)]
     columns += [Column(header, narrow_header=short, justify="right", no_wrap=True, drop_order=order)
-                for _, header, _, short, order in MARGIN_COLUMNS]
+                for _, header, short, order, _, _ in MARGIN_COLUMNS]
     rows = []
     shown = _rows_worth_showing(result)
     for step in (result.steps[i] for i in shown):
         cells = []
-        for key, _, scale, _, _ in MARGIN_COLUMNS:
-            value = step.margins.get(key)
-            cells.append("—" if value is None else (f"[red]{value * scale:.3g}[/]" if value < 0
-                                                    else f"{value * scale:.3g}"))
+        for key, _, _, _, measured, form in MARGIN_COLUMNS:
+            margin = step.margins.get(key)
+            if margin is None:
+                cells.append("—")
+                continue
+            text = form.format(measured(margin, result.limits.get(key, 0.0)))
+            cells.append(f"[red]{text}[/]" if margin < 0 else text)
         rows.append([escape(step.name), step.move, str(step.samples), *cells])
     if narrow:  # the sample count first: it says how fine the check was, not how safe the path is
         columns, rows = columns[:2] + columns[3:], [row[:2] + row[3:] for row in rows]
     table = fitted_table(title, columns, rows, width)
-    notes = ["shldr, self, cell in mm; limit in °" if narrow else None, table.caption,
-             None if len(shown) == len(result.steps) else
+    notes = [str(table.caption or ""), None if len(shown) == len(result.steps) else
              f"{len(shown)} of {len(result.steps)} moves shown: those with a problem or a check's smallest margin"]
     table.caption = "; ".join(filter(None, notes)) or None
     table.caption_justify = "left"

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import click
 
-from ur3dq.cli.app import Settings, cli
+from ur3dq.cli.app import Settings, cli, report
 from ur3dq.cli.display import count_text
 from ur3dq.cli.offline_plans import confirm_overwrite, offline_plan
 from ur3dq.cli.options import DEFAULT_ACCELERATION, DEFAULT_SPEED, cell_option, display_options
@@ -14,7 +14,7 @@ from ur3dq.program.plan import plan_program
 from ur3dq.store_format import PROGRAM_SCHEMA_VERSION
 
 
-@cli.command()
+@cli.command(short_help="A PNG of the path, the arm and the check.")
 @click.argument("names", nargs=-1)
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), default=Path("poses.png"),
               show_default=True, help="The PNG to write.")
@@ -42,4 +42,5 @@ def plot(settings: Settings, names, output: Path, yes, cell_path):
         check, cell = check_replay(model, steps, cell_path)
     plot_poses(output, model, steps, title=f"{count_text(len(steps), 'pose')} from {settings.store_path.name} on a "
                f"{model.name}", path_check=check, cell=cell)
-    click.echo(f"Wrote {output}. Path check: {check.summary()}")
+    report(settings, {"file": str(output), "path_check": check.to_dict()},
+           f"Wrote {output}. Path check: {check.summary()}")

@@ -62,12 +62,12 @@ from ur3dq.program.steps import (
     Waypoint,
     is_waypoint,
 )
-from ur3dq.store import format_store, format_thesis_lines, parse_store, pose_to_dict, write_atomically
-from ur3dq.store_format import step_to_dict
+from ur3dq.store import format_thesis_lines, write_atomically
+from ur3dq.store_format import format_store, parse_store, pose_to_dict, step_to_dict
 from ur3dq.units import ANGLE, DURATION, LENGTH, plain_number, unit_label
 
 
-@cli.group(short_help="List, show, edit the stored poses and cell program.")
+@cli.group(short_help="List, show and edit the poses and cell program.")
 def poses() -> None:
     """Look after the pose store and edit it as a cell program.
 
@@ -116,9 +116,9 @@ def list_poses(settings: Settings) -> None:
     headers = ("#", "name", "recorded (UTC)", "model", pose_label("TCP pose", units), "joints", "note")
     title = f"{count_text(len(stored), 'pose')} in {settings.store_path}"
     if len(stored) > PLAIN_LIST_ROWS:  # a rich table of 10⁵ rows takes a minute to lay out: tab-separated lines
-        rows = ((str(index), pose.name, pose.time, pose.robot_model, pose_vector_text(pose.ur_pose, units),
+        plain = ((str(index), pose.name, pose.time, pose.robot_model, pose_vector_text(pose.ur_pose, units),
                  "yes" if pose.joints is not None else "no", pose.note) for index, pose in enumerate(stored, start=1))
-        click.echo("\n".join([title, "\t".join(headers), *("\t".join(row) for row in rows)]))
+        click.echo("\n".join([title, "\t".join(headers), *("\t".join(row) for row in plain)]))
         return
     settings.out.print(Text(title, no_wrap=True, overflow="ignore"))   # unwrapped: a table's title would cut the path
     columns = [Column("#", justify="right", no_wrap=True), Column("name", no_wrap=True),  # a name is never cut
@@ -146,7 +146,7 @@ def show(settings: Settings, name: str) -> None:
       ur3dq poses show pick --deg
     """
     step = settings.store.get_step(name)
-    if not hasattr(step, "pose"):  # a relative waypoint or an action step of a cell program: its stored fields
+    if not isinstance(step, Waypoint):  # a relative waypoint or an action step of a cell program: its stored fields
         fields = step_to_dict(step)
         if settings.json:
             emit_json({"step": fields})
@@ -208,7 +208,8 @@ def rename(settings: Settings, old: str, new: str) -> None:
     report(settings, {"renamed": old, "to": renamed.name}, f"Renamed {old!r} to {renamed.name!r}.")
 
 
-@poses.command("import", context_settings=NUMBERS_CONTEXT, short_help="Add poses from thesis lines or a store.")
+@poses.command("import", context_settings=NUMBERS_CONTEXT,
+               short_help="Add poses from thesis lines or a store.")
 @click.argument("file", type=click.Path(exists=True, dir_okay=False, path_type=Path))
 @click.option("--prefix", help="Name thesis poses PREFIX-1, PREFIX-2, ... (default: the file's name).")
 @click.option("--tcp", type=pose_vector_type(), default=None, metavar="X Y Z RX RY RZ",
@@ -294,7 +295,7 @@ def set_waypoint(settings: Settings, name: str, move: str | None, speed: TypedVa
       ur3dq poses set pick --clear
     """
 
-    def edit(steps: list[Step]) -> tuple[list[Step], Step]:
+    def edit(steps: list[Step]) -> tuple[list[Step], Waypoint | RelativeWaypoint]:
         step = find_step(steps, name, settings.store_path)
         if not is_waypoint(step):
             raise ValueError(f"{step.who}: not a waypoint; only waypoints have a move, speed and blend")

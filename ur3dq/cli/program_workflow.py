@@ -10,14 +10,19 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterator
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import click
+import numpy as np
 from rich.console import Console
+from rich.text import Text
 
 from ur3dq.cli.app import Settings, confirm, emit_json, emit_json_list, robot_session
 from ur3dq.cli.display import Column, pose_label, pose_vector_text, print_table
 from ur3dq.cli.options import TypedValue
-from ur3dq.cli.path_report import require_clear_program_path
+from ur3dq.cli.path_report import check_program, check_verdict, report_path_check, require_passed
+from ur3dq.cli.plan_summary import program_figures, summary_lines
 from ur3dq.errors import StoreError
 from ur3dq.kinematics.models import URModel
 from ur3dq.pose import Pose, utc_now_iso
@@ -27,6 +32,9 @@ from ur3dq.program.script import program_script
 from ur3dq.program.steps import Motion, RelativeWaypoint, Step, Wait, Waypoint, describe
 from ur3dq.store_format import PROGRAM_SCHEMA_VERSION, step_to_dict
 from ur3dq.units import ACCELERATION, ANGLE, DURATION, LENGTH, SPEED, Units, angular_kind, show, to_display, unit_label
+
+if TYPE_CHECKING:
+    from ur3dq.cli.resume_state import ResumeState
 
 # ---------------------------------------------------------------- shared options and edits
 
@@ -295,14 +303,18 @@ def program_part(settings: Settings, start, end):
     return steps, part, [s.name for s in steps].index(part[0].name) + 1
 
 
-def run_program_command(settings: Settings, start, end, speed_scale, dry_run, yes, speed, acceleration, blend,
-                        replay_joints, max_travel, cell_path=None, resume=None):
+def run_program_command(settings: Settings, start: str | None, end: str | None, speed_scale: float, dry_run: bool,
+                        yes: bool, speed: float, acceleration: float, blend: float, replay_joints: bool,
+                        max_travel: float, cell_path: Path | None = None, full_plan: bool = False,
+                        resume: ResumeState | None = None) -> None:
     """`run-poses` of a cell program: plan, check, ask, run.
 
-    `run-poses` of a cell program (a version-2 store, or --from/--to/--speed-scale): plan, table, the whole-path
-    check (in `cell_path`'s cell if given), ask, run as one URScript program with the running step shown. Joint
-    speeds in rad/s (already converted from --deg). `resume` (a ResumeState) goes on from its step on the arm it
-    stopped on: the plan starts from the arm's actual joints, so its first move is a new path, checked as such."""
+    `run-poses` of a cell program (a version-2 store, or --from/--to/--speed-scale): plan, the whole-path check
+    (in `cell_path`'s cell if given), then the question under a summary that fits 24 rows (the full table and the
+    check's margins with `full_plan` or a dry run), and the run as one URScript program with the running step
+    shown and the operator's controls (ur3dq.cli.run_session). Speeds SI. `resume` (a ResumeState) goes on from
+    its step on the arm it stopped on: the plan starts from the arm's actual joints, so its first move is a new
+    path, checked as such."""
     from ur3dq.cli.background_simulator import running_simulator_host
     from ur3dq.cli.resume_state import store_digest
     from ur3dq.kinematics import robot_model
@@ -317,9 +329,8 @@ def run_program_command(settings: Settings, start, end, speed_scale, dry_run, ye
         model = robot_model(settings.model or (first_pose.robot_model if first_pose else "ur3"))
         plan = plan_program(model, part, None, defaults, speed_scale, replay_joints, max_travel,
                             resolve_from=steps)
-        _show_plan(settings, plan, first, f"Plan on a nominal {model.name} (no robot: travel from the first "
-                                          "step)")
-        require_clear_program_path(settings, model, plan, None, cell_path)
+        _present(settings, model, plan, None, first, cell_path, True,
+                 f"Plan on a nominal {model.name} (no robot: travel from the first step)")
         return
     from ur3dq.cli import run_session
 
@@ -328,10 +339,10 @@ def run_program_command(settings: Settings, start, end, speed_scale, dry_run, ye
             resume.require_same_arm(robot)
         plan = plan_program(robot.model, part, robot.joints(), defaults, speed_scale, replay_joints, max_travel,
                             resolve_from=steps)
-        _show_plan(settings, plan, first, f"Plan on the {robot.model_name} at {robot.host}")
-        require_clear_program_path(settings, robot.model, plan, robot.joints(), cell_path)
         if resume is not None:
             run_session.announce_resume(settings, plan, first, len(steps), robot.joints())
+        _present(settings, robot.model, plan, robot.joints(), first, cell_path, dry_run or full_plan,
+                 f"Plan on the {robot.model_name} at {robot.host}", dry_run)
         if dry_run:
             return
         confirm(f"Run {len(plan)} steps ({part[0].name!r} to {part[-1].name!r}) on the arm?", yes, default=False)
@@ -341,21 +352,43 @@ def run_program_command(settings: Settings, start, end, speed_scale, dry_run, ye
         record = run_session.run_record(settings, robot, "program", end, options, digest)
         seconds = run_session.run_program(settings, robot, plan, first, len(steps), record)
     if settings.json:
-        emit_json({"steps": [p.step.name for p in plan], "seconds": seconds})
+        emit_json({**plan_json(plan, settings.units), "steps": [p.step.name for p in plan], "seconds": seconds})
     else:
         click.echo(f"Ran {len(plan)} steps in {seconds:.2f} s.")
 
 
-def _show_plan(settings: Settings, plan, first: int, title: str) -> None:
-    console = Console(stderr=True, highlight=False) if settings.json else settings.out
-    print_table(console, title, plan_columns(settings.units), plan_rows(plan, first, settings.units), len(plan))
-    for warning in clamp_warnings(plan, settings.units):  # say what was lowered to the model's (or the TCP's) limits
-        click.echo(warning, err=True)
-    if settings.json:
-        emit_json({"plan": [{"step": p.step.name, "type": p.move or p.step.kind,
-                             "joints": None if p.joints is None else p.joints.tolist(), "speed": p.speed,
-                             "acceleration": p.acceleration, "blend": p.blend, "travel": p.travel,
-                             "duration": p.duration} for p in plan]})
+def _present(settings: Settings, model: URModel, plan: list[PlannedStep], start_joints: np.ndarray | None,
+             first: int, cell_path: Path | None, full: bool, title: str, final: bool = True) -> None:
+    """Show the plan before the question: the full table, clamp lines and the check's margins when `full`, else
+    the summary; the check's problems once; SafetyCheckError when it failed. A dry run's (`final`) JSON is
+    printed here; a run's after the run."""
+    result, _ = check_program(model, plan, cell_path, start_joints, keep_samples=False)
+    warnings = clamp_warnings(plan, settings.units)
+    if full:
+        console = Console(stderr=True, highlight=False) if settings.json else settings.out
+        print_table(console, title, plan_columns(settings.units), plan_rows(plan, first, settings.units), len(plan))
+        for warning in warnings:   # what was lowered to the model's (or the TCP's) limits
+            click.echo(warning, err=True)
+        if result is not None:
+            report_path_check(settings, result, cell_path)
+    if not full or not final:
+        err = Console(stderr=True, highlight=False)
+        for line in summary_lines(program_figures(plan), check_verdict(result, cell_path), warnings,
+                                  settings.units):
+            err.print(Text(line))
+    if result is not None:
+        require_passed(settings, result)
+    if settings.json and final:
+        emit_json({**plan_json(plan, settings.units), "path_check": None if result is None else result.to_dict()})
+
+
+def plan_json(plan: list[PlannedStep], units: Units) -> dict[str, Any]:
+    """The plan of a cell program for --json (SI), with what was lowered to the limits."""
+    return {"plan": [{"step": p.step.name, "type": p.move or p.step.kind,
+                      "joints": None if p.joints is None else p.joints.tolist(), "speed": p.speed,
+                      "acceleration": p.acceleration, "blend": p.blend, "travel": p.travel,
+                      "duration": p.duration, "clamped": list(p.clamped)} for p in plan],
+            "warnings": clamp_warnings(plan, units)}
 
 
 def clamp_warnings(plan: list[PlannedStep], units: Units) -> list[str]:
@@ -368,7 +401,7 @@ def clamp_warnings(plan: list[PlannedStep], units: Units) -> list[str]:
             lowered = [f"{what} lowered to {show(value, kinds[angular], shown)}" for what, value, kinds in (
                 ("speed", planned.speed, SPEED), ("acceleration", planned.acceleration, ACCELERATION))
                 if any(text.startswith(what) for text in planned.clamped) and value is not None]
-            lines.append(f"{planned.step.who}: {', '.join(lowered)} (the {planned.move} move's limit)")
+            lines.append(f"{planned.step.name!r}: {', '.join(lowered)} ({planned.move} move limit)")
     return lines
 
 

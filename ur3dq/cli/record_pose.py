@@ -20,7 +20,7 @@ if TYPE_CHECKING:
     from ur3dq.robot.robot import Robot
 
 
-@cli.command("record-pose")
+@cli.command("record-pose", short_help="Record the arm's pose (--teach: many, by hand).")
 @click.option("--name", help="Name of the pose (default: pose-N, the next free number); with --teach, the prefix.")
 @click.option("--note", default="", help="A note kept with the pose.")
 @click.option("--yes", "-y", is_flag=True, help="Record without asking.")

@@ -19,7 +19,7 @@ def _done(settings: Settings, action: str, robot, text: str) -> None:
         click.echo(text)
 
 
-@cli.group("robot")
+@cli.group("robot", short_help="Power, brakes, unlock, freedrive, stop.")
 def robot_group():
     """Power, brakes, protective-stop unlock, freedrive and stop, as at the pendant (dashboard server).
 
@@ -32,7 +32,7 @@ def robot_group():
     """
 
 
-@robot_group.command("power-on")
+@robot_group.command("power-on", short_help="Power the arm on (brakes held).")
 @display_options
 @click.pass_obj
 def power_on(settings: Settings):
@@ -42,7 +42,7 @@ def power_on(settings: Settings):
         _done(settings, "power-on", robot, f"{robot.host}: powered on (brakes held: `ur3dq robot brake-release`).")
 
 
-@robot_group.command("power-off")
+@robot_group.command("power-off", short_help="Power the arm off.")
 @display_options
 @click.pass_obj
 def power_off(settings: Settings):
@@ -52,7 +52,7 @@ def power_off(settings: Settings):
         _done(settings, "power-off", robot, f"{robot.host}: powered off.")
 
 
-@robot_group.command("brake-release")
+@robot_group.command("brake-release", short_help="Release the brakes.")
 @display_options
 @click.pass_obj
 def brake_release(settings: Settings):
@@ -62,7 +62,7 @@ def brake_release(settings: Settings):
         _done(settings, "brake-release", robot, f"{robot.host}: brakes released, the arm is RUNNING.")
 
 
-@robot_group.command("unlock")
+@robot_group.command("unlock", short_help="Unlock a protective stop.")
 @display_options
 @click.pass_obj
 def unlock(settings: Settings):
@@ -72,7 +72,7 @@ def unlock(settings: Settings):
         _done(settings, "unlock", robot, f"{robot.host}: protective stop unlocked.")
 
 
-@robot_group.command("freedrive")
+@robot_group.command("freedrive", short_help="Freedrive on or off.")
 @click.argument("switch", type=click.Choice(["on", "off"]))
 @display_options
 @click.pass_obj
@@ -83,7 +83,7 @@ def freedrive(settings: Settings, switch):
         _done(settings, f"freedrive {switch}", robot, f"{robot.host}: freedrive {switch}.")
 
 
-@robot_group.command("stop")
+@robot_group.command("stop", short_help="Stop the arm (stopj) and the program.")
 @display_options
 @click.pass_obj
 def stop(settings: Settings):

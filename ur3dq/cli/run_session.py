@@ -20,7 +20,7 @@ from ur3dq.cli.app import Cancelled, Settings
 from ur3dq.cli.operator_controls import OperatorControls
 from ur3dq.cli.resume_state import ResumeState, arm_identity, clear_resume_state, store_digest
 from ur3dq.cli.signals import signal_name
-from ur3dq.errors import SafetyCheckError, StoreError
+from ur3dq.errors import SafetyCheckError, StoreError, add_note
 from ur3dq.program.plan import PlannedStep
 from ur3dq.program.runner import ProgramStop, StepWatch, run_plan, status_at_rest
 from ur3dq.store import DEFAULT_STORE_PATH
@@ -117,12 +117,12 @@ def ended_early(settings: Settings, error: BaseException, stop: ProgramStop, ste
         err.print(f"To go on from step {stop.position}: {escape(command)}", soft_wrap=True)
     if not any(note.startswith("(during ") for note in getattr(error, "__notes__", ())):
         # the program runner names the step itself; a replay's move is named here
-        error.add_note(f"(during {step_text(stop.position, step, program_length)})")
+        add_note(error, f"(during {step_text(stop.position, step, program_length)})")
     if controls is not None and controls.stop_choice == "stop":
         error, cause = OperatorStop("stopped by the operator"), error
         for note in getattr(cause, "__notes__", ()):
-            error.add_note(note)
-    error.add_note(f"— to go on: {command}" if written is None else f"— no resume state: {written}")
+            add_note(error, note)
+    add_note(error, f"— to go on: {command}" if written is None else f"— no resume state: {written}")
     return error
 
 
@@ -186,7 +186,7 @@ def announce_resume(settings: Settings, plan: Sequence[PlannedStep], first: int,
     offset, planned = waypoint
     err.print(escape(f"{head}: first a {planned.move} move from where the arm is (joints {joints} "
                      f"{'°' if settings.deg else 'rad'}) to the target of step {first + offset} "
-                     f"{planned.step.name!r}; the path check above ran from those joints."), soft_wrap=True)
+                     f"{planned.step.name!r}; the path check runs from those joints."), soft_wrap=True)
 
 
 def replay_stop(robot: Any, position: int, name: str) -> ProgramStop:

@@ -8,7 +8,7 @@ from ur3dq.cli.background_simulator import read_state, start_simulator, state_di
 from ur3dq.cli.options import display_options
 
 
-@cli.group()
+@cli.group(short_help="The embedded simulator: start, stop, status.")
 def sim():
     """The embedded simulator (sim_ursim) in the background, for trying ur3dq without a robot.
 
@@ -23,7 +23,7 @@ def sim():
     """
 
 
-@sim.command("start")
+@sim.command("start", short_help="Start the simulator in the background.")
 @click.option("--address", help="Loopback address to serve on (127.x.y.z; default: a free one).")
 @click.option("--version", "software_version", help="Controller software, e.g. 3.15.8 or 5.11.1.")
 @click.option("--powered-off", is_flag=True,
@@ -50,10 +50,14 @@ def sim_start(settings: Settings, address, software_version, powered_off):
         emit_json(state)
     else:
         click.echo(f"Simulated {state['model']} serving on {state['host']} (pid {state['pid']})\n  log {state['log']}")
-        click.echo(f"Robot commands now use it. For other tools, copy:\n  export UR3DQ_HOST={state['host']}")
+        if state.get("address_changed_from"):
+            click.echo(f"Note: {state['address_changed_from']} was taken, so the address changed: update an "
+                       "exported UR3DQ_HOST.")
+        click.echo("ur3dq commands use it when no --host is given; it keeps this address at the\n"
+                   f"next `ur3dq sim start`. For other tools:\n  export UR3DQ_HOST={state['host']}")
 
 
-@sim.command("stop")
+@sim.command("stop", short_help="Stop the simulator.")
 @display_options
 @click.pass_obj
 def sim_stop(settings: Settings):
@@ -67,7 +71,7 @@ def sim_stop(settings: Settings):
         click.echo("No embedded simulator was running.")
 
 
-@sim.command("status")
+@sim.command("status", short_help="Whether the simulator runs, and where.")
 @display_options
 @click.pass_obj
 def sim_status(settings: Settings):

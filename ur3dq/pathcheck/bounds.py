@@ -30,6 +30,7 @@ that margin from dense samples (path_check._refine_smallest).
 from __future__ import annotations
 
 import dataclasses
+from typing import Any
 
 import numpy as np
 
@@ -121,7 +122,8 @@ def certify_joint_moves(checker, q0: np.ndarray, q1: np.ndarray) -> Certificatio
         records.add(moves, np.zeros(len(moves)), starts)
         records.add(moves, np.ones(len(moves)), ends)
         delta = q1[block] - q0[block]
-        slopes = _Slopes(*column_slopes(rates, np.abs(delta)), offsets)
+        rate, bend = column_slopes(rates, np.abs(delta))
+        slopes = _Slopes(rate, bend, offsets)
         _bisect(checker, q0[block], delta, slopes, moves, starts, ends, records, failed, pending)
         records.close_block(block.start, len(moves))
     margins, worst, samples = dict(records.margins), dict(records.worst), records.samples
@@ -266,14 +268,15 @@ class _Records:
     its sample count and its smallest interval bound per check, reduced one block of moves at a time; and the
     smallest sampled margin per check so far (the bisection's targets)."""
 
-    def __init__(self, groups: dict, tolerance: float, count: int):
+    def __init__(self, groups: dict, tolerance: float, count: int) -> None:
         self.groups, self.tolerance = groups, tolerance
         self.smallest = dict.fromkeys(groups, np.inf)
         self.margins = {name: np.full(count, np.inf) for name in groups}
         self.worst = {name: np.zeros(count, dtype=int) for name in groups}
         self.lower = {name: np.full(count, np.inf) for name in groups}
         self.samples = np.zeros(count, dtype=int)
-        self._samples, self._bounds = [], []   # the open block's (move, fraction, per-check values), (move, bounds)
+        self._samples: list[tuple[Any, ...]] = []
+        self._bounds: list[tuple[Any, ...]] = []   # the open block's (move, fraction, per-check values), (move, bounds)
 
     def _per_check(self, values: np.ndarray) -> np.ndarray:
         """(n, checks) the smallest of each check's columns of values (n, K)."""

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import Any
 
 import numpy as np
 
@@ -86,7 +87,7 @@ class Problem:
 class StepChecker:
     """Runs every check on the samples of one move; holds the model's capsules and the cell (built once)."""
 
-    def __init__(self, model, cell, margins: Margins):
+    def __init__(self, model, cell, margins: Margins) -> None:
         self.model = model
         self.cell = cell
         self.margins = margins
@@ -117,7 +118,7 @@ class StepChecker:
         `extra` (n,) m is added to the clearance margins (blend zones); `path_scale` = the controller's path
         'distance' of a Cartesian move (m or rad, for the joint speeds)."""
         m = self.margins
-        out = {}
+        out: dict[str, tuple[Any, ...]] = {}
         steps = np.abs(np.diff(joints, axis=0))
         if len(steps) and segment.cartesian:   # a joint move interpolates the joints: it cannot change branch
             out["branch"] = (m.max_joint_step - steps.max(axis=1), np.argmax(steps, axis=1), steps.max(axis=1))
@@ -236,10 +237,12 @@ class StepChecker:
                     f"(margin {m.joint_limit:.3f} rad)",
                     "use targets whose joints stay nearer the middle of the range (another ±2π turn)")
         if check == "wrist":
-            return (f"wrist singular: |sin θ5| = {detail[0][k]:.3f} < {m.wrist:g}",
+            return (f"wrist singular: wrist 2 passes {_from_singular(detail[0][k])} from 0°/180° (keep "
+                    f"≥ {_from_singular(m.wrist)}, |sin θ5| ≥ {m.wrist:g})",
                     "tilt the tool so wrist 2 stays away from 0°/180° along the line, or make it a joint move")
         if check == "elbow":
-            return (f"elbow singular (arm stretched or folded): |sin θ3| = {detail[0][k]:.3f} < {m.elbow:g}",
+            return (f"elbow singular (arm stretched or folded): the elbow passes {_from_singular(detail[0][k])} "
+                    f"from straight (keep ≥ {_from_singular(m.elbow)}, |sin θ3| ≥ {m.elbow:g})",
                     "keep the line further inside the reach, or make it a joint move")
         if check == "shoulder":
             return (f"shoulder singular: wrist centre {1000 * detail[0][k]:.0f} mm from the base axis "
@@ -264,12 +267,18 @@ class StepChecker:
             capsule, obstacle = divmod(flat, len(self.obstacles))
             body = BODY_NAMES[self.capsules.body[self.cell_capsules[capsule]]]
             name = self.obstacles[obstacle]
+            other_move = "make it a joint move" if segment.cartesian else "use a linear move there"
             hint = {"the floor": "raise the targets, or add a waypoint that keeps the arm higher",
                     "the keep-in box": "move the targets inward, or add a waypoint that stays inside"}.get(
-                name, "add a waypoint that goes around it, move the targets, or use a linear move there")
+                name, f"add a waypoint that goes around it, move the targets, or {other_move}")
             return (f"{body} capsule {_clearance_text(clearance, name)}{_margin_text(self.cell_margin, extra)}",
                     hint)
         raise AssertionError(check)
+
+
+def _from_singular(sine: float) -> str:
+    """How far a joint whose |sin| is `sine` is from its singular angles (0° or 180°), in degrees."""
+    return f"{math.degrees(math.asin(min(1.0, max(0.0, float(sine))))):.1f}°"
 
 
 def _clearance_text(clearance: float, what: str) -> str:

@@ -67,8 +67,10 @@ def check_path(model, plan: PathPlan, cell=None, margins: Margins | None = None,
             by_tcp[segment.tcp_offset] = arm, StepChecker(arm, cell, margins)
         return by_tcp[segment.tcp_offset]
 
-    q = np.array(plan.start_joints)
-    problems, unchecked, steps = [], [], []   # steps: StepReports' entries
+    q: np.ndarray | None = np.array(plan.start_joints)
+    problems: list[Problem] = []
+    unchecked: list[str] = []
+    steps: list[StepReport | int] = []   # StepReports' entries
     certified = None if keep_samples else _certified_moves(plan, arm_for)
     certified_row = {} if certified is None else certified.row_of
     # Moves are checked one behind the sampling: a move's blend zones need its neighbours' samples, and no
@@ -98,7 +100,11 @@ def check_path(model, plan: PathPlan, cell=None, margins: Margins | None = None,
     if plan.segments:
         _check_move(plan, window, len(plan.segments) - 1, arm_for, problems, steps, certified)
     problems.sort(key=lambda p: (p.step_index, p.fraction))
-    return PathCheckResult(tuple(problems), StepReports(steps, certified), tuple(unchecked))
+    cell_margin = margins.cell if margins.cell is not None else (cell.margin if cell else 0.0)
+    limits = {"wrist": margins.wrist, "elbow": margins.elbow, "shoulder": margins.shoulder,
+              "joint_limit": margins.joint_limit, "joint_speed": margins.joint_speed,
+              "self_collision": margins.self_collision, "cell": cell_margin}
+    return PathCheckResult(tuple(problems), StepReports(steps, certified), tuple(unchecked), limits)
 
 
 def _check_move(plan, window, index, arm_for, problems, steps, certified) -> None:
@@ -125,7 +131,9 @@ def _check_move(plan, window, index, arm_for, problems, steps, certified) -> Non
              for check, values in results.items() if len(values[0])}
     end = move.joints[-1] if move.unreachable_at is None and len(move.joints) else None
     kept = (move.fraction, move.joints, tcp) if certified is None else (None, None, None)
-    steps.append(StepReport(segment.name, segment.move, *kept, figures(margins_seen), figures(worst), end, len(tcp)))
+    fraction, joints, kept_tcp = kept
+    steps.append(StepReport(segment.name, segment.move, fraction, joints, kept_tcp, figures(margins_seen),
+                            figures(worst), end, len(tcp)))
 
 
 def _sample(model, segment, index, q, margins):
@@ -204,7 +212,7 @@ def _certified_moves(plan, arm_for) -> CertifiedMoves:
     """The joint moves the bounds certify (pathcheck.bounds), per TCP, as CertifiedMoves. Candidates: joint moves
     to known joints from known joints (the start, or a joint move's target before them), outside blend zones (whose
     allowance needs the neighbours' samples)."""
-    candidates = {}   # tcp_offset -> [(index, start joints)]
+    candidates: dict[tuple[float, ...] | None, list[tuple[int, np.ndarray]]] = {}   # tcp_offset -> [(index, start)]
     start = plan.start_joints   # where a candidate after this segment starts; None: it is no candidate
     for index, segment in enumerate(plan.segments):
         joint_move = segment.move == "joint" and segment.target_joints is not None and segment.blend == 0

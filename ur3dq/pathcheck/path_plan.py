@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -100,8 +101,8 @@ class PathSegment:
 class PathPlan:
     """start_joints (6,) rad: where the arm is before the first segment; segments: the moves in order."""
 
-    start_joints: np.ndarray
-    segments: tuple
+    start_joints: np.ndarray   # given as any 6 numbers, kept as a read-only array
+    segments: Sequence[PathSegment]   # kept as a tuple
 
     def __post_init__(self):
         object.__setattr__(self, "start_joints", _finite_vector(self.start_joints, 6, "start", "joints"))

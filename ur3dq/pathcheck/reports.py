@@ -23,7 +23,7 @@ class Figures(Mapping):
 
     __slots__ = ("_keys", "_values")
 
-    def __init__(self, keys: tuple, values: tuple):
+    def __init__(self, keys: tuple, values: tuple) -> None:
         self._keys, self._values = keys, values
 
     def __getitem__(self, key):
@@ -42,15 +42,15 @@ class Figures(Mapping):
         return key in self._keys
 
     # Tuples, not the mixins' views: those look each value up again, and a margins table reads 10⁵ reports.
-    def keys(self) -> tuple:
+    def keys(self) -> tuple:   # type: ignore[override]  # a tuple is a fine keys view here
         """The check names."""
         return self._keys
 
-    def values(self) -> tuple:
+    def values(self) -> tuple:   # type: ignore[override]
         """The numbers, in the order of keys()."""
         return self._values
 
-    def items(self) -> tuple:
+    def items(self) -> tuple:   # type: ignore[override]
         """(check, number) pairs."""
         return tuple(zip(self._keys, self._values))
 
@@ -79,8 +79,8 @@ class StepReport:
     fraction: np.ndarray | None
     joints: np.ndarray | None
     tcp: np.ndarray | None
-    margins: dict
-    worst: dict
+    margins: Mapping[str, float]
+    worst: Mapping[str, int]
     end_joints: np.ndarray | None
     samples: int
 
@@ -99,7 +99,7 @@ class CertifiedMoves:
     plan's move index to its row. Rows are added a group of moves at a time (one group per TCP). `position[r]`: the
     move's place among the StepReports, set by check_path as it goes."""
 
-    def __init__(self):
+    def __init__(self) -> None:
         self.row_of: dict = {}
         self.segments: list = []
         self.position: list = []
@@ -161,7 +161,7 @@ class StepReports(Sequence):
 
     __slots__ = ("_entries", "_certified")
 
-    def __init__(self, entries: list, certified: CertifiedMoves | None = None):
+    def __init__(self, entries: list, certified: CertifiedMoves | None = None) -> None:
         self._entries, self._certified = entries, certified
 
     def __len__(self) -> int:
@@ -171,7 +171,10 @@ class StepReports(Sequence):
         if isinstance(index, slice):
             return [self[i] for i in range(*index.indices(len(self)))]
         entry = self._entries[index]
-        return self._certified.report(entry) if type(entry) is int else entry
+        if type(entry) is int:
+            assert self._certified is not None   # only certified moves are kept as rows
+            return self._certified.report(entry)
+        return entry
 
     def __repr__(self) -> str:
         return f"StepReports({len(self)} moves)"
@@ -181,7 +184,7 @@ class StepReports(Sequence):
         found = [] if self._certified is None else self._certified.smallest()
         found += [(check, value, position) for position, entry in enumerate(self._entries) if type(entry) is not int
                   for check, value in entry.margins.items()]
-        smallest = {}
+        smallest: dict[str, tuple[float, int]] = {}
         for check, value, position in sorted(found, key=lambda item: item[2]):
             if check not in smallest or value < smallest[check][0]:
                 smallest[check] = (value, position)
@@ -189,9 +192,9 @@ class StepReports(Sequence):
 
     def positions_named(self, names) -> list:
         """The positions of the moves named in `names` (a set), in order."""
-        certified = self._certified
+        segments = [] if self._certified is None else self._certified.segments
         return [position for position, entry in enumerate(self._entries)
-                if (certified.segments[entry].name if type(entry) is int else entry.name) in names]
+                if (segments[entry].name if type(entry) is int else entry.name) in names]
 
     def samples(self) -> int:
         """How many samples the check evaluated over all moves."""
@@ -205,11 +208,14 @@ class PathCheckResult:
 
     ok: no problem; problems: every failed check (at most one per move and check, at its worst sample);
     steps: one StepReport per checked move (StepReports); unchecked: names of moves that could not be
-    checked (no start)."""
+    checked (no start); limits: {check: the limit its margins are measured from} (a margin m means a measured
+    value of limit + m: |sin θ5| for "wrist", a clearance in metres for "cell", ...; "joint_speed" is the
+    fraction of the top speed allowed, and its margin the fraction left)."""
 
     problems: tuple
     steps: StepReports
     unchecked: tuple = ()
+    limits: dict = dataclasses.field(default_factory=dict)
 
     @property
     def ok(self) -> bool:

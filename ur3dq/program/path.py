@@ -5,10 +5,19 @@ one, since the planner zeroes the blend of a waypoint an action follows.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+import numpy as np
+import numpy.typing as npt
+
 from ur3dq.pathcheck import PathPlan, PathSegment
 
+if TYPE_CHECKING:
+    from ur3dq.program.plan import PlannedStep
 
-def path_plan_of(plan, start_joints=None) -> PathPlan | None:
+
+def path_plan_of(plan: Sequence[PlannedStep], start_joints: npt.ArrayLike | None = None) -> PathPlan | None:
     """The PathPlan of a planned cell program.
 
     The PathPlan of `plan` (ur3dq.program.plan.PlannedStep list) from `start_joints` (6,) rad; without a start
@@ -17,7 +26,7 @@ def path_plan_of(plan, start_joints=None) -> PathPlan | None:
     moves = [planned for planned in plan if planned.joints is not None]
     if not moves:
         return None
-    start = moves[0].joints if start_joints is None else start_joints
+    start = np.asarray(moves[0].joints if start_joints is None else start_joints, dtype=float)
     fields = ([getattr(planned, name) for planned in moves]
               for name in ("name", "move", "joints", "speed", "acceleration", "blend", "tcp_offset"))
     return PathPlan(start, PathSegment.joint_targets(*fields))

@@ -10,15 +10,21 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Iterable, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
+import numpy.typing as npt
 
 from ur3dq import dqarray
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import JointLimitError, SafetyCheckError, UnreachablePoseError
-from ur3dq.program.resolve import resolve_targets
-from ur3dq.program.steps import Step, Waypoint, is_waypoint
+from ur3dq.program.resolve import Target, resolve_targets
+from ur3dq.program.steps import Motion, Step, Waypoint, is_waypoint
 from ur3dq.robot import motion, safety
+
+if TYPE_CHECKING:
+    from ur3dq.kinematics.models import URModel
 
 # The driver's TCP limits and URScript's movel defaults: one source (ur3dq.robot.safety).
 MAX_TCP_SPEED = safety.MAX_TCP_SPEED
@@ -31,8 +37,7 @@ DEFAULT_TCP_SPEED = safety.DEFAULT_TCP_SPEED
 DEFAULT_TCP_ACCELERATION = safety.DEFAULT_TCP_ACCELERATION
 
 
-
-def motion_ranges(model, move: str) -> tuple[tuple[float, float], tuple[float, float]]:
+def motion_ranges(model: URModel, move: str) -> tuple[tuple[float, float], tuple[float, float]]:
     """((lowest, highest) speed, (lowest, highest) acceleration) a waypoint of `move` may ask for on `model`: rad/s
     and rad/s² up to the slowest joint's limits for a joint move, m/s and m/s² up to MAX_TCP_SPEED and
     MAX_TCP_ACCELERATION for a linear or process move (what plan_program would otherwise clamp to).
@@ -71,8 +76,8 @@ class PlannedStep:
 
     step: Step
     joints: np.ndarray | None = None
-    coefficients: tuple | None = None   # the target TCP pose's 8 dual-quaternion coefficients (base frame)
-    tcp_offset: tuple | None = None
+    coefficients: tuple[float, ...] | None = None   # the target TCP pose's 8 dual-quaternion coefficients (base frame)
+    tcp_offset: tuple[float, ...] | None = None
     move: str | None = None
     acceleration: float | None = None
     speed: float | None = None
@@ -80,7 +85,7 @@ class PlannedStep:
     travel: float | None = None
     duration: float | None = None
     fk_error_m: float = 0.0
-    clamped: tuple = ()
+    clamped: tuple[str, ...] = ()
 
     @property
     def name(self) -> str:
@@ -88,19 +93,20 @@ class PlannedStep:
         return self.step.name
 
     @property
-    def pose(self):
+    def pose(self) -> DualQuaternion | None:
         """The target TCP pose as a DualQuaternion (None for an action step)."""
         return None if self.coefficients is None else DualQuaternion.from_array(self.coefficients)
 
 
-def _clamp(value: float, limit: float, what: str, clamped: list) -> float:
+def _clamp(value: float, limit: float, what: str, clamped: list[str]) -> float:
     if value > limit:
         clamped.append(f"{what} {value:g} → {limit:g}")
         return limit
     return value
 
 
-def _joints_for(model, target, previous, replay_recorded_joints: bool):
+def _joints_for(model: URModel, target: Target, previous: np.ndarray | None,
+                replay_recorded_joints: bool) -> np.ndarray:
     """The joint target of a resolved waypoint (see the module docstring); errors name the step."""
     who = target.step.who
     solver = model.with_tcp(target.tcp_offset)
@@ -126,11 +132,11 @@ def _joints_for(model, target, previous, replay_recorded_joints: bool):
         raise UnreachablePoseError(f"{who}: unreachable on the {model.name}: {error}") from None
 
 
-def _solve_hinted(model, targets, replay_recorded_joints: bool) -> dict:
+def _solve_hinted(model: URModel, targets: Sequence[Target], replay_recorded_joints: bool) -> dict[int, np.ndarray]:
     """{index: joints} for the targets that have joints to prefer, solved in one batch IK per TCP offset (the
     nearest FK-verified solution to the hint, as `ik` chooses); unreachable rows are left out, for the
     sequential pass to report with its own error."""
-    groups: dict = {}
+    groups: dict[tuple[float, ...], list[int]] = {}
     for index, target in enumerate(targets):
         if target.joints_hint is not None and not (replay_recorded_joints and isinstance(target.step, Waypoint)):
             groups.setdefault(target.tcp_offset, []).append(index)
@@ -145,9 +151,10 @@ def _solve_hinted(model, targets, replay_recorded_joints: bool) -> dict:
     return solved
 
 
-def plan_program(model, steps, start_joints=None, defaults: Defaults = Defaults(), speed_scale: float = 1.0,
+def plan_program(model: URModel, steps: Iterable[Step], start_joints: npt.ArrayLike | None = None,
+                 defaults: Defaults = Defaults(), speed_scale: float = 1.0,
                  replay_recorded_joints: bool = False, max_joint_travel: float | None = None,
-                 resolve_from=None) -> list[PlannedStep]:
+                 resolve_from: Sequence[Step] | None = None) -> list[PlannedStep]:
     """The plan of a cell program: a checked joint target and clamped speeds for every waypoint.
 
     Parameters
@@ -223,7 +230,8 @@ def plan_program(model, steps, start_joints=None, defaults: Defaults = Defaults(
     if start_joints is None and targets:  # the first move's start is unknown
         travels, paths = np.concatenate([[np.nan], travels]), np.concatenate([[np.nan], paths])
     limits = (float(np.min(model.max_joint_speed)), float(np.min(model.max_joint_acceleration)))
-    shared: dict = {}   # id(Motion) -> _motion_figures: a big program's waypoints share a few Motion objects
+    # id(Motion) -> _motion_figures: a big program's waypoints share a few Motion objects
+    shared: dict[int, tuple[str, float, float, float, tuple[str, ...]]] = {}
     figures = [shared.get(id(step.motion)) or shared.setdefault(id(step.motion), _motion_figures(
         step.motion, defaults, speed_scale, limits)) for step in waypoints]
     durations = _durations(waypoints, figures, travels, paths, max_joint_travel)
@@ -243,7 +251,8 @@ def plan_program(model, steps, start_joints=None, defaults: Defaults = Defaults(
     return plan
 
 
-def _motion_figures(m, defaults: Defaults, speed_scale: float, limits: tuple) -> tuple:
+def _motion_figures(m: Motion, defaults: Defaults, speed_scale: float,
+                    limits: tuple[float, float]) -> tuple[str, float, float, float, tuple[str, ...]]:
     """(move, a, v, blend, clamped) of a waypoint's Motion `m`: the run's defaults where it leaves a value unset,
     the speed scaled, a and v clamped (joint moves to `limits` = (slowest joint's speed, acceleration), linear and
     process moves to MAX_TCP_SPEED / MAX_TCP_ACCELERATION); `clamped` says what was."""
@@ -257,7 +266,9 @@ def _motion_figures(m, defaults: Defaults, speed_scale: float, limits: tuple) ->
     return m.move, a, v, (m.blend if m.blend is not None else defaults.blend), tuple(clamped)
 
 
-def _durations(waypoints: list, figures: list, travels: np.ndarray, paths: np.ndarray, max_joint_travel) -> list:
+def _durations(waypoints: Sequence[Step], figures: list[tuple[str, float, float, float, tuple[str, ...]]],
+               travels: np.ndarray, paths: np.ndarray,
+               max_joint_travel: float | None) -> list[tuple[float | None, float | None]]:
     """[(travel rad or None, seconds at 100 % or None)] per waypoint: its leading joint travel (`travels`, NaN
     where the start is unknown) and the trapezoid of joint moves' travel, linear and process moves' `paths`;
     SafetyCheckError naming the first waypoint that swings a joint further than `max_joint_travel` (rad)."""

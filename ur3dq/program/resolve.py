@@ -8,9 +8,10 @@ as the pendant's "base" feature does. Δ is the UR pose vector [dx, dy, dz, rx, 
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Iterable, Sequence
 
 from ur3dq.dualquat import DualQuaternion
-from ur3dq.program.steps import Waypoint, is_waypoint
+from ur3dq.program.steps import RelativeWaypoint, Step, Waypoint, is_waypoint
 
 
 @dataclasses.dataclass(frozen=True, slots=True)  # slots: one per waypoint, 10⁵ in a big program
@@ -21,11 +22,11 @@ class Target:
     the TCP offset it was taught with (flange frame, UR pose vector), the model it was taught on, and joints to
     prefer when solving IK (the root recorded pose's joints, or None)."""
 
-    step: object
-    coefficients: tuple
-    tcp_offset: tuple
+    step: Step
+    coefficients: tuple[float, ...]
+    tcp_offset: tuple[float, ...]
     robot_model: str
-    joints_hint: tuple | None
+    joints_hint: tuple[float, ...] | None
 
     @property
     def pose(self) -> DualQuaternion:
@@ -33,7 +34,7 @@ class Target:
         return DualQuaternion.from_array(self.coefficients)
 
 
-def offset_pose(base: DualQuaternion, offset, frame: str) -> DualQuaternion:
+def offset_pose(base: DualQuaternion, offset: Sequence[float], frame: str) -> DualQuaternion:
     """The pose `offset` (UR pose vector) away from `base`, in `base`'s tool frame or the robot's base frame."""
     delta = DualQuaternion.from_ur_pose(offset)
     if frame == "tool":
@@ -42,14 +43,14 @@ def offset_pose(base: DualQuaternion, offset, frame: str) -> DualQuaternion:
     return DualQuaternion.from_rotation_translation(rotation, base.translation + delta.translation)
 
 
-def resolve_targets(steps, relative_only: bool = False) -> dict:
+def resolve_targets(steps: Iterable[Step], relative_only: bool = False) -> dict[str, Target]:
     """The Target of every waypoint, relative ones resolved.
 
     {name: Target} for every waypoint of `steps` (only relative ones and their bases when `relative_only`);
     ValueError naming the step when a relative
     waypoint's base is missing or not a waypoint, or relative waypoints form a cycle."""
     by_name = {step.name: step for step in steps}
-    resolved: dict = {}
+    resolved: dict[str, Target] = {}
     for step in steps:
         if isinstance(step, Waypoint):   # most steps of a big program: a recorded pose as it is, no base to follow
             if not relative_only and step.name not in resolved:
@@ -66,7 +67,7 @@ def _recorded_target(step: Waypoint) -> Target:
     return Target(step, pose.dual_quaternion, pose.tcp_offset, pose.robot_model, pose.joints)
 
 
-def _resolve(step, chain: list, by_name: dict, resolved: dict) -> Target:
+def _resolve(step: Step, chain: list[str], by_name: dict[str, Step], resolved: dict[str, Target]) -> Target:
     """The Target of waypoint `step`, kept in `resolved` (its relative bases first, through `by_name`); `chain`:
     the relative waypoints that led here. A function of its own, not a closure: a closure that calls itself is
     a reference cycle, which would keep the whole program alive until the cyclic collector runs."""
@@ -74,7 +75,7 @@ def _resolve(step, chain: list, by_name: dict, resolved: dict) -> Target:
         return resolved[step.name]
     if isinstance(step, Waypoint):
         target = _recorded_target(step)
-    else:
+    elif isinstance(step, RelativeWaypoint):
         if step.name in chain:
             loop = " → ".join(repr(name) for name in [*chain[chain.index(step.name):], step.name])
             raise ValueError(f"{step.who}: relative waypoints form a cycle: {loop}")
@@ -88,11 +89,13 @@ def _resolve(step, chain: list, by_name: dict, resolved: dict) -> Target:
         pose = offset_pose(parent.pose, step.offset, step.frame)
         target = Target(step, tuple(pose.to_array().tolist()), parent.tcp_offset, parent.robot_model,
                         parent.joints_hint)
+    else:
+        raise ValueError(f"{step.who}: not a waypoint")
     resolved[step.name] = target
     return target
 
 
-def check_program(steps) -> None:
+def check_program(steps: Sequence[Step]) -> None:
     """ValueError naming the first step at fault: duplicate names, unresolvable relative waypoints."""
     seen = set()
     for step in steps:
@@ -102,7 +105,7 @@ def check_program(steps) -> None:
     resolve_targets(steps, relative_only=True)
 
 
-def select_range(steps, start: str | None = None, end: str | None = None) -> list:
+def select_range(steps: Sequence[Step], start: str | None = None, end: str | None = None) -> list[Step]:
     """The steps from `start` to `end`, inclusive.
 
     The steps from the one named `start` to the one named `end`, inclusive (the whole program by default);

@@ -16,12 +16,13 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
+import numpy.typing as npt
 
-from ur3dq.errors import ProgramError, RobotError, SafetyCheckError
+from ur3dq.errors import ProgramError, RobotError, SafetyCheckError, add_note
 from ur3dq.pathcheck import PathPlan, PathSegment
 from ur3dq.program.path import path_plan_of
 from ur3dq.program.plan import Defaults, PlannedStep, plan_program
@@ -31,13 +32,15 @@ from ur3dq.program.steps import DigitalOut, Step, Wait, WaitInput
 from ur3dq.robot import safety, state
 from ur3dq.urscript import new_program_name
 
+if TYPE_CHECKING:
+    from ur3dq.robot.robot import Robot
+
+#: progress(position, step): called as each step of a running program starts
+Progress = Callable[[int, Step], None]
+
 MAX_STATEMENT_SECONDS = 0.05   # each action's own time on the controller (a few control cycles), for the timeout
 REST_TIMEOUT = 2.0             # s to wait for the arm to come to rest after a stop, before saying where it is
 REST_SPEED = 1e-3              # rad/s: every joint slower than this is at rest
-Progress = Callable[[int, Step], None]
-
-if TYPE_CHECKING:
-    from ur3dq.robot.robot import Robot
 
 
 @dataclasses.dataclass(frozen=True)
@@ -72,7 +75,7 @@ class StepWatch:
     Follows the step reports of one running program (positions first_position .. first_position+N−1);
     `done` once the program reported first_position+N, after its last step."""
 
-    def __init__(self, plan: Sequence[PlannedStep], first_position: int = 1, progress: Progress | None = None):
+    def __init__(self, plan: Iterable[PlannedStep], first_position: int = 1, progress: Progress | None = None) -> None:
         self.plan = list(plan)
         self.first = first_position
         self.progress = progress
@@ -105,7 +108,7 @@ class StepWatch:
                             self.progress(self.first + index, self.plan[index].step)
 
 
-def expected_seconds(plan: Sequence[PlannedStep]) -> float:
+def expected_seconds(plan: Iterable[PlannedStep]) -> float:
     """An upper bound of the program's duration at 100 % speed: moves (each from rest), waits, input timeouts."""
     total = 0.0
     for planned in plan:
@@ -119,20 +122,21 @@ def expected_seconds(plan: Sequence[PlannedStep]) -> float:
     return total
 
 
-def check_plan_for_robot(robot: Robot, plan: Sequence[PlannedStep], start_joints: np.ndarray) -> None:
+def check_plan_for_robot(robot: Robot, plan: Iterable[PlannedStep], start_joints: npt.ArrayLike) -> None:
     """Check every joint target of a plan as the driver checks a motion.
 
     Every joint target inside the limits, FK-consistent with its target pose, and within the travel limit from
     the previous one (SafetyCheckError naming the step): the checks every driver motion gets."""
     previous = np.asarray(start_joints, dtype=float)
     for planned in plan:
-        if planned.joints is None:
+        pose = planned.pose
+        if planned.joints is None or pose is None:   # an action step
             continue
         who = planned.step.who
         try:
             safety.check_joint_limits(planned.joints, robot.model.joint_lower, robot.model.joint_upper, who)
             model = robot.model.with_tcp(planned.tcp_offset)
-            safety.check_fk_consistency(model, planned.joints, planned.pose, name=who)
+            safety.check_fk_consistency(model, planned.joints, pose, name=who)
             safety.check_travel(previous, planned.joints, robot.max_joint_travel, name=who)
         except ValueError as error:
             raise SafetyCheckError(str(error)) from None
@@ -166,7 +170,7 @@ def run_plan(robot: Robot, plan: Sequence[PlannedStep], first_position: int = 1,
         if sent:   # the program ran (or was sent): it ended early, at a step
             stop = program_stop(robot, watch)
             error.program_stop = stop   # type: ignore[attr-defined]
-            error.add_note(f"(during step {stop.position} {stop.step_name!r}"
+            add_note(error, f"(during step {stop.position} {stop.step_name!r}"
                            + (f"; {stop.outputs_text()})" if stop.outputs_on else ")"))
         raise
 
@@ -179,7 +183,11 @@ def program_stop(robot: Robot, watch: StepWatch) -> ProgramStop:
     status = status_at_rest(robot)
     if status is None:
         return ProgramStop(watch.position, watch.plan[index].step.name, None, None, tuple(switched_on), False)
-    still_on = set(state.outputs_on(status.digital_outputs))
+    try:
+        still_on = set(robot.io_state().outputs_on())
+    except (RobotError, KeyboardInterrupt):
+        return ProgramStop(watch.position, watch.plan[index].step.name, status.joints, status.tcp_pose,
+                           tuple(switched_on), False)
     return ProgramStop(watch.position, watch.plan[index].step.name, status.joints, status.tcp_pose,
                        tuple(output for output in switched_on if output in still_on), True)
 

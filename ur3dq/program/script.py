@@ -29,6 +29,8 @@ def _report(position: int) -> list[str]:
 
 
 def _waypoint_line(planned: PlannedStep) -> str:
+    if planned.move is None or planned.joints is None or planned.acceleration is None or planned.speed is None:
+        raise ValueError(f"{planned.step.who}: not a planned waypoint")
     function = _MOVE_FUNCTIONS[planned.move]
     return urscript.move_statement(function, planned.joints, planned.acceleration, planned.speed, planned.blend,
                                    t=0 if function == "movel" else None)
@@ -78,7 +80,7 @@ def program_script(plan: Sequence[PlannedStep], program_name: str = "ur3dq_progr
         body.append(f"# step {position}: {urscript.comment_text(planned.step.name)} ({planned.step.kind})")
         body.extend(_report(position))
         if planned.joints is not None:
-            if planned.tcp_offset != active_tcp:
+            if planned.tcp_offset is not None and planned.tcp_offset != active_tcp:
                 body.append(urscript.set_tcp_statement(planned.tcp_offset))
                 active_tcp = planned.tcp_offset
             body.append(_waypoint_line(planned))

@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import unicodedata
+from typing import TypeGuard
 
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.pose import Pose, name_problem, unstorable_text_problem
@@ -29,14 +30,15 @@ MAX_OFFSET_M = 5.0         # a relative waypoint further than this from its base
 DEFAULT_WAIT_INPUT_TIMEOUT_S = 10.0
 
 
-def _positive(value, what: str, who: str, allow_none: bool = True, upper: float | None = None):
+def _positive(value: object, what: str, who: str, allow_none: bool = True,
+              upper: float | None = None) -> float | None:
     """`value` as a float > 0 (≤ upper), None when allowed; ValueError naming `who` and `what`."""
     if value is None and allow_none:
         return None
     if not is_number(value):
         raise ValueError(f"{who}: {what} must be a number, got {value!r}")
     try:
-        number = float(value)
+        number = float(value)  # type: ignore[arg-type]  # is_number: a real number
     except OverflowError:
         raise ValueError(f"{who}: {what} {value!r} is out of range") from None
     if not (math.isfinite(number) and number > 0):
@@ -46,22 +48,22 @@ def _positive(value, what: str, who: str, allow_none: bool = True, upper: float 
     return number
 
 
-def _pin(value, count: int, what: str, who: str) -> int:
+def _pin(value: object, count: int, what: str, who: str) -> int:
     """`value` as a pin number 0..count-1; ValueError naming `who` with the valid range."""
     if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value < count:
         raise ValueError(f"{who}: {what} pin {value!r} is out of range (0..{count - 1})")
     return value
 
 
-def _flag(value, what: str, who: str) -> bool:
+def _flag(value: object, what: str, who: str) -> bool:
     """`value` if it is a bool (on/off), else ValueError."""
     if not isinstance(value, bool):
         raise ValueError(f"{who}: {what} must be true (on) or false (off), got {value!r}")
     return value
 
 
-def _kind(value, who: str) -> str:
-    if value not in OUTPUT_KINDS:
+def _kind(value: object, who: str) -> str:
+    if not isinstance(value, str) or value not in OUTPUT_KINDS:
         raise ValueError(f"{who}: I/O kind {value!r} is not one of {', '.join(OUTPUT_KINDS)}")
     return value
 
@@ -126,7 +128,7 @@ class Step:
 
     kind = "step"
 
-    def _check_name(self):
+    def _check_name(self) -> None:
         problem = name_problem(self.name)
         if problem:
             raise ValueError(problem.replace("a pose name", "a step name").replace("pose name", "step name"))
@@ -136,11 +138,11 @@ class Step:
 class Waypoint(Step):
     """A recorded pose and how to move there."""
 
-    pose: Pose = None
+    pose: Pose
     motion: Motion = DEFAULT_MOTION
     kind = "waypoint"
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         if not isinstance(self.pose, Pose):
             made = f"Pose.from_dual_quaternion({self.name!r}, pose, 'ur3', joints=...)"
             hint = (f"wrap it as {made}" if isinstance(self.pose, DualQuaternion) else
@@ -166,13 +168,13 @@ class RelativeWaypoint(Step):
     position). It follows `base` when `base` is re-taught."""
 
     base: str = ""
-    offset: tuple = (0.0,) * 6
+    offset: tuple[float, ...] = (0.0,) * 6
     frame: str = "tool"
     motion: Motion = DEFAULT_MOTION
     note: str = ""
     kind = "relative waypoint"
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         self._check_name()
         if not isinstance(self.base, str) or name_problem(self.base):
             raise ValueError(f"{self.who}: base {self.base!r} is not a step name")
@@ -210,7 +212,7 @@ class DigitalOut(Step):
     on: bool = True
     kind = "digital-out"
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         self._check_name()
         _kind(self.output, self.who)
         _pin(self.pin, PIN_COUNT[self.output], self.output, self.who)
@@ -225,7 +227,7 @@ class AnalogOut(Step):
     value: float = 0.0
     kind = "analog-out"
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         self._check_name()
         _pin(self.pin, ANALOG_PIN_COUNT, "analog", self.who)
         if not is_number(self.value) or not 0.0 <= float(self.value) <= 1.0:
@@ -240,7 +242,7 @@ class Wait(Step):
     seconds: float = 0.0
     kind = "wait"
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         self._check_name()
         object.__setattr__(self, "seconds", _positive(self.seconds, "seconds", self.who, False, MAX_WAIT_S))
 
@@ -255,7 +257,7 @@ class WaitInput(Step):
     timeout: float = DEFAULT_WAIT_INPUT_TIMEOUT_S
     kind = "wait-input"
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         self._check_name()
         _kind(self.input, self.who)
         _pin(self.pin, PIN_COUNT[self.input], self.input, self.who)
@@ -270,7 +272,7 @@ class Message(Step):
     text: str = ""
     kind = "message"
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         self._check_name()
         if not isinstance(self.text, str) or not self.text:
             raise ValueError(f"{self.who}: text must be non-empty text")
@@ -284,7 +286,7 @@ ACTION_TYPES = {cls.kind: cls for cls in (DigitalOut, AnalogOut, Wait, WaitInput
 WAYPOINT_TYPES = (Waypoint, RelativeWaypoint)
 
 
-def is_waypoint(step: Step) -> bool:
+def is_waypoint(step: Step) -> TypeGuard[Waypoint | RelativeWaypoint]:
     """True for a step the arm moves to (recorded or relative)."""
     return isinstance(step, WAYPOINT_TYPES)
 

@@ -8,6 +8,7 @@ import numpy as np
 
 from ur3dq.kinematics import robot_model_from_dh
 from ur3dq.robot import state
+from ur3dq.robot.io_state import IOState
 from ur3dq.robot.primary import ConfigurationData, KinematicsInfo
 from ur3dq.robot.primary_client import PrimaryClient
 
@@ -36,6 +37,9 @@ class StateBackend(Protocol):
 
     def status(self) -> state.RobotStatus:
         """The newest validated RobotStatus, without waiting on the network."""
+
+    def io_status(self) -> IOState:
+        """The newest digital and analog I/O and the program's runtime state (None where not reported)."""
 
     def send_program(self, script: str) -> None:
         """Send one URScript program to the controller."""

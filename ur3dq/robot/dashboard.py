@@ -47,7 +47,7 @@ def unlock_refusal(reply):
 class Dashboard:
     """A ur_rtde DashboardClient connected to `host`, reconnected once when a command finds it dropped."""
 
-    def __init__(self, host, port=DASHBOARD_PORT, timeout_ms=2500):
+    def __init__(self, host, port=DASHBOARD_PORT, timeout_ms: int=2500) -> None:
         self.host, self.port, self._timeout_ms = host, port, timeout_ms
         self._client = self._connected_client()
 
@@ -59,15 +59,19 @@ class Dashboard:
         """The controller's serial number, or None where the dashboard has no such command (before PolyScope 5.6)."""
         return serial_from_reply(self._ask("get serial number"))
 
-    def power_on(self):
+    def program_state(self) -> str:
+        """The reply to `programState`: the runtime state and the loaded program ('PLAYING prog.urp')."""
+        return str(self._ask("programState")).strip()
+
+    def power_on(self) -> None:
         """Send `power on` (the caller watches the robot mode reach IDLE)."""
         self._call(lambda client: client.powerOn())
 
-    def power_off(self):
+    def power_off(self) -> None:
         """Send `power off` (the caller watches the robot mode reach POWER_OFF)."""
         self._call(lambda client: client.powerOff())
 
-    def brake_release(self):
+    def brake_release(self) -> None:
         """Send `brake release` (the caller watches the robot mode reach RUNNING)."""
         self._call(lambda client: client.brakeRelease())
 
@@ -91,7 +95,7 @@ class Dashboard:
         if refusal is not None:
             raise RobotError(f"the controller refused to resume: {refusal}")
 
-    def close(self):
+    def close(self) -> None:
         """Disconnect (idempotent)."""
         try:
             self._client.disconnect()

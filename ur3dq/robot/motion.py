@@ -68,7 +68,7 @@ def path_duration(q_start, targets, a, v):
     return total
 
 
-def motion_timeout(duration, speed_fraction, margin_ratio=0.5, margin_s=1.0):
+def motion_timeout(duration, speed_fraction, margin_ratio: float=0.5, margin_s: float=1.0):
     """Seconds to wait for a motion of `duration` at 100 % when the speed slider reads `speed_fraction` (0..1)."""
     if not (math.isfinite(duration) and duration >= 0):
         raise ValueError(f"duration must be finite and ≥ 0, got {duration!r}")

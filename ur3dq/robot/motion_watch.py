@@ -8,12 +8,13 @@ neither running on nor ended: the watch waits, and the time it spends paused doe
 from __future__ import annotations
 
 import queue
-from collections.abc import Iterator
+import time
+from collections.abc import Callable, Iterator
 from typing import Protocol
 
 import numpy as np
 
-from ur3dq.errors import ProgramError
+from ur3dq.errors import MotionTimeoutError, ProgramError, UR3DQError
 from ur3dq.robot import primary, state
 
 #: s a stopped program may take to show the arm at rest before it counts as failed
@@ -95,6 +96,18 @@ class MotionWatch:
         """How long (s) the program has been paused since it was sent: its timeout stands still meanwhile."""
         return self._paused_total + (now - self._paused_since if self._paused_since is not None else 0.0)
 
+    def check_progress(self, status: state.RobotStatus, elapsed: float, now: float, start_timeout: float,
+                       timeout: float, timeout_note: str) -> None:
+        """ProgramError when the program has not started `start_timeout` s after it was sent (`elapsed` s ago),
+        MotionTimeoutError when it ran past `timeout` s, the time it spent paused not counted (`timeout_note` says
+        what the timeout holds beyond the motion's own duration)."""
+        if not self.started and not self.paused and elapsed > start_timeout:
+            raise ProgramError(f"the controller did not start program {self.name} within {start_timeout:.1f} s")
+        if elapsed - self.paused_seconds(now) > timeout:
+            raise MotionTimeoutError(
+                f"program {self.name} did not finish within {timeout:.2f} s (derived from its trapezoidal duration "
+                f"and the speed slider, {timeout_note}); the arm is {self.distance(status):.4f} rad from target")
+
     def finished(self, status: state.RobotStatus, now: float) -> bool:
         """True when the program has ended with the arm at rest on target; ProgramError if it ended elsewhere or
         the controller reported a runtime error (after SETTLE_TIME, so a safety stop behind it is seen first)."""
@@ -147,6 +160,24 @@ class MotionWatch:
             return (f": most likely the controller's heartbeat watchdog (ur3dq's heartbeat wrote nothing for "
                     f"{gap:.3f} s; the watchdog stops a program after {self.watchdog_period:g} s)")
         return ""
+
+
+def last_reports(watcher: queue.Queue[object], outcome: MotionWatch, on_message: Callable[[object], None],
+                 wait: float) -> None:
+    """After a failed or interrupted program: hand `on_message` the messages it sent up to its end (its STOPPED key
+    message; at most `wait` s), so a caller following its reports (the step it had reached) misses none."""
+    deadline = time.monotonic() + wait
+    try:
+        while not outcome.stopped and time.monotonic() < deadline:
+            for message in drain(watcher):
+                outcome.note_message(message)
+                try:
+                    on_message(message)
+                except UR3DQError:
+                    pass
+            time.sleep(0.01)
+    except KeyboardInterrupt:   # a second Ctrl-C: stop reading, the stop was sent already
+        pass
 
 
 def drain(watcher: queue.Queue[object]) -> Iterator[object]:

@@ -156,11 +156,14 @@ class SafetyModeMessage:
 
 
 @dataclass(frozen=True)
-class DigitalIO:
-    """The digital I/O bits of Masterboard Data (sub-package 3): bits 0-7 standard, 8-15 configurable, 16-17 tool."""
+class BoardIO:
+    """The I/O of Masterboard Data (sub-package 3): digital input and output bits (0-7 standard, 8-15
+    configurable, 16-17 tool) and the two standard analog inputs and outputs."""
 
-    input_bits: int
-    output_bits: int
+    digital_in: int
+    digital_out: int
+    analog_in: tuple[float, float]
+    analog_out: tuple[float, float]
 
 
 @dataclass(frozen=True)
@@ -172,7 +175,7 @@ class RobotState:
     cartesian: CartesianInfo | None = None
     kinematics: KinematicsInfo | None = None
     configuration: ConfigurationData | None = None
-    digital_io: DigitalIO | None = None
+    board_io: BoardIO | None = None
 
 
 def split_messages(buffer):
@@ -211,7 +214,7 @@ def parse_robot_state(body):
             fields["robot_mode"] = parse_robot_mode_data(data)
         elif package_type == MASTERBOARD_DATA:
             fields["safety_mode"] = parse_masterboard_safety_mode(data)
-            fields["digital_io"] = parse_masterboard_digital_io(data)
+            fields["board_io"] = parse_masterboard_io(data)
         elif package_type == CARTESIAN_INFO:
             fields["cartesian"] = parse_cartesian_info(data)
         elif package_type == KINEMATICS_INFO:
@@ -236,12 +239,14 @@ def parse_masterboard_safety_mode(data):
     return struct.unpack_from(layout, data)[-1]
 
 
-def parse_masterboard_digital_io(data) -> DigitalIO:
-    """DigitalIO of Masterboard Data (sub-package 3, software 3.0+ layout: two int32 bit fields first)."""
-    if len(data) < 8:
-        raise PrimaryParseError(f"Masterboard Data has {len(data)} bytes; too short for its digital I/O")
-    inputs, outputs = struct.unpack_from(">ii", data)
-    return DigitalIO(inputs, outputs)
+def parse_masterboard_io(data: bytes) -> BoardIO:
+    """BoardIO of Masterboard Data (sub-package 3, software 3.0+ layout: digital input and output bits, analog
+    input ranges and values, analog output domains and values)."""
+    layout = ">iiBBddbbdd"
+    if len(data) < struct.calcsize(layout):
+        raise PrimaryParseError(f"Masterboard Data has {len(data)} bytes; too short for its I/O")
+    digital_in, digital_out, _, _, in0, in1, _, _, out0, out1 = struct.unpack_from(layout, data)
+    return BoardIO(digital_in, digital_out, (in0, in1), (out0, out1))
 
 
 def parse_cartesian_info(data):
@@ -272,8 +277,9 @@ def parse_configuration_data(data):
     defaults = struct.unpack_from(">5d", data, 192)
     dh = np.array(struct.unpack_from(">24d", data, 232)).reshape(4, 6)
     board, box, robot_type, sub_type = struct.unpack_from(">4i", data, 424)
+    v_joint, a_joint, v_tool, a_tool, eq_radius = defaults
     return ConfigurationData(
-        limits[:, 0], limits[:, 1], dynamics[:, 0], dynamics[:, 1], *defaults,
+        limits[:, 0], limits[:, 1], dynamics[:, 0], dynamics[:, 1], v_joint, a_joint, v_tool, a_tool, eq_radius,
         dh[0], dh[1], dh[2], dh[3], board, box, robot_type, sub_type,
     )
 

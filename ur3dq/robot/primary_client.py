@@ -16,7 +16,7 @@ SECONDARY_PORT = 30002
 class PrimaryClient:
     """A connection to port 30001 read by a daemon thread; `close()` ends it."""
 
-    def __init__(self, host, port=PRIMARY_PORT, connect_timeout=2.0):
+    def __init__(self, host, port=PRIMARY_PORT, connect_timeout: float=2.0) -> None:
         try:
             self._socket = socket.create_connection((host, port), timeout=connect_timeout)
         except OSError as error:
@@ -27,17 +27,18 @@ class PrimaryClient:
         self._lock = threading.Lock()
         self._send_lock = threading.Lock()
         self._changed = threading.Condition(self._lock)
-        self._watchers = []
+        self._watchers: list[queue.Queue[object]] = []
         self._closing = False
-        self.version = None
-        self.robot_mode = None
-        self.safety_mode = None
-        self.cartesian = None
-        self.kinematics = None
-        self.configuration = None
-        self.digital_io = None  # primary.DigitalIO of the last robot state
-        self.last_state_time = None  # time.monotonic() of the last robot-state message
-        self.error = None  # why the reader stopped, once it has
+        # What the controller sent last (None until it has): Robot waits for the first four before it connects.
+        self.version: primary.VersionMessage | None = None
+        self.robot_mode: primary.RobotModeData | None = None
+        self.safety_mode: int | None = None
+        self.cartesian: primary.CartesianInfo | None = None
+        self.kinematics: primary.KinematicsInfo | None = None
+        self.configuration: primary.ConfigurationData | None = None
+        self.board_io: primary.BoardIO | None = None   # the masterboard's I/O in the last robot state
+        self.last_state_time: float | None = None  # time.monotonic() of the last robot-state message
+        self.error: str | None = None  # why the reader stopped, once it has
         self._thread = threading.Thread(target=self._read_forever, name=f"ur3dq-primary-{host}", daemon=True)
         self._thread.start()
 
@@ -59,12 +60,12 @@ class PrimaryClient:
 
     def watch(self):
         """A queue receiving every robot message parsed from now on; pass it to `unwatch` when done."""
-        watcher = queue.Queue()
+        watcher: queue.Queue[object] = queue.Queue()
         with self._lock:
             self._watchers.append(watcher)
         return watcher
 
-    def unwatch(self, watcher):
+    def unwatch(self, watcher) -> None:
         """Stop delivering messages to `watcher`."""
         with self._lock:
             if watcher in self._watchers:
@@ -80,7 +81,7 @@ class PrimaryClient:
             except OSError as error:
                 raise ConnectionLostError(f"sending a program to {self.host}:{self.port} failed: {error}") from None
 
-    def close(self):
+    def close(self) -> None:
         """Stop the reader and close the socket (idempotent)."""
         self._closing = True
         self._thread.join(timeout=2.0)
@@ -109,7 +110,7 @@ class PrimaryClient:
             with self._changed:
                 self._changed.notify_all()
 
-    def _handle(self, message_type, body):
+    def _handle(self, message_type, body) -> None:
         """Store a robot state or publish a robot message."""
         if message_type == primary.ROBOT_STATE:
             state = primary.parse_robot_state(body)
@@ -124,8 +125,8 @@ class PrimaryClient:
                     self.kinematics = state.kinematics
                 if state.configuration is not None:
                     self.configuration = state.configuration
-                if state.digital_io is not None:
-                    self.digital_io = state.digital_io
+                if state.board_io is not None:
+                    self.board_io = state.board_io
                 self.last_state_time = time.monotonic()
                 self._changed.notify_all()
         elif message_type == primary.ROBOT_MESSAGE:
@@ -140,7 +141,7 @@ class PrimaryClient:
                 self._changed.notify_all()
 
 
-def send_script(host, script, port=SECONDARY_PORT, timeout=1.0):
+def send_script(host, script, port=SECONDARY_PORT, timeout: float=1.0):
     """Send URScript on a connection of its own and wait until it is read.
 
     Send URScript on a connection of its own (for when the main one is gone), half-close it, and wait (≤ timeout)

@@ -21,25 +21,26 @@ from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import (
     ConnectionLostError,
     EmergencyStopError,
-    MotionTimeoutError,
     ProgramError,
     ProtectiveStopError,
     RobotConnectionError,
     RobotError,
     SafetyCheckError,
-    UR3DQError,
+    add_note,
 )
 from ur3dq.robot import jog_steps, motion, primary, safety, state
 from ur3dq.robot.backend import StateBackend, calibrated_model, effective_speed_limits
 from ur3dq.robot.dashboard import Dashboard, model_from_reply
 from ur3dq.robot.heartbeat import WATCHDOG_FREQUENCY, Heartbeat, armed
-from ur3dq.robot.motion_watch import MotionWatch, drain
+from ur3dq.robot.io_state import IOState, io_bit
+from ur3dq.robot.motion_watch import MotionWatch, drain, last_reports
 from ur3dq.robot.primary_client import PrimaryClient, send_script
 from ur3dq.robot.rtde_inputs import RTDEInputs
+from ur3dq.robot.state import RobotStatus
 
 if TYPE_CHECKING:
     from ur3dq.kinematics.models import URModel
-    from ur3dq.pathcheck import PathPlan
+    from ur3dq.pathcheck import Cell, Margins, PathPlan
 
 PoseLike = safety.PoseLike
 
@@ -61,6 +62,10 @@ ROBOT_MODE_POWER_OFF = 3  # the dashboard's `get serial number` exists from Poly
 class Robot:
     """A connection to one UR controller. Use `ur3dq.robot.connect(...)`; close with `close()` or `with`."""
 
+    _primary: PrimaryClient
+    _dashboard: Dashboard
+    _backend: StateBackend
+
     def __init__(self, host: str, backend: str = "rtde", model: str | None = None,
                  max_joint_travel: float = safety.DEFAULT_MAX_JOINT_TRAVEL, connect_timeout: float = 3.0,
                  heartbeat: bool = True, path_check: object = None) -> None:
@@ -72,22 +77,27 @@ class Robot:
         self.backend_name = backend
         self.max_joint_travel = float(max_joint_travel)
         self._connect_timeout = connect_timeout
-        self._primary = self._backend = self._dashboard = self._heartbeat = self._inputs = None
+        # _primary, _dashboard and _backend exist once connected (close() also runs on a half-made Robot)
+        self._heartbeat: Heartbeat | None = None
+        self._inputs: RTDEInputs | None = None
         # Every program that moves or frees the arm stops by itself when ur3dq dies (kill -9, a crash, a hang):
         # ur3dq.robot.heartbeat. Started with the first such program, so that reading, recording or a second ur3dq
         # watching the same arm never contend for its RTDE input registers.
         self._use_heartbeat = bool(heartbeat)
-        self._path_check = None
+        self._path_check: tuple[Cell | None, Margins] | None = None
         self._dashboard_lock = threading.Lock()   # pause()/resume() may come from another thread
         self.link_delay = 0.0   # s, measured while connecting (_identify_model)
         if path_check is not None:
             self.require_path_check(*(() if path_check is True else (path_check,)))
         try:
             self._primary = self._open_primary()
+            self._version: primary.VersionMessage = self._primary.version   # type: ignore[assignment]  # waited for
             self._dashboard = Dashboard(host)
             self.model_name = self._identify_model(model)
-            self.model: URModel = calibrated_model(self.model_name, self._primary.kinematics,
-                                                   self._controller_tcp_offset())
+            kinematics = self._primary.kinematics
+            if kinematics is None:   # _open_primary waits for it
+                raise RobotConnectionError(f"{host} sent no Kinematics Info")
+            self.model: URModel = calibrated_model(self.model_name, kinematics, self._controller_tcp_offset())
             self._backend = self._open_backend()
         except BaseException:
             self.close()
@@ -103,14 +113,15 @@ class Robot:
 
     def close(self) -> None:
         """Close every connection (idempotent). Never moves or stops the arm (no motion runs between calls)."""
-        for part in (self._heartbeat, self._inputs, self._backend, self._dashboard, self._primary):
+        for name in ("_heartbeat", "_inputs", "_backend", "_dashboard", "_primary"):
+            part = getattr(self, name, None)
             if part is not None:
                 part.close()
 
     @property
     def controller_version(self):
         """(major, minor, bugfix, build) of the controller software, from the primary version message."""
-        version = self._primary.version
+        version = self._version
         return (version.major, version.minor, version.bugfix, version.build)
 
     @functools.cached_property
@@ -142,7 +153,7 @@ class Robot:
 
     def _identify_model(self, requested):
         """The model name from the dashboard and Configuration Data; RobotError if they or `requested` disagree."""
-        major = self._primary.version.major
+        major = self._version.major
         asked = time.monotonic()
         reply = self._dashboard.robot_model_reply()
         # The link's round trip, timed here: every report of a motion (its start, its end) comes that late, so each
@@ -160,7 +171,8 @@ class Robot:
 
     def _controller_tcp_offset(self):
         """The controller's active TCP offset (UR pose vector, flange frame), or None before software 3.2."""
-        return self._primary.cartesian.tcp_offset
+        cartesian = self._primary.cartesian
+        return None if cartesian is None else cartesian.tcp_offset
 
     def _ensure_streams(self):
         """Reconnect dead state streams (and the heartbeat) with exponential backoff; ConnectionLostError if they
@@ -188,11 +200,20 @@ class Robot:
 
     # --- reading ----------------------------------------------------------------------------------------------
 
-    def state(self) -> state.RobotStatus:
+    def state(self) -> RobotStatus:
         """The newest RobotStatus (joints, TCP, robot/safety mode, program running or paused, speed fractions,
         digital I/O, age)."""
         self._ensure_streams()
         return self._backend.status()
+
+    def io_state(self) -> IOState:
+        """The controller's digital and analog I/O and the program's runtime state (ur3dq.robot.io_state)."""
+        self._ensure_streams()
+        return self._backend.io_status()
+
+    def program_state(self) -> str:
+        """The dashboard's `programState` reply, e.g. 'PLAYING ur3dq_program' or 'STOPPED <unnamed>'."""
+        return self._dashboard.program_state()
 
     def joints(self) -> np.ndarray:
         """The actual joint angles (radians, 6); ConnectionLostError if the stream is frozen."""
@@ -206,7 +227,7 @@ class Robot:
         """The TCP pose the controller reports, as a UR pose vector [x, y, z, rx, ry, rz]."""
         return self._fresh_status().tcp_pose
 
-    def _fresh_status(self) -> state.RobotStatus:
+    def _fresh_status(self) -> RobotStatus:
         """A status no older than the backend's freeze timeout; a late stream gets that long again to catch up
         (a loaded controller or network can stall it briefly), then ConnectionLostError."""
         limit = self._backend.freeze_timeout
@@ -243,35 +264,35 @@ class Robot:
                    a: float | None = None, v: float | None = None,
                    expected_poses: Sequence[DualQuaternion] | None = None) -> float:
         """Move through joint `targets` in one blended program (blend radius in metres); returns wall time (s)."""
-        targets = [self._checked_target(q, f"targets[{index}]") for index, q in enumerate(targets)]
-        if not targets:
+        checked = [self._checked_target(q, f"targets[{index}]") for index, q in enumerate(targets)]
+        if not checked:
             raise SafetyCheckError("targets must hold at least one joint vector")
         if expected_poses is not None:
-            if len(expected_poses) != len(targets):
-                raise SafetyCheckError(f"expected_poses has {len(expected_poses)} entries for {len(targets)} targets")
-            for index, (q, pose) in enumerate(zip(targets, expected_poses, strict=True)):
+            if len(expected_poses) != len(checked):
+                raise SafetyCheckError(f"expected_poses has {len(expected_poses)} entries for {len(checked)} targets")
+            for index, (q, pose) in enumerate(zip(checked, expected_poses, strict=True)):
                 safety.check_fk_consistency(self.model, q, pose, name=f"targets[{index}]")
         if not (isinstance(blend, (int, float)) and math.isfinite(blend) and 0.0 <= blend <= MAX_BLEND_RADIUS):
             raise SafetyCheckError(f"blend must be a radius in metres within [0, {MAX_BLEND_RADIUS}], got {blend!r}")
         status = self._ready_status()
-        a, v = self._clamped(status.joints, targets, a, v)
+        a, v = self._clamped(status.joints, checked, a, v)
         previous = status.joints
-        for index, q in enumerate(targets):
-            safety.check_travel(previous, q, self.max_joint_travel, name=f"targets[{index}]")
+        for index, q in enumerate(checked):
+            safety.check_travel(previous, q, self.max_joint_travel, name=f"checked[{index}]")
             previous = q
-        if len(targets) == 1 and motion.leading_travel(status.joints, targets[0]) < 1e-9:
+        if len(checked) == 1 and motion.leading_travel(status.joints, checked[0]) < 1e-9:
             return 0.0  # already there: sending a program would only add a start/stop
         if self._path_check is not None:
             from ur3dq.pathcheck import PathPlan, PathSegment
 
-            last = len(targets) - 1
+            last = len(checked) - 1
             self._require_clear_path(PathPlan(status.joints, [
-                PathSegment(f"targets[{index}]", "joint", target_joints=q, speed=v, acceleration=a,
-                            blend=0.0 if index == last else float(blend)) for index, q in enumerate(targets)]))
+                PathSegment(f"checked[{index}]", "joint", target_joints=q, speed=v, acceleration=a,
+                            blend=0.0 if index == last else float(blend)) for index, q in enumerate(checked)]))
         name = urscript.new_program_name("move")
-        program = urscript.movej_program(name, targets, a, v, blend=float(blend))
-        return self._send_watched(name, program, targets[-1], status,
-                                  motion.path_duration(status.joints, targets, a, v))
+        program = urscript.movej_program(name, checked, a, v, blend=float(blend))
+        return self._send_watched(name, program, checked[-1], status,
+                                  motion.path_duration(status.joints, checked, a, v))
 
     def movel(self, pose: PoseLike, a: float | None = None, v: float | None = None) -> float:
         """Move the TCP on a straight line to `pose` (DualQuaternion, or a UR pose vector [x, y, z, rx, ry, rz] of
@@ -299,7 +320,7 @@ class Robot:
         if isinstance(speed, bool) or not isinstance(speed, (int, float)) or not (math.isfinite(speed) and speed > 0):
             raise SafetyCheckError(f"jog speed must be a number > 0, got {speed!r}")
         move, joints, pose = jog_steps.step_target(self.model, self.joints(), step)
-        if move == "joint":
+        if pose is None:   # a joint step
             return self.movej(joints, a=jog_steps.JOINT_ACCELERATION, v=min(speed, jog_steps.MAX_JOINT_SPEED))
         return self._move_line(move, pose, jog_steps.TCP_ACCELERATION, min(speed, jog_steps.MAX_TCP_SPEED))
 
@@ -324,7 +345,7 @@ class Robot:
         return self._send_watched(name, urscript.program(name, [statement]), q, status,
                                   motion.trapezoid_duration(max(metres, radians), a, v))
 
-    def require_path_check(self, cell: object = None, margins: object = None) -> None:
+    def require_path_check(self, cell: Cell | None = None, margins: Margins | None = None) -> None:
         """Refuse from now on every motion whose whole path fails the path check.
 
         From now on every motion is refused (SafetyCheckError, nothing sent) unless the whole path it sweeps
@@ -379,7 +400,7 @@ class Robot:
             except RobotError:
                 self._send_stop(SAFE_STOP_DECELERATION)
                 return "stopped"
-        def rests(status: state.RobotStatus) -> bool:   # paused and at rest, or the program ended meanwhile
+        def rests(status: RobotStatus) -> bool:   # paused and at rest, or the program ended meanwhile
             if status.program_paused:
                 return float(np.max(np.abs(status.joint_speeds))) < REST_SPEED
             return not status.program_running
@@ -416,7 +437,7 @@ class Robot:
             previous = q
         return a, v
 
-    def _ready_status(self) -> state.RobotStatus:
+    def _ready_status(self) -> RobotStatus:
         """The current status if the arm can move (running, no stop), else the specific error."""
         status = self._checked_status(self._fresh_status())
         if status.robot_mode != state.ROBOT_MODE_RUNNING:
@@ -425,7 +446,7 @@ class Robot:
                              "brake-release`; in Python robot.power_on(), robot.brake_release())")
         return status
 
-    def _checked_status(self, status: state.RobotStatus) -> state.RobotStatus:
+    def _checked_status(self, status: RobotStatus) -> RobotStatus:
         """`status` unchanged unless it shows an emergency or protective stop, or a frozen stream."""
         if status.emergency_stopped:
             raise EmergencyStopError(f"{self.host} is emergency-stopped (safety mode {status.safety_mode_name}); "
@@ -460,7 +481,7 @@ class Robot:
         return self._send_watched(urscript.check_identifier(name), program, target, status, duration, on_message,
                                   reached_end, on_sent)
 
-    def _send_watched(self, name: str, program: str, target: np.ndarray, status: state.RobotStatus,
+    def _send_watched(self, name: str, program: str, target: np.ndarray, status: RobotStatus,
                       duration: float, on_message: Callable[[object], None] | None = None,
                       reached_end: Callable[[], bool] | None = None,
                       on_sent: Callable[[], None] | None = None) -> float:
@@ -485,28 +506,16 @@ class Robot:
                 now = time.monotonic()
                 if outcome.finished(status, now) and (reached_end is None or reached_end()):
                     return now - sent
-                self._check_progress(outcome, status, now - sent, timeout)
+                outcome.check_progress(status, now - sent, now, START_TIMEOUT + self.link_delay, timeout,
+                                       f"plus the link's measured round trip of {self.link_delay:.3f} s")
                 time.sleep(self._backend.poll_period)
         except BaseException as error:
             self._stop_after(error)
             if on_message is not None:
-                self._last_reports(watcher, outcome, on_message)
+                last_reports(watcher, outcome, on_message, AFTER_STOP_WAIT)
             raise
         finally:
             self._primary.unwatch(watcher)
-
-    def _check_progress(self, outcome: MotionWatch, status: state.RobotStatus, elapsed: float,
-                        timeout: float) -> None:
-        """ProgramError when the program never started, MotionTimeoutError when it ran past `timeout` (the time it
-        spent paused not counted)."""
-        if not outcome.started and not outcome.paused and elapsed > START_TIMEOUT + self.link_delay:
-            raise ProgramError(f"the controller did not start program {outcome.name} within "
-                               f"{START_TIMEOUT + self.link_delay:.1f} s")
-        if elapsed - outcome.paused_seconds(time.monotonic()) > timeout:
-            raise MotionTimeoutError(
-                f"program {outcome.name} did not finish within {timeout:.2f} s (derived from its trapezoidal "
-                f"duration and the speed slider, plus the link's measured round trip of "
-                f"{self.link_delay:.3f} s); the arm is {outcome.distance(status):.4f} rad from target")
 
     def _armed(self, program: str, name: str) -> str:
         """`program` armed on the heartbeat's watchdog (started now if it is not yet), or as it is without one;
@@ -521,28 +530,12 @@ class Robot:
         self._heartbeat.watch_gaps()
         return armed(program, name)
 
-    def _last_reports(self, watcher: object, outcome: MotionWatch, on_message: Callable[[object], None]) -> None:
-        """After a failed or interrupted program: hand `on_message` the messages it sent up to its end (at most
-        AFTER_STOP_WAIT s), so a caller following its reports (the step it had reached) misses none."""
-        deadline = time.monotonic() + AFTER_STOP_WAIT
-        try:
-            while not outcome.stopped and time.monotonic() < deadline:
-                for message in drain(watcher):
-                    outcome.note_message(message)
-                    try:
-                        on_message(message)
-                    except UR3DQError:
-                        pass
-                time.sleep(0.01)
-        except KeyboardInterrupt:   # a second Ctrl-C: stop reading, the stop was sent already
-            pass
-
     def _stop_after(self, error: BaseException) -> None:
         """Best-effort stopj after a failed or interrupted motion; a failing stop is attached, never raised."""
         try:
             self._send_stop(SAFE_STOP_DECELERATION)
         except RobotError as stop_error:
-            error.add_note(f"ur3dq: sending stopj after this error also failed: {stop_error}")
+            add_note(error, f"ur3dq: sending stopj after this error also failed: {stop_error}")
 
     def _send_stop(self, a: float) -> None:
         """Send a `stopj` program on the primary connection, or on a fresh one if that is gone (never via urx,
@@ -573,23 +566,23 @@ class Robot:
 
     def digital_in(self, pin: int, family: str = "standard") -> bool:
         """True while digital input `pin` of `family` ('standard' 0-7, 'configurable' 0-7, 'tool' 0-1) is on."""
-        return bool(self._fresh_status().digital_inputs & state.io_bit(family, pin))
+        return bool(self.io_state().digital_in & io_bit(family, pin))
 
     def digital_out(self, pin: int, family: str = "standard") -> bool:
         """True while digital output `pin` of `family` ('standard', 'configurable', 'tool') is on."""
-        return bool(self._fresh_status().digital_outputs & state.io_bit(family, pin))
+        return bool(self.io_state().digital_out & io_bit(family, pin))
 
     def outputs_on(self) -> list[tuple[str, int]]:
         """(family, pin) of every digital output that is on now, e.g. [('tool', 0)]."""
-        return state.outputs_on(self._fresh_status().digital_outputs)
+        return self.io_state().outputs_on()
 
     def _set_output(self, family: str, pin: int, on: bool) -> None:
-        bit = state.io_bit(family, pin)
+        bit = io_bit(family, pin)
         if not isinstance(on, bool):
             raise ValueError(f"{family} digital output {pin}: on must be True or False, got {on!r}")
         self._rtde_inputs().set_digital_out(family, pin, on)
         deadline = time.monotonic() + OUTPUT_TIMEOUT
-        while bool(self._fresh_status().digital_outputs & bit) != on:
+        while bool(self.io_state().digital_out & bit) != on:
             if time.monotonic() > deadline:
                 raise RobotError(f"{self.host} does not show {family} digital output {pin} "
                                  f"{'on' if on else 'off'} {OUTPUT_TIMEOUT:g} s after it was set")
@@ -610,7 +603,7 @@ class Robot:
         self._dashboard.power_on()
         self._wait_for_mode({state.ROBOT_MODE_IDLE, state.ROBOT_MODE_RUNNING}, "power on")
 
-    def power_off(self):
+    def power_off(self) -> None:
         """Power the arm off (brakes engage) and wait until it is POWER_OFF."""
         self._dashboard.power_off()
         self._wait_for_mode({ROBOT_MODE_POWER_OFF}, "power off")
@@ -673,9 +666,10 @@ class Robot:
                                       timeout=self._backend.freeze_timeout):
             raise ConnectionLostError(f"the primary interface of {self.host} sent no robot state for "
                                       f"{self._backend.freeze_timeout} s")
-        return self._primary.robot_mode.control_mode == 1
+        robot_mode = self._primary.robot_mode
+        return robot_mode is not None and robot_mode.control_mode == 1
 
-    def _wait_for_program(self, reached: Callable[[state.RobotStatus], bool]) -> bool:
+    def _wait_for_program(self, reached: Callable[[RobotStatus], bool]) -> bool:
         """Wait (≤ PROGRAM_STATE_TIMEOUT) until reached(status); False if it never was."""
         deadline = time.monotonic() + PROGRAM_STATE_TIMEOUT
         while not reached(self.state()):

@@ -6,13 +6,15 @@ import rtde_receive
 
 from ur3dq.errors import ConnectionLostError, RobotConnectionError
 from ur3dq.robot import state
+from ur3dq.robot.io_state import IOState
 from ur3dq.robot.probe import probe_rtde
 
 # Only what the driver reads, so no version-gated default variable can make the controller refuse the recipe.
 RTDE_VARIABLES = [
     "timestamp", "actual_q", "actual_qd", "actual_TCP_pose", "robot_mode", "safety_mode", "runtime_state",
     "robot_status_bits", "safety_status_bits", "speed_scaling", "target_speed_fraction",
-    "actual_digital_input_bits", "actual_digital_output_bits",
+    "actual_digital_input_bits", "actual_digital_output_bits", "standard_analog_input0", "standard_analog_input1",
+    "standard_analog_output0", "standard_analog_output1",
 ]
 
 
@@ -23,7 +25,7 @@ class RTDEBackend:
     poll_period = 0.001  # RTDE delivers every 2-8 ms; polling faster than that only burns CPU
     freeze_timeout = 1.0  # 125 CB3 cycles without fresh data: frozen, not just late (even on a loaded machine)
 
-    def __init__(self, host, primary):
+    def __init__(self, host, primary) -> None:
         self.host = host
         self.primary = primary
         probe_rtde(host)  # bounded: ur_rtde's own constructor would block without limit on a silent port
@@ -77,8 +79,6 @@ class RTDEBackend:
                 target_speed_fraction=receive.getTargetSpeedFraction(),
                 age=now - self._last_fresh,
                 program_paused=state.program_paused_from(runtime_state),
-                digital_inputs=int(receive.getActualDigitalInputBits()),
-                digital_outputs=int(receive.getActualDigitalOutputBits()),
             )
         finally:
             # An error raised here (or a KeyboardInterrupt) keeps this frame in its traceback, and a caller may keep
@@ -87,11 +87,24 @@ class RTDEBackend:
             receive = None
         return state.validated(status, f"the RTDE stream from {self.host}")
 
-    def send_program(self, script):
+    def io_status(self) -> IOState:
+        """The I/O and the program's runtime state from the newest RTDE package."""
+        receive = self._receive
+        try:
+            if receive is None or not receive.isConnected():
+                raise ConnectionLostError(f"the RTDE state stream from {self.host} is closed")
+            return IOState(int(receive.getActualDigitalInputBits()), int(receive.getActualDigitalOutputBits()),
+                           (receive.getStandardAnalogInput0(), receive.getStandardAnalogInput1()),
+                           (receive.getStandardAnalogOutput0(), receive.getStandardAnalogOutput1()),
+                           int(receive.getRuntimeState()))
+        finally:
+            receive = None   # as in status(): no frame may keep the interface
+
+    def send_program(self, script) -> None:
         """Send URScript on the open primary connection (port 30001)."""
         self.primary.send_script(script)
 
-    def close(self):
+    def close(self) -> None:
         """Disconnect the RTDE stream and destroy ur_rtde's interface now (idempotent).
 
         ur_rtde's RTDEReceiveInterface destructor waits 0.5 s holding the GIL (`disconnect()` waits as long but

@@ -13,7 +13,7 @@ from collections.abc import Callable
 import rtde_io
 
 from ur3dq.errors import RobotConnectionError
-from ur3dq.robot.state import io_bit
+from ur3dq.robot.io_state import io_bit
 
 _OUTPUT_SETTERS = {"standard": "setStandardDigitalOut", "configurable": "setConfigurableDigitalOut",
                    "tool": "setToolDigitalOut"}

@@ -44,8 +44,8 @@ class RobotStatus:
     """One reading of the controller: joints (rad), TCP pose (UR pose vector), modes, flags and speed fractions.
 
     `age` is how many seconds ago the state stream last delivered fresh data (large ⇒ frozen stream).
-    `program_paused` is True while a program is paused (not running, not ended); `digital_inputs` and
-    `digital_outputs` are the digital I/O bits: 0-7 standard, 8-15 configurable, 16-17 tool.
+    `program_paused` is True while a program is paused (not running, not ended). The I/O is read apart
+    (Robot.io_state, ur3dq.robot.io_state).
     """
 
     joints: np.ndarray
@@ -60,8 +60,6 @@ class RobotStatus:
     target_speed_fraction: float
     age: float
     program_paused: bool = False
-    digital_inputs: int = 0
-    digital_outputs: int = 0
 
     @property
     def robot_mode_name(self) -> str:
@@ -72,28 +70,6 @@ class RobotStatus:
     def safety_mode_name(self) -> str:
         """The safety mode's name, e.g. 'NORMAL'."""
         return safety_mode_name(self.safety_mode)
-
-
-#: Where each output (and input) family's pins start in the digital I/O bit fields, and how many pins it has.
-IO_FIRST_BIT = {"standard": 0, "configurable": 8, "tool": 16}
-IO_PIN_COUNT = {"standard": 8, "configurable": 8, "tool": 2}
-
-
-def io_bit(family: str, pin: int) -> int:
-    """The bit of digital I/O `pin` of `family` ('standard', 'configurable', 'tool') in the I/O bit fields;
-    ValueError naming the valid pins."""
-    count = IO_PIN_COUNT.get(family)
-    if count is None:
-        raise ValueError(f"I/O family {family!r} is not one of {', '.join(IO_PIN_COUNT)}")
-    if isinstance(pin, bool) or not isinstance(pin, int) or not 0 <= pin < count:
-        raise ValueError(f"{family} digital I/O pin {pin!r} does not exist (0..{count - 1})")
-    return 1 << (IO_FIRST_BIT[family] + pin)
-
-
-def outputs_on(bits: int) -> list[tuple[str, int]]:
-    """The (family, pin) of every digital output whose bit is set in `bits`, standard first."""
-    return [(family, pin) for family, count in IO_PIN_COUNT.items() for pin in range(count)
-            if bits & io_bit(family, pin)]
 
 
 def robot_mode_name(mode: int) -> str:

@@ -14,7 +14,9 @@ from urx.urrobot import URRobot
 
 from ur3dq.errors import ConnectionLostError, RobotConnectionError
 from ur3dq.robot import state
+from ur3dq.robot.io_state import IOState
 
+RUNTIME_STOPPED, RUNTIME_PLAYING, RUNTIME_PAUSED = 1, 2, 4   # RTDE runtime_state codes (io_state.RUNTIME_STATE_NAMES)
 # urx hands a program to its reader thread and waits on a condition with no timeout; if that thread has died
 # (urx ends it on any 0.5 s gap in the stream) the wait would never return, so it is bounded here.
 SEND_TIMEOUT = 2.0
@@ -27,7 +29,7 @@ class URXBackend:
     poll_period = 0.005  # urx and the primary interface update at 10 Hz
     freeze_timeout = 1.5  # fifteen missed 10 Hz packets (urx itself gives up after a 0.5 s silence)
 
-    def __init__(self, host, primary):
+    def __init__(self, host, primary) -> None:
         self.host = host
         self.primary = primary
         self._robot = _open_urx(host)
@@ -37,7 +39,7 @@ class URXBackend:
         """True while urx's reader thread and our primary reader both run."""
         return self._robot.secmon.is_alive() and self.primary.alive
 
-    def reconnect(self):
+    def reconnect(self) -> None:
         """Open a fresh urx connection (the primary reader is reconnected by the Robot)."""
         self._shut(self._robot)
         self._robot = _open_urx(self.host)
@@ -53,8 +55,6 @@ class URXBackend:
         if mode is None or "JointData" not in data or "CartesianInfo" not in data:
             raise ConnectionLostError(f"no complete robot state from {self.host} yet")
         joint_data, cartesian = data["JointData"], data["CartesianInfo"]
-        # urx 0.11 misreads Masterboard Data of 3.x controllers: the I/O bits come from our own primary reader
-        io = self.primary.digital_io
         now = time.monotonic()
         urx_age = time.time() - self._robot.secmon.lastpacket_timestamp
         return state.validated(state.RobotStatus(
@@ -70,9 +70,18 @@ class URXBackend:
             target_speed_fraction=mode.target_speed_fraction,
             age=max(urx_age, now - self.primary.last_state_time),
             program_paused=mode.program_paused,
-            digital_inputs=io.input_bits if io is not None else 0,
-            digital_outputs=io.output_bits if io is not None else 0,
         ), f"the urx/primary state stream from {self.host}", safety_mode_reported=False)
+
+    def io_status(self) -> IOState:
+        """The I/O from the newest masterboard data and the program state from the newest robot mode data, both as
+        ur3dq's primary reader parsed them (urx 0.11 misreads 3.x controllers' masterboard data: its digital bits
+        read 0 and its analog values garbage)."""
+        board, mode = self.primary.board_io, self.primary.robot_mode
+        if board is None or mode is None:
+            raise ConnectionLostError(f"no masterboard data from {self.host} yet")
+        runtime = RUNTIME_PAUSED if mode.program_paused else RUNTIME_PLAYING if mode.program_running else \
+            RUNTIME_STOPPED
+        return IOState(board.digital_in, board.digital_out, board.analog_in, board.analog_out, runtime)
 
     def send_program(self, script):
         """Send URScript through urx (port 30002); ConnectionLostError if urx cannot hand it over in time."""
@@ -84,12 +93,12 @@ class URXBackend:
         if sender.is_alive():
             raise ConnectionLostError(f"urx could not send the program to {self.host} within {SEND_TIMEOUT} s")
 
-    def close(self):
+    def close(self) -> None:
         """Stop urx's reader and close its socket (idempotent)."""
         self._shut(self._robot)
 
     @staticmethod
-    def _shut(robot):
+    def _shut(robot) -> None:
         """Close a URRobot without hanging. A healthy urx reader sees its stop flag after the next 10 Hz packet;
         on a dead or frozen peer it never would (it loops on recv), so then its socket is closed under it."""
         secmon = robot.secmon
@@ -142,15 +151,17 @@ class _QuietSecondaryMonitor(urx.ursecmon.SecondaryMonitor):
     """urx's 30002 reader thread, ending quietly when the stream breaks or falls silent (the error kept in `error`):
     urx's own run() dies there with a traceback on stderr, while the driver reports the loss as ConnectionLostError."""
 
+    _dataqueue: bytes   # urx's receive buffer
+
     error = None  # a class default: the thread starts inside urx's __init__ and may end before it returns
 
-    def start(self):
+    def start(self) -> None:
         # urx's reader is not a daemon: on a stream of garbage it spins looking for a packet forever, and a failed
         # connection (urx raises from its constructor, so nobody holds the thread) kept the process from exiting.
         self.daemon = True
         super().start()
 
-    def run(self):
+    def run(self) -> None:
         try:
             super().run()
         except OSError as error:  # closed, reset, or urx's 0.5 s receive timeout
@@ -169,7 +180,7 @@ class _QuietSecondaryMonitor(urx.ursecmon.SecondaryMonitor):
                 raise ConnectionResetError("the controller closed urx's connection (port 30002)")
             self._dataqueue += data
 
-    def wait(self, timeout=0.5):
+    def wait(self, timeout: float=0.5):
         """urx's wait for a fresh packet; on its timeout the reader is ended and its socket closed before the
         exception leaves (urx's constructor raises it, and the half-built connection would otherwise live on)."""
         try:
@@ -188,7 +199,7 @@ class _URRobot(URRobot):
     """urx's URRobot on a _QuietSecondaryMonitor (URRobot.__init__ hard-codes its monitor class); the monitor's
     constructor already waits for the first packet, and the 125 Hz real-time monitor stays off as in urx."""
 
-    def __init__(self, host):
+    def __init__(self, host) -> None:
         self.logger = logging.getLogger("urx")
         self.host = host
         self.csys = None

@@ -3,6 +3,8 @@ freedrive, protective stop.
 
 Blocking moves go through `ctx.run_motion`, which returns when this motion has ended (or at its blend radius).
 """
+import functools
+
 import numpy as np
 
 from sim_ursim import kinematics
@@ -118,7 +120,7 @@ def movec(ctx: ThreadContext, pose_via, pose_to, a=1.2, v=0.25, r=0, mode=0):
     step = float(np.linalg.norm(poses[1][:3] - poses[0][:3]))
     for index, pose in enumerate(poses):
         blend = float(r) if index == len(poses) - 1 else 0.4 * step
-        ctx.run_motion(lambda pose=pose, blend=blend: controller_call(controller.movel, pose, a, v, 0.0, blend))
+        ctx.run_motion(functools.partial(controller_call, controller.movel, pose, a, v, 0.0, blend))
 
 
 def _wait_for(ctx: ThreadContext, seconds):
