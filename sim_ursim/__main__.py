@@ -115,24 +115,42 @@ def fault(kind, host, port, seconds, reason):
     click.echo(reply["message"])
 
 
-@main.command(name="move-by-hand")
-@click.argument("joints")
-@click.option("--host", default="127.0.0.1", show_default=True, help="Address of the running simulator.")
+#: Where `move-by-hand` finds the simulator when --host is not given: the address ur3dq's tools use.
+HOST_VARIABLES = ("SIM_URSIM_HOST", "UR3DQ_HOST")
+
+
+@main.command(name="move-by-hand", context_settings={"ignore_unknown_options": True})
+@click.argument("joints", nargs=-1, required=True)
+@click.option("--host", envvar=list(HOST_VARIABLES), default="127.0.0.1", show_default=True,
+              help="Address of the running simulator (env SIM_URSIM_HOST, else UR3DQ_HOST).")
 @click.option("--port", default=CONTROL_PORT, show_default=True, help="Its fault-control port.")
 def move_by_hand(joints, host, port):
-    """Hand-guiding demo: switch freedrive on, push the arm to JOINTS ('a,b,c,d,e,f' rad), switch it off."""
+    """Push the simulated arm by hand to JOINTS (six values in rad: 'a,b,c,d,e,f' or a b c d e f; negative values
+    need no `--`), as an operator in freedrive would. When freedrive is already on (a `record-pose --teach` is
+    running) it stays on; otherwise it is switched on for the push and off again. For people, `ur3dq jog` moves the
+    arm with the keyboard (simulator or robot alike)."""
     try:
-        q = parse_joint_list(joints)
+        q = parse_joint_list(" ".join(joints))
     except ValueError as error:
         raise click.BadParameter(str(error), param_hint="JOINTS") from None
-    for command, arguments in (("freedrive", {"on": True}), ("move-by-hand", {"q": q}), ("freedrive", {"on": False})):
-        try:
-            reply = send_request(host, command, port=port, **arguments)
-        except OSError as error:
-            raise click.ClickException(f"no simulator control channel on {host}:{port}: {error}") from None
-        if not reply.get("ok"):
-            raise click.ClickException(reply.get("error", "refused"))
-    click.echo(f"arm moved by hand to {q}")
+    freedrive_was_on = bool(_control(host, port, "status")["state"].get("freedrive"))
+    requests = [("move-by-hand", {"q": q})]
+    if not freedrive_was_on:
+        requests = [("freedrive", {"on": True}), *requests, ("freedrive", {"on": False})]
+    for command, arguments in requests:
+        _control(host, port, command, **arguments)
+    click.echo(f"arm moved by hand to {q}" + (" (freedrive stays on)" if freedrive_was_on else ""))
+
+
+def _control(host, port, command, **arguments):
+    """The reply of one control-channel request; ClickException naming the problem when it fails."""
+    try:
+        reply = send_request(host, command, port=port, **arguments)
+    except OSError as error:
+        raise click.ClickException(f"no simulator control channel on {host}:{port}: {error}") from None
+    if not reply.get("ok"):
+        raise click.ClickException(reply.get("error", "refused"))
+    return reply
 
 
 if __name__ == "__main__":

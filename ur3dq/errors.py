@@ -54,3 +54,19 @@ class SafetyCheckError(RobotError, ValueError):
 
 class InvalidStateError(RobotError):
     """The controller sent state that cannot be true (not finite, implausible magnitude, unknown mode)."""
+
+
+def add_note(error: BaseException, note: str) -> None:
+    """Attach `note` to `error` as Python 3.11's BaseException.add_note does, on Python 3.10 too (there the notes
+    are kept in `__notes__` for ur3dq's own error lines, and tracebacks do not show them).
+
+    >>> error = ValueError("bad")
+    >>> add_note(error, "(during step 2)")
+    >>> error.__notes__
+    ['(during step 2)']
+    """
+    notes = getattr(error, "__notes__", None)
+    if notes is None:
+        notes = []
+        error.__notes__ = notes   # type: ignore[attr-defined]
+    notes.append(note)

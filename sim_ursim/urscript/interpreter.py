@@ -306,6 +306,7 @@ class Execution:
             self._note_end("ran to its end")
         finally:
             self.controller.release_speed_hold(context)  # an ended thread sends no next command
+            self.controller.release_freedrive(self)  # a program's freedrive ends with it, as on a controller
             context.done.set()
             self.scheduler.release()
             self.cancel()

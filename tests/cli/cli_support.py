@@ -1,9 +1,15 @@
 """Helpers of the CLI tests: the environment of a `ur3dq` run, error checks, and the simulated arm they drive."""
 import contextlib
+import fcntl
 import os
+import pty
+import re
 import signal
+import struct
 import subprocess
 import sys
+import termios
+import threading
 import time
 from pathlib import Path
 
@@ -115,3 +121,50 @@ def run_poses_mid_move(arm, run_cli, tmp_path, start, target, speed):
             assert time.monotonic() < deadline and process.poll() is None, "the arm never started moving"
             time.sleep(0.02)
         yield process
+
+
+class Terminal:
+    """`ur3dq ARGS` on a pseudo-terminal of 80×24: keys in, the screen's text out (escape codes dropped)."""
+
+    def __init__(self, tmp_path, *args):
+        master, slave = pty.openpty()
+        fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 80, 0, 0))
+        env = cli_env(tmp_path, COLUMNS="80", LINES="24", TERM="xterm")
+        self.process = subprocess.Popen([UR3DQ, *map(str, args)], cwd=tmp_path, env=env, stdin=slave,
+                                        stdout=slave, stderr=slave, close_fds=True)
+        os.close(slave)
+        self.master, self.text, self._lock = master, "", threading.Lock()
+        self._reader = threading.Thread(target=self._read, daemon=True)
+        self._reader.start()
+
+    def _read(self):
+        while True:
+            try:
+                chunk = os.read(self.master, 4096)
+            except OSError:
+                return
+            if not chunk:
+                return
+            with self._lock:
+                self.text += re.sub(r"\x1b\[[0-9;?]*[A-Za-z]", "", chunk.decode("utf-8", "replace"))
+
+    def press(self, keys):
+        os.write(self.master, keys.encode())
+
+    def wait_for(self, fragment, timeout=20.0):
+        """Wait until the screen has shown `fragment` since the last wait; AssertionError with the screen if not."""
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            with self._lock:
+                at = self.text.find(fragment)
+                if at >= 0:
+                    self.text = self.text[at + len(fragment):]
+                    return
+            time.sleep(0.02)
+        raise AssertionError(f"{fragment!r} never shown; the screen ends with {self.text[-600:]!r}")
+
+    def close(self):
+        if self.process.poll() is None:
+            self.process.kill()
+        self.process.wait(10)
+        os.close(self.master)

@@ -112,6 +112,8 @@ def test_robot_commands_match_their_schemas(run_cli, arm, program):
     validate(("record-pose",), run_cli(*host, "record-pose", "--name", "here", "--yes", "--json"))
     validate(("poses", "retouch"), run_cli(*host, "poses", "retouch", "here", "--yes", "--json"))
     validate(("run-poses",), run_cli(*host, "run-poses", "--from", "demo-1", "--to", "demo-1", "--yes", "--json"))
+    validate(("move-to",), run_cli(*host, "move-to", "here", "--yes", "--json"))
+    validate(("jog",), run_cli(*host, "jog", "--json", input="2+rq"))   # without a terminal: keys from stdin
 
 
 def test_simulator_commands_match_their_schemas(run_cli, tmp_path):

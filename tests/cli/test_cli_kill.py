@@ -38,3 +38,25 @@ def test_the_arm_stops_by_itself_when_run_poses_dies_mid_move(arm, run_cli, tmp_
     assert travel < TRAVEL_BOUND, f"the arm travelled {travel:.4f} rad after ur3dq died"
     assert rest_after < REST_BOUND, f"the arm came to rest {rest_after:.2f} s after ur3dq died"
     assert np.max(np.abs(arm.joints() - TARGET)) > 0.1, "the arm reached the target: nothing stopped it"
+
+
+def test_kill_9_during_teach_ends_freedrive_within_0_3_s(arm, tmp_path):
+    """`record-pose --teach` holds freedrive with a program armed on the heartbeat like every motion: when ur3dq
+    dies, the controller's watchdog stops that program and freedrive ends with it."""
+    import subprocess
+
+    from cli_support import cli_process
+    from sim_ursim.control_channel import send_request
+
+    arm.place(START)
+    with cli_process(tmp_path, "--host", arm.host, "record-pose", "--teach", stdin=subprocess.PIPE) as process:
+        assert "Freedrive is on" in process.stderr.readline()
+        assert send_request(arm.host, "status")["state"]["freedrive"]
+        killed_at = time.monotonic()
+        process.send_signal(signal.SIGKILL)
+        while send_request(arm.host, "status")["state"]["freedrive"]:
+            assert time.monotonic() - killed_at < 5, "freedrive is still on 5 s after ur3dq died"
+            time.sleep(0.005)
+        ended_after = time.monotonic() - killed_at
+    assert ended_after < 0.3, f"freedrive ended {ended_after:.3f} s after ur3dq died"
+    assert not send_request(arm.host, "status")["state"]["program_running"]

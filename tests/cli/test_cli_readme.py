@@ -28,6 +28,7 @@ def test_the_python_api_tour_runs_as_written(tmp_path):
     ended = re.findall(r"^(pick|place) ended ([0-9.]+) mm from the recorded pose$", result.stdout, re.M)
     assert [name for name, _ in ended] == ["pick", "place"], result.stdout
     assert all(float(mm) < 0.1 for _, mm in ended)
+    assert "gripper on: True" in result.stdout and "path check: clear" in result.stdout
     assert (tmp_path / "api-poses.json").exists()
     # the cell program at its end reported every step as it started, in order
     steps = re.findall(r"^(\d) (approach|pick|grip|settle|retract)$", result.stdout, re.M)

@@ -28,7 +28,9 @@ def test_a_polite_signal_mid_move_stops_the_arm(arm, run_cli, tmp_path, signum, 
         process.send_signal(signum)
         _, stderr = process.communicate(timeout=20)
     assert process.returncode == code, stderr
-    assert stderr.strip().splitlines()[-1] == f"Error: interrupted by {signal.Signals(signum).name}"
+    assert stderr.strip().splitlines()[-1] == (f"Error: interrupted by {signal.Signals(signum).name} (during move 1 "
+                                                f"of 1, to 'target') — to go on: ur3dq --host {arm.host} run-poses "
+                                                "--resume")
     deadline = time.monotonic() + 5
     while np.max(np.abs(arm.joint_speeds())) > 1e-6:  # the arm comes to rest by itself
         assert time.monotonic() < deadline, "the arm still moves after the signal"

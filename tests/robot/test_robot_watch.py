@@ -4,7 +4,7 @@ import pytest
 
 from ur3dq.errors import ProgramError
 from ur3dq.robot import primary, state
-from ur3dq.robot.robot import SETTLE_TIME, _MotionWatch
+from ur3dq.robot.motion_watch import SETTLE_TIME, MotionWatch
 
 TARGET = np.array([0.5, 0, 0, 0, 0, 0])
 
@@ -20,7 +20,7 @@ def key(title, name="p"):
 
 
 def watch(running_at_send=False):
-    return _MotionWatch("p", TARGET, running_at_send=running_at_send)
+    return MotionWatch("p", TARGET, running_at_send=running_at_send)
 
 
 def test_done_when_the_program_ended_and_the_arm_rests_on_target():
@@ -118,7 +118,7 @@ class _Beats:
 def test_a_stop_after_a_heartbeat_gap_names_the_heartbeat_watchdog(gap, named):
     """The controller's key message does not say why a program stopped; a heartbeat that went a watchdog period
     without a write is the likely cause (the flaky runs: gaps of 114-155 ms in a starved test process)."""
-    outcome = _MotionWatch("p", TARGET, running_at_send=False, heartbeat=_Beats(gap))
+    outcome = MotionWatch("p", TARGET, running_at_send=False, heartbeat=_Beats(gap))
     outcome.finished(status(0.2, running=True, moving=True), 0.0)
     outcome.finished(status(0.3, running=False), 0.1)
     with pytest.raises(ProgramError) as caught:

@@ -1,5 +1,7 @@
 """`python -m sim_ursim` / `sim-ursim` as a person runs them: a real subprocess, real clients, the fault command."""
 import json
+import os
+import socket
 import subprocess
 import sys
 import time
@@ -70,6 +72,36 @@ def test_hand_guiding_command_moves_the_arm():
         assert "q [+0.2000 -1.0000 +1.0000 -1.5000 -1.5000 +0.3000]" in status["message"]   # for people
         assert status["state"]["q"] == pytest.approx([0.2, -1, 1, -1.5, -1.5, 0.3], abs=1e-9)  # for programs
         assert status["state"]["robot_mode"] == "RUNNING" and status["state"]["program_running"] is False
+
+
+def test_hand_guiding_takes_negative_joints_and_the_host_from_the_environment_and_keeps_a_teach_freedrive():
+    """`move-by-hand -0.2 -1 ...` needs no `--`; UR3DQ_HOST (ur3dq's own address variable) names the simulator;
+    when a program holds freedrive (`record-pose --teach`), pushing the arm leaves it on."""
+    with simulator_process() as sim:
+        client = dashboard_client.DashboardClient(sim.host)
+        client.connect()
+        client.brakeRelease()
+        deadline = time.monotonic() + 10
+        while client.robotmode() != "Robotmode: RUNNING" and time.monotonic() < deadline:
+            time.sleep(0.05)
+        client.disconnect()
+        environment = {**os.environ, "UR3DQ_HOST": sim.host}
+        environment.pop("SIM_URSIM_HOST", None)
+        pushed = subprocess.run([sys.executable, "-m", "sim_ursim", "move-by-hand", "-0.2", "-1", "1", "-1.5",
+                                 "-1.5", "0.3"], capture_output=True, text=True, timeout=30, env=environment)
+        assert pushed.returncode == 0, pushed.stderr
+        assert send_request(sim.host, "status")["state"]["q"] == pytest.approx([-0.2, -1, 1, -1.5, -1.5, 0.3])
+        with socket.create_connection((sim.host, 30001)) as primary:   # a teach program, as record-pose sends it
+            primary.sendall(b"def teach():\n  freedrive_mode()\n  sleep(60)\nend\n")
+            deadline = time.monotonic() + 5
+            while not send_request(sim.host, "status")["state"]["freedrive"]:
+                assert time.monotonic() < deadline, "freedrive never came on"
+                time.sleep(0.02)
+            again = subprocess.run([sys.executable, "-m", "sim_ursim", "move-by-hand", "-0.1,-1,1,-1.5,-1.5,0.3"],
+                                   capture_output=True, text=True, timeout=30, env=environment)
+        assert again.returncode == 0 and "freedrive stays on" in again.stdout, again.stderr
+        status = send_request(sim.host, "status")["state"]
+        assert status["freedrive"] and status["program_running"] and status["q"][0] == pytest.approx(-0.1)
 
 
 def test_fault_shutdown_ends_the_process():

@@ -171,6 +171,26 @@ def test_pause_brings_a_moving_arm_to_rest_and_resume_finishes_the_move(controll
     np.testing.assert_allclose(controller.state().actual_q, target, atol=1e-9)
 
 
+@pytest.mark.parametrize("end", ["stop", "replace", "finish"])
+def test_freedrive_a_program_switched_on_ends_with_the_program(controller, end):
+    """As on a controller: freedrive_mode() lasts while its program runs (a stopped, replaced or finished program
+    leaves no freedrive behind); the teach button's freedrive is the operator's and stays."""
+    runner = controller.program_runner
+    seconds = 0.1 if end == "finish" else 60
+    assert runner.submit(f"def teach():\n  freedrive_mode()\n  sleep({seconds})\nend\n", "test")
+    assert wait_for(lambda: controller.state().freedrive, timeout=2)
+    if end == "stop":
+        runner.stop()
+    elif end == "replace":
+        assert runner.submit('def other():\n  textmsg("next")\n  sleep(5)\nend\n', "test")
+    assert wait_for(lambda: not controller.state().freedrive, timeout=2)
+    runner.stop()
+    controller.set_freedrive(True)   # the teach button
+    assert runner.submit('def short():\n  textmsg("hi")\nend\n', "test")
+    assert runner.wait_until_stopped(2)
+    assert controller.state().freedrive
+
+
 def test_secondary_program_runs_alongside_and_leaves_program_state_alone(controller):
     runner = controller.program_runner
     runner.submit("def main_program():\n  sleep(0.5)\nend\n")

@@ -298,9 +298,12 @@ def show_error(text: str) -> None:
 
 
 def _report_interrupt(interrupt):
-    """Print the one-line interruption error; its exit code (130 for Ctrl-C, 128 + n for signal n)."""
+    """Print the one-line interruption error (with its notes: the step a run was in, how to go on); its exit code
+    (130 for Ctrl-C, 128 + n for signal n)."""
     name = signal_name(interrupt)
-    click.echo(f"Error: interrupted by {name}" if name else "Error: interrupted", err=True)
+    text = f"interrupted by {name}" if name else str(interrupt) or "interrupted"
+    notes = getattr(interrupt, "__notes__", None) or []
+    click.echo(f"Error: {' '.join(' '.join([text, *notes]).split())}", err=True)
     return exit_code_for_interrupt(interrupt)
 
 

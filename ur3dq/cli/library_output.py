@@ -21,6 +21,7 @@ LIBRARY_LINES = (
     ("boost system Exception", DROPPED_NOTE),
     ("closed the connection", DROPPED_NOTE),
     ("Lost connection to robot", DROPPED_NOTE),
+    ("write: Broken pipe", DROPPED_NOTE),   # RTDEIOInterface (the heartbeat's inputs) writing to a dropped socket
     ("Could not receive data from robot", DROPPED_NOTE),
     ("is disconnected, reconnecting", DROPPED_NOTE),
     ("Reconnecting...", None),
@@ -30,7 +31,7 @@ LIBRARY_LINES = (
     ("Error: Could not connect to: ", None),  # the driver raises RobotConnectionError with its own words
 )
 LIBRARY_PREFIXES = ("RTDEReceiveInterface", "RTDEControlInterface", "RTDEIOInterface", "DashboardClient", "RTDE",
-                    "Reconnecting", "Warning! ", "Error: Could not connect to: ")
+                    "Reconnecting", "Warning! ", "Error: Could not connect to: ", "write: Broken pipe")
 NOTE_REPEAT_PERIOD = 2.0  # one drop makes several threads print; the user needs one note
 
 

@@ -11,13 +11,11 @@ from __future__ import annotations
 import math
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import click
 import numpy as np
 from rich.console import Console
-from rich.markup import escape
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.text import Text
 
 from ur3dq.cli.app import Settings, confirm, emit_json, emit_json_list, robot_session
@@ -34,6 +32,9 @@ from ur3dq.program.script import program_script
 from ur3dq.program.steps import Motion, RelativeWaypoint, Step, Wait, Waypoint, describe
 from ur3dq.store_format import PROGRAM_SCHEMA_VERSION, step_to_dict
 from ur3dq.units import ACCELERATION, ANGLE, DURATION, LENGTH, SPEED, Units, angular_kind, show, to_display, unit_label
+
+if TYPE_CHECKING:
+    from ur3dq.cli.resume_state import ResumeState
 
 # ---------------------------------------------------------------- shared options and edits
 
@@ -304,17 +305,21 @@ def program_part(settings: Settings, start, end):
 
 def run_program_command(settings: Settings, start: str | None, end: str | None, speed_scale: float, dry_run: bool,
                         yes: bool, speed: float, acceleration: float, blend: float, replay_joints: bool,
-                        max_travel: float, cell_path: Path | None = None, full_plan: bool = False) -> None:
+                        max_travel: float, cell_path: Path | None = None, full_plan: bool = False,
+                        resume: ResumeState | None = None) -> None:
     """`run-poses` of a cell program: plan, check, ask, run.
 
     `run-poses` of a cell program (a version-2 store, or --from/--to/--speed-scale): plan, the whole-path check
     (in `cell_path`'s cell if given), then the question under a summary that fits 24 rows (the full table and the
     check's margins with `full_plan` or a dry run), and the run as one URScript program with the running step
-    shown. Speeds SI."""
+    shown and the operator's controls (ur3dq.cli.run_session). Speeds SI. `resume` (a ResumeState) goes on from
+    its step on the arm it stopped on: the plan starts from the arm's actual joints, so its first move is a new
+    path, checked as such."""
     from ur3dq.cli.background_simulator import running_simulator_host
+    from ur3dq.cli.resume_state import store_digest
     from ur3dq.kinematics import robot_model
 
-    err = Console(stderr=True, highlight=False)
+    digest = store_digest(settings.store_path)   # the program the run plans, for a later --resume
     steps, part, first = program_part(settings, start, end)
     defaults = Defaults(joint_acceleration=acceleration, joint_speed=speed, blend=blend)
     if not (math.isfinite(speed_scale) and 0 < speed_scale <= 1):
@@ -328,28 +333,26 @@ def run_program_command(settings: Settings, start: str | None, end: str | None, 
         _present(settings, model, plan, None, first, cell_path, True,
                  f"Plan on a nominal {model.name} (no robot: travel from the first step)")
         return
-    from ur3dq.program.runner import run_plan
+    from ur3dq.cli import run_session
 
     with robot_session(settings, max_joint_travel=max_travel) as robot:
         _warn_recorded_joints(part, robot.model)
+        if resume is not None:
+            resume.require_same_arm(robot)
         plan = plan_program(robot.model, part, robot.joints(), defaults, speed_scale, replay_joints, max_travel,
                             resolve_from=steps)
+        if resume is not None:
+            run_session.announce_resume(settings, plan, first, len(steps), robot.joints())
         _present(settings, robot.model, plan, robot.joints(), first, cell_path, dry_run or full_plan,
                  f"Plan on the {robot.model_name} at {robot.host}", dry_run)
         if dry_run:
             return
         confirm(f"Run {len(plan)} steps ({part[0].name!r} to {part[-1].name!r}) on the arm?", yes, default=False)
-        columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
-                   TimeElapsedColumn())
-        with Progress(*columns, console=err, transient=False) as progress:
-            task = progress.add_task("starting", total=len(plan))
-
-            def shown(position, step):
-                progress.update(task, description=escape(f"step {position}: {step.name} ({step.kind})"),
-                                completed=position - first)
-
-            seconds = run_plan(robot, plan, first, shown)
-            progress.update(task, completed=len(plan), description="done")
+        options = {"speed": speed, "acceleration": acceleration, "blend": blend, "speed_scale": speed_scale,
+                   "replay_joints": replay_joints, "max_travel": max_travel,
+                   "cell": None if cell_path is None else str(cell_path)}
+        record = run_session.run_record(settings, robot, "program", end, options, digest)
+        seconds = run_session.run_program(settings, robot, plan, first, len(steps), record)
     if settings.json:
         emit_json({**plan_json(plan, settings.units), "steps": [p.step.name for p in plan], "seconds": seconds})
     else:

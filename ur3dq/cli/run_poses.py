@@ -2,22 +2,17 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import click
 import numpy as np
 from rich.console import Console
 from rich.text import Text
 
+from ur3dq.cli import run_session
 from ur3dq.cli.app import Settings, cli, confirm, emit_json, robot_session
 from ur3dq.cli.background_simulator import running_simulator_host
-from ur3dq.cli.display import (
-    count_text,
-    print_table,
-    progress_bar,
-    reached_table,
-    recorded_joints_warnings,
-    replay_plan,
-)
+from ur3dq.cli.display import count_text, print_table, reached_table, recorded_joints_warnings, replay_plan
 from ur3dq.cli.options import (
     DEFAULT_ACCELERATION,
     DEFAULT_SPEED,
@@ -33,9 +28,11 @@ from ur3dq.cli.options import (
 from ur3dq.cli.path_report import check_replay, check_verdict, report_path_check, require_passed
 from ur3dq.cli.plan_summary import replay_figures, summary_lines
 from ur3dq.cli.program_workflow import run_program_command
+from ur3dq.cli.resume_state import ResumeState, load_resume_state, store_digest
 from ur3dq.errors import SafetyCheckError, StoreError
 from ur3dq.kinematics import robot_model
 from ur3dq.kinematics.models import URModel
+from ur3dq.pose import Pose
 from ur3dq.replay import (
     TCP_CURRENT,
     TCP_RECORDED,
@@ -77,20 +74,26 @@ def plan_to_json(steps) -> list[dict]:
 @click.option("--to", "end", metavar="N", help="Run the program up to the step N.")
 @click.option("--speed-scale", type=float, default=None, metavar="F",
               help="Scale every step's speed by F (0 < F ≤ 1).")
+@click.option("--resume", is_flag=True,
+              help="Go on from the step where the last run of this store stopped (Ctrl-C, a stop, a fault): first "
+                   "from where the arm is to that step's target by its own move (a new path, checked), then the "
+                   "rest, with that run's options. Refused if the store changed or the arm is another one.")
 @cell_option
 @display_options
 @click.pass_obj
 def run_poses(settings: Settings, names: tuple[str, ...], dry_run: bool, full_plan: bool, yes: bool,
               speed: float | None, acceleration: float | None, blend: float, loops: int, replay_joints: bool,
               max_travel: float | None, tcp_choice: str | None, start: str | None, end: str | None,
-              speed_scale: float | None, cell_path: Path | None) -> None:
+              speed_scale: float | None, resume: bool, cell_path: Path | None) -> None:
     """Replay stored poses (all, or NAMES in that order) with movej.
 
     For each pose: IK of its dual quaternion (every solution FK-checked), the solution nearest the recorded
     joints when the pose has them, else nearest the previous joints. The question comes under a short summary
     (steps, time, travel, the path check's verdict, warnings); --plan shows the whole plan table first. Nothing
-    moves unless every pose is reachable, within --max-travel and through the path check. Ctrl-C stops the arm
-    (stopj). A cell program (after `poses set/offset/add-step`) runs as one URScript program.
+    moves unless every pose is reachable, within --max-travel and through the path check. A cell program (after
+    `poses set/offset/add-step`) runs as one URScript program. While the arm moves: p (or Ctrl-Z, SIGUSR1) pauses
+    it on its path, then r (SIGCONT) resumes, s stops, q quits; Ctrl-C stops the arm (stopj). A run that stops
+    early says where, and --resume goes on from there.
 
     \b
     Examples:
@@ -99,8 +102,14 @@ def run_poses(settings: Settings, names: tuple[str, ...], dry_run: bool, full_pl
       ur3dq run-poses pick place --speed 30deg/s --yes
       ur3dq run-poses --blend 20mm --loop 3 --yes
       ur3dq run-poses --joints --yes            # the recorded joints, no IK
+      ur3dq run-poses --resume                  # go on after a stop
     """
     err = Console(stderr=True, highlight=False)
+    if resume:
+        if names or start or end or loops > 1:
+            raise click.UsageError("--resume goes on with the stopped run's own steps and options: no NAMES, "
+                                   "--from, --to or --loop")
+        return _resume(settings, dry_run, yes, full_plan)
     speed = or_default(speed, DEFAULT_SPEED)
     acceleration = or_default(acceleration, DEFAULT_ACCELERATION)
     max_travel = check_max_travel(or_default(max_travel, DEFAULT_MAX_JOINT_TRAVEL))
@@ -123,9 +132,27 @@ def run_poses(settings: Settings, names: tuple[str, ...], dry_run: bool, full_pl
         _present(settings, model, steps, None, blend, cell_path, loops, True, True,
                  f"Plan on a nominal {model.name} (no robot: travel from the first pose)")
         return
+    options = {"speed": speed, "acceleration": acceleration, "blend": blend, "replay_joints": replay_joints,
+               "max_travel": max_travel, "tcp": tcp_choice, "cell": None if cell_path is None else str(cell_path)}
+    _replay(settings, poses, loops, dry_run, full_plan, yes, options)
+
+
+def _replay(settings: Settings, poses: list[Pose], loops: int, dry_run: bool, full_plan: bool, yes: bool,
+            options: dict[str, Any], resume: ResumeState | None = None) -> None:
+    """Plan the replay of `poses` (`loops` times) on the arm, check its path, ask, and run it watched.
+
+    `options` are the run's (speeds in SI, blend, --joints, --max-travel, --tcp, --cell); `resume` first checks
+    that this is the arm the stopped run was on."""
+    err = Console(stderr=True, highlight=False)
+    digest = store_digest(settings.store_path)
+    speed, acceleration, blend = options["speed"], options["acceleration"], options["blend"]
+    replay_joints, max_travel = options["replay_joints"], options["max_travel"]
+    cell_path = None if options["cell"] is None else Path(options["cell"])
     with robot_session(settings, max_joint_travel=max_travel) as robot:
+        if resume is not None:
+            resume.require_same_arm(robot)
         a, v = speed_and_acceleration(robot.model, speed, acceleration, err, settings.units)
-        poses = _for_the_current_tcp(poses, robot.model.tcp, tcp_choice, replay_joints, err)
+        poses = _for_the_current_tcp(poses, robot.model.tcp, options["tcp"], replay_joints, err)
         for line in recorded_joints_warnings(poses, robot.model):
             click.echo(line, err=True)
         steps = plan_replay(robot.model, poses, robot.joints(), a, v, replay_joints, max_travel)
@@ -137,8 +164,10 @@ def run_poses(settings: Settings, names: tuple[str, ...], dry_run: bool, full_pl
         if dry_run:
             return
         confirm(f"Move the arm through {count_text(len(steps), 'pose')}{f' {loops} times' if loops > 1 else ''}?", yes)
-        with progress_bar(err) as progress:
-            results = execute_plan(robot, steps, a, v, blend, loops, progress)
+        names = [step.pose.name for step in steps] * loops
+        record = run_session.run_record(settings, robot, "replay", None, options, digest)
+        results = run_session.run_replay(
+            settings, robot, lambda progress: execute_plan(robot, steps, a, v, blend, loops, progress), names, record)
     if settings.json:
         emit_json({"plan": plan_to_json(steps), "reached": [
             {"pose": r.step.pose.name, "error_m": r.error_m, "error_rad": r.error_rad, "seconds": r.seconds,
@@ -147,6 +176,23 @@ def run_poses(settings: Settings, names: tuple[str, ...], dry_run: bool, full_pl
     else:
         settings.out.print(reached_table(results, "Where the arm ended (reported TCP vs where it was aimed)",
                                           settings.out.width))
+
+
+def _resume(settings: Settings, dry_run: bool, yes: bool, full_plan: bool) -> None:
+    """`run-poses --resume`: the stopped run of this store, from its step, on the arm it stopped on."""
+    state = load_resume_state(settings.store_path)
+    state.require_same_store(settings.store_path)
+    options = state.options
+    cell_path = None if options["cell"] is None else Path(options["cell"])
+    if state.kind == "program":
+        return run_program_command(settings, state.step, state.end, options["speed_scale"], dry_run, yes,
+                                   options["speed"], options["acceleration"], options["blend"],
+                                   options["replay_joints"], options["max_travel"], cell_path, full_plan,
+                                   resume=state)
+    Console(stderr=True, highlight=False).print(Text(
+        f"Resuming the replay at move {state.position}, to {state.step!r}: first a movej from where the arm is, "
+        "path-checked from its joints."))
+    return _replay(settings, settings.store.select(state.names), 1, dry_run, full_plan, yes, options, resume=state)
 
 
 def _for_the_current_tcp(poses, tcp_now, choice, replay_joints: bool, err: Console):

@@ -23,12 +23,12 @@ class Terminated(KeyboardInterrupt):
         self.signum = signum
 
 
-def exit_code_for_interrupt(interrupt):
+def exit_code_for_interrupt(interrupt: BaseException) -> int:
     """128 + the signal number of a KeyboardInterrupt (SIGINT = 2 unless it is a Terminated)."""
     return 128 + getattr(interrupt, "signum", signal.SIGINT)
 
 
-def signal_name(interrupt):
+def signal_name(interrupt: BaseException) -> str | None:
     """'SIGTERM' / 'SIGHUP' for a Terminated, None for a plain Ctrl-C."""
     signum = getattr(interrupt, "signum", None)
     return signal.Signals(signum).name if signum is not None else None

@@ -14,6 +14,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ur3dq import dqarray
+from ur3dq.dualquat import DualQuaternion
 from ur3dq.pose import MAX_JOINT_ABS
 
 MOVE_TYPES = ("joint", "linear", "process")
@@ -29,9 +30,10 @@ class PathSegment:
     target_joints: (6,) joint target in rad. Required for joint moves unless `target_pose` is given (then the IK
                    solution nearest the start is used); optional for linear/process moves, where the controller
                    reaches the pose by IK continuity: a target on another IK branch is reported.
-    target_pose:   (8,) TCP pose; for linear/process moves required unless `target_joints` is given (its FK). A
-                   unit dual quaternion within dqarray.UNIT_TOLERANCE (normalised), as the IK takes it, its
-                   translation within ±dqarray.MAX_POSE_COORDINATE m.
+    target_pose:   the TCP pose, a DualQuaternion σ or its (8,) coefficients [rw rx ry rz dw dx dy dz]; for
+                   linear/process moves required unless `target_joints` is given (its FK). A unit dual quaternion
+                   within dqarray.UNIT_TOLERANCE (normalised), as the IK takes it, its translation within
+                   ±dqarray.MAX_POSE_COORDINATE m.
     speed:         rad/s (joint) or m/s (linear/process); acceleration rad/s² or m/s² (kept for the time figures).
     blend:         blend radius (m) into the next segment; 0 = stop at the target.
     tcp_offset:    (6,) UR pose vector [x y z rx ry rz] (m, rad, flange frame) of the TCP this move runs with (a
@@ -44,7 +46,7 @@ class PathSegment:
     name: str
     move: str = "joint"
     target_joints: np.ndarray | None = None
-    target_pose: np.ndarray | None = None
+    target_pose: np.ndarray | DualQuaternion | None = None
     speed: float = 1.05
     acceleration: float = 1.4
     blend: float = 0.0
@@ -56,7 +58,8 @@ class PathSegment:
         if self.move not in MOVE_TYPES:
             raise ValueError(f"segment {self.name!r}: move must be one of {', '.join(MOVE_TYPES)}, got {self.move!r}")
         joints = None if self.target_joints is None else _joint_vector(self.target_joints, self.name)
-        pose = None if self.target_pose is None else _unit_pose(self.target_pose, self.name)
+        target_pose = self.target_pose.to_array() if isinstance(self.target_pose, DualQuaternion) else self.target_pose
+        pose = None if target_pose is None else _unit_pose(target_pose, self.name)
         if joints is None and pose is None:
             raise ValueError(f"segment {self.name!r}: give target_joints or target_pose")
         for field, value in (("speed", self.speed), ("acceleration", self.acceleration)):

@@ -21,19 +21,20 @@ from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import JointLimitError, SafetyCheckError, UnreachablePoseError
 from ur3dq.program.resolve import Target, resolve_targets
 from ur3dq.program.steps import Motion, Step, Waypoint, is_waypoint
-from ur3dq.robot import motion
+from ur3dq.robot import motion, safety
 
 if TYPE_CHECKING:
     from ur3dq.kinematics.models import URModel
 
-MAX_TCP_SPEED = 1.0          # m/s: the pendant's default tool speed limit region; faster is refused by clamping
-MAX_TCP_ACCELERATION = 4.0   # m/s²
+# The driver's TCP limits and URScript's movel defaults: one source (ur3dq.robot.safety).
+MAX_TCP_SPEED = safety.MAX_TCP_SPEED
+MAX_TCP_ACCELERATION = safety.MAX_TCP_ACCELERATION
 MIN_JOINT_SPEED = 1e-3       # rad/s: slower, a move of one degree takes over 17 s; a typo, not a wish
 MIN_JOINT_ACCELERATION = 1e-3
 MIN_TCP_SPEED = 1e-3         # m/s: 1 mm/s
 MIN_TCP_ACCELERATION = 1e-3
-DEFAULT_TCP_SPEED = 0.25     # m/s, URScript movel's default
-DEFAULT_TCP_ACCELERATION = 1.2
+DEFAULT_TCP_SPEED = safety.DEFAULT_TCP_SPEED
+DEFAULT_TCP_ACCELERATION = safety.DEFAULT_TCP_ACCELERATION
 
 
 def motion_ranges(model: URModel, move: str) -> tuple[tuple[float, float], tuple[float, float]]:
@@ -144,7 +145,7 @@ def _solve_hinted(model: URModel, targets: Sequence[Target], replay_recorded_joi
         poses = np.array([targets[i].coefficients for i in indices], dtype=float)
         hints = np.array([targets[i].joints_hint for i in indices], dtype=float)
         joints = model.with_tcp(tcp_offset).ik_batch(poses, hints)
-        for i, q, finite in zip(indices, joints, np.isfinite(joints).all(axis=1).tolist()):
+        for i, q, finite in zip(indices, joints, np.isfinite(joints).all(axis=1).tolist(), strict=True):
             if finite:
                 solved[i] = q
     return solved
@@ -226,7 +227,7 @@ def plan_program(model: URModel, steps: Iterable[Step], start_joints: npt.ArrayL
     # controller times movel
     metres, radians = dqarray.pose_distance(poses[:-1], poses[1:]) if len(poses) > 1 else (np.zeros(0),) * 2
     paths = np.maximum(metres, radians)
-    if start_joints is None:  # the first move's start is unknown
+    if start_joints is None and targets:  # the first move's start is unknown
         travels, paths = np.concatenate([[np.nan], travels]), np.concatenate([[np.nan], paths])
     limits = (float(np.min(model.max_joint_speed)), float(np.min(model.max_joint_acceleration)))
     # id(Motion) -> _motion_figures: a big program's waypoints share a few Motion objects
@@ -284,4 +285,4 @@ def _durations(waypoints: Sequence[Step], figures: list[tuple[str, float, float,
     seconds = np.full(len(travels), np.nan)
     seconds[known] = motion.trapezoid_durations(np.where(joint, travels, paths)[known], a[known], v[known])
     return [(None, None) if math.isnan(travel) else (travel, duration)
-            for travel, duration in zip(travels.tolist(), seconds.tolist())]
+            for travel, duration in zip(travels.tolist(), seconds.tolist(), strict=True)]

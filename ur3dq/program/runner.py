@@ -5,24 +5,31 @@ interface; the driver's motion watch passes every robot message to `StepWatch.no
 step)` as steps begin and turns a `ur3dq_fail:` k report (a wait-input timed out) into a ProgramError naming the
 step. Everything else is the driver's: checks before sending, the watch to the end with the arm at the final
 target, stopj on any fault or Ctrl-C, no re-send.
+
+When a run ends early (Ctrl-C, a signal, any fault) the error that leaves `run_plan` carries a `ProgramStop`
+(`error.program_stop`): the step that was running, where the arm came to rest, and the outputs the program had
+switched on that are still on; the program can go on from that step (`run(..., start=stop.step_name)`, or
+`ur3dq run-poses --resume`).
 """
 from __future__ import annotations
 
+import dataclasses
 import math
+import time
 from collections.abc import Callable, Iterable, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
 
-from ur3dq.errors import ProgramError, SafetyCheckError
+from ur3dq.errors import ProgramError, RobotError, SafetyCheckError, add_note
 from ur3dq.pathcheck import PathPlan, PathSegment
 from ur3dq.program.path import path_plan_of
 from ur3dq.program.plan import Defaults, PlannedStep, plan_program
 from ur3dq.program.resolve import select_range
 from ur3dq.program.script import FAIL_KEY, STEP_KEY, program_script
-from ur3dq.program.steps import Step, Wait, WaitInput
-from ur3dq.robot import safety
+from ur3dq.program.steps import DigitalOut, Step, Wait, WaitInput
+from ur3dq.robot import safety, state
 from ur3dq.urscript import new_program_name
 
 if TYPE_CHECKING:
@@ -32,6 +39,34 @@ if TYPE_CHECKING:
 Progress = Callable[[int, Step], None]
 
 MAX_STATEMENT_SECONDS = 0.05   # each action's own time on the controller (a few control cycles), for the timeout
+REST_TIMEOUT = 2.0             # s to wait for the arm to come to rest after a stop, before saying where it is
+REST_SPEED = 1e-3              # rad/s: every joint slower than this is at rest
+
+
+@dataclasses.dataclass(frozen=True)
+class ProgramStop:
+    """Where a program run ended early.
+
+    position, step_name: the 1-based position and name of the step that was running (the first step when the
+    program had reported none); joints (6,) rad and tcp_pose (UR pose vector) where the arm came to rest, None when
+    the controller could not be read; outputs_on: the (family, pin) of each digital output the program had switched
+    on that is still on (all it had switched on when the controller could not be read: `outputs_read` False).
+    """
+
+    position: int
+    step_name: str
+    joints: np.ndarray | None
+    tcp_pose: np.ndarray | None
+    outputs_on: tuple[tuple[str, int], ...]
+    outputs_read: bool
+
+    def outputs_text(self) -> str:
+        """'tool output 0 and standard output 3 still on', or '' when none is."""
+        if not self.outputs_on:
+            return ""
+        names = [f"{family} output {pin}" for family, pin in self.outputs_on]
+        listed = names[0] if len(names) == 1 else ", ".join(names[:-1]) + " and " + names[-1]
+        return f"{listed} {'still on' if self.outputs_read else 'may still be on'}"
 
 
 class StepWatch:
@@ -47,6 +82,11 @@ class StepWatch:
         self.current: int | None = None      # index into plan of the step running now
         self.done = False
 
+    @property
+    def position(self) -> int:
+        """The 1-based position of the step running now (the first one before any report, the last once done)."""
+        return self.first + (len(self.plan) - 1 if self.done else self.current or 0)
+
     def note(self, message: object) -> None:
         """Update from one robot message; ProgramError when the program reports a failed step."""
         text = getattr(message, "text", None)
@@ -55,9 +95,8 @@ class StepWatch:
         for key in (STEP_KEY, FAIL_KEY):
             if text.startswith(key) and text[len(key):].strip().lstrip("-").isdigit():
                 index = int(text[len(key):].strip()) - self.first
-                failed = self.plan[index].step if key == FAIL_KEY and 0 <= index < len(self.plan) else None
-                if isinstance(failed, WaitInput):
-                    step = failed
+                step = self.plan[index].step if 0 <= index < len(self.plan) else None
+                if key == FAIL_KEY and isinstance(step, WaitInput):
                     raise ProgramError(f"{step.who}: input {step.input} DI{step.pin} did not turn "
                                        f"{'on' if step.on else 'off'} within {step.timeout:g} s; the program stopped")
                 if key == STEP_KEY:
@@ -90,41 +129,96 @@ def check_plan_for_robot(robot: Robot, plan: Iterable[PlannedStep], start_joints
     the previous one (SafetyCheckError naming the step): the checks every driver motion gets."""
     previous = np.asarray(start_joints, dtype=float)
     for planned in plan:
-        if planned.joints is None:
+        pose = planned.pose
+        if planned.joints is None or pose is None:   # an action step
             continue
         who = planned.step.who
         try:
             safety.check_joint_limits(planned.joints, robot.model.joint_lower, robot.model.joint_upper, who)
             model = robot.model.with_tcp(planned.tcp_offset)
-            safety.check_fk_consistency(model, planned.joints, planned.pose, name=who)
+            safety.check_fk_consistency(model, planned.joints, pose, name=who)
             safety.check_travel(previous, planned.joints, robot.max_joint_travel, name=who)
         except ValueError as error:
             raise SafetyCheckError(str(error)) from None
         previous = planned.joints
 
 
-def run_plan(robot: Robot, plan: Sequence[PlannedStep], first_position: int = 1,
-             progress: Progress | None = None) -> float:
+def run_plan(robot: Robot, plan: Sequence[PlannedStep], first_position: int = 1, progress: Progress | None = None,
+             watch: StepWatch | None = None) -> float:
     """Run a planned program on the robot as one URScript program.
 
     Run `plan` (PlannedStep list, planned from the arm's current joints) as one program; returns the wall time
-    (s). `progress(position, step)` is called as each step starts."""
+    (s). `progress(position, step)` is called as each step starts (or give your own `watch`, a StepWatch of this
+    plan, to ask it which step runs while the program runs). An error or interrupt that ends the run once the
+    program was sent leaves with a ProgramStop as its `program_stop` and a note naming the step and the outputs
+    left on; one before (a refused check) leaves as it came."""
     if not plan:
         raise ValueError("the program has no steps to run")
     start = robot.joints()
     check_plan_for_robot(robot, plan, start)
     final = next((p.joints for p in reversed(plan) if p.joints is not None), start)
-    watch = StepWatch(plan, first_position, progress)
+    watch = watch or StepWatch(plan, first_position, progress)
     name = new_program_name("program")
     text = program_script(plan, program_name=name, first_position=first_position,
                           restore_tcp=tuple(robot.model.tcp.to_ur_pose()))
-    return robot.run_script(name, text, final, expected_seconds(plan), on_message=watch.note,
-                            reached_end=lambda: watch.done, path=_path_of(plan, start))
+    sent = []
+    try:
+        return robot.run_script(name, text, final, expected_seconds(plan), on_message=watch.note,
+                                reached_end=lambda: watch.done, path=_path_of(plan, start),
+                                on_sent=lambda: sent.append(True))
+    except BaseException as error:
+        if sent:   # the program ran (or was sent): it ended early, at a step
+            stop = program_stop(robot, watch)
+            error.program_stop = stop   # type: ignore[attr-defined]
+            add_note(error, f"(during step {stop.position} {stop.step_name!r}"
+                           + (f"; {stop.outputs_text()})" if stop.outputs_on else ")"))
+        raise
+
+
+def program_stop(robot: Robot, watch: StepWatch) -> ProgramStop:
+    """The ProgramStop of a run `watch` followed: its running step, and (once the arm is at rest, at most
+    REST_TIMEOUT s) where the arm is and which of the outputs the program switched on are still on."""
+    index = watch.position - watch.first
+    switched_on = outputs_switched_on(watch.plan[:index + 1])
+    status = status_at_rest(robot)
+    if status is None:
+        return ProgramStop(watch.position, watch.plan[index].step.name, None, None, tuple(switched_on), False)
+    try:
+        still_on = set(robot.io_state().outputs_on())
+    except (RobotError, KeyboardInterrupt):
+        return ProgramStop(watch.position, watch.plan[index].step.name, status.joints, status.tcp_pose,
+                           tuple(switched_on), False)
+    return ProgramStop(watch.position, watch.plan[index].step.name, status.joints, status.tcp_pose,
+                       tuple(output for output in switched_on if output in still_on), True)
+
+
+def outputs_switched_on(plan: Sequence[PlannedStep]) -> list[tuple[str, int]]:
+    """(family, pin) of the digital outputs `plan`'s steps leave on (switched on and not off again), in order."""
+    last: dict[tuple[str, int], bool] = {}
+    for planned in plan:
+        if isinstance(planned.step, DigitalOut):
+            key = (planned.step.output, planned.step.pin)
+            last.pop(key, None)
+            last[key] = planned.step.on
+    return [output for output, on in last.items() if on]
+
+
+def status_at_rest(robot: Robot) -> state.RobotStatus | None:
+    """The robot's status once every joint rests (or after REST_TIMEOUT); None when it cannot be read."""
+    deadline = time.monotonic() + REST_TIMEOUT
+    try:
+        while True:
+            status = robot.state()
+            if float(np.max(np.abs(status.joint_speeds))) < REST_SPEED or time.monotonic() > deadline:
+                return status
+            time.sleep(0.01)
+    except (RobotError, KeyboardInterrupt):
+        return None
 
 
 def _path_of(plan: Sequence[PlannedStep], start: np.ndarray) -> PathPlan:
     """The PathPlan the driver's path check sees; a program without waypoints checks where the arm rests."""
-    return path_plan_of(plan, start) or PathPlan(start, [PathSegment("(no motion)", target_joints=start)])
+    return path_plan_of(plan, start) or PathPlan(start, (PathSegment("(no motion)", target_joints=start),))
 
 
 def run(robot: Robot, steps: Sequence[Step], defaults: Defaults | None = None, speed_scale: float = 1.0,

@@ -12,6 +12,7 @@ import math
 import unicodedata
 from typing import TypeGuard
 
+from ur3dq.dualquat import DualQuaternion
 from ur3dq.pose import Pose, name_problem, unstorable_text_problem
 from ur3dq.real_numbers import is_number
 
@@ -143,7 +144,11 @@ class Waypoint(Step):
 
     def __post_init__(self) -> None:
         if not isinstance(self.pose, Pose):
-            raise ValueError(f"{self.who}: needs a recorded pose")
+            made = f"Pose.from_dual_quaternion({self.name!r}, pose, 'ur3', joints=...)"
+            hint = (f"wrap it as {made}" if isinstance(self.pose, DualQuaternion) else
+                    f"take one from the store (PoseStore.get(name)) or make one ({made})")
+            raise ValueError(f"{self.who}: needs a recorded pose (ur3dq.pose.Pose), got "
+                             f"{type(self.pose).__name__}: {hint}")
         if self.pose.name != self.name:
             raise ValueError(f"{self.who}: the pose is called {self.pose.name!r}")
         object.__setattr__(self, "motion", self.motion.check(self.who))

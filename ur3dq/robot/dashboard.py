@@ -29,6 +29,14 @@ def serial_from_reply(reply):
     return text if text.isdigit() else None
 
 
+def program_command_refusal(reply: str, success_prefix: str) -> str | None:
+    """None if a `pause` / `play` reply starts with `success_prefix` ('Pausing program', 'Starting program'), else
+    the controller's reply (its reason)."""
+    if reply.strip().lower().startswith(success_prefix.lower()):
+        return None
+    return reply.strip() or "no reply"
+
+
 def unlock_refusal(reply):
     """None if an `unlock protective stop` reply means success, else the controller's reason (str)."""
     if reply.strip().lower().startswith("protective stop releasing"):
@@ -73,6 +81,19 @@ class Dashboard:
         refusal = unlock_refusal(reply)
         if refusal is not None:
             raise ProtectiveStopError(f"the controller refused to unlock the protective stop: {refusal}")
+
+    def pause(self) -> None:
+        """Send `pause`; RobotError with the controller's reply if it refuses (no program running)."""
+        refusal = program_command_refusal(self._ask("pause"), "Pausing program")
+        if refusal is not None:
+            raise RobotError(f"the controller refused to pause: {refusal}")
+
+    def play(self) -> None:
+        """Send `play` (resumes a paused program, or starts the loaded one: send it only to a paused program);
+        RobotError with the controller's reply if it refuses."""
+        refusal = program_command_refusal(self._ask("play"), "Starting program")
+        if refusal is not None:
+            raise RobotError(f"the controller refused to resume: {refusal}")
 
     def close(self) -> None:
         """Disconnect (idempotent)."""

@@ -7,18 +7,18 @@ thread here writes a new value to that register every PERIOD over RTDE (ur_rtde'
 values stop coming, the controller stops the program, and with it the arm, 1/WATCHDOG_FREQUENCY s after the
 last one. The watchdog is removed when the program ends, so nothing changes between motions.
 
-The driver starts the heartbeat with its first motion. RTDEIOInterface takes RTDE input registers 18–22 and the I/O
-inputs it sets for this client; another RTDE client holding them (a second ur3dq moving the same arm, a user's own
-RTDEIOInterface) makes the controller refuse it, and the motion is refused with a line that says so.
+The driver starts the heartbeat with the first program it sends (a motion, freedrive, a jog step) on this client's
+RTDE inputs (ur3dq.robot.rtde_inputs: input registers 18–22 and the digital outputs it sets); another RTDE client
+holding them (a second ur3dq moving the same arm, a user's own RTDEIOInterface) makes the controller refuse them,
+and the program is refused with a line that says so.
 """
 from __future__ import annotations
 
 import threading
 import time
 
-import rtde_io
-
 from ur3dq.errors import RobotConnectionError
+from ur3dq.robot.rtde_inputs import RTDEInputs
 from ur3dq.urscript import first_statement_added, rtde_set_watchdog_statement
 
 #: The RTDE input integer register the heartbeat counts on (ur_rtde's lower range is 18–22).
@@ -44,23 +44,18 @@ def armed(program: str, name: str) -> str:
 
 
 class Heartbeat:
-    """A thread writing a counter to HEARTBEAT_REGISTER of `host` every PERIOD s until `close()`.
+    """A thread writing a counter to HEARTBEAT_REGISTER of the RTDE `inputs` every PERIOD s until `close()`.
 
-    RobotConnectionError if the RTDE inputs cannot be opened. `alive` turns False when a write fails (the
-    connection dropped): a motion must not start then, since nothing would stop it if ur3dq died.
+    `alive` turns False when a write fails (the connection dropped): a program must not start then, since nothing
+    would stop it if ur3dq died. Closing the heartbeat closes `inputs`.
     """
 
-    def __init__(self, host: str) -> None:
-        self.host = host
-        self._last_write: float | None = None      # monotonic time of the last write that went through
+    def __init__(self, inputs: RTDEInputs) -> None:
+        self.inputs = inputs
+        self.host = inputs.host
+        self._last_write: float | None = None   # monotonic time of the last write that went through
         self._watched_from = 0.0     # see watch_gaps
         self._longest_gap = 0.0
-        try:
-            self._io = rtde_io.RTDEIOInterface(host)
-        except RuntimeError as error:
-            raise RobotConnectionError(
-                f"cannot start the heartbeat on {host}:30004 (RTDE input registers 18-22; is another RTDE client "
-                f"writing them?): {error}") from None
         self._start()
 
     def _start(self) -> None:
@@ -73,14 +68,10 @@ class Heartbeat:
         # The first value is on the wire before any program can arm the watchdog on it.
         written.wait(1.0)
 
-    def restart(self):
+    def restart(self) -> None:
         """Reconnect after a failed write (the stream dropped) and beat again; RobotConnectionError if refused."""
         self._halt()
-        try:
-            reconnected = self._io.reconnect()
-        except RuntimeError as error:
-            raise RobotConnectionError(f"the heartbeat to {self.host}:30004 cannot reconnect: {error}") from None
-        if not reconnected:
+        if not self.inputs.reconnect():
             raise RobotConnectionError(f"the heartbeat to {self.host}:30004 cannot reconnect")
         self._start()
 
@@ -106,11 +97,7 @@ class Heartbeat:
         count = 0
         while True:
             count = (count + 1) % 2 ** 31
-            try:
-                ok = self._io.setInputIntRegister(HEARTBEAT_REGISTER, count)
-            except RuntimeError:
-                ok = False
-            if not ok:
+            if not self.inputs.set_int_register(HEARTBEAT_REGISTER, count):
                 failed.set()
                 return
             now = time.monotonic()
@@ -128,7 +115,4 @@ class Heartbeat:
     def close(self) -> None:
         """Stop the beats and disconnect (idempotent). A running program armed on them then stops by itself."""
         self._halt()
-        try:
-            self._io.disconnect()
-        except RuntimeError:
-            pass
+        self.inputs.close()

@@ -12,6 +12,21 @@ RUNTIME_STATE_NAMES = {0: "STOPPING", 1: "STOPPED", 2: "PLAYING", 3: "PAUSING", 
 DIGITAL_GROUPS = (("standard", 0, 8), ("configurable", 8, 8), ("tool", 16, 2))
 
 
+def io_bit(group: str, pin: int) -> int:
+    """The bit of digital pin `pin` of `group` ('standard', 'configurable', 'tool') in the controller's bit words;
+    ValueError naming the pins the group has.
+
+    >>> io_bit("tool", 0) == 1 << 16
+    True
+    """
+    for name, first, count in DIGITAL_GROUPS:
+        if name == group:
+            if isinstance(pin, bool) or not isinstance(pin, int) or not 0 <= pin < count:
+                raise ValueError(f"{group} digital I/O pin {pin!r} does not exist (0..{count - 1})")
+            return 1 << (first + pin)
+    raise ValueError(f"I/O group {group!r} is not one of {', '.join(name for name, _, _ in DIGITAL_GROUPS)}")
+
+
 @dataclasses.dataclass(frozen=True)
 class IOState:
     """One reading of the I/O: digital input and output bit words, the standard analog inputs and outputs (the
@@ -35,6 +50,11 @@ class IOState:
         first, count = next((first, count) for name, first, count in DIGITAL_GROUPS if name == group)
         word = self.digital_in if inputs else self.digital_out
         return [bool(word >> (first + pin) & 1) for pin in range(count)]
+
+    def outputs_on(self) -> list[tuple[str, int]]:
+        """(group, pin) of every digital output that is on, standard first."""
+        return [(name, pin) for name, _, count in DIGITAL_GROUPS for pin in range(count)
+                if self.digital_out & io_bit(name, pin)]
 
     @property
     def runtime_state_name(self) -> str:

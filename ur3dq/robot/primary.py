@@ -156,6 +156,17 @@ class SafetyModeMessage:
 
 
 @dataclass(frozen=True)
+class BoardIO:
+    """The I/O of Masterboard Data (sub-package 3): digital input and output bits (0-7 standard, 8-15
+    configurable, 16-17 tool) and the two standard analog inputs and outputs."""
+
+    digital_in: int
+    digital_out: int
+    analog_in: tuple[float, float]
+    analog_out: tuple[float, float]
+
+
+@dataclass(frozen=True)
 class RobotState:
     """The parts of one robot-state message ur3dq uses; None where the message did not carry them."""
 
@@ -164,6 +175,7 @@ class RobotState:
     cartesian: CartesianInfo | None = None
     kinematics: KinematicsInfo | None = None
     configuration: ConfigurationData | None = None
+    board_io: BoardIO | None = None
 
 
 def split_messages(buffer):
@@ -202,6 +214,7 @@ def parse_robot_state(body):
             fields["robot_mode"] = parse_robot_mode_data(data)
         elif package_type == MASTERBOARD_DATA:
             fields["safety_mode"] = parse_masterboard_safety_mode(data)
+            fields["board_io"] = parse_masterboard_io(data)
         elif package_type == CARTESIAN_INFO:
             fields["cartesian"] = parse_cartesian_info(data)
         elif package_type == KINEMATICS_INFO:
@@ -224,6 +237,16 @@ def parse_masterboard_safety_mode(data):
     if len(data) < struct.calcsize(layout):
         raise PrimaryParseError(f"Masterboard Data has {len(data)} bytes; too short for the 3.0+ layout")
     return struct.unpack_from(layout, data)[-1]
+
+
+def parse_masterboard_io(data: bytes) -> BoardIO:
+    """BoardIO of Masterboard Data (sub-package 3, software 3.0+ layout: digital input and output bits, analog
+    input ranges and values, analog output domains and values)."""
+    layout = ">iiBBddbbdd"
+    if len(data) < struct.calcsize(layout):
+        raise PrimaryParseError(f"Masterboard Data has {len(data)} bytes; too short for its I/O")
+    digital_in, digital_out, _, _, in0, in1, _, _, out0, out1 = struct.unpack_from(layout, data)
+    return BoardIO(digital_in, digital_out, (in0, in1), (out0, out1))
 
 
 def parse_cartesian_info(data):
@@ -307,12 +330,12 @@ def parse_version_message(data):
     return VersionMessage(_text(name), major, minor, bugfix, build, _text(data[date_offset:]))
 
 
-def is_program_started(message, program_name):
+def is_program_started(message: object, program_name: str) -> bool:
     """True if `message` is the key message announcing that `program_name` started."""
     return isinstance(message, KeyMessage) and message.title.endswith("_STARTED") and message.text == program_name
 
 
-def is_program_stopped(message, program_name):
+def is_program_stopped(message: object, program_name: str) -> bool:
     """True if `message` is the key message announcing that `program_name` stopped."""
     return isinstance(message, KeyMessage) and message.title.endswith("_STOPPED") and message.text == program_name
 

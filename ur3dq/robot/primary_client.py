@@ -36,6 +36,7 @@ class PrimaryClient:
         self.cartesian: primary.CartesianInfo | None = None
         self.kinematics: primary.KinematicsInfo | None = None
         self.configuration: primary.ConfigurationData | None = None
+        self.board_io: primary.BoardIO | None = None   # the masterboard's I/O in the last robot state
         self.last_state_time: float | None = None  # time.monotonic() of the last robot-state message
         self.error: str | None = None  # why the reader stopped, once it has
         self._thread = threading.Thread(target=self._read_forever, name=f"ur3dq-primary-{host}", daemon=True)
@@ -124,6 +125,8 @@ class PrimaryClient:
                     self.kinematics = state.kinematics
                 if state.configuration is not None:
                     self.configuration = state.configuration
+                if state.board_io is not None:
+                    self.board_io = state.board_io
                 self.last_state_time = time.monotonic()
                 self._changed.notify_all()
         elif message_type == primary.ROBOT_MESSAGE:

@@ -9,92 +9,54 @@ from __future__ import annotations
 
 import functools
 import math
-import queue
+import threading
 import time
-from collections.abc import Callable
-from typing import TYPE_CHECKING, Protocol
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
-import numpy.typing as npt
 
 from ur3dq import urscript
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import (
     ConnectionLostError,
     EmergencyStopError,
-    MotionTimeoutError,
     ProgramError,
     ProtectiveStopError,
     RobotConnectionError,
     RobotError,
     SafetyCheckError,
+    add_note,
 )
-from ur3dq.kinematics import robot_model_from_dh
-from ur3dq.robot import motion, primary, safety, state
+from ur3dq.robot import jog_steps, motion, primary, safety, state
+from ur3dq.robot.backend import StateBackend, calibrated_model, effective_speed_limits
 from ur3dq.robot.dashboard import Dashboard, model_from_reply
 from ur3dq.robot.heartbeat import WATCHDOG_FREQUENCY, Heartbeat, armed
-from ur3dq.robot.io_state import IOState
+from ur3dq.robot.io_state import IOState, io_bit
+from ur3dq.robot.motion_watch import MotionWatch, drain, last_reports
 from ur3dq.robot.primary_client import PrimaryClient, send_script
+from ur3dq.robot.rtde_inputs import RTDEInputs
+from ur3dq.robot.state import RobotStatus
 
 if TYPE_CHECKING:
+    from ur3dq.kinematics.models import URModel
     from ur3dq.pathcheck import Cell, Margins, PathPlan
+
+PoseLike = safety.PoseLike
 
 URSCRIPT_DEFAULT_A = 1.4  # rad/s², URScript movej default
 URSCRIPT_DEFAULT_V = 1.05  # rad/s
 SAFE_STOP_DECELERATION = 2.0  # rad/s²: stops a 1.05 rad/s joint in 0.5 s (ur_rtde's stopJ default)
 MAX_BLEND_RADIUS = 2.0  # metres; ur_rtde's client-side bound
 START_TIMEOUT = 5.0  # s for the controller to start a sent program (generous: a loaded simulator parses slowly)
-SETTLE_TIME = 0.3  # s a stopped program may take to show the arm at rest before it counts as failed
+AFTER_STOP_WAIT = 0.5  # s to read a stopped program's last reports (its end key message) before giving up
+PROGRAM_STATE_TIMEOUT = 2.0  # s for a pause or a resume to show in the state
+OUTPUT_TIMEOUT = 1.0  # s for a digital output written over RTDE to show in the state
+REST_SPEED = 1e-3  # rad/s: a paused arm whose every joint is slower than this rests
 RECONNECT_DELAYS = (0.05, 0.1, 0.2, 0.4, 0.8)  # s between stream reconnection attempts (exponential backoff)
 MODE_CHANGE_TIMEOUT = 15.0  # s for power on / brake release to reach their robot mode
 SERIAL_NUMBER_SINCE = (5, 6)
 ROBOT_MODE_POWER_OFF = 3  # the dashboard's `get serial number` exists from PolyScope 5.6
-
-
-class StateBackend(Protocol):
-    """What Robot needs from a state/program backend (RTDEBackend over ur_rtde, URXBackend over urx).
-
-    `status()` is the newest reading and never blocks on the network; `send_program` hands one URScript program
-    to the controller; `connected` / `reconnect()` let Robot restore a dropped stream; `primary` is the shared
-    PrimaryClient (Robot replaces it after reconnecting it).
-    """
-
-    poll_period: float      # s between two status() polls while watching a motion
-    freeze_timeout: float   # s without fresh data after which the stream counts as frozen
-    primary: PrimaryClient
-
-    @property
-    def connected(self) -> bool:
-        """Whether the backend's connections are up."""
-
-    def reconnect(self) -> None:
-        """Open the connections again after a drop."""
-
-    def status(self) -> state.RobotStatus:
-        """The newest validated RobotStatus, without waiting on the network."""
-
-    def io_status(self) -> IOState:
-        """The newest digital and analog I/O and the program's runtime state (None where not reported)."""
-
-    def send_program(self, script: str) -> None:
-        """Send one URScript program to the controller."""
-
-    def close(self) -> None:
-        """Close every connection (idempotent)."""
-
-
-def calibrated_model(name, kinematics, tcp_offset=None):
-    """The ur3dq model `name` with the controller's calibrated DH and (if given) its TCP offset (UR pose vector)."""
-    model = robot_model_from_dh(name, kinematics.a, kinematics.d, kinematics.alpha, kinematics.theta)
-    return model.with_tcp(tcp_offset) if tcp_offset is not None else model
-
-
-def effective_speed_limits(model, configuration):
-    """(max joint acceleration, max joint speed) arrays: the lower of the model's and the controller's values."""
-    if configuration is None:
-        return np.asarray(model.max_joint_acceleration, float), np.asarray(model.max_joint_speed, float)
-    return (np.minimum(model.max_joint_acceleration, configuration.max_joint_acceleration),
-            np.minimum(model.max_joint_speed, configuration.max_joint_speed))
 
 
 class Robot:
@@ -104,8 +66,9 @@ class Robot:
     _dashboard: Dashboard
     _backend: StateBackend
 
-    def __init__(self, host, backend: str="rtde", model=None, max_joint_travel=safety.DEFAULT_MAX_JOINT_TRAVEL,
-                 connect_timeout: float=3.0, heartbeat: bool=True, path_check=None) -> None:
+    def __init__(self, host: str, backend: str = "rtde", model: str | None = None,
+                 max_joint_travel: float = safety.DEFAULT_MAX_JOINT_TRAVEL, connect_timeout: float = 3.0,
+                 heartbeat: bool = True, path_check: object = None) -> None:
         if backend not in ("rtde", "urx"):
             raise ValueError(f"backend must be 'rtde' or 'urx', got {backend!r}")
         if not (isinstance(max_joint_travel, (int, float)) and max_joint_travel > 0):
@@ -116,11 +79,13 @@ class Robot:
         self._connect_timeout = connect_timeout
         # _primary, _dashboard and _backend exist once connected (close() also runs on a half-made Robot)
         self._heartbeat: Heartbeat | None = None
-        # Every motion program stops by itself when ur3dq dies (kill -9, a crash, a hang): ur3dq.robot.heartbeat.
-        # Started with the first motion, so that reading, recording or a second ur3dq watching the same arm never
-        # contend for its RTDE input registers.
+        self._inputs: RTDEInputs | None = None
+        # Every program that moves or frees the arm stops by itself when ur3dq dies (kill -9, a crash, a hang):
+        # ur3dq.robot.heartbeat. Started with the first such program, so that reading, recording or a second ur3dq
+        # watching the same arm never contend for its RTDE input registers.
         self._use_heartbeat = bool(heartbeat)
         self._path_check: tuple[Cell | None, Margins] | None = None
+        self._dashboard_lock = threading.Lock()   # pause()/resume() may come from another thread
         self.link_delay = 0.0   # s, measured while connecting (_identify_model)
         if path_check is not None:
             self.require_path_check(*(() if path_check is True else (path_check,)))
@@ -129,8 +94,10 @@ class Robot:
             self._version: primary.VersionMessage = self._primary.version   # type: ignore[assignment]  # waited for
             self._dashboard = Dashboard(host)
             self.model_name = self._identify_model(model)
-            self.model = calibrated_model(self.model_name, self._primary.kinematics,
-                                          self._controller_tcp_offset())
+            kinematics = self._primary.kinematics
+            if kinematics is None:   # _open_primary waits for it
+                raise RobotConnectionError(f"{host} sent no Kinematics Info")
+            self.model: URModel = calibrated_model(self.model_name, kinematics, self._controller_tcp_offset())
             self._backend = self._open_backend()
         except BaseException:
             self.close()
@@ -138,15 +105,15 @@ class Robot:
 
     # --- connection -------------------------------------------------------------------------------------------
 
-    def __enter__(self):
+    def __enter__(self) -> Robot:
         return self
 
-    def __exit__(self, *exc_info) -> None:
+    def __exit__(self, *exc_info: object) -> None:
         self.close()
 
     def close(self) -> None:
         """Close every connection (idempotent). Never moves or stops the arm (no motion runs between calls)."""
-        for name in ("_heartbeat", "_backend", "_dashboard", "_primary"):
+        for name in ("_heartbeat", "_inputs", "_backend", "_dashboard", "_primary"):
             part = getattr(self, name, None)
             if part is not None:
                 part.close()
@@ -233,8 +200,9 @@ class Robot:
 
     # --- reading ----------------------------------------------------------------------------------------------
 
-    def state(self):
-        """The newest RobotStatus (joints, TCP, robot/safety mode, program running, speed fractions, age)."""
+    def state(self) -> RobotStatus:
+        """The newest RobotStatus (joints, TCP, robot/safety mode, program running or paused, speed fractions,
+        digital I/O, age)."""
         self._ensure_streams()
         return self._backend.status()
 
@@ -251,15 +219,15 @@ class Robot:
         """The actual joint angles (radians, 6); ConnectionLostError if the stream is frozen."""
         return self._fresh_status().joints
 
-    def tcp_pose(self):
+    def tcp_pose(self) -> DualQuaternion:
         """The TCP pose the controller reports, as a DualQuaternion (base frame)."""
         return DualQuaternion.from_ur_pose(self.tcp_pose_vector())
 
-    def tcp_pose_vector(self):
+    def tcp_pose_vector(self) -> np.ndarray:
         """The TCP pose the controller reports, as a UR pose vector [x, y, z, rx, ry, rz]."""
         return self._fresh_status().tcp_pose
 
-    def _fresh_status(self):
+    def _fresh_status(self) -> RobotStatus:
         """A status no older than the backend's freeze timeout; a late stream gets that long again to catch up
         (a loaded controller or network can stall it briefly), then ConnectionLostError."""
         limit = self._backend.freeze_timeout
@@ -275,89 +243,190 @@ class Robot:
 
     # --- motion -----------------------------------------------------------------------------------------------
 
-    def movej(self, q, a=None, v=None, expected_pose=None):
+    def movej(self, q: Sequence[float] | np.ndarray, a: float | None = None, v: float | None = None,
+              expected_pose: DualQuaternion | None = None) -> float:
         """Move to joint target `q` (rad) on a trapezoid with acceleration a (rad/s²) and speed v (rad/s).
 
         Blocks until there is evidence that this program ran and ended (its own end key message, or the state
         stream showing it running then not running) and the arm rests at `q`; returns the wall time in seconds.
         `expected_pose` (DualQuaternion) marks a target that came from IK: the model's FK of `q` must reach it.
+
+        Examples
+        --------
+        >>> import ur3dq.robot
+        >>> with ur3dq.robot.connect("127.0.0.2") as robot:     # doctest: +SKIP
+        ...     seconds = robot.movej([0.0, -1.2, 1.0, -1.4, -1.57, 0.0], v=0.5)
         """
         return self.movej_path([q], blend=0.0, a=a, v=v, expected_poses=None if expected_pose is None
                                else [expected_pose])
 
-    def movej_path(self, targets, blend: float=0.0, a=None, v=None, expected_poses=None):
+    def movej_path(self, targets: Sequence[Sequence[float] | np.ndarray], blend: float = 0.0,
+                   a: float | None = None, v: float | None = None,
+                   expected_poses: Sequence[DualQuaternion] | None = None) -> float:
         """Move through joint `targets` in one blended program (blend radius in metres); returns wall time (s)."""
-        targets = [self._checked_target(q, f"targets[{index}]") for index, q in enumerate(targets)]
-        if not targets:
+        checked = [self._checked_target(q, f"targets[{index}]") for index, q in enumerate(targets)]
+        if not checked:
             raise SafetyCheckError("targets must hold at least one joint vector")
         if expected_poses is not None:
-            if len(expected_poses) != len(targets):
-                raise SafetyCheckError(f"expected_poses has {len(expected_poses)} entries for {len(targets)} targets")
-            for index, (q, pose) in enumerate(zip(targets, expected_poses)):
+            if len(expected_poses) != len(checked):
+                raise SafetyCheckError(f"expected_poses has {len(expected_poses)} entries for {len(checked)} targets")
+            for index, (q, pose) in enumerate(zip(checked, expected_poses, strict=True)):
                 safety.check_fk_consistency(self.model, q, pose, name=f"targets[{index}]")
         if not (isinstance(blend, (int, float)) and math.isfinite(blend) and 0.0 <= blend <= MAX_BLEND_RADIUS):
             raise SafetyCheckError(f"blend must be a radius in metres within [0, {MAX_BLEND_RADIUS}], got {blend!r}")
         status = self._ready_status()
-        a, v = self._clamped(status.joints, targets, a, v)
+        a, v = self._clamped(status.joints, checked, a, v)
         previous = status.joints
-        for index, q in enumerate(targets):
-            safety.check_travel(previous, q, self.max_joint_travel, name=f"targets[{index}]")
+        for index, q in enumerate(checked):
+            safety.check_travel(previous, q, self.max_joint_travel, name=f"checked[{index}]")
             previous = q
-        if len(targets) == 1 and motion.leading_travel(status.joints, targets[0]) < 1e-9:
+        if len(checked) == 1 and motion.leading_travel(status.joints, checked[0]) < 1e-9:
             return 0.0  # already there: sending a program would only add a start/stop
         if self._path_check is not None:
             from ur3dq.pathcheck import PathPlan, PathSegment
 
-            last = len(targets) - 1
+            last = len(checked) - 1
             self._require_clear_path(PathPlan(status.joints, [
-                PathSegment(f"targets[{index}]", "joint", target_joints=q, speed=v, acceleration=a,
-                            blend=0.0 if index == last else float(blend)) for index, q in enumerate(targets)]))
-        duration = motion.path_duration(status.joints, targets, a, v)
+                PathSegment(f"checked[{index}]", "joint", target_joints=q, speed=v, acceleration=a,
+                            blend=0.0 if index == last else float(blend)) for index, q in enumerate(checked)]))
         name = urscript.new_program_name("move")
-        program = urscript.movej_program(name, targets, a, v, blend=float(blend))
-        timeout = motion.motion_timeout(duration, status.target_speed_fraction) + self.link_delay
-        return self._run_motion(name, program, targets[-1], status.joints, status.program_running, timeout)
+        program = urscript.movej_program(name, checked, a, v, blend=float(blend))
+        return self._send_watched(name, program, checked[-1], status,
+                                  motion.path_duration(status.joints, checked, a, v))
 
-    def require_path_check(self, cell=None, margins=None) -> None:
+    def movel(self, pose: PoseLike, a: float | None = None, v: float | None = None) -> float:
+        """Move the TCP on a straight line to `pose` (DualQuaternion, or a UR pose vector [x, y, z, rx, ry, rz] of
+        the TCP in the base frame) at speed v (m/s) and acceleration a (m/s²), clamped to the driver's TCP limits.
+
+        The target is the IK solution nearest the arm's joints (FK-checked, inside the limits, within the travel
+        bound), and the whole line is path-checked before anything is sent (reach, IK branch, singularities, joint
+        speeds, and the cell when a path check is required); watched to its end like movej. Returns the wall time.
+
+        Examples
+        --------
+        >>> lower = robot.tcp_pose_vector() - [0, 0, 0.05, 0, 0, 0]     # doctest: +SKIP
+        >>> robot.movel(lower, v=0.05)                                   # doctest: +SKIP
+        """
+        return self._move_line("linear", pose, a, v)
+
+    def movep(self, pose: PoseLike, a: float | None = None, v: float | None = None) -> float:
+        """Like movel, as a process move (movep: the same straight line at a constant TCP speed)."""
+        return self._move_line("process", pose, a, v)
+
+    def jog(self, step: jog_steps.JogStep, speed: float) -> float:
+        """One jog step (ur3dq.robot.jog_steps.JogStep: a joint or a TCP axis, a direction, a bounded size) at
+        `speed` (rad/s for a joint, m/s for the TCP; capped at the jog's limits): planned from the arm's joints,
+        checked and watched to its end like any motion, so nothing moves once it returns. Returns the wall time."""
+        if isinstance(speed, bool) or not isinstance(speed, (int, float)) or not (math.isfinite(speed) and speed > 0):
+            raise SafetyCheckError(f"jog speed must be a number > 0, got {speed!r}")
+        move, joints, pose = jog_steps.step_target(self.model, self.joints(), step)
+        if pose is None:   # a joint step
+            return self.movej(joints, a=jog_steps.JOINT_ACCELERATION, v=min(speed, jog_steps.MAX_JOINT_SPEED))
+        return self._move_line(move, pose, jog_steps.TCP_ACCELERATION, min(speed, jog_steps.MAX_TCP_SPEED))
+
+    def _move_line(self, move: str, pose: PoseLike, a: float | None, v: float | None) -> float:
+        """movel/movep to `pose` from the arm's joints, its whole line checked first."""
+        from ur3dq.pathcheck import PathPlan, PathSegment
+
+        pose = safety.pose_of(pose)
+        status = self._ready_status()
+        q = self._checked_target(self.model.ik(pose, status.joints), "target")
+        safety.check_fk_consistency(self.model, q, pose, name="target")
+        safety.check_travel(status.joints, q, self.max_joint_travel, name="target")
+        a, v = safety.clamp_tcp_speed(a, v)
+        if motion.leading_travel(status.joints, q) < 1e-9:
+            return 0.0
+        segment = PathSegment("target", move, target_joints=q, target_pose=pose.to_array(), speed=v, acceleration=a)
+        self._require_clear_path(PathPlan(status.joints, [segment]), always=True)
+        metres, radians = self.model.fk(status.joints).distance(pose)
+        name = urscript.new_program_name("move")
+        function = "movel" if move == "linear" else "movep"
+        statement = urscript.move_statement(function, q, a, v, t=0 if function == "movel" else None)
+        return self._send_watched(name, urscript.program(name, [statement]), q, status,
+                                  motion.trapezoid_duration(max(metres, radians), a, v))
+
+    def require_path_check(self, cell: Cell | None = None, margins: Margins | None = None) -> None:
         """Refuse from now on every motion whose whole path fails the path check.
 
         From now on every motion is refused (SafetyCheckError, nothing sent) unless the whole path it sweeps
         passes ur3dq.pathcheck.check_path in `cell` (a Cell, or None: self-collision, singularities, limits and
-        speeds only) with `margins` (a Margins, or the defaults). movej/movej_path are sampled here; run_script
-        needs the PathPlan of its program (`path=`), which ur3dq.program.run gives; a script without one is refused."""
+        speeds only) with `margins` (a Margins, or the defaults). movej/movej_path are sampled here (movel and movep
+        always are); run_script needs the PathPlan of its program (`path=`), which ur3dq.program.run gives; a
+        script without one is refused."""
         from ur3dq.pathcheck import Margins
 
         self._path_check = (cell, margins or Margins())
 
-    def _require_clear_path(self, path) -> None:
-        """Check `path` (a PathPlan from the arm's joints) when a path check is required; SafetyCheckError if it
-        fails, or if there is no path to check."""
-        if self._path_check is None:
+    def _require_clear_path(self, path: PathPlan | None, always: bool = False) -> None:
+        """Check `path` (a PathPlan from the arm's joints) when a path check is required (or `always`, without a
+        cell unless one is required); SafetyCheckError if it fails, or if there is no path to check."""
+        if self._path_check is None and not always:
             return
         if path is None:
             raise SafetyCheckError("this Robot requires a path check before every motion, and this program has no "
                                    "path to check (pass run_script(..., path=PathPlan))")
-        from ur3dq.pathcheck import check_path
+        from ur3dq.pathcheck import Margins, check_path
 
-        cell, margins = self._path_check
+        cell, margins = self._path_check or (None, Margins())
         result = check_path(self.model, path, cell, margins, keep_samples=False)
         if not result.ok:
             raise SafetyCheckError(f"path check: {result.summary()}")
 
-    def movej_pose(self, pose, a=None, v=None):
+    def movej_pose(self, pose: DualQuaternion, a: float | None = None, v: float | None = None) -> float:
         """Move to the TCP `pose` (DualQuaternion) through the IK solution closest to the current joints."""
         q = self.model.ik(pose, self.joints())
         return self.movej(q, a=a, v=v, expected_pose=pose)
 
-    def stop(self, a=SAFE_STOP_DECELERATION) -> None:
+    def stop(self, a: float = SAFE_STOP_DECELERATION) -> None:
         """Decelerate the arm to rest with `stopj(a)` (rad/s², clamped to the model's limit)."""
         self._send_stop(a)
 
-    def _checked_target(self, q, name):
+    def pause(self) -> str:
+        """Pause the running program: the arm decelerates to rest on its path and `resume()` goes on from there.
+
+        The controller's own pause (dashboard `pause`) where the program allows it; where the controller refuses
+        or does not pause within 2 s, the arm is stopped with stopj instead (the program then ends). Returns
+        "paused" once the arm rests, or "stopped". Safe to call from another thread while one watches a motion:
+        the watch waits while the program is paused, its timeout standing still.
+
+        Examples
+        --------
+        >>> worker = threading.Thread(target=robot.movej, args=(far,)); worker.start()    # doctest: +SKIP
+        >>> robot.pause(); time.sleep(2); robot.resume(); worker.join()                  # doctest: +SKIP
+        """
+        with self._dashboard_lock:
+            try:
+                self._dashboard.pause()
+            except RobotError:
+                self._send_stop(SAFE_STOP_DECELERATION)
+                return "stopped"
+        def rests(status: RobotStatus) -> bool:   # paused and at rest, or the program ended meanwhile
+            if status.program_paused:
+                return float(np.max(np.abs(status.joint_speeds))) < REST_SPEED
+            return not status.program_running
+
+        if not self._wait_for_program(rests):
+            self._send_stop(SAFE_STOP_DECELERATION)
+            return "stopped"
+        return "paused"
+
+    def resume(self) -> None:
+        """Resume the paused program (dashboard `play`, sent only while a program is paused: to a stopped
+        controller it would start the loaded program); RobotError if nothing is paused or it does not go on."""
+        with self._dashboard_lock:
+            if not self.state().program_paused:
+                raise RobotError(f"resume: no program is paused on {self.host}")
+            self._dashboard.play()
+        if not self._wait_for_program(lambda status: not status.program_paused):
+            raise RobotError(f"resume: the program on {self.host} is still paused {PROGRAM_STATE_TIMEOUT:g} s "
+                             "after `play`")
+
+    def _checked_target(self, q: object, name: str) -> np.ndarray:
         """A joint target that is six finite values inside the model's joint limits."""
         return safety.check_joint_limits(q, self.model.joint_lower, self.model.joint_upper, name)
 
-    def _clamped(self, q_start, targets, a, v):
+    def _clamped(self, q_start: np.ndarray, targets: Sequence[np.ndarray], a: float | None,
+                 v: float | None) -> tuple[float, float]:
         """(a, v) defaulting to URScript's and lowered so no joint of any segment exceeds its limits."""
         a = URSCRIPT_DEFAULT_A if a is None else a
         v = URSCRIPT_DEFAULT_V if v is None else v
@@ -368,7 +437,7 @@ class Robot:
             previous = q
         return a, v
 
-    def _ready_status(self):
+    def _ready_status(self) -> RobotStatus:
         """The current status if the arm can move (running, no stop), else the specific error."""
         status = self._checked_status(self._fresh_status())
         if status.robot_mode != state.ROBOT_MODE_RUNNING:
@@ -377,7 +446,7 @@ class Robot:
                              "brake-release`; in Python robot.power_on(), robot.brake_release())")
         return status
 
-    def _checked_status(self, status):
+    def _checked_status(self, status: RobotStatus) -> RobotStatus:
         """`status` unchanged unless it shows an emergency or protective stop, or a frozen stream."""
         if status.emergency_stopped:
             raise EmergencyStopError(f"{self.host} is emergency-stopped (safety mode {status.safety_mode_name}); "
@@ -392,45 +461,44 @@ class Robot:
             raise ConnectionLostError(f"the primary interface of {self.host} closed: {self._primary.error}")
         return status
 
-    def run_script(self, name: str, program: str, target: npt.ArrayLike, duration: float,
+    def run_script(self, name: str, program: str, target: Sequence[float] | np.ndarray, duration: float,
                    on_message: Callable[[object], None] | None = None,
-                   reached_end: Callable[[], bool] | None = None, path: PathPlan | None = None) -> float:
+                   reached_end: Callable[[], bool] | None = None, path: PathPlan | None = None,
+                   on_sent: Callable[[], None] | None = None) -> float:
         """Run a whole generated URScript program and watch it to its end.
 
         Run a whole generated `program` (URScript text of `def name(): ... end`, its targets checked by the
         caller) that ends with the arm at joint `target`, expected to take `duration` s at 100 %; each robot
-        message is also given to `on_message` (which may raise to fail the run), and when `reached_end` is given
-        the run is only done once it returns True (the program's own report that it ran to its end: the arm
-        resting at a target it started from proves nothing). `path` (a PathPlan of the program's moves) is
-        checked when require_path_check is on. Returns the wall time (s). Used by ur3dq.program.runner."""
+        message is also given to `on_message` (which may raise to fail the run; after a failure it still gets the
+        program's last messages), and when `reached_end` is given the run is only done once it returns True (the
+        program's own report that it ran to its end: the arm resting at a target it started from proves nothing).
+        `path` (a PathPlan of the program's moves) is checked when require_path_check is on. `on_sent()` is
+        called once the program is handed to the controller (an error before it: nothing was sent). Returns the
+        wall time (s). Used by ur3dq.program.runner."""
         status = self._ready_status()
         target = self._checked_target(target, "target")
         self._require_clear_path(path)
-        timeout = motion.motion_timeout(duration, status.target_speed_fraction) + self.link_delay
-        return self._run_motion(urscript.check_identifier(name), program, target, status.joints,
-                                status.program_running, timeout, on_message, reached_end)
+        return self._send_watched(urscript.check_identifier(name), program, target, status, duration, on_message,
+                                  reached_end, on_sent)
 
-    def _run_motion(self, name, program, target, q_start, running_at_send, timeout, on_message=None,
-                    reached_end=None):
-        """Send `program` (armed on the heartbeat), then watch it to its end; any failure stops the arm before the
-        exception leaves."""
-        if self._use_heartbeat:
-            if self._heartbeat is None:
-                self._heartbeat = Heartbeat(self.host)
-            if not self._heartbeat.alive:
-                raise ConnectionLostError(f"the heartbeat to {self.host} stopped: nothing would stop a motion if "
-                                          "ur3dq died, so none is sent (reconnect)")
-            program = armed(program, name)
+    def _send_watched(self, name: str, program: str, target: np.ndarray, status: RobotStatus,
+                      duration: float, on_message: Callable[[object], None] | None = None,
+                      reached_end: Callable[[], bool] | None = None,
+                      on_sent: Callable[[], None] | None = None) -> float:
+        """Send `program` (armed on the heartbeat) from `status`, expected to take `duration` s at 100 %, then watch
+        it to its end; any failure stops the arm before the exception leaves."""
+        timeout = motion.motion_timeout(duration, status.target_speed_fraction) + self.link_delay
+        program = self._armed(program, name)
         watcher = self._primary.watch()
-        if self._heartbeat is not None and self._use_heartbeat:
-            self._heartbeat.watch_gaps()
         sent = time.monotonic()
+        outcome = MotionWatch(name, target, running_at_send=status.program_running, heartbeat=self._heartbeat,
+                              watchdog_period=1.0 / WATCHDOG_FREQUENCY)
         try:
             self._backend.send_program(program)
-            outcome = _MotionWatch(name, target, running_at_send=running_at_send,
-                                   heartbeat=self._heartbeat if self._use_heartbeat else None)
+            if on_sent is not None:
+                on_sent()
             while True:
-                for message in _drain(watcher):
+                for message in drain(watcher):
                     outcome.note_message(message)
                     if on_message is not None:
                         on_message(message)
@@ -438,29 +506,38 @@ class Robot:
                 now = time.monotonic()
                 if outcome.finished(status, now) and (reached_end is None or reached_end()):
                     return now - sent
-                if not outcome.started and now - sent > START_TIMEOUT + self.link_delay:
-                    raise ProgramError(f"the controller did not start program {name} within "
-                                       f"{START_TIMEOUT + self.link_delay:.1f} s")
-                if now - sent > timeout:
-                    raise MotionTimeoutError(
-                        f"program {name} did not finish within {timeout:.2f} s (derived from its trapezoidal "
-                        f"duration and the speed slider, plus the link's measured round trip of "
-                        f"{self.link_delay:.3f} s); the arm is {outcome.distance(status):.4f} rad from target")
+                outcome.check_progress(status, now - sent, now, START_TIMEOUT + self.link_delay, timeout,
+                                       f"plus the link's measured round trip of {self.link_delay:.3f} s")
                 time.sleep(self._backend.poll_period)
         except BaseException as error:
             self._stop_after(error)
+            if on_message is not None:
+                last_reports(watcher, outcome, on_message, AFTER_STOP_WAIT)
             raise
         finally:
             self._primary.unwatch(watcher)
 
-    def _stop_after(self, error) -> None:
+    def _armed(self, program: str, name: str) -> str:
+        """`program` armed on the heartbeat's watchdog (started now if it is not yet), or as it is without one;
+        ConnectionLostError when the heartbeat is down: nothing would stop the program if ur3dq died."""
+        if not self._use_heartbeat:
+            return program
+        if self._heartbeat is None:
+            self._heartbeat = Heartbeat(self._rtde_inputs())
+        if not self._heartbeat.alive:
+            raise ConnectionLostError(f"the heartbeat to {self.host} stopped: nothing would stop a program if "
+                                      "ur3dq died, so none is sent (reconnect)")
+        self._heartbeat.watch_gaps()
+        return armed(program, name)
+
+    def _stop_after(self, error: BaseException) -> None:
         """Best-effort stopj after a failed or interrupted motion; a failing stop is attached, never raised."""
         try:
             self._send_stop(SAFE_STOP_DECELERATION)
         except RobotError as stop_error:
-            error.add_note(f"ur3dq: sending stopj after this error also failed: {stop_error}")
+            add_note(error, f"ur3dq: sending stopj after this error also failed: {stop_error}")
 
-    def _send_stop(self, a):
+    def _send_stop(self, a: float) -> None:
         """Send a `stopj` program on the primary connection, or on a fresh one if that is gone (never via urx,
         whose sending can block)."""
         a = min(float(a), float(np.min(self.model.max_joint_acceleration)))
@@ -471,6 +548,51 @@ class Robot:
             self._primary.send_script(stop_program)
         except ConnectionLostError:
             send_script(self.host, stop_program)
+
+    # --- digital I/O ------------------------------------------------------------------------------------------
+
+    def set_digital_out(self, pin: int, on: bool) -> None:
+        """Switch standard digital output `pin` (0-7) on or off (through this client's RTDE inputs, so a running
+        program is left alone); returns once the controller shows it. ValueError for a pin that does not exist."""
+        self._set_output("standard", pin, on)
+
+    def set_tool_digital_out(self, pin: int, on: bool) -> None:
+        """Switch tool digital output `pin` (0-1, e.g. a gripper) on or off; returns once the controller shows it."""
+        self._set_output("tool", pin, on)
+
+    def set_configurable_digital_out(self, pin: int, on: bool) -> None:
+        """Switch configurable digital output `pin` (0-7) on or off; returns once the controller shows it."""
+        self._set_output("configurable", pin, on)
+
+    def digital_in(self, pin: int, family: str = "standard") -> bool:
+        """True while digital input `pin` of `family` ('standard' 0-7, 'configurable' 0-7, 'tool' 0-1) is on."""
+        return bool(self.io_state().digital_in & io_bit(family, pin))
+
+    def digital_out(self, pin: int, family: str = "standard") -> bool:
+        """True while digital output `pin` of `family` ('standard', 'configurable', 'tool') is on."""
+        return bool(self.io_state().digital_out & io_bit(family, pin))
+
+    def outputs_on(self) -> list[tuple[str, int]]:
+        """(family, pin) of every digital output that is on now, e.g. [('tool', 0)]."""
+        return self.io_state().outputs_on()
+
+    def _set_output(self, family: str, pin: int, on: bool) -> None:
+        bit = io_bit(family, pin)
+        if not isinstance(on, bool):
+            raise ValueError(f"{family} digital output {pin}: on must be True or False, got {on!r}")
+        self._rtde_inputs().set_digital_out(family, pin, on)
+        deadline = time.monotonic() + OUTPUT_TIMEOUT
+        while bool(self.io_state().digital_out & bit) != on:
+            if time.monotonic() > deadline:
+                raise RobotError(f"{self.host} does not show {family} digital output {pin} "
+                                 f"{'on' if on else 'off'} {OUTPUT_TIMEOUT:g} s after it was set")
+            time.sleep(self._backend.poll_period)
+
+    def _rtde_inputs(self) -> RTDEInputs:
+        """This client's RTDE inputs (opened on first use; the heartbeat beats on them)."""
+        if self._inputs is None:
+            self._inputs = RTDEInputs(self.host)
+        return self._inputs
 
     # --- power, safety, TCP, freedrive ------------------------------------------------------------------------
 
@@ -521,12 +643,14 @@ class Robot:
             raise ProgramError(f"the controller did not apply TCP offset {list(pose)} within 2 s")
         self.model = self.model.with_tcp(pose)
 
-    def teach_mode(self, on, hold_seconds: float=3600.0):
-        """Freedrive on (a program holding freedrive for `hold_seconds`) or off; waits for the controller."""
+    def teach_mode(self, on: bool, hold_seconds: float = 3600.0) -> None:
+        """Freedrive on (a program holding freedrive for `hold_seconds`, armed on the heartbeat like every motion:
+        freedrive ends within 0.1 s if ur3dq dies) or off; waits for the controller."""
         name = urscript.new_program_name("teach")
         statements = urscript.freedrive_statements(hold_seconds) if on else urscript.end_freedrive_statements()
         self._ready_status()
-        self._backend.send_program(urscript.program(name, statements))
+        program = urscript.program(name, statements)
+        self._backend.send_program(self._armed(program, name) if on else program)
         wanted = 1 if on else 0  # primary controlMode: 1 TEACH, 0 POSITION
         if not self._primary.wait_for(lambda c: c.robot_mode.control_mode == wanted, timeout=2.0):
             raise ProgramError(f"the controller did not switch freedrive {'on' if on else 'off'} within 2 s")
@@ -545,6 +669,15 @@ class Robot:
         robot_mode = self._primary.robot_mode
         return robot_mode is not None and robot_mode.control_mode == 1
 
+    def _wait_for_program(self, reached: Callable[[RobotStatus], bool]) -> bool:
+        """Wait (≤ PROGRAM_STATE_TIMEOUT) until reached(status); False if it never was."""
+        deadline = time.monotonic() + PROGRAM_STATE_TIMEOUT
+        while not reached(self.state()):
+            if time.monotonic() > deadline:
+                return False
+            time.sleep(self._backend.poll_period)
+        return True
+
     def _wait_for_mode(self, modes, action):
         """Wait until the robot mode is one of `modes`; RobotError naming `action` after MODE_CHANGE_TIMEOUT."""
         deadline = time.monotonic() + MODE_CHANGE_TIMEOUT
@@ -558,106 +691,3 @@ class Robot:
                 raise RobotError(f"{action}: the robot is still in mode {status.robot_mode_name} after "
                                  f"{MODE_CHANGE_TIMEOUT} s")
             time.sleep(0.02)
-
-
-class _MotionWatch:
-    """What is known about one sent program: started/ended (key messages or state), and the controller's errors.
-
-    A motion is done only on evidence that *this* program ran and ended — its own PROGRAM_XXX_STOPPED key message,
-    or the state stream showing it running and then not running — and the arm at rest on the target. Being at rest
-    on the target proves nothing by itself: a closed path [B, A] or a zero-length move starts there.
-    """
-
-    def __init__(self, name: str, target, running_at_send: bool, heartbeat=None) -> None:
-        self.name = name
-        self.heartbeat = heartbeat  # the Heartbeat the program is armed on (None: not armed)
-        self.target = np.asarray(target, dtype=float)
-        self.started = False
-        self.stopped = False  # our STOPPED key message arrived
-        # A program already running when ours was sent (or its stale flag) is not ours: the state's "running"
-        # counts as our start only after the state has shown no program since the send.
-        self._running_is_ours = not running_at_send
-        self._seen_running = False  # the state stream showed our program running
-        self._ended_on_state = False  # ... and then not running
-        self.last_error_text: str | None = None
-        # raised once the state had time to show a safety stop behind it instead
-        self.runtime_error: ProgramError | None = None
-        self._ended_at: float | None = None
-        self._error_at: float | None = None
-
-    def note_message(self, message) -> None:
-        """Update from one robot message (key messages, runtime exceptions, error codes)."""
-        if primary.is_program_started(message, self.name):
-            self.started = True
-        elif primary.is_program_stopped(message, self.name):
-            self.started = self.stopped = True
-        elif isinstance(message, primary.RuntimeExceptionMessage) and self.runtime_error is None:
-            self.runtime_error = ProgramError(
-                f"the controller reported an error in program {self.name} at line {message.line}, "
-                f"column {message.column}: {message.text}")
-        elif isinstance(message, primary.ErrorCodeMessage) and message.report_level >= 2:
-            self.last_error_text = f"C{message.code}A{message.argument}: {message.text}"
-
-    def distance(self, status) -> float:
-        """The largest joint distance (rad) from the arm to the target."""
-        return float(np.max(np.abs(status.joints - self.target)))
-
-    @property
-    def ended(self) -> bool:
-        """True once there is evidence that this program ran and ended."""
-        return self.stopped or self._ended_on_state
-
-    def finished(self, status, now: float) -> bool:
-        """True when the program has ended with the arm at rest on target; ProgramError if it ended elsewhere or
-        the controller reported a runtime error (after SETTLE_TIME, so a safety stop behind it is seen first)."""
-        if self.runtime_error is not None:
-            if self._error_at is None:
-                self._error_at = now
-            elif now - self._error_at > SETTLE_TIME:
-                raise self.runtime_error
-            return False
-        # The controller's key message announces the end a state cycle before the state stream agrees; waiting
-        # for the stream too would add that cycle to every move.
-        if status.program_running:
-            if self._running_is_ours:
-                self.started = self._seen_running = True
-            if not self.stopped:
-                self._ended_at = None
-                return False
-        else:
-            self._running_is_ours = True
-            if self._seen_running:
-                self._ended_on_state = True
-        if not self.ended:
-            return False
-        if state.at_rest_at(status, self.target):
-            return True
-        if self._ended_at is None:
-            self._ended_at = now
-        # Only a state the stream delivered after the end says where the arm ended: one from before (a frozen
-        # stream, garbled on the wire) shows the arm where it was then, and the stream's freeze check reports it.
-        elif now - self._ended_at > SETTLE_TIME and now - status.age > self._ended_at:
-            raise ProgramError(f"program {self.name} ended with the arm {self.distance(status):.4f} rad from its "
-                               f"target{self._stop_reason()}")
-        return False
-
-    def _stop_reason(self) -> str:
-        """What ended the program short of its target, as far as ur3dq can tell: the controller's error, or its
-        heartbeat watchdog when the heartbeat went a watchdog period without a write (the controller's key
-        message does not say why a program stopped)."""
-        if self.last_error_text:
-            return f": {self.last_error_text}"
-        gap = self.heartbeat.longest_gap() if self.heartbeat is not None else 0.0
-        if gap >= 1.0 / WATCHDOG_FREQUENCY:
-            return (f": most likely the controller's heartbeat watchdog (ur3dq's heartbeat wrote nothing for "
-                    f"{gap:.3f} s; the watchdog stops a program after {1.0 / WATCHDOG_FREQUENCY:g} s)")
-        return ""
-
-
-def _drain(watcher):
-    """Every message waiting in `watcher`, without blocking."""
-    while True:
-        try:
-            yield watcher.get_nowait()
-        except queue.Empty:
-            return

@@ -65,18 +65,20 @@ class RTDEBackend:
                 self._last_timestamp, self._last_fresh = timestamp, now
             safety_mode = receive.getSafetyMode()
             safety_bits = receive.getSafetyStatusBits()
+            runtime_state = receive.getRuntimeState()
             status = state.RobotStatus(
                 joints=np.array(receive.getActualQ()),
                 joint_speeds=np.array(receive.getActualQd()),
                 tcp_pose=np.array(receive.getActualTCPPose()),
                 robot_mode=receive.getRobotMode(),
                 safety_mode=safety_mode,
-                program_running=state.program_running_from(receive.getRuntimeState(), receive.getRobotStatus()),
+                program_running=state.program_running_from(runtime_state, receive.getRobotStatus()),
                 protective_stopped=state.protective_stopped_from(safety_bits, safety_mode),
                 emergency_stopped=state.emergency_stopped_from(safety_bits, safety_mode),
                 speed_scaling=receive.getSpeedScaling(),
                 target_speed_fraction=receive.getTargetSpeedFraction(),
                 age=now - self._last_fresh,
+                program_paused=state.program_paused_from(runtime_state),
             )
         finally:
             # An error raised here (or a KeyboardInterrupt) keeps this frame in its traceback, and a caller may keep

@@ -3,6 +3,8 @@
 Enumerations follow docs/protocols.md §1 (RTDE and primary alike); both interfaces use the same robot-mode and
 safety-mode numbers.
 """
+from __future__ import annotations
+
 from dataclasses import dataclass
 
 import numpy as np
@@ -21,6 +23,7 @@ SAFETY_MODE_NAMES = {
 ROBOT_MODE_IDLE = 5
 ROBOT_MODE_RUNNING = 7
 RUNTIME_STATE_PLAYING = 2
+RUNTIME_STATES_PAUSED = frozenset({3, 4})   # PAUSING, PAUSED (RTDE runtime_state)
 EMERGENCY_SAFETY_MODES = frozenset({6, 7})
 PROTECTIVE_SAFETY_MODES = frozenset({3})
 
@@ -41,6 +44,8 @@ class RobotStatus:
     """One reading of the controller: joints (rad), TCP pose (UR pose vector), modes, flags and speed fractions.
 
     `age` is how many seconds ago the state stream last delivered fresh data (large ⇒ frozen stream).
+    `program_paused` is True while a program is paused (not running, not ended). The I/O is read apart
+    (Robot.io_state, ur3dq.robot.io_state).
     """
 
     joints: np.ndarray
@@ -54,44 +59,51 @@ class RobotStatus:
     speed_scaling: float
     target_speed_fraction: float
     age: float
+    program_paused: bool = False
 
     @property
-    def robot_mode_name(self):
+    def robot_mode_name(self) -> str:
         """The robot mode's name, e.g. 'RUNNING'."""
         return robot_mode_name(self.robot_mode)
 
     @property
-    def safety_mode_name(self):
+    def safety_mode_name(self) -> str:
         """The safety mode's name, e.g. 'NORMAL'."""
         return safety_mode_name(self.safety_mode)
 
 
-def robot_mode_name(mode):
+def robot_mode_name(mode: int) -> str:
     """Name of a robot-mode code (RTDE robot_mode / primary robotMode), 'UNKNOWN(n)' if unlisted."""
     return ROBOT_MODE_NAMES.get(int(mode), f"UNKNOWN({int(mode)})")
 
 
-def safety_mode_name(mode):
+def safety_mode_name(mode: int) -> str:
     """Name of a safety-mode code (RTDE safety_mode / masterboard safetyMode), 'UNKNOWN(n)' if unlisted."""
     return SAFETY_MODE_NAMES.get(int(mode), f"UNKNOWN({int(mode)})")
 
 
-def program_running_from(runtime_state, robot_status_bits):
+def program_running_from(runtime_state: int, robot_status_bits: int) -> bool:
     """True if RTDE says a program runs: runtime_state PLAYING or robot_status_bits bit 1."""
     return int(runtime_state) == RUNTIME_STATE_PLAYING or bool(int(robot_status_bits) & _STATUS_BIT_PROGRAM_RUNNING)
 
 
-def protective_stopped_from(safety_status_bits, safety_mode):
+def program_paused_from(runtime_state: int) -> bool:
+    """True if RTDE's runtime_state says the program is pausing or paused."""
+    return int(runtime_state) in RUNTIME_STATES_PAUSED
+
+
+def protective_stopped_from(safety_status_bits: int, safety_mode: int) -> bool:
     """True if RTDE reports a protective stop: safety_status_bits bit 2, or safety mode PROTECTIVE_STOP."""
     return bool(int(safety_status_bits) & _SAFETY_BIT_PROTECTIVE_STOPPED) or int(safety_mode) in PROTECTIVE_SAFETY_MODES
 
 
-def emergency_stopped_from(safety_status_bits, safety_mode):
+def emergency_stopped_from(safety_status_bits: int, safety_mode: int) -> bool:
     """True if RTDE reports an emergency stop: safety_status_bits bit 7, or a (system/robot) e-stop safety mode."""
     return bool(int(safety_status_bits) & _SAFETY_BIT_EMERGENCY_STOPPED) or int(safety_mode) in EMERGENCY_SAFETY_MODES
 
 
-def at_rest_at(status, target, position_tolerance: float=2e-3, speed_tolerance: float=5e-3):
+def at_rest_at(status: RobotStatus, target: object, position_tolerance: float = 2e-3,
+              speed_tolerance: float = 5e-3) -> bool:
     """True if every joint is within `position_tolerance` rad of `target` and slower than `speed_tolerance` rad/s."""
     return bool(
         np.max(np.abs(status.joints - np.asarray(target, dtype=float))) <= position_tolerance
@@ -99,7 +111,7 @@ def at_rest_at(status, target, position_tolerance: float=2e-3, speed_tolerance: 
     )
 
 
-def validated(status, source, safety_mode_reported: bool=True):
+def validated(status: RobotStatus, source: str, safety_mode_reported: bool = True) -> RobotStatus:
     """`status` unchanged if it can be true, else InvalidStateError.
 
     `status` unchanged if it can be true; else InvalidStateError naming `source` (e.g. 'RTDE from 10.0.0.2')
@@ -126,6 +138,6 @@ def validated(status, source, safety_mode_reported: bool=True):
     return status
 
 
-def _shown(values):
+def _shown(values: object) -> str:
     """A short text of a vector for an error message."""
     return np.array2string(np.asarray(values), precision=4, threshold=8)

@@ -16,6 +16,7 @@ from ur3dq.errors import ConnectionLostError, RobotConnectionError
 from ur3dq.robot import state
 from ur3dq.robot.io_state import IOState
 
+RUNTIME_STOPPED, RUNTIME_PLAYING, RUNTIME_PAUSED = 1, 2, 4   # RTDE runtime_state codes (io_state.RUNTIME_STATE_NAMES)
 # urx hands a program to its reader thread and waits on a condition with no timeout; if that thread has died
 # (urx ends it on any 0.5 s gap in the stream) the wait would never return, so it is bounded here.
 SEND_TIMEOUT = 2.0
@@ -68,16 +69,19 @@ class URXBackend:
             speed_scaling=mode.speed_scaling,
             target_speed_fraction=mode.target_speed_fraction,
             age=max(urx_age, now - self.primary.last_state_time),
+            program_paused=mode.program_paused,
         ), f"the urx/primary state stream from {self.host}", safety_mode_reported=False)
 
     def io_status(self) -> IOState:
-        """The I/O from urx's newest masterboard data (the primary interface reports no runtime state)."""
-        board = self._robot.secmon.get_all_data().get("MasterBoardData")
-        if not board:
+        """The I/O from the newest masterboard data and the program state from the newest robot mode data, both as
+        ur3dq's primary reader parsed them (urx 0.11 misreads 3.x controllers' masterboard data: its digital bits
+        read 0 and its analog values garbage)."""
+        board, mode = self.primary.board_io, self.primary.robot_mode
+        if board is None or mode is None:
             raise ConnectionLostError(f"no masterboard data from {self.host} yet")
-        return IOState(int(board.get("digitalInputBits", 0)), int(board.get("digitalOutputBits", 0)),
-                       (board.get("analogInput0", 0.0), board.get("analogInput1", 0.0)),
-                       (board.get("analogOutput0", 0.0), board.get("analogOutput1", 0.0)), None)
+        runtime = RUNTIME_PAUSED if mode.program_paused else RUNTIME_PLAYING if mode.program_running else \
+            RUNTIME_STOPPED
+        return IOState(board.digital_in, board.digital_out, board.analog_in, board.analog_out, runtime)
 
     def send_program(self, script):
         """Send URScript through urx (port 30002); ConnectionLostError if urx cannot hand it over in time."""

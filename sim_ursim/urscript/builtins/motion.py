@@ -241,8 +241,9 @@ def is_steady(ctx: ThreadContext):
 
 @builtin("freedrive_mode", "teach_mode")
 def freedrive_mode(ctx: ThreadContext, *args, **kwargs):
-    """Freedrive on (the axis/feature constraints of 5.x, positional or freeAxes=/feature=, accepted and ignored)."""
-    controller_call(ctx.controller.set_freedrive, True)
+    """Freedrive on while this program runs (the axis/feature constraints of 5.x, positional or freeAxes=/feature=,
+    accepted and ignored)."""
+    controller_call(ctx.controller.set_freedrive, True, owner=ctx.execution)
 
 
 @builtin("end_freedrive_mode", "end_teach_mode")

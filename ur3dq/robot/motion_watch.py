@@ -1,0 +1,189 @@
+"""What is known about one sent motion program, decided from the state stream and the robot messages (pure).
+
+A motion is done only on evidence that *this* program ran and ended — its own PROGRAM_XXX_STOPPED key message, or
+the state stream showing it running and then not running — with the arm at rest on the target. Being at rest on the
+target proves nothing by itself: a closed path [B, A] or a zero-length move starts there. A paused program is
+neither running on nor ended: the watch waits, and the time it spends paused does not count against its timeout.
+"""
+from __future__ import annotations
+
+import queue
+import time
+from collections.abc import Callable, Iterator
+from typing import Protocol
+
+import numpy as np
+
+from ur3dq.errors import MotionTimeoutError, ProgramError, UR3DQError
+from ur3dq.robot import primary, state
+
+#: s a stopped program may take to show the arm at rest before it counts as failed
+SETTLE_TIME = 0.3
+
+
+class GapMeter(Protocol):
+    """What the watch asks of the heartbeat its program is armed on (ur3dq.robot.heartbeat.Heartbeat)."""
+
+    def longest_gap(self) -> float: ...
+
+
+class MotionWatch:
+    """One sent program `name` that ends with the arm at joint `target`: started, paused, ended, and the
+    controller's errors about it.
+
+    Parameters
+    ----------
+    name : str
+        The program's name (its key messages carry it).
+    target : (6,) array
+        Where the arm rests when the program has run to its end (rad).
+    running_at_send : bool
+        Whether a program was running when this one was sent: its "running" flag is not this program's start.
+    heartbeat : GapMeter, optional
+        The heartbeat the program is armed on; a stop after a gap in it is blamed on the controller's watchdog.
+    watchdog_period : float
+        The watchdog's period (s): a heartbeat gap at least this long may have stopped the program.
+    """
+
+    def __init__(self, name: str, target: object, running_at_send: bool, heartbeat: GapMeter | None = None,
+                 watchdog_period: float = 0.1) -> None:
+        self.name = name
+        self.heartbeat = heartbeat
+        self.watchdog_period = watchdog_period
+        self.target = np.asarray(target, dtype=float)
+        self.started = False
+        self.stopped = False  # our STOPPED key message arrived
+        # A program already running when ours was sent (or its stale flag) is not ours: the state's "running"
+        # counts as our start only after the state has shown no program since the send.
+        self._running_is_ours = not running_at_send
+        self._seen_running = False  # the state stream showed our program running
+        self._ended_on_state = False  # ... and then not running
+        self.last_error_text: str | None = None
+        self.runtime_error: ProgramError | None = None  # raised once the state had time to show a safety stop
+        self._ended_at: float | None = None
+        self._error_at: float | None = None
+        self._paused_since: float | None = None   # when the program was seen paused, while it is
+        self._paused_total = 0.0
+
+    def note_message(self, message: object) -> None:
+        """Update from one robot message (key messages, runtime exceptions, error codes)."""
+        if primary.is_program_started(message, self.name):
+            self.started = True
+        elif primary.is_program_stopped(message, self.name):
+            self.started = self.stopped = True
+        elif isinstance(message, primary.RuntimeExceptionMessage) and self.runtime_error is None:
+            self.runtime_error = ProgramError(
+                f"the controller reported an error in program {self.name} at line {message.line}, "
+                f"column {message.column}: {message.text}")
+        elif isinstance(message, primary.ErrorCodeMessage) and message.report_level >= 2:
+            self.last_error_text = f"C{message.code}A{message.argument}: {message.text}"
+
+    def distance(self, status: state.RobotStatus) -> float:
+        """The largest joint distance (rad) from the arm to the target."""
+        return float(np.max(np.abs(status.joints - self.target)))
+
+    @property
+    def ended(self) -> bool:
+        """True once there is evidence that this program ran and ended."""
+        return self.stopped or self._ended_on_state
+
+    @property
+    def paused(self) -> bool:
+        """True while the last status showed the program paused."""
+        return self._paused_since is not None
+
+    def paused_seconds(self, now: float) -> float:
+        """How long (s) the program has been paused since it was sent: its timeout stands still meanwhile."""
+        return self._paused_total + (now - self._paused_since if self._paused_since is not None else 0.0)
+
+    def check_progress(self, status: state.RobotStatus, elapsed: float, now: float, start_timeout: float,
+                       timeout: float, timeout_note: str) -> None:
+        """ProgramError when the program has not started `start_timeout` s after it was sent (`elapsed` s ago),
+        MotionTimeoutError when it ran past `timeout` s, the time it spent paused not counted (`timeout_note` says
+        what the timeout holds beyond the motion's own duration)."""
+        if not self.started and not self.paused and elapsed > start_timeout:
+            raise ProgramError(f"the controller did not start program {self.name} within {start_timeout:.1f} s")
+        if elapsed - self.paused_seconds(now) > timeout:
+            raise MotionTimeoutError(
+                f"program {self.name} did not finish within {timeout:.2f} s (derived from its trapezoidal duration "
+                f"and the speed slider, {timeout_note}); the arm is {self.distance(status):.4f} rad from target")
+
+    def finished(self, status: state.RobotStatus, now: float) -> bool:
+        """True when the program has ended with the arm at rest on target; ProgramError if it ended elsewhere or
+        the controller reported a runtime error (after SETTLE_TIME, so a safety stop behind it is seen first)."""
+        if self.runtime_error is not None:
+            if self._error_at is None:
+                self._error_at = now
+            elif now - self._error_at > SETTLE_TIME:
+                raise self.runtime_error
+            return False
+        if status.program_paused and not self.stopped:   # at rest on its path: it goes on when resumed
+            if self._paused_since is None:
+                self._paused_since = now
+            self._ended_at = None
+            return False
+        if self._paused_since is not None:
+            self._paused_total, self._paused_since = self.paused_seconds(now), None
+        # The controller's key message announces the end a state cycle before the state stream agrees; waiting
+        # for the stream too would add that cycle to every move.
+        if status.program_running:
+            if self._running_is_ours:
+                self.started = self._seen_running = True
+            if not self.stopped:
+                self._ended_at = None
+                return False
+        else:
+            self._running_is_ours = True
+            if self._seen_running:
+                self._ended_on_state = True
+        if not self.ended:
+            return False
+        if state.at_rest_at(status, self.target):
+            return True
+        if self._ended_at is None:
+            self._ended_at = now
+        # Only a state the stream delivered after the end says where the arm ended: one from before (a frozen
+        # stream, garbled on the wire) shows the arm where it was then, and the stream's freeze check reports it.
+        elif now - self._ended_at > SETTLE_TIME and now - status.age > self._ended_at:
+            raise ProgramError(f"program {self.name} ended with the arm {self.distance(status):.4f} rad from its "
+                               f"target{self._stop_reason()}")
+        return False
+
+    def _stop_reason(self) -> str:
+        """What ended the program short of its target, as far as ur3dq can tell: the controller's error, or its
+        heartbeat watchdog when the heartbeat went a watchdog period without a write (the controller's key
+        message does not say why a program stopped)."""
+        if self.last_error_text:
+            return f": {self.last_error_text}"
+        gap = self.heartbeat.longest_gap() if self.heartbeat is not None else 0.0
+        if gap >= self.watchdog_period:
+            return (f": most likely the controller's heartbeat watchdog (ur3dq's heartbeat wrote nothing for "
+                    f"{gap:.3f} s; the watchdog stops a program after {self.watchdog_period:g} s)")
+        return ""
+
+
+def last_reports(watcher: queue.Queue[object], outcome: MotionWatch, on_message: Callable[[object], None],
+                 wait: float) -> None:
+    """After a failed or interrupted program: hand `on_message` the messages it sent up to its end (its STOPPED key
+    message; at most `wait` s), so a caller following its reports (the step it had reached) misses none."""
+    deadline = time.monotonic() + wait
+    try:
+        while not outcome.stopped and time.monotonic() < deadline:
+            for message in drain(watcher):
+                outcome.note_message(message)
+                try:
+                    on_message(message)
+                except UR3DQError:
+                    pass
+            time.sleep(0.01)
+    except KeyboardInterrupt:   # a second Ctrl-C: stop reading, the stop was sent already
+        pass
+
+
+def drain(watcher: queue.Queue[object]) -> Iterator[object]:
+    """Every message waiting in `watcher`, without blocking."""
+    while True:
+        try:
+            yield watcher.get_nowait()
+        except queue.Empty:
+            return
