@@ -110,3 +110,31 @@ def test_every_help_page_fits_80_columns():
         assert result.exit_code == 0, (path, result.output)
         too_wide = [line for line in result.output.splitlines() if len(line) > 80]
         assert not too_wide, (path, too_wide)
+
+
+def test_a_table_piped_to_a_pager_in_a_terminal_fits_that_terminal(tmp_path):
+    """stdout piped (`ur3dq poses list | head`), stderr still the 80-column terminal: the table fits 80 columns."""
+    import fcntl
+    import os
+    import pty
+    import shutil
+    import struct
+    import subprocess
+    import termios
+    from pathlib import Path
+
+    from cli_support import UR3DQ, cli_env
+
+    shutil.copy(Path(__file__).parents[2] / "poses" / "example-poses.json", tmp_path / "poses.json")
+    controller, terminal = pty.openpty()
+    fcntl.ioctl(terminal, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 80, 0, 0))
+    env = cli_env(tmp_path)
+    env.pop("COLUMNS")
+    try:
+        result = subprocess.run([UR3DQ, "poses", "list"], cwd=tmp_path, env=env, stdout=subprocess.PIPE,
+                                stderr=terminal, text=True, timeout=60)
+    finally:
+        os.close(terminal)
+        os.close(controller)
+    assert result.returncode == 0
+    assert "demo-4" in result.stdout and max(len(line) for line in result.stdout.splitlines()) <= 80

@@ -194,7 +194,8 @@ def test_offsets_take_units_and_follow_deg_and_mm(run_in_process, program):
     assert program.get_step("up2").offset[2] == pytest.approx(-0.05)
     shown = json.loads(run_in_process("poses", "show", "tilt", "--json").stdout)["step"]
     assert shown["offset"][3] == pytest.approx(math.radians(5))   # JSON stays SI under --deg
-    assert "5.000°" in run_in_process("poses", "show", "tilt", "--deg").stdout
+    shown_text = run_in_process("poses", "show", "tilt", "--deg").stdout
+    assert "5.000°" in shown_text and shown_text.count("│ move ") == 1
 
 
 def test_run_options_follow_deg_after_the_command(run_in_process, tmp_path):

@@ -116,9 +116,12 @@ class Settings:
 
 
 def make_console() -> Console:
-    """A console for stdout: the terminal's width, or a wide fixed width when piped so tables stay whole."""
+    """A console for stdout: the terminal's width (also when stdout is piped to `head` or `less` in a terminal),
+    or a wide fixed width when no terminal is attached, so tables in files and logs stay whole."""
     # COLUMNS set (as a terminal or `COLUMNS=80 ur3dq ...` does) is the width to fit, piped or not
     fixed = None if sys.stdout.isatty() or os.environ.get("COLUMNS", "").isdigit() else 160
+    if fixed is not None and sys.stderr.isatty():
+        fixed = os.get_terminal_size(sys.stderr.fileno()).columns
     return Console(width=fixed, highlight=False, soft_wrap=False)
 
 

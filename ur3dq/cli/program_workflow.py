@@ -123,8 +123,8 @@ def describe_step(step: Step, units: Units) -> str:
         x, y, z = (to_display(v, LENGTH, mm) for v in step.offset[:3])
         turn = math.hypot(*step.offset[3:])
         rotation = f" turn {show(turn, ANGLE, units, 2 if units.angle == 'deg' else 4)}" if turn else ""
-        return (f"{motion_text(step.motion, units)}; {step.base} {x:+.1f},{y:+.1f},{z:+.1f} mm {step.frame}"
-                f"{rotation}")
+        offset = ",".join(f"{round(v, 1):+g}" for v in (x, y, z))
+        return f"{motion_text(step.motion, units)}; {step.base} {offset} mm {step.frame}{rotation}"
     if isinstance(step, Wait):
         return show(step.seconds, DURATION)
     return describe(step)
@@ -134,7 +134,7 @@ def step_fields_text(step: Step, units: Units) -> list[tuple[str, str]]:
     """`poses show` of a step that is not a recorded pose: its stored fields, numbers in the person's units."""
     fields = step_to_dict(step)
     rows = [(key, str(value)) for key, value in fields.items()
-            if key not in ("offset", "speed", "acceleration", "blend", "seconds", "timeout")]
+            if key not in ("offset", "move", "speed", "acceleration", "blend", "seconds", "timeout")]
     if isinstance(step, RelativeWaypoint):
         rows.append((pose_label("offset", units), pose_vector_text(step.offset, units)))
         rows.append(("move", motion_text(step.motion, units)))
