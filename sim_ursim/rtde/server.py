@@ -251,18 +251,23 @@ class RTDEServer(TCPServer):
         types = [variables.output_type(name, self._version) for name in names]
         # Protocol 1 has no frequency field: it streams every control cycle.
         rate = self._control_rate if frequency is None else frequency
-        valid = bool(names) and protocol.NOT_FOUND not in types and protocol.is_valid_frequency(rate)
+        fits = protocol.setup_reply_fits(types)
+        valid = bool(names) and fits and protocol.NOT_FOUND not in types and protocol.is_valid_frequency(rate)
         recipe_id = OUTPUT_RECIPE_ID if valid else 0
         session.output_recipe_requested = True
+        session.output_recipe = None
         if valid:
             decimation = protocol.output_decimation(rate, self._control_rate)
             session.output_recipe = OutputRecipe(names, types, recipe_id, decimation, session.protocol_version)
             log.info("%s output recipe: %d variables at %.1f Hz", session, len(names),
                      self._control_rate / decimation)
+        elif not fits:
+            log.warning("%s output recipe refused: %s", session, protocol.oversized_reply_reason(types))
+            types = []
         else:
-            session.output_recipe = None
-            missing = [name for name, kind in zip(names, types) if kind == protocol.NOT_FOUND]
-            log.warning("%s output recipe refused (frequency %r, not found: %s)", session, frequency, missing)
+            missing = [name for name, kind in zip(names, types, strict=True) if kind == protocol.NOT_FOUND]
+            log.warning("%s output recipe refused (frequency %r, not found: %s)", session, frequency,
+                        protocol.abbreviated(missing))
         self._reply(session, protocol.pack_setup_outputs_reply(recipe_id, types, session.protocol_version))
 
     def _on_setup_inputs(self, session: Session, payload: bytes) -> None:
@@ -275,7 +280,8 @@ class RTDEServer(TCPServer):
                 if kind != protocol.NOT_FOUND and owner is not None and owner is not session:
                     kind = protocol.IN_USE
                 types.append(kind)
-            valid = bool(names) and protocol.NOT_FOUND not in types and protocol.IN_USE not in types
+            fits = protocol.setup_reply_fits(types)
+            valid = bool(names) and fits and protocol.NOT_FOUND not in types and protocol.IN_USE not in types
             if valid:
                 for name in names:
                     self._input_owners[name] = session
@@ -286,10 +292,14 @@ class RTDEServer(TCPServer):
             recipe_id = session.next_input_recipe_id
             session.next_input_recipe_id += 1
             session.input_recipes[recipe_id] = InputRecipe(recipe_id, names, types)
+        elif not fits:
+            recipe_id = 0
+            log.warning("%s input recipe refused: %s", session, protocol.oversized_reply_reason(types))
+            types = []
         else:
             recipe_id = 0
-            log.warning("%s input recipe refused: %s", session,
-                        [f"{n}={t}" for n, t in zip(names, types) if t in (protocol.NOT_FOUND, protocol.IN_USE)])
+            log.warning("%s input recipe refused: %s", session, protocol.abbreviated(
+                [f"{n}={t}" for n, t in zip(names, types, strict=True) if t in (protocol.NOT_FOUND, protocol.IN_USE)]))
         self._reply(session, protocol.pack_setup_inputs_reply(recipe_id, types))
 
     def _on_start(self, session: Session, payload: bytes) -> None:

@@ -1,4 +1,5 @@
 """The RTDE server over real sockets, spoken to in raw protocol 1 and 2 like UR's RTDE Python client does."""
+import logging
 import socket
 import struct
 import time
@@ -158,6 +159,20 @@ def test_protocol_2_data_carries_the_recipe_id_and_real_values(cb3, clients):
     assert 0 < stamp <= state.timestamp
     assert q == pytest.approx(state.actual_q.tolist())
     assert mode == state.robot_mode and list(joint_modes) == list(state.joint_mode)
+
+
+def test_a_recipe_whose_reply_would_not_fit_one_package_is_refused(clients, caplog):
+    """30,000 one-letter names fit a request, but their reply (NOT_FOUND each) would take 300 kB: the recipe is
+    refused with an empty type list and one short log line, and the connection goes on."""
+    client = clients()
+    client.negotiate(2)
+    names = ["x"] * 30_000
+    with caplog.at_level(logging.WARNING, logger="sim_ursim.rtde"):
+        assert client.setup_outputs(names, 125) == (0, [""])
+        assert client.setup_inputs(names) == (0, [""])
+    refusals = [record.getMessage() for record in caplog.records if "refused" in record.getMessage()]
+    assert len(refusals) == 2 and all(len(line) < 300 and "30000 variables" in line for line in refusals)
+    assert client.setup_outputs(["timestamp"], 125) == (1, ["DOUBLE"])
 
 
 def test_frequency_is_decimated_from_the_control_cycle(eseries):
