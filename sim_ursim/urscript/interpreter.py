@@ -14,8 +14,12 @@ controller, a thread that uses up its time slice with computation alone is suspe
 (frame); here the slice is `STATEMENTS_PER_SECOND × period` statements (200 on CB3, 50 on e-series), which also
 bounds the CPU a busy loop takes. Inside `enter_critical`/`exit_critical` the suspended thread keeps the lock, so no
 other script thread runs in between.
+
+Failures: any exception inside a script thread ends the program as a runtime error at the thread's line, as a
+controller reports one; calls nested deeper than MAX_CALL_DEPTH (runaway recursion) are a stack overflow.
 """
 import itertools
+import logging
 import threading
 from collections.abc import Callable, Collection, Mapping
 from dataclasses import dataclass
@@ -25,7 +29,11 @@ from sim_ursim.urscript.operators import BINARY, NUMERIC_FAST_PATH, PLAIN_NUMBER
 from sim_ursim.urscript.values import Pose, ScriptError, copy_value, to_str, truth
 from sim_ursim.vocabulary import CommandRefused
 
+log = logging.getLogger("sim_ursim.urscript")
+
 STATEMENTS_PER_SECOND = 25_000  # computation a script thread may do per second of controller time (see above)
+MAX_CALL_DEPTH = 100  # nested function calls of one script thread before the run-time error "stack overflow"
+STACK_OVERFLOW = "runtime_error:stack overflow:"  # UR does not publish its controller's text for this error
 KILLED_MOVE_DECELERATION = 4.0  # rad/s²: the arm's stop when the thread running its move is killed
 # Names a script may read without assigning them (built-in constants).
 BUILTIN_CONSTANTS = {"pi": 3.141592653589793}
@@ -304,6 +312,8 @@ class Execution:
             self._record_error(error)
         except (_Return, _Break, _Continue):
             self._note_end("ran to its end")
+        except Exception as error:  # noqa: BLE001 - whatever fails in a program ends it as a runtime error
+            self._record_error(unexpected_error(context, error))
         finally:
             self.controller.release_speed_hold(context)  # an ended thread sends no next command
             context.done.set()
@@ -532,7 +542,10 @@ class Execution:
                 node.line, node.column, f"runtime_error:wrong arguments to {node.name}:{error}:"
             ) from None
 
-    def _call_function(self, ctx, function, args, kwargs, node):
+    def _call_function(self, ctx: ThreadContext, function: nodes.FunctionDef, args: list[object],
+                       kwargs: dict[str, object], node: nodes.Call) -> object:
+        if len(ctx.frames) >= MAX_CALL_DEPTH:
+            raise URScriptRuntimeError(node.line, node.column, STACK_OVERFLOW)
         frame = self._bind_arguments(ctx, function, args, kwargs, node)
         ctx.frames.append(frame)
         try:
@@ -580,7 +593,7 @@ class Execution:
         python_thread.start()
         return handle
 
-    def _run_thread(self, ctx, definition):
+    def _run_thread(self, ctx: ThreadContext, definition: nodes.ThreadDef) -> None:
         self._python_threads.add(threading.get_ident())
         self.scheduler.acquire()
         ctx.frames.append({})
@@ -592,10 +605,22 @@ class Execution:
             pass
         except URScriptRuntimeError as error:
             self._record_error(error)
+        except Exception as error:  # noqa: BLE001 - whatever fails in a program ends it as a runtime error
+            self._record_error(unexpected_error(ctx, error))
         finally:
             self.controller.release_speed_hold(ctx)  # an ended thread sends no next command
             ctx.done.set()
             self.scheduler.release()
+
+
+def unexpected_error(ctx: ThreadContext, error: Exception) -> URScriptRuntimeError:
+    """Any other exception of a script thread as the runtime error a controller reports, at the thread's line: a
+    stack overflow for Python's recursion limit (deep expressions), else the simulator's own failure, named."""
+    if isinstance(error, RecursionError):
+        return URScriptRuntimeError(ctx.line, 0, STACK_OVERFLOW)
+    log.debug("script thread %s failed at line %d", ctx.name, ctx.line, exc_info=error)
+    detail = f"{type(error).__name__}: {error}"[:200]
+    return URScriptRuntimeError(ctx.line, 0, f"runtime_error:simulator internal error ({detail}):")
 
 
 def _checked_index(container, index, node):
