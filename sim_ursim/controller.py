@@ -391,8 +391,8 @@ class Controller:
         with self._lock:
             self._require_motion_allowed("movej")
             motion = Motion("movej", r)
-            self._enqueue(MotionEntry(None, motion, True, target_q=q),
-                          lambda start: self._plan_movej(start, q, a, v, t))
+            self._enqueue(MotionEntry(None, motion, True, target_q=q), lambda start: trajectories.plan_joint_move(
+                start, q, a, v, t, self.model.max_joint_speed, self.model.max_joint_acceleration))
             return motion
 
     def movel(self, pose: Vector, a: float = 1.2, v: float = 0.25, t: float = 0.0, r: float = 0.0) -> Motion:
@@ -404,8 +404,9 @@ class Controller:
             start_q = self._motions.end_q(self._q)
             q_end = self._ik_checked(pose, start_q)
             motion = Motion("movel", r)
-            self._enqueue(MotionEntry(None, motion, True, target_q=q_end),
-                          lambda start: self._plan_movel(start, pose, q_end, a, v, t))
+            self._enqueue(MotionEntry(None, motion, True, target_q=q_end), lambda start: trajectories.plan_linear_move(
+                self._arm.tcp_matrix(start), kinematics.pose_to_matrix(pose), start, q_end, a, v, t,
+                self.model.max_joint_speed, self._solve_ik))
             return motion
 
     def speedj(self, qd: Vector, a: float = 1.4, t: float = 0.0, hold_owner: object = None) -> Motion:
@@ -640,18 +641,6 @@ class Controller:
             error = refuse or CommandRefused
             raise error(f"{what}: joint {i} at {q[i]:.4f} rad is outside its limits "
                         f"[{self.model.joint_lower[i]:.4f}, {self.model.joint_upper[i]:.4f}]")
-
-    def _plan_movej(self, start_q, q, a, v, t):
-        profile = trajectories.synchronised_joint_profile(q - start_q, v, a, t, self.model.max_joint_speed,
-                                                          self.model.max_joint_acceleration)
-        return trajectories.JointMove(start_q, q, profile)
-
-    def _plan_movel(self, start_q, pose, q_end, a, v, t):
-        start_matrix = self._arm.tcp_matrix(start_q)
-        end_matrix = kinematics.pose_to_matrix(pose)
-        profile = trajectories.linear_profile(start_matrix, end_matrix, start_q, a, v, t, self.model.max_joint_speed,
-                                              self._solve_ik)
-        return trajectories.LinearMove(start_matrix, end_matrix, start_q, q_end, profile, self._solve_ik)
 
     def _enqueue(self, entry, plan):
         """Queue a planned move (`plan(start_q)` builds its segment when it starts) and commit."""

@@ -199,6 +199,20 @@ LINEAR_FEASIBILITY_SAMPLES = 32
 FEASIBLE_SPEED_FRACTION = 0.9  # of the joint speed limit: margin for the joint speeds between samples
 
 
+def plan_joint_move(start_q: np.ndarray, q: np.ndarray, acceleration: float, speed: float, duration: float,
+                    max_speeds: np.ndarray, max_accelerations: np.ndarray) -> JointMove:
+    """The movej segment from start_q to q (synchronised_joint_profile), planned when the move starts."""
+    profile = synchronised_joint_profile(q - start_q, speed, acceleration, duration, max_speeds, max_accelerations)
+    return JointMove(start_q, q, profile)
+
+
+def plan_linear_move(start_matrix: np.ndarray, end_matrix: np.ndarray, start_q: np.ndarray, q_end: np.ndarray,
+                     acceleration: float, speed: float, duration: float, max_speeds: np.ndarray,
+                     solve_ik: Callable[[np.ndarray, np.ndarray], np.ndarray]) -> LinearMove:
+    """The movel segment from the TCP frame start_matrix (joints start_q) to end_matrix (linear_profile)."""
+    profile = linear_profile(start_matrix, end_matrix, start_q, acceleration, speed, duration, max_speeds, solve_ik)
+    return LinearMove(start_matrix, end_matrix, start_q, q_end, profile, solve_ik)
+
 def linear_distance(start_matrix: np.ndarray, end_matrix: np.ndarray) -> float:
     """Leading 'distance' of a movel: the larger of the path length (m) and the rotation angle (rad, read as m)."""
     length = float(np.linalg.norm(end_matrix[:3, 3] - start_matrix[:3, 3]))
