@@ -222,6 +222,11 @@ def linear_distance(start_matrix: np.ndarray, end_matrix: np.ndarray) -> float:
 _TIME_EPSILON = 1e-9  # s: float sums of control periods that equal a commanded time
 
 
+def step_towards(value: float, goal: float, step: float) -> float:
+    """`value` moved towards `goal` by at most `step` (≥ 0)."""
+    return min(goal, value + step) if goal > value else max(goal, value - step)
+
+
 def ramp_towards(current: np.ndarray, target: np.ndarray, max_change: float) -> np.ndarray:
     """Vector `current` moved towards `target` by at most `max_change` (largest component), direction kept."""
     difference = np.asarray(target, dtype=float) - current
