@@ -24,7 +24,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from . import kinematics, trajectories
-from .cycle_clock import RECORD_SECONDS, CycleClock, CycleInputs, CycleRecord
+from .cycle_clock import RECORD_SECONDS, CycleClock, CycleInputs, CycleRecord, FrameTurn
 from .faults import Faults
 from .io import IOState
 from .messages import MessageBus
@@ -90,6 +90,7 @@ class Controller:
         self._sim_time = 0.0
         self._cycles: CycleRecord[ControllerState] = CycleRecord(round(RECORD_SECONDS / self.period))  # for streams
         self._cycle_inputs = CycleInputs()  # what clients' inputs queued for the start of the next cycle
+        self.frame_turn = FrameTurn()  # the thread of a held speedj/speedl gets its turn before the next cycle
 
         self._q = frozen_array(start_q)
         self.joint_history = deque([self._q], JOINT_HISTORY_CYCLES)  # measured joints per control period, newest last
@@ -159,6 +160,7 @@ class Controller:
         clock = CycleClock(self.period)
         while not self._stop_loop.is_set():
             clock.wait()  # a late cycle starts at once: the missed ones follow back to back, none is skipped
+            self.frame_turn.await_turn(self._motions.holding_owner)
             try:
                 self._cycle_once()
             except Exception as error:  # noqa: BLE001 - a bug must not kill the loop: halt the arm, say why, go on

@@ -9,7 +9,8 @@ behind the wall clock from then on, still without a gap.
 
 `CycleRecord` keeps the snapshots of the last cycles, so that a stream (RTDE) can send every one of them in order,
 late rather than never, even when its thread runs later than the control loop. `CycleInputs` holds what clients'
-inputs queue for the start of the next cycle.
+inputs queue for the start of the next cycle; `FrameTurn` lets a script thread in lockstep with the cycles (a held
+speedj/speedl) take its turn before the next cycle.
 
 Example
 -------
@@ -22,6 +23,7 @@ Example
 [4, 5]
 """
 import logging
+import threading
 import time
 from collections import deque
 from collections.abc import Callable
@@ -31,6 +33,7 @@ log = logging.getLogger("sim_ursim.controller")
 
 MAX_LAG = 1.0  # s: a loop further behind than this gives up catching up (a stall, not load) and counts from now
 RECORD_SECONDS = 2.0  # s of cycles kept for streams that run behind the loop (at least MAX_LAG, with margin)
+HELD_TURN_TIMEOUT = 0.05  # s the loop waits at most for a script thread's next held speed command (FrameTurn)
 
 Item = TypeVar("Item")
 
@@ -108,3 +111,35 @@ class CycleInputs:
             except Exception:  # noqa: BLE001 - one client's bad input must not stop the control cycle
                 log.exception("applying a client's input failed")
 
+
+class FrameTurn:
+    """The control loop's wait, before a cycle, for the script thread whose held speed command (speedj/speedl with t)
+    has moved its time: on a controller the script threads run inside the frame, so that thread issues its next
+    command before the next cycle is computed. Here it runs on a Python thread that the host may run late; the loop
+    waits for it (at most `timeout`), so that a busy host makes the simulator late instead of the arm holding still
+    for a cycle the program never asked for.
+
+    The owner is the hold owner of the held segment (an interpreter.ThreadContext, whose `owes_frame()` tells
+    whether it still has its turn); the interpreter calls `changed()` whenever a thread starts or stops running
+    statements.
+    """
+
+    def __init__(self, timeout: float = HELD_TURN_TIMEOUT):
+        self.timeout = timeout
+        self._changed = threading.Condition()
+
+    def changed(self) -> None:
+        """A script thread started or stopped running statements: wake the loop if it waits for that thread."""
+        with self._changed:
+            self._changed.notify_all()
+
+    def await_turn(self, holding_owner: Callable[[], object]) -> None:
+        """Block while `holding_owner()` (the owner of a held speed command that has moved its time) still owes the
+        frame its next command, at most `timeout` s. Owners without `owes_frame` (tests' plain objects) are not
+        waited for."""
+        owner = holding_owner()
+        owes_frame = getattr(owner, "owes_frame", None)
+        if owes_frame is None:
+            return
+        with self._changed:
+            self._changed.wait_for(lambda: holding_owner() is not owner or not owes_frame(), self.timeout)

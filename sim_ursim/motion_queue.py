@@ -263,6 +263,14 @@ class MotionQueue:
                         f"{active.motion.kind}", SINGULARITY_STOP_CODE)
         return None
 
+    def holding_owner(self) -> object:
+        """The script thread whose held speedj/speedl has moved its time and waits for that thread's next command
+        (trajectories.SpeedRamp), or None."""
+        active = self.active
+        if active is None or self.tail is not None or not getattr(active.segment, "holding", False):
+            return None
+        return active.segment.hold_owner
+
     def release_hold(self, owner: object) -> None:
         """The script thread `owner` will not follow its held speedj/speedl with another command
         (trajectories.SpeedRamp)."""

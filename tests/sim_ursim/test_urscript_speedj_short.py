@@ -5,11 +5,12 @@ an 8 ms cycle and took the whole cycle, so a script thread streaming speeds that
 a CB3 at a quarter of the commanded speed."""
 import subprocess
 import sys
+import threading
 
 import numpy as np
 import pytest
-from polling import wait_for
 
+from polling import wait_for
 from sim_ursim.controller import Controller
 from sim_ursim.launch import running_simulator
 from sim_ursim.vocabulary import RobotMode
@@ -89,3 +90,41 @@ in 8.0 s)."""
         assert wait_for(lambda: not np.any(sim.controller.state().actual_qd))
     integrated = 0.25 * duration
     assert travelled == pytest.approx(integrated, rel=0.1), f"{travelled:.3f} rad in {duration:.2f} s"
+
+
+STREAM = """def stream():
+  k = 0
+  while k < 150:
+    speedj([0.1, 0, 0, 0, 0, 0], 1000, get_steptime())
+    k = k + 1
+  end
+  write_output_integer_register(0, 1)
+end
+"""
+
+
+def test_a_thread_streaming_held_speedj_moves_the_arm_every_cycle_while_the_host_runs_it_late():
+    """URCL's splines send one speedj(qd, a, steptime) per cycle. When the host runs the interpreter's thread late
+    (here another thread keeps Python's GIL busy), the control loop waits for that thread's next command before the
+    next cycle, as a controller runs its script threads inside the frame: the simulator is late, the arm moves at qd
+    every cycle. Before, the loop went on and the arm held still in 60-80 % of the cycles, which a client
+    integrating the stream (URCL's spline test) reads as a wrong velocity."""
+    with running_simulator(model="ur5") as sim:
+        controller = sim.controller
+        controller.power_up()
+        assert controller.run_program(STREAM, "test")
+        assert wait_for(lambda: controller.state().actual_qd[0] > 0, timeout=30)
+        first = controller.state().cycle
+        stop = threading.Event()
+        hog = threading.Thread(target=lambda: [None for _ in iter(stop.is_set, True)])  # pure Python, GIL-bound
+        hog.start()
+        try:
+            assert wait_for(lambda: controller.state().output_int_registers[0] == 1, timeout=60)
+        finally:
+            stop.set()
+            hog.join()
+        speeds = np.array([state.actual_qd[0] for state in controller.cycles_after(first)])
+    moving = np.nonzero(speeds > 0)[0]
+    window = speeds[moving[0]:moving[-1] + 1]
+    held = int(np.sum(window < 0.1 - 1e-9))
+    assert held <= 0.05 * len(window), f"the arm held still in {held} of {len(window)} cycles"
