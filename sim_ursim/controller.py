@@ -1,30 +1,30 @@
 """The emulated UR controller: robot and safety modes, the control loop, commands, I/O and program hooks.
 
-Contract 3 of docs/architecture.md. A façade over vocabulary.py (modes, status bits, the `ControllerState` snapshot,
-refusals), motion_queue.py (the motions) and trajectories.py (the segments they run). One thread runs the control
-loop on a steady clock (time.monotonic, absolute deadlines); each cycle advances the active motion and publishes an
-immutable `ControllerState` snapshot that servers read (`state()`) or wait for (`wait_cycle()`).
+Contract 3 of docs/architecture.md: a façade over vocabulary.py (modes, status bits, the `ControllerState` snapshot,
+refusals), motion_queue.py (the motions), trajectories.py (their segments) and modes.py (modes and their delays).
+One thread runs the control loop (cycle_clock.py: one period per cycle, none skipped, late ones back to back); a
+cycle applies the inputs clients queued (`at_cycle_start`), advances the motion and publishes an immutable snapshot
+that servers read (`state()`), wait for (`wait_cycle()`) or take every one of, in order (`cycles_after()`).
 
 One way to change state: every command and setter changes the controller's fields under its lock and then calls
-`_commit()`, which republishes the present snapshot with every command-set field recomputed (same cycle number).
-So a command's effect is in `state()` as soon as the command returns; the next control cycle carries it on.
-I/O writes (`controller.io`) commit the same way through IOState's change hook.
-
+`_commit()`, which republishes the present snapshot with every command-set field recomputed (same cycle number), so
+a command's effect is in `state()` as soon as it returns. I/O writes commit the same way (IOState's change hook).
 Command-time problems raise `CommandRefused` (not RUNNING/NORMAL, freedrive on, a target outside the joint limits,
 an unreachable pose) or ValueError (malformed arguments); run-time problems end the Motion with `.error` set, and a
-motion crossing a joint or joint-speed limit raises a protective stop (motion_queue.py). Modes and their delays:
-modes.py. The other modelling choices (speed slider and pause ramp, stops, blends) are in docs/ursim.md.
+motion crossing a joint or joint-speed limit raises a protective stop (motion_queue.py). Other modelling choices
+(speed slider and pause ramp, stops, blends) are in docs/ursim.md.
 """
 import logging
 import math
 import threading
 import time
 from collections import deque
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
 from . import kinematics, trajectories
+from .cycle_clock import RECORD_SECONDS, CycleClock, CycleInputs, CycleRecord, FrameTurn
 from .faults import Faults
 from .io import IOState
 from .messages import MessageBus
@@ -88,6 +88,9 @@ class Controller:
         self._stop_loop = threading.Event()
         self._cycle = 0
         self._sim_time = 0.0
+        self._cycles: CycleRecord[ControllerState] = CycleRecord(round(RECORD_SECONDS / self.period))  # for streams
+        self._cycle_inputs = CycleInputs()  # what clients' inputs queued for the start of the next cycle
+        self.frame_turn = FrameTurn()  # the thread of a held speedj/speedl gets its turn before the next cycle
 
         self._q = frozen_array(start_q)
         self.joint_history = deque([self._q], JOINT_HISTORY_CYCLES)  # measured joints per control period, newest last
@@ -140,19 +143,13 @@ class Controller:
         with self._cycle_changed:
             self._cycle_changed.notify_all()
 
-    def step(self, cycles: int = 1, periods: int = 1) -> ControllerState:
-        """Advance `cycles` control cycles synchronously and return the last snapshot (only while the loop is stopped).
-
-        Each cycle covers `periods` control periods, as the loop's cycles do when it catches up after a stall.
-        For deterministic tests and hosts that drive simulated time themselves.
-        """
+    def step(self, cycles: int = 1) -> ControllerState:
+        """Advance `cycles` cycles synchronously and return the last snapshot (a controller whose loop is not started:
+        deterministic tests, hosts that drive simulated time themselves)."""
         if self._thread is not None:
             raise CommandRefused("step() drives a stopped controller; this one runs its own control loop")
-        periods = int(periods)
-        if periods < 1:
-            raise ValueError(f"periods must be ≥ 1, got {periods}")
         for _ in range(int(cycles)):
-            self._cycle_once(periods)
+            self._cycle_once()
         return self._state
 
     @property
@@ -160,33 +157,30 @@ class Controller:
         """True while the control loop runs."""
         return self._thread is not None
 
-    def _loop(self):
-        deadline = time.monotonic()
+    def _loop(self) -> None:
+        clock = CycleClock(self.period)
         while not self._stop_loop.is_set():
-            deadline += self.period
-            delay = deadline - time.monotonic()
-            if delay > 0:
-                time.sleep(delay)
-            steps = 1
-            late = time.monotonic() - deadline
-            if late > 5 * self.period:
-                # Far behind (the machine was busy): skip the missed cycles in one longer step instead of racing.
-                missed = int(late / self.period)
-                deadline += missed * self.period
-                steps += missed
+            clock.wait()  # a late cycle starts at once: the missed ones follow back to back, none is skipped
+            self.frame_turn.await_turn(self._motions.holding_owner)
             try:
-                self._cycle_once(steps)
+                self._cycle_once()
             except Exception as error:  # noqa: BLE001 - a bug must not kill the loop: halt the arm, say why, go on
                 log.exception("control cycle failed; halting the arm")
                 with self._lock:
                     self._halt(f"simulator internal error: {error!r}")
 
-    def _cycle_once(self, steps=1):
-        """One control cycle covering `steps` periods: advance modes and motion, then publish the snapshot."""
-        dt = self.period * steps
+    def at_cycle_start(self, action: Callable[[], None]) -> None:
+        """Run `action` at the start of the next cycle, in the order queued: a controller reads its inputs (RTDE
+        input packages) once per cycle, not as they arrive."""
+        self._cycle_inputs.add(action)
+
+    def _cycle_once(self) -> None:
+        """One control cycle of one period: apply the queued inputs, advance modes and motion, publish the snapshot."""
+        dt = self.period
         began = time.perf_counter()
         with self._lock:
-            self._cycle += steps
+            self._cycle_inputs.apply()
+            self._cycle += 1
             self._sim_time += dt
             if self._modes.advance(self._sim_time):
                 self._touch()
@@ -204,8 +198,8 @@ class Controller:
                 self._execution_time = time.perf_counter() - began
                 state = self._snapshot(previous_q, dt)
             self._idle_signature = (self._changes, self.io.version, self._q)
-            self.joint_history.extend([self._q] * min(steps, JOINT_HISTORY_CYCLES))  # a catch-up step: its end q
-            self._publish(state)
+            self.joint_history.append(self._q)
+            self._publish(state, new_cycle=True)
 
     def _at_rest_and_unchanged(self, signature):
         """True when nothing moves or changed since the last snapshot, so it can be reused with a new cycle number."""
@@ -220,11 +214,13 @@ class Controller:
         return replaced_state(self._state, cycle=self._cycle, timestamp=self._sim_time,
                               execution_time=self._execution_time)
 
-    def _publish(self, state):
+    def _publish(self, state: ControllerState, new_cycle: bool = False) -> None:
         """Make `state` the snapshot `state()` returns and wake the waiters (called under the lock, so a command's
-        commit never overwrites a newer cycle)."""
+        commit never overwrites a newer cycle); a new cycle's snapshot is also recorded for `cycles_after`."""
         with self._cycle_changed:
             self._state = state
+            if new_cycle:
+                self._cycles.append(state)
             self._cycle_changed.notify_all()
 
     def _commit(self, **fields) -> None:
@@ -249,6 +245,13 @@ class Controller:
         with self._cycle_changed:
             self._cycle_changed.wait_for(lambda: self._state.cycle > after_cycle or self._stop_loop.is_set(), timeout)
             return self._state
+
+    def cycles_after(self, after_cycle: int, timeout: float | None = None) -> list[ControllerState]:
+        """Every cycle's snapshot since `after_cycle`, oldest first (the last RECORD_SECONDS kept); blocks until there
+        is one or `timeout` passes ([])."""
+        with self._cycle_changed:
+            self._cycle_changed.wait_for(lambda: self._state.cycle > after_cycle or self._stop_loop.is_set(), timeout)
+            return self._cycles.after(after_cycle, lambda state: state.cycle)
 
     def _snapshot(self, previous_q, dt):
         """A full snapshot of the present cycle; TCP and elbow speeds by finite difference from previous_q over dt."""
@@ -359,7 +362,7 @@ class Controller:
         """Protective stop from the control loop or a locked command (program stop left to the caller), C<code>."""
         self._modes.enter_protective_stop(reason, code)
         self._touch()
-        self._decelerate(PROTECTIVE_STOP_DECELERATION, f"protective stop: {reason}")
+        self._motions.stop(self._qd, PROTECTIVE_STOP_DECELERATION, "stop", error=f"protective stop: {reason}")
 
     def unlock_protective_stop(self, enforce_delay: bool = True) -> None:
         """Back to NORMAL; UnlockTooEarly within 5 s of the stop unless not `enforce_delay`; CommandRefused if none."""
@@ -392,8 +395,8 @@ class Controller:
         with self._lock:
             self._require_motion_allowed("movej")
             motion = Motion("movej", r)
-            self._enqueue(MotionEntry(None, motion, True, target_q=q),
-                          lambda start: self._plan_movej(start, q, a, v, t))
+            self._enqueue(MotionEntry(None, motion, True, target_q=q), lambda start: trajectories.plan_joint_move(
+                start, q, a, v, t, self.model.max_joint_speed, self.model.max_joint_acceleration))
             return motion
 
     def movel(self, pose: Vector, a: float = 1.2, v: float = 0.25, t: float = 0.0, r: float = 0.0) -> Motion:
@@ -405,8 +408,9 @@ class Controller:
             start_q = self._motions.end_q(self._q)
             q_end = self._ik_checked(pose, start_q)
             motion = Motion("movel", r)
-            self._enqueue(MotionEntry(None, motion, True, target_q=q_end),
-                          lambda start: self._plan_movel(start, pose, q_end, a, v, t))
+            self._enqueue(MotionEntry(None, motion, True, target_q=q_end), lambda start: trajectories.plan_linear_move(
+                self._arm.tcp_matrix(start), kinematics.pose_to_matrix(pose), start, q_end, a, v, t,
+                self.model.max_joint_speed, self._solve_ik))
             return motion
 
     def speedj(self, qd: Vector, a: float = 1.4, t: float = 0.0, hold_owner: object = None) -> Motion:
@@ -655,18 +659,6 @@ class Controller:
             raise error(f"{what}: joint {i} at {q[i]:.4f} rad is outside its limits "
                         f"[{self.model.joint_lower[i]:.4f}, {self.model.joint_upper[i]:.4f}]")
 
-    def _plan_movej(self, start_q, q, a, v, t):
-        profile = trajectories.synchronised_joint_profile(q - start_q, v, a, t, self.model.max_joint_speed,
-                                                          self.model.max_joint_acceleration)
-        return trajectories.JointMove(start_q, q, profile)
-
-    def _plan_movel(self, start_q, pose, q_end, a, v, t):
-        start_matrix = self._arm.tcp_matrix(start_q)
-        end_matrix = kinematics.pose_to_matrix(pose)
-        profile = trajectories.linear_profile(start_matrix, end_matrix, start_q, a, v, t, self.model.max_joint_speed,
-                                              self._solve_ik)
-        return trajectories.LinearMove(start_matrix, end_matrix, start_q, q_end, profile, self._solve_ik)
-
     def _enqueue(self, entry, plan):
         """Queue a planned move (`plan(start_q)` builds its segment when it starts) and commit."""
         self._motions.enqueue(entry, plan, self._q, self._qd)
@@ -683,10 +675,6 @@ class Controller:
         motion = self._motions.stop(self._qd, deceleration, kind)
         self._commit_status()
         return motion
-
-    def _decelerate(self, deceleration, error):
-        """Safety stop: the motions fail with `error`; the arm decelerates to rest."""
-        self._motions.stop(self._qd, deceleration, "stop", error=error)
 
     def _halt(self, error):
         """Immediate halt (e-stop, power off): speed zero now, every motion fails."""
@@ -709,9 +697,7 @@ class Controller:
     def _ramp_speed_scaling(self, dt):
         """speed_scaling after dt: towards 0 while the program is paused, towards 1 otherwise."""
         goal = 0.0 if self._program_paused else 1.0
-        step = dt / PAUSE_RAMP_TIME
-        self._speed_scaling = min(goal, self._speed_scaling + step) if goal > self._speed_scaling else max(
-            goal, self._speed_scaling - step)
+        self._speed_scaling = trajectories.step_towards(self._speed_scaling, goal, dt / PAUSE_RAMP_TIME)
         return self._speed_scaling
 
     def _request_program_stop(self, reason):

@@ -168,12 +168,28 @@ class MotionQueue:
         return np.array(measured, dtype=float)
 
     def replace(self, segment, kind: str, follows_slider: bool) -> Motion:
-        """Streaming commands (speedj, speedl, servoj) take over at once from whatever runs."""
+        """Streaming commands (speedj, speedl, servoj) take over at once from whatever runs. A held speed command
+        first uses the time its thread's previous one left in the cycle just moved (trajectories.SpeedRamp); when
+        that covers all of it, its Motion is over at once."""
+        unused = self._unused_time_of(getattr(segment, "hold_owner", None))
         self.end_all(lambda entry: None if entry.motion.kind == kind else f"interrupted by {kind}")
         self.tail = None
         entry = MotionEntry(segment, Motion(kind), follows_slider)
         self.active = entry
+        if unused > 0:
+            segment.start_within(unused)
+            if segment.holding:
+                entry.motion._finish(None)
         return entry.motion
+
+    def _unused_time_of(self, owner: object) -> float:
+        """What `owner`'s held speed command left of the cycle just moved (0 for anything else)."""
+        active = self.active
+        if owner is None or active is None or self.tail is not None:
+            return 0.0
+        if getattr(active.segment, "hold_owner", None) is not owner:
+            return 0.0
+        return active.segment.unused_time
 
     def stop(self, qd: np.ndarray, deceleration: float, kind: str, end_queue: bool = True,
              error: str | None = None) -> Motion:
@@ -246,6 +262,14 @@ class MotionQueue:
                 return (f"close to singularity: joint {i} speed {speeds[i]:.2f} rad/s above its limit during "
                         f"{active.motion.kind}", SINGULARITY_STOP_CODE)
         return None
+
+    def holding_owner(self) -> object:
+        """The script thread whose held speedj/speedl has moved its time and waits for that thread's next command
+        (trajectories.SpeedRamp), or None."""
+        active = self.active
+        if active is None or self.tail is not None or not getattr(active.segment, "holding", False):
+            return None
+        return active.segment.hold_owner
 
     def release_hold(self, owner: object) -> None:
         """The script thread `owner` will not follow its held speedj/speedl with another command

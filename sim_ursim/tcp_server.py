@@ -5,7 +5,10 @@ Written once here: bind/listen/accept, the connection set, stop/join, the drop-g
 `controller.faults` generation closes every connection accepted before it) and the fault hooks subclasses use
 (`hold_while_frozen`, `due_time`). This is the only module of sim_ursim that listens and accepts.
 
-Connections are non-blocking sockets, each served by its own thread (`serve`). Reading never depends on a writer:
+Connections are non-blocking sockets, each served by its own thread (`serve`). A port serves at most
+`max_connections` clients at once: beyond that a new connection is accepted and reset at once (logged at most once
+a second per port with the count), so a flood of clients costs neither threads nor the accept loop's pace — the
+loop takes every connection waiting in the listen backlog each time it wakes. Reading never depends on a writer:
 `read_chunks` yields what the client sent until its end of stream (or a reset), and only the reader, a deliberate
 drop or `stop()` closes the socket; a writer that finds the client gone calls `stop_sending()`. The kernel keeps
 what a client sent before closing readable, so data received before a close is always processed.
@@ -13,6 +16,7 @@ what a client sent before closing readable, so data received before a close is a
 import logging
 import select
 import socket
+import struct
 import threading
 import time
 from collections.abc import Iterator
@@ -22,6 +26,12 @@ log = logging.getLogger("sim_ursim.server")
 POLL_INTERVAL = 0.1  # s: how often idle threads look at the stop flag
 RECEIVE_SIZE = 65536
 JOIN_TIMEOUT = 2.0
+# Clients one port serves at once. UR does not publish its controller's limit; client libraries open one to three
+# connections per port (ur_rtde: receive, control and I/O on 30004), so this leaves room for many clients while a
+# flood (hundreds of connections) costs a bounded number of threads.
+MAX_CONNECTIONS = 32
+REFUSAL_LOG_INTERVAL = 1.0  # s: at most one log line per port this often while connections are refused
+_RESET_ON_CLOSE = struct.pack("ii", 1, 0)  # SO_LINGER on, 0 s: close() resets the connection at once
 
 
 class Connection:
@@ -95,7 +105,8 @@ class TCPServer:
     """
 
     follows_faults = True
-    listen_backlog = 16
+    listen_backlog = 128  # connections the kernel holds until the accept loop takes them (a burst is not dropped)
+    max_connections = MAX_CONNECTIONS
 
     def __init__(self, controller, host: str, port: int):
         self.controller = controller
@@ -106,6 +117,8 @@ class TCPServer:
         self._connections: set[Connection] = set()
         self._lock = threading.Lock()
         self._threads: list[threading.Thread] = []
+        self._refused = 0  # connections refused since the last log line about them
+        self._refusals_logged_at = 0.0
 
     # ------------------------------------------------------------------------------------------------ lifecycle
     def start(self):
@@ -216,14 +229,24 @@ class TCPServer:
                 readable, _, _ = select.select([listener], [], [], POLL_INTERVAL)
             except (OSError, ValueError):
                 return
-            if not readable:
-                continue
+            if readable and not self._accept_waiting(listener):
+                return
+            self._log_refusals(idle=not readable)
+
+    def _accept_waiting(self, listener: socket.socket) -> bool:
+        """Take every connection waiting in the listen backlog; False once the listener is closed."""
+        while True:
             try:
                 sock, peer = listener.accept()
             except (BlockingIOError, InterruptedError):
-                continue
+                return True
             except OSError:
-                return
+                return False
+            with self._lock:
+                full = len(self._connections) >= self.max_connections
+            if full:
+                self._refuse(sock)
+                continue
             connection = Connection(sock, peer, self.controller.faults.generation)
             try:
                 sock.setblocking(False)
@@ -235,6 +258,26 @@ class TCPServer:
             with self._lock:
                 self._connections.add(connection)
             self.spawn(self._serve_then_forget, f"client-{peer[1]}", connection)
+
+    def _refuse(self, sock: socket.socket) -> None:
+        """Reset a connection beyond max_connections at once (no thread, no reading), counted for the log."""
+        self._refused += 1
+        try:
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, _RESET_ON_CLOSE)
+        except OSError:
+            pass
+        sock.close()
+        self._log_refusals(idle=False)
+
+    def _log_refusals(self, idle: bool) -> None:
+        """One line for the refusals not yet logged: at most once per REFUSAL_LOG_INTERVAL, or when the port idles."""
+        now = time.monotonic()
+        if not self._refused or (not idle and now - self._refusals_logged_at < REFUSAL_LOG_INTERVAL):
+            return
+        log.warning("%s:%d refused %d connection(s): %d clients are connected, the most one port serves",
+                    type(self).__name__, self.port, self._refused, self.max_connections)
+        self._refused = 0
+        self._refusals_logged_at = now
 
     def _serve_then_forget(self, connection: Connection) -> None:
         try:

@@ -199,6 +199,20 @@ LINEAR_FEASIBILITY_SAMPLES = 32
 FEASIBLE_SPEED_FRACTION = 0.9  # of the joint speed limit: margin for the joint speeds between samples
 
 
+def plan_joint_move(start_q: np.ndarray, q: np.ndarray, acceleration: float, speed: float, duration: float,
+                    max_speeds: np.ndarray, max_accelerations: np.ndarray) -> JointMove:
+    """The movej segment from start_q to q (synchronised_joint_profile), planned when the move starts."""
+    profile = synchronised_joint_profile(q - start_q, speed, acceleration, duration, max_speeds, max_accelerations)
+    return JointMove(start_q, q, profile)
+
+
+def plan_linear_move(start_matrix: np.ndarray, end_matrix: np.ndarray, start_q: np.ndarray, q_end: np.ndarray,
+                     acceleration: float, speed: float, duration: float, max_speeds: np.ndarray,
+                     solve_ik: Callable[[np.ndarray, np.ndarray], np.ndarray]) -> LinearMove:
+    """The movel segment from the TCP frame start_matrix (joints start_q) to end_matrix (linear_profile)."""
+    profile = linear_profile(start_matrix, end_matrix, start_q, acceleration, speed, duration, max_speeds, solve_ik)
+    return LinearMove(start_matrix, end_matrix, start_q, q_end, profile, solve_ik)
+
 def linear_distance(start_matrix: np.ndarray, end_matrix: np.ndarray) -> float:
     """Leading 'distance' of a movel: the larger of the path length (m) and the rotation angle (rad, read as m)."""
     length = float(np.linalg.norm(end_matrix[:3, 3] - start_matrix[:3, 3]))
@@ -206,6 +220,11 @@ def linear_distance(start_matrix: np.ndarray, end_matrix: np.ndarray) -> float:
 
 
 _TIME_EPSILON = 1e-9  # s: float sums of control periods that equal a commanded time
+
+
+def step_towards(value: float, goal: float, step: float) -> float:
+    """`value` moved towards `goal` by at most `step` (≥ 0)."""
+    return min(goal, value + step) if goal > value else max(goal, value - step)
 
 
 def ramp_towards(current: np.ndarray, target: np.ndarray, max_change: float) -> np.ndarray:
@@ -221,15 +240,20 @@ class SpeedRamp:
     """A speed command's speed vector (joint speeds, or a TCP twist) ramping to `target` at `acceleration`; after
     `duration` (if > 0) to zero.
 
-    A script's `speedj` / `speedl` with t > 0 is held (`hold_owner`, the commanding script thread): it moves for
-    exactly `duration` of trajectory time, then the arm waits, without moving, for that thread's next command. On a
-    controller the script threads run inside the control cycle, in lockstep with it (UR's manual: speedj and speedl
-    return "after time t"; URCL's External Control script streams one `speedj(qd, a, steptime)` per control cycle
-    and integrates its splines assuming each runs exactly t, and its speedl thread one `speedl(twist, 40, steptime)`
-    per cycle). Here the interpreter needs real time between the return and the next command; moving on meanwhile
-    made every step longer than planned (URCL's 3 s pre-positioning spline of trajectory_streaming_example
-    travelled 1.6 times its distance). Released (`release()`: the thread waits for something else, or ended) it
-    ramps to zero like a timed command.
+    A script's `speedj` / `speedl` with t > 0 is held (`hold_owner`, the commanding script thread): it moves whole
+    control cycles until it has moved `duration` of trajectory time, then the arm waits, without moving, for that
+    thread's next command. On a controller the script threads run inside the control cycle, in lockstep with it
+    (UR's manual: speedj and speedl return "after time t"; URCL's External Control script streams one
+    `speedj(qd, a, steptime)` per control cycle and integrates its splines assuming each runs exactly t, and its
+    speedl thread one `speedl(twist, 40, steptime)` per cycle). Here the interpreter needs real time between the
+    return and the next command; moving on meanwhile made every step longer than planned (URCL's 3 s pre-positioning
+    spline of trajectory_streaming_example travelled 1.6 times its distance). Released (`release()`: the thread waits
+    for something else, or ended) it ramps to zero like a timed command.
+
+    The arm moves in whole cycles (the controller computes one set-point per cycle), and a thread's commands use up
+    the cycle's time as the manual's thread scheduling says: a t shorter than the cycle leaves the rest of the cycle
+    to the same thread (`unused_time`), whose next held command takes it first (`start_within`) — four
+    `speedj(qd, a, 0.002)` in one 8 ms CB3 cycle, the cycle moving at qd (docs/ursim.md).
     """
 
     def __init__(self, start: np.ndarray, target: np.ndarray, acceleration: float, duration: float,
@@ -240,11 +264,25 @@ class SpeedRamp:
         self.duration = duration
         self.elapsed = 0.0
         self.hold_owner = hold_owner if duration > 0 else None
+        self.idle_cycles = 0  # cycles a held segment has waited, not moving, for its thread's next command
 
     @property
     def holding(self) -> bool:
         """True once a held segment has moved its time: the arm waits for its thread's next command."""
         return self.hold_owner is not None and self.duration - self.elapsed <= _TIME_EPSILON
+
+    @property
+    def unused_time(self) -> float:
+        """Time of the cycle just moved that lies beyond this held command's t, while no cycle has passed since: the
+        same thread's next held command starts within it. 0 once a cycle has gone by without a command."""
+        if not self.holding or self.idle_cycles:
+            return 0.0
+        return max(0.0, self.elapsed - self.duration)
+
+    def start_within(self, moved: float) -> None:
+        """This held command begins in a cycle already moved for `moved` s beyond the thread's previous command: that
+        much of its time is already used (all of it when t ≤ moved: the command is over, the arm holds)."""
+        self.elapsed = moved
 
     def release(self) -> None:
         """No next command is coming from the holding thread: finish like a timed command (ramp to rest)."""
@@ -264,10 +302,10 @@ class SpeedRamp:
         """Ramp the speed over dt; return how long the arm moves at it this cycle (a held segment moves only for
         what is left of its time, then not at all)."""
         if self.hold_owner is not None:
-            dt = min(dt, self.duration - self.elapsed)
-            if dt <= _TIME_EPSILON:
+            if self.holding:
+                self.idle_cycles += 1
                 return 0.0
-            goal = self.target
+            goal = self.target  # a whole cycle, even when less of the command's time is left (see the class)
         else:
             goal = self.target if (self.duration <= 0 or self.elapsed + dt < self.duration) else np.zeros(6)
         self.elapsed += dt

@@ -9,6 +9,7 @@ import threading
 import time
 import zipfile
 from dataclasses import dataclass
+from typing import Any
 
 from ..models import build_date
 from ..polyscope.program_tab import ProgramTab
@@ -179,14 +180,32 @@ def _unlock(controller, argument):
     return Reply("Protective stop releasing")
 
 
-def _restart_safety(controller, argument):
-    # A safety restart clears a protective stop and leaves the arm powered off, as on the real controller.
-    controller.power_off()
+def _restart_safety(controller: Any, argument: str) -> Reply:
+    # A safety restart clears a protective stop and leaves the arm powered off, as on the real controller; within
+    # 5 s of the stop it is refused with the unlock rule's text, and nothing changes (the stop stays latched).
     try:
         controller.unlock_protective_stop()
+    except UnlockTooEarly:
+        return Reply(UNLOCK_TOO_EARLY)
     except CommandRefused:
-        pass
+        pass  # not protective-stopped: the restart only powers off
+    controller.power_off()
     return Reply("Restarting safety")
+
+
+def _load_installation(controller: Any, argument: str) -> Reply:
+    """PolyScope's replies (UR's dashboard server manual): a missing file is `File not found: X`, an unreadable one
+    `Failed to load installation: X`. The simulator has no installation settings to apply: a file that reads loads."""
+    path = ProgramTab(controller).resolve(argument)  # where `load` finds files: the programs directory
+    if not os.path.isfile(path):
+        return Reply(f"File not found: {argument}")
+    try:
+        with open(path, "rb"):
+            pass
+    except OSError as error:
+        log.warning("load installation %s: %s", path, error)
+        return Reply(f"Failed to load installation: {argument}")
+    return Reply(f"Loading installation: {argument}")
 
 
 def _reply(text):
@@ -317,7 +336,7 @@ _HANDLERS = {
     "isprogramsaved": lambda c, a: Reply(f"true {program_name(c.loaded_program)}"),
     "addtolog": _add_to_log,
     "savelog": _reply("Log saved to disk"),
-    "load installation": lambda c, a: Reply(f"Loading installation: {a}"),
+    "load installation": _load_installation,
     "quit": _quit,
     "shutdown": _shutdown,
 }

@@ -8,9 +8,10 @@ drop generation closes every connection accepted before it.
 Listening, accepting, connections and drops: tcp_server.TCPServer. Each connection has a reader thread (URScript
 intake). Primary/secondary connections have a writer thread each (version message, 10 Hz robot state, robot
 messages on 30001) that gives up on a client that has not taken its data for SEND_TIMEOUT seconds. The realtime
-server has one writer for all clients, paced by `controller.wait_cycle`, that never waits for a client: a client
-that stops reading stops receiving ("Sending discontinued", as the controller logs) but its connection stays open
-for scripts — ur_rtde's control interface connects to 30003, never reads, and uploads its script there.
+server has one writer for all clients that sends every cycle, in order (`controller.cycles_after`), and never
+waits for a client (a package a slow client has no room for is skipped for that client): a client that stops
+reading stops receiving ("Sending discontinued", as the controller logs) but its connection stays open for
+scripts — ur_rtde's control interface connects to 30003, never reads, and uploads its script there.
 """
 import collections
 import logging
@@ -260,18 +261,19 @@ class RealtimeServer(_InterfaceServer):
         delayed = DelayLine()
         cycle = controller.state().cycle
         while not self._stopping.is_set():
-            state = controller.wait_cycle(cycle, timeout=POLL_INTERVAL)
-            if state.cycle == cycle:  # no new cycle: timed out, or the control loop has stopped
+            states = controller.cycles_after(cycle, timeout=POLL_INTERVAL)
+            if not states:  # no new cycle: timed out, or the control loop has stopped
                 self._stopping.wait(controller.period)
                 continue
-            cycle = state.cycle
+            cycle = states[-1].cycle
             with self._clients_lock:
                 self._clients = [c for c in self._clients if not c.connection.closed.is_set()]
                 clients = list(self._clients)
             if not clients or faults.streams_frozen:
                 continue
             now = time.monotonic()
-            delayed.put(realtime.realtime_package(version, realtime.realtime_values(state)), now + faults.latency)
+            for state in states:  # every cycle, in order, late rather than never (as the RTDE stream)
+                delayed.put(realtime.realtime_package(version, realtime.realtime_values(state)), now + faults.latency)
             for package in delayed.take_due(now):
                 for client in clients:
                     client.offer(package, now)

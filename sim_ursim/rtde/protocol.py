@@ -201,6 +201,29 @@ def pack_setup_inputs_reply(recipe_id, types):
     return pack_package(PackageType.CONTROL_PACKAGE_SETUP_INPUTS, body)
 
 
+def setup_reply_size(types: list[str]) -> int:
+    """Bytes of the setup reply (O with a recipe id, or I) that lists `types`."""
+    return HEADER.size + _UINT8.size + sum(len(name) for name in types) + max(len(types) - 1, 0)
+
+
+def setup_reply_fits(types: list[str]) -> bool:
+    """True when the setup reply listing `types` fits one package. A request's names may be one byte each but every
+    reply type takes up to 9 (NOT_FOUND), so a request that fits can ask for a reply that does not."""
+    return setup_reply_size(types) <= MAX_PACKAGE_SIZE
+
+
+def oversized_reply_reason(types: list[str]) -> str:
+    """One short line on why a recipe whose setup reply does not fit one package is refused."""
+    return (f"{len(types)} variables; the reply listing their types would take {setup_reply_size(types)} bytes, "
+            f"more than one RTDE package holds ({MAX_PACKAGE_SIZE})")
+
+
+def abbreviated(items: list[object], limit: int = 8) -> str:
+    """`items` for a log line: the first `limit` of them, then how many more."""
+    shown = ", ".join(str(item) for item in items[:limit])
+    return f"{shown} and {len(items) - limit} more" if len(items) > limit else shown
+
+
 def parse_setup_inputs_reply(payload):
     """(recipe id, types) from an I reply payload."""
     if not payload:

@@ -2,20 +2,25 @@
 
 Transport only; the bytes come from `protocol`, names and values from `variables` and `inputs`; listening,
 accepting, the connection set and fault drops are tcp_server.TCPServer's.
-Threads: an acceptor, a reader per connection (setup requests and input packages), and ONE streamer that waits
-for each control cycle, packs every distinct output recipe once and queues it on every started session. Sends are
-non-blocking into a bounded per-session buffer, so a client that stops reading never stalls the others; like the
-real controller, the server closes a client whose backlog overflows.
+Threads: an acceptor, a reader per connection (setup requests and input packages), and ONE streamer that takes
+every control cycle's snapshot in order (`controller.cycles_after`), packs every distinct output recipe once per
+cycle and queues it on every started session: a stream carries every cycle (at its decimation), late rather than
+never, as a controller's does. Input packages are applied at the start of the next control cycle
+(`controller.at_cycle_start`), all those received meanwhile together. Sends are non-blocking into a bounded
+per-session buffer, so a client that stops reading never stalls the others; like the real controller, the server
+closes a client whose backlog overflows. A recipe whose reply would not fit one package is refused (recipe id 0, no
+types) with one short log line.
 """
 import logging
 import socket
 import threading
 import time
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from typing import Any
 
 from ..tcp_server import Connection, TCPServer
+from ..vocabulary import ControllerState
 from . import inputs, protocol, variables
 from .protocol import PackageType
 from .watchdog import watchdogs_of
@@ -251,18 +256,23 @@ class RTDEServer(TCPServer):
         types = [variables.output_type(name, self._version) for name in names]
         # Protocol 1 has no frequency field: it streams every control cycle.
         rate = self._control_rate if frequency is None else frequency
-        valid = bool(names) and protocol.NOT_FOUND not in types and protocol.is_valid_frequency(rate)
+        fits = protocol.setup_reply_fits(types)
+        valid = bool(names) and fits and protocol.NOT_FOUND not in types and protocol.is_valid_frequency(rate)
         recipe_id = OUTPUT_RECIPE_ID if valid else 0
         session.output_recipe_requested = True
+        session.output_recipe = None
         if valid:
             decimation = protocol.output_decimation(rate, self._control_rate)
             session.output_recipe = OutputRecipe(names, types, recipe_id, decimation, session.protocol_version)
             log.info("%s output recipe: %d variables at %.1f Hz", session, len(names),
                      self._control_rate / decimation)
+        elif not fits:
+            log.warning("%s output recipe refused: %s", session, protocol.oversized_reply_reason(types))
+            types = []
         else:
-            session.output_recipe = None
-            missing = [name for name, kind in zip(names, types) if kind == protocol.NOT_FOUND]
-            log.warning("%s output recipe refused (frequency %r, not found: %s)", session, frequency, missing)
+            missing = [name for name, kind in zip(names, types, strict=True) if kind == protocol.NOT_FOUND]
+            log.warning("%s output recipe refused (frequency %r, not found: %s)", session, frequency,
+                        protocol.abbreviated(missing))
         self._reply(session, protocol.pack_setup_outputs_reply(recipe_id, types, session.protocol_version))
 
     def _on_setup_inputs(self, session: Session, payload: bytes) -> None:
@@ -275,7 +285,8 @@ class RTDEServer(TCPServer):
                 if kind != protocol.NOT_FOUND and owner is not None and owner is not session:
                     kind = protocol.IN_USE
                 types.append(kind)
-            valid = bool(names) and protocol.NOT_FOUND not in types and protocol.IN_USE not in types
+            fits = protocol.setup_reply_fits(types)
+            valid = bool(names) and fits and protocol.NOT_FOUND not in types and protocol.IN_USE not in types
             if valid:
                 for name in names:
                     self._input_owners[name] = session
@@ -286,10 +297,14 @@ class RTDEServer(TCPServer):
             recipe_id = session.next_input_recipe_id
             session.next_input_recipe_id += 1
             session.input_recipes[recipe_id] = InputRecipe(recipe_id, names, types)
+        elif not fits:
+            recipe_id = 0
+            log.warning("%s input recipe refused: %s", session, protocol.oversized_reply_reason(types))
+            types = []
         else:
             recipe_id = 0
-            log.warning("%s input recipe refused: %s", session,
-                        [f"{n}={t}" for n, t in zip(names, types) if t in (protocol.NOT_FOUND, protocol.IN_USE)])
+            log.warning("%s input recipe refused: %s", session, protocol.abbreviated(
+                [f"{n}={t}" for n, t in zip(names, types, strict=True) if t in (protocol.NOT_FOUND, protocol.IN_USE)]))
         self._reply(session, protocol.pack_setup_inputs_reply(recipe_id, types))
 
     def _on_start(self, session: Session, payload: bytes) -> None:
@@ -297,7 +312,7 @@ class RTDEServer(TCPServer):
         if accepted:
             # The reply is queued before streaming is switched on, so no data package can overtake it.
             self._reply(session, protocol.pack_accepted_reply(PackageType.CONTROL_PACKAGE_START, True))
-            session.next_cycle = 0
+            session.next_cycle = self.controller.state().cycle + 1  # the first cycle after the reply
             session.streaming = session.output_recipe is not None
             log.info("%s started", session)
         else:
@@ -323,8 +338,14 @@ class RTDEServer(TCPServer):
         received = dict(zip(recipe.names, protocol.group_values(recipe.types, flat)))
         watchdogs_of(self.controller).note_update(received)
         session.input_values.update(received)
+        values = dict(session.input_values)  # the client's inputs as of this package, applied at the next cycle
+        self.controller.at_cycle_start(lambda: self._apply_inputs(session, recipe_id, values, received.keys()))
+
+    def _apply_inputs(self, session: Session, recipe_id: int, values: dict[str, Any],
+                      changed: Collection[str]) -> None:
+        """Apply one input package at the start of a control cycle (a refused value is reported to its client)."""
         try:
-            inputs.apply_inputs(self.controller, session.input_values, received.keys())
+            inputs.apply_inputs(self.controller, values, changed)
         except ValueError as error:
             self._complain(session, f"input recipe {recipe_id}: {error}")
 
@@ -358,40 +379,43 @@ class RTDEServer(TCPServer):
 
     def _stream_loop(self) -> None:
         controller = self.controller
-        faults = controller.faults
         last_cycle = controller.state().cycle
         while not self.stopping:
-            state = controller.wait_cycle(last_cycle, _WAIT_TIMEOUT)
-            if state.cycle <= last_cycle:
+            states = controller.cycles_after(last_cycle, _WAIT_TIMEOUT)
+            if not states:
                 if not controller.running:
-                    # wait_cycle returns at once while the control loop is stopped: do not spin meanwhile.
+                    # cycles_after returns at once while the control loop is stopped: do not spin meanwhile.
                     self._stopping.wait(_WAIT_TIMEOUT)
                 continue
-            last_cycle = state.cycle
-            sessions = [session for session in self.sessions() if not session.connection.closed.is_set()]
-            if faults.streams_frozen:
+            if states[0].cycle > last_cycle + 1:
+                log.warning("RTDE stream fell %d cycles behind the control loop: cycles %d-%d not sent",
+                            states[0].cycle - last_cycle - 1, last_cycle + 1, states[0].cycle - 1)
+            last_cycle = states[-1].cycle
+            if controller.faults.streams_frozen:
                 continue
-            latency = faults.latency
-            due = time.monotonic() + latency if latency > 0 else None
-            packed: dict[Any, bytes] = {}
-            for session in sessions:
-                recipe = session.output_recipe
-                if not session.streaming or recipe is None:
-                    session.flush()
+            sessions = [session for session in self.sessions() if not session.connection.closed.is_set()]
+            for state in states:  # every cycle, in order: a late frame is sent late, never dropped
+                self._send_cycle(state, sessions)
+
+    def _send_cycle(self, state: ControllerState, sessions: list[Session]) -> None:
+        """Queue one cycle's data package on every started session whose decimation takes this cycle."""
+        latency = self.controller.faults.latency
+        due = time.monotonic() + latency if latency > 0 else None
+        packed: dict[Any, bytes] = {}
+        for session in sessions:
+            recipe = session.output_recipe
+            if not session.streaming or recipe is None or state.cycle < session.next_cycle:
+                session.flush()
+                continue
+            session.next_cycle = state.cycle + recipe.decimation
+            package = packed.get(recipe.cache_key)
+            if package is None:
+                try:
+                    package = recipe.pack(state)
+                except Exception:  # noqa: BLE001 - one bad recipe must not kill the stream of every client
+                    log.exception("%s: packing its output recipe failed; closing it", session)
+                    session.close("output recipe could not be packed")
                     continue
-                if state.cycle < session.next_cycle:
-                    session.flush()
-                    continue
-                # Phase the next package from this cycle: after a stall the client gets the newest data, not a burst.
-                session.next_cycle = state.cycle + recipe.decimation
-                package = packed.get(recipe.cache_key)
-                if package is None:
-                    try:
-                        package = recipe.pack(state)
-                    except Exception:  # noqa: BLE001 - one bad recipe must not kill the stream of every client
-                        log.exception("%s: packing its output recipe failed; closing it", session)
-                        session.close("output recipe could not be packed")
-                        continue
-                    packed[recipe.cache_key] = package
-                session.send(package, due)
+                packed[recipe.cache_key] = package
+            session.send(package, due)
 

@@ -11,13 +11,17 @@ real numbers (7 / 2 = 3.5); `%` keeps integers.
 Scheduling: like the controller, script threads do not run in parallel. A thread holds the execution's scheduler
 lock while it runs statements and gives it up when it waits for physical time (sleep, sync, a move, join). As on the
 controller, a thread that uses up its time slice with computation alone is suspended until the next control cycle
-(frame); here the slice is `STATEMENTS_PER_SECOND × period` statements (200 on CB3, 50 on e-series), which also
-bounds the CPU a busy loop takes. Inside `enter_critical`/`exit_critical` the suspended thread keeps the lock, so no
-other script thread runs in between.
+(frame); here the slice is `STATEMENTS_PER_SECOND × period` statements, at least MIN_STATEMENTS_PER_FRAME (200 on
+CB3 and e-series: a step of URCL's External Control spline is about 55), which also bounds the CPU a busy loop
+takes. Inside `enter_critical`/`exit_critical` the suspended thread keeps the lock, so no other script thread runs
+in between. Any exception inside a script thread ends the program as a runtime error at the thread's line; calls
+nested deeper than MAX_CALL_DEPTH (runaway recursion) are a stack overflow.
 """
+import contextlib
 import itertools
+import logging
 import threading
-from collections.abc import Callable, Collection, Mapping
+from collections.abc import Callable, Collection, Iterator, Mapping
 from dataclasses import dataclass
 
 from sim_ursim.urscript import nodes
@@ -25,7 +29,12 @@ from sim_ursim.urscript.operators import BINARY, NUMERIC_FAST_PATH, PLAIN_NUMBER
 from sim_ursim.urscript.values import Pose, ScriptError, copy_value, to_str, truth
 from sim_ursim.vocabulary import CommandRefused
 
+log = logging.getLogger("sim_ursim.urscript")
+
 STATEMENTS_PER_SECOND = 25_000  # computation a script thread may do per second of controller time (see above)
+MIN_STATEMENTS_PER_FRAME = 200  # a controller runs a URCL spline step (~55 statements) within a 2 ms frame
+MAX_CALL_DEPTH = 100  # nested function calls of one script thread before the run-time error "stack overflow"
+STACK_OVERFLOW = "runtime_error:stack overflow:"  # UR does not publish its controller's text for this error
 KILLED_MOVE_DECELERATION = 4.0  # rad/s²: the arm's stop when the thread running its move is killed
 # Names a script may read without assigning them (built-in constants).
 BUILTIN_CONSTANTS = {"pi": 3.141592653589793}
@@ -142,10 +151,22 @@ class ThreadContext:
         self.line = 0  # line of the statement being executed
         self.motion = None  # the Motion this thread is waiting for, if any
         self.last_timeout = None  # this thread's last blocking read, if it timed out: a later halt is explained by it
+        self.running = False  # running statements (holding the scheduler), not waiting for anything
+        self.awaiting_hold = None  # the held speedj/speedl Motion this thread waits for (builtins.motion)
         self._statements_in_slice = 0
-        self._slice = max(1, int(STATEMENTS_PER_SECOND * execution.controller.period))
+        self._slice = max(MIN_STATEMENTS_PER_FRAME, int(STATEMENTS_PER_SECOND * execution.controller.period))
 
     # --- scheduling, used by the interpreter and by blocking built-ins
+    def owes_frame(self) -> bool:
+        """True while this thread runs statements or its held speed command is over (cycle_clock.FrameTurn)."""
+        motion = self.awaiting_hold
+        return self.running or (motion is not None and motion.done)
+
+    def set_running(self, running: bool) -> None:
+        """This thread starts or stops running statements (the control loop's FrameTurn is told)."""
+        self.running = running
+        self.controller.frame_turn.changed()
+
     def check(self) -> None:
         """Raise Cancelled if this thread was killed or its program stopped; block while the program is paused."""
         if self.cancel.is_set():
@@ -158,16 +179,21 @@ class ThreadContext:
             if self.cancel.is_set():
                 raise Cancelled()
 
-    def waiting(self):
-        """Context manager: let other script threads run while this one waits for physical time.
-
-        The main thread's line is published (RTDE script_control_line) here, where it stays for a while, rather
-        than on every statement.
-        """
+    @contextlib.contextmanager
+    def waiting(self) -> Iterator[None]:
+        """Context manager: let other script threads run while this one waits for physical time (scheduler lock
+        released, not running). The main thread's line is published (RTDE script_control_line) here, where it stays
+        for a while, rather than on every statement."""
         if self is self.execution.main:
             self.controller.set_script_control_line(self.line)
         self._statements_in_slice = 0  # physical time passes: a new slice starts
-        return _Released(self.execution.scheduler)
+        self.set_running(False)
+        self.execution.scheduler.release()
+        try:
+            yield
+        finally:
+            self.execution.scheduler.acquire()
+            self.set_running(True)
 
     def time_slice(self):
         """Count one statement; a thread that used up its slice waits for the next frame (see module docstring)."""
@@ -176,15 +202,24 @@ class ThreadContext:
             return
         if self.critical:
             self._statements_in_slice = 0
+            self.set_running(False)
             self._wait_next_frame()  # keeping the scheduler lock: no other thread runs inside a critical section
+            self.set_running(True)
             self.check()
         else:
             self.sync()
 
     def sleep(self, seconds: float) -> None:
-        """Wait `seconds` of wall time (the controller runs in real time), interruptibly."""
+        """Wait `seconds` of controller time, whole cycles (late on a late host, like the arm), interruptibly."""
         with self.waiting():
-            self.cancel.wait(seconds)
+            controller = self.controller
+            state = controller.state()
+            end = state.timestamp + seconds - 1e-9
+            while state.timestamp < end and not self.cancel.is_set():
+                if not controller.running:  # no cycles will come: wall time instead
+                    self.cancel.wait(end - state.timestamp)
+                    break
+                state = controller.wait_cycle(state.cycle, timeout=0.05)
         self.check()
 
     def sync(self) -> None:
@@ -230,20 +265,6 @@ class ThreadContext:
     def publish(self, message: object) -> None:
         """Send a robot message to the primary interface's subscribers."""
         self.controller.messages.publish(message)
-
-
-class _Released:
-    """Releases a held lock for the duration of a `with` block (re-acquires it afterwards)."""
-
-    def __init__(self, lock):
-        self._lock = lock
-
-    def __enter__(self):
-        self._lock.release()
-
-    def __exit__(self, *exc):
-        self._lock.acquire()
-        return False
 
 
 class Execution:
@@ -293,6 +314,7 @@ class Execution:
         context = self.main
         self._python_threads.add(threading.get_ident())
         self.scheduler.acquire()
+        context.set_running(True)
         try:
             self.exec_block(context, self.program.body)
             self._note_end("ran to its end")
@@ -304,10 +326,13 @@ class Execution:
             self._record_error(error)
         except (_Return, _Break, _Continue):
             self._note_end("ran to its end")
+        except Exception as error:  # noqa: BLE001 - whatever fails in a program ends it as a runtime error
+            self._record_error(unexpected_error(context, error))
         finally:
             self.controller.release_speed_hold(context)  # an ended thread sends no next command
             self.controller.release_freedrive(self)  # a program's freedrive ends with it, as on a controller
             context.done.set()
+            context.set_running(False)
             self.scheduler.release()
             self.cancel()
         return self.error
@@ -533,7 +558,10 @@ class Execution:
                 node.line, node.column, f"runtime_error:wrong arguments to {node.name}:{error}:"
             ) from None
 
-    def _call_function(self, ctx, function, args, kwargs, node):
+    def _call_function(self, ctx: ThreadContext, function: nodes.FunctionDef, args: list[object],
+                       kwargs: dict[str, object], node: nodes.Call) -> object:
+        if len(ctx.frames) >= MAX_CALL_DEPTH:
+            raise URScriptRuntimeError(node.line, node.column, STACK_OVERFLOW)
         frame = self._bind_arguments(ctx, function, args, kwargs, node)
         ctx.frames.append(frame)
         try:
@@ -581,9 +609,10 @@ class Execution:
         python_thread.start()
         return handle
 
-    def _run_thread(self, ctx, definition):
+    def _run_thread(self, ctx: ThreadContext, definition: nodes.ThreadDef) -> None:
         self._python_threads.add(threading.get_ident())
         self.scheduler.acquire()
+        ctx.set_running(True)
         ctx.frames.append({})
         try:
             self.exec_block(ctx, definition.body)
@@ -593,10 +622,22 @@ class Execution:
             pass
         except URScriptRuntimeError as error:
             self._record_error(error)
+        except Exception as error:  # noqa: BLE001 - whatever fails in a program ends it as a runtime error
+            self._record_error(unexpected_error(ctx, error))
         finally:
             self.controller.release_speed_hold(ctx)  # an ended thread sends no next command
             ctx.done.set()
+            ctx.set_running(False)
             self.scheduler.release()
+
+
+def unexpected_error(ctx: ThreadContext, error: Exception) -> URScriptRuntimeError:
+    """Any other exception of a script thread as a runtime error at the thread's line (RecursionError: overflow)."""
+    if isinstance(error, RecursionError):
+        return URScriptRuntimeError(ctx.line, 0, STACK_OVERFLOW)
+    log.debug("script thread %s failed at line %d", ctx.name, ctx.line, exc_info=error)
+    detail = f"{type(error).__name__}: {error}"[:200]
+    return URScriptRuntimeError(ctx.line, 0, f"runtime_error:simulator internal error ({detail}):")
 
 
 def _checked_index(container, index, node):

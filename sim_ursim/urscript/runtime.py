@@ -150,21 +150,23 @@ class ProgramRunner:
                 log.warning("program %s did not stop within %.1f s", running.execution.program.name, JOIN_TIMEOUT)
         self._stop_arm()
 
-    def _run_main(self, running):
+    def _run_main(self, running: "_Running") -> None:
         execution = running.execution
         name = execution.program.name
-        self._publish(KeyMessage(code=0, argument=0, title="PROGRAM_XXX_STARTED", text=name))
-        error = execution.run()
-        log.info("program %s ended: %s", name, execution.end_reason)
-        if error is not None:
-            self._publish(RuntimeExceptionMessage(line=error.line, column=error.column, text=error.text))
-            self._stop_arm()
-        with self._lock:
-            if self._main is running:
-                self._main = None
-                self._paused = False
-                self._controller.set_program_state(False)
-        self._publish(KeyMessage(code=0, argument=0, title="PROGRAM_XXX_STOPPED", text=name))
+        try:
+            self._publish(KeyMessage(code=0, argument=0, title="PROGRAM_XXX_STARTED", text=name))
+            error = execution.run()
+            log.info("program %s ended: %s", name, execution.end_reason)
+            if error is not None:
+                self._publish(RuntimeExceptionMessage(line=error.line, column=error.column, text=error.text))
+                self._stop_arm()
+        finally:  # whatever happened, the program is over: the controller never stays PLAYING
+            with self._lock:
+                if self._main is running:
+                    self._main = None
+                    self._paused = False
+                    self._controller.set_program_state(False)
+            self._publish(KeyMessage(code=0, argument=0, title="PROGRAM_XXX_STOPPED", text=name))
 
     def _start_secondary(self, execution):
         thread = threading.Thread(target=self._run_secondary, args=(execution,), daemon=True,

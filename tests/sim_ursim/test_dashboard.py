@@ -106,6 +106,30 @@ def test_protective_stop_unlock_honours_the_five_second_rule(sim):
         client.disconnect()
 
 
+def test_restart_safety_within_the_unlock_delay_is_refused_and_leaves_the_stop_latched():
+    """`restart safety` clears a protective stop and powers off, but not within the 5 s after the stop: then it
+    answers with the unlock rule's text and changes nothing (it replied "Restarting safety", powered off and left
+    PROTECTIVE_STOP latched)."""
+    with running_simulator(model="ur3", unlock_delay=1.0) as sim:
+        sim.controller.power_up()
+        sim.controller.protective_stop("test")
+        stopped_at = time.monotonic()
+        replies = raw_exchange(sim.host, ["restart safety", "safetymode", "robotmode"])
+        assert replies[1:] == [protocol.UNLOCK_TOO_EARLY + "\n", "Safetymode: PROTECTIVE_STOP\n",
+                               "Robotmode: RUNNING\n"]
+        time.sleep(max(0.0, stopped_at + 1.1 - time.monotonic()))
+        replies = raw_exchange(sim.host, ["restart safety", "safetymode", "robotmode"])
+        assert replies[1:] == ["Restarting safety\n", "Safetymode: NORMAL\n", "Robotmode: POWER_OFF\n"]
+
+
+def test_load_installation_answers_as_polyscope_for_present_and_missing_files(sim, tmp_path):
+    (tmp_path / "default.installation").write_bytes(b"installation")
+    sim.controller.programs_directory = str(tmp_path)
+    replies = raw_exchange(sim.host, ["load installation default.installation",
+                                      "load installation nowhere.installation"])
+    assert replies[1:] == ["Loading installation: default.installation\n", "File not found: nowhere.installation\n"]
+
+
 def test_load_play_pause_stop_run_a_script_through_the_runner(sim, tmp_path):
     program = tmp_path / "wave.script"
     program.write_text("def wave():\n  movej([0.5, -1.2, 1.2, -1.5, -1.5, 0], a=1.4, v=1.05)\n  sleep(30)\nend\n")

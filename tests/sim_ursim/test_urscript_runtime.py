@@ -12,6 +12,7 @@ from polling import wait_for
 from powered_simulator import powered_simulator
 from sim_ursim.controller import Controller
 from sim_ursim.messages import KeyMessage, RuntimeExceptionMessage, TextMessage
+from sim_ursim.urscript.builtins import BUILTINS
 from sim_ursim.urscript.runtime import ProgramRunner
 from sim_ursim.vocabulary import RuntimeState
 
@@ -89,6 +90,46 @@ def test_runtime_error_is_published_and_the_program_stops(controller):
     assert (error.line, error.column) == (3, 7) and "index out of range" in error.text
     assert not any(isinstance(m, TextMessage) for m in received)
     assert isinstance(received[-1], KeyMessage) and received[-1].title == "PROGRAM_XXX_STOPPED"
+
+
+RECURSIVE = "def runaway():\n  def deeper(n):\n    return deeper(n + 1)\n  end\n  deeper(0)\nend\n"
+
+
+@pytest.mark.parametrize("in_thread", [False, True])
+def test_runaway_recursion_is_a_stack_overflow_that_ends_the_program(controller, in_thread):
+    """A recursive program does not crash the interpreter: a controller reports a runtime error (stack overflow)
+    at the recursive call and stops the program, so a client waiting for its end sees it end."""
+    runner = controller.program_runner
+    messages = controller.messages.subscribe()
+    source = RECURSIVE if not in_thread else RECURSIVE.replace(
+        "  deeper(0)\n", "  thread worker():\n    deeper(0)\n  end\n  handle = run worker()\n  join handle\n")
+    assert runner.submit(source, "test")
+    assert runner.wait_until_stopped(10.0)
+    assert runtime_state(controller) == RuntimeState.STOPPED
+    received = drain(messages)
+    (error,) = [m for m in received if isinstance(m, RuntimeExceptionMessage)]
+    assert error.line == 3 and error.text == "runtime_error:stack overflow:"
+    assert isinstance(received[-1], KeyMessage) and received[-1].title == "PROGRAM_XXX_STOPPED"
+
+
+def test_any_exception_in_a_program_thread_ends_the_program_as_a_runtime_error_with_its_line():
+    """Whatever fails inside the interpreter (here a built-in with a bug) ends the program as a runtime error at
+    the failing line: nothing is left PLAYING."""
+    def broken_builtin(ctx):
+        raise KeyError("a bug in the simulator")
+
+    c = Controller("ur3", initial_q=HOME, mode_delay=0.01)
+    c.attach_program_runner(ProgramRunner(c, builtins={**BUILTINS, "broken_builtin": broken_builtin}))
+    c.start()
+    try:
+        messages = c.messages.subscribe()
+        assert c.program_runner.submit("def buggy():\n  sleep(0.01)\n  broken_builtin()\nend\n", "test")
+        assert c.program_runner.wait_until_stopped(5.0)
+        assert runtime_state(c) == RuntimeState.STOPPED and not c.state().program_running
+        (error,) = [m for m in drain(messages) if isinstance(m, RuntimeExceptionMessage)]
+        assert error.line == 3 and "simulator internal error (KeyError" in error.text
+    finally:
+        c.shutdown()
 
 
 def test_compile_error_is_published_and_leaves_the_running_program_alone(controller):

@@ -136,9 +136,13 @@ def _held_speed(ctx: ThreadContext, command, speed, acceleration, duration):
     for `duration`: lockstep with the control cycles, not `duration` of wall time (a busy machine runs fewer cycles
     than its wall time holds; the next command would then cut this one short)."""
     motion = controller_call(command, speed, acceleration, duration, ctx)
-    with ctx.waiting():
-        while not motion.wait(timeout=ctx.controller.period) and not ctx.cancel.is_set():
-            pass
+    ctx.awaiting_hold = motion  # once it has moved its time, the control loop waits for this thread's next command
+    try:
+        with ctx.waiting():
+            while not motion.wait(timeout=ctx.controller.period) and not ctx.cancel.is_set():
+                pass
+    finally:
+        ctx.awaiting_hold = None
     ctx.check()
 
 
