@@ -67,7 +67,10 @@ def run_program(settings: Settings, robot: Any, plan: Sequence[PlannedStep], fir
                             completed=position - first)
 
         watch = StepWatch(plan, first, shown)
-        describe = lambda: step_text(watch.position, plan[watch.position - first].step, program_length)  # noqa: E731
+
+        def describe() -> str:
+            return step_text(watch.position, plan[watch.position - first].step, program_length)
+
         with OperatorControls(robot, progress.console, describe) as controls:
             failure: BaseException | None = None
             try:
@@ -213,7 +216,10 @@ def run_replay(settings: Settings, robot: Any, execute: Callable[[Callable[[str,
             done[0] = min(completed, len(names) - 1)
             progress.update(task, description=escape(description), completed=completed, total=total)
 
-        describe = lambda: step_text(done[0] + 1, _PoseMove(names[done[0]]), len(names))  # noqa: E731
+
+        def describe() -> str:
+            return step_text(done[0] + 1, _PoseMove(names[done[0]]), len(names))
+
         with OperatorControls(robot, progress.console, describe) as controls:
             failure: BaseException | None = None
             try:
