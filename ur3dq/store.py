@@ -41,6 +41,8 @@ from ur3dq.store_format import (  # noqa: F401  (re-exported: the store's public
 
 LOCK_TIMEOUT_S = 30.0
 DEFAULT_STORE_PATH = "poses.json"
+#: `<store>` + this beside the store (of a symlink's target): what a stopped run keeps for `run-poses --resume`.
+RESUME_SUFFIX = ".resume"
 
 # ---------------------------------------------------------------- pure: thesis text lines <-> dual quaternions
 
@@ -207,8 +209,9 @@ def _same_file(one: str | os.PathLike[str], other: str) -> bool:
 def store_file_role(store_path: str | os.PathLike[str], candidate: str | os.PathLike[str]) -> str | None:
     """What `candidate` is to the pose store at `store_path`, or None when the store does not own it.
 
-    The store owns its file, its lock `<store>.lock`, its version-1 backups `<store>.v1.bak[.N]` and the
-    temporaries its writes leave beside them. Both paths are resolved first (symlinks, `..`), and an existing
+    The store owns its file, its lock `<store>.lock`, its version-1 backups `<store>.v1.bak[.N]`, the state a
+    stopped run keeps for `run-poses --resume` (`<store>` + RESUME_SUFFIX) and the temporaries their writes
+    leave beside them. Both paths are resolved first (symlinks, `..`), and an existing
     candidate that is the same file as one of those (a hard link) counts too. A command that writes a file calls
     this on its output first, so no output can replace the store or a file it relies on.
 
@@ -222,7 +225,8 @@ def store_file_role(store_path: str | os.PathLike[str], candidate: str | os.Path
     store = os.path.realpath(store_path)
     target = os.path.realpath(candidate)
     name, directory = os.path.basename(store), os.path.dirname(store)
-    owned = ((store, "the pose store itself"), (store + ".lock", "the pose store's lock file"))
+    owned = ((store, "the pose store itself"), (store + ".lock", "the pose store's lock file"),
+             (store + RESUME_SUFFIX, "the pose store's resume state"))
     for path, role in owned:
         if target == path or _same_file(candidate, path):
             return role
@@ -231,7 +235,7 @@ def store_file_role(store_path: str | os.PathLike[str], candidate: str | os.Path
     entry = os.path.basename(target)
     if re.fullmatch(re.escape(name) + r"\.v1\.bak(\.[0-9]+)?", entry):
         return "the pose store's version-1 backup"
-    if _temporary_pattern(name).match(entry):
+    if _temporary_pattern(name).match(entry) or _temporary_pattern(name + RESUME_SUFFIX).match(entry):
         return "a temporary file of the pose store"
     return None
 

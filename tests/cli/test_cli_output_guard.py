@@ -43,7 +43,7 @@ def owned_names(tmp_path):
     os.symlink(tmp_path, tmp_path / "here")
     return ["poses.json", "./sub/../poses.json", str(tmp_path / "poses.json"), "link.json", "hard.json",
             "here/poses.json", "poses.json.lock", "poses.json.v1.bak", "poses.json.v1.bak.3",
-            ".poses.json.k2x9q1ab.tmp"]
+            "poses.json.resume", ".poses.json.k2x9q1ab.tmp", ".poses.json.resume.k2x9q1ab.tmp"]
 
 
 @pytest.mark.parametrize("writer", WRITERS)
@@ -83,5 +83,6 @@ def test_store_file_role_names_each_owned_file(tmp_path):
     assert store_file_role(store, tmp_path / "poses.json.lock") == "the pose store's lock file"
     assert store_file_role(store, tmp_path / "poses.json.v1.bak.12") == "the pose store's version-1 backup"
     assert store_file_role(store, tmp_path / ".poses.json.v1.bak.abcdefgh.tmp") == "a temporary file of the pose store"
+    assert store_file_role(store, tmp_path / "poses.json.resume") == "the pose store's resume state"
     assert store_file_role(store, tmp_path / "x" / "poses.json") is None
     assert store_file_role(store, tmp_path / "poses.json.txt") is None
