@@ -41,6 +41,8 @@ from ur3dq.store_format import (  # noqa: F401  (re-exported: the store's public
 
 LOCK_TIMEOUT_S = 30.0
 DEFAULT_STORE_PATH = "poses.json"
+#: `<store>` + this beside the store (of a symlink's target): what a stopped run keeps for `run-poses --resume`.
+RESUME_SUFFIX = ".resume"
 
 # ---------------------------------------------------------------- pure: thesis text lines <-> dual quaternions
 
@@ -169,13 +171,18 @@ def write_atomically(path: Path, content: str | bytes) -> None:
         raise
 
 
+def _temporary_pattern(name: str) -> re.Pattern[str]:
+    """The names of the temporaries written beside the store `name`, of it and of its upgrade backups."""
+    return re.compile(r"^\." + re.escape(name) + r"(\.v1\.bak(\.[0-9]+)?)?\.[a-z0-9_]{8}\.tmp$")
+
+
 def remove_orphan_temporaries(path: Path) -> int:
     """Delete the temporary files killed writers of a store left.
 
     Delete the temporary files killed writers of the store `path` left (`.<name>.XXXXXXXX.tmp`, and those of
     its upgrade backup `.<name>.v1.bak[.N].XXXXXXXX.tmp`); call it only while holding the store's lock, when no
     writer of this store can be mid-write. Returns how many went."""
-    pattern = re.compile(r"^\." + re.escape(path.name) + r"(\.v1\.bak(\.[0-9]+)?)?\.[a-z0-9_]{8}\.tmp$")
+    pattern = _temporary_pattern(path.name)
     removed = 0
     try:
         entries = list(os.scandir(path.parent))
@@ -189,6 +196,48 @@ def remove_orphan_temporaries(path: Path) -> int:
             except OSError:
                 pass  # another user's file, or gone already: not ours to insist on
     return removed
+
+
+def _same_file(one: str | os.PathLike[str], other: str) -> bool:
+    """True if both paths name one existing file (a hard link included)."""
+    try:
+        return os.path.samefile(one, other)
+    except OSError:
+        return False
+
+
+def store_file_role(store_path: str | os.PathLike[str], candidate: str | os.PathLike[str]) -> str | None:
+    """What `candidate` is to the pose store at `store_path`, or None when the store does not own it.
+
+    The store owns its file, its lock `<store>.lock`, its version-1 backups `<store>.v1.bak[.N]`, the state a
+    stopped run keeps for `run-poses --resume` (`<store>` + RESUME_SUFFIX) and the temporaries their writes
+    leave beside them. Both paths are resolved first (symlinks, `..`), and an existing
+    candidate that is the same file as one of those (a hard link) counts too. A command that writes a file calls
+    this on its output first, so no output can replace the store or a file it relies on.
+
+    Examples
+    --------
+    >>> store_file_role("poses.json", "./poses.json"), store_file_role("poses.json", "poses.json.lock")
+    ('the pose store itself', "the pose store's lock file")
+    >>> store_file_role("poses.json", "cell.script") is None
+    True
+    """
+    store = os.path.realpath(store_path)
+    target = os.path.realpath(candidate)
+    name, directory = os.path.basename(store), os.path.dirname(store)
+    owned = ((store, "the pose store itself"), (store + ".lock", "the pose store's lock file"),
+             (store + RESUME_SUFFIX, "the pose store's resume state"))
+    for path, role in owned:
+        if target == path or _same_file(candidate, path):
+            return role
+    if os.path.dirname(target) != directory:
+        return None
+    entry = os.path.basename(target)
+    if re.fullmatch(re.escape(name) + r"\.v1\.bak(\.[0-9]+)?", entry):
+        return "the pose store's version-1 backup"
+    if _temporary_pattern(name).match(entry) or _temporary_pattern(name + RESUME_SUFFIX).match(entry):
+        return "a temporary file of the pose store"
+    return None
 
 
 def backup_path(path: Path) -> Path:

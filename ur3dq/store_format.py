@@ -20,6 +20,7 @@ import orjson
 
 from ur3dq import dqarray
 from ur3dq.errors import StoreError
+from ur3dq.json_text import MAX_NESTING, nesting_line
 from ur3dq.pose import (
     MAX_JOINT_ABS,
     MAX_TRANSLATION_ABS,
@@ -60,7 +61,6 @@ ACTION_FIELDS = {
     "message": (Message, ("text",)),
 }
 RELATIVE_FIELDS = ("base", "offset", "frame", "note")
-MAX_NESTING = 20
 
 
 # ---------------------------------------------------------------- one pose
@@ -352,24 +352,7 @@ def _where(text: str, source: str, name) -> str:
 
 def _too_deep(text: str, source: str) -> StoreError:
     """The error for JSON nested deeper than Python's parser goes, at the line where MAX_NESTING is passed."""
-    depth, line, in_string, escaped = 0, 1, False, False
-    for char in text:
-        if char == "\n":
-            line += 1
-        if in_string:
-            escaped = char == "\\" and not escaped
-            if char == '"' and not escaped:
-                in_string = False
-            continue
-        if char == '"':
-            in_string = True
-        elif char in "[{":
-            depth += 1
-            if depth > MAX_NESTING:
-                break
-        elif char in "]}":
-            depth -= 1
-    return StoreError(f"{source}:{line}: not a pose store: JSON nested deeper than {MAX_NESTING} levels")
+    return StoreError(f"{source}:{nesting_line(text)}: not a pose store: JSON nested deeper than {MAX_NESTING} levels")
 
 
 class _NotOwnLayout(Exception):

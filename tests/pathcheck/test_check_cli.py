@@ -86,9 +86,17 @@ def test_a_linear_check_reports_the_singularity_margins(run):
     ("{not json", 3, "not valid JSON"),
     ('{"boxes": [{"name": "b", "min": [0, 0, 1], "max": [1, 1, 0]}]}', 4, "every min must be below its max"),
     ('{"walls": []}', 4, "unknown key 'walls'"),
+    ('{"boxes": [{"name": "caf\xe9", "min": [0, 0, 0], "max": [1, 1, 1]}]}'.encode("latin-1"), 3,
+     ":1: not UTF-8 text (byte 0xe9 at offset 24)"),
+    ('{"boxes":\n' + "[" * 100_000, 3, ":2: JSON nested deeper than 20 levels"),
+    ('{"margin": 1' + "0" * 5000 + "}", 3, "not valid JSON"),
+    (b"{}" + b" " * (1024 * 1024), 3, "larger than 1024 KiB"),
 ])
 def test_a_bad_cell_file_is_one_line_naming_the_file(run, tmp_path, content, code, fragment):
-    (tmp_path / "bad.json").write_text(content)
+    if isinstance(content, bytes):
+        (tmp_path / "bad.json").write_bytes(content)
+    else:
+        (tmp_path / "bad.json").write_text(content)
     result = run("--cell", "bad.json")
     assert result.returncode == code
     assert result.stderr.strip().count("\n") == 0 and "bad.json" in result.stderr and fragment in result.stderr
@@ -190,3 +198,10 @@ def test_a_failed_check_prints_each_problem_once_with_a_true_hint_and_columns_th
 def test_the_wrist_is_said_in_degrees_from_singular(run):
     result = run("--move", "linear", COLUMNS="80")
     assert "wrist°" in result.stdout and "wrist, elbow: ° from singular (≥ 1.1°)" in result.stdout
+
+
+def test_a_huge_cell_file_is_refused_unread(run, tmp_path):
+    with open(tmp_path / "huge.json", "wb") as stream:   # 100 MB that take no disk: a sparse file of zero bytes
+        stream.truncate(100 * 1024 * 1024)
+    result = run("--cell", "huge.json")
+    assert result.returncode == 3 and "huge.json: larger than 1024 KiB" in result.stderr, result.stderr

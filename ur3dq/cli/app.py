@@ -22,7 +22,7 @@ from ur3dq.cli.library_output import own_output
 from ur3dq.cli.signals import exit_code_for_interrupt, polite_signals_interrupt, signal_name
 from ur3dq.errors import RobotConnectionError, RobotError, SafetyCheckError, StoreError, UR3DQError
 from ur3dq.kinematics import MODEL_NAMES
-from ur3dq.store import DEFAULT_STORE_PATH, PoseStore
+from ur3dq.store import DEFAULT_STORE_PATH, PoseStore, store_file_role
 from ur3dq.units import Units
 
 EXIT_OK = 0
@@ -179,6 +179,24 @@ def confirm(question: str, assume_yes: bool, default: bool = False) -> None:
         raise Cancelled(f"no answer to {question!r}: pass --yes to answer yes in scripts")
     if not answer:
         raise Cancelled("answered no: nothing done.", deliberate=True)   # the question is right above
+
+
+def refuse_store_file(settings: Settings, path: Path) -> None:
+    """StoreError (exit 3) when `path` resolves to the pose store, its lock or any file the store owns
+    (ur3dq.store.store_file_role: through symlinks and hard links too)."""
+    role = store_file_role(settings.store_path, path)
+    if role is not None:
+        raise StoreError(f"{path} is {role} ({settings.store_path}); write to another file")
+
+
+def prepare_output(settings: Settings, path: Path, yes: bool) -> None:
+    """Make ready to write the file `path`: every command that writes a file calls this first.
+
+    refuse_store_file (exit 3, nothing written), then, if `path` exists, the question before overwriting it
+    (Cancelled unless answered yes or `yes`)."""
+    refuse_store_file(settings, path)
+    if path.exists():
+        confirm(f"Overwrite {path}?", yes, default=False)
 
 
 @click.group(

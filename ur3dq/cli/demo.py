@@ -13,7 +13,7 @@ import numpy as np
 from rich.console import Console
 from rich.markup import escape
 
-from ur3dq.cli.app import EXIT_NOT_REACHED, Settings, cli, emit_json
+from ur3dq.cli.app import EXIT_NOT_REACHED, Settings, cli, emit_json, refuse_store_file
 from ur3dq.cli.background_simulator import SimulatorError
 from ur3dq.cli.display import angles_text, plan_table, pose_vector_text, print_table, progress_bar, reached_table
 from ur3dq.cli.library_output import own_output
@@ -75,6 +75,9 @@ def demo(settings: Settings, save, speed, acceleration, tolerance_mm, tolerance_
     model_name = settings.model or "ur3"
     with tempfile.TemporaryDirectory(prefix="ur3dq-demo-") as scratch, contextlib.ExitStack() as stack:
         store = PoseStore(save or Path(scratch) / "demo-poses.json")
+        program_store = PoseStore(store.path.with_name(store.path.stem + "-program.json"))
+        for written in (store.path, program_store.path):
+            refuse_store_file(settings, written)
         say(f"[bold]1.[/bold] Starting the embedded simulator (sim_ursim, {model_name}) ...")
         try:
             simulator = stack.enter_context(simulator_process(model=model_name))
@@ -106,7 +109,6 @@ def demo(settings: Settings, save, speed, acceleration, tolerance_mm, tolerance_
                 results = execute_plan(robot, steps, a, v, 0.0, 1, progress)
             say("[bold]5.[/bold] A cell program from the same store: approach, linear descent, gripper output, "
                 "wait, linear retract, place")
-            program_store = PoseStore(store.path.with_name(store.path.stem + "-program.json"))
             say(escape(f"   written to {program_store.path} (run it again with `ur3dq --store {program_store.path} "
                        "run-poses`)"))
             run_pick_and_place(robot, store, program_store, recorded[0], recorded[1], story)

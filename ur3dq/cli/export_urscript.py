@@ -5,9 +5,9 @@ from pathlib import Path
 
 import click
 
-from ur3dq.cli.app import Settings, cli, emit_json, report
+from ur3dq.cli.app import Settings, cli, emit_json, prepare_output, report
 from ur3dq.cli.display import count_text
-from ur3dq.cli.offline_plans import confirm_overwrite, offline_plan
+from ur3dq.cli.offline_plans import offline_plan
 from ur3dq.cli.options import (
     DEFAULT_ACCELERATION,
     DEFAULT_SPEED,
@@ -93,6 +93,6 @@ def _write_program(settings: Settings, output: Path, program: str, yes: bool, wh
         else:
             click.echo(program, nl=False)
         return
-    confirm_overwrite(output, yes)
+    prepare_output(settings, output, yes)
     write_atomically(output, program)
     report(settings, {"program": name, "file": str(output)}, f"Wrote {output}: {what} (def {name}).")

@@ -1,12 +1,10 @@
 """The stored poses planned on the nominal model, without a robot (what `plot` draws and `export-urscript`
-writes), and the question before a command overwrites a file."""
+writes)."""
 from __future__ import annotations
-
-from pathlib import Path
 
 from rich.console import Console
 
-from ur3dq.cli.app import Settings, confirm
+from ur3dq.cli.app import Settings
 from ur3dq.cli.options import speed_and_acceleration
 from ur3dq.errors import StoreError
 from ur3dq.replay import plan_replay
@@ -22,9 +20,3 @@ def offline_plan(settings: Settings, names, speed, acceleration, replay_joints, 
     model = robot_model(settings.model or poses[0].robot_model)
     a, v = speed_and_acceleration(model, speed, acceleration, Console(stderr=True, highlight=False), settings.units)
     return model, plan_replay(model, poses, None, a, v, replay_joints, max_travel), a, v
-
-
-def confirm_overwrite(path: Path, yes: bool) -> None:
-    """Ask before overwriting an existing file (unless --yes)."""
-    if path.exists():
-        confirm(f"Overwrite {path}?", yes, default=False)

@@ -5,9 +5,9 @@ from pathlib import Path
 
 import click
 
-from ur3dq.cli.app import Settings, cli, report
+from ur3dq.cli.app import Settings, cli, prepare_output, report
 from ur3dq.cli.display import count_text
-from ur3dq.cli.offline_plans import confirm_overwrite, offline_plan
+from ur3dq.cli.offline_plans import offline_plan
 from ur3dq.cli.options import DEFAULT_ACCELERATION, DEFAULT_SPEED, cell_option, display_options
 from ur3dq.cli.path_report import check_program, check_replay
 from ur3dq.program.plan import plan_program
@@ -34,7 +34,7 @@ def plot(settings: Settings, names, output: Path, yes, cell_path):
 
     model, steps, _, _ = offline_plan(settings, names, DEFAULT_SPEED, DEFAULT_ACCELERATION, False,
                                       float("inf"))
-    confirm_overwrite(output, yes)
+    prepare_output(settings, output, yes)
     check = None
     if settings.store.version() == PROGRAM_SCHEMA_VERSION and not names:  # the program's own moves are checked
         check, cell = check_program(model, plan_program(model, settings.store.load_program()), cell_path)

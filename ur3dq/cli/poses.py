@@ -12,7 +12,7 @@ import click
 from rich.markup import escape
 from rich.text import Text
 
-from ur3dq.cli.app import Settings, cli, confirm, emit_json, emit_json_list, report, robot_session
+from ur3dq.cli.app import Settings, cli, confirm, emit_json, emit_json_list, prepare_output, report, robot_session
 from ur3dq.cli.display import (
     NARROW_WIDTH,
     Column,
@@ -274,10 +274,7 @@ def export_poses(settings: Settings, file: Path, names: tuple[str, ...], file_fo
         else:
             click.echo(text, nl=False)
         return
-    if file.resolve() == settings.store_path.resolve():
-        raise StoreError(f"{file} is the pose store itself; export to another file")
-    if file.exists():
-        confirm(f"Overwrite {file}?", yes, default=False)
+    prepare_output(settings, file, yes)
     write_atomically(file, text)
     report(settings, {"exported": [pose.name for pose in selected], "format": file_format, "file": str(file)},
            f"Exported {count_text(len(selected), 'pose')} to {file} ({file_format}).")

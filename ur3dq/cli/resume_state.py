@@ -20,7 +20,7 @@ import numpy as np
 
 from ur3dq.errors import SafetyCheckError
 from ur3dq.pose import utc_now_iso
-from ur3dq.store import write_atomically
+from ur3dq.store import RESUME_SUFFIX, write_atomically
 
 FORMAT = 1
 KINDS = ("program", "replay")
@@ -29,7 +29,7 @@ KINDS = ("program", "replay")
 def resume_path(store_path: str | os.PathLike[str]) -> Path:
     """Where the resume state of the store at `store_path` lives: `<store>.resume` beside the store (of a
     symlink's target, as its lock)."""
-    return Path(os.path.realpath(store_path) + ".resume")
+    return Path(os.path.realpath(store_path) + RESUME_SUFFIX)
 
 
 def store_digest(store_path: str | os.PathLike[str]) -> str:

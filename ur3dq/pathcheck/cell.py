@@ -12,16 +12,18 @@ Every key is optional; `margin` defaults to DEFAULT_CELL_MARGIN. The tool is giv
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
 from pathlib import Path
 
 import numpy as np
 
 from ur3dq.errors import StoreError
+from ur3dq.json_text import decoded, parse_json
 from ur3dq.real_numbers import is_number
 
 DEFAULT_CELL_MARGIN = 0.01
+#: A cell file larger than this is refused unread (a thousand boxes take about 100 KiB).
+MAX_CELL_FILE_BYTES = 1024 * 1024
 _KEYS = {"floor", "boxes", "keep_in", "margin", "tool"}
 
 
@@ -87,17 +89,19 @@ def cell_from_dict(data, origin: str = "cell") -> Cell:
 
 
 def load_cell(path) -> Cell:
-    """Read a cell file; StoreError (unreadable, not JSON) or ValueError (bad content) naming the file."""
+    """Read a cell file; StoreError (unreadable, over MAX_CELL_FILE_BYTES, not UTF-8, not JSON, nested deeper
+    than json_text.MAX_NESTING) or ValueError (bad content), each naming the file."""
     path = Path(path)
+    source = f"cell file {path}"
     try:
-        text = path.read_text(encoding="utf-8")
+        with open(path, "rb") as stream:
+            raw = stream.read(MAX_CELL_FILE_BYTES + 1)   # never more: a huge file is refused, not read
     except OSError as error:
-        raise StoreError(f"cell file {path}: cannot read it ({error.strerror or error})") from None
-    try:
-        data = json.loads(text)
-    except json.JSONDecodeError as error:
-        raise StoreError(f"cell file {path}:{error.lineno}: not valid JSON ({error.msg})") from None
-    return cell_from_dict(data, f"cell file {path}")
+        raise StoreError(f"{source}: cannot read it ({error.strerror or error})") from None
+    if len(raw) > MAX_CELL_FILE_BYTES:
+        raise StoreError(f"{source}: larger than {MAX_CELL_FILE_BYTES // 1024} KiB; a cell file holds a floor, "
+                         "boxes, a keep-in box and a tool (docs/cell-file.md)")
+    return cell_from_dict(parse_json(decoded(raw, source), source), source)
 
 
 def _parse(data) -> Cell:
