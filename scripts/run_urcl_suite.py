@@ -5,9 +5,10 @@ URCL is built outside this repository (with ``-DBUILDING_TESTS=1 -DINTEGRATION_T
 it, case by case as ctest does: the cases and their arguments come from ``ctest --show-only=json-v1`` in the build
 directory, each case is its own process in the case's working directory, ``--robot_ip`` points at the simulator
 (the ``_urcap`` cases keep their ``--headless false``). One simulator serves the whole run, as one URSim serves
-URCL's CI. URCL's drivers listen on ports 50001-50004 of every address and its fake primary server on 30001, so the
-run happens in a private network namespace (``unshare -n``; it re-executes itself there), and each case whose
-fixture starts a fake server gets a namespace of its own, without the simulator.
+URCL's CI, configured as that URSim is (``--remote-control off``: remote control not enabled). URCL's drivers
+listen on ports 50001-50004 of every address and its fake primary server on 30001, so the run happens in a private
+network namespace (``unshare -n``; it re-executes itself there), and each case whose fixture starts a fake server
+gets a namespace of its own, without the simulator.
 
 Not part of the test suite or CI (it needs the outside build). Usage::
 
@@ -136,7 +137,7 @@ def wait_for_port(host: str, port: int, timeout: float) -> bool:
 
 def start_simulator(options: argparse.Namespace, programs: Path, log_path: Path) -> "subprocess.Popen[bytes]":
     command = [options.python, "-m", "sim_ursim", "--model", options.model, "--version", options.version,
-               "--host", options.host, "--programs-dir", str(programs)]
+               "--host", options.host, "--programs-dir", str(programs), "--remote-control", "off"]
     log = open(log_path, "w", encoding="utf-8")
     simulator = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, cwd=REPOSITORY)
     if not wait_for_port(options.host, 30004, 30.0):

@@ -57,10 +57,14 @@ def load_calibration(path, model):
                    "the URCap's settings; a loopback address). Default: the simulator's own --host.")
 @click.option("--external-control-port", type=click.IntRange(1, 65535), default=50002, show_default=True,
               help="The External Control URCap's port.")
+@click.option("--remote-control", type=click.Choice(["on", "off"]), default="on", show_default=True,
+              help="What the dashboard's `is in remote control` answers (e-series 5.6+): on, as a robot in remote "
+                   "control (ur_rtde's control interface needs it); off, as URSim by default (URCL's tests expect "
+                   "it). Dashboard commands are accepted either way.")
 @click.option("--log-level", type=click.Choice(["DEBUG", "INFO", "WARNING"]), default="INFO", show_default=True)
 @click.pass_context
 def main(ctx, model, software_version, host, initial_q, frequency, calibration, programs_dir,
-         external_control_host, external_control_port, log_level):
+         external_control_host, external_control_port, remote_control, log_level):
     """Run a protocol-level UR controller simulator (dashboard 29999, primary 30001, secondary 30002,
     real-time 30003, RTDE 30004, fault control 29998) until Ctrl-C, SIGTERM or the dashboard's `shutdown`."""
     if ctx.invoked_subcommand is not None:
@@ -74,7 +78,8 @@ def main(ctx, model, software_version, host, initial_q, frequency, calibration, 
                               calibration=load_calibration(calibration, model) if calibration else None,
                               frequency=frequency, programs_directory=programs_dir,
                               external_control_host=external_control_host,
-                              external_control_port=external_control_port)
+                              external_control_port=external_control_port,
+                              remote_control=remote_control == "on")
     except (ValueError, OSError) as error:   # OSError: a --calibration file that cannot be read
         raise click.BadParameter(str(error)) from None
     try:

@@ -4,6 +4,7 @@ import threading
 
 from .control_channel import CONTROL_PORT, ControlChannelServer
 from .controller import Controller
+from .dashboard.protocol import pendant_settings
 from .dashboard.server import DashboardServer
 from .polyscope.external_control import DEFAULT_PORT as EXTERNAL_CONTROL_PORT
 from .polyscope.external_control import ExternalControlSettings
@@ -23,13 +24,15 @@ class Simulator:
 
     def __init__(self, model="ur3", version=None, host="127.0.0.1", initial_q=None, calibration=None,
                  frequency=None, programs_directory=None, external_control_host=None,
-                 external_control_port=EXTERNAL_CONTROL_PORT, **controller_options):
+                 external_control_port=EXTERNAL_CONTROL_PORT, remote_control=True, **controller_options):
         """`external_control_host`/`_port`: where an External Control URCap node fetches its program (the remote
-        PC of the URCap's installation settings; default this simulator's own address, port 50002)."""
+        PC of the URCap's installation settings; default this simulator's own address, port 50002).
+        `remote_control`: the dashboard's `is in remote control` (e-series 5.6+; False as URSim by default)."""
         self.host = host
         self.controller = Controller(model=model, version=version, initial_q=initial_q, calibration=calibration,
                                      frequency=frequency, **controller_options)
         self.controller.programs_directory = programs_directory
+        pendant_settings(self.controller).remote_control = bool(remote_control)
         self.runner = ProgramRunner(self.controller)
         self.controller.attach_program_runner(self.runner)
         self.programs = ProgramTab(self.controller, ExternalControlSettings(external_control_host or host,

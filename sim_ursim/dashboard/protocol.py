@@ -225,12 +225,19 @@ def _add_to_log(controller, argument):
     return Reply("Added log message")
 
 
-class _Settings:
-    """What dashboard commands store on a controller: user role (CB3), operational mode (e-series)."""
+class PendantSettings:
+    """What dashboard commands store on a controller: user role (CB3), operational mode (e-series), and whether the
+    robot is in remote control (e-series 5.6+: `is in remote control`).
 
-    def __init__(self):
+    `remote_control` True is a robot switched to remote control, which ur_rtde's RTDEControlInterface requires on
+    5.6+; False is URSim's default (remote control not enabled; dashboard commands are accepted all the same), which
+    URCL's integration tests expect (`sim-ursim --remote-control off`).
+    """
+
+    def __init__(self) -> None:
         self.user_role = "PROGRAMMER"
-        self.operational_mode = "NONE"  # NONE until a client sets one (no mode password configured)
+        self.operational_mode = "NONE"  # NONE while no client controls it (no mode password configured)
+        self.remote_control = True
 
 
 _SETTINGS_LOCK = threading.Lock()
@@ -239,11 +246,12 @@ OPERATIONAL_MODES = ("manual", "automatic")
 FLIGHT_REPORT_TYPES = ("controller", "software", "system")
 
 
-def _settings(controller):
+def pendant_settings(controller) -> PendantSettings:
+    """The PendantSettings the dashboard keeps for `controller` (created on first use)."""
     with _SETTINGS_LOCK:
         settings = getattr(controller, "_dashboard_settings", None)
         if settings is None:
-            settings = _Settings()
+            settings = PendantSettings()
             controller._dashboard_settings = settings
         return settings
 
@@ -252,7 +260,7 @@ def _set_user_role(controller, argument):
     role = argument.strip().lower()
     if role not in USER_ROLES:
         return Reply(f"Failed setting user role: {argument}")
-    _settings(controller).user_role = role.upper()
+    pendant_settings(controller).user_role = role.upper()
     return Reply(f"Setting user role: {argument}")
 
 
@@ -260,13 +268,16 @@ def _set_operational_mode(controller, argument):
     mode = argument.strip().lower()
     if mode not in OPERATIONAL_MODES:
         return Reply(f"Failed setting operational mode: {argument}")
-    _settings(controller).operational_mode = mode.upper()
+    pendant_settings(controller).operational_mode = mode.upper()
     # The mode as the client wrote it: URCL matches "(?:Operational mode ).*(?:AUTOMATIC).*", case-sensitive.
     return Reply(f"Operational mode '{argument.strip()}' is set")
 
 
 def _clear_operational_mode(controller, argument):
-    mode = _settings(controller).operational_mode.lower()
+    # The mode stays in effect on the robot, but no client controls it any more: `get operational mode` answers NONE
+    # again (URCL's DashboardClientTestG5.operational_mode expects so).
+    settings = pendant_settings(controller)
+    mode, settings.operational_mode = settings.operational_mode.lower(), "NONE"
     return Reply(f"No longer controlling the operational mode. Current operational mode: '{mode}'.")
 
 
@@ -324,11 +335,11 @@ _HANDLERS = {
     "version": lambda c, a: Reply(str(c.version)),
     "get serial number": lambda c, a: Reply(c.model.serial_number),
     "get robot model": lambda c, a: Reply(c.model.display_name),
-    "is in remote control": _reply("true"),
-    "get operational mode": lambda c, a: Reply(_settings(c).operational_mode),
+    "is in remote control": lambda c, a: Reply("true" if pendant_settings(c).remote_control else "false"),
+    "get operational mode": lambda c, a: Reply(pendant_settings(c).operational_mode),
     "set operational mode": _set_operational_mode,
     "clear operational mode": _clear_operational_mode,
-    "getuserrole": lambda c, a: Reply(_settings(c).user_role),
+    "getuserrole": lambda c, a: Reply(pendant_settings(c).user_role),
     "setuserrole": _set_user_role,
     "generate flight report": _flight_report,
     "generate support file": _support_file,

@@ -109,3 +109,14 @@ def test_e_series_operational_mode_flight_report_and_support_file(tmp_path):
     with zipfile.ZipFile(archive) as written:
         assert "URSoftware 5." in written.read("version.txt").decode()
     assert replies[6] == "could not understand: 'getUserRole'"  # user roles are CB3-only
+
+
+def test_clearing_the_operational_mode_and_remote_control_as_urcls_test_expects():
+    """URCL's DashboardClientTestG5.operational_mode: `get operational mode` is NONE again once cleared, and a
+    simulator configured as URSim by default (remote control not enabled) is not in remote control."""
+    with running_simulator(model="ur5e", version="5.9.4", remote_control=False) as sim:
+        replies = _ask_all(sim.host, ["set operational mode AUTOMATIC", "clear operational mode",
+                                      "get operational mode", "is in remote control"])
+    assert replies[2:] == ["NONE", "false"]
+    with running_simulator(model="ur5e", version="5.9.4") as sim:
+        assert _ask_all(sim.host, ["is in remote control"]) == ["true"]  # ur_rtde's RTDEControlInterface needs it
