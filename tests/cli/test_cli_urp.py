@@ -81,7 +81,7 @@ def test_export_urp_writes_the_same_bytes_for_the_same_program_and_never_the_sto
     assert (tmp_path / "a.urp").read_bytes() == (tmp_path / "again" / "a.urp").read_bytes()
     assert (tmp_path / "b.urp").read_bytes().count(b"<Waypoint ") == 2
     refused = run_in_process("export-urp", "-o", "poses.json", "--yes")
-    assert_one_line_error(refused, 3, "is the pose store itself")
+    assert_one_line_error(refused, 3, "pose store")
     assert (tmp_path / "poses.json").read_bytes() == store
     asked = run_in_process("export-urp", "-o", "a.urp")
     assert asked.returncode == 1   # exists: asks, and no answer is no

@@ -5,7 +5,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from urp_programs import as_exported, assert_same_program, plan_of, random_program
 
 from ur3dq.kinematics import robot_model
 from ur3dq.polyscope.urp_export import export_bytes
@@ -14,6 +13,7 @@ from ur3dq.polyscope.urp_import import import_program
 from ur3dq.program.steps import RelativeWaypoint, Wait
 from ur3dq.store import PoseStore
 from ur3dq.store_format import needs_version_2
+from urp_programs import as_exported, assert_same_program, plan_of, random_program
 
 EXAMPLE = Path(__file__).parents[2] / "poses" / "example-poses.json"
 

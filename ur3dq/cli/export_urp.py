@@ -5,9 +5,8 @@ from pathlib import Path
 
 import click
 
-from ur3dq.cli.app import Settings, cli, report, robot_session
+from ur3dq.cli.app import Settings, cli, prepare_output, report, robot_session
 from ur3dq.cli.display import count_text
-from ur3dq.cli.offline_plans import confirm_overwrite
 from ur3dq.cli.options import (
     DEFAULT_ACCELERATION,
     DEFAULT_SPEED,
@@ -19,7 +18,6 @@ from ur3dq.cli.options import (
     or_default,
 )
 from ur3dq.cli.program_workflow import program_part
-from ur3dq.errors import StoreError
 from ur3dq.kinematics.models import URModel
 from ur3dq.polyscope.urp_export import MoveDefaults, export_bytes, is_e_series
 from ur3dq.program.plan import Defaults, plan_program
@@ -62,8 +60,7 @@ def export_urp(settings: Settings, output: Path, speed: float | None, accelerati
       ur3dq export-urp -o cell.urp --calibration robot --host 192.168.0.10
     """
     check_blend(blend)
-    if output.resolve() == settings.store_path.resolve():
-        raise StoreError(f"{output} is the pose store itself; export to another file")
+    prepare_output(settings, output, yes)
     steps, part, _ = program_part(settings, start, end)
     joint_speed = or_default(speed, DEFAULT_SPEED)
     joint_acceleration = or_default(acceleration, DEFAULT_ACCELERATION)
@@ -77,7 +74,6 @@ def export_urp(settings: Settings, output: Path, speed: float | None, accelerati
     plan = plan_program(model, part, None, defaults, 1.0, replay_joints, travel, resolve_from=steps)
     move_defaults = MoveDefaults(joint_speed, joint_acceleration, defaults.tcp_speed, defaults.tcp_acceleration)
     data = export_bytes(plan, steps, output.stem, model, move_defaults)
-    confirm_overwrite(output, yes)
     write_atomically(output, data)
     kind = "PolyScope 5, gzip" if is_e_series(model) else "PolyScope 3, XML"
     report(settings, {"program": output.stem, "file": str(output), "steps": [p.step.name for p in plan],
