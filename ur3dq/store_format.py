@@ -34,7 +34,9 @@ from ur3dq.program.resolve import check_program
 from ur3dq.program.steps import (
     DEFAULT_MOTION,
     AnalogOut,
+    Comment,
     DigitalOut,
+    KeptScript,
     Message,
     Motion,
     RelativeWaypoint,
@@ -59,6 +61,8 @@ ACTION_FIELDS = {
     "wait": (Wait, ("seconds",)),
     "wait-input": (WaitInput, ("input", "pin", "on", "timeout")),
     "message": (Message, ("text",)),
+    "comment": (Comment, ("text",)),
+    "kept-script": (KeptScript, ("script", "origin")),
 }
 RELATIVE_FIELDS = ("base", "offset", "frame", "note")
 

@@ -85,6 +85,8 @@ def test_offline_commands_match_their_schemas(run_in_process, program):
     validate(("check",), run("check", "--json", "--cell", "cell.json"))
     validate(("export-urscript",), run("export-urscript", "--json"))
     validate(("export-urscript",), run("export-urscript", "-o", "x.script", "--json"))
+    validate(("export-urp",), run("export-urp", "-o", "x.urp", "--json"))
+    validate(("import-urp",), run("--store", "imported.json", "import-urp", "x.urp", "--json"))
     validate(("poses", "export"), run("poses", "export", "-", "--json"))
     validate(("poses", "export"), run("poses", "export", "t.txt", "--json"))
     validate(("poses", "import"), run("poses", "import", "t.txt", "--json", "--prefix", "t"))

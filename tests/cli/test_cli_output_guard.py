@@ -13,6 +13,7 @@ from ur3dq.store import store_file_role
 # Every command that writes a file to a path the user names, with its output option.
 WRITERS = {
     "export-urscript": lambda path: ["export-urscript", "-o", path, "--yes"],
+    "export-urp": lambda path: ["export-urp", "-o", path, "--yes"],
     "plot": lambda path: ["plot", "-o", path, "--yes"],
     "poses export": lambda path: ["poses", "export", path, "--yes"],
     "poses export json": lambda path: ["poses", "export", path, "--format", "json", "--yes"],

@@ -18,6 +18,7 @@ from ur3dq.cli.path_report import (
     DEFAULT_JOINT_SPEED,
     DEFAULT_LINEAR_ACCELERATION,
     DEFAULT_LINEAR_SPEED,
+    kept_script_warnings,
     margins_legend,
     margins_table,
     path_plan_from_replay,
@@ -96,6 +97,8 @@ def check(settings: Settings, names: tuple[str, ...], cell_path: Path | None, mo
         click.echo(line, err=True)
     if settings.store.version() == PROGRAM_SCHEMA_VERSION and not names:  # a cell program: its own moves
         plan = plan_program(model, settings.store.load_program(), start, replay_recorded_joints=replay_joints)
+        for line in kept_script_warnings(plan):
+            click.echo(f"Warning: {line}", err=True)
         path = path_plan_of(plan, start)
         if path is None:
             raise StoreError(f"the cell program in {settings.store_path} has no waypoint: nothing moves")

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 
 from rich.console import Console
@@ -20,6 +21,8 @@ from ur3dq.errors import SafetyCheckError
 from ur3dq.pathcheck import PathPlan, PathSegment, check_path, load_cell
 from ur3dq.pathcheck.reports import PathCheckResult
 from ur3dq.program.path import path_plan_of
+from ur3dq.program.plan import PlannedStep
+from ur3dq.program.steps import KeptScript
 
 DEFAULT_JOINT_SPEED = 1.05     # rad/s (movej's default)
 DEFAULT_LINEAR_SPEED = 0.25    # m/s (movel's default)
@@ -94,6 +97,13 @@ def check_program(model, plan, cell_path, start_joints=None, keep_samples: bool 
     cell = load_cell(cell_path) if cell_path else None
     path = path_plan_of(plan, start_joints)
     return (None if path is None else check_path(model, path, cell, keep_samples=keep_samples)), cell
+
+
+def kept_script_warnings(plan: Sequence[PlannedStep]) -> list[str]:
+    """One line per kept-script step of a planned program: it runs as it is, outside the path check."""
+    return [f"{planned.step.name!r}: URScript kept from a PolyScope program runs as it is: its motions are not "
+            "checked, and the path check takes the next move from the waypoint before it"
+            for planned in plan if isinstance(planned.step, KeptScript)]
 
 
 def report_path_check(settings: Settings, result: PathCheckResult, cell_path: Path | None) -> None:

@@ -9,7 +9,7 @@ from ur3dq.cli.app import Settings, cli, prepare_output, report
 from ur3dq.cli.display import count_text
 from ur3dq.cli.offline_plans import offline_plan
 from ur3dq.cli.options import DEFAULT_ACCELERATION, DEFAULT_SPEED, cell_option, display_options
-from ur3dq.cli.path_report import check_program, check_replay
+from ur3dq.cli.path_report import check_program, check_replay, kept_script_warnings
 from ur3dq.program.plan import plan_program
 from ur3dq.store_format import PROGRAM_SCHEMA_VERSION
 
@@ -37,7 +37,10 @@ def plot(settings: Settings, names, output: Path, yes, cell_path):
     prepare_output(settings, output, yes)
     check = None
     if settings.store.version() == PROGRAM_SCHEMA_VERSION and not names:  # the program's own moves are checked
-        check, cell = check_program(model, plan_program(model, settings.store.load_program()), cell_path)
+        plan = plan_program(model, settings.store.load_program())
+        for line in kept_script_warnings(plan):
+            click.echo(f"Warning: {line}", err=True)
+        check, cell = check_program(model, plan, cell_path)
     if check is None:
         check, cell = check_replay(model, steps, cell_path)
     plot_poses(output, model, steps, title=f"{count_text(len(steps), 'pose')} from {settings.store_path.name} on a "

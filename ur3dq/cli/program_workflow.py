@@ -21,7 +21,7 @@ from rich.text import Text
 from ur3dq.cli.app import Settings, confirm, emit_json, emit_json_list, robot_session
 from ur3dq.cli.display import Column, pose_label, pose_vector_text, print_table, recorded_joints_warnings
 from ur3dq.cli.options import TypedValue
-from ur3dq.cli.path_report import check_program, check_verdict, report_path_check, require_passed
+from ur3dq.cli.path_report import check_program, check_verdict, kept_script_warnings, report_path_check, require_passed
 from ur3dq.cli.plan_summary import program_figures, summary_lines
 from ur3dq.errors import StoreError
 from ur3dq.kinematics.models import URModel
@@ -365,7 +365,7 @@ def _present(settings: Settings, model: URModel, plan: list[PlannedStep], start_
     the summary; the check's problems once; SafetyCheckError when it failed. A dry run's (`final`) JSON is
     printed here; a run's after the run."""
     result, _ = check_program(model, plan, cell_path, start_joints, keep_samples=False)
-    warnings = clamp_warnings(plan, settings.units)
+    warnings = clamp_warnings(plan, settings.units) + kept_script_warnings(plan)
     if full:
         console = Console(stderr=True, highlight=False) if settings.json else settings.out
         print_table(console, title, plan_columns(settings.units), plan_rows(plan, first, settings.units), len(plan))
@@ -390,7 +390,7 @@ def plan_json(plan: list[PlannedStep], units: Units) -> dict[str, Any]:
                       "joints": None if p.joints is None else p.joints.tolist(), "speed": p.speed,
                       "acceleration": p.acceleration, "blend": p.blend, "travel": p.travel,
                       "duration": p.duration, "clamped": list(p.clamped)} for p in plan],
-            "warnings": clamp_warnings(plan, units)}
+            "warnings": clamp_warnings(plan, units) + kept_script_warnings(plan)}
 
 
 def clamp_warnings(plan: list[PlannedStep], units: Units) -> list[str]:

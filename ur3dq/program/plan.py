@@ -20,7 +20,7 @@ from ur3dq import dqarray
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import JointLimitError, SafetyCheckError, UnreachablePoseError
 from ur3dq.program.resolve import Target, resolve_targets
-from ur3dq.program.steps import Motion, Step, Waypoint, is_waypoint
+from ur3dq.program.steps import Comment, Motion, Step, Waypoint, is_waypoint
 from ur3dq.robot import motion, safety
 
 if TYPE_CHECKING:
@@ -179,7 +179,8 @@ def plan_program(model: URModel, steps: Iterable[Step], start_joints: npt.ArrayL
     Returns
     -------
     list of PlannedStep
-        One per step; a waypoint's blend is 0 when it is the last waypoint or an action follows it.
+        One per step; a waypoint's blend is 0 when it is the last waypoint or an action (not a comment)
+        follows it.
 
     Raises
     ------
@@ -236,6 +237,7 @@ def plan_program(model: URModel, steps: Iterable[Step], start_joints: npt.ArrayL
         step.motion, defaults, speed_scale, limits)) for step in waypoints]
     durations = _durations(waypoints, figures, travels, paths, max_joint_travel)
     moving = [is_waypoint(step) for step in steps]
+    blends_on = _moves_next(steps, moving)
     plan: list[PlannedStep] = []
     at = 0
     for index, step in enumerate(steps):
@@ -243,12 +245,23 @@ def plan_program(model: URModel, steps: Iterable[Step], start_joints: npt.ArrayL
             plan.append(PlannedStep(step))
             continue
         target, (move, a, v, blend, clamped) = targets[at], figures[at]
-        if index + 1 == len(steps) or not moving[index + 1]:
+        if not blends_on[index]:
             blend = 0.0   # the last waypoint, or an action follows: the action happens at the waypoint
         plan.append(PlannedStep(step, solved[at], target.coefficients, target.tcp_offset, move, a, v, blend,
                                 durations[at][0], durations[at][1], fk_errors[at], clamped))
         at += 1
     return plan
+
+
+def _moves_next(steps: Sequence[Step], moving: Sequence[bool]) -> list[bool]:
+    """Per step: whether the next step that is not a comment is a waypoint (a waypoint then keeps its blend)."""
+    result = [False] * len(steps)
+    following = False
+    for index in range(len(steps) - 1, -1, -1):
+        result[index] = following
+        if not isinstance(steps[index], Comment):
+            following = moving[index]
+    return result
 
 
 def _motion_figures(m: Motion, defaults: Defaults, speed_scale: float,

@@ -4,6 +4,8 @@ Before each step the program publishes its 1-based position k in two ways a watc
 `write_output_integer_register(STEP_REGISTER, k)` (RTDE `output_int_register_<STEP_REGISTER>`) and a key
 message `textmsg("ur3dq_step:", k)` on the primary interface. After the last step it publishes N + 1 (done). A
 wait-input that times out publishes −k, logs `ur3dq_fail:` k and halts, so the run fails naming that step.
+A kept-script step (URScript kept from a PolyScope program by `import-urp --keep-script`) is the one exception to
+the rule below: its lines are the program's own, written as they were kept.
 
 Every statement comes from ur3dq.urscript: names appear in `#` comments reduced to printable ASCII, and a message
 step's text is an escaped literal. Joint targets are those checked by the planner; movel/movep take them as joints
@@ -15,7 +17,7 @@ from collections.abc import Iterable, Sequence
 
 from ur3dq import urscript
 from ur3dq.program.plan import PlannedStep
-from ur3dq.program.steps import AnalogOut, DigitalOut, Message, Step, Wait, WaitInput
+from ur3dq.program.steps import AnalogOut, Comment, DigitalOut, KeptScript, Message, Step, Wait, WaitInput
 
 STEP_REGISTER = 22       # output_int_register_22: ur_rtde's control script uses the low registers
 STEP_KEY = "ur3dq_step:"
@@ -46,6 +48,11 @@ def _action_lines(step: Step, position: int) -> list[str]:
         return [urscript.sleep_statement(step.seconds)]
     if isinstance(step, Message):
         return [urscript.textmsg_statement(step.text, "message")]
+    if isinstance(step, Comment):
+        return [f"# {urscript.comment_text(step.text)}"] if step.text else []
+    if isinstance(step, KeptScript):
+        return [f"# URScript kept from {urscript.comment_text(step.origin)}: run as it is, not path-checked",
+                *step.script.splitlines()]
     if isinstance(step, WaitInput):
         failed = [urscript.write_output_integer_register_statement(STEP_REGISTER, -position),
                   urscript.key_message_statement(FAIL_KEY, position), "halt"]

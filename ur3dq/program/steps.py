@@ -28,6 +28,8 @@ MAX_WAIT_S = 24 * 3600.0   # a day; longer is a typo
 MAX_MESSAGE_LENGTH = 200   # URScript strings reach the controller log; the sanitiser allows ≤ 255
 MAX_OFFSET_M = 5.0         # a relative waypoint further than this from its base is a typo
 DEFAULT_WAIT_INPUT_TIMEOUT_S = 10.0
+MAX_COMMENT_LENGTH = 1000  # a PolyScope comment or folder name is one line on the pendant
+MAX_KEPT_SCRIPT_BYTES = 1024 * 1024  # URScript kept from a .urp; a controller parses far less in one program
 
 
 def _positive(value: object, what: str, who: str, allow_none: bool = True,
@@ -282,7 +284,51 @@ class Message(Step):
             raise ValueError(f"{self.who}: text contains control characters")
 
 
-ACTION_TYPES = {cls.kind: cls for cls in (DigitalOut, AnalogOut, Wait, WaitInput, Message)}
+@dataclasses.dataclass(frozen=True)
+class Comment(Step):
+    """A note between the steps (a PolyScope comment, or the name of a folder whose nodes follow); does nothing.
+
+    A waypoint before a comment keeps its blend: the comment is not an action.
+    """
+
+    text: str = ""
+    kind = "comment"
+
+    def __post_init__(self) -> None:
+        self._check_name()
+        if not isinstance(self.text, str) or len(self.text) > MAX_COMMENT_LENGTH:
+            raise ValueError(f"{self.who}: text must be text of at most {MAX_COMMENT_LENGTH} characters")
+        if any(unicodedata.category(char).startswith("C") for char in self.text):
+            raise ValueError(f"{self.who}: text contains control characters")
+
+
+@dataclasses.dataclass(frozen=True)
+class KeptScript(Step):
+    """URScript kept from a PolyScope program for nodes that have no step (`ur3dq import-urp --keep-script`).
+
+    It runs as it is, where it stands: its motions are not planned, checked or path-checked, which every plan
+    and run says. `origin` names the file and the node (`cell.urp: Robot Program/If digital_in[0]`).
+    """
+
+    script: str = ""
+    origin: str = ""
+    kind = "kept-script"
+
+    def __post_init__(self) -> None:
+        self._check_name()
+        if not isinstance(self.script, str) or not self.script.strip():
+            raise ValueError(f"{self.who}: script must be non-empty URScript text")
+        if len(self.script) > MAX_KEPT_SCRIPT_BYTES:
+            raise ValueError(f"{self.who}: script is larger than {MAX_KEPT_SCRIPT_BYTES // 1024} KiB")
+        if not isinstance(self.origin, str) or len(self.origin) > MAX_COMMENT_LENGTH:
+            raise ValueError(f"{self.who}: origin must be text of at most {MAX_COMMENT_LENGTH} characters")
+        for what, text in (("script", self.script), ("origin", self.origin)):
+            problem = unstorable_text_problem(text, what)
+            if problem:
+                raise ValueError(f"{self.who}: {problem}")
+
+
+ACTION_TYPES = {cls.kind: cls for cls in (DigitalOut, AnalogOut, Wait, WaitInput, Message, Comment, KeptScript)}
 WAYPOINT_TYPES = (Waypoint, RelativeWaypoint)
 
 
@@ -309,6 +355,11 @@ def describe(step: Step) -> str:
         return f"{step.input} DI{step.pin} {'on' if step.on else 'off'} ≤{step.timeout:g} s"
     if isinstance(step, Message):
         return step.text
+    if isinstance(step, Comment):
+        return step.text
+    if isinstance(step, KeptScript):
+        lines = len(step.script.splitlines())
+        return f"URScript kept from {step.origin} ({lines} lines, not path-checked)"
     raise TypeError(f"unknown step {step!r}")
 
 

@@ -1,0 +1,171 @@
+"""`ur3dq import-urp` and `ur3dq export-urp`: an imported program is a program like any other (list, check, dry
+run, plot, export); bad and hostile files and programs without a counterpart fail with one line, the documented
+exit code and the store unchanged, quickly."""
+import gzip
+import json
+import shutil
+import time
+from pathlib import Path
+
+import pytest
+
+from cli_support import assert_one_line_error
+
+EXAMPLE = Path(__file__).parents[2] / "poses" / "example-poses.json"
+TESTS = Path(__file__).parents[1]
+UR5E = """<kinematics status="NOT_INITIALIZED" validChecksum="false">
+    <deltaTheta value="0.0, 0.0, 0.0, 0.0, 0.0, 0.0"/><a value="0.0, -0.425, -0.3922, 0.0, 0.0, 0.0"/>
+    <d value="0.1625, 0.0, 0.0, 0.1333, 0.0997, 0.0996"/>
+    <alpha value="1.570796327, 0.0, 0.0, 1.570796327, -1.570796327, 0.0"/>
+    <jointChecksum value="-1, -1, -1, -1, -1, -1"/></kinematics>"""
+HOME = "0.3, -1.3, 1.4, -1.7, -1.57, 0.4"
+NEAR = "0.5, -1.2, 1.3, -1.7, -1.57, 0.4"
+
+
+def program(main, top=""):
+    return (f'<URProgram name="cell" installation="default">{UR5E}<children>{top}'
+            f'<MainProgram runOnlyOnce="true"><children>{main}</children></MainProgram></children></URProgram>')
+
+
+def waypoint(name, q):
+    return (f'<Waypoint type="Fixed" name="{name}"><motionParameters/><position><JointAngles angles="{q}"/>'
+            f'<TCPOffset pose="0.0, 0.0, 0.1, 0.0, 0.0, 0.0"/></position></Waypoint>')
+
+
+CELL = program(
+    '<Move motionType="MoveJ" speed="1.0" acceleration="1.2" useActiveTCP="false"><children>'
+    f'{waypoint("pick", HOME)}</children></Move>'
+    '<Folder name="Grip"><children><Comment comment="close the gripper"/>'
+    '<Set type="DigitalOutput"><pin referencedName="tool_out[0]"/><digitalValue>1</digitalValue></Set>'
+    '<Wait type="Sleep"><waitTime>0.5</waitTime></Wait></children></Folder>'
+    '<Move motionType="MoveL" speed="0.1" acceleration="1.2" useActiveTCP="false"><children>'
+    f'{waypoint("place", NEAR)}</children></Move>')
+IF_NODE = ('<Folder name="Folder 2"><children><If type="If"><expression><ExpressionIO>'
+           '<pin referencedName="digital_in[0]"/></ExpressionIO></expression><children>'
+           '<Wait type="Sleep"><waitTime>0.1</waitTime></Wait></children></If></children></Folder>')
+
+
+def write(path, xml):
+    path.write_bytes(gzip.compress(xml.encode(), mtime=0))
+    return path
+
+
+def test_an_imported_program_lists_checks_plots_and_exports_like_any_other(run_in_process, tmp_path):
+    write(tmp_path / "cell.urp", CELL)
+    result = run_in_process("import-urp", "cell.urp")
+    assert result.returncode == 0, result.stderr
+    assert "Imported 6 steps from cell.urp into poses.json." in result.stdout
+    assert "cell.urp was saved on a UR5E with the same kinematics as the nominal UR5E model" in result.stderr
+    listed = run_in_process("poses", "list")
+    for row in ("pick", "Grip", "close the gripper", "Set tool_out[0]=On", "Wait 0.5", "place"):
+        assert row in listed.stdout, listed.stdout
+    assert run_in_process("check").returncode == 0
+    dry = run_in_process("run-poses", "--dry-run")
+    assert dry.returncode == 0 and "place" in dry.stdout, dry.stderr
+    assert run_in_process("plot", "-o", "path.png").returncode == 0
+    script = run_in_process("export-urscript")
+    assert script.returncode == 0 and "set_tool_digital_out(0, True)" in script.stdout
+    assert run_in_process("export-urp", "-o", "again.urp").returncode == 0
+    assert run_in_process("--store", "again.json", "import-urp", "again.urp").returncode == 0
+    assert (tmp_path / "again.json").read_text().count('"type"') == 6
+
+
+def test_export_urp_writes_the_same_bytes_for_the_same_program_and_never_the_store(run_in_process, tmp_path):
+    shutil.copy(EXAMPLE, tmp_path / "poses.json")
+    store = (tmp_path / "poses.json").read_bytes()
+    (tmp_path / "again").mkdir()
+    assert run_in_process("export-urp", "-o", "a.urp").returncode == 0
+    assert run_in_process("export-urp", "-o", "b.urp", "--from", "demo-2", "--to", "demo-3").returncode == 0
+    time.sleep(0.01)
+    assert run_in_process("export-urp", "-o", "again/a.urp").returncode == 0
+    assert (tmp_path / "a.urp").read_bytes() == (tmp_path / "again" / "a.urp").read_bytes()
+    assert (tmp_path / "b.urp").read_bytes().count(b"<Waypoint ") == 2
+    refused = run_in_process("export-urp", "-o", "poses.json", "--yes")
+    assert_one_line_error(refused, 3, "pose store")
+    assert (tmp_path / "poses.json").read_bytes() == store
+    asked = run_in_process("export-urp", "-o", "a.urp")
+    assert asked.returncode == 1   # exists: asks, and no answer is no
+
+
+def test_import_into_a_program_needs_append_and_numbers_taken_names(run_in_process, tmp_path):
+    shutil.copy(EXAMPLE, tmp_path / "poses.json")
+    write(tmp_path / "cell.urp", CELL.replace('name="pick"', 'name="demo-1"'))
+    before = (tmp_path / "poses.json").read_bytes()
+    assert_one_line_error(run_in_process("import-urp", "cell.urp"), 3, "already holds 4 steps", "--append")
+    assert (tmp_path / "poses.json").read_bytes() == before
+    appended = run_in_process("import-urp", "cell.urp", "--append", "--json")
+    assert appended.returncode == 0, appended.stderr
+    assert "the name 'demo-1' is taken; imported as 'demo-5'" in appended.stderr
+    listed = json.loads(run_in_process("poses", "list", "--json").stdout)["steps"]
+    assert [step["name"] for step in listed][:5] == ["demo-1", "demo-2", "demo-3", "demo-4", "demo-5"]
+
+
+def test_a_node_without_a_step_is_refused_by_its_path_or_kept_with_a_warning(run_in_process, tmp_path):
+    write(tmp_path / "cell.urp", CELL.replace("</children></MainProgram>", IF_NODE + "</children></MainProgram>"))
+    refused = run_in_process("import-urp", "cell.urp")
+    assert_one_line_error(refused, 4, "cell.urp: 1 node without a ur3dq step: Robot Program/Folder 2/If digital_in[0]",
+                          "--keep-script")
+    assert not (tmp_path / "poses.json").exists()
+    kept = run_in_process("import-urp", "cell.urp", "--keep-script")
+    assert kept.returncode == 0 and "1 step kept as URScript run as it is, not path-checked" in kept.stderr
+    assert "kept-script" in run_in_process("poses", "list").stdout
+    dry = run_in_process("run-poses", "--dry-run")
+    assert dry.returncode == 0 and "URScript kept from a PolyScope program runs as it is" in dry.stderr
+    check = run_in_process("check")
+    assert check.returncode == 0 and "its motions are not checked" in check.stderr
+    assert "if (get_standard_digital_in(0)):" in run_in_process("export-urscript").stdout
+
+
+BILLION_LAUGHS = ('<?xml version="1.0"?><!DOCTYPE lolz [<!ENTITY lol "lol">'
+                  + "".join(f'<!ENTITY lol{n} "{("&lol" + str(n - 1) + ";") * 10 if n > 1 else "&lol;" * 10}">'
+                            for n in range(1, 10))
+                  + ']><URProgram name="x"><children>&lol9;</children></URProgram>')
+HOSTILE = {
+    "not gzip": (b"def p():\n  sleep(1)\nend\n", "not a PolyScope program"),
+    "not XML": (gzip.compress(b"this is not XML", mtime=0), "its XML does not parse"),
+    "truncated": (gzip.compress(CELL.encode(), mtime=0)[:-40], "truncated"),
+    "billion laughs": (gzip.compress(BILLION_LAUGHS.encode(), mtime=0), "refused: the XML declares a DTD"),
+    "deep nesting": (gzip.compress(b"<URProgram>" + b"<children>" * 100_000 + b"</children>" * 100_000
+                                   + b"</URProgram>", mtime=0), "nested deeper than 200 levels"),
+    "gzip bomb": (gzip.compress(b"<URProgram>" + b" " * (33 * 1024 * 1024) + b"</URProgram>", mtime=0),
+                  "decompresses to more than 32 MB of XML"),
+}
+
+
+@pytest.mark.timeout(60)
+@pytest.mark.parametrize("kind", [*HOSTILE, "100 MB", "missing"])
+def test_bad_and_hostile_files_fail_with_one_line_and_exit_3_quickly(run_in_process, tmp_path, kind):
+    shutil.copy(EXAMPLE, tmp_path / "poses.json")
+    before = (tmp_path / "poses.json").read_bytes()
+    path = tmp_path / "bad.urp"
+    if kind == "100 MB":
+        with open(path, "wb") as sparse:   # 100 MB long, nothing written to disk
+            sparse.write(b"\x1f\x8b")
+            sparse.truncate(100 * 1000 * 1000)
+        message = "100 MB is larger than a PolyScope program can be"
+    elif kind == "missing":
+        message = "cannot be read"
+    else:
+        content, message = HOSTILE[kind]
+        path.write_bytes(content)
+    started = time.monotonic()
+    result = run_in_process("import-urp", "bad.urp", "--append")
+    assert time.monotonic() - started < 20
+    assert_one_line_error(result, 3, "bad.urp", message)
+    assert (tmp_path / "poses.json").read_bytes() == before
+
+
+def test_a_program_saved_on_another_arm_says_so(run_in_process, tmp_path):
+    write(tmp_path / "cell.urp", CELL)
+    result = run_in_process("--model", "ur3e", "import-urp", "cell.urp")
+    assert result.returncode == 0
+    assert ("cell.urp was saved on a UR5E; the nominal UR3E model is a UR3E: ur3dq moves its TCP to the recorded "
+            "poses by IK on the UR3E") in result.stderr
+
+
+def test_the_comparison_is_with_the_connected_arm_when_there_is_one(run_cli, arm, tmp_path):
+    write(tmp_path / "cell.urp", CELL.replace(UR5E, UR5E.replace("0.1625,", "0.1529,").replace("-0.425,", "-0.24355,")
+                                              .replace("0.1333, 0.0997, 0.0996", "0.13105, 0.08535, 0.0921")))
+    result = run_cli("--host", arm.host, "import-urp", "cell.urp", "--json")
+    assert result.returncode == 0, result.stderr
+    assert "cell.urp was saved on a UR3E; the connected UR3 is a UR3" in result.stderr

@@ -1,0 +1,90 @@
+"""`ur3dq export-urp`: the cell program as a PolyScope program (.urp) the pendant opens."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from ur3dq.cli.app import Settings, cli, prepare_output, report, robot_session
+from ur3dq.cli.display import count_text
+from ur3dq.cli.options import (
+    DEFAULT_ACCELERATION,
+    DEFAULT_SPEED,
+    Quantity,
+    check_blend,
+    check_max_travel,
+    display_options,
+    motion_options,
+    or_default,
+)
+from ur3dq.cli.program_workflow import program_part
+from ur3dq.kinematics.models import URModel
+from ur3dq.polyscope.urp_export import MoveDefaults, export_bytes, is_e_series
+from ur3dq.program.plan import Defaults, plan_program
+from ur3dq.program.steps import Step, Waypoint
+from ur3dq.robot.safety import DEFAULT_MAX_JOINT_TRAVEL
+from ur3dq.store import write_atomically
+from ur3dq.units import LENGTH
+
+
+@cli.command("export-urp", short_help="Write the program as a PolyScope program (.urp).")
+@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), required=True,
+              help="The .urp file to write.")
+@motion_options
+@click.option("--blend", type=Quantity(LENGTH), default=0.0, metavar="R",
+              help="Blend radius of waypoints that set none, e.g. 10mm [default: 0].")
+@click.option("--joints", "replay_joints", is_flag=True, help="Write the recorded joints instead of solving IK.")
+@click.option("--yes", "-y", is_flag=True, help="Overwrite the output file without asking.")
+@click.option("--from", "start", metavar="N", help="Start at the step N.")
+@click.option("--to", "end", metavar="N", help="End at the step N.")
+@click.option("--calibration", type=click.Choice(["nominal", "robot"]), default="nominal", show_default=True,
+              help="Plan on the model's catalogue kinematics, or on the connected arm's calibration.")
+@display_options
+@click.pass_obj
+def export_urp(settings: Settings, output: Path, speed: float | None, acceleration: float | None, blend: float,
+               replay_joints: bool, max_travel: float | None, yes: bool, start: str | None, end: str | None,
+               calibration: str) -> None:
+    """Write the cell program (or its --from/--to part) as a PolyScope program the pendant opens.
+
+    The tree mirrors the program: a MoveJ, MoveL or MoveP per run of waypoints of one move type, each waypoint
+    named as in the store with the joints run-poses would move to and its taught TCP; Set, Wait and Popup nodes
+    for outputs, waits and messages; comments. The calibration of the arm it is planned on (--calibration) goes
+    with it. The same program always gives the same file, and `ur3dq import-urp` reads it back as the same
+    program (docs/polyscope.md says what maps to what). e-series arms get a gzip file (PolyScope 5), CB3 arms
+    plain XML (PolyScope 3).
+
+    \b
+    Examples:
+      ur3dq export-urp -o cell.urp
+      ur3dq export-urp -o part.urp --from approach --to place --speed 60deg/s
+      ur3dq export-urp -o cell.urp --calibration robot --host 192.168.0.10
+    """
+    check_blend(blend)
+    prepare_output(settings, output, yes)
+    steps, part, _ = program_part(settings, start, end)
+    joint_speed = or_default(speed, DEFAULT_SPEED)
+    joint_acceleration = or_default(acceleration, DEFAULT_ACCELERATION)
+    defaults = Defaults(joint_acceleration=joint_acceleration, joint_speed=joint_speed, blend=blend)
+    travel = check_max_travel(or_default(max_travel, DEFAULT_MAX_JOINT_TRAVEL))
+    if calibration == "robot":
+        with robot_session(settings, max_joint_travel=travel) as robot:
+            model = robot.model
+    else:
+        model = nominal_model(settings, steps)
+    plan = plan_program(model, part, None, defaults, 1.0, replay_joints, travel, resolve_from=steps)
+    move_defaults = MoveDefaults(joint_speed, joint_acceleration, defaults.tcp_speed, defaults.tcp_acceleration)
+    data = export_bytes(plan, steps, output.stem, model, move_defaults)
+    write_atomically(output, data)
+    kind = "PolyScope 5, gzip" if is_e_series(model) else "PolyScope 3, XML"
+    report(settings, {"program": output.stem, "file": str(output), "steps": [p.step.name for p in plan],
+                      "model": model.name, "calibration": calibration},
+           f"Wrote {output}: {count_text(len(plan), 'step')} for a {model.name} ({kind}, "
+           f"{'calibrated' if model.calibrated else 'nominal'} kinematics).")
+
+
+def nominal_model(settings: Settings, steps: list[Step]) -> URModel:
+    """The catalogue model of the program: --model, else the first recorded pose's, else the UR3."""
+    from ur3dq.kinematics import robot_model
+
+    first = next((step.pose for step in steps if isinstance(step, Waypoint)), None)
+    return robot_model(settings.model or (first.robot_model if first else "ur3"))
