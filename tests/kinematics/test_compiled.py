@@ -107,6 +107,7 @@ print(json.dumps(model.ik(pose, [0.1, -1.2, 1.3, -0.4, 0.9, 0.2]).tolist()))
 """
 
 
+@pytest.mark.timeout(1200)   # two fresh compilations: half a minute of CPU each, minutes on a loaded machine
 def test_the_first_use_compiles_once_per_cache_and_says_so(tmp_path):
     env = {"NUMBA_CACHE_DIR": str(tmp_path / "cache")}
     first, second = run_python(SOLVE, env=env), run_python(SOLVE, env=env)
@@ -117,6 +118,7 @@ def test_the_first_use_compiles_once_per_cache_and_says_so(tmp_path):
 
 
 @pytest.mark.skipif(os.geteuid() != 0 or shutil.which("setpriv") is None, reason="needs root to run as another user")
+@pytest.mark.timeout(1800)   # three fresh compilations
 def test_a_read_only_package_compiles_into_a_per_user_cache_or_in_memory():
     """As a user who cannot write the package: with a per-user cache directory the kernels compile there once;
     without any writable directory they compile in memory, with the notice in every process."""

@@ -43,17 +43,20 @@ F = TypeVar("F", bound=Callable[..., Any])
 KERNEL_MODULES = ("ur3dq.kinematics.ur_ik",)
 #: Roughly how long the first compilation takes on a 2-core machine (shown in the notice).
 COMPILE_SECONDS = 30
-#: numba's own switch, NUMBA_DISABLE_JIT=1, honoured here without importing numba: the kernels run as the Python
-#: they are. One pose solves in milliseconds that way, where loading numba and its cache takes half a second; the
-#: CLI's one-pose commands (`ur3dq fk`, `ur3dq ik`) run so.
-INTERPRETED = os.environ.get("NUMBA_DISABLE_JIT", "0") not in ("", "0")
+
+
+def interpreted() -> bool:
+    """Whether kernels run as the Python they are: numba's own switch, NUMBA_DISABLE_JIT=1, honoured here without
+    importing numba (one pose solves in milliseconds that way, where loading numba and its cache takes half a
+    second of CPU)."""
+    return os.environ.get("NUMBA_DISABLE_JIT", "0") not in ("", "0")
 
 
 def kernel(function: F) -> F:
     """``function`` compiled with numba (nopython, IEEE arithmetic: no fastmath, a division by zero gives inf or NaN
     as in numpy; cached on disk where a cache directory is writable). Write kernels that never divide by zero: the
     interpreted function would raise there. Under ``NUMBA_DISABLE_JIT=1`` the result is the function itself."""
-    if INTERPRETED:
+    if interpreted():
         return function
     import numba  # only where kernels are compiled: the one import of numba in ur3dq
 
@@ -81,7 +84,7 @@ def warm_once(label: str, sources: tuple[str, ...], warm: Callable[[], None]) ->
     """Run ``warm`` (which calls every kernel of ``sources`` once) unless this cache has compiled these very sources
     already; when it runs, one line on stderr says why the call is slow. Before it, the cache files of these sources
     are removed: numba checks a kernel's own file only, not the files of the kernels it calls."""
-    if INTERPRETED:
+    if interpreted():
         return
     import numba
 
