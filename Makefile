@@ -5,7 +5,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo lint test test-ursim bench clean
+.PHONY: warm demo lint test test-ursim bench clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -13,7 +13,12 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet -e '.[test,bench]'
 	touch $(STAMP)
 
-demo: $(STAMP)
+# The kinematics kernels compile once into numba's cache (about half a minute after an install), before anything
+# else starts: the demo's processes and the test workers then load them instead of each compiling its own.
+warm: $(STAMP)
+	$(BIN)/python -m ur3dq.kinematics.jit --warm
+
+demo: warm
 	$(BIN)/ur3dq demo
 
 # ruff (pycodestyle, pyflakes, isort, bugbear, pyupgrade) and mypy, both configured in pyproject.toml.
@@ -22,17 +27,18 @@ lint: $(STAMP)
 	$(BIN)/mypy
 
 # Lint, then two passes: the suite on two workers, then the timing measurements alone (marker `exclusive`).
-test: lint
+test: lint warm
 	$(BIN)/python -m pytest -m "not exclusive"
 	$(BIN)/python -m pytest -m exclusive -n 0
 
 # The same suite against an official URSim or robot: UR3DQ_TEST_HOST=<address> make test-ursim (docs/ursim.md).
-test-ursim: $(STAMP)
+test-ursim: warm
 	@test -n "$(UR3DQ_TEST_HOST)" || { echo "test-ursim: set UR3DQ_TEST_HOST to the URSim's address" >&2; exit 2; }
 	UR3DQ_TEST_HOST=$(UR3DQ_TEST_HOST) $(BIN)/python -m pytest -m "not exclusive"
 
-bench: $(STAMP)
+bench: warm
 	$(BIN)/python benchmarks/bench_kinematics.py
+	$(BIN)/python benchmarks/bench_pathcheck.py
 	$(BIN)/python benchmarks/bench_dls.py
 	$(BIN)/python benchmarks/bench_driver.py
 	$(BIN)/python benchmarks/bench_rtde_stream.py

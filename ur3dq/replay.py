@@ -90,26 +90,15 @@ def retarget_to_tcp(pose: Pose, tcp_now: DualQuaternion) -> Pose:
         if tcp_changed(pose, tcp_now) else pose
 
 
-def _closest_variant(angle: float, reference: float, lower: float, upper: float) -> float:
-    """angle + 2πk inside [lower, upper] closest to `reference` (rad); inf when no variant fits the limits."""
-    centre = reference + math.remainder(angle - reference, 2 * math.pi)
-    if lower <= centre <= upper:
-        return centre
-    # every in-limit variant lies on one side of `centre`: the nearest is the end of the in-limit run on that side
-    step = 2 * math.pi
-    end = angle + step * (math.ceil((lower - angle) / step) if centre < lower else math.floor((upper - angle) / step))
-    return end if lower <= end <= upper else math.inf
-
-
 def nearest_variant(model, solutions, reference: np.ndarray) -> np.ndarray:
     """The solution variant nearest a reference within the limits.
 
     Among `solutions` (FK-verified, canonical) and their ±2π variants inside the limits, the one nearest
-    `reference` (Σ Δq², per joint since the cost and the limits are per joint); UnreachablePoseError if none fits."""
+    `reference` (Σ Δq², per joint since the cost and the limits are per joint: ur_ik.nearest_variant, the rule `ik`
+    applies); UnreachablePoseError if none fits."""
     best, best_cost = None, math.inf
     for solution in solutions:
-        q = np.array([_closest_variant(float(angle), float(ref), float(low), float(high)) for angle, ref, low, high
-                      in zip(solution, reference, model.joint_lower, model.joint_upper)])
+        q = ur_ik.nearest_variant(model, solution, reference)
         if not np.all(np.isfinite(q)):
             continue
         cost = float(np.sum((q - reference) ** 2))

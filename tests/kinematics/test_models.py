@@ -359,22 +359,6 @@ def test_bad_input_is_a_clear_error(build, error, words):
         build()
 
 
-@settings(max_examples=200, deadline=None)
-@given(name=st.sampled_from(MODEL_NAMES),
-       q=st.tuples(*(st.floats(-7.0, 7.0, allow_nan=False),) * 6))
-def test_flange_rotation_position_is_flange_coefficients_without_the_dual_part(name, q):
-    # The IK's FK filter compares ur_fk.flange_rotation_position, the rotation and half position fk completes
-    # with its dual part: the same rotation floats, and the half position whose ½p·r is the dual part.
-    from ur3dq.kinematics import ur_fk
-    half = tuple(0.5 * float(v) for v in (*robot_model(name).dh.d[:1], *robot_model(name).dh.a[1:3],
-                                          *robot_model(name).dh.d[3:6]))
-    coefficients = ur_fk.flange_coefficients(*half, *q)
-    rw, rx, ry, rz, px, py, pz = ur_fk.flange_rotation_position(*half, *q)
-    assert (rw, rx, ry, rz) == coefficients[:4]
-    assert (-px * rx - py * ry - pz * rz, px * rw + py * rz - pz * ry, -px * rz + py * rw + pz * rx,
-            px * ry - py * rx + pz * rw) == coefficients[4:]
-
-
 def test_fk_errors_are_each_rows_distance_with_its_own_tcp():
     """fk_errors groups rows by TCP offset (shared objects, equal values in other objects, other values): each
     row's figures are its own FK with its own offset against its own pose."""

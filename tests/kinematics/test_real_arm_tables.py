@@ -180,21 +180,3 @@ def model_solutions(model, poses) -> list:
     """Per pose, the finite rows of ur_ik.ik_all_batch."""
     from ur3dq.kinematics.ur_ik import ik_all_batch
     return [[row for row in rows if np.all(np.isfinite(row))] for rows in ik_all_batch(model, poses)]
-
-
-def test_the_two_newton_kernels_compute_the_same_step():
-    """calibrated._column_residual/_column_step (many rows) restate _matrix_residual/_matrix_step (few rows)."""
-    from ur3dq.kinematics.ur_ik import calibrated
-    from ur3dq.kinematics.ur_ik.geometry import _geometry
-    model = factory_model("ur5e", seed=14)
-    g = _geometry(model)
-    q = random_configurations(50, seed=15)
-    goal = random_configurations(50, seed=16) * 0.01 + q   # Newton-sized errors: millimetres, milliradians
-    pairs = np.array([list(p.rotation.elements) + list(p.translation) for p in (model.fk_flange(x) for x in goal)])
-    target = calibrated._target_matrices(pairs)
-    damping = calibrated.DAMPING_MATRIX
-    matrix_error, frames = calibrated._matrix_residual(calibrated._joint_terms(g), q, target)
-    column_error, columns = calibrated._column_residual(g, q, target)
-    np.testing.assert_allclose(column_error, matrix_error, atol=1e-12)
-    np.testing.assert_allclose(calibrated._column_step(columns, column_error, damping),
-                               calibrated._matrix_step(frames, matrix_error)[0], atol=1e-9)

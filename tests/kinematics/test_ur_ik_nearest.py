@@ -1,5 +1,5 @@
-"""The single-pose `ik` path of ur3dq.kinematics.ur_ik: per-joint nearest ±2π variants, the branch-and-bound search
-over the plain-float equations, and the float FK filter, each against an independent brute force.
+"""`ik` of ur3dq.kinematics.ur_ik: per-joint nearest ±2π variants, the ranking of the branches and the FK filter,
+each against an independent brute force.
 
 The brute force for `ik` is the product of every in-limit ±2π variant (joint_variants) of every FK-verified
 solution of ik_all: the search must find the same least weighted cost, also at and near the singular points and
@@ -17,11 +17,8 @@ from ik_cost import assert_least_cost
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import UnreachablePoseError
 from ur3dq.kinematics import URModel, robot_model, ur_ik
-from ur3dq.kinematics.ur_ik import batch as ik_batch
-from ur3dq.kinematics.ur_ik import batch_kernels as ik_batch_kernels
-from ur3dq.kinematics.ur_ik import fk_filter as ik_fk_filter
-from ur3dq.kinematics.ur_ik import geometry as ik_geometry
-from ur3dq.kinematics.ur_ik import nearest as ik_nearest
+from ur3dq.kinematics.arm import arm_vector
+from ur3dq.kinematics.ur_ik import frames, solve
 
 ANGLE = st.floats(-math.pi, math.pi, allow_nan=False)
 JOINTS = st.tuples(*(ANGLE,) * 6).map(np.array)
@@ -53,7 +50,7 @@ def test_closest_variant_is_the_nearest_in_limit_variant_by_enumeration(angle, r
     low = -math.inf if unlimited in ("low", "both") else low
     variants = [angle + 2 * math.pi * k for k in range(-8, 9)]
     assume(all(abs(v - low) > 1e-9 and abs(v - high) > 1e-9 for v in variants))   # no rounding-level edge cases
-    variant = ik_nearest._closest_variant(angle, reference, low, high)
+    variant = solve.closest_variant(angle, reference, low, high, ur_ik.LIMIT_ROUNDING)[0]
     inside = [v for v in variants if low <= v <= high]
     if not inside:
         assert variant == math.inf
@@ -119,16 +116,23 @@ def test_ik_returns_every_joint_of_the_nearest_branch_in_its_in_limit_variant():
     assert np.allclose(chosen, nearest, atol=1e-9)
 
 
-def test_float_fk_filter_accepts_the_pose_either_sign_and_rejects_a_nanometre_more():
+def meets(model, q, pose) -> bool:
+    """The IK's FK filter (eq. 4.45) of joints q against a TCP pose (8 coefficients)."""
+    arm, goal = arm_vector(model), np.empty(frames.GOAL_SIZE)
+    frames.goal_of(arm, np.asarray(pose, dtype=float), goal)
+    return solve.meets(arm, np.asarray(q, dtype=float), goal, np.empty((7, 12)))
+
+
+def test_fk_filter_accepts_the_pose_either_sign_and_rejects_a_nanometre_more():
     model = robot_model("ur10e").with_tcp([0.0, 0.0, 0.2, 0.0, 0.0, 0.5])
     q = (0.4, -1.1, 1.3, -0.7, 1.0, 0.2)
     pose = model.fk(q).to_array()
-    assert ik_fk_filter._meets(model, q, tuple(pose))
-    assert ik_fk_filter._meets(model, q, tuple(-pose))   # σ and −σ are the same pose
+    assert meets(model, q, tuple(pose))
+    assert meets(model, q, tuple(-pose))   # σ and −σ are the same pose
     # A 1e-8 rad turn of the base moves the TCP by ~1e-8 m (> 1 nm); of wrist 3, the TCP on its axis turns only.
-    assert not ik_fk_filter._meets(model, (q[0] + 1e-8,) + q[1:], tuple(pose))
-    assert not ik_fk_filter._meets(model, q[:5] + (q[5] + 1e-8,), tuple(pose))
-    assert ik_fk_filter._meets(model, q[:5] + (q[5] + 1e-11,), tuple(pose))
+    assert not meets(model, (q[0] + 1e-8,) + q[1:], tuple(pose))
+    assert not meets(model, q[:5] + (q[5] + 1e-8,), tuple(pose))
+    assert meets(model, q[:5] + (q[5] + 1e-11,), tuple(pose))
 
 
 @pytest.mark.parametrize("name", ["ur3", "ur10e"])
@@ -143,7 +147,7 @@ def test_ik_batch_equals_ik_for_references_far_outside_the_limits(name):
     poses = model.fk_batch(joints)
     batch = ur_ik.ik_batch(model, poses, references)
     assert np.all(np.isfinite(batch))   # ±2π limits leave every joint some variant
-    for pose, reference, row in zip(poses, references, batch):
+    for pose, reference, row in zip(poses, references, batch, strict=False):
         single = ur_ik.ik(model, pose, reference)
         assert np.max(np.abs(row - single)) < 1e-9
         assert np.all(single >= model.joint_lower) and np.all(single <= model.joint_upper)
@@ -152,43 +156,16 @@ def test_ik_batch_equals_ik_for_references_far_outside_the_limits(name):
             assert float(np.sum((single - reference) ** 2)) == pytest.approx(best, rel=1e-9)
 
 
-def test_ik_batch_block_ranks_again_when_its_winner_fails_the_fk_filter():
-    # ik_batch runs the FK filter on each pose's winner only; a winner that fails it (here: θ2 moved off, so the
-    # branch "exists" but misses the pose) must give way to the nearest branch that passes, as filtering first does.
-    model = robot_model("ur5e")
-    g = ik_geometry._geometry(model)
-    rng = np.random.default_rng(11)
-    joints = rng.uniform(-math.pi, math.pi, (40, 6))
-    poses = ik_batch._batch_poses(model.fk_batch(joints))
-    references = (joints + rng.normal(0.0, 0.05, joints.shape)).T
-    block = next(ik_batch._kernel_blocks(g, poses, ur_ik.NEAREST_BLOCK))
-    rows, pair, columns, exists, merged, near_singular = block
-    assert not near_singular.any()
-    expected = ik_batch._nearest_of_block(g, block, references, None)
-    variants, cost = ik_batch._kernel_costs(g, columns, references, None)
-    winner = ik_batch._select(cost, exists)[0]
-    spoiled = columns.copy()
-    spoiled[1, winner[::2], np.arange(0, 40, 2)] += 0.1   # every other pose: its winner no longer meets the pose
-    actual = ik_batch._nearest_of_block(g, (rows, pair, spoiled, exists, merged, near_singular), references, None)
-    np.testing.assert_array_equal(actual[:, 1::2], expected[:, 1::2])
-    valid = exists & ik_batch_kernels._regular_fk_filter(g, spoiled, pair)
-    assert not valid[winner[::2], np.arange(0, 40, 2)].any()
-    runner_up = ik_batch._chosen(variants, *ik_batch._select(cost, valid))
-    np.testing.assert_array_equal(actual, runner_up)
-    assert not np.array_equal(actual[:, ::2], expected[:, ::2])
-
-
 @pytest.mark.parametrize("weights", [None, (1.0, 2.0, 0.5, 1.0, 3.0, 0.1)])
 def test_ik_batch_equals_ik_across_blocks(weights):
     # Two ik_batch blocks, a TCP, and references around ±π (where the nearest variant can lie past a ±2π limit).
     model = robot_model("ur10").with_tcp([0.01, -0.02, 0.15, 0.1, -0.2, 0.3])
     rng = np.random.default_rng(12)
-    count = ur_ik.NEAREST_BLOCK + 29
+    count = 4096 + 29
     joints = rng.uniform(-math.pi, math.pi, (count, 6))
     references = joints + rng.normal(0.0, 0.3, joints.shape)
     references[::7] = rng.uniform(-7.0, 7.0, (len(references[::7]), 6))
     poses = model.fk_batch(joints)
     batch = ur_ik.ik_batch(model, poses, references, weights)
-    for i in list(range(0, count, 37)) + list(range(ur_ik.NEAREST_BLOCK - 5, count)):
-        # The kernel's closed form rounds apart from the scalar equations by a few ulps.
-        np.testing.assert_allclose(batch[i], ur_ik.ik(model, poses[i], references[i], weights), rtol=0, atol=1e-9)
+    for i in list(range(0, count, 37)) + list(range(4096 - 5, count)):
+        np.testing.assert_array_equal(batch[i], ur_ik.ik(model, poses[i], references[i], weights))

@@ -34,6 +34,8 @@ from typing import Any
 
 import numpy as np
 
+from ur3dq.pathcheck import geometry
+
 #: Halvings of a move before it is sampled densely (64 intervals; a dense joint move has ~20–100 samples).
 MAX_DEPTH = 6
 #: Configurations evaluated per call of the clearance kernels, and moves bisected together: bounds the temporary
@@ -104,7 +106,7 @@ def certify_joint_moves(checker, q0: np.ndarray, q1: np.ndarray) -> Certificatio
     Certify the joint moves q0 → q1 ((M, 6) rad each) on `checker` (a checks.StepChecker: model, capsules,
     cell, margins). See the module docstring."""
     count = len(q0)
-    rates = column_rates(checker, lever_arms(checker.model, checker.capsules))   # (K, 6)
+    rates = column_rates(checker, lever_arms(geometry.body_model(checker.model), checker.capsules))   # (K, 6)
     offsets = column_offsets(checker)
     limit_margin, limit_worst = _joint_limit(checker, q0, q1)
     failed = limit_margin < 0

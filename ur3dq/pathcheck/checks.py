@@ -127,7 +127,8 @@ class StepChecker:
         if segment.cartesian:
             sin5, sin3 = np.abs(np.sin(joints[:, 4])), np.abs(np.sin(joints[:, 2]))
             wrist_centre = frames[:, 5, :2, 3]
-            radial = np.einsum("ni,ni->n", wrist_centre, wrist_centre) - self.model.dh.d[3] ** 2
+            d4 = geometry.body_model(self.model).dh.d[3]
+            radial = np.einsum("ni,ni->n", wrist_centre, wrist_centre) - d4 ** 2
             shoulder = np.sqrt(np.maximum(radial, 0.0))
             out["wrist"] = (sin5 - m.wrist, sin5)
             out["elbow"] = (sin3 - m.elbow, sin3)

@@ -17,14 +17,17 @@ housing), 4 wrist 1, 5 wrist 2, 6 wrist 3, 7 tool. Self-collision is checked for
 bodies are excluded, and so are the wrist's own bodies among each other (4–6, 5–tool, forearm–wrist 2): their
 housings touch by construction.
 
-Frames are computed here as 4×4 matrices in numpy over all samples at once (standard DH, the model's possibly
-calibrated table, TCP not included: the tool is given in the flange frame).
+Frames are 4×4 matrices of all samples at once from the kinematics' compiled DH chain (TCP not included: the tool
+is given in the flange frame); a calibrated arm's bodies are placed by its catalogue table (body_model).
 """
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 import numpy as np
+
+from ur3dq.kinematics import MODEL_NAMES, robot_model, ur_ik
 
 BODY_NAMES = ("base", "shoulder", "upper arm", "forearm", "wrist 1", "wrist 2", "wrist 3", "tool")
 TOOL = 7
@@ -59,10 +62,27 @@ class Capsules:
     radius: np.ndarray
 
 
+@functools.cache
+def _catalogue_model(name: str):
+    """The catalogue model ``name`` (built once)."""
+    return robot_model(name)
+
+
+def body_model(model):
+    """The model whose DH frames place the link bodies: ``model`` itself, or for a calibrated arm of the catalogue its
+    catalogue table. A factory calibration writes the parallel axes with hundreds of metres of cancelling d offsets,
+    so its frame origins lie nowhere near the links, while it moves the links themselves by millimetres, well inside
+    the capsules' envelopes. The joints (and the TCP path) are the calibrated model's."""
+    if model.dh.is_nominal_structure() or model.name not in MODEL_NAMES:
+        return model
+    return _catalogue_model(model.name)
+
+
 def link_capsules(model, tool=None) -> Capsules:
-    """The capsules of `model` (a URModel; its DH, calibrated or not) plus the ToolShape `tool` if given."""
+    """The capsules of `model` (a URModel, calibrated or not: placed by body_model) plus the ToolShape `tool`."""
     if model.name not in _LINK_GEOMETRY:
         raise ValueError(f"model: no link capsules for {model.name!r} (known: {', '.join(_LINK_GEOMETRY)})")
+    model = body_model(model)
     shoulder, forearm, (r_base, r_shoulder, r_upper, r_forearm, r_wrist) = _LINK_GEOMETRY[model.name]
     a2, a3 = model.dh.a[1], model.dh.a[2]
     d1, d4, d5, d6 = model.dh.d[0], model.dh.d[3], model.dh.d[4], model.dh.d[5]
@@ -84,23 +104,9 @@ def link_capsules(model, tool=None) -> Capsules:
 
 
 def dh_frames(model, q: np.ndarray) -> np.ndarray:
-    """(N, 7, 4, 4) DH frames 0..6 (6 = flange, no TCP) in the base frame for joints q (N, 6)."""
-    dh = model.dh
-    n = len(q)
-    angle = q + dh.theta
-    c, s = np.cos(angle), np.sin(angle)
-    ca, sa = np.cos(dh.alpha), np.sin(dh.alpha)
-    joint = np.zeros((n, 6, 4, 4))
-    joint[..., 0, 0], joint[..., 0, 1], joint[..., 0, 2], joint[..., 0, 3] = c, -s * ca, s * sa, dh.a * c
-    joint[..., 1, 0], joint[..., 1, 1], joint[..., 1, 2], joint[..., 1, 3] = s, c * ca, -c * sa, dh.a * s
-    joint[..., 2, 1], joint[..., 2, 2], joint[..., 2, 3] = sa, ca, dh.d
-    joint[..., 3, 3] = 1.0
-    frames = np.empty((n, 7, 4, 4))
-    frames[:, 0] = np.eye(4)
-    frames[:, 1] = joint[:, 0]
-    for i in range(1, 6):
-        frames[:, i + 1] = frames[:, i] @ joint[:, i]
-    return frames
+    """(N, 7, 4, 4) DH frames 0..6 (6 = flange, no TCP) of the link bodies (body_model) in the base frame for joints
+    q (N, 6): the kinematics' compiled DH chain (ur3dq.kinematics.ur_ik.dh_frames)."""
+    return ur_ik.dh_frames(body_model(model), q)
 
 
 def capsule_points(frames: np.ndarray, capsules: Capsules) -> tuple:

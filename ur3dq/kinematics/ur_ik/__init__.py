@@ -1,112 +1,321 @@
 """Analytic inverse kinematics of the UR family, after the thesis' dual-quaternion derivation (seed 000, §4.3).
 
-Frames: base = DH frame 0, flange = DH frame 6, standard DH (docs/conventions.md); the pose asked for is the TCP
-(flange · model.tcp). Angles in radians; every solution is returned canonical in (−π, π].
+    from ur3dq.kinematics import robot_model
+    from ur3dq.kinematics import ur_ik
+    model = robot_model("ur5e")
+    pose = model.fk([0.1, -1.2, 1.3, -0.4, 0.9, 0.2])
+    ur_ik.ik_all(model, pose)                  # every FK-verified solution, each joint in (−π, π]
+    ur_ik.ik(model, pose, q_ref)               # the solution nearest q_ref among ±2π variants inside the limits
+    ur_ik.ik_batch(model, poses, q_refs)       # (N, 6), NaN rows where unreachable
+    ur_ik.ik_all_batch(model, poses)           # (N, 8, 6), branch slots, NaN where absent
 
-The thesis' equations, restated in the DH frames (its own frames differ by constant rotations):
-  (4.9–4.11) wrist centre p5 = p − d6·z6 lies at distance d4 from the base axis along z1 = (sin θ1, −cos θ1, 0):
-             x5·sin θ1 − y5·cos θ1 = d4, solved as θ1 = atan2(x5, −y5) ± atan2(√(x5² + y5² − d4²), d4).
-  (4.13)     cos θ5 = z1·z6 (equal to (x6·sin θ1 − y6·cos θ1 − d4)/d6), two signs of θ5.
-  (4.14–4.28) with r' = Rx(−π/2)·Rz(−θ1)·r (the thesis' N2 = Q1⁻¹·N1, rotation part) one gets the half-angle
-             identities  w' = cos(θ5/2)·cos(Σ/2),  z' = cos(θ5/2)·sin(Σ/2),
-                         x' = sin(θ5/2)·sin(Δ/2),  y' = −sin(θ5/2)·cos(Δ/2),
-             Σ = θ234 + θ6, Δ = θ234 − θ6, θ234 = θ2 + θ3 + θ4, hence θ6 = (Σ − Δ)/2 and θ234 = (Σ + Δ)/2.
-  (4.35–4.38) the planar 3R arm of joints 2–4: (x4, z4) = a2·(c2, s2) + a3·(c23, s23),
-             cos θ3 = (x4² + z4² − a2² − a3²)/(2·a2·a3), two signs of θ3.
-  (4.41)     θ2 = atan2(z4·(a2 + a3·c3) − x4·a3·s3, x4·(a2 + a3·c3) + z4·a3·s3).
-  (4.44)     θ4 = θ234 − θ2 − θ3 (the thesis' half-angle form reduces to this: joints 2–4 are parallel).
-  (4.45)     the FK filter: a branch is kept only if its forward kinematics reproduces the pose.
+Poses are TCP poses (flange · model.tcp) in the base frame: a DualQuaternion or 8 coefficients (w, x, y, z real |
+dual); frames and conventions in docs/conventions.md. The equations are written once, in ``equations`` (with the
+singular cases and their tolerances), compiled with numba (ur3dq.kinematics.jit); a single pose runs the very
+kernel a batch runs, so ``ik_batch`` is ``ik`` row by row. Calibrated models (DH deltas) refine the closed form's
+branches by Newton on the full DH chain (``newton``, ``solve``).
 
-Up to 2 × 2 × 2 = 8 branches, ordered (θ1 sign, θ5 sign, θ3 sign) with the + sign first.
-
-Singularities (defined behaviour, tested):
-  wrist (θ5 ≈ 0 or π, |sin(θ5/2)| or |cos(θ5/2)| < WRIST_SINGULAR_TOLERANCE): axes 2, 3, 4 and 6 are parallel
-      and the orientation fixes only Σ = θ234 + θ6 (or Δ = θ234 − θ6 at θ5 ≈ π): a one-parameter family. θ6 is
-      set to the reference configuration's θ6 (0 without one: ik_all's documented choice) so wrist 3 does not
-      jump; θ234 takes the rest and θ2, θ3 follow from the position. When the arm cannot reach with that split
-      (the d5 offset turns with θ234), the nearest reachable split is used instead. The two θ5 signs merge.
-      Near the singularity (< WRIST_NEAR_TOLERANCE) the computed split carries rounding of ~ε/θ5; a branch it
-      pushes out of reach is moved back along the family the same way.
-  shoulder (x5² + y5² = d4², the wrist centre's projection in the arm plane on the base axis): the two θ1 branches
-      merge. UR arms have d4 > 0, so a wrist centre *on* the base axis is unreachable ("too close").
-  stretched or folded elbow (cos θ3 = ±1): the two θ3 branches merge.
-Values a rounding error outside their domain (|cos θ3| ≤ 1 + DOMAIN_TOLERANCE …) are clamped; the FK filter then
-decides whether the pose is met. Unreachable poses raise UnreachablePoseError saying why.
-
-Calibrated models (DH deltas): the nominal geometry (d1, a2, a3, d4, d5, d6 of the calibrated table) gives the
-starting branches (a branch beyond CALIBRATED_DOMAIN_SLACK of the nominal reach is absent), then Newton steps on
-the calibrated FK converge each to CALIBRATED_TOLERANCE; the FK filter still decides. A seed still above
-newton_floats.HOPELESS_ERROR after HOPELESS_STEP steps gives up, unless a seed of its pose lies beside a singular
-wrist (|sin θ5| < wrist_turns.PATIENT_SINE), where seeds wander before they converge. Newton runs all rows of a call
-at once: as batched 4×4 matrices for a few rows (single poses), written out per joint-major column for many.
-Beside a wrist singularity (|sin θ5| < 0.05 for a nominal seed) a seed's θ6 can be off by up to π: where a
-(θ1, elbow) pair's two seeds do not reach two new solutions, Newton runs again from their turns along the wrist's
-family (wrist_turns) and fills the pair's slots. Known limit: there a calibrated arm can have more than two
-solutions per pair (more than 8 in all), and beside the folded elbow two nominal branches can converge to the same
-calibrated solution, so ik_all may miss one (~4 % of configurations beside a singularity, measured on the 14
-factory tables; whatever it returns is FK-verified; ik then picks the nearest of those).
-``ik`` first runs Newton from q_ref alone and returns that
-solution when it provably is the one the full ranking picks (no other solution can lie nearer: its isolation radius,
-from the Jacobian's least singular value and a bound on the chain's curvature, calibrated._isolation_radius, covers
-every configuration nearer q_ref); otherwise, beside a singularity or far from q_ref, all candidates are ranked. A
-q_ref whose first Newton step already says that proof will fail (nearest._proof_expected: the step against the
-isolation radius of q_ref's own least singular value) is not refined alone: it joins the nominal branches' Newton
-batch.
-``ik_batch`` likewise refines one row per pose from q_ref and keeps the proven ones (``ik``'s answers); the other
-poses rank their refined nominal branches (which, beside a singularity, can miss the solution the q_ref row finds).
-Both batches take a calibrated pose beside a singular wrist (|sin θ5| < wrist_turns.TURN_SINE for a nominal seed)
-from ``ik_all``'s and ``ik``'s own code, one by one (batch._singular_wrist_poses): which solution a wandering seed
-reaches there depends on the rounding of every step, and one implementation gives one answer.
-
-Single poses run in plain floats (no pyquaternion or numpy objects on the hot path); on a nominal model `ik_all`
-solves the 8 branches with the equations written out for a regular wrist (single._nominal_branches) and FK-checks
-each from the closed-form flange rotation and position, what the branches share computed once (the rotation per
-θ1: the elbow pair shares θ1, θ2 + θ3 + θ4, θ5, θ6 and the wrist flip keeps the rotation; each branch adds its
-planar 2-link term): fk_filter._nominal_meets, cross-checked against the per-branch fk_filter._nominal_check;
-`ik` walks the branches θ1 → wrist → elbow cheapest first, with the equations written out for a regular wrist, and stops
-solving a branch that can no longer be the nearest; the ±2π variant nearest q_ref inside the limits is chosen per joint
-(the cost is separable), and the FK filter checks the joints it returns. Batches of a nominal model run a closed-form
-kernel (batch_kernels._regular_branches) in numpy over blocks of IK_BLOCK poses, all branches at once
-(joint-major (6, 8, B) arrays): what the branches share is computed once (θ1 per pose, the wrist per θ1, both θ5
-signs from the same terms), and the FK filter evaluates the closed-form FK kernel (ur_fk) on every branch's final
-joints. ``ik_batch`` ranks the existing branches by their nearest in-limit variants first (each joint's
-variants once per distinct value) and runs the FK filter on each pose's winner only, in blocks of NEAREST_BLOCK
-(a winner that fails is ranked again among the verified branches: the same answer as filtering first). Poses
-near a wrist or elbow singularity are redone one by one by ik_all's own scalar code (single._branch_table): there
-rounding noise decides whether a branch pair merges, and only the same float operations give the same answer in
-every path.
-
-Chaining ``ik`` with q_ref = the previous answer (issue 11, item 7, documented behaviour): ``ik`` minimises the
-weighted joint distance to q_ref only, so at an elbow or shoulder crossing (where two branches meet: θ3 = 0, or the
-wrist centre on the shoulder circle) the nearest solution past the crossing can be the mirrored branch, and a chain
-that follows it later meets a ±2π limit where the nearest in-limit variant is a turn away. Paths are checked for
-exactly this before anything moves (ur3dq.pathcheck reports branch flips and limit jumps); scripts that chain ``ik``
-themselves should compare the (θ1, θ5, θ3) signs of consecutive answers.
-
-The package, one concern a module: ``geometry`` (the model as floats, tolerances), ``equations`` (the thesis'
-equations for floats and arrays), ``fk_filter`` (pose checks, the FK filter, the duplicate rule), ``calibrated``
-(Newton on the full DH chain), ``wrist_turns`` (its seeds beside a singular wrist), ``single`` (``ik_all``), ``nearest``
-(``ik``), ``batch`` and ``batch_kernels`` (``ik_all_batch``, ``ik_batch``). Each performance copy of the equations
-(``single._nominal_branches``, ``nearest._nearest_branch``, ``batch_kernels._regular_branches``) is cross-checked
-against ``equations._branches`` by the tests.
+At a singular wrist only θ234 ± θ6 is fixed: ``ik_all`` and ``ik`` keep θ6 at q_ref[5] (0 without one) where the
+arm reaches with that split, else the nearest reachable split; ``ik`` moves it so far that θ4 stays inside its
+limits where θ6 = q_ref[5] would put it past one. Chaining ``ik`` with q_ref = the previous answer minimises the
+distance to q_ref only: at an elbow or shoulder crossing the nearest solution can be the mirrored branch, which
+ur3dq.pathcheck reports before anything moves.
 """
 from __future__ import annotations
 
-from ur3dq.kinematics.ur_ik.batch import ik_all_batch, ik_batch
-from ur3dq.kinematics.ur_ik.equations import wrap_angle
-from ur3dq.kinematics.ur_ik.geometry import (
+import functools
+import math
+from pathlib import Path
+from types import ModuleType
+from typing import Any
+
+import numpy as np
+
+from ur3dq import dqarray
+from ur3dq.dualquat import DualQuaternion
+from ur3dq.errors import UnreachablePoseError
+from ur3dq.kinematics.arm import (
     CALIBRATED_TOLERANCE,
+    DOMAIN_TOLERANCE,
     DUPLICATE_TOLERANCE,
     FK_TOLERANCE_M,
     FK_TOLERANCE_RAD,
-    IK_BLOCK,
-    NEAREST_BLOCK,
+    LENGTHS,
+    LIMIT_ROUNDING,
+    LOWER,
+    UPPER,
     WRIST_SINGULAR_TOLERANCE,
+    arm_vector,
+    vector,
 )
-from ur3dq.kinematics.ur_ik.nearest import ik, joint_variants
-from ur3dq.kinematics.ur_ik.single import ik_all
+from ur3dq.kinematics.joints import joint_floats
+from ur3dq.real_numbers import real_array
 
 __all__ = [
-    "CALIBRATED_TOLERANCE", "DUPLICATE_TOLERANCE", "FK_TOLERANCE_M", "FK_TOLERANCE_RAD", "IK_BLOCK", "NEAREST_BLOCK",
-    "WRIST_SINGULAR_TOLERANCE", "ik", "ik_all", "ik_all_batch", "ik_batch", "joint_variants", "wrap_angle",
+    "CALIBRATED_TOLERANCE", "DUPLICATE_TOLERANCE", "FK_TOLERANCE_M", "FK_TOLERANCE_RAD", "LIMIT_ROUNDING",
+    "WRIST_SINGULAR_TOLERANCE", "closed_form_pose", "closed_form_poses", "dh_frames", "ik", "ik_all", "ik_all_batch",
+    "ik_batch", "joint_variants", "nearest_variant", "wrap_angle",
 ]
+
+#: A pose whose |r|² − 1 or r·d exceeds this (but passes the unit check) is normalised before solving: a pose
+#: read with 8 significant digits is a pose, and solved unnormalised every branch would miss the FK filter.
+EXACT_UNIT = 1e-13
+_UNIT_WEIGHTS = np.ones(6)
+_BLOCK = 4096   # poses per block of closed_form_poses: its tangents stay in the cache
+
+
+@functools.cache
+def kernels() -> tuple[ModuleType, ModuleType, ModuleType]:
+    """The compiled kernel modules (fk, nearest, solve), imported on first use: they load numba, and the first use
+    after an install compiles them (once per cache, saying so on stderr; ur3dq.kinematics.jit)."""
+    from ur3dq.kinematics import arm, fk, jit
+    from ur3dq.kinematics.ur_ik import nearest, solve
+    sources = sorted(Path(__file__).parent.glob("*.py")) + [Path(fk.__file__), Path(arm.__file__), Path(jit.__file__)]
+    jit.warm_once("kinematics", tuple(str(path) for path in sources), warm)
+    return fk, nearest, solve
+
+
+def closed_form_poses(model: Any, joints: np.ndarray, tool: np.ndarray) -> np.ndarray:
+    """(N, 8) poses of ``tool`` (8 coefficients in the flange frame: the TCP, or the identity for the flange) on a
+    nominal arm at joints (N, 6, float64, C order), by the compiled closed form."""
+    fk, _, _ = kernels()
+    arm, out = arm_vector(model), np.empty((len(joints), 8))
+    for start in range(0, len(joints), _BLOCK):
+        block = slice(start, start + _BLOCK)
+        tangents = np.empty((6, len(joints[block])))
+        fk.half_tangent_angles(joints[block], tangents)
+        np.tan(tangents, out=tangents)   # numpy's vectorised tan: every sine and cosine of the block at once
+        fk.nominal_poses(arm, tool, tangents, out[block])
+    return out
+
+
+def closed_form_pose(model: Any, q: tuple[float, ...], tool: np.ndarray) -> tuple[float, ...]:
+    """The 8 coefficients of ``tool`` (8 coefficients in the flange frame) on a nominal arm at 6 joint floats."""
+    return tuple(kernels()[0].nominal_pose_of(arm_vector(model), tool, *q))
+
+
+def dh_frames(model: Any, joints: np.ndarray) -> np.ndarray:
+    """(N, 7, 4, 4) DH frames 0…6 (6 = flange, no TCP) in the base frame at joints (N, 6) of the model's (possibly
+    calibrated) table, by the compiled DH chain."""
+    fk, _, _ = kernels()
+    out = np.empty((len(joints), 7, 4, 4))
+    fk.chain_matrices(arm_vector(model), np.ascontiguousarray(joints, dtype=float), out)
+    return out
+
+
+def _pose(pose: Any) -> np.ndarray:
+    """(1, 8) unit pose coefficients of a DualQuaternion or 8 numbers, normalised where off unit by more than
+    rounding (within dqarray.UNIT_TOLERANCE); ValueError naming ``pose`` for anything that is not a rigid transform.
+    Checked in Python floats: numpy's calls on 8 numbers would cost more than the IK."""
+    if isinstance(pose, DualQuaternion):
+        values = pose.to_array()
+    else:
+        try:
+            values = real_array(pose)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"pose: expected a DualQuaternion or 8 coefficients, got {pose!r}") from exc
+        if values.shape != (8,):
+            raise ValueError(f"pose: expected a DualQuaternion or 8 coefficients, got shape {values.shape}")
+    rw, rx, ry, rz, dw, dx, dy, dz = values.tolist()
+    norm2, orthogonality = rw * rw + rx * rx + ry * ry + rz * rz, rw * dw + rx * dx + ry * dy + rz * dz
+    if not math.isfinite(norm2 + orthogonality + dw + dx + dy + dz):
+        raise ValueError("pose: contains NaN or infinite values")
+    if abs(norm2 - 1.0) > 2.0 * dqarray.UNIT_TOLERANCE:
+        raise ValueError(f"pose: rotation part is not a unit quaternion (norm² {norm2:.6g})")
+    if abs(orthogonality) > dqarray.UNIT_TOLERANCE:
+        raise ValueError(f"pose: not a unit dual quaternion (real·dual = {orthogonality:.3g}, must be 0)")
+    if abs(norm2 - 1.0) > EXACT_UNIT or abs(orthogonality) > EXACT_UNIT:
+        return dqarray.normalise(values[None])
+    return values.reshape(1, 8)
+
+
+def _unit_rows(rows: np.ndarray, name: str) -> np.ndarray:
+    """Rows (N, 8) checked finite and unit (dqarray.UNIT_TOLERANCE), those off by more than EXACT_UNIT normalised."""
+    if not np.all(np.isfinite(rows)):
+        raise ValueError(f"{name}: contains NaN or infinite values")
+    norm2 = np.einsum("ij,ij->i", rows[:, :4], rows[:, :4])
+    if np.any(np.abs(norm2 - 1.0) > 2.0 * dqarray.UNIT_TOLERANCE):
+        worst = float(norm2[np.argmax(np.abs(norm2 - 1.0))])
+        raise ValueError(f"{name}: rotation part is not a unit quaternion (norm² {worst:.6g})")
+    orthogonality = np.einsum("ij,ij->i", rows[:, :4], rows[:, 4:])
+    if np.any(np.abs(orthogonality) > dqarray.UNIT_TOLERANCE):
+        worst = float(orthogonality[np.argmax(np.abs(orthogonality))])
+        raise ValueError(f"{name}: not a unit dual quaternion (real·dual = {worst:.3g}, must be 0)")
+    off = (np.abs(norm2 - 1.0) > EXACT_UNIT) | (np.abs(orthogonality) > EXACT_UNIT)
+    if off.any():
+        rows = rows.copy()
+        rows[off] = dqarray.normalise(rows[off])
+    return np.ascontiguousarray(rows, dtype=float)
+
+
+def _joints(values: Any, count: int, name: str) -> np.ndarray:
+    """(count, 6) finite joint values from (6,) or (count, 6) numbers; ValueError naming ``name``."""
+    try:
+        array = real_array(values)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name}: expected 6 joint angles (radians), or a row of 6 per pose, as numbers") from exc
+    if array.shape == (6,):
+        array = np.broadcast_to(array, (count, 6))
+    if array.shape != (count, 6):
+        raise ValueError(f"{name}: expected shape (6,) or ({count}, 6), got {array.shape}")
+    if not np.all(np.isfinite(array)):
+        raise ValueError(f"{name}: contains NaN or infinite values")
+    return np.ascontiguousarray(array, dtype=float)
+
+
+def _weights(weights: Any) -> np.ndarray:
+    """Six positive finite joint weights (default all 1); ValueError naming ``weights`` otherwise."""
+    if weights is None:
+        return _UNIT_WEIGHTS
+    values = np.array(joint_floats(weights, "weights"))
+    if np.any(values <= 0.0):
+        raise ValueError(f"weights: every joint weight must be > 0, got {values.tolist()}")
+    return values
+
+
+def wrap_angle(angle: Any) -> np.ndarray:
+    """Angle(s) mapped into (−π, π] (radians; floats or arrays, NaN stays NaN)."""
+    angle = np.asarray(angle, dtype=float)
+    wrapped = angle - 2.0 * math.pi * np.rint(angle / (2.0 * math.pi))
+    wrapped = np.where(wrapped <= -math.pi, wrapped + 2.0 * math.pi, wrapped)   # rounding can land a hair outside
+    result: np.ndarray = np.where(wrapped > math.pi, wrapped - 2.0 * math.pi, wrapped)
+    return result
+
+
+def ik_all_batch(model: Any, poses: Any, q_ref: Any = None) -> np.ndarray:
+    """(N, 8, 6) every FK-verified solution of (N, 8) TCP poses, in (−π, π]; NaN rows where a branch is absent,
+    repeats an earlier one or misses the pose. Slot k of every pose is the same sign choice (θ1, θ5, θ3), + first.
+    ``q_ref`` ((6,) or (N, 6), optional) only resolves the wrist singularity, as in ``ik_all``."""
+    try:
+        rows = real_array(poses)
+    except (TypeError, ValueError) as exc:
+        raise ValueError("poses: expected numbers, 8 coefficients per pose") from exc
+    if rows.ndim != 2 or rows.shape[1] != 8:
+        raise ValueError(f"poses: expected shape (N, 8), got {rows.shape}")
+    rows = _unit_rows(dqarray.check_unit(rows, "poses"), "poses")
+    theta6 = np.zeros(len(rows)) if q_ref is None else wrap_angle(_joints(q_ref, len(rows), "q_ref")[:, 5])
+    out = np.empty((len(rows), 8, 6))
+    kernels()[1].all_rows(arm_vector(model), rows, np.ascontiguousarray(theta6), out)
+    return out
+
+
+def ik_all(model: Any, pose: Any, q_ref: Any = None) -> list[np.ndarray]:
+    """Every FK-verified joint solution (radians, each in (−π, π]) of the TCP ``pose`` (base frame), up to 8.
+
+    ``q_ref`` (optional) only resolves the wrist singularity: there θ6 is q_ref[5] (0 without one) when the arm
+    reaches with it (see the module notes). Raises UnreachablePoseError (a ValueError) saying why when there is none.
+    """
+    row = _pose(pose)
+    theta6 = np.zeros(1) if q_ref is None else np.array([wrap_angle(joint_floats(q_ref, "q_ref")[5])])
+    out = np.empty((1, 8, 6))
+    kernels()[1].all_rows(arm_vector(model), row, theta6, out)
+    found = out[0][~np.isnan(out[0, :, 0])]
+    if not len(found):
+        raise UnreachablePoseError(f"pose unreachable for {model.name}: {_unreachable_reason(model, row[0])}")
+    return list(found)
+
+
+def ik_batch(model: Any, poses: Any, q_ref: Any, weights: Any = None) -> np.ndarray:
+    """(N, 6): for each (N, 8) TCP pose the solution nearest q_ref ((6,) or (N, 6)) as ``ik`` finds it; NaN rows
+    where the pose is unreachable or no solution lies inside the joint limits (no exception: batches keep going)."""
+    try:
+        rows = real_array(poses)
+    except (TypeError, ValueError) as exc:
+        raise ValueError("poses: expected numbers, 8 coefficients per pose") from exc
+    if rows.ndim != 2 or rows.shape[1] != 8:
+        raise ValueError(f"poses: expected shape (N, 8), got {rows.shape}")
+    rows = _unit_rows(dqarray.check_unit(rows, "poses"), "poses")
+    references, weight = _joints(q_ref, len(rows), "q_ref"), _weights(weights)
+    out, status = np.empty((len(rows), 6)), np.empty(len(rows), dtype=np.int64)
+    kernels()[1].nearest_rows(arm_vector(model), rows, references, weight, out, status)
+    return out
+
+
+def ik(model: Any, pose: Any, q_ref: Any, weights: Any = None) -> np.ndarray:
+    """The joint solution of TCP ``pose`` nearest ``q_ref`` (least Σ wᵢ·Δqᵢ² over the ±2π variants inside the limits).
+
+    The choice a replay needs: the arm never flips branch while a nearer solution exists. At the wrist singularity
+    θ6 stays at q_ref[5] unless the arm cannot reach with it or θ4 would leave its limits. The FK filter runs on the
+    joints returned. Raises UnreachablePoseError when no solution lies inside the joint limits, saying why.
+    """
+    row = _pose(pose)
+    reference, weight = np.array([joint_floats(q_ref, "q_ref")]), _weights(weights)
+    out, status = np.empty((1, 6)), np.empty(1, dtype=np.int64)
+    _, nearest, solve = kernels()
+    nearest.nearest_rows(arm_vector(model), row, reference, weight, out, status)
+    if status[0] == solve.OUTSIDE_LIMITS:
+        raise UnreachablePoseError(f"pose unreachable for {model.name}: outside limits — every solution has a joint "
+                                   "outside the joint limits")
+    if status[0] == solve.UNREACHABLE:
+        raise UnreachablePoseError(f"pose unreachable for {model.name}: {_unreachable_reason(model, row[0])}")
+    answer: np.ndarray = out[0]
+    return answer
+
+
+def _unreachable_reason(model: Any, pose: np.ndarray) -> str:
+    """Why ``pose`` (8 unit coefficients) has no solution on ``model``: the first constraint it violates, in words."""
+    arm, figures = arm_vector(model), np.empty(6)
+    kernels()[1].reach_figures(arm, pose, figures)
+    d4 = abs(arm[LENGTHS + 3])
+    if figures[0] < d4 * (1.0 - DOMAIN_TOLERANCE):
+        return (f"too close to the base axis: the wrist centre is {figures[0]:.4f} m from it, "
+                f"less than the shoulder offset d4 = {d4:.4f} m")
+    a2, a3 = abs(arm[LENGTHS + 1]), abs(arm[LENGTHS + 2])
+    needed, longest, shortest = figures[1:5], a2 + a3, abs(a2 - a3)
+    prefix = "wrist singular (θ5 = 0 or π) and no θ4 ± θ6 split reaches: " if figures[5] == 1.0 else ""
+    if np.all(needed > longest):
+        return (f"{prefix}too far: the elbow would have to span {needed.min():.4f} m, "
+                f"the upper and lower arm reach at most {longest:.4f} m")
+    if np.all(needed < shortest):
+        return (f"{prefix}too close: the elbow would have to span {needed.max():.4f} m, "
+                f"the folded arm reaches no closer than {shortest:.4f} m")
+    return "no analytic branch passes the FK filter (numerically singular pose)"
+
+
+def nearest_variant(model: Any, q: Any, reference: Any) -> np.ndarray:
+    """(6,) each joint of ``q`` moved by a multiple of 2π to its value inside the model's limits nearest
+    ``reference`` (the rule ``ik`` applies); inf where a joint has none. A variant within LIMIT_ROUNDING past a
+    limit is that limit."""
+    angles, references = _joints(q, 1, "q")[0], _joints(reference, 1, "reference")[0]
+    arm, solve = arm_vector(model), kernels()[2]
+    return np.array([solve.closest_variant(float(a), float(r), float(arm[LOWER + j]), float(arm[UPPER + j]),
+                                           LIMIT_ROUNDING)[0]
+                     for j, (a, r) in enumerate(zip(angles.tolist(), references.tolist(), strict=False))])
+
+
+def joint_variants(model: Any, q: Any) -> np.ndarray:
+    """(M, 6) every q + 2πk (per joint) inside the model's limits; an unlimited joint is listed within ±2π.
+
+    A variant within LIMIT_ROUNDING past a limit is listed at the limit, as ``ik`` takes it."""
+    per_joint = []
+    for angle, low, high in zip(_joints(q, 1, "q")[0].tolist(), model.joint_lower, model.joint_upper, strict=False):
+        low, high = max(low, -2.0 * math.pi), min(high, 2.0 * math.pi)
+        first = angle + 2.0 * math.pi * math.ceil((low - LIMIT_ROUNDING - angle) / (2.0 * math.pi))
+        stop = high + LIMIT_ROUNDING
+        values = np.arange(first, stop, 2.0 * math.pi) if first <= stop else np.empty(0)
+        per_joint.append(np.clip(values, low, high))
+    grids = np.meshgrid(*per_joint, indexing="ij")
+    return np.stack([grid.ravel() for grid in grids], axis=-1)
+
+
+def warm() -> None:
+    """Run every kernel once (a nominal and a calibrated arm: the same compiled code), so numba compiles or loads
+    them all now."""
+    from ur3dq.kinematics import fk
+    from ur3dq.kinematics.ur_ik import nearest, solve
+    lengths, limit = (0.1519, -0.24365, -0.21325, 0.11235, 0.08535, 0.0819), np.full(6, 2.0 * math.pi)
+    a, d = np.array([0.0, lengths[1], lengths[2], 0.0, 0.0, 0.0]), np.array([lengths[0], 0, 0, *lengths[3:]])
+    alpha, identity = np.array([math.pi / 2, 0.0, 0.0, math.pi / 2, -math.pi / 2, 0.0]), np.eye(1, 8)[0]
+    q, pose = np.array([[0.1, -1.2, 1.3, -0.4, 0.9, 0.2]]), np.empty((1, 8))
+    for calibrated in (False, True):
+        arm = vector(a, d, alpha, np.full(6, 1e-4 * calibrated), lengths, identity, -limit, limit)
+        tangents = np.empty((6, 1))
+        fk.half_tangent_angles(q, tangents)
+        fk.nominal_poses(arm, identity, np.tan(tangents), pose)
+        fk.nominal_pose_of(arm, identity, *q[0].tolist())
+        solve.closest_variant(0.0, 0.0, -1.0, 1.0, LIMIT_ROUNDING)
+        nearest.all_rows(arm, pose, np.zeros(1), np.empty((1, 8, 6)))
+        nearest.nearest_rows(arm, pose, q, _UNIT_WEIGHTS, np.empty((1, 6)), np.empty(1, dtype=np.int64))
+        nearest.reach_figures(arm, pose[0], np.empty(6))
+        fk.chain_matrices(arm, q, np.empty((1, 7, 4, 4)))
+

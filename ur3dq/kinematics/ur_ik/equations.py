@@ -1,246 +1,204 @@
-"""The thesis' IK equations (seed 000, §4.3), written once for plain floats (one pose) and numpy arrays (batches)."""
+"""The thesis' analytic IK of the UR family (seed 000, §4.3), restated in the DH frames, as compiled scalar code.
+
+Frames: base = DH frame 0, flange = DH frame 6, standard DH (docs/conventions.md). A target is the flange pair
+(qw, qx, qy, qz, px, py, pz) (the thesis' (q, p)); the lengths (d1, a2, a3, d4, d5, d6) are arm.LENGTHS.
+
+  (4.9–4.11) wrist centre p5 = p − d6·z6 lies at distance d4 from the base axis along z1 = (sin θ1, −cos θ1, 0):
+             x5·sin θ1 − y5·cos θ1 = d4, solved as θ1 = atan2(x5, −y5) ± atan2(√(x5² + y5² − d4²), d4).
+  (4.14–4.28) with r' = Rx(−π/2)·Rz(−θ1)·r (the thesis' N2 = Q1⁻¹·N1, rotation part) the half-angle identities
+             w' = cos(θ5/2)·cos(Σ/2),  z' = cos(θ5/2)·sin(Σ/2),  x' = sin(θ5/2)·sin(Δ/2),  y' = −sin(θ5/2)·cos(Δ/2),
+             Σ = θ234 + θ6, Δ = θ234 − θ6, θ234 = θ2 + θ3 + θ4: θ6 = (Σ − Δ)/2, θ234 = (Σ + Δ)/2; −θ5 is the
+             wrist flip (θ6 − π, θ234 + π).
+  (4.33–4.34) the frame-4 origin in the shoulder plane: (x4, z4) = (c1·px + s1·py − d5·s234 + d6·s5·c234,
+             pz − d1 + d5·c234 + d6·s5·s234).
+  (4.35–4.38) the planar 3R arm of joints 2–4: cos θ3 = (x4² + z4² − a2² − a3²)/(2·a2·a3), two signs of θ3.
+  (4.41)     θ2 = atan2(z4·(a2 + a3·c3) − x4·a3·s3, x4·(a2 + a3·c3) + z4·a3·s3).
+  (4.44)     θ4 = θ234 − θ2 − θ3 (joints 2–4 are parallel).
+  (4.45)     the FK filter (frames.meets): a branch is kept only if its forward kinematics reproduces the pose.
+
+Up to 2 × 2 × 2 = 8 branches, slot 4·i1 + 2·i5 + i3 for the (θ1, θ5, θ3) signs, + first (i = 0).
+
+Singular cases (defined behaviour, tested):
+  wrist (|sin(θ5/2)| or |cos(θ5/2)| < WRIST_SINGULAR_TOLERANCE): axes 2, 3, 4 and 6 are parallel and only Σ (θ5 = 0)
+      or Δ (θ5 = π) is fixed: a one-parameter family. θ6 is set to the reference's θ6 (0 without one); θ234 takes
+      the rest, and where the arm cannot reach with that split the nearest reachable split is taken (the d5 offset
+      turns with θ234). The two θ5 signs merge. Near it (arm.WRIST_NEAR: the split's rounding on a nominal arm, the
+      calibration's effect on a calibrated arm's seeds) a branch pushed out of reach moves along the family alike.
+  shoulder (x5² + y5² = d4²): the two θ1 merge; closer to the base axis is unreachable.
+  stretched or folded elbow (|cos θ3| = 1): the two θ3 merge (within ELBOW_ROUNDING on a nominal arm).
+Values a rounding outside their domain are clamped; the FK filter decides whether the pose is met.
+"""
 from __future__ import annotations
 
 import math
 
 import numpy as np
 
-from ur3dq.kinematics.ur_ik.geometry import (
-    _HALF_SQRT2,
-    _TWO_PI,
-    WRIST_NEAR_TOLERANCE,
-    WRIST_SINGULAR_TOLERANCE,
-    _Geometry,
-)
+from ur3dq.kinematics.arm import CALIBRATED, EDGE, ELBOW_ROUNDING, LENGTHS, SLACK, WRIST_NEAR, WRIST_SINGULAR_TOLERANCE
+from ur3dq.kinematics.jit import kernel
+
+HALF_SQRT2 = math.sqrt(0.5)
+TWO_PI = 2.0 * math.pi
 
 
-class _ScalarOps:
-    """Plain-float math for single poses: no numpy object churn on the hot path."""
-
-    sqrt = staticmethod(math.sqrt)
-    atan2 = staticmethod(math.atan2)
-    cos = staticmethod(math.cos)
-    sin = staticmethod(math.sin)
-    asin = staticmethod(math.asin)
-
-    @staticmethod
-    def where(condition, if_true, if_false):
-        """Select like numpy.where, for floats."""
-        return if_true if condition else if_false
-
-    @staticmethod
-    def clamp_or_nan(value, low, high, slack):
-        """``value`` clipped into [low, high] if within ``slack`` of it, else NaN."""
-        if value < low - slack or value > high + slack:
-            return math.nan
-        return min(max(value, low), high)
-
-    @staticmethod
-    def wrap(angle):
-        """Angle into [−π, π] (either end: used for distances only; NaN stays NaN)."""
-        return math.remainder(angle, _TWO_PI)
-
-    any = staticmethod(bool)
-    isnan = staticmethod(math.isnan)
+@kernel
+def remainder(x: float, y: float) -> float:
+    """x − n·y for y > 0, n the integer nearest x/y (ties to even): in [−y/2, y/2] up to the rounding of n·y (a few
+    ulp of x for the angles here)."""
+    return x - y * float(np.rint(x / y))
 
 
-class _ArrayOps:
-    """numpy math over arrays of poses: every branch of every pose at once."""
-
-    sqrt = staticmethod(np.sqrt)
-    atan2 = staticmethod(np.arctan2)
-    cos = staticmethod(np.cos)
-    sin = staticmethod(np.sin)
-    asin = staticmethod(np.arcsin)
-    where = staticmethod(np.where)
-
-    @staticmethod
-    def clamp_or_nan(value, low, high, slack):
-        """``value`` clipped into [low, high] where within ``slack`` of it, NaN elsewhere."""
-        with np.errstate(invalid="ignore"):
-            outside = (value < low - slack) | (value > high + slack)
-        return np.where(outside, np.nan, np.clip(value, low, high))
-
-    @staticmethod
-    def wrap(angle):
-        """Angles into [−π, π] (either end: used for distances only)."""
-        return angle - _TWO_PI * np.round(angle / _TWO_PI)
-
-    any = staticmethod(np.any)
-    isnan = staticmethod(np.isnan)
+@kernel
+def clamp_or_nan(value: float, low: float, high: float, slack: float) -> float:
+    """``value`` clipped into [low, high] if within ``slack`` of it, else NaN."""
+    if value < low - slack or value > high + slack:
+        return math.nan
+    return min(max(value, low), high)
 
 
-def _wrist_centre(g: _Geometry, qw, qx, qy, qz, px, py):
-    """(x5, y5) of the wrist centre p5 = p − d6·z6 in the base frame (z6 = third column of the flange rotation)."""
-    z6x = 2.0 * (qx * qz + qw * qy)
-    z6y = 2.0 * (qy * qz - qw * qx)
-    return px - g.d6 * z6x, py - g.d6 * z6y
-
-
-def _theta1_pair(ops, g: _Geometry, x5, y5):
-    """The two θ1 (eqs. 4.10–4.11) solving x5·sin θ1 − y5·cos θ1 = d4; NaN when the wrist centre is too close."""
-    d4 = g.d4
-    radial2 = x5 * x5 + y5 * y5
-    # cos of the shoulder offset angle = d4/ρ must be ≤ 1: ρ ≥ d4 (clamped within the domain slack).
-    reach = ops.clamp_or_nan(radial2 - d4 * d4, g.domain_edge * d4 * d4, math.inf, g.domain_slack * d4 * d4)
-    base = ops.atan2(x5, -y5)
-    offset = ops.atan2(ops.sqrt(reach), d4)
+@kernel
+def theta1_pair(arm: np.ndarray, target: np.ndarray) -> tuple[float, float]:
+    """The two θ1 of eqs. 4.9–4.11 for flange pair ``target``; NaN when the wrist centre is too close to the base
+    axis (beyond the domain slack)."""
+    qw, qx, qy, qz, px, py = target[0], target[1], target[2], target[3], target[4], target[5]
+    d4, d6 = arm[LENGTHS + 3], arm[LENGTHS + 5]
+    x5 = px - d6 * 2.0 * (qx * qz + qw * qy)   # p5 = p − d6·z6, z6 the flange rotation's third column
+    y5 = py - d6 * 2.0 * (qy * qz - qw * qx)
+    reach = clamp_or_nan(x5 * x5 + y5 * y5 - d4 * d4, arm[EDGE] * d4 * d4, math.inf, arm[SLACK] * d4 * d4)
+    base = math.atan2(x5, -y5)
+    offset = math.atan2(math.sqrt(reach), d4)
     return base + offset, base - offset
 
 
-def _theta1_floats(g: _Geometry, qw, qx, qy, qz, px, py):
-    """The θ1 pair of _theta1_pair for one pose's floats (rotation qw…qz, position px, py), or None where no θ1
-    exists: written out off the shoulder circle (single-pose hot path), the general clamp on and inside it."""
-    x5, y5 = _wrist_centre(g, qw, qx, qy, qz, px, py)
-    d4 = g.d4
-    reach = x5 * x5 + y5 * y5 - d4 * d4
-    if reach > g.domain_edge * d4 * d4:
-        base, offset = math.atan2(x5, -y5), math.atan2(math.sqrt(reach), d4)
-        return base + offset, base - offset
-    theta1_pair = _theta1_pair(_ScalarOps, g, x5, y5)   # clamped within the domain slack, NaN beyond
-    return None if theta1_pair[0] != theta1_pair[0] else theta1_pair
-
-
-def _reduced_rotation(ops, theta1, qw, qx, qy, qz):
-    """(cos θ1, sin θ1, (w', x', y', z')): r' = Rx(−π/2)·Rz(−θ1)·r, what wrist joints 2…6 must produce."""
-    ch, sh = ops.cos(0.5 * theta1), -ops.sin(0.5 * theta1)
-    # Rz(−θ1)·r, with Rz(−θ1) = (ch, 0, 0, sh).
+@kernel
+def reduced_rotation(theta1: float, target: np.ndarray) -> tuple[float, float, float, float, float, float]:
+    """(cos θ1, sin θ1, w', x', y', z'), (w', x', y', z') = Rx(−π/2)·Rz(−θ1)·r: what wrist joints 2…6 must produce
+    (eq. 4.14)."""
+    ch, sh = math.cos(0.5 * theta1), -math.sin(0.5 * theta1)
+    qw, qx, qy, qz = target[0], target[1], target[2], target[3]
     w1, x1, y1, z1 = ch * qw - sh * qz, ch * qx - sh * qy, ch * qy + sh * qx, ch * qz + sh * qw
-    # Rx(−π/2)·(…), with Rx(−π/2) = (h, −h, 0, 0).
-    h = _HALF_SQRT2
-    reduced = (h * (w1 + x1), h * (x1 - w1), h * (y1 + z1), h * (z1 - y1))
-    return ch * ch - sh * sh, -2.0 * ch * sh, reduced
+    h = HALF_SQRT2
+    return ch * ch - sh * sh, -2.0 * ch * sh, h * (w1 + x1), h * (x1 - w1), h * (y1 + z1), h * (z1 - y1)
 
 
-def _wrist_pair(ops, reduced, theta6_ref):
-    """(θ5, θ6, θ234) for θ5 ≥ 0 and for θ5 ≤ 0 (eqs. 4.13–4.28 in half-angle form); singular: θ6 = theta6_ref.
-
-    Also returns the flags (singular at 0, singular at π, near-singular, nearer 0 than π) used by _branches.
-    """
-    w, x, y, z = reduced
-    sin_half5 = ops.sqrt(x * x + y * y)
-    cos_half5 = ops.sqrt(w * w + z * z)
-    half_sum = ops.atan2(z, w)          # Σ/2 = (θ234 + θ6)/2, eqs. 4.14 and 4.16
-    half_diff = ops.atan2(x, -y)        # Δ/2 = (θ234 − θ6)/2 for sin(θ5/2) > 0, eqs. 4.15 and 4.17
-    at_zero = sin_half5 < WRIST_SINGULAR_TOLERANCE
-    at_pi = cos_half5 < WRIST_SINGULAR_TOLERANCE
-    singular = at_zero | at_pi
-    theta5 = ops.where(at_zero, 0.0, ops.where(at_pi, math.pi, 2.0 * ops.atan2(sin_half5, cos_half5)))
-    theta6 = ops.where(singular, theta6_ref, half_sum - half_diff)
-    theta234 = ops.where(at_zero, 2.0 * half_sum - theta6,
-                         ops.where(at_pi, 2.0 * half_diff + theta6, half_sum + half_diff))
-    # −θ5 turns Δ/2 by π (x', y' change sign): the wrist flip θ6 − π, θ234 + π; one solution when singular.
-    flipped = (-theta5, ops.where(singular, theta6, theta6 - math.pi),
-               ops.where(singular, theta234, theta234 + math.pi))
-    near = (sin_half5 < WRIST_NEAR_TOLERANCE) | (cos_half5 < WRIST_NEAR_TOLERANCE)
-    return (theta5, theta6, theta234), flipped, (singular, near, sin_half5 < cos_half5)
+@kernel
+def wrist(w: float, x: float, y: float, z: float, theta6_ref: float, near_tolerance: float
+          ) -> tuple[float, float, float, int]:
+    """(θ5 ≥ 0, θ6, θ234, singularity) of eqs. 4.14–4.28 in half-angle form; singularity 0 regular, 1 near θ5 = 0,
+    2 near π (|sin(θ5/2)| or |cos(θ5/2)| below ``near_tolerance``), 3 at 0, 4 at π (3 and 4: θ5 exactly 0 or π and
+    θ6 = ``theta6_ref``)."""
+    sin_half5, cos_half5 = math.sqrt(x * x + y * y), math.sqrt(w * w + z * z)
+    half_sum = math.atan2(z, w)          # Σ/2, eqs. 4.14 and 4.16
+    half_diff = math.atan2(x, -y)        # Δ/2, eqs. 4.15 and 4.17
+    if sin_half5 < WRIST_SINGULAR_TOLERANCE:
+        return 0.0, theta6_ref, 2.0 * half_sum - theta6_ref, 3
+    if cos_half5 < WRIST_SINGULAR_TOLERANCE:
+        return math.pi, theta6_ref, 2.0 * half_diff + theta6_ref, 4
+    near = 0
+    if sin_half5 < near_tolerance or cos_half5 < near_tolerance:
+        near = 1 if sin_half5 < cos_half5 else 2
+    return 2.0 * math.atan2(sin_half5, cos_half5), half_sum - half_diff, half_sum + half_diff, near
 
 
-def _reachable_wrist_family(ops, g: _Geometry, cos1, sin1, theta5, theta234, px, py, pz):
-    """The θ234 nearest ``theta234`` at which the planar arm reaches, for fixed θ1 and θ5 (NaN if none does).
+@kernel
+def planar_arm(arm: np.ndarray, cos1: float, sin1: float, theta5: float, theta234: float,
+               target: np.ndarray) -> tuple[float, float]:
+    """(x4, z4): where joints 2–3 must put the frame-4 origin, in the shoulder plane (eqs. 4.33–4.34)."""
+    d1, d5, d6 = arm[LENGTHS], arm[LENGTHS + 4], arm[LENGTHS + 5]
+    c234, s234, s5 = math.cos(theta234), math.sin(theta234), math.sin(theta5)
+    x4 = cos1 * target[4] + sin1 * target[5] - s234 * d5 + c234 * s5 * d6
+    z4 = target[6] - d1 + c234 * d5 + s234 * s5 * d6
+    return x4, z4
 
-    Eq. 4.34 gives (x4, z4) = P − ρ·(sin ψ, −cos ψ) with P = (c1 px + s1 py, pz − d1), ρ = |(d5, d6 s5)|,
-    ψ = θ234 − atan2(d6 s5, d5): a circle. The elbow must span R² + ρ² − 2ρR·sin(ψ − φ) (R, φ: polar form of P),
+
+@kernel
+def elbow_cosine(arm: np.ndarray, x4: float, z4: float) -> float:
+    """cos θ3 of eq. 4.38: clamped within the domain slack of ±1 (stretched or folded elbow), NaN beyond; on a
+    nominal arm ±1 within ELBOW_ROUNDING of it."""
+    a2, a3, edge = arm[LENGTHS + 1], arm[LENGTHS + 2], arm[EDGE]
+    cos3 = (x4 * x4 + z4 * z4 - a2 * a2 - a3 * a3) / (2.0 * a2 * a3)
+    if arm[CALIBRATED] == 0.0 and 1.0 - ELBOW_ROUNDING < abs(cos3) < 1.0:
+        cos3 = math.copysign(1.0, cos3)
+    return clamp_or_nan(cos3, edge - 1.0, 1.0 - edge, arm[SLACK])
+
+
+@kernel
+def reachable_split(arm: np.ndarray, cos1: float, sin1: float, theta5: float, theta234: float,
+                    target: np.ndarray) -> float:
+    """The θ234 nearest ``theta234`` at which the planar arm reaches, θ1 and θ5 fixed (NaN if none does).
+
+    Eq. 4.34 gives (x4, z4) = P − ρ·(sin ψ, −cos ψ), P = (c1·px + s1·py, pz − d1), ρ = |(d5, d6·s5)|,
+    ψ = θ234 − atan2(d6·s5, d5): a circle. The elbow must span R² + ρ² − 2ρR·sin(ψ − φ) (R, φ: the polar form of P)
     between the folded and the stretched arm; the allowed ψ form arcs whose ends have sin(ψ − φ) = low or high.
     """
-    near_x, near_z = cos1 * px + sin1 * py, pz - g.d1
-    radius = ops.sqrt(near_x * near_x + near_z * near_z)
-    phase = ops.atan2(near_z, near_x)
-    offset = g.d6 * ops.sin(theta5)
-    rho = ops.sqrt(g.d5 * g.d5 + offset * offset)
-    beta = ops.atan2(offset, g.d5)
-    longest, shortest = abs(g.a2) + abs(g.a3), abs(abs(g.a2) - abs(g.a3))
+    d1, a2, a3, d5, d6 = arm[LENGTHS], arm[LENGTHS + 1], arm[LENGTHS + 2], arm[LENGTHS + 4], arm[LENGTHS + 5]
+    near_x = cos1 * target[4] + sin1 * target[5]
+    near_z = target[6] - d1
+    radius, phase = math.hypot(near_x, near_z), math.atan2(near_z, near_x)
+    offset = d6 * math.sin(theta5)
+    rho, beta = math.hypot(d5, offset), math.atan2(offset, d5)
+    longest, shortest = abs(a2) + abs(a3), abs(abs(a2) - abs(a3))
     base2 = radius * radius + rho * rho
     low = (base2 - longest * longest) / (2.0 * rho * radius)
     high = (base2 - shortest * shortest) / (2.0 * rho * radius)
     psi = theta234 - beta
-    sine = ops.sin(psi - phase)
-    best = psi
-    best_distance = ops.where((sine >= low) & (sine <= high), 0.0, math.inf)
+    sine = math.sin(psi - phase)
+    if low <= sine <= high:
+        return theta234
+    best, best_distance = math.nan, math.inf
     for bound in (low, high):
-        arc_end = ops.asin(ops.clamp_or_nan(bound, -1.0, 1.0, 0.0))
+        arc_end = math.asin(clamp_or_nan(bound, -1.0, 1.0, 0.0))
         for candidate in (phase + arc_end, phase + math.pi - arc_end):
-            distance = abs(ops.wrap(candidate - psi))
-            nearer = distance < best_distance     # False for NaN: an arc end that does not exist
-            best = ops.where(nearer, candidate, best)
-            best_distance = ops.where(nearer, distance, best_distance)
-    return ops.where(best_distance < math.inf, best + beta, math.nan)
+            distance = abs(remainder(candidate - psi, TWO_PI))
+            if distance < best_distance:   # False for NaN: an arc end that does not exist
+                best, best_distance = candidate, distance
+    return best + beta
 
 
-def _planar_arm(ops, g: _Geometry, cos1, sin1, theta5, theta234, px, py, pz):
-    """(x4, z4): where joints 2–3 must put the frame-4 origin, in the shoulder plane (eqs. 4.33–4.34)."""
-    c234, s234 = ops.cos(theta234), ops.sin(theta234)
-    s5 = ops.sin(theta5)
-    x4 = cos1 * px + sin1 * py - s234 * g.d5 + c234 * s5 * g.d6
-    z4 = pz - g.d1 + c234 * g.d5 + s234 * s5 * g.d6
-    return x4, z4
-
-
-def _elbow_cosine(ops, g: _Geometry, x4, z4):
-    """cos θ3 of eq. 4.38, clamped within rounding of ±1 (stretched / folded elbow), NaN when out of reach."""
-    cos3 = (x4 * x4 + z4 * z4 - g.a2 * g.a2 - g.a3 * g.a3) / (2.0 * g.a2 * g.a3)
-    return ops.clamp_or_nan(cos3, g.domain_edge - 1.0, 1.0 - g.domain_edge, g.domain_slack)
-
-
-def _shoulder_elbow_pair(ops, g: _Geometry, x4, z4, cos3):
-    """((θ2, θ3) with θ3 ≥ 0, (θ2, θ3) with θ3 ≤ 0): θ3 from eq. 4.38, θ2 from eq. 4.41."""
-    sin3 = ops.sqrt(1.0 - cos3 * cos3)
-    theta3 = ops.atan2(sin3, cos3)
-    along = g.a2 + g.a3 * cos3
-    across = g.a3 * sin3
-    near_x, near_z = x4 * along, z4 * along
-    far_x, far_z = x4 * across, z4 * across
-    return ((ops.atan2(near_z - far_x, near_x + far_z), theta3),
-            (ops.atan2(near_z + far_x, near_x - far_z), -theta3))
-
-
-def _elbow_for_wrist(ops, g: _Geometry, cos1, sin1, wrist, flags, px, py, pz):
-    """(θ6, θ234, x4, z4, cos θ3) of one wrist branch (eqs. 4.33–4.38), moved along a singular wrist's family.
-
-    At (or near) a singular wrist only θ234 + θ6 (θ5 ≈ 0) or θ234 − θ6 (θ5 ≈ π) is well determined; a split the
-    arm cannot reach is moved to the nearest reachable one, θ6 compensating; the FK filter judges the result.
-    """
-    theta5, theta6, theta234 = wrist
-    singular, near, nearer_zero = flags
-    x4, z4 = _planar_arm(ops, g, cos1, sin1, theta5, theta234, px, py, pz)
-    cos3 = _elbow_cosine(ops, g, x4, z4)
-    move = singular | (near & ops.isnan(cos3))
-    if ops.any(move):
-        reachable = _reachable_wrist_family(ops, g, cos1, sin1, theta5, theta234, px, py, pz)
-        shift = ops.where(move, reachable - theta234, 0.0)
-        theta234 = theta234 + shift
-        theta6 = theta6 + ops.where(nearer_zero, -shift, shift)
-        x4, z4 = _planar_arm(ops, g, cos1, sin1, theta5, theta234, px, py, pz)
-        cos3 = _elbow_cosine(ops, g, x4, z4)
+@kernel
+def split_for_reach(arm: np.ndarray, cos1: float, sin1: float, theta5: float, theta6: float, theta234: float,
+                    singular: int, target: np.ndarray) -> tuple[float, float, float, float, float]:
+    """(θ6, θ234, x4, z4, cos θ3) of one wrist branch (eqs. 4.33–4.38), its split moved along a singular wrist's
+    family to the nearest reachable one where the arm cannot reach with it (θ6 compensating)."""
+    x4, z4 = planar_arm(arm, cos1, sin1, theta5, theta234, target)
+    cos3 = elbow_cosine(arm, x4, z4)
+    if singular >= 3 or (singular > 0 and cos3 != cos3):
+        shift = reachable_split(arm, cos1, sin1, theta5, theta234, target) - theta234
+        theta234 += shift
+        theta6 += -shift if singular % 2 == 1 else shift   # Σ fixed near θ5 = 0, Δ near π
+        x4, z4 = planar_arm(arm, cos1, sin1, theta5, theta234, target)
+        cos3 = elbow_cosine(arm, x4, z4)
     return theta6, theta234, x4, z4, cos3
 
 
-def _branches(ops, g: _Geometry, target, theta6_ref):
-    """The 8 analytic branches (θ1…θ6 tuples, NaN where one does not exist), by (θ1, θ5, θ3) sign, + first."""
-    qw, qx, qy, qz, px, py, pz = target
-    x5, y5 = _wrist_centre(g, qw, qx, qy, qz, px, py)
-    branches = []
-    for theta1 in _theta1_pair(ops, g, x5, y5):
-        cos1, sin1, reduced = _reduced_rotation(ops, theta1, qw, qx, qy, qz)
-        upper, lower, flags = _wrist_pair(ops, reduced, theta6_ref)
-        for wrist in (upper, lower):
-            theta6, theta234, x4, z4, cos3 = _elbow_for_wrist(ops, g, cos1, sin1, wrist, flags, px, py, pz)
-            for theta2, theta3 in _shoulder_elbow_pair(ops, g, x4, z4, cos3):
-                theta4 = theta234 - theta2 - theta3   # eq. 4.44
-                branches.append((theta1, theta2, theta3, theta4, wrist[0], theta6))
-    return branches
+@kernel
+def shoulder_elbow(arm: np.ndarray, x4: float, z4: float, cos3: float, sign: float) -> tuple[float, float]:
+    """(θ2, θ3) of the elbow with θ3's ``sign`` (±1): θ3 from eq. 4.38, θ2 from eq. 4.41."""
+    a2, a3 = arm[LENGTHS + 1], arm[LENGTHS + 2]
+    sin3 = math.sqrt(1.0 - cos3 * cos3)
+    along, across = a2 + a3 * cos3, sign * a3 * sin3
+    theta2 = math.atan2(z4 * along - x4 * across, x4 * along + z4 * across)
+    return theta2, sign * math.atan2(sin3, cos3)
 
 
-def wrap_angle(angle):
-    """Angle(s) mapped into (−π, π] (radians; floats or arrays, NaN stays NaN)."""
-    angle = np.asarray(angle, dtype=float)
-    wrapped = angle - _TWO_PI * np.rint(angle / _TWO_PI)
-    # Rounding can land a hair outside [−π, π]: fold the ends back so the interval is exactly (−π, π].
-    wrapped = np.where(wrapped <= -math.pi, wrapped + _TWO_PI, wrapped)
-    return np.where(wrapped > math.pi, wrapped - _TWO_PI, wrapped)
-
-
-def _wrap_float(angle: float) -> float:
-    """A float angle mapped into (−π, π] (IEEE remainder: exact, then −π moved to π)."""
-    wrapped = math.remainder(angle, _TWO_PI)
-    return wrapped + _TWO_PI if wrapped <= -math.pi else wrapped
+@kernel
+def branches(arm: np.ndarray, target: np.ndarray, theta6_ref: float, out: np.ndarray) -> None:
+    """The 8 branches (θ1…θ6) of flange pair ``target`` into ``out`` (8, 6), slot 4·i1 + 2·i5 + i3, NaN where a
+    branch does not exist; at a singular wrist θ6 = ``theta6_ref``."""
+    pair = theta1_pair(arm, target)
+    for i1 in range(2):
+        theta1 = pair[i1]
+        cos1, sin1, w, x, y, z = reduced_rotation(theta1, target)
+        theta5, theta6, theta234, singular = wrist(w, x, y, z, theta6_ref, arm[WRIST_NEAR])
+        for i5 in range(2):
+            if i5 == 1:   # the wrist flip; a singular wrist's two signs are one family
+                theta5 = -theta5
+                if singular < 3:
+                    theta6, theta234 = theta6 - math.pi, theta234 + math.pi
+            split6, split234, x4, z4, cos3 = split_for_reach(arm, cos1, sin1, theta5, theta6, theta234, singular,
+                                                               target)
+            for i3 in range(2):
+                theta2, theta3 = shoulder_elbow(arm, x4, z4, cos3, 1.0 - 2.0 * i3)
+                row = out[4 * i1 + 2 * i5 + i3]
+                row[0], row[1], row[2], row[3] = theta1, theta2, theta3, split234 - theta2 - theta3   # eq. 4.44
+                row[4], row[5] = theta5, split6

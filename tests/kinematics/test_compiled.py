@@ -1,0 +1,157 @@
+"""The compiled kernels as a user meets them: the interpreted Python (NUMBA_DISABLE_JIT=1) agrees with the compiled
+code, commands without kinematics never load numba, and the first use compiles once per cache, saying so on
+stderr (numba's cache in the package, a per-user directory where the package is read-only, or memory)."""
+import json
+import math
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from ur3dq.kinematics import MODEL_NAMES, robot_model, ur_ik
+from ur3dq.kinematics.jit import COMPILE_SECONDS
+
+NOTICE = f"compiling kinematics kernels, once (about {COMPILE_SECONDS} s)…"
+
+#: Solves a sample of poses (nominal UR5e with singular rows, a calibrated UR3 factory table), writes the results to
+#: the .npz file named by argv[1].
+SAMPLE = """
+import math, sys
+import numpy as np
+sys.path.insert(0, {tests!r})
+from calibrated_arms import factory_model
+from ur3dq.kinematics import robot_model, ur_ik
+rng = np.random.default_rng(4)
+q = rng.uniform(-math.pi, math.pi, (40, 6))
+q[:8, 4] = [0.0, 1e-12, math.pi, 1e-6, 0.0, -1e-9, math.pi, 1e-3]
+q[8:14, 2] = [0.0, 1e-15, math.pi, 1e-8, -1e-7, 0.0]
+q[14:18, 1] = 2 * math.pi
+out = {{}}
+for label, model, rows in (("nominal", robot_model("ur5e"), q), ("calibrated", factory_model("ur3", 21), q[::5])):
+    poses = model.fk_batch(rows)
+    out[label + "_poses"] = poses
+    out[label + "_all"] = ur_ik.ik_all_batch(model, poses)
+    out[label + "_nearest"] = ur_ik.ik_batch(model, poses, rows + 0.03)
+np.savez(sys.argv[1], **out)
+"""
+
+
+def run_python(code: str, *arguments: str, env: dict | None = None,
+               user: int | None = None) -> subprocess.CompletedProcess:
+    """``code`` run by this interpreter in a fresh process (as ``user``, a uid, if given)."""
+    command = [sys.executable, "-c", code, *arguments]
+    if user is not None:
+        command = ["setpriv", f"--reuid={user}", f"--regid={user}", "--clear-groups", *command]
+    return subprocess.run(command, capture_output=True, text=True, env={**os.environ, **(env or {})}, timeout=600,
+                          check=False)
+
+
+def test_the_interpreted_kernels_agree_with_the_compiled_ones(tmp_path):
+    tests = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    for mode, flag in (("interpreted", "1"), ("compiled", "0")):
+        result = run_python(SAMPLE.format(tests=tests), str(tmp_path / f"{mode}.npz"), env={"NUMBA_DISABLE_JIT": flag})
+        assert result.returncode == 0, result.stderr
+    interpreted, compiled = np.load(tmp_path / "interpreted.npz"), np.load(tmp_path / "compiled.npz")
+    for key in compiled.files:
+        np.testing.assert_array_equal(np.isnan(interpreted[key]), np.isnan(compiled[key]), err_msg=key)
+        np.testing.assert_allclose(interpreted[key], compiled[key], rtol=0, atol=1e-12, equal_nan=True, err_msg=key)
+    # The interpreted solutions are the oracle's too (ur-analytic-ik, on the regular rows).
+    oracle = pytest.importorskip("ur_analytic_ik").ur5e
+    model = robot_model("ur5e")
+    for _pose, rows in zip(interpreted["nominal_poses"][18:], interpreted["nominal_all"][18:], strict=False):
+        ours = rows[np.isfinite(rows[:, 0])]
+        theirs = np.array(oracle.inverse_kinematics(model.fk(ours[0]).to_matrix())).reshape(-1, 6)
+        assert len(ours) == len(theirs)
+        assert np.max(np.min(np.max(np.abs(ur_ik.wrap_angle(ours[:, None] - theirs[None])), axis=-1), axis=1)) < 1e-9
+
+
+#: Runs a CLI command in this process and reports whether numba was imported.
+CLI = """
+import json, sys
+from ur3dq.cli import main
+try:
+    main(sys.argv[1:])
+except SystemExit:
+    pass
+print(json.dumps("numba" in sys.modules))
+"""
+
+
+@pytest.mark.parametrize("command", [["--help"], ["poses", "list"], ["poses", "list", "--json"], ["robot", "--help"],
+                                     ["status", "--help"]])
+def test_commands_without_kinematics_never_import_numba(command, tmp_path):
+    result = run_python(CLI, "--store", str(tmp_path / "poses.json"), *command)
+    assert result.stdout.strip().splitlines()[-1] == "false", (result.stdout, result.stderr)
+
+
+def test_the_kinematics_import_numba_only_when_a_kernel_runs():
+    code = ("import sys\nfrom ur3dq.kinematics import robot_model, ur_ik\nfrom ur3dq import pathcheck, replay\n"
+            "model = robot_model('ur3', dh_deltas={'a': [1e-4] * 6})\nbefore = 'numba' in sys.modules\n"
+            "model.ik_all(robot_model('ur3').fk([0.1] * 6))\nprint(before, 'numba' in sys.modules)")
+    assert run_python(code).stdout.split() == ["False", "True"]
+
+
+#: Solves one pose twice in a fresh process, printing the answer.
+SOLVE = """
+import json
+from ur3dq.kinematics import robot_model
+model = robot_model("ur10e")
+pose = model.fk([0.1, -1.2, 1.3, -0.4, 0.9, 0.2])
+model.ik(pose, [0.1, -1.2, 1.3, -0.4, 0.9, 0.2])
+print(json.dumps(model.ik(pose, [0.1, -1.2, 1.3, -0.4, 0.9, 0.2]).tolist()))
+"""
+
+
+@pytest.mark.timeout(1200)   # two fresh compilations: half a minute of CPU each, minutes on a loaded machine
+def test_the_first_use_compiles_once_per_cache_and_says_so(tmp_path):
+    env = {"NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+    first, second = run_python(SOLVE, env=env), run_python(SOLVE, env=env)
+    assert first.returncode == 0 and second.returncode == 0, first.stderr + second.stderr
+    assert first.stderr.count(NOTICE) == 1, first.stderr   # once, though the kernels ran several times
+    assert NOTICE not in second.stderr, second.stderr      # the next process loads the cache
+    assert json.loads(first.stdout) == json.loads(second.stdout)
+
+
+@pytest.mark.skipif(os.geteuid() != 0 or shutil.which("setpriv") is None, reason="needs root to run as another user")
+@pytest.mark.timeout(1800)   # three fresh compilations
+def test_a_read_only_package_compiles_into_a_per_user_cache_or_in_memory():
+    """As a user who cannot write the package: with a per-user cache directory the kernels compile there once;
+    without any writable directory they compile in memory, with the notice in every process."""
+    nobody = 65534
+    home = Path(tempfile.mkdtemp(prefix="ur3dq-user-cache-"))   # under /tmp: the other user reaches it
+    os.chown(home, nobody, nobody)
+    try:
+        check_read_only_package(home, nobody)
+    finally:
+        shutil.rmtree(home)
+
+
+def check_read_only_package(home: Path, nobody: int) -> None:
+    """The two cases of test_a_read_only_package_compiles_into_a_per_user_cache_or_in_memory, as user ``nobody``."""
+    env = {"XDG_CACHE_HOME": str(home), "HOME": str(home), "NUMBA_CACHE_DIR": ""}
+    first, second = run_python(SOLVE, env=env, user=nobody), run_python(SOLVE, env=env, user=nobody)
+    assert first.returncode == 0, first.stderr
+    assert first.stderr.count(NOTICE) == 1 and NOTICE not in second.stderr, (first.stderr, second.stderr)
+    assert any(home.rglob("*.nbi"))   # numba's per-user cache directory holds the kernels
+    env = {"XDG_CACHE_HOME": "/proc/none", "HOME": "/proc/none", "NUMBA_CACHE_DIR": ""}
+    for _ in range(2):
+        alone = run_python(SOLVE, env=env, user=nobody)
+        assert alone.returncode == 0 and alone.stderr.count(NOTICE) == 1, alone.stderr
+        assert json.loads(alone.stdout) == json.loads(first.stdout)
+
+
+@pytest.mark.parametrize("name", MODEL_NAMES)
+def test_fk_batch_takes_every_sine_from_the_vectorised_tangents(name):
+    """fk_batch (numpy's tan of half angles, then the closed form) and fk (libm's sin and cos) agree to 1e-14, also
+    where the half-angle tangent blows up (angles at ±π, ±3π)."""
+    model = robot_model(name)
+    q = np.random.default_rng(1).uniform(-7.0, 7.0, (300, 6))
+    q[:20] = np.random.default_rng(2).choice([math.pi, -math.pi, 3 * math.pi, 0.0, 2 * math.pi], (20, 6))
+    batch = model.fk_batch(q)
+    for row, joints in zip(batch, q, strict=False):
+        assert np.max(np.abs(row * np.sign(row @ model.fk(joints).to_array()) - model.fk(joints).to_array())) < 1e-14
