@@ -102,7 +102,6 @@ class Controller:
         self._speed_slider = 1.0
         self._speed_scaling = 1.0  # trajectory-time scaling the controller applies itself (pause ramps it to 0)
         self._freedrive = False
-        self._freedrive_owner = None   # the program execution that switched freedrive on (None: the teach button)
         self._motions = MotionQueue(self.model, self._arm.tcp_matrix, self._solve_ik)
         self._runner = None
         self._program_running = False
@@ -487,12 +486,8 @@ class Controller:
             self._q = frozen_array(q)
             self._commit(**vars(self._snapshot(self._q, self.period)))
 
-    def set_freedrive(self, on: bool, owner: object = None) -> None:
-        """Freedrive / teach mode on or off (on needs RUNNING + NORMAL; motions are refused while it is on).
-
-        `owner` is the program execution that called freedrive_mode(): as on a controller, freedrive a program
-        switched on lasts only while that program runs (release_freedrive); None is the teach button.
-        """
+    def set_freedrive(self, on: bool) -> None:
+        """Freedrive / teach mode on or off (on needs RUNNING + NORMAL; motions are refused while it is on)."""
         with self._lock:
             if on:
                 self._modes.require_running_normal("freedrive")
@@ -500,16 +495,7 @@ class Controller:
             if bool(on) != self._freedrive:
                 log.info("freedrive %s", "on" if on else "off")
             self._freedrive = bool(on)
-            self._freedrive_owner = owner if on else None
             self._commit_status()
-
-    def release_freedrive(self, owner: object) -> None:
-        """The program execution `owner` ended: freedrive it switched on ends with it."""
-        with self._lock:
-            if self._freedrive and owner is not None and self._freedrive_owner is owner:
-                log.info("freedrive off: the program that switched it on ended")
-                self._freedrive, self._freedrive_owner = False, None
-                self._commit_status()
 
     # ---------------------------------------------------------------- settings
     def set_speed_slider(self, fraction: float) -> None:

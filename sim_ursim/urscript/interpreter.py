@@ -280,6 +280,7 @@ class Execution:
         self.unpaused.set()
         self.error = None  # the first URScriptRuntimeError of any thread
         self.end_reason = None  # why the program ended, for the log: the first halt, error or stop
+        self.holds_freedrive = False  # freedrive_mode() ran, end_freedrive_mode() not: freedrive ends with the program
         self._threads = {}
         self._handles = itertools.count(1)
         self._contexts = []
@@ -330,7 +331,6 @@ class Execution:
             self._record_error(unexpected_error(context, error))
         finally:
             self.controller.release_speed_hold(context)  # an ended thread sends no next command
-            self.controller.release_freedrive(self)  # a program's freedrive ends with it, as on a controller
             context.done.set()
             context.set_running(False)
             self.scheduler.release()

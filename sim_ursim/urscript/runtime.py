@@ -156,6 +156,8 @@ class ProgramRunner:
         try:
             self._publish(KeyMessage(code=0, argument=0, title="PROGRAM_XXX_STARTED", text=name))
             error = execution.run()
+            if execution.holds_freedrive:   # a program's freedrive ends with it, as on a controller
+                self._controller.set_freedrive(False)
             log.info("program %s ended: %s", name, execution.end_reason)
             if error is not None:
                 self._publish(RuntimeExceptionMessage(line=error.line, column=error.column, text=error.text))
@@ -177,6 +179,8 @@ class ProgramRunner:
 
     def _run_secondary(self, execution):
         error = execution.run()
+        if execution.holds_freedrive:   # a program's freedrive ends with it, as on a controller
+            self._controller.set_freedrive(False)
         if error is not None:
             self._publish(RuntimeExceptionMessage(line=error.line, column=error.column, text=error.text))
         with self._lock:

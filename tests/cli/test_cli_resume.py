@@ -110,6 +110,7 @@ def run(run_cli, arm, *args):
     return run_cli("--host", arm.host, "run-poses", *args, "--yes")
 
 
+@pytest.mark.exclusive   # 21 runs of ur3dq, each armed on its 0.1 s heartbeat: not beside the parallel pass
 def test_ctrl_c_at_random_instants_then_resume_ends_every_run_where_an_uninterrupted_one_does(
         program_arm, run_cli, tmp_path):
     arm, recorder = program_arm

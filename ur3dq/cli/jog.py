@@ -131,7 +131,7 @@ def jog(settings: Settings) -> None:
     Keys:
       m        mode: joint, TCP in the base frame, TCP in the tool frame
       1-6      the axis: J1-J6, or X Y Z RX RY RZ of the TCP
-      + / -    one step along it (arrow up / down too); nothing moves without a key
+      + / -    one step along it (or arrow up / down); no key, no motion
       s        step size 0.1, 1 or 10 (mm, or degrees)
       < / >    speed: 10, 25, 50 or 100 % of the jog's limit (0.5 rad/s, 100 mm/s)
       r        record the arm's pose into the store (named pose-N)

@@ -278,7 +278,7 @@ class Robot:
         a, v = self._clamped(status.joints, checked, a, v)
         previous = status.joints
         for index, q in enumerate(checked):
-            safety.check_travel(previous, q, self.max_joint_travel, name=f"checked[{index}]")
+            safety.check_travel(previous, q, self.max_joint_travel, name=f"targets[{index}]")
             previous = q
         if len(checked) == 1 and motion.leading_travel(status.joints, checked[0]) < 1e-9:
             return 0.0  # already there: sending a program would only add a start/stop
@@ -287,7 +287,7 @@ class Robot:
 
             last = len(checked) - 1
             self._require_clear_path(PathPlan(status.joints, [
-                PathSegment(f"checked[{index}]", "joint", target_joints=q, speed=v, acceleration=a,
+                PathSegment(f"targets[{index}]", "joint", target_joints=q, speed=v, acceleration=a,
                             blend=0.0 if index == last else float(blend)) for index, q in enumerate(checked)]))
         name = urscript.new_program_name("move")
         program = urscript.movej_program(name, checked, a, v, blend=float(blend))

@@ -247,13 +247,15 @@ def is_steady(ctx: ThreadContext):
 def freedrive_mode(ctx: ThreadContext, *args, **kwargs):
     """Freedrive on while this program runs (the axis/feature constraints of 5.x, positional or freeAxes=/feature=,
     accepted and ignored)."""
-    controller_call(ctx.controller.set_freedrive, True, owner=ctx.execution)
+    controller_call(ctx.controller.set_freedrive, True)
+    ctx.execution.holds_freedrive = True
 
 
 @builtin("end_freedrive_mode", "end_teach_mode")
 def end_freedrive_mode(ctx: ThreadContext):
     """Freedrive off."""
     controller_call(ctx.controller.set_freedrive, False)
+    ctx.execution.holds_freedrive = False
 
 
 @builtin
