@@ -1,18 +1,14 @@
 """The emulated UR controller: robot and safety modes, the control loop, commands, I/O and program hooks.
 
-Contract 3 of docs/architecture.md: a façade over vocabulary.py (modes, status bits, the `ControllerState` snapshot,
-refusals), motion_queue.py (the motions), trajectories.py (their segments) and modes.py (modes and their delays).
-One thread runs the control loop (cycle_clock.py: one period per cycle, none skipped, late ones back to back); a
-cycle applies the inputs clients queued (`at_cycle_start`), advances the motion and publishes an immutable snapshot
-that servers read (`state()`), wait for (`wait_cycle()`) or take every one of, in order (`cycles_after()`).
-
-One way to change state: every command and setter changes the controller's fields under its lock and then calls
-`_commit()`, which republishes the present snapshot with every command-set field recomputed (same cycle number), so
-a command's effect is in `state()` as soon as it returns. I/O writes commit the same way (IOState's change hook).
-Command-time problems raise `CommandRefused` (not RUNNING/NORMAL, freedrive on, a target outside the joint limits,
-an unreachable pose) or ValueError (malformed arguments); run-time problems end the Motion with `.error` set, and a
-motion crossing a joint or joint-speed limit raises a protective stop (motion_queue.py). Other modelling choices
-(speed slider and pause ramp, stops, blends) are in docs/ursim.md.
+Contract 3 of docs/architecture.md: a façade over vocabulary.py (modes, status bits, `ControllerState`, refusals),
+motion_queue.py, trajectories.py and modes.py. One thread runs the control loop (cycle_clock.py: one period per
+cycle, none skipped); a cycle applies the inputs clients queued (`at_cycle_start`), advances the motion and
+publishes an immutable snapshot that servers read (`state()`), wait for (`wait_cycle()`) or take in order
+(`cycles_after()`). Every command and setter changes the controller's fields under its lock and then calls
+`_commit()`, which republishes the present snapshot with the command-set fields recomputed (same cycle number), so
+its effect is in `state()` as soon as it returns (I/O writes too, through IOState's change hook). Command-time
+problems raise `CommandRefused` or ValueError; run-time problems end the Motion with `.error` set, and a motion
+crossing a joint or joint-speed limit raises a protective stop (motion_queue.py). Modelling choices: docs/ursim.md.
 """
 import logging
 import math
@@ -143,8 +139,7 @@ class Controller:
             self._cycle_changed.notify_all()
 
     def step(self, cycles: int = 1) -> ControllerState:
-        """Advance `cycles` cycles synchronously and return the last snapshot (a controller whose loop is not started:
-        deterministic tests, hosts that drive simulated time themselves)."""
+        """Advance `cycles` cycles synchronously (loop not started: deterministic tests); the last snapshot."""
         if self._thread is not None:
             raise CommandRefused("step() drives a stopped controller; this one runs its own control loop")
         for _ in range(int(cycles)):
@@ -169,8 +164,7 @@ class Controller:
                     self._halt(f"simulator internal error: {error!r}")
 
     def at_cycle_start(self, action: Callable[[], None]) -> None:
-        """Run `action` at the start of the next cycle, in the order queued: a controller reads its inputs (RTDE
-        input packages) once per cycle, not as they arrive."""
+        """Run `action` at the next cycle's start: a controller reads its inputs once per cycle, not as they come."""
         self._cycle_inputs.add(action)
 
     def _cycle_once(self) -> None:
@@ -214,8 +208,8 @@ class Controller:
                               execution_time=self._execution_time)
 
     def _publish(self, state: ControllerState, new_cycle: bool = False) -> None:
-        """Make `state` the snapshot `state()` returns and wake the waiters (called under the lock, so a command's
-        commit never overwrites a newer cycle); a new cycle's snapshot is also recorded for `cycles_after`."""
+        """Make `state` the snapshot `state()` returns, wake the waiters and record a new cycle's (under the lock,
+        so a command's commit never overwrites a newer cycle)."""
         with self._cycle_changed:
             self._state = state
             if new_cycle:
@@ -246,8 +240,7 @@ class Controller:
             return self._state
 
     def cycles_after(self, after_cycle: int, timeout: float | None = None) -> list[ControllerState]:
-        """Every cycle's snapshot since `after_cycle`, oldest first (the last RECORD_SECONDS kept); blocks until there
-        is one or `timeout` passes ([])."""
+        """Every cycle's snapshot since `after_cycle` (RECORD_SECONDS kept), oldest first; [] after `timeout`."""
         with self._cycle_changed:
             self._cycle_changed.wait_for(lambda: self._state.cycle > after_cycle or self._stop_loop.is_set(), timeout)
             return self._cycles.after(after_cycle, lambda state: state.cycle)
@@ -259,18 +252,13 @@ class Controller:
         zeros6 = _ZEROS6
         return ControllerState(
             **self._status_fields(), **self._settings_fields(), **self.io.snapshot_fields(),
-            cycle=self._cycle,
-            timestamp=self._sim_time,
-            target_q=self._q, target_qd=self._qd, target_qdd=self._qdd,
-            actual_q=self._q, actual_qd=self._qd,
+            cycle=self._cycle, timestamp=self._sim_time,
+            target_q=self._q, target_qd=self._qd, target_qdd=self._qdd, actual_q=self._q, actual_qd=self._qd,
             actual_current=zeros6, target_current=zeros6, target_moment=zeros6, joint_control_output=zeros6,
             actual_tcp_speed=frozen_array(tcp_speed), target_tcp_speed=frozen_array(tcp_speed),
             elbow_position=frozen_array(frames[2][:3, 3]), elbow_velocity=frozen_array(elbow_velocity),
-            actual_main_voltage=MAIN_VOLTAGE,
-            actual_robot_current=0.0,
-            actual_momentum=0.0,
-            speed_scaling=self._speed_scaling,
-            execution_time=self._execution_time,
+            actual_main_voltage=MAIN_VOLTAGE, actual_robot_current=0.0, actual_momentum=0.0,
+            speed_scaling=self._speed_scaling, execution_time=self._execution_time,
         )
 
     def _status_fields(self):
@@ -292,9 +280,7 @@ class Controller:
             power_on=powered, brakes_released=modes.brakes_released,
             protective_stopped=modes.safety_mode == SafetyMode.PROTECTIVE_STOP,
             emergency_stopped=modes.safety_mode == SafetyMode.ROBOT_EMERGENCY_STOP,
-            freedrive=self._freedrive,
-            motion_active=self._motions.busy,
-            target_speed_fraction=self._speed_slider,
+            freedrive=self._freedrive, motion_active=self._motions.busy, target_speed_fraction=self._speed_slider,
             payload=self._payload, payload_cog=self._payload_cog, payload_inertia=self._payload_inertia,
             joint_temperatures=_POWERED_TEMPERATURES if powered else _AMBIENT_TEMPERATURES,
             actual_joint_voltage=_JOINT_VOLTAGES if powered else _ZEROS6,
