@@ -588,6 +588,11 @@ class Robot:
                                  f"{'on' if on else 'off'} {OUTPUT_TIMEOUT:g} s after it was set")
             time.sleep(self._backend.poll_period)
 
+    @property
+    def inputs(self) -> RTDEInputs:
+        """This client's RTDE inputs (opened on first use): the speed slider, registers 18-22 (20: the heartbeat)."""
+        return self._rtde_inputs()
+
     def _rtde_inputs(self) -> RTDEInputs:
         """This client's RTDE inputs (opened on first use; the heartbeat beats on them)."""
         if self._inputs is None:
