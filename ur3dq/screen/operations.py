@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING
 
 from ur3dq import units as u
 from ur3dq.errors import ProgramError, RobotConnectionError, RobotError, SafetyCheckError
-from ur3dq.pathcheck import Margins, PathPlan, PathSegment, check_path
+from ur3dq.pathcheck import Margins, check_path
 from ur3dq.pose import next_free_name
 from ur3dq.program.path import path_plan_of
 from ur3dq.program.plan import Defaults, plan_program
@@ -28,7 +28,8 @@ from ur3dq.program.resolve import select_range
 from ur3dq.program.runner import run_plan
 from ur3dq.program.steps import DigitalOut, Message, Motion, Step, Wait, is_waypoint
 from ur3dq.replay import read_pose
-from ur3dq.robot.jog import Jog, JogRequest
+from ur3dq.robot.jog import Jog
+from ur3dq.robot.jog_steps import JogStep
 from ur3dq.screen import editing
 from ur3dq.screen.station import Station
 from ur3dq.screen.views import check_message
@@ -37,8 +38,6 @@ from ur3dq.store import find_step
 if TYPE_CHECKING:
     from ur3dq.robot.robot import Robot
 
-MOVE_HERE_SPEED = 0.5           # rad/s: Move here's joint move (the controller's speed slider scales it too)
-MOVE_HERE_ACCELERATION = 1.0    # rad/s²
 MAX_LOOPS = 1000
 
 
@@ -172,9 +171,10 @@ class Operations:
         """A jog button went up (in the order the page's messages came): a jog pressed before never starts."""
         self._jog_generation += 1
 
-    def jog_start(self, request: JogRequest, units: u.Units, pressed: int) -> str:
-        """Start a hold-to-move jog pressed with token `pressed` (see press); it runs until jog_stop or until
-        keep_alive stops coming. A release that came after the press and before this start wins: no motion."""
+    def jog_start(self, step: JogStep, speed: float, units: u.Units, pressed: int) -> str:
+        """Start the hold-to-move jog `step` at `speed` (rad/s, m/s) pressed with token `pressed` (see press); it
+        runs until jog_stop or until keep_alive stops coming. A release that came after the press and before this
+        start wins: no motion."""
         with self._jog_lock:
             if pressed != self._jog_generation:
                 return "released before it started"
@@ -182,16 +182,16 @@ class Operations:
                 busy = self.station.activity
                 if busy is not None and not busy.startswith("jog"):
                     raise Busy(f"the arm is busy ({busy}): wait, or Stop it first")
-                self.station.activity = f"jog {request.label}"
+                self.station.activity = f"jog {step.label}"
             try:
-                plan = self._jogger().start(request)
+                plan = self._jogger().start(step, speed)
             except BaseException:
                 self.station.activity = None
                 raise
-        kind = u.LENGTH if request.linear else u.ANGLE
-        speed = u.LINEAR_SPEED if request.linear else u.ANGULAR_SPEED
-        line = (f"jog {request.label}{'' if request.joint_mode else ' ' + request.frame}: "
-                f"{u.show(request.speed, speed, units)}, up to {u.show(plan.distance, kind, units)}"
+        kind = u.LENGTH if step.linear else u.ANGLE
+        speed_kind = u.LINEAR_SPEED if step.linear else u.ANGULAR_SPEED
+        line = (f"jog {step.label}{'' if step.joint_mode else ' ' + step.frame}: "
+                f"{u.show(plan.speed, speed_kind, units)}, up to {u.show(plan.distance, kind, units)}"
                 + (f" ({plan.limited_by})" if plan.limited_by else ""))
         self.log(line)
         return line
@@ -219,42 +219,43 @@ class Operations:
     def _jogger(self) -> Jog:
         robot = self.robot()
         if self._jog is None or self._jog.robot is not robot:
-            self._jog = Jog(robot, self.station.config.cell, self.margins)
+            self._jog = Jog(robot)   # checked in the cell the station's robot requires
         return self._jog
 
     def warm_up(self, robot: Robot) -> None:
         """Plan a jog of each kind on `robot` without moving (the first plans compile the kinematics kernels)."""
-        self._jog = jog = Jog(robot, self.station.config.cell, self.margins)
-        for request in (JogRequest("J1", 1, 0.1), JogRequest("X", 1, 0.05)):
+        self._jog = jog = Jog(robot)
+        for step in (JogStep("J1", 1), JogStep("X", 1)):
             with contextlib.suppress(SafetyCheckError, ValueError):
-                jog.plan(request)
+                jog.plan(step, 0.05)
 
-    def prepare_move_here(self, name: str) -> tuple[str, Callable[[], str]]:
-        """(question, move): a joint move from the arm to the waypoint `name`, planned and path-checked now."""
+    def prepare_move_here(self, name: str, units: u.Units) -> tuple[str, Callable[[], str]]:
+        """(question, move): the move `ur3dq move-to NAME` makes — the waypoint `name` by its own move type and
+        speed, planned from the arm and path-checked now, run by the program runner once answered yes."""
         robot = self.robot()
         steps = self.station.steps
         step = find_step(steps, name, "the program")
         if not is_waypoint(step):
             raise ValueError(f"{step.who}: not a waypoint; Move here goes to waypoints")
         start = robot.joints()
-        planned = plan_program(robot.model, [step], start, Defaults(), max_joint_travel=robot.max_joint_travel,
-                               resolve_from=steps)[0]
-        if planned.joints is None:
-            raise ValueError(f"{step.who}: has no joint target to move to")
-        target = planned.joints
-        segment = PathSegment(name, "joint", target_joints=planned.joints, speed=MOVE_HERE_SPEED,
-                              acceleration=MOVE_HERE_ACCELERATION)
-        result = check_path(robot.model, PathPlan(start, (segment,)), self.station.config.cell, self.margins,
-                            keep_samples=False)
-        if not result.ok:
-            raise SafetyCheckError(f"path check: {result.summary()}")
-        travel = float(max(abs(planned.joints - start)))
-        question = f"Move the arm to {name!r} (a joint move, largest joint travel {travel:.3f} rad)?"
+        plan = plan_program(robot.model, [step], start, Defaults(), max_joint_travel=robot.max_joint_travel,
+                            resolve_from=steps)
+        path = path_plan_of(plan, start)
+        if path is not None:
+            result = check_path(robot.model, path, self.station.config.cell, self.margins, keep_samples=False)
+            if not result.ok:
+                raise SafetyCheckError(f"path check: {result.summary()}")
+        planned, position = plan[0], [s.name for s in steps].index(name) + 1
+        speed = "" if planned.speed is None or planned.move is None else \
+            f" at {u.show(planned.speed, u.SPEED[u.angular_kind(planned.move)], units)}"
+        travel = "" if planned.travel is None else \
+            f", the largest joint turning {u.show(planned.travel, u.ANGLE, units, 3)}"
+        question = f"Move the arm to {name!r} (a {planned.move} move{speed}{travel})?"
 
         def move() -> str:
             with self.claimed(f"move here {name!r}"):
                 self.log(f"{question} yes")
-                seconds = robot.movej(target, a=MOVE_HERE_ACCELERATION, v=MOVE_HERE_SPEED)
+                seconds = run_plan(robot, plan, position)
             line = f"Moved to {name!r} in {seconds:.2f} s."
             self.log(line)
             return line

@@ -31,7 +31,7 @@ from starlette.websockets import WebSocket, WebSocketDisconnect
 
 from ur3dq import units as u
 from ur3dq.errors import UR3DQError
-from ur3dq.robot import jog as jogging
+from ur3dq.robot import jog_steps
 from ur3dq.screen import scene, views
 from ur3dq.screen.access import request_allowed, token_accepted
 from ur3dq.screen.operations import Operations
@@ -44,8 +44,7 @@ if TYPE_CHECKING:
 STATIC = Path(__file__).parent / "static"
 JOG_SILENCE = 0.25      # s without the controlling page's heartbeat that stop a jog (the controller's own at 0.25 s)
 WATCH_PERIOD = 0.05     # s between the server's checks of that silence
-JOINT_STEPS = (None, 0.1, 1.0, 5.0, 10.0)      # degrees; None: as far as held
-LINEAR_STEPS = (None, 0.0001, 0.001, 0.01, 0.05)   # metres
+JOG_STEPS = (None, *jog_steps.STEP_SIZES)     # mm or degrees (the keyboard jog's); None: as far as held
 
 
 @dataclasses.dataclass(frozen=True)
@@ -204,11 +203,12 @@ class ScreenServer:
     @staticmethod
     def _jog_choices(units: u.Units) -> dict:
         """The jog panel's step choices (labels in `units`) and its speed range."""
-        joint = ["continuous"] + [u.show(v * 3.141592653589793 / 180, u.ANGLE, units) for v in JOINT_STEPS[1:]]
-        linear = ["continuous"] + [u.show(v, u.LENGTH, units) for v in LINEAR_STEPS[1:]]
-        return {"joint_steps": joint, "linear_steps": linear,
-                "max_joint_speed": views.readout(jogging.MAX_JOINT_SPEED, u.ANGULAR_SPEED, units),
-                "max_tcp_speed": views.readout(jogging.MAX_TCP_SPEED, u.LINEAR_SPEED, units)}
+        steps = [jog_steps.step_of("J1", 1, size) for size in JOG_STEPS[1:]]
+        linear = [jog_steps.step_of("X", 1, size) for size in JOG_STEPS[1:]]
+        return {"joint_steps": ["continuous"] + [u.show(step.distance, u.ANGLE, units) for step in steps],
+                "linear_steps": ["continuous"] + [u.show(step.distance, u.LENGTH, units) for step in linear],
+                "max_joint_speed": views.readout(jog_steps.MAX_JOINT_SPEED, u.ANGULAR_SPEED, units),
+                "max_tcp_speed": views.readout(jog_steps.MAX_TCP_SPEED, u.LINEAR_SPEED, units)}
 
     async def _watch_silence(self) -> None:
         """Stop a jog whose controlling page's heartbeat has gone silent for JOG_SILENCE. After this loop itself
@@ -281,7 +281,7 @@ class ScreenServer:
             return await self._answer(page, str(args.get("qid")), bool(args.get("yes")))
         if name == "jog":   # press and release are noted here, in the order the page sent them
             pressed = ops.press()
-            return await asyncio.to_thread(ops.jog_start, self._jog_request(args), units, pressed)
+            return await asyncio.to_thread(ops.jog_start, *self._jog_request(args), units, pressed)
         if name == "jog_stop":
             ops.release()
             await asyncio.to_thread(ops.jog_stop)
@@ -308,20 +308,18 @@ class ScreenServer:
         return await asyncio.to_thread(simple[name])
 
     @staticmethod
-    def _jog_request(args: dict) -> jogging.JogRequest:
-        axis = str(args.get("axis", ""))
-        joint = axis in jogging.JOINT_AXES
+    def _jog_request(args: dict) -> tuple[jog_steps.JogStep, float]:
+        """(JogStep, speed) of a jog button: the axis, direction, frame, the step choice (an index of JOG_STEPS)
+        and the speed as a fraction of the jog's top speed."""
         fraction = float(args.get("speed", 0.1))
         if not 0.01 <= fraction <= 1.0:
             raise ValueError(f"jog speed: {fraction!r} is not a fraction 0.01..1 of the jog's top speed")
-        top = jogging.MAX_JOINT_SPEED if joint or axis.startswith("R") else jogging.MAX_TCP_SPEED
-        steps = JOINT_STEPS if joint or axis.startswith("R") else LINEAR_STEPS
         index = int(args.get("step", 0))
-        step = steps[index] if 0 <= index < len(steps) else None
-        if step is not None and steps is JOINT_STEPS:
-            step = step * 3.141592653589793 / 180
-        return jogging.JogRequest(axis, 1 if int(args.get("direction", 1)) > 0 else -1, top * fraction,
-                                  str(args.get("frame", "base")), step)
+        if not 0 <= index < len(JOG_STEPS):
+            raise ValueError(f"jog step: {index!r} is not one of the {len(JOG_STEPS)} choices")
+        step = jog_steps.step_of(str(args.get("axis", "")), 1 if int(args.get("direction", 1)) > 0 else -1,
+                                 JOG_STEPS[index], str(args.get("frame", "base")))
+        return step, step.top_speed * fraction
 
     async def _ask(self, page: Page, name: str, args: dict) -> str:
         """Prepare a motion (or output switch) that needs the operator's yes; post the question to the page."""
@@ -337,7 +335,7 @@ class ScreenServer:
                 if checked is not None:
                     self.pages.broadcast(lambda other: views.check_for_page(checked, other.units))
         elif name == "move_here":
-            question, action = await asyncio.to_thread(ops.prepare_move_here, str(args.get("name")))
+            question, action = await asyncio.to_thread(ops.prepare_move_here, str(args.get("name")), page.units)
         elif name == "retouch":
             step = str(args.get("name"))
             question, action = f"Re-record {step!r} at the arm's current pose?", lambda: ops.retouch(step)
