@@ -4,6 +4,7 @@
 test-artifacts/screen-timing.json."""
 import json
 import math
+import os
 import threading
 import time
 
@@ -27,10 +28,12 @@ WATCH_READOUT = """() => { window.readouts = [];
 
 
 def keep(figures: dict) -> None:
-    """Print `figures` and add them to the timing artifact."""
+    """Print `figures` (with the machine's load average, which they follow) and add them to the timing artifact."""
     ARTIFACTS.mkdir(parents=True, exist_ok=True)
     path = ARTIFACTS / "screen-timing.json"
     kept = json.loads(path.read_text()) if path.exists() else {}
+    first = next(iter(figures))   # page_load_s, latency_median_ms: which measurement the load went with
+    figures = {**figures, f"load_average_1min_at_{first}": round(os.getloadavg()[0], 1)}
     kept.update(figures)
     path.write_text(json.dumps(kept, indent=2))
     print(json.dumps(figures))
