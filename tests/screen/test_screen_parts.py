@@ -161,3 +161,22 @@ def test_the_command_line_does_not_load_the_web_stack(tmp_path):
             "print(sorted(m for m in sys.modules if m.split('.')[0] in ('starlette', 'uvicorn', 'websockets')))")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60, check=True)
     assert done.stdout.strip().splitlines()[-1] == "[]"
+
+
+def test_a_jog_button_is_the_drivers_jog_step_with_the_keyboards_step_sizes():
+    from ur3dq.robot import jog_steps
+    from ur3dq.screen.server import ScreenServer
+
+    held, speed = ScreenServer._jog_request({"axis": "J1", "direction": 1, "step": 0, "speed": 0.2})
+    assert held == jog_steps.JogStep("J1", 1) and held.held
+    assert speed == pytest.approx(0.2 * jog_steps.MAX_JOINT_SPEED)
+    step, speed = ScreenServer._jog_request({"axis": "Z", "direction": -1, "frame": "tool", "step": 2, "speed": 1})
+    assert step == jog_steps.JogStep("Z", -1, 0.001, "tool") and speed == jog_steps.MAX_TCP_SPEED   # 1 mm, top speed
+    turn, _ = ScreenServer._jog_request({"axis": "RX", "direction": 1, "step": 3, "speed": 0.5})
+    assert turn.size == pytest.approx(math.radians(jog_steps.STEP_SIZES[2]))
+    with pytest.raises(ValueError, match="jog speed"):
+        ScreenServer._jog_request({"axis": "J1", "speed": 2})
+    with pytest.raises(ValueError, match="jog step"):
+        ScreenServer._jog_request({"axis": "J1", "step": 9})
+    with pytest.raises(ValueError, match="axis 'J7'"):
+        ScreenServer._jog_request({"axis": "J7"})
