@@ -144,6 +144,27 @@ def test_demo_matches_its_schema(run_cli):
     validate(("demo",), run_cli("demo", "--json", timeout=180))
 
 
+def test_serve_matches_its_schema(tmp_path):
+    import signal
+    import subprocess
+    import sys
+    from types import SimpleNamespace
+
+    command = [sys.executable, "-m", "ur3dq", "--store", str(tmp_path / "p.json"), "serve", "--port", "0", "--json"]
+    with subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,
+                          env={"UR3DQ_STATE_DIR": str(tmp_path)}) as server:
+        try:
+            lines = [server.stdout.readline()]      # the object, indented, up to its closing brace
+            while lines[-1] and not lines[-1].startswith("}"):
+                lines.append(server.stdout.readline())
+            text, running = "".join(lines), server.poll() is None
+        finally:
+            server.send_signal(signal.SIGTERM)
+    assert running
+    document = validate(("serve",), SimpleNamespace(returncode=0, stdout=text, stderr=""))
+    assert document["url"] == f"http://127.0.0.1:{document['port']}/" and document["robot"] is None
+
+
 def test_every_command_was_run_with_json():
     """Runs last in this file: every command of click's registry printed a validated document above."""
     assert set(leaf_paths()) <= checked, sorted(set(leaf_paths()) - checked)

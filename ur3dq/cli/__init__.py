@@ -8,7 +8,7 @@ for _variable in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_variable, "1")
 
 # Importing the command modules registers their commands; `ur3dq X` lives in cli/X.py.
-from ur3dq.cli import check, demo, export_urp, export_urscript, fk, ik, import_urp, jog, move_to, plot, poses, record_pose, robot, run_poses, sim, status  # noqa: E402,F401,I001,E501
+from ur3dq.cli import check, demo, export_urp, export_urscript, fk, ik, import_urp, jog, move_to, plot, poses, record_pose, robot, run_poses, serve, sim, status  # noqa: E402,F401,I001,E501
 from ur3dq.cli.app import cli, main  # noqa: E402  (after the thread count)
 
 __all__ = ["cli", "main"]

@@ -57,7 +57,7 @@ EXIT_CODES_EPILOG = (
 
 # The top-level help lists the commands by what they are for (a command not named here is listed under "More").
 COMMAND_SECTIONS = (
-    ("Teach and run", ("record-pose", "poses", "run-poses", "jog", "move-to")),
+    ("Teach and run", ("record-pose", "poses", "run-poses", "jog", "move-to", "serve")),
     ("Check and export", ("check", "plot", "export-urscript", "export-urp", "import-urp")),
     ("Robot and simulator", ("status", "robot", "sim", "demo")),
     ("Kinematics", ("fk", "ik")),

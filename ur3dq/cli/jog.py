@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
-import math
 import sys
 from collections.abc import Iterator
 from typing import Any, TextIO
@@ -28,7 +27,7 @@ from ur3dq.robot import jog_steps
 from ur3dq.units import ANGLE, ANGULAR_SPEED, LENGTH, LINEAR_SPEED, Kind, Units, show, to_display
 
 MODES = ("joint", "TCP base", "TCP tool")
-STEP_SIZES = (0.1, 1.0, 10.0)            # mm, or degrees
+STEP_SIZES = jog_steps.STEP_SIZES       # mm, or degrees
 SPEED_SHARES = (0.1, 0.25, 0.5, 1.0)     # of the jog's speed limits (jog_steps.MAX_JOINT_SPEED, MAX_TCP_SPEED)
 SCREEN_UNITS = Units(angle="deg", length="mm")   # the pendant's units
 WIDTH, HEIGHT = 80, 24
@@ -54,16 +53,12 @@ class JogScreen:
 
     def jog_step(self, direction: int) -> jog_steps.JogStep:
         """The JogStep of a + (1) or - (-1) key in the current mode, axis and step size."""
-        axis = self.axes[self.axis]
-        linear = axis in jog_steps.TCP_AXES[:3]
-        size = STEP_SIZES[self.step] * (1e-3 if linear else math.pi / 180.0)
         frame = "tool" if self.mode == 2 else "base"
-        return jog_steps.JogStep(axis, direction, size, frame)
+        return jog_steps.step_of(self.axes[self.axis], direction, STEP_SIZES[self.step], frame)
 
     def speed_for(self, step: jog_steps.JogStep) -> float:
         """The step's speed: the chosen share of the jog's joint (rad/s) or TCP (m/s, rad/s) speed limit."""
-        limit = jog_steps.MAX_JOINT_SPEED if step.joint_mode else jog_steps.MAX_TCP_SPEED
-        return SPEED_SHARES[self.speed] * limit
+        return SPEED_SHARES[self.speed] * step.top_speed
 
 
 def screen_lines(screen: JogScreen, title: str, joints: Any, tcp: Any, store: str) -> list[str]:

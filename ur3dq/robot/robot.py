@@ -314,15 +314,11 @@ class Robot:
         return self._move_line("process", pose, a, v)
 
     def jog(self, step: jog_steps.JogStep, speed: float) -> float:
-        """One jog step (ur3dq.robot.jog_steps.JogStep: a joint or a TCP axis, a direction, a bounded size) at
-        `speed` (rad/s for a joint, m/s for the TCP; capped at the jog's limits): planned from the arm's joints,
-        checked and watched to its end like any motion, so nothing moves once it returns. Returns the wall time."""
-        if isinstance(speed, bool) or not isinstance(speed, (int, float)) or not (math.isfinite(speed) and speed > 0):
-            raise SafetyCheckError(f"jog speed must be a number > 0, got {speed!r}")
-        move, joints, pose = jog_steps.step_target(self.model, self.joints(), step)
-        if pose is None:   # a joint step
-            return self.movej(joints, a=jog_steps.JOINT_ACCELERATION, v=min(speed, jog_steps.MAX_JOINT_SPEED))
-        return self._move_line(move, pose, jog_steps.TCP_ACCELERATION, min(speed, jog_steps.MAX_TCP_SPEED))
+        """One bounded jog step (jog_steps.JogStep) at `speed` (rad/s, m/s for X Y Z; capped at the jog's limits),
+        checked and watched to its end: ur3dq.robot.jog.Jog.run (Jog.start: hold-to-move). Returns the wall time."""
+        from ur3dq.robot.jog import Jog
+
+        return Jog(self).run(step, speed)
 
     def _move_line(self, move: str, pose: PoseLike, a: float | None, v: float | None) -> float:
         """movel/movep to `pose` from the arm's joints, its whole line checked first."""
@@ -356,6 +352,11 @@ class Robot:
         from ur3dq.pathcheck import Margins
 
         self._path_check = (cell, margins or Margins())
+
+    @property
+    def required_path_check(self) -> tuple[Cell | None, Margins] | None:
+        """(cell, margins) every motion's path is checked in since require_path_check, or None."""
+        return self._path_check
 
     def _require_clear_path(self, path: PathPlan | None, always: bool = False) -> None:
         """Check `path` (a PathPlan from the arm's joints) when a path check is required (or `always`, without a
@@ -587,6 +588,11 @@ class Robot:
                 raise RobotError(f"{self.host} does not show {family} digital output {pin} "
                                  f"{'on' if on else 'off'} {OUTPUT_TIMEOUT:g} s after it was set")
             time.sleep(self._backend.poll_period)
+
+    @property
+    def inputs(self) -> RTDEInputs:
+        """This client's RTDE inputs (opened on first use): the speed slider, registers 18-22 (20: the heartbeat)."""
+        return self._rtde_inputs()
 
     def _rtde_inputs(self) -> RTDEInputs:
         """This client's RTDE inputs (opened on first use; the heartbeat beats on them)."""

@@ -63,6 +63,14 @@ class RTDEInputs:
             raise RobotConnectionError(f"cannot switch {family} digital output {pin} {'on' if on else 'off'} "
                                        f"through the RTDE inputs of {self.host}:30004")
 
+    def set_speed_slider(self, fraction: float) -> None:
+        """Set the controller's speed slider (0..1: the speed scaling of every motion); ValueError outside it,
+        RobotConnectionError when the write fails."""
+        if not (isinstance(fraction, (int, float)) and 0.0 <= fraction <= 1.0):
+            raise ValueError(f"speed slider: {fraction!r} is not a fraction 0..1")
+        if not self.write(lambda io: io.setSpeedSlider(float(fraction))):
+            raise RobotConnectionError(f"cannot set the speed slider through the RTDE inputs of {self.host}:30004")
+
     def reconnect(self) -> bool:
         """Open the connection again after a failed write; False (or RobotConnectionError) if refused."""
         with self._lock:

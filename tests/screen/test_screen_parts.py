@@ -1,0 +1,182 @@
+"""The screen's parts without a browser: the page's edits with undo/redo through the store, what the page shows in
+the user's units, who may open it, and `ur3dq serve`'s refusals."""
+import math
+import socket
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from ur3dq import units as u
+from ur3dq.errors import StoreError
+from ur3dq.kinematics import robot_model
+from ur3dq.pose import Pose
+from ur3dq.program.steps import Motion, RelativeWaypoint, Wait, Waypoint
+from ur3dq.screen import editing, views
+from ur3dq.screen.access import is_loopback, request_allowed, token_accepted
+from ur3dq.screen.operations import Operations
+from ur3dq.store import PoseStore
+
+UR3 = robot_model("ur3")
+Q = np.array([0.0, -1.2, 1.0, -1.4, -1.57, 0.0])
+DEG_MM = u.Units(angle="deg", length="mm")
+
+
+def pose(name: str, dq: float = 0.0) -> Pose:
+    q = Q + np.array([dq, 0, 0, 0, 0, 0])
+    return Pose.from_dual_quaternion(name, UR3.fk(q), "ur3", joints=tuple(q))
+
+
+@pytest.fixture
+def store(tmp_path):
+    store = PoseStore(tmp_path / "poses.json")
+    store.add_many([pose("a"), pose("b", 0.2), pose("c", 0.4)])
+    return store
+
+
+def names(store: PoseStore) -> list[str]:
+    return [step.name for step in store.load_program()]
+
+
+def test_edits_go_through_the_store_and_undo_redo_them(store):
+    editor = editing.ProgramEditor(store)
+    editor.apply("add a wait", editing.insert_step(lambda taken: Wait("wait-1", 0.5), "a"))
+    editor.apply("move c up", editing.move_step("c", -1))
+    editor.apply("rename b", editing.rename_step("b", "place"))
+    assert names(store) == ["a", "wait-1", "c", "place"]
+    assert editor.undo() == "rename b" and names(store) == ["a", "wait-1", "c", "b"]
+    assert editor.undo() == "move c up" and names(store) == ["a", "wait-1", "b", "c"]
+    assert editor.redo() == "move c up" and names(store) == ["a", "wait-1", "c", "b"]
+    assert editor.state()["can_undo"] and editor.state()["can_redo"]
+    editor.apply("delete wait", editing.delete_step("wait-1"))   # a new edit ends the redo history
+    assert not editor.state()["can_redo"]
+    with pytest.raises(StoreError, match="nothing to redo"):
+        editor.redo()
+
+
+def test_undo_never_loses_an_edit_made_elsewhere(store):
+    editor = editing.ProgramEditor(store)
+    editor.apply("delete b", editing.delete_step("b"))
+    PoseStore(store.path).rename("c", "place")        # the command line, meanwhile
+    with pytest.raises(StoreError, match="changed since"):
+        editor.undo()
+    assert names(store) == ["a", "place"]             # both edits are still there
+    assert editor.state()["can_undo"]
+
+
+def test_the_last_fifty_edits_can_be_undone(store):
+    editor = editing.ProgramEditor(store)
+    for number in range(editing.MAX_UNDO + 5):
+        editor.apply(f"wait {number}", editing.insert_step(lambda taken, n=number: Wait(f"wait-{n}", 0.1), None))
+    for _ in range(editing.MAX_UNDO):
+        editor.undo()
+    assert not editor.state()["can_undo"]
+    assert names(store) == ["a", "b", "c"] + [f"wait-{n}" for n in range(5)]
+
+
+def test_a_bad_edit_changes_nothing_and_is_not_remembered(store):
+    editor = editing.ProgramEditor(store)
+    store.update_program(lambda steps: (steps + [RelativeWaypoint("above-a", "a", (0, 0, -0.05, 0, 0, 0))], None))
+    before = store.path.read_text()
+    with pytest.raises(ValueError, match="above-a"):
+        editor.apply("delete a", editing.delete_step("a"))       # a relative waypoint is based on it
+    with pytest.raises(ValueError, match="already the first"):
+        editor.apply("move a up", editing.move_step("a", -1))
+    assert store.path.read_text() == before and not editor.state()["can_undo"]
+
+
+def test_steps_are_shown_in_the_pages_units():
+    joint = Waypoint("a", pose("a"), Motion("joint", speed=math.radians(60), blend=0.02))
+    line = Waypoint("b", pose("b"), Motion("linear", speed=0.25))
+    relative = RelativeWaypoint("above", "a", (0.0, 0.0, -0.05, 0.0, 0.0, 0.0))
+    assert views.step_row(joint, DEG_MM)["speed"] == "60 °/s"
+    assert views.step_row(joint, DEG_MM)["blend"] == "20 mm"
+    assert views.step_row(joint, u.Units())["speed"] == "1.0472 rad/s"
+    assert views.step_row(line, DEG_MM)["speed"] == "250 mm/s" and views.step_row(line, DEG_MM)["blend"] == "default"
+    assert views.step_row(relative, DEG_MM)["details"] == "from a (tool frame): 0 mm, 0 mm, -50 mm"
+    assert views.readout(math.radians(12.3456), u.ANGLE, DEG_MM) == "12.35 °"
+    assert views.readout(0.123456, u.LENGTH, u.Units()) == "0.1235 m"
+
+
+def test_a_checks_problems_are_shown_in_the_pages_units():
+    message = {"problems": [{"step": "a", "line": "…", "tcp": [-0.399, -0.118, 0.03], "check": "cell",
+                             "fraction": 1.0, "message": 'wrist 3 capsule 82 mm inside keep-out box "table"',
+                             "hint": "add a waypoint"}], "smallest_clearance": -0.0919622}
+    shown = views.check_for_page(message, DEG_MM)
+    assert shown["problems"][0]["line"] == ("step 'a' at 100% of the move (TCP -399.0, -118.0, 30.0 mm): wrist 3 "
+                                            'capsule 82 mm inside keep-out box "table"; add a waypoint')
+    assert shown["smallest"] == "smallest clearance -92.0 mm"
+    assert views.check_for_page(message, u.Units())["smallest"] == "smallest clearance -0.0920 m"
+
+
+def test_typed_speeds_and_blends_are_read_in_the_pages_units():
+    motion = Operations._motion_of({"move": "linear", "speed": "250", "blend": "5"}, DEG_MM)
+    assert (motion.move, motion.speed, motion.blend) == ("linear", pytest.approx(0.25), pytest.approx(0.005))
+    motion = Operations._motion_of({"move": "joint", "speed": "60", "blend": ""}, DEG_MM)
+    assert motion.speed == pytest.approx(math.radians(60)) and motion.blend is None
+    assert Operations._motion_of({"move": "joint", "speed": "0.5rad/s"}, DEG_MM).speed == pytest.approx(0.5)
+    with pytest.raises(ValueError, match="'mm/s' is a unit of linear speed"):
+        Operations._motion_of({"move": "joint", "speed": "250mm/s"}, DEG_MM)
+
+
+def test_only_loopback_is_open_without_a_token():
+    assert is_loopback("127.0.0.1") and is_loopback("127.4.5.6") and is_loopback("::1") and is_loopback("localhost")
+    assert not is_loopback("0.0.0.0") and not is_loopback("192.168.1.10") and not is_loopback("cell-pc")
+    assert token_accepted(None, None)
+    assert token_accepted("s3cret-token-1", "s3cret-token-1")
+    assert not token_accepted("s3cret-token-1", None) and not token_accepted("s3cret-token-1", "s3cret-token-2")
+
+
+def test_only_the_screens_own_page_may_open_its_websocket():
+    assert request_allowed("127.0.0.1:8765", "http://127.0.0.1:8765", False)
+    assert request_allowed("localhost:8765", None, False)                        # no browser: no Origin
+    assert not request_allowed("127.0.0.1:8765", "http://shop.example", False)   # another site in the browser
+    assert not request_allowed("rebound.example:8765", "http://rebound.example:8765", False)   # DNS rebinding
+    assert request_allowed("10.0.0.5:8765", "http://10.0.0.5:8765", True)         # off loopback, with the token
+    assert not request_allowed("10.0.0.5:8765", "http://10.0.0.6:8765", True)
+
+
+def serve(tmp_path, *arguments: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "ur3dq", "--store", str(tmp_path / "p.json"), "serve", *arguments],
+                          capture_output=True, text=True, timeout=60, env={"UR3DQ_STATE_DIR": str(tmp_path)})
+
+
+def test_serve_refuses_other_machines_without_a_token_and_a_taken_port(tmp_path):
+    refused = serve(tmp_path, "--bind", "0.0.0.0")
+    assert refused.returncode == 2 and "--bind 0.0.0.0 lets other machines open the page" in refused.stderr
+    assert "--token" in refused.stderr.splitlines()[-1]
+    short = serve(tmp_path, "--bind", "127.0.0.1", "--token", "abc")
+    assert short.returncode == 2 and "at least 12 characters" in short.stderr
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen(1)
+        busy = serve(tmp_path, "--port", str(taken.getsockname()[1]))
+    assert busy.returncode == 2 and "cannot listen on 127.0.0.1" in busy.stderr.splitlines()[-1]
+
+
+def test_the_command_line_does_not_load_the_web_stack(tmp_path):
+    code = ("import sys; from ur3dq.cli import main\n"
+            "try:\n    main(['--help'])\nexcept SystemExit:\n    pass\n"
+            "print(sorted(m for m in sys.modules if m.split('.')[0] in ('starlette', 'uvicorn', 'websockets')))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60, check=True)
+    assert done.stdout.strip().splitlines()[-1] == "[]"
+
+
+def test_a_jog_button_is_the_drivers_jog_step_with_the_keyboards_step_sizes():
+    from ur3dq.robot import jog_steps
+    from ur3dq.screen.server import ScreenServer
+
+    held, speed = ScreenServer._jog_request({"axis": "J1", "direction": 1, "step": 0, "speed": 0.2})
+    assert held == jog_steps.JogStep("J1", 1) and held.held
+    assert speed == pytest.approx(0.2 * jog_steps.MAX_JOINT_SPEED)
+    step, speed = ScreenServer._jog_request({"axis": "Z", "direction": -1, "frame": "tool", "step": 2, "speed": 1})
+    assert step == jog_steps.JogStep("Z", -1, 0.001, "tool") and speed == jog_steps.MAX_TCP_SPEED   # 1 mm, top speed
+    turn, _ = ScreenServer._jog_request({"axis": "RX", "direction": 1, "step": 3, "speed": 0.5})
+    assert turn.size == pytest.approx(math.radians(jog_steps.STEP_SIZES[2]))
+    with pytest.raises(ValueError, match="jog speed"):
+        ScreenServer._jog_request({"axis": "J1", "speed": 2})
+    with pytest.raises(ValueError, match="jog step"):
+        ScreenServer._jog_request({"axis": "J1", "step": 9})
+    with pytest.raises(ValueError, match="axis 'J7'"):
+        ScreenServer._jog_request({"axis": "J7"})

@@ -1,0 +1,147 @@
+"""What the page shows, as JSON-ready dicts: the live state, the program's steps and the path check, every number a
+person reads written by ur3dq.units in the page's chosen units (the joints, TCP, speeds, blends, offsets, margins).
+
+Pure functions of library values (RobotStatus, steps, PathCheckResult): the server decides when to send them.
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from ur3dq import units as u
+from ur3dq.kinematics.models import URModel
+from ur3dq.pathcheck import Cell, Margins, PathCheckResult
+from ur3dq.pathcheck.checks import StepChecker
+from ur3dq.program.steps import RelativeWaypoint, Step, Waypoint, describe, is_waypoint
+
+#: Digits after the point of the live readouts (0.01° / 0.1 mm; 1e-4 rad / m).
+READOUT_DIGITS = {"°": 2, "rad": 4, "mm": 1, "m": 4, "°/s": 1, "rad/s": 3, "mm/s": 0, "m/s": 3}
+#: At most this many samples of one move go to the page (its path is drawn as a line through them).
+MAX_PATH_POINTS = 120
+
+
+def readout(value: float, kind: u.Kind, units: u.Units) -> str:
+    """A live readout: `value` (SI) in the page's units with READOUT_DIGITS."""
+    return u.show(value, kind, units, digits=READOUT_DIGITS.get(u.unit_label(kind, units), 3))
+
+
+@dataclasses.dataclass(frozen=True)
+class Snapshot:
+    """One reading of the cell for the page (SI): the controller's status and what the server is doing."""
+
+    connected: bool
+    robot_mode: str
+    safety_mode: str
+    program: str              # STOPPED / PLAYING / PAUSED (the dashboard's words)
+    joints: tuple = (0.0,) * 6
+    tcp_pose: tuple = (0.0,) * 6
+    placed: dict | None = None   # scene.ArmShape.placed of the joints
+    speed_slider: float = 1.0
+    freedrive: bool = False
+    inputs: dict | None = None   # {group: [bools]}
+    outputs: dict | None = None
+    activity: str | None = None  # "run", "jog J1+", "move here", ... while the server moves the arm
+    running_step: str | None = None
+    loop: str | None = None      # "2 / 5" while a run loops
+    message: str | None = None   # why there is no robot (connection error), else None
+    ready: bool = False          # connected and prepared: motions may start
+    read_at: float = 0.0         # when it was read (time.time(), s): a page can tell how old what it shows is
+
+
+def state_message(snapshot: Snapshot, units: u.Units, control: dict) -> dict:
+    """The `state` message of one page: the snapshot with its numbers in `units` and who has control."""
+    joints_text = [readout(q, u.ANGLE, units) for q in snapshot.joints]
+    x, y, z, rx, ry, rz = snapshot.tcp_pose
+    return {
+        "type": "state", "connected": snapshot.connected, "robot_mode": snapshot.robot_mode,
+        "safety_mode": snapshot.safety_mode, "program": snapshot.program, "joints": list(snapshot.joints),
+        "joints_text": joints_text,
+        "tcp_text": [readout(v, u.LENGTH, units) for v in (x, y, z)] + [readout(v, u.ANGLE, units) for v in
+                                                                        (rx, ry, rz)],
+        "arm": snapshot.placed, "speed_slider": snapshot.speed_slider, "freedrive": snapshot.freedrive,
+        "inputs": snapshot.inputs, "outputs": snapshot.outputs,
+        "activity": snapshot.activity, "running_step": snapshot.running_step, "loop": snapshot.loop,
+        "message": snapshot.message, "ready": snapshot.ready, "read_at": snapshot.read_at, "control": control,
+    }
+
+
+def step_row(step: Step, units: u.Units) -> dict:
+    """One program step as the list shows it: name, kind, move type, speed and blend in `units`, details."""
+    row = {"name": step.name, "kind": step.kind, "move": None, "speed": "", "blend": "", "details": "",
+           "waypoint": is_waypoint(step), "recorded": isinstance(step, Waypoint)}
+    if is_waypoint(step):
+        motion = step.motion
+        angular = u.angular_kind(motion.move)
+        row["move"] = motion.move
+        row["speed"] = "default" if motion.speed is None else u.show(motion.speed, u.SPEED[angular], units)
+        row["blend"] = "default" if motion.blend is None else u.show(motion.blend, u.LENGTH, units)
+        if isinstance(step, RelativeWaypoint):
+            offset = ", ".join(u.show(v, u.LENGTH, units) for v in step.offset[:3])
+            turn = ", ".join(u.show(v, u.ANGLE, units) for v in step.offset[3:])
+            row["details"] = f"from {step.base} ({step.frame} frame): {offset}" + (
+                f"; turn {turn}" if any(step.offset[3:]) else "")
+    else:
+        row["details"] = describe(step)
+    return row
+
+
+def program_message(steps: list[Step], units: u.Units, editor_state: dict, frames: list, source: str) -> dict:
+    """The `program` message: every step's row, the undo/redo state, the poses' frames for the 3D view."""
+    return {"type": "program", "steps": [step_row(step, units) for step in steps], "source": source,
+            "frames": frames, **editor_state}
+
+
+def check_message(result: PathCheckResult | None, model: URModel, cell: Cell | None, margins: Margins,
+                  start_name: str | None = None, error: str | None = None,
+                  error_step: str | None = None) -> dict:
+    """The `check` message of a path check `result` (kept samples) of the program on `model` in `cell`: a verdict
+    per step, the problems (one line each), and each move's sampled TCP path with its clearance per sample (m,
+    the smallest of self-collision and cell margins: the page colours by it). `error` (a planning error naming
+    `error_step`) stands for a check that could not run. Post it with check_for_page."""
+    if error is not None:
+        return {"type": "check", "ok": False, "summary": error, "error": True, "from": start_name,
+                "problems": [{"step": error_step, "line": error, "tcp": None, "check": "plan"}],
+                "verdicts": {error_step: "fail"} if error_step else {}, "paths": [], "smallest_clearance": None}
+    assert result is not None, "a check message needs the check's result or its error"
+    failed = {problem.step for problem in result.problems}
+    checker = StepChecker(model, cell, margins)
+    paths = []
+    verdicts = {}
+    for report in result.steps:
+        verdicts[report.name] = "fail" if report.name in failed else "ok"
+        if report.tcp is None or not len(report.tcp):
+            continue
+        pick = np.unique(np.linspace(0, len(report.tcp) - 1, min(len(report.tcp), MAX_PATH_POINTS)).astype(int))
+        own, cell_margins = checker.clearance_margins(report.joints[pick])
+        clearance = np.min(np.concatenate([own, cell_margins, np.full((len(pick), 1), np.inf)], axis=1), axis=1)
+        paths.append({"step": report.name, "points": np.round(report.tcp[pick], 5).tolist(),
+                      "clearance": [None if not np.isfinite(c) else round(float(c), 5) for c in clearance]})
+    for name in result.unchecked:
+        verdicts[name] = "fail"
+    smallest = result.steps.smallest_margins()
+    clearances = [value for check, (value, _) in smallest.items() if check in ("self_collision", "cell")]
+    return {"type": "check", "ok": result.ok, "summary": result.summary(), "from": start_name,
+            "problems": [{"step": p.step, "line": p.line(), "tcp": list(p.tcp), "check": p.check,
+                          "fraction": p.fraction, "message": p.message, "hint": p.hint} for p in result.problems],
+            "verdicts": verdicts, "paths": paths, "smallest_clearance": min(clearances) if clearances else None}
+
+
+def check_for_page(message: dict, units: u.Units) -> dict:
+    """A `check` message with its numbers in the page's `units`: the smallest clearance, and where each problem is
+    (Problem.line's words, the TCP position in `units`; the check's own figures stay as the check wrote them)."""
+    value = message.get("smallest_clearance")
+    problems = [{**problem, "line": problem_line(problem, units)} for problem in message["problems"]]
+    smallest = "" if value is None else f"smallest clearance {readout(value, u.LENGTH, units)}"
+    return {**message, "problems": problems, "smallest": smallest}
+
+
+def problem_line(problem: dict, units: u.Units) -> str:
+    """One problem of a `check` message as Problem.line says it, the TCP in `units`."""
+    if problem.get("tcp") is None or "message" not in problem:
+        return problem["line"]
+    label = u.unit_label(u.LENGTH, units)
+    where = ", ".join(f"{u.to_display(v, u.LENGTH, units):.{READOUT_DIGITS[label]}f}" for v in problem["tcp"])
+    where += f" {label}"
+    return (f"step {problem['step']!r} at {problem['fraction']:.0%} of the move (TCP {where}): {problem['message']}; "
+            f"{problem['hint']}")
