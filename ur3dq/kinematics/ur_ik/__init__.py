@@ -91,7 +91,8 @@ def closed_form_poses(model: Any, joints: np.ndarray, tool: np.ndarray) -> np.nd
 
 def closed_form_pose(model: Any, q: tuple[float, ...], tool: np.ndarray) -> tuple[float, ...]:
     """The 8 coefficients of ``tool`` (8 coefficients in the flange frame) on a nominal arm at 6 joint floats."""
-    return tuple(kernels()[0].nominal_pose_of(arm_vector(model), tool, *q))
+    pose: tuple[float, ...] = kernels()[0].nominal_pose(arm_vector(model), tool, *q)
+    return pose
 
 
 def dh_frames(model: Any, joints: np.ndarray) -> np.ndarray:
@@ -312,7 +313,7 @@ def warm() -> None:
         tangents = np.empty((6, 1))
         fk.half_tangent_angles(q, tangents)
         fk.nominal_poses(arm, identity, np.tan(tangents), pose)
-        fk.nominal_pose_of(arm, identity, *q[0].tolist())
+        fk.nominal_pose(arm, identity, *q[0].tolist())
         solve.closest_variant(0.0, 0.0, -1.0, 1.0, LIMIT_ROUNDING)
         nearest.all_rows(arm, pose, np.zeros(1), np.empty((1, 8, 6)))
         nearest.nearest_rows(arm, pose, q, _UNIT_WEIGHTS, np.empty((1, 6)), np.empty(1, dtype=np.int64))
