@@ -176,3 +176,16 @@ def test_every_kernel_module_warms_once_with_the_notice(monkeypatch):
     assert [label for label, _ in labels] == ["dls"]
     assert {Path(source).name for source in labels[0][1]} >= {"dls_kernels.py", "chain_kernels.py", "chain.py",
                                                               "dualquat.py"}
+
+
+@pytest.mark.timeout(1200)   # `--warm` compiles where the cache lacks the kernels (make test warms it first)
+def test_a_warm_cache_is_found_whatever_module_a_process_imports_first():
+    """The cache's marker is looked up by the kernels' sources, not by the order their modules were imported: a
+    process that imports a kernel module before ur_ik loads the cache `--warm` left, silently."""
+    warm = subprocess.run([sys.executable, "-m", "ur3dq.kinematics.jit", "--warm"], capture_output=True, text=True,
+                          check=False, timeout=1200)
+    assert warm.returncode == 0, warm.stderr
+    for first in ("ur3dq.kinematics.ur_ik.nearest", "ur3dq.kinematics.fk", "ur3dq.kinematics.dls_kernels"):
+        result = run_python(f"import {first}\nfrom ur3dq.kinematics import dls, ur_ik\nur_ik.kernels()\n"
+                            "dls.kernels()")
+        assert result.returncode == 0 and NOTICE not in result.stderr, (first, result.stderr)

@@ -95,7 +95,7 @@ def warm_once(label: str, sources: tuple[str, ...], warm: Callable[[], None]) ->
     digest = hashlib.sha256(numba.__version__.encode())
     for source in sources:
         digest.update(Path(source).read_bytes())
-    first = next(iter(directories.values()), None)
+    first = next((directories[source] for source in sources if source in directories), None)   # not import order
     marker = None if first is None else first / f"ur3dq-{label}-{digest.hexdigest()[:16]}.compiled"
     if marker is not None and marker.exists():
         return
