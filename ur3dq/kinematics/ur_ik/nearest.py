@@ -85,22 +85,6 @@ def cost_bound(angle: float, reference: float, weight: float) -> float:
 
 
 @kernel
-def solve_wrist(arm: np.ndarray, goal: np.ndarray, i1: int, reference: np.ndarray, weights: np.ndarray,
-                nodes: np.ndarray) -> None:
-    """Solve the wrist of θ1 = nodes[2·i1, THETA1] into its two nodes (θ5 signs), each bound raised by the costs of
-    θ5 and θ6 (θ6 only on a regular wrist: a singular one's split, and θ6 with it, moves later)."""
-    cos1, sin1, theta5, theta6, theta234, singular = equations.wrist_of(arm, goal, nodes[2 * i1, THETA1],
-                                                                        solve.wrap(reference[5]))
-    for i5 in range(2):
-        node = nodes[2 * i1 + i5]
-        node[THETA5], node[THETA6], node[THETA234] = equations.flipped(theta5, theta6, theta234, singular, i5)
-        node[COS1], node[SIN1], node[SINGULAR], node[STATE] = cos1, sin1, singular, WRIST_SOLVED
-        node[BOUND] += cost_bound(node[THETA5], reference[4], weights[4])
-        if singular == 0:
-            node[BOUND] += cost_bound(node[THETA6], reference[5], weights[5])
-
-
-@kernel
 def rank(arm: np.ndarray, goal: np.ndarray, rows: np.ndarray, slot: int, reference: np.ndarray,
          weights: np.ndarray, costs: np.ndarray, out: np.ndarray) -> None:
     """costs[slot] of rows[slot]: its in-limit variants' cost within LIMIT_ROUNDING of the limits and, where that
@@ -115,10 +99,23 @@ def rank(arm: np.ndarray, goal: np.ndarray, rows: np.ndarray, slot: int, referen
 
 
 @kernel
-def expand(arm: np.ndarray, goal: np.ndarray, node: int, reference: np.ndarray, weights: np.ndarray,
-           rows: np.ndarray, costs: np.ndarray, nodes: np.ndarray, out: np.ndarray) -> None:
-    """Solve and rank a node's two elbow branches, slots 2·node and 2·node + 1."""
+def advance(arm: np.ndarray, goal: np.ndarray, node: int, reference: np.ndarray, weights: np.ndarray,
+            rows: np.ndarray, costs: np.ndarray, nodes: np.ndarray, out: np.ndarray) -> None:
+    """One step of a node: unsolved, the wrist of its θ1 into both nodes of that θ1 (θ5 signs), each bound raised
+    by the costs of θ5 and θ6 (θ6 only on a regular wrist: a singular one's split, and θ6 with it, moves later);
+    solved, its two elbow branches into slots 2·node and 2·node + 1, ranked."""
     n = nodes[node]
+    if n[STATE] == UNSOLVED:
+        cos1, sin1, theta5, theta6, theta234, singular = equations.wrist_of(arm, goal, n[THETA1],
+                                                                            solve.wrap(reference[5]))
+        for sibling in range(node - node % 2, node - node % 2 + 2):
+            m = nodes[sibling]
+            m[THETA5], m[THETA6], m[THETA234] = equations.flipped(theta5, theta6, theta234, singular, sibling % 2)
+            m[COS1], m[SIN1], m[SINGULAR], m[STATE] = cos1, sin1, singular, WRIST_SOLVED
+            m[BOUND] += cost_bound(m[THETA5], reference[4], weights[4])
+            if singular == 0:
+                m[BOUND] += cost_bound(m[THETA6], reference[5], weights[5])
+        return
     equations.elbow_branches(arm, goal, n[THETA1], n[COS1], n[SIN1], n[THETA5], n[THETA6], n[THETA234],
                              int(n[SINGULAR]), rows[2 * node:2 * node + 2])
     for slot in range(2 * node, 2 * node + 2):
@@ -163,10 +160,7 @@ def nearest(arm: np.ndarray, goal: np.ndarray, reference: np.ndarray, weights: n
         node, best = least_open_node(nodes), int(np.argmin(costs))
         slot, inside = best // 2, best % 2
         if node >= 0 and nodes[node, BOUND] <= costs[slot, inside]:
-            if nodes[node, STATE] == UNSOLVED:
-                solve_wrist(arm, goal, node // 2, reference, weights, nodes)
-            else:
-                expand(arm, goal, node, reference, weights, rows, costs, nodes, out)
+            advance(arm, goal, node, reference, weights, rows, costs, nodes, out)
             continue
         if not costs[slot, inside] < math.inf:
             break
