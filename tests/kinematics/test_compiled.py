@@ -155,3 +155,37 @@ def test_fk_batch_takes_every_sine_from_the_vectorised_tangents(name):
     batch = model.fk_batch(q)
     for row, joints in zip(batch, q, strict=False):
         assert np.max(np.abs(row * np.sign(row @ model.fk(joints).to_array()) - model.fk(joints).to_array())) < 1e-14
+
+
+def test_every_kernel_module_warms_once_with_the_notice(monkeypatch):
+    """`--warm` (make test, make demo) reaches the IK's and the DLS's kernels, and each module's first use goes
+    through jit.warm_once (the one-line notice where its cache lacks them) once per process."""
+    import importlib
+
+    from ur3dq.kinematics import dls, jit
+
+    assert set(jit.KERNEL_MODULES) == {"ur3dq.kinematics.ur_ik", "ur3dq.kinematics.dls"}
+    for name in jit.KERNEL_MODULES:
+        assert callable(importlib.import_module(name).kernels)
+    labels = []
+    monkeypatch.setattr(jit, "warm_once", lambda label, sources, warm: labels.append((label, sources)))
+    monkeypatch.setattr(dls, "_warmed", False)
+    chain = robot_model("ur3").chain
+    dls.dls_ik(chain, chain.fk(np.zeros(6)), np.full(6, 0.1), mode="improved")
+    dls.pose_jacobian(chain, np.zeros(6))
+    assert [label for label, _ in labels] == ["dls"]
+    assert {Path(source).name for source in labels[0][1]} >= {"dls_kernels.py", "chain_kernels.py", "chain.py",
+                                                              "dualquat.py"}
+
+
+@pytest.mark.timeout(1200)   # `--warm` compiles where the cache lacks the kernels (make test warms it first)
+def test_a_warm_cache_is_found_whatever_module_a_process_imports_first():
+    """The cache's marker is looked up by the kernels' sources, not by the order their modules were imported: a
+    process that imports a kernel module before ur_ik loads the cache `--warm` left, silently."""
+    warm = subprocess.run([sys.executable, "-m", "ur3dq.kinematics.jit", "--warm"], capture_output=True, text=True,
+                          check=False, timeout=1200)
+    assert warm.returncode == 0, warm.stderr
+    for first in ("ur3dq.kinematics.ur_ik.nearest", "ur3dq.kinematics.fk", "ur3dq.kinematics.dls_kernels"):
+        result = run_python(f"import {first}\nfrom ur3dq.kinematics import dls, ur_ik\nur_ik.kernels()\n"
+                            "dls.kernels()")
+        assert result.returncode == 0 and NOTICE not in result.stderr, (first, result.stderr)

@@ -22,8 +22,11 @@ Joint coefficients are handled as tuples of 8 numbers that may be floats (single
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Iterator, Sequence
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ur3dq import dqarray
 from ur3dq.dualquat import DualQuaternion, multiply_coefficients
@@ -33,11 +36,13 @@ REVOLUTE = "revolute"
 PRISMATIC = "prismatic"
 JOINT_TYPES = (REVOLUTE, PRISMATIC)
 
+#: 8 coefficients (rw rx ry rz dw dx dy dz) as Python floats, or arrays of N values each (batches).
+Coefficients = tuple[Any, ...]
 _IDENTITY = (1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 _POSE_FORMS = "expected a DualQuaternion, 8 coefficients or a UR pose vector of 6"
 
 
-def dh_joint(theta, d, a, alpha) -> np.ndarray:
+def dh_joint(theta: ArrayLike, d: ArrayLike, a: ArrayLike, alpha: ArrayLike) -> np.ndarray:
     """(..., 8) dual quaternion of one standard DH row rz(θ)·tz(d)·tx(a)·rx(α) (seed 003), arrays broadcast."""
     theta, d, a, alpha = (np.asarray(v, dtype=float) for v in (theta, d, a, alpha))
     ct, st = np.cos(theta / 2), np.sin(theta / 2)
@@ -62,7 +67,7 @@ def dh_matrix(theta: float, d: float, a: float, alpha: float) -> np.ndarray:
     )
 
 
-def frame_with_z_axis(direction, point) -> np.ndarray:
+def frame_with_z_axis(direction: ArrayLike, point: ArrayLike) -> np.ndarray:
     """(8,) pose whose origin is ``point`` and whose z axis is the unit of ``direction`` (shortest-arc rotation)."""
     direction = dqarray.as_array(direction, 3, "direction")
     norm = float(np.linalg.norm(direction))
@@ -86,7 +91,7 @@ def thesis_to_dh_flange(home: DualQuaternion) -> DualQuaternion:
     return DualQuaternion.from_rotation_translation(home.rotation.conjugate, (0.0, 0.0, 0.0))
 
 
-def _as_coefficients(pose, name: str) -> tuple:
+def _as_coefficients(pose: object, name: str) -> Coefficients:
     """8 floats of a unit DualQuaternion, 8-array or UR pose vector (6 numbers); ValueError naming ``name``."""
     if pose is None:
         return _IDENTITY
@@ -105,7 +110,7 @@ def _as_coefficients(pose, name: str) -> tuple:
     return tuple(float(c) for c in array)
 
 
-def joint_motion(pose: tuple, revolute: bool, value: float) -> tuple:
+def joint_motion(pose: Coefficients, revolute: bool, value: float) -> Coefficients:
     """pose·rz(value) (``revolute``) or pose·tz(value), an 8-tuple of floats, written out for the joint's sparse
     coefficients (a leaf function: the compiled kernels use it as it is).
 
@@ -133,7 +138,8 @@ BATCH_BLOCK = 4096
 class SerialChain:
     """σ(q) = K_0·J_1(q_1)·K_1·…·J_n(q_n)·K_n; J_i = rz(q_i) (revolute) or tz(q_i) (prismatic)."""
 
-    def __init__(self, constants, joint_types, joint_offsets=None, frame_offsets=None):
+    def __init__(self, constants: ArrayLike, joint_types: Iterable[str], joint_offsets: ArrayLike | None = None,
+                 frame_offsets: ArrayLike | None = None) -> None:
         """From n + 1 constant unit dual quaternions (8 each) and n joint types ('revolute' / 'prismatic').
 
         ``joint_offsets`` (n values, default 0) are added to q before J_i, e.g. DH θ offsets of a calibration.
@@ -158,12 +164,13 @@ class SerialChain:
         self._frame_offsets = tuple(tuple(float(c) for c in row) for row in frame_offsets)
         self.joint_types = joint_types
         self.joint_offsets = tuple(float(v) for v in offsets)
-        self._maps = None   # fk_batch's per-joint matrices, built on first use
-        self._form = None   # product_form's arrays, built on first use
+        self._maps: tuple[np.ndarray, ...] | None = None   # fk_batch's per-joint matrices, built on first use
+        self._form: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None   # product_form's arrays, on first use
 
     # ---------------------------------------------------------------------------------------------- builders
     @classmethod
-    def from_dh(cls, a, d, alpha, theta=None, joint_types=None, base=None, tool=None) -> SerialChain:
+    def from_dh(cls, a: ArrayLike, d: ArrayLike, alpha: ArrayLike, theta: ArrayLike | None = None,
+                joint_types: Sequence[str] | None = None, base: object = None, tool: object = None) -> SerialChain:
         """From standard DH rows (metres, radians): joint i = rz(θ_i + q_i)·tz(d_i)·tx(a_i)·rx(α_i).
 
         For a prismatic joint q adds to d instead (θ_i stays fixed). ``base`` and ``tool`` (DualQuaternion, 8
@@ -193,7 +200,8 @@ class SerialChain:
         return cls(constants, joint_types, frame_offsets=frame_offsets)
 
     @classmethod
-    def from_axes(cls, directions, points, home, joint_types=None, base=None, tool=None) -> SerialChain:
+    def from_axes(cls, directions: ArrayLike, points: ArrayLike, home: object, joint_types: Sequence[str] | None = None,
+                  base: object = None, tool: object = None) -> SerialChain:
         """From joint axes in the base frame at q = 0 (``directions``, ``points``: n×3) and the flange pose at q = 0.
 
         σ(q) = Π_i exp(ξ_i q_i)·home (thesis §4.2, product of exponentials): exp(ξ_i q_i) = P_i·J_i(q_i)·P_i*, P_i
@@ -218,13 +226,13 @@ class SerialChain:
         # frame n is the end pose.
         return cls(constants, joint_types, frame_offsets=inverse + [_IDENTITY])
 
-    def with_tool(self, tool) -> SerialChain:
+    def with_tool(self, tool: object) -> SerialChain:
         """The same chain with ``tool`` (in the current end frame) appended."""
         constants = list(self._constants)
         constants[-1] = multiply_coefficients(constants[-1], _as_coefficients(tool, "tool"))
         return SerialChain(constants, self.joint_types, self.joint_offsets, self._frame_offsets)
 
-    def with_base(self, base) -> SerialChain:
+    def with_base(self, base: object) -> SerialChain:
         """The same chain seen from a new frame: ``base`` (pose of the old base in the new frame) prepended."""
         constants = list(self._constants)
         constants[0] = multiply_coefficients(_as_coefficients(base, "base"), constants[0])
@@ -236,18 +244,18 @@ class SerialChain:
         """Number of joints n."""
         return len(self.joint_types)
 
-    def check_q(self, q, name: str = "q") -> np.ndarray:
+    def check_q(self, q: ArrayLike, name: str = "q") -> np.ndarray:
         """``q`` as a finite float vector of n joint values; ValueError naming ``name`` otherwise."""
         q = dqarray.as_array(q, self.n_joints, name)
         if q.ndim != 1:
             raise ValueError(f"{name}: expected {self.n_joints} joint values, got shape {q.shape}")
         return q
 
-    def _after_joint(self, i: int, pose: tuple, value) -> tuple:
+    def _after_joint(self, i: int, pose: Coefficients, value: float) -> Coefficients:
         """pose·J_i(value + offset_i) (floats)."""
         return joint_motion(pose, self.joint_types[i] == REVOLUTE, value + self.joint_offsets[i])
 
-    def _accumulate(self, joint_values):
+    def _accumulate(self, joint_values: Iterable[float]) -> Iterator[Coefficients]:
         """Yield the running products K_0·J_1·K_1·…·J_i·K_i for i = 0..n (coefficient tuples)."""
         pose = self._constants[0]
         yield pose
@@ -255,20 +263,20 @@ class SerialChain:
             pose = multiply_coefficients(self._after_joint(i, pose, value), self._constants[i + 1])
             yield pose
 
-    def fk(self, q) -> DualQuaternion:
+    def fk(self, q: ArrayLike) -> DualQuaternion:
         """End pose σ(q) (the last constant includes the tool) in the base frame."""
         return self.fk_of_floats(tuple(float(v) for v in self.check_q(q)))
 
-    def fk_of_floats(self, q: tuple) -> DualQuaternion:
+    def fk_of_floats(self, q: tuple[float, ...]) -> DualQuaternion:
         """End pose for n finite Python floats already validated by the caller (the single-FK hot path)."""
         return DualQuaternion._from_tuple(self.end_coefficients(q))
 
-    def end_coefficients(self, q: tuple) -> tuple:
+    def end_coefficients(self, q: tuple[float, ...]) -> Coefficients:
         """End pose as an 8-tuple of floats (rw rx ry rz dw dx dy dz) for n finite floats validated by the caller."""
         *_, end = self._accumulate(q)
         return end
 
-    def fk_batch(self, joint_matrix) -> np.ndarray:
+    def fk_batch(self, joint_matrix: ArrayLike) -> np.ndarray:
         """End poses (N, 8) of N configurations (N, n), vectorised over N."""
         joint_matrix = dqarray.as_array(joint_matrix, self.n_joints, "joint_matrix")
         if joint_matrix.ndim != 2:
@@ -289,7 +297,7 @@ class SerialChain:
             out[start:start + BATCH_BLOCK] = pose
         return out
 
-    def _batch_maps(self) -> tuple:
+    def _batch_maps(self) -> tuple[np.ndarray, ...]:
         """Per joint i the (8, 16) matrix of X ↦ (X·K_i, X·u·K_i) on coefficient rows (cached): right-multiplication
         by a constant is linear, so a joint of fk_batch is one matmul of its (B, 8) running products, then
         X·J_i·K_i = cos(h)·X·K_i + sin(h)·X·k·K_i (revolute: rz(2h) = cos h + k sin h) or X·K_i + h·X·εk·K_i
@@ -306,7 +314,7 @@ class SerialChain:
             self._maps = tuple(maps)
         return self._maps
 
-    def frames(self, q) -> np.ndarray:
+    def frames(self, q: ArrayLike) -> np.ndarray:
         """(n + 1, 8) frames 0..n in the base frame: DH frames for DH chains, the partial products of exponentials
         for axis chains (frame 0 = base); frame n is always the end pose, tool included."""
         q = self.check_q(q)
@@ -314,7 +322,7 @@ class SerialChain:
         return np.array([multiply_coefficients(pose, offset)
                          for pose, offset in zip(running, self._frame_offsets, strict=True)])
 
-    def joint_axes(self, q) -> tuple[np.ndarray, np.ndarray]:
+    def joint_axes(self, q: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """(directions, points), each (n, 3): every joint's unit axis and a point on it, base frame, at q."""
         q = self.check_q(q)
         pose = self._constants[0]

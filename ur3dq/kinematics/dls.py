@@ -55,16 +55,17 @@ Example
 """
 from __future__ import annotations
 
+import inspect
 from dataclasses import dataclass, field
+from types import ModuleType
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ur3dq import dqarray
 from ur3dq.dualquat import DualQuaternion
-from ur3dq.kinematics import dls_kernels as kernels
+from ur3dq.kinematics import chain_kernels, dls_kernels, jit
 from ur3dq.kinematics.chain import SerialChain
-from ur3dq.kinematics.chain_kernels import chain_axes, multiply
 from ur3dq.real_numbers import real_array
 
 Array = NDArray[np.float64]
@@ -88,13 +89,29 @@ IMPROVED_MAX_ITERATIONS = 50
 PAPER_JACOBIANS = ("paper", "exact")
 
 
+# ---------------------------------------------------------------------------------------------- the kernels
+_warmed = False
+
+
+def kernels() -> ModuleType:
+    """The compiled DLS kernels (dls_kernels): the first use after an install compiles them into numba's cache, once
+    per cache, saying so in one line on stderr (ur3dq.kinematics.jit); later processes load them."""
+    global _warmed
+    if not _warmed:
+        _warmed = True   # before warming: warm() runs the API, which comes back here
+        sources = (dls_kernels.__file__, chain_kernels.__file__, inspect.getsourcefile(SerialChain),
+                   inspect.getsourcefile(DualQuaternion), jit.__file__)
+        jit.warm_once("dls", tuple(str(source) for source in sources), warm)
+    return dls_kernels
+
+
 # ----------------------------------------------------------------------------------------- building blocks
 def _geometry(chain: SerialChain, q: ArrayLike) -> tuple[Array, Array, tuple[float, ...]]:
     """(directions (n, 3), points (n, 3), σ as an 8-tuple) of the chain at q (validated, ValueError naming q)."""
     q = chain.check_q(q)
     directions, points = np.empty((chain.n_joints, 3)), np.empty((chain.n_joints, 3))
     constants, revolute, offsets = chain.product_form()
-    return directions, points, chain_axes(constants, revolute, offsets, q, directions, points)
+    return directions, points, kernels().chain_axes(constants, revolute, offsets, q, directions, points)
 
 
 def joint_twists(chain: SerialChain, q: ArrayLike) -> Array:
@@ -104,7 +121,7 @@ def joint_twists(chain: SerialChain, q: ArrayLike) -> Array:
     """
     directions, points, _ = _geometry(chain, q)
     revolute = chain.product_form()[1]
-    return np.array([kernels.twist_of(directions, points, revolute, i) for i in range(chain.n_joints)])
+    return np.array([kernels().twist_of(directions, points, revolute, i) for i in range(chain.n_joints)])
 
 
 def pose_jacobian(chain: SerialChain, q: ArrayLike) -> Array:
@@ -112,8 +129,11 @@ def pose_jacobian(chain: SerialChain, q: ArrayLike) -> Array:
     [rw rx ry rz dw dx dy dz], the sign of σ the chain's FK produces)."""
     directions, points, sigma = _geometry(chain, q)
     revolute = chain.product_form()[1]
-    rates = [multiply(kernels.twist_of(directions, points, revolute, i), sigma) for i in range(chain.n_joints)]
-    return 0.5 * np.array(rates).T
+    compiled = kernels()
+    rates = [compiled.multiply(compiled.twist_of(directions, points, revolute, i), sigma)
+             for i in range(chain.n_joints)]
+    jacobian: Array = 0.5 * np.array(rates).T
+    return jacobian
 
 
 def screw_jacobian(chain: SerialChain, q: ArrayLike) -> Array:
@@ -134,7 +154,7 @@ def geometric_jacobian(chain: SerialChain, q: ArrayLike) -> Array:
     """
     directions, points, sigma = _geometry(chain, q)
     jacobian = np.empty((6, chain.n_joints))
-    kernels.geometric_jacobian_into(directions, points, chain.product_form()[1], sigma, jacobian)
+    kernels().geometric_jacobian_into(directions, points, chain.product_form()[1], sigma, jacobian)
     return jacobian
 
 
@@ -143,7 +163,7 @@ def paper_pose_vector(sigma: ArrayLike) -> Array:
     array = dqarray.check_unit(sigma, "sigma")
     if array.shape != (8,):
         raise ValueError(f"sigma: expected 8 coefficients, got shape {array.shape}")
-    return np.array(kernels.paper_vector(tuple(array.tolist())))
+    return np.array(kernels().paper_vector(tuple(array.tolist())))
 
 
 def paper_vector_to_dual_quaternion(vector: ArrayLike) -> Array:
@@ -160,7 +180,7 @@ def exp_derivative(w: ArrayLike) -> Array:
     if array.shape != (3,):
         raise ValueError(f"w: expected 3 values, got shape {array.shape}")
     derivative = np.empty((4, 3))
-    kernels.exp_derivative_into(array, derivative)
+    kernels().exp_derivative_into(array, derivative)
     return derivative
 
 
@@ -181,7 +201,7 @@ def exact_paper_jacobian(chain: SerialChain, q: ArrayLike) -> Array:
 def _paper_jacobian(chain: SerialChain, q: ArrayLike, exact: bool) -> Array:
     directions, points, sigma = _geometry(chain, q)
     jacobian = np.empty((6, chain.n_joints))
-    kernels.paper_jacobian_into(directions, points, chain.product_form()[1], sigma, exact, jacobian)
+    kernels().paper_jacobian_into(directions, points, chain.product_form()[1], sigma, exact, jacobian)
     return jacobian
 
 
@@ -194,7 +214,7 @@ def damped_least_squares_step(jacobian: ArrayLike, error: ArrayLike, alpha: floa
     matrix = np.ascontiguousarray(real_array(jacobian))
     scaled = alpha * np.ascontiguousarray(real_array(error))
     step = np.empty(matrix.shape[1])
-    kernels.damped_least_squares_into(matrix, scaled, float(gamma) ** 2, step)
+    kernels().damped_least_squares_into(matrix, scaled, float(gamma) ** 2, step)
     return step
 
 
@@ -206,7 +226,7 @@ def screw_error(sigma: ArrayLike, goal: ArrayLike) -> Array:
 def pose_error(sigma: ArrayLike, goal: ArrayLike) -> Array:
     """(6,) (t_goal − t, rotation vector of r_goal·r*) between unit 8-arrays: base frame, shortest (σ ≡ −σ); the
     improved mode's error (unweighted)."""
-    return np.array(kernels.pose_error(_floats(sigma), _floats(goal)))
+    return np.array(kernels().pose_error(_floats(sigma), _floats(goal)))
 
 
 def _floats(coefficients: ArrayLike) -> tuple[float, ...]:
@@ -217,7 +237,7 @@ def _floats(coefficients: ArrayLike) -> tuple[float, ...]:
 def characteristic_length(chain: SerialChain, q: ArrayLike) -> float:
     """Length of the polyline joint 1 → … → joint n → end at q (the reach); 1 when it is 0 (all axes meet)."""
     _, points, sigma = _geometry(chain, q)
-    return float(kernels.reach(points, sigma))
+    return float(kernels().reach(points, sigma))
 
 
 def project_to_limits(q: Array, lower: Array, upper: Array) -> Array:
@@ -325,7 +345,7 @@ def dls_ik(chain: object, goal: DualQuaternion | ArrayLike, q0: ArrayLike, *, mo
         goal_vector = np.array(_goal_vector(goal), dtype=float)
         goal_coefficients = paper_vector_to_dual_quaternion(goal_vector)
         _check_problem(goal_coefficients, start, low, high)
-        joint_log, pose_log, error_log = kernels.paper_solve(
+        joint_log, pose_log, error_log = kernels().paper_solve(
             constants, revolute, offsets, goal_vector, start, low, high, step_fraction, damping, stop, cap,
             jacobian == "exact")
         passes, searches = len(joint_log), 1
@@ -337,7 +357,7 @@ def dls_ik(chain: object, goal: DualQuaternion | ArrayLike, q0: ArrayLike, *, mo
             raise ValueError("jacobian: applies to mode='paper' only; the improved mode uses the geometric Jacobian")
         goal_coefficients = _goal_coefficients(goal)
         _check_problem(goal_coefficients, start, low, high)
-        joint_log, pose_log, error_log, passes, searches = kernels.improved_solve(
+        joint_log, pose_log, error_log, passes, searches = kernels().improved_solve(
             constants, revolute, offsets, goal_coefficients, start, low, high, stop, cap)
     return DLSResult(q=joint_log[-1], converged=bool(error_log[-1] < stop), iterations=int(passes),
                      error=float(error_log[-1]), mode=mode, joint_log=joint_log, pose_log=pose_log,
@@ -385,9 +405,9 @@ def _stopping(mode: str, tolerance: float | None, max_iterations: int | None) ->
 def _joint_values(chain: SerialChain, q0: ArrayLike) -> Array:
     """q0 as a fresh (n,) float array: a float array as it is (its finiteness checked with the limits), anything
     else through the chain's validation (ValueError naming q0)."""
-    if isinstance(q0, np.ndarray) and q0.dtype == np.float64 and q0.shape == (chain.n_joints,):
-        return q0.copy()
-    return chain.check_q(q0, "q0").copy()
+    values: Array = (q0 if isinstance(q0, np.ndarray) and q0.dtype == np.float64 and q0.shape == (chain.n_joints,)
+                     else chain.check_q(q0, "q0")).copy()
+    return values
 
 
 def _limits(values: ArrayLike | None, n: int, default: float, name: str) -> Array:
@@ -407,7 +427,7 @@ def _limits(values: ArrayLike | None, n: int, default: float, name: str) -> Arra
 def _check_problem(goal: Array, q0: Array, lower: Array, upper: Array) -> None:
     """ValueError naming the argument unless the goal is a unit dual quaternion and q0 finite and within limits
     that are numbers with lower ≤ upper (one compiled test; the reasons only when it fails)."""
-    if kernels.well_posed(goal, q0, lower, upper, dqarray.UNIT_TOLERANCE):
+    if kernels().well_posed(goal, q0, lower, upper, dqarray.UNIT_TOLERANCE):
         return
     dqarray.check_unit(goal, "goal")
     if not np.all(np.isfinite(q0)):

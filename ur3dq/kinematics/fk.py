@@ -17,6 +17,7 @@ Quaternion = tuple[float, float, float, float]
 Pair = tuple[float, float, float, float, float, float, float]
 Matrix = tuple[float, float, float, float, float, float, float, float, float]
 SinCos = tuple[float, float]
+Coefficients = tuple[float, float, float, float, float, float, float, float]
 
 
 
@@ -58,12 +59,11 @@ def tool_pair(flange: Pair, tool: np.ndarray) -> Pair:
 
 
 @kernel
-def write_pose(pair: Pair, out: np.ndarray) -> None:
-    """The 8 coefficients (r, ½p·r) of a pair into ``out``."""
+def dual_quaternion(pair: Pair) -> Coefficients:
+    """The 8 coefficients (r, ½p·r) of a pair."""
     w, x, y, z, hx, hy, hz = pair[0], pair[1], pair[2], pair[3], 0.5 * pair[4], 0.5 * pair[5], 0.5 * pair[6]
-    out[0], out[1], out[2], out[3] = w, x, y, z
-    out[4], out[5] = -hx * x - hy * y - hz * z, hx * w + hy * z - hz * y
-    out[6], out[7] = -hx * z + hy * w + hz * x, hx * y - hy * x + hz * w
+    return (w, x, y, z, -hx * x - hy * y - hz * z, hx * w + hy * z - hz * y, -hx * z + hy * w + hz * x,
+            hx * y - hy * x + hz * w)
 
 
 @kernel
@@ -95,9 +95,8 @@ def closed_form(arm: np.ndarray, half1: SinCos, half234: SinCos, half_sum: SinCo
 
 
 @kernel
-def nominal_flange(arm: np.ndarray, q: np.ndarray) -> Pair:
-    """Flange pair of a nominal UR arm at joints q (6), by closed_form."""
-    q1, q2, q3, q4, q5, q6 = q[0], q[1], q[2], q[3], q[4], q[5]
+def nominal_flange(arm: np.ndarray, q1: float, q2: float, q3: float, q4: float, q5: float, q6: float) -> Pair:
+    """Flange pair of a nominal UR arm at joints q1…q6, by closed_form."""
     h1, h234, hp, hm = 0.5 * q1, 0.5 * (q2 + q3 + q4), 0.5 * (q5 + q6), 0.5 * (q5 - q6)
     return closed_form(arm, (math.sin(h1), math.cos(h1)), (math.sin(h234), math.cos(h234)),
                        (math.sin(hp), math.cos(hp)), (math.sin(hm), math.cos(hm)), (math.sin(q2), math.cos(q2)),
@@ -120,10 +119,12 @@ def nominal_poses(arm: np.ndarray, tool: np.ndarray, tangents: np.ndarray, out: 
     """Poses (N, 8) of ``tool`` (8 coefficients in the flange frame) on a nominal arm into ``out``, from the tangents
     (6, N) of half_tangent_angles' halves: sin 2h = t·u, cos 2h = u − 1 with u = 2/(1 + t²)."""
     for index in range(out.shape[0]):
-        t = tangents[:, index]
-        flange = closed_form(arm, of_tangent(t[0]), of_tangent(t[1]), of_tangent(t[2]), of_tangent(t[3]),
-                             of_tangent(t[4]), of_tangent(t[5]))
-        write_pose(tool_pair(flange, tool), out[index])
+        flange = closed_form(arm, of_tangent(tangents[0, index]), of_tangent(tangents[1, index]),
+                             of_tangent(tangents[2, index]), of_tangent(tangents[3, index]),
+                             of_tangent(tangents[4, index]), of_tangent(tangents[5, index]))
+        pose = dual_quaternion(tool_pair(flange, tool))
+        for k in range(8):
+            out[index, k] = pose[k]
 
 
 @kernel
@@ -134,19 +135,11 @@ def of_tangent(t: float) -> SinCos:
 
 
 @kernel
-def nominal_pose(arm: np.ndarray, tool: np.ndarray, q: np.ndarray, out: np.ndarray) -> None:
-    """The pose (8) of ``tool`` (8 coefficients in the flange frame: the TCP, or the identity for the flange) on a
-    nominal arm at joints q (6) into ``out``."""
-    write_pose(tool_pair(nominal_flange(arm, q), tool), out)
-
-
-@kernel
-def nominal_pose_of(arm: np.ndarray, tool: np.ndarray, q1: float, q2: float, q3: float, q4: float, q5: float,
-                    q6: float) -> tuple[float, float, float, float, float, float, float, float]:
-    """nominal_pose of six joint floats, as a tuple: one pose from Python without an array either way."""
-    q, out = np.array([q1, q2, q3, q4, q5, q6]), np.empty(8)
-    nominal_pose(arm, tool, q, out)
-    return out[0], out[1], out[2], out[3], out[4], out[5], out[6], out[7]
+def nominal_pose(arm: np.ndarray, tool: np.ndarray, q1: float, q2: float, q3: float, q4: float, q5: float,
+                 q6: float) -> Coefficients:
+    """The pose (8 coefficients) of ``tool`` (8 coefficients in the flange frame: the TCP, or the identity for the
+    flange) on a nominal arm at joints q1…q6."""
+    return dual_quaternion(tool_pair(nominal_flange(arm, q1, q2, q3, q4, q5, q6), tool))
 
 
 @kernel

@@ -40,7 +40,7 @@ F = TypeVar("F", bound=Callable[..., Any])
 
 #: Modules whose kernels ``--warm`` compiles; each defines ``kernels()``, which compiles them (once per cache) or
 #: loads them.
-KERNEL_MODULES = ("ur3dq.kinematics.ur_ik",)
+KERNEL_MODULES = ("ur3dq.kinematics.ur_ik", "ur3dq.kinematics.dls")
 #: Roughly how long the first compilation takes on a 2-core machine (shown in the notice).
 COMPILE_SECONDS = 30
 
@@ -71,35 +71,38 @@ def kernel(function: F) -> F:
 _KERNELS: list[Any] = []
 
 
-def _cache_directory(sources: tuple[str, ...]) -> Path | None:
-    """Where numba caches the kernels defined in ``sources`` (None under NUMBA_DISABLE_JIT or without a cache)."""
+def _cache_directories(sources: tuple[str, ...]) -> dict[str, Path]:
+    """Where numba caches the kernels defined in each of ``sources`` (those with a cache: none under
+    NUMBA_DISABLE_JIT or where no directory is writable)."""
+    directories: dict[str, Path] = {}
     for compiled in _KERNELS:
         cache = getattr(compiled, "_cache", None)   # numba's per-function cache (not part of its documented API)
-        if cache is not None and cache.cache_path is not None and compiled.py_func.__code__.co_filename in sources:
-            return Path(cache.cache_path)
-    return None
+        source = compiled.py_func.__code__.co_filename
+        if cache is not None and cache.cache_path is not None and source in sources:
+            directories.setdefault(source, Path(cache.cache_path))
+    return directories
 
 
 def warm_once(label: str, sources: tuple[str, ...], warm: Callable[[], None]) -> None:
     """Run ``warm`` (which calls every kernel of ``sources`` once) unless this cache has compiled these very sources
     already; when it runs, one line on stderr says why the call is slow. Before it, the cache files of these sources
-    are removed: numba checks a kernel's own file only, not the files of the kernels it calls."""
+    are removed: numba checks a kernel's own file only, not the files of the kernels (and constants) it uses."""
     if interpreted():
         return
     import numba
 
-    directory = _cache_directory(sources)
+    directories = _cache_directories(sources)
     digest = hashlib.sha256(numba.__version__.encode())
     for source in sources:
         digest.update(Path(source).read_bytes())
-    marker = None if directory is None else directory / f"ur3dq-{label}-{digest.hexdigest()[:16]}.compiled"
+    first = next((directories[source] for source in sources if source in directories), None)   # not import order
+    marker = None if first is None else first / f"ur3dq-{label}-{digest.hexdigest()[:16]}.compiled"
     if marker is not None and marker.exists():
         return
     print(f"compiling kinematics kernels, once (about {COMPILE_SECONDS} s)…", file=sys.stderr, flush=True)
-    if marker is not None:
-        for source in sources:
-            for stale in marker.parent.glob(f"{Path(source).stem}.*.nb[ic]"):
-                stale.unlink(missing_ok=True)
+    for source, directory in directories.items():
+        for stale in directory.glob(f"{Path(source).stem}.*.nb[ic]"):
+            stale.unlink(missing_ok=True)
     warm()
     if marker is not None:
         for stale in marker.parent.glob(f"ur3dq-{label}-*.compiled"):

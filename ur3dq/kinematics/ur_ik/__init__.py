@@ -91,7 +91,8 @@ def closed_form_poses(model: Any, joints: np.ndarray, tool: np.ndarray) -> np.nd
 
 def closed_form_pose(model: Any, q: tuple[float, ...], tool: np.ndarray) -> tuple[float, ...]:
     """The 8 coefficients of ``tool`` (8 coefficients in the flange frame) on a nominal arm at 6 joint floats."""
-    return tuple(kernels()[0].nominal_pose_of(arm_vector(model), tool, *q))
+    pose: tuple[float, ...] = kernels()[0].nominal_pose(arm_vector(model), tool, *q)
+    return pose
 
 
 def dh_frames(model: Any, joints: np.ndarray) -> np.ndarray:
@@ -129,18 +130,26 @@ def _pose(pose: Any) -> np.ndarray:
     return values.reshape(1, 8)
 
 
-def _unit_rows(rows: np.ndarray, name: str) -> np.ndarray:
-    """Rows (N, 8) checked finite and unit (dqarray.UNIT_TOLERANCE), those off by more than EXACT_UNIT normalised."""
+def _unit_rows(poses: Any) -> np.ndarray:
+    """``poses`` as rows (N, 8) checked finite and unit (dqarray.UNIT_TOLERANCE), those off by more than EXACT_UNIT
+    normalised; ValueError naming ``poses`` otherwise."""
+    try:
+        rows = real_array(poses)
+    except (TypeError, ValueError) as exc:
+        raise ValueError("poses: expected numbers, 8 coefficients per pose") from exc
+    if rows.ndim != 2 or rows.shape[1] != 8:
+        raise ValueError(f"poses: expected shape (N, 8), got {rows.shape}")
+    rows = dqarray.check_unit(rows, "poses")
     if not np.all(np.isfinite(rows)):
-        raise ValueError(f"{name}: contains NaN or infinite values")
+        raise ValueError("poses: contains NaN or infinite values")
     norm2 = np.einsum("ij,ij->i", rows[:, :4], rows[:, :4])
     if np.any(np.abs(norm2 - 1.0) > 2.0 * dqarray.UNIT_TOLERANCE):
         worst = float(norm2[np.argmax(np.abs(norm2 - 1.0))])
-        raise ValueError(f"{name}: rotation part is not a unit quaternion (norm² {worst:.6g})")
+        raise ValueError(f"poses: rotation part is not a unit quaternion (norm² {worst:.6g})")
     orthogonality = np.einsum("ij,ij->i", rows[:, :4], rows[:, 4:])
     if np.any(np.abs(orthogonality) > dqarray.UNIT_TOLERANCE):
         worst = float(orthogonality[np.argmax(np.abs(orthogonality))])
-        raise ValueError(f"{name}: not a unit dual quaternion (real·dual = {worst:.3g}, must be 0)")
+        raise ValueError(f"poses: not a unit dual quaternion (real·dual = {worst:.3g}, must be 0)")
     off = (np.abs(norm2 - 1.0) > EXACT_UNIT) | (np.abs(orthogonality) > EXACT_UNIT)
     if off.any():
         rows = rows.copy()
@@ -186,13 +195,7 @@ def ik_all_batch(model: Any, poses: Any, q_ref: Any = None) -> np.ndarray:
     """(N, 8, 6) every FK-verified solution of (N, 8) TCP poses, in (−π, π]; NaN rows where a branch is absent,
     repeats an earlier one or misses the pose. Slot k of every pose is the same sign choice (θ1, θ5, θ3), + first.
     ``q_ref`` ((6,) or (N, 6), optional) only resolves the wrist singularity, as in ``ik_all``."""
-    try:
-        rows = real_array(poses)
-    except (TypeError, ValueError) as exc:
-        raise ValueError("poses: expected numbers, 8 coefficients per pose") from exc
-    if rows.ndim != 2 or rows.shape[1] != 8:
-        raise ValueError(f"poses: expected shape (N, 8), got {rows.shape}")
-    rows = _unit_rows(dqarray.check_unit(rows, "poses"), "poses")
+    rows = _unit_rows(poses)
     theta6 = np.zeros(len(rows)) if q_ref is None else wrap_angle(_joints(q_ref, len(rows), "q_ref")[:, 5])
     out = np.empty((len(rows), 8, 6))
     kernels()[1].all_rows(arm_vector(model), rows, np.ascontiguousarray(theta6), out)
@@ -218,13 +221,7 @@ def ik_all(model: Any, pose: Any, q_ref: Any = None) -> list[np.ndarray]:
 def ik_batch(model: Any, poses: Any, q_ref: Any, weights: Any = None) -> np.ndarray:
     """(N, 6): for each (N, 8) TCP pose the solution nearest q_ref ((6,) or (N, 6)) as ``ik`` finds it; NaN rows
     where the pose is unreachable or no solution lies inside the joint limits (no exception: batches keep going)."""
-    try:
-        rows = real_array(poses)
-    except (TypeError, ValueError) as exc:
-        raise ValueError("poses: expected numbers, 8 coefficients per pose") from exc
-    if rows.ndim != 2 or rows.shape[1] != 8:
-        raise ValueError(f"poses: expected shape (N, 8), got {rows.shape}")
-    rows = _unit_rows(dqarray.check_unit(rows, "poses"), "poses")
+    rows = _unit_rows(poses)
     references, weight = _joints(q_ref, len(rows), "q_ref"), _weights(weights)
     out, status = np.empty((len(rows), 6)), np.empty(len(rows), dtype=np.int64)
     kernels()[1].nearest_rows(arm_vector(model), rows, references, weight, out, status)
@@ -312,7 +309,7 @@ def warm() -> None:
         tangents = np.empty((6, 1))
         fk.half_tangent_angles(q, tangents)
         fk.nominal_poses(arm, identity, np.tan(tangents), pose)
-        fk.nominal_pose_of(arm, identity, *q[0].tolist())
+        fk.nominal_pose(arm, identity, *q[0].tolist())
         solve.closest_variant(0.0, 0.0, -1.0, 1.0, LIMIT_ROUNDING)
         nearest.all_rows(arm, pose, np.zeros(1), np.empty((1, 8, 6)))
         nearest.nearest_rows(arm, pose, q, _UNIT_WEIGHTS, np.empty((1, 6)), np.empty(1, dtype=np.int64))

@@ -182,23 +182,47 @@ def shoulder_elbow(arm: np.ndarray, x4: float, z4: float, cos3: float, sign: flo
 
 
 @kernel
+def wrist_of(arm: np.ndarray, target: np.ndarray, theta1: float, theta6_ref: float
+             ) -> tuple[float, float, float, float, float, int]:
+    """(cos θ1, sin θ1, θ5 ≥ 0, θ6, θ234, singularity) of the wrist of the branches with this θ1 (eqs. 4.14–4.28;
+    ``wrist`` says what the singularity codes mean; at a singular wrist θ6 = ``theta6_ref``)."""
+    cos1, sin1, w, x, y, z = reduced_rotation(theta1, target)
+    theta5, theta6, theta234, singular = wrist(w, x, y, z, theta6_ref, arm[WRIST_NEAR])
+    return cos1, sin1, theta5, theta6, theta234, singular
+
+
+@kernel
+def flipped(theta5: float, theta6: float, theta234: float, singular: int, flip: int) -> tuple[float, float, float]:
+    """(θ5, θ6, θ234) of the wrist, flipped (−θ5, θ6 − π, θ234 + π) when ``flip`` is 1; a singular wrist's two signs
+    are one family, so there only θ5's sign changes."""
+    if flip == 0:
+        return theta5, theta6, theta234
+    if singular >= 3:
+        return -theta5, theta6, theta234
+    return -theta5, theta6 - math.pi, theta234 + math.pi
+
+
+@kernel
+def elbow_branches(arm: np.ndarray, target: np.ndarray, theta1: float, cos1: float, sin1: float, theta5: float,
+                   theta6: float, theta234: float, singular: int, out: np.ndarray) -> None:
+    """The two elbow branches (θ3 ≥ 0, then θ3 ≤ 0) of one wrist branch into ``out`` (2, 6): the split moved where
+    the arm cannot reach with it (split_for_reach), θ2 and θ3 of eqs. 4.38–4.41, θ4 of eq. 4.44."""
+    split6, split234, x4, z4, cos3 = split_for_reach(arm, cos1, sin1, theta5, theta6, theta234, singular, target)
+    for i3 in range(2):
+        theta2, theta3 = shoulder_elbow(arm, x4, z4, cos3, 1.0 - 2.0 * i3)
+        row = out[i3]
+        row[0], row[1], row[2], row[3] = theta1, theta2, theta3, split234 - theta2 - theta3   # eq. 4.44
+        row[4], row[5] = theta5, split6
+
+
+@kernel
 def branches(arm: np.ndarray, target: np.ndarray, theta6_ref: float, out: np.ndarray) -> None:
     """The 8 branches (θ1…θ6) of flange pair ``target`` into ``out`` (8, 6), slot 4·i1 + 2·i5 + i3, NaN where a
     branch does not exist; at a singular wrist θ6 = ``theta6_ref``."""
     pair = theta1_pair(arm, target)
     for i1 in range(2):
-        theta1 = pair[i1]
-        cos1, sin1, w, x, y, z = reduced_rotation(theta1, target)
-        theta5, theta6, theta234, singular = wrist(w, x, y, z, theta6_ref, arm[WRIST_NEAR])
+        cos1, sin1, theta5, theta6, theta234, singular = wrist_of(arm, target, pair[i1], theta6_ref)
         for i5 in range(2):
-            if i5 == 1:   # the wrist flip; a singular wrist's two signs are one family
-                theta5 = -theta5
-                if singular < 3:
-                    theta6, theta234 = theta6 - math.pi, theta234 + math.pi
-            split6, split234, x4, z4, cos3 = split_for_reach(arm, cos1, sin1, theta5, theta6, theta234, singular,
-                                                               target)
-            for i3 in range(2):
-                theta2, theta3 = shoulder_elbow(arm, x4, z4, cos3, 1.0 - 2.0 * i3)
-                row = out[4 * i1 + 2 * i5 + i3]
-                row[0], row[1], row[2], row[3] = theta1, theta2, theta3, split234 - theta2 - theta3   # eq. 4.44
-                row[4], row[5] = theta5, split6
+            slot = 4 * i1 + 2 * i5
+            flip5, flip6, flip234 = flipped(theta5, theta6, theta234, singular, i5)
+            elbow_branches(arm, target, pair[i1], cos1, sin1, flip5, flip6, flip234, singular, out[slot:slot + 2])

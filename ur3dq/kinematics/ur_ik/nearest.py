@@ -16,6 +16,11 @@ from ur3dq.kinematics.ur_ik import equations, frames, newton, solve
 from ur3dq.kinematics.ur_ik.equations import TWO_PI
 from ur3dq.kinematics.ur_ik.solve import FOUND, OUTSIDE_LIMITS, UNREACHABLE
 
+#: The columns of ``nearest``'s nodes, one per wrist branch (θ1 sign i1, θ5 sign i5: node 2·i1 + i5, slots
+#: 2·node and 2·node + 1): a lower bound of its branches' costs, θ1, and once solved its wrist (cos θ1, sin θ1, θ5,
+#: θ6, θ234, singularity code), and how far it got.
+BOUND, THETA1, COS1, SIN1, THETA5, THETA6, THETA234, SINGULAR, STATE, NODE_SIZE = range(10)
+UNSOLVED, WRIST_SOLVED, RANKED = 0.0, 1.0, 2.0
 #: Secant steps at most when a singular wrist's split is moved to put θ4 at its limit, and how near (rad).
 SPLIT_STEPS = 8
 SPLIT_TOLERANCE = 1e-12
@@ -35,12 +40,16 @@ def limit_excess(arm: np.ndarray, angle: float, reference: float, joint: int) ->
 
 
 @kernel
+def exactly_singular(theta5: float) -> bool:
+    """Whether a branch's θ5 is that of a singular wrist (exactly 0 or ±π: equations.wrist sets it so)."""
+    return theta5 == 0.0 or abs(theta5) == math.pi
+
+
+@kernel
 def split_within_limits(arm: np.ndarray, goal: np.ndarray, row: np.ndarray, slot: int, reference: np.ndarray) -> None:
-    """At a singular wrist (θ5 exactly 0 or ±π), move ``row``'s split along the family (θ234 + s, θ6 ∓ s) until θ4's
-    variant nearest the reference is at its limit, if θ6 = q_ref[5] put it past one (secant on s; the row is kept
-    as it is where the moved split does not reach)."""
-    if not (row[4] == 0.0 or abs(row[4]) == math.pi):
-        return
+    """At a singular wrist (``exactly_singular``), move ``row``'s split along the family (θ234 + s, θ6 ∓ s) until
+    θ4's variant nearest the reference is at its limit, if θ6 = q_ref[5] put it past one (secant on s; the row is
+    kept as it is where the moved split does not reach)."""
     excess = limit_excess(arm, row[3], reference[3], 3)
     if excess == 0.0:
         return
@@ -66,35 +75,93 @@ def split_within_limits(arm: np.ndarray, goal: np.ndarray, row: np.ndarray, slot
 
 
 @kernel
+def cost_bound(angle: float, reference: float, weight: float) -> float:
+    """A lower bound of one joint's term wᵢ·(vᵢ − refᵢ)² in ``variants``' cost, whatever variant vᵢ of ``angle`` it
+    takes (a clamp onto a limit moves it by at most LIMIT_ROUNDING); inf for NaN."""
+    distance = abs(equations.remainder(angle - reference, TWO_PI)) - 2.0 * LIMIT_ROUNDING
+    if distance != distance:
+        return math.inf
+    return weight * distance * distance if distance > 0.0 else 0.0
+
+
+@kernel
+def rank(arm: np.ndarray, goal: np.ndarray, rows: np.ndarray, slot: int, reference: np.ndarray,
+         weights: np.ndarray, costs: np.ndarray, out: np.ndarray) -> None:
+    """costs[slot] of rows[slot]: its in-limit variants' cost within LIMIT_ROUNDING of the limits and, where that
+    clamps, strictly inside (inf where a branch is absent); a nominal singular wrist's split first kept in θ4's
+    limits (split_within_limits)."""
+    if rows[slot, 0] == rows[slot, 0] and rows[slot, 1] == rows[slot, 1]:
+        if arm[CALIBRATED] == 0.0 and exactly_singular(rows[slot, 4]):
+            split_within_limits(arm, goal, rows[slot], slot, reference)
+        costs[slot, 0], clamped = solve.variants(arm, rows[slot], reference, weights, LIMIT_ROUNDING, out)
+        if clamped:
+            costs[slot, 1] = solve.variants(arm, rows[slot], reference, weights, 0.0, out)[0]
+
+
+@kernel
+def advance(arm: np.ndarray, goal: np.ndarray, node: int, reference: np.ndarray, weights: np.ndarray,
+            rows: np.ndarray, costs: np.ndarray, nodes: np.ndarray, out: np.ndarray) -> None:
+    """One step of a node: unsolved, the wrist of its θ1 into both nodes of that θ1 (θ5 signs), each bound raised
+    by the costs of θ5 and θ6 (θ6 only on a regular wrist: a singular one's split, and θ6 with it, moves later);
+    solved, its two elbow branches into slots 2·node and 2·node + 1, ranked."""
+    n = nodes[node]
+    if n[STATE] == UNSOLVED:
+        cos1, sin1, theta5, theta6, theta234, singular = equations.wrist_of(arm, goal, n[THETA1],
+                                                                            solve.wrap(reference[5]))
+        for sibling in range(node - node % 2, node - node % 2 + 2):
+            m = nodes[sibling]
+            m[THETA5], m[THETA6], m[THETA234] = equations.flipped(theta5, theta6, theta234, singular, sibling % 2)
+            m[COS1], m[SIN1], m[SINGULAR], m[STATE] = cos1, sin1, singular, WRIST_SOLVED
+            m[BOUND] += cost_bound(m[THETA5], reference[4], weights[4])
+            if singular == 0:
+                m[BOUND] += cost_bound(m[THETA6], reference[5], weights[5])
+        return
+    equations.elbow_branches(arm, goal, n[THETA1], n[COS1], n[SIN1], n[THETA5], n[THETA6], n[THETA234],
+                             int(n[SINGULAR]), rows[2 * node:2 * node + 2])
+    for slot in range(2 * node, 2 * node + 2):
+        rank(arm, goal, rows, slot, reference, weights, costs, out)
+    n[STATE] = RANKED
+
+
+@kernel
+def least_open_node(nodes: np.ndarray) -> int:
+    """The node not yet ranked with the least bound (−1 when every node is ranked)."""
+    least = -1
+    for node in range(4):
+        if nodes[node, STATE] != RANKED and (least < 0 or nodes[node, BOUND] < nodes[least, BOUND]):
+            least = node
+    return least
+
+
+@kernel
 def nearest(arm: np.ndarray, goal: np.ndarray, reference: np.ndarray, weights: np.ndarray, out: np.ndarray,
-            chain: np.ndarray, rows: np.ndarray, costs: np.ndarray) -> int:
+            chain: np.ndarray, rows: np.ndarray, costs: np.ndarray, nodes: np.ndarray) -> int:
     """The solution of the goal nearest ``reference`` into ``out`` (6): the least-cost in-limit variants that pass
     the FK filter. Returns FOUND, OUTSIDE_LIMITS (solutions exist, none inside the limits) or UNREACHABLE.
-    ``chain`` (7, 12), ``rows`` (9, 6) and ``costs`` (9, 2) are work space."""
+    ``chain`` (7, 12), ``rows`` (9, 6), ``costs`` (9, 2) and ``nodes`` (4, NODE_SIZE) are work space.
+
+    A nominal arm solves branches as the ranking needs them (branch and bound): the least-cost candidate found is
+    checked only once every node whose bound could undercut it is ranked, so the answer is the full ranking's."""
     rows[:] = math.nan
-    least_weight = weights.min()
-    if arm[CALIBRATED] != 0.0:   # Newton from the reference: usually the answer, provably
-        rows[8] = reference
-        if newton.refine(arm, rows[8], goal, chain) <= CALIBRATED_TOLERANCE:
-            cost = solve.variants(arm, rows[8], reference, weights, LIMIT_ROUNDING, out)[0]
-            if cost < math.inf and (cost == 0.0 or newton.isolated(arm, rows[8], newton.proof_span(
-                    cost, least_weight), chain)) and solve.meets(arm, out, goal, chain):
-                return FOUND
-        else:
-            rows[8] = math.nan
-    solve.candidates(arm, goal, solve.wrap(reference[5]), rows[:8], chain)
-    # Per candidate its variants within LIMIT_ROUNDING of the limits, and (where that clamps) strictly inside.
     costs[:] = math.inf
-    for slot in range(9):
-        if rows[slot, 0] == rows[slot, 0] and rows[slot, 1] == rows[slot, 1]:
-            if arm[CALIBRATED] == 0.0:
-                split_within_limits(arm, goal, rows[slot], slot, reference)
-            costs[slot, 0], clamped = solve.variants(arm, rows[slot], reference, weights, LIMIT_ROUNDING, out)
-            if clamped:
-                costs[slot, 1] = solve.variants(arm, rows[slot], reference, weights, 0.0, out)[0]
-    for _ in range(18):   # the nearest first; the FK filter on each winner
-        best = int(np.argmin(costs))
+    if arm[CALIBRATED] != 0.0:
+        if reference_row(arm, goal, reference, weights, out, chain, rows[8]):
+            return FOUND
+        solve.candidates(arm, goal, solve.wrap(reference[5]), rows[:8], chain)
+        for slot in range(9):
+            rank(arm, goal, rows, slot, reference, weights, costs, out)
+        nodes[:, STATE] = RANKED
+    else:
+        pair = equations.theta1_pair(arm, goal)
+        for node in range(4):
+            nodes[node, THETA1], nodes[node, STATE] = pair[node // 2], UNSOLVED
+            nodes[node, BOUND] = cost_bound(pair[node // 2], reference[0], weights[0])
+    while True:   # at most 2 wrists, 4 nodes and 18 candidates: each pass solves, ranks or rules out one
+        node, best = least_open_node(nodes), int(np.argmin(costs))
         slot, inside = best // 2, best % 2
+        if node >= 0 and nodes[node, BOUND] <= costs[slot, inside]:
+            advance(arm, goal, node, reference, weights, rows, costs, nodes, out)
+            continue
         if not costs[slot, inside] < math.inf:
             break
         solve.variants(arm, rows[slot], reference, weights, 0.0 if inside else LIMIT_ROUNDING, out)
@@ -106,6 +173,20 @@ def nearest(arm: np.ndarray, goal: np.ndarray, reference: np.ndarray, weights: n
                                                                                               chain):
             return OUTSIDE_LIMITS
     return UNREACHABLE
+
+
+@kernel
+def reference_row(arm: np.ndarray, goal: np.ndarray, reference: np.ndarray, weights: np.ndarray, out: np.ndarray,
+                  chain: np.ndarray, row: np.ndarray) -> bool:
+    """On a calibrated arm, Newton from the reference into ``row``: True (its variants in ``out``) when that solution
+    is provably the nearest (newton.isolated), else ``row`` is kept as a candidate (NaN where Newton failed)."""
+    row[:] = reference
+    if not newton.refine(arm, row, goal, chain) <= CALIBRATED_TOLERANCE:
+        row[:] = math.nan
+        return False
+    cost = solve.variants(arm, row, reference, weights, LIMIT_ROUNDING, out)[0]
+    return cost < math.inf and (cost == 0.0 or newton.isolated(arm, row, newton.proof_span(cost, weights.min()),
+                                                                 chain)) and solve.meets(arm, out, goal, chain)
 
 
 @kernel
@@ -124,9 +205,10 @@ def nearest_rows(arm: np.ndarray, poses: np.ndarray, references: np.ndarray, wei
     """Per pose (N, 8) the solution nearest its reference (N, 6) into out (N, 6) and nearest's status into
     status (N,); NaN rows where there is none."""
     goal, chain, rows, costs = np.empty(frames.GOAL_SIZE), np.empty((7, 12)), np.empty((9, 6)), np.empty((9, 2))
+    nodes = np.empty((4, NODE_SIZE))
     for index in range(len(poses)):
         frames.goal_of(arm, poses[index], goal)
-        status[index] = nearest(arm, goal, references[index], weights, out[index], chain, rows, costs)
+        status[index] = nearest(arm, goal, references[index], weights, out[index], chain, rows, costs, nodes)
         if status[index] != FOUND:
             out[index] = math.nan
 

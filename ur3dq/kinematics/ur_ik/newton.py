@@ -48,9 +48,10 @@ def pose_error(frames: np.ndarray, goal: np.ndarray, error: np.ndarray) -> float
 
 
 @kernel
-def normal_equations(frames: np.ndarray, error: np.ndarray, normal: np.ndarray, rhs: np.ndarray) -> None:
-    """JᵀJ (6, 6) and Jᵀe (6) of the Jacobian [z_i × (p − o_i); z_i] of joint i + 1 (axis and origin of frame i)."""
-    jacobian = np.empty((6, 6))
+def normal_equations(frames: np.ndarray, error: np.ndarray, normal: np.ndarray, rhs: np.ndarray,
+                     jacobian: np.ndarray) -> None:
+    """JᵀJ (6, 6) and Jᵀe (6) of the Jacobian [z_i × (p − o_i); z_i] of joint i + 1 (axis and origin of frame i),
+    row i of ``jacobian`` (6, 6: work space)."""
     end = frames[6]
     for i in range(6):
         z0, z1, z2 = frames[i, 6], frames[i, 7], frames[i, 8]
@@ -91,12 +92,13 @@ def cholesky(matrix: np.ndarray, shift: float, floor: float, lower: np.ndarray) 
 
 
 @kernel
-def newton_step(frames: np.ndarray, error: np.ndarray, norm: float, step: np.ndarray) -> None:
+def newton_step(frames: np.ndarray, error: np.ndarray, norm: float, step: np.ndarray, work: np.ndarray) -> None:
     """Δq (6) solving (JᵀJ + μI)·Δq = Jᵀe at ``frames`` for ``error`` of norm ``norm``, μ = λ² + |e|²: far from a
     solution (or beside a singularity) a Levenberg-Marquardt step of bounded length, near one Newton's step
-    (Yamashita and Fukushima's choice, quadratic convergence kept). Pivots are floored at λ²."""
-    normal, rhs, lower = np.empty((6, 6)), np.empty(6), np.empty((6, 6))
-    normal_equations(frames, error, normal, rhs)
+    (Yamashita and Fukushima's choice, quadratic convergence kept). Pivots are floored at λ². ``work`` (4, 6, 6)
+    is work space."""
+    normal, lower, jacobian, rhs = work[0], work[1], work[2], work[3, 0]
+    normal_equations(frames, error, normal, rhs, jacobian)
     cholesky(normal, -(DAMPING * DAMPING + norm * norm), DAMPING * DAMPING, lower)
     for i in range(6):   # L·y = rhs, then Lᵀ·Δq = y
         value = rhs[i]
@@ -117,7 +119,7 @@ def refine(arm: np.ndarray, q: np.ndarray, goal: np.ndarray, frames: np.ndarray)
 
     A row stops 100× inside CALIBRATED_TOLERANCE; or, below ROUNDING_CEILING, when a step no longer halves its
     error; or after MAX_STEPS. A growing error does not stop it: some seeds converge after a few growing steps."""
-    error, step = np.empty(6), np.empty(6)
+    error, step, work = np.empty(6), np.empty(6), np.empty((4, 6, 6))
     previous, norm, trace = math.inf, math.nan, 3.0
     for iteration in range(MAX_STEPS + 1):
         chain_frames(arm, q, frames)
@@ -127,7 +129,7 @@ def refine(arm: np.ndarray, q: np.ndarray, goal: np.ndarray, frames: np.ndarray)
         going = norm > 0.01 * CALIBRATED_TOLERANCE and (norm < 0.5 * previous or norm >= ROUNDING_CEILING)
         if iteration == MAX_STEPS or not going:
             break
-        newton_step(frames, error, norm, step)
+        newton_step(frames, error, norm, step, work)
         for k in range(6):
             q[k] += step[k]
         previous = norm
@@ -159,5 +161,5 @@ def isolated(arm: np.ndarray, q: np.ndarray, reach: float, frames: np.ndarray) -
     needed = max(math.sqrt(2.0 * bound * gap), min(bound * reach, 0.5 * bound * reach + gap / reach))
     normal, rhs, lower, error = np.empty((6, 6)), np.empty(6), np.empty((6, 6)), np.zeros(6)
     chain_frames(arm, q, frames)
-    normal_equations(frames, error, normal, rhs)
+    normal_equations(frames, error, normal, rhs, np.empty((6, 6)))
     return cholesky(normal, needed * needed, 0.0, lower)

@@ -90,7 +90,7 @@ def is_new(row: np.ndarray, kept: np.ndarray, count: int) -> bool:
 def meets(arm: np.ndarray, q: np.ndarray, goal: np.ndarray, chain: np.ndarray) -> bool:
     """The FK filter (eq. 4.45) of joints q (6) against the goal: the closed form, or the DH chain when calibrated."""
     if arm[CALIBRATED] == 0.0:
-        return frames.flange_meets(arm, fk.nominal_flange(arm, q), goal)
+        return frames.flange_meets(arm, fk.nominal_flange(arm, q[0], q[1], q[2], q[3], q[4], q[5]), goal)
     fk.chain_frames(arm, q, chain)
     return frames.chain_meets(arm, chain[6], goal)
 
