@@ -26,7 +26,7 @@ from ur3dq.errors import (
     RobotConnectionError,
     RobotError,
     SafetyCheckError,
-    add_note,
+    add_separate_note,
 )
 from ur3dq.robot import jog_steps, motion, primary, safety, state
 from ur3dq.robot.backend import StateBackend, calibrated_model, effective_speed_limits
@@ -536,7 +536,7 @@ class Robot:
         try:
             self._send_stop(SAFE_STOP_DECELERATION)
         except RobotError as stop_error:
-            add_note(error, f"ur3dq: sending stopj after this error also failed: {stop_error}")
+            add_separate_note(error, f"sending stopj after this error also failed: {stop_error}")
 
     def _send_stop(self, a: float) -> None:
         """Send a `stopj` program on the primary connection, or on a fresh one if that is gone (never via urx,
