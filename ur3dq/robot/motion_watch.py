@@ -64,6 +64,7 @@ class MotionWatch:
         self._error_at: float | None = None
         self._paused_since: float | None = None   # when the program was seen paused, while it is
         self._paused_total = 0.0
+        self._started_after: float | None = None   # s from the send to the first poll that saw it started
 
     def note_message(self, message: object) -> None:
         """Update from one robot message (key messages, runtime exceptions, error codes)."""
@@ -99,11 +100,15 @@ class MotionWatch:
     def check_progress(self, status: state.RobotStatus, elapsed: float, now: float, start_timeout: float,
                        timeout: float, timeout_note: str) -> None:
         """ProgramError when the program has not started `start_timeout` s after it was sent (`elapsed` s ago),
-        MotionTimeoutError when it ran past `timeout` s, the time it spent paused not counted (`timeout_note` says
-        what the timeout holds beyond the motion's own duration)."""
+        MotionTimeoutError when it ran past `timeout` s from its start (a controller parses a long program before
+        it starts it), the time it spent paused not counted (`timeout_note` says what the timeout holds beyond the
+        motion's own duration)."""
+        if self.started and self._started_after is None:
+            self._started_after = elapsed
         if not self.started and not self.paused and elapsed > start_timeout:
             raise ProgramError(f"the controller did not start program {self.name} within {start_timeout:.1f} s")
-        if elapsed - self.paused_seconds(now) > timeout:
+        running = elapsed - self._started_after if self._started_after is not None else 0.0
+        if running - self.paused_seconds(now) > timeout:
             raise MotionTimeoutError(
                 f"program {self.name} did not finish within {timeout:.2f} s (derived from its trapezoidal duration "
                 f"and the speed slider, {timeout_note}); the arm is {self.distance(status):.4f} rad from target")

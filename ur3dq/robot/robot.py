@@ -48,7 +48,6 @@ URSCRIPT_DEFAULT_A = 1.4  # rad/s², URScript movej default
 URSCRIPT_DEFAULT_V = 1.05  # rad/s
 SAFE_STOP_DECELERATION = 2.0  # rad/s²: stops a 1.05 rad/s joint in 0.5 s (ur_rtde's stopJ default)
 MAX_BLEND_RADIUS = 2.0  # metres; ur_rtde's client-side bound
-START_TIMEOUT = 5.0  # s for the controller to start a sent program (generous: a loaded simulator parses slowly)
 AFTER_STOP_WAIT = 0.5  # s to read a stopped program's last reports (its end key message) before giving up
 PROGRAM_STATE_TIMEOUT = 2.0  # s for a pause or a resume to show in the state
 OUTPUT_TIMEOUT = 1.0  # s for a digital output written over RTDE to show in the state
@@ -490,6 +489,12 @@ class Robot:
         it to its end; any failure stops the arm before the exception leaves."""
         timeout = motion.motion_timeout(duration, status.target_speed_fraction) + self.link_delay
         program = self._armed(program, name)
+        too_large = motion.program_size_problem(program)
+        if too_large is not None:
+            raise SafetyCheckError(f"program {name} is too large to send: {too_large} of program text a controller "
+                                   "connection holds at once; nothing was sent: run it in parts (run-poses "
+                                   "--from/--to)")
+        start_timeout = motion.program_start_timeout(program) + self.link_delay
         watcher = self._primary.watch()
         sent = time.monotonic()
         outcome = MotionWatch(name, target, running_at_send=status.program_running, heartbeat=self._heartbeat,
@@ -507,7 +512,7 @@ class Robot:
                 now = time.monotonic()
                 if outcome.finished(status, now) and (reached_end is None or reached_end()):
                     return now - sent
-                outcome.check_progress(status, now - sent, now, START_TIMEOUT + self.link_delay, timeout,
+                outcome.check_progress(status, now - sent, now, start_timeout, timeout,
                                        f"plus the link's measured round trip of {self.link_delay:.3f} s")
                 time.sleep(self._backend.poll_period)
         except BaseException as error:
