@@ -59,6 +59,7 @@ class MotionWatch:
         self._seen_running = False  # the state stream showed our program running
         self._ended_on_state = False  # ... and then not running
         self.last_error_text: str | None = None
+        self.replaced_by: str | None = None   # the name of a program that started after ours (another client's)
         self.runtime_error: ProgramError | None = None  # raised once the state had time to show a safety stop
         self._ended_at: float | None = None
         self._error_at: float | None = None
@@ -70,6 +71,8 @@ class MotionWatch:
         """Update from one robot message (key messages, runtime exceptions, error codes)."""
         if primary.is_program_started(message, self.name):
             self.started = True
+        elif self.started and isinstance(message, primary.KeyMessage) and message.title.endswith("_STARTED"):
+            self.replaced_by = self.replaced_by or message.text   # another client's program took over
         elif primary.is_program_stopped(message, self.name):
             self.started = self.stopped = True
         elif isinstance(message, primary.RuntimeExceptionMessage) and self.runtime_error is None:
@@ -155,16 +158,21 @@ class MotionWatch:
         return False
 
     def _stop_reason(self) -> str:
-        """What ended the program short of its target, as far as ur3dq can tell: the controller's error, or its
-        heartbeat watchdog when the heartbeat went a watchdog period without a write (the controller's key
-        message does not say why a program stopped)."""
+        """What ended the program short of its target, as far as ur3dq can tell: the controller's error, another
+        client's program that started after it, the heartbeat watchdog when the heartbeat went a watchdog period
+        without a write, else a stop without an error (the controller's key message does not say why a program
+        stopped)."""
         if self.last_error_text:
             return f": {self.last_error_text}"
+        if self.replaced_by is not None:
+            return (f": another client replaced it with its own program {self.replaced_by!r} (a controller runs one "
+                    "program at a time)")
         gap = self.heartbeat.longest_gap() if self.heartbeat is not None else 0.0
         if gap >= self.watchdog_period:
             return (f": most likely the controller's heartbeat watchdog (ur3dq's heartbeat wrote nothing for "
                     f"{gap:.3f} s; the watchdog stops a program after {self.watchdog_period:g} s)")
-        return ""
+        return (": the controller stopped it without an error, as when another client stops the program (a "
+                "dashboard or pendant stop)")
 
 
 def last_reports(watcher: queue.Queue[object], outcome: MotionWatch, on_message: Callable[[object], None],
