@@ -9,6 +9,8 @@ import math
 
 import numpy as np
 
+from ur3dq.errors import SafetyCheckError
+
 # The slider is never read as slower than this, so a slider at 0 yields a (long) finite timeout, not a hang.
 MIN_SPEED_FRACTION = 0.05
 #: Seconds a controller may take to start a short program it was sent (a loaded simulator parses slowly).
@@ -43,6 +45,14 @@ def program_size_problem(program: str) -> str | None:
     if lines > MAX_PROGRAM_LINES:
         return f"{lines:,} lines (the limit is {MAX_PROGRAM_LINES:,})"
     return None
+
+
+def refuse_oversize(program: str, name: str) -> None:
+    """SafetyCheckError naming the size and the limit when `program` (named `name`) is too large to send."""
+    too_large = program_size_problem(program)
+    if too_large is not None:
+        raise SafetyCheckError(f"program {name} is too large to send: {too_large} of program text a controller "
+                               "connection holds at once; nothing was sent: run it in parts (run-poses --from/--to)")
 
 
 def trapezoid_duration(distance, a, v):

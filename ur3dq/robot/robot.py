@@ -174,8 +174,7 @@ class Robot:
         return None if cartesian is None else cartesian.tcp_offset
 
     def _ensure_streams(self):
-        """Reconnect dead state streams (and the heartbeat) with exponential backoff; ConnectionLostError if they
-        stay down."""
+        """Reconnect dead state streams and heartbeat (exponential backoff); ConnectionLostError if they stay down."""
         beating = self._heartbeat is None or self._heartbeat.alive
         if self._primary.alive and self._backend.connected and beating:
             return
@@ -200,8 +199,7 @@ class Robot:
     # --- reading ----------------------------------------------------------------------------------------------
 
     def state(self) -> RobotStatus:
-        """The newest RobotStatus (joints, TCP, robot/safety mode, program running or paused, speed fractions,
-        digital I/O, age)."""
+        """The newest RobotStatus (joints, TCP, robot/safety mode, program running or paused, speeds, I/O, age)."""
         self._ensure_streams()
         return self._backend.status()
 
@@ -489,11 +487,7 @@ class Robot:
         it to its end; any failure stops the arm before the exception leaves."""
         timeout = motion.motion_timeout(duration, status.target_speed_fraction) + self.link_delay
         program = self._armed(program, name)
-        too_large = motion.program_size_problem(program)
-        if too_large is not None:
-            raise SafetyCheckError(f"program {name} is too large to send: {too_large} of program text a controller "
-                                   "connection holds at once; nothing was sent: run it in parts (run-poses "
-                                   "--from/--to)")
+        motion.refuse_oversize(program, name)
         start_timeout = motion.program_start_timeout(program) + self.link_delay
         watcher = self._primary.watch()
         sent = time.monotonic()
@@ -537,15 +531,17 @@ class Robot:
         return armed(program, name)
 
     def _stop_after(self, error: BaseException) -> None:
-        """Best-effort stopj after a failed or interrupted motion; a failing stop is attached, never raised."""
+        """Best-effort stopj after a failed or interrupted motion; a failing stop is attached, never raised. None after
+        a safety stop: the controller stops the arm itself, and a gentler stopj must not replace its stop."""
+        if isinstance(error, (ProtectiveStopError, EmergencyStopError)):
+            return
         try:
             self._send_stop(SAFE_STOP_DECELERATION)
         except RobotError as stop_error:
             add_separate_note(error, f"sending stopj after this error also failed: {stop_error}")
 
     def _send_stop(self, a: float) -> None:
-        """Send a `stopj` program on the primary connection, or on a fresh one if that is gone (never via urx,
-        whose sending can block)."""
+        """Send a `stopj` program on the primary connection, or a fresh one if it is gone (never via urx: it blocks)."""
         a = min(float(a), float(np.min(self.model.max_joint_acceleration)))
         if not (math.isfinite(a) and a > 0):
             raise ValueError(f"a (deceleration) must be finite and > 0, got {a!r}")
