@@ -9,7 +9,7 @@ within the heartbeat bound of the fault (or of ur3dq's end, when the fault leave
 be byte-identical; and the error must name the tool output when the program left it on.
 
 Runs go LANES at a time, each lane with a simulator process of its own, watched through the simulator's control
-channel (which no fault touches): its joints and outputs every few milliseconds.
+channel (which no fault touches): its joints and outputs about every 10 ms.
 """
 import contextlib
 import dataclasses
@@ -103,7 +103,7 @@ def write_program(path):
 
 
 class Observer:
-    """The simulator's joints and digital outputs, every few ms from a thread, through its control channel."""
+    """The simulator's joints and digital outputs about every 10 ms from a thread, through its control channel."""
 
     def __init__(self, host):
         self.samples = []   # (monotonic time, joints (6,), digital output bits)
@@ -122,7 +122,7 @@ class Observer:
                     return
                 state = json.loads(line)["state"]
                 self.samples.append((time.monotonic(), np.array(state["q"]), state["digital_output_bits"]))
-                time.sleep(0.004)
+                time.sleep(0.01)
         except OSError:   # the simulator was killed
             return
 
