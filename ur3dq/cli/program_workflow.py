@@ -347,6 +347,7 @@ def run_program_command(settings: Settings, start: str | None, end: str | None, 
                  f"Plan on the {robot.model_name} at {robot.host}", dry_run)
         if dry_run:
             return
+        run_session.confirm_replacing_foreign_program(robot, yes)
         confirm(f"Run {len(plan)} steps ({part[0].name!r} to {part[-1].name!r}) on the arm?", yes, default=False)
         options = {"speed": speed, "acceleration": acceleration, "blend": blend, "speed_scale": speed_scale,
                    "replay_joints": replay_joints, "max_travel": max_travel,

@@ -16,11 +16,11 @@ from rich.console import Console
 from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-from ur3dq.cli.app import Cancelled, Settings
+from ur3dq.cli.app import Cancelled, Settings, confirm
 from ur3dq.cli.operator_controls import OperatorControls
 from ur3dq.cli.resume_state import ResumeState, arm_identity, clear_resume_state, store_digest
 from ur3dq.cli.signals import signal_name
-from ur3dq.errors import SafetyCheckError, StoreError, add_note
+from ur3dq.errors import RobotError, SafetyCheckError, StoreError, add_note
 from ur3dq.program.plan import PlannedStep
 from ur3dq.program.runner import ProgramStop, StepWatch, run_plan, status_at_rest
 from ur3dq.store import DEFAULT_STORE_PATH
@@ -42,6 +42,24 @@ class RunRecord:
     options: dict[str, Any]
     store_digest: str
     arm: dict[str, Any]
+
+
+def confirm_replacing_foreign_program(robot: Any, yes: bool) -> None:
+    """Before a run sends its program: another program, running or paused on the controller (another client's, the
+    pendant's), would be stopped and replaced by it (a controller runs one program at a time). Ask (default No), or
+    refuse under `yes` (RobotError, exit 6): --yes answers the question about moving the arm, not this one."""
+    status = robot.state()
+    if not (status.program_running or status.program_paused):
+        return
+    try:
+        dashboard = f" (dashboard: {robot.program_state()})"
+    except RobotError:
+        dashboard = ""
+    found = f"another program is {'paused' if status.program_paused else 'running'} on the controller{dashboard}"
+    if yes:
+        raise RobotError(f"{found}: this run would stop and replace it, so nothing was sent; stop it first (at "
+                         "the pendant, or `ur3dq robot stop`), or run without --yes to be asked")
+    confirm(f"{found[0].upper()}{found[1:]}: stop it and run this one instead?", False, default=False)
 
 
 def run_record(settings: Settings, robot: Any, kind: str, end: str | None, options: dict[str, Any],
