@@ -1,0 +1,72 @@
+"""What a new user meets doing the pick-and-place job from `ur3dq --help` alone: every dead end names the way on."""
+import json
+import shlex
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from cli_support import cli_env, cli_process
+from polling import wait_for
+from robot_target import simulator_only
+
+pytestmark = simulator_only("pushing the simulated arm by hand")
+
+PLACE = np.array([0.0, -1.2, 1.0, -1.4, -1.57, 0.0])
+
+
+@pytest.fixture(scope="module")
+def simulator():
+    """A powered simulator process of this module, at PLACE."""
+    from cli_support import SimulatedArm
+    from powered_simulator import powered_simulator
+
+    with powered_simulator(model="ur3") as running:
+        arm = SimulatedArm(running.host)
+        arm.place(PLACE)
+        try:
+            yield running, arm
+        finally:
+            arm.receive.disconnect()
+
+
+def as_sim_start_left_it(tmp_path, simulator):
+    """The state file `ur3dq sim start` writes, naming this simulator process: ur3dq then treats it as its own."""
+    state = tmp_path / "state"
+    state.mkdir(exist_ok=True)
+    (state / "sim.json").write_text(json.dumps({"pid": simulator.process.pid, "host": simulator.host,
+                                                "model": "ur3", "version": None, "log": "", "started": ""}))
+
+
+def test_teach_on_our_simulator_prints_the_hand_that_moves_it(simulator, tmp_path):
+    running, arm = simulator
+    as_sim_start_left_it(tmp_path, running)
+    with cli_process(tmp_path, "record-pose", "--teach", "--name", "t", stdin=subprocess.PIPE) as process:
+        assert "Freedrive is on" in process.stderr.readline()
+        assert "be the hand from another terminal" in process.stderr.readline()
+        command = shlex.split(process.stderr.readline())
+        assert command[:2] == ["sim-ursim", "move-by-hand"] and command[-2:] == ["--host", running.host]
+        np.testing.assert_allclose([float(value) for value in command[2:8]], PLACE, atol=0.006)
+        target = PLACE + [0.3, 0.0, 0.0, 0.0, 0.0, 0.0]
+        pushed = subprocess.run([str(Path(sys.executable).with_name("sim-ursim")), "move-by-hand",
+                                 *map(str, target), *command[8:]], env=cli_env(tmp_path), capture_output=True,
+                                text=True, timeout=30)
+        assert pushed.returncode == 0, pushed.stderr
+        assert wait_for(lambda: np.max(np.abs(arm.joints() - target)) < 1e-6, timeout=5)
+        process.stdin.write("\nq\n")
+        process.stdin.flush()
+        stdout, stderr = process.communicate(timeout=20)
+    assert process.returncode == 0, stderr
+    assert "Recorded 1 pose" in stdout
+
+
+def test_teach_on_another_controller_prints_no_simulator_hand(simulator, tmp_path):
+    running, _ = simulator
+    with cli_process(tmp_path, "--host", running.host, "record-pose", "--teach", stdin=subprocess.PIPE) as process:
+        process.stdin.write("q\n")
+        process.stdin.flush()
+        _, stderr = process.communicate(timeout=20)
+    assert process.returncode == 0, stderr
+    assert "Freedrive is on" in stderr and "move-by-hand" not in stderr
