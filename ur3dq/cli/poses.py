@@ -9,6 +9,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import click
+import numpy as np
 from rich.markup import escape
 from rich.text import Text
 
@@ -50,6 +51,7 @@ from ur3dq.cli.program_workflow import (
 )
 from ur3dq.errors import StoreError
 from ur3dq.pose import next_free_name, utc_now_iso
+from ur3dq.program.resolve import resolve_targets
 from ur3dq.program.steps import (
     PIN_COUNT,
     AnalogOut,
@@ -438,7 +440,21 @@ def offset(settings: Settings, new: str, base: str, dx: float, dy: float, dz: fl
 
     step = add_step_at(settings, make, after, before)
     report(settings, {"added": step_to_dict(step)},
-           f"Added relative waypoint {new!r}: {describe_step(step, settings.units)}.")
+           f"Added relative waypoint {new!r}: {describe_step(step, settings.units)}.\n"
+           f"  {where_from_base(settings.store.load_program(), new, base)}")
+
+
+def where_from_base(steps: list[Step], name: str, base: str) -> str:
+    """Where the relative waypoint `name` lands from its waypoint `base`, in the robot's base frame and in words
+    (above, below or beside it): a tool-frame offset's direction is not what a person sees."""
+    targets = resolve_targets(steps)
+    shift = (targets[name].pose.translation - targets[base].pose.translation) * 1000.0
+    moved = float(np.linalg.norm(shift))
+    if moved < 0.05:
+        return f"Base frame: at the spot of {base!r}."
+    words = ("above" if shift[2] > 0 else "below") if abs(shift[2]) >= 0.5 * moved else "beside"
+    return (f"Base frame: {moved:.1f} mm {words} {base!r} "
+            f"(Δx {shift[0]:+.1f} Δy {shift[1]:+.1f} Δz {shift[2]:+.1f} mm).")
 
 
 # ---------------------------------------------------------------- poses add-step ...

@@ -1,0 +1,22 @@
+"""Where a new user goes wrong without a robot: each answer says what was understood and names the way on."""
+import shutil
+from pathlib import Path
+
+import pytest
+
+EXAMPLE = Path(__file__).parents[2] / "poses" / "example-poses.json"
+
+
+@pytest.fixture
+def store(tmp_path):
+    """The example store (its 'demo-1' has the tool pointing down), in the test's directory."""
+    shutil.copy(EXAMPLE, tmp_path / "poses.json")
+    return tmp_path / "poses.json"
+
+
+@pytest.mark.parametrize("z, words", [("50mm", "below"), ("-50mm", "above")])
+def test_an_offset_says_where_it_lands_in_the_base_frame(run_in_process, store, z, words):
+    result = run_in_process("poses", "offset", "near", "--from", "demo-1", f"--z={z}")
+    assert result.returncode == 0, result.stderr
+    assert f"Base frame: 50.0 mm {words} 'demo-1'" in result.stdout
+    assert all(len(line) <= 80 for line in result.stdout.splitlines())
