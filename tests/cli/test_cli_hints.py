@@ -20,3 +20,11 @@ def test_an_offset_says_where_it_lands_in_the_base_frame(run_in_process, store, 
     assert result.returncode == 0, result.stderr
     assert f"Base frame: 50.0 mm {words} 'demo-1'" in result.stdout
     assert all(len(line) <= 80 for line in result.stdout.splitlines())
+
+
+def test_a_taken_step_name_names_the_ways_on(run_in_process, store):
+    assert run_in_process("poses", "offset", "near", "--from", "demo-1", "--z", "-50mm").returncode == 0
+    again = run_in_process("poses", "offset", "near", "--from", "demo-1", "--z", "-60mm")
+    assert again.returncode == 3 and "choose another name" in again.stderr
+    assert "`ur3dq poses rm near`" in again.stderr
+

@@ -374,6 +374,12 @@ def move_step(settings: Settings, name: str, after: str | None, before: str | No
     report(settings, {"moved": name, "position": position}, f"Moved {name!r} to position {position}.")
 
 
+def name_taken(name: str) -> StoreError:
+    """The refusal of a new step whose name another step has, naming the ways on."""
+    return StoreError(f"a step named {name!r} already exists: choose another name, or remove it first "
+                      f"(`ur3dq poses rm {name}`)")
+
+
 @poses.command("copy", short_help="Copy a step under a new name.")
 @click.argument("name")
 @click.argument("new")
@@ -390,7 +396,7 @@ def copy_step(settings: Settings, name: str, new: str, after: str | None, before
 
     def make(steps: list[Step]) -> Step:
         if any(step.name == new for step in steps):
-            raise StoreError(f"a step named {new!r} already exists")
+            raise name_taken(new)
         step = find_step(steps, name, settings.store_path)
         if isinstance(step, Waypoint):
             return Waypoint(new, step.pose.renamed(new), step.motion)
@@ -432,7 +438,7 @@ def offset(settings: Settings, new: str, base: str, dx: float, dy: float, dz: fl
 
     def make(steps: list[Step]) -> Step:
         if any(step.name == new for step in steps):
-            raise StoreError(f"a step named {new!r} already exists")
+            raise name_taken(new)
         who = f"step {new!r} (relative waypoint)"
         motion = motion_from_options(Motion(), move, speed, acceleration, blend, who, program_model(settings, steps))
         return RelativeWaypoint(new, base, (dx, dy, dz, rx, ry, rz), frame, motion,
@@ -488,7 +494,7 @@ def _add_action(build: Callable[[str], Step], prefix: str) -> None:
     def make(steps: list[Step]) -> Step:
         taken = {step.name for step in steps}
         if name and name in taken:
-            raise StoreError(f"a step named {name!r} already exists")
+            raise name_taken(name)
         return build(name or next_free_name(prefix, taken))
 
     step = add_step_at(settings, make, after, before)
