@@ -28,3 +28,13 @@ def test_a_taken_step_name_names_the_ways_on(run_in_process, store):
     assert again.returncode == 3 and "choose another name" in again.stderr
     assert "`ur3dq poses rm near`" in again.stderr
 
+
+
+@pytest.mark.parametrize("program", ["v1", "v2"])
+def test_export_urscript_given_a_file_name_says_to_use_output(run_in_process, store, program):
+    if program == "v2":
+        assert run_in_process("poses", "add-step", "wait", "1").returncode == 0   # the store becomes a program
+    result = run_in_process("export-urscript", "job.script")
+    assert result.returncode == 2 and "-o job.script" in result.stderr, result.stderr
+    assert run_in_process("export-urscript", "-o", "job.script").returncode == 0
+    assert "\ndef ur3dq_" in (store.parent / "job.script").read_text()
