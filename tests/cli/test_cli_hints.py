@@ -38,3 +38,17 @@ def test_export_urscript_given_a_file_name_says_to_use_output(run_in_process, st
     assert result.returncode == 2 and "-o job.script" in result.stderr, result.stderr
     assert run_in_process("export-urscript", "-o", "job.script").returncode == 0
     assert "\ndef ur3dq_" in (store.parent / "job.script").read_text()
+
+
+def test_the_jog_screen_shows_every_joint_and_a_long_message_whole():
+    from ur3dq.cli.jog import HEIGHT, WIDTH, JogScreen, screen_lines
+
+    why = ("J5- not moved: cannot open the RTDE inputs of 127.0.0.2:30004 (input registers 18-22; is another RTDE "
+           "client writing them?): end the other ur3dq command (record-pose --teach, run-poses) first")
+    joints = [-6.2, -3.1, 3.1, -6.2, -1.7, 6.28]
+    lines = screen_lines(JogScreen(message=why), "ur3 at 127.0.0.2", joints, [0.1, -0.2, 0.3, 3.1, 0.0, -3.1],
+                         "poses.json")
+    assert len(lines) == HEIGHT - 1 and all(len(line) <= WIDTH for line in lines)
+    assert lines[6].endswith("J6 +359.82")
+    assert " ".join(line for line in lines if line).endswith(why.split()[-1])
+    assert " ".join(" ".join(lines).split()).count("end the other ur3dq command") == 1

@@ -11,6 +11,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import sys
+import textwrap
 from collections.abc import Iterator
 from typing import Any, TextIO
 
@@ -78,7 +79,7 @@ def screen_lines(screen: JogScreen, title: str, joints: Any, tcp: Any, store: st
         f"Speed  {SPEED_SHARES[screen.speed]:.0%} of the jog limit  < >: slower / faster "
         f"({show(screen.speed_for(step), _speed_kind(step), SCREEN_UNITS, 1)})",
         "",
-        "Joints °  " + " ".join(f"J{i + 1} {value:+8.2f}" for i, value in enumerate(angle)),
+        "Joints °  " + " ".join(f"J{i + 1} {value:+7.2f}" for i, value in enumerate(angle)),
         "TCP mm    " + " ".join(f"{name} {value:+8.1f}" for name, value in zip("XYZ", position, strict=True)),
         "TCP °     " + " ".join(f"{name} {value:+8.2f}" for name, value in zip(("RX", "RY", "RZ"), rotation,
                                                                               strict=True)),
@@ -89,8 +90,8 @@ def screen_lines(screen: JogScreen, title: str, joints: Any, tcp: Any, store: st
         f"r  record this pose into {store}"[:WIDTH],
         "q  quit",
         "",
-        screen.message[:WIDTH],
     ]
+    lines += textwrap.wrap(screen.message, WIDTH)[:HEIGHT - 1 - len(lines)]   # a refusal's fix is at its end
     return [line[:WIDTH] for line in lines] + [""] * (HEIGHT - 1 - len(lines))
 
 
