@@ -70,3 +70,16 @@ def test_teach_on_another_controller_prints_no_simulator_hand(simulator, tmp_pat
         _, stderr = process.communicate(timeout=20)
     assert process.returncode == 0, stderr
     assert "Freedrive is on" in stderr and "move-by-hand" not in stderr
+
+
+def test_jog_beside_a_teach_session_names_the_command_to_end(simulator, tmp_path):
+    running, _ = simulator
+    with cli_process(tmp_path, "--host", running.host, "record-pose", "--teach", stdin=subprocess.PIPE) as teach:
+        assert "Freedrive is on" in teach.stderr.readline()
+        jog = subprocess.run([str(Path(sys.executable).with_name("ur3dq")), "--host", running.host, "jog"],
+                             input="+q", env=cli_env(tmp_path), cwd=tmp_path, capture_output=True, text=True,
+                             timeout=60)
+        teach.stdin.write("q\n")
+        teach.stdin.flush()
+        teach.communicate(timeout=20)
+    assert "J1+ not moved" in jog.stderr and "end the other ur3dq command" in jog.stderr, jog.stderr

@@ -36,6 +36,11 @@ class RTDEInputs:
         try:
             self._io = rtde_io.RTDEIOInterface(host)
         except RuntimeError as error:
+            if "already in use" in str(error):   # ur_rtde's words; its advice (fieldbus adapters) rarely applies
+                raise RobotConnectionError(
+                    f"cannot open the RTDE inputs of {host}:30004: another client holds input registers 18-22; end "
+                    "the other ur3dq command on this arm (a record-pose --teach, jog, run-poses) and try again") \
+                    from None
             raise RobotConnectionError(
                 f"cannot open the RTDE inputs of {host}:30004 (input registers 18-22; is another RTDE client "
                 f"writing them?): {error}") from None
