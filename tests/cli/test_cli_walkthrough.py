@@ -1,8 +1,10 @@
 """What a new user meets doing the pick-and-place job from `ur3dq --help` alone: every dead end names the way on."""
 import json
 import shlex
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -83,3 +85,45 @@ def test_jog_beside_a_teach_session_names_the_command_to_end(simulator, tmp_path
         teach.stdin.flush()
         teach.communicate(timeout=20)
     assert "J1+ not moved" in jog.stderr and "end the other ur3dq command" in jog.stderr, jog.stderr
+
+
+def screen_lines_after(terminal, fragment, timeout=60):
+    """Every line the terminal showed after `fragment` until its process ended (a redrawn line: each drawing)."""
+    terminal.wait_for(fragment, timeout)
+    terminal.process.wait(timeout)
+    time.sleep(0.2)   # the last output read
+    return [part for line in terminal.text.split("\n") for part in line.split("\r")]
+
+
+def test_the_stop_report_and_the_resume_fit_80_columns(simulator, tmp_path):
+    from cli_support import Terminal
+    from ur3dq.kinematics import robot_model
+    from ur3dq.pose import Pose
+    from ur3dq.program.steps import DigitalOut, Motion, Waypoint
+    from ur3dq.store import PoseStore
+
+    running, arm = simulator
+    arm.place(PLACE)
+    ur3, far = robot_model("ur3"), PLACE + [1.2, 0.0, 0.0, 0.0, 0.0, 0.0]
+    steps = [DigitalOut("grip", "tool", 0, True),
+             Waypoint("far", Pose.from_dual_quaternion("far", ur3.fk(far), "ur3", joints=tuple(far)),
+                      Motion("joint", 0.2))]
+    PoseStore(tmp_path / "poses.json").update_program(lambda old: (steps, None))
+    terminal = Terminal(tmp_path, "--host", running.host, "run-poses", "--yes")
+    try:
+        terminal.wait_for("p pauses, s stops, q quits")
+        assert wait_for(lambda: np.max(np.abs(arm.joint_speeds())) > 0.05, timeout=20)
+        terminal.process.send_signal(signal.SIGINT)   # Ctrl-C (this pty is not the process's controlling tty)
+        lines = screen_lines_after(terminal, "Stopped during")
+    finally:
+        terminal.close()
+    assert terminal.process.returncode == 130, "\n".join(lines)
+    assert any(line.startswith("Error: interrupted") for line in lines), lines
+    assert all(len(line) <= 80 for line in lines), [line for line in lines if len(line) > 80]
+    terminal = Terminal(tmp_path, "--host", running.host, "run-poses", "--resume", "--yes")
+    try:
+        lines = screen_lines_after(terminal, "Resuming at")
+    finally:
+        terminal.close()
+    assert terminal.process.returncode == 0, lines
+    assert all(len(line) <= 80 for line in lines), [line for line in lines if len(line) > 80]

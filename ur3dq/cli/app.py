@@ -324,7 +324,7 @@ def _report_interrupt(interrupt):
     name = signal_name(interrupt)
     text = f"interrupted by {name}" if name else str(interrupt) or "interrupted"
     notes = getattr(interrupt, "__notes__", None) or []
-    click.echo(f"Error: {' '.join(' '.join([text, *notes]).split())}", err=True)
+    show_error(" ".join(" ".join([text, *notes]).split()))
     return exit_code_for_interrupt(interrupt)
 
 
