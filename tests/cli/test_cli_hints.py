@@ -52,3 +52,9 @@ def test_the_jog_screen_shows_every_joint_and_a_long_message_whole():
     assert lines[6].endswith("J6 +359.82")
     assert " ".join(line for line in lines if line).endswith(why.split()[-1])
     assert " ".join(" ".join(lines).split()).count("end the other ur3dq command") == 1
+
+
+def test_a_waypoint_speed_in_no_speed_unit_names_both_kinds(run_in_process, store):
+    result = run_in_process("poses", "set", "demo-1", "--move", "linear", "--speed", "100mm")
+    assert result.returncode == 4 and "--speed: '100mm' is neither a joint speed nor a linear speed" in result.stderr
+    assert "60deg/s or 250mm/s" in result.stderr
