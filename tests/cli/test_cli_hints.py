@@ -58,3 +58,15 @@ def test_a_waypoint_speed_in_no_speed_unit_names_both_kinds(run_in_process, stor
     result = run_in_process("poses", "set", "demo-1", "--move", "linear", "--speed", "100mm")
     assert result.returncode == 4 and "--speed: '100mm' is neither a joint speed nor a linear speed" in result.stderr
     assert "60deg/s or 250mm/s" in result.stderr
+
+
+@pytest.mark.parametrize("args, way_on", [
+    (("poses", "set", "demo1", "--speed", "1deg/s"), "did you mean 'demo-1'?"),
+    (("poses", "add-step", "--after", "demo1", "wait", "1"), "did you mean 'demo-1'?"),
+    (("poses", "set", "gripper", "--speed", "1deg/s"), "`ur3dq poses list` shows them"),
+    (("export-urscript", "--from", "demo1"), "did you mean 'demo-1'?"),
+])
+def test_a_mistyped_step_name_gets_the_close_one_or_the_list(run_in_process, store, args, way_on):
+    assert run_in_process("poses", "add-step", "wait", "1").returncode == 0   # the store becomes a program
+    result = run_in_process(*args)
+    assert result.returncode in (3, 4) and way_on in result.stderr, result.stderr
