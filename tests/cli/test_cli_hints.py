@@ -70,3 +70,25 @@ def test_a_mistyped_step_name_gets_the_close_one_or_the_list(run_in_process, sto
     assert run_in_process("poses", "add-step", "wait", "1").returncode == 0   # the store becomes a program
     result = run_in_process(*args)
     assert result.returncode in (3, 4) and way_on in result.stderr, result.stderr
+
+
+@pytest.mark.parametrize("args, refusal", [
+    (("poses", "offset", "turned", "--from", "demo-1", "--rz", "5"),
+     "--rz 5: a bare number is read in rad, and 5 rad is more than a half turn; type 5deg, or 5rad if"),
+    (("poses", "add-step", "wait", "500"),
+     "TIME 500: a bare number is read in s, and 500 s is more than a minute; type 500ms, or 500s if"),
+])
+def test_a_bare_number_far_beyond_the_usual_asks_for_its_unit(run_in_process, store, args, refusal):
+    before = store.read_bytes()
+    result = run_in_process(*args)
+    assert result.returncode == 4 and refusal in result.stderr, result.stderr
+    assert store.read_bytes() == before
+    with_unit = [*args[:-1], args[-1] + ("rad" if "--rz" in args else "s")]
+    assert run_in_process(*with_unit).returncode == 0   # typed with its unit, it is taken as typed
+
+
+@pytest.mark.parametrize("args", [("poses", "offset", "turned", "--from", "demo-1", "--rz", "3"),
+                                  ("--deg", "poses", "offset", "turned", "--from", "demo-1", "--rz", "5"),
+                                  ("poses", "add-step", "wait", "60")])
+def test_a_bare_number_within_the_usual_is_taken(run_in_process, store, args):
+    assert run_in_process(*args).returncode == 0

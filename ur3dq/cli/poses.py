@@ -5,6 +5,7 @@ with other commands are in program_workflow.py.
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Callable
 from pathlib import Path
 
@@ -406,6 +407,10 @@ def copy_step(settings: Settings, name: str, new: str, after: str | None, before
     report(settings, {"copied": name, "to": new}, f"Copied {name!r} to {new!r}.")
 
 
+#: An offset's turn: a bare number over a half turn is refused (a turn of 5 is 5° far more often than 286°).
+OFFSET_TURN = Quantity(ANGLE, (math.pi, "a half turn", "deg"))
+
+
 @poses.command("offset", short_help="Add a waypoint at an offset from another.")
 @click.argument("new")
 @click.option("--from", "base", required=True, metavar="N", help="The waypoint it is relative to.")
@@ -413,10 +418,10 @@ def copy_step(settings: Settings, name: str, new: str, after: str | None, before
 @click.option("--y", "dy", type=Quantity(LENGTH), default=0.0, metavar="D", help="Offset along y.")
 @click.option("--z", "dz", type=Quantity(LENGTH), default=0.0, metavar="D",
               help="Offset along z, e.g. -50mm (bare: m, mm under --mm).")
-@click.option("--rx", type=Quantity(ANGLE), default=0.0, metavar="ANGLE",
-              help="Rotation vector x, e.g. 5deg (bare: rad, ° under --deg).")
-@click.option("--ry", type=Quantity(ANGLE), default=0.0, metavar="ANGLE", help="Rotation vector y.")
-@click.option("--rz", type=Quantity(ANGLE), default=0.0, metavar="ANGLE", help="Rotation vector z.")
+@click.option("--rx", type=OFFSET_TURN, default=0.0, metavar="ANGLE",
+              help="Rotation vector x, e.g. 5deg (bare: rad up to π, ° under --deg).")
+@click.option("--ry", type=OFFSET_TURN, default=0.0, metavar="ANGLE", help="Rotation vector y.")
+@click.option("--rz", type=OFFSET_TURN, default=0.0, metavar="ANGLE", help="Rotation vector z.")
 @click.option("--frame", type=click.Choice(["tool", "base"]), default="tool", show_default=True,
               help="tool: along N's own TCP axes; base: along the robot's base axes.")
 @waypoint_motion_options
@@ -533,10 +538,10 @@ def analog_out(pin: int, value: str) -> None:
 
 
 @add_step.command("wait", short_help="Wait a time, e.g. 500ms or 2s.")
-@click.argument("seconds", type=Quantity(DURATION), metavar="TIME")
+@click.argument("seconds", type=Quantity(DURATION, (60.0, "a minute", "ms")), metavar="TIME")
 @display_options
 def wait(seconds: float) -> None:
-    """Wait TIME: 500ms, 2s, or a bare number of seconds."""
+    """Wait TIME: 500ms, 2s, or a bare number of seconds up to 60 (longer: with its unit, 90s)."""
     _add_action(lambda name: Wait(name, seconds), "wait")
 
 
