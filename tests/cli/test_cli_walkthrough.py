@@ -48,13 +48,14 @@ def test_teach_on_our_simulator_prints_the_hand_that_moves_it(simulator, tmp_pat
     with cli_process(tmp_path, "record-pose", "--teach", "--name", "t", stdin=subprocess.PIPE) as process:
         assert "Freedrive is on" in process.stderr.readline()
         assert "be the hand from another terminal" in process.stderr.readline()
-        command = shlex.split(process.stderr.readline())
-        assert command[:2] == ["sim-ursim", "move-by-hand"] and command[-2:] == ["--host", running.host]
-        np.testing.assert_allclose([float(value) for value in command[2:8]], PLACE, atol=0.006)
+        lines = [process.stderr.readline(), process.stderr.readline()]   # one command on two lines of < 80
+        assert all(len(line.rstrip("\n")) <= 80 for line in lines), lines
+        command = shlex.split("".join(lines).replace("\\\n", " "))   # a shell joins the continued line
+        assert command[:4] == ["sim-ursim", "move-by-hand", "--host", running.host], command
+        np.testing.assert_allclose([float(value) for value in command[4:]], PLACE, atol=0.006)
         target = PLACE + [0.3, 0.0, 0.0, 0.0, 0.0, 0.0]
-        pushed = subprocess.run([str(Path(sys.executable).with_name("sim-ursim")), "move-by-hand",
-                                 *map(str, target), *command[8:]], env=cli_env(tmp_path), capture_output=True,
-                                text=True, timeout=30)
+        pushed = subprocess.run([str(Path(sys.executable).with_name("sim-ursim")), *command[1:4], *map(str, target)],
+                                env=cli_env(tmp_path), capture_output=True, text=True, timeout=30)
         assert pushed.returncode == 0, pushed.stderr
         assert wait_for(lambda: np.max(np.abs(arm.joints() - target)) < 1e-6, timeout=5)
         process.stdin.write("\nq\n")

@@ -80,9 +80,9 @@ def simulator_hand_hint(robot: Robot) -> str | None:
 
     if robot.host != running_simulator_host():
         return None
-    joints = " ".join(f"{value:.2f}" for value in robot.joints())
-    return ("On the simulator, be the hand from another terminal (six joints, rad):\n"
-            f"  sim-ursim move-by-hand {joints} --host {robot.host}")
+    joints = " ".join(f"{value:.2f}".replace("-0.00", "0.00") for value in robot.joints())
+    return ("On the simulator, be the hand from another terminal (six joints, rad):\n"   # two lines of < 80
+            f"  sim-ursim move-by-hand --host {robot.host} \\\n      {joints}")
 
 
 def _teach(settings: Settings, robot: Robot, prefix: str, note: str) -> None:
@@ -97,7 +97,7 @@ def _teach(settings: Settings, robot: Robot, prefix: str, note: str) -> None:
                   "q then Enter ends.")
         hand = simulator_hand_hint(robot)
         if hand:
-            err.print(hand)
+            err.print(hand, soft_wrap=True)   # as composed: a command rewrapped would lose its --host
         for line in sys.stdin:
             text = line.strip()
             if text.lower() == "q":
