@@ -128,3 +128,26 @@ def test_the_stop_report_and_the_resume_fit_80_columns(simulator, tmp_path):
         terminal.close()
     assert terminal.process.returncode == 0, lines
     assert all(len(line) <= 80 for line in lines), [line for line in lines if len(line) > 80]
+
+
+def test_teach_names_a_late_heartbeat_when_freedrive_ends_with_the_watchdog(simulator, tmp_path):
+    from sim_ursim.control_channel import send_request
+
+    running, _ = simulator
+    freedrive = lambda: send_request(running.host, "status")["state"]["freedrive"]   # noqa: E731
+    with cli_process(tmp_path, "--host", running.host, "record-pose", "--teach", stdin=subprocess.PIPE) as process:
+        assert "Freedrive is on" in process.stderr.readline()
+        assert wait_for(freedrive, timeout=10)
+        process.send_signal(signal.SIGSTOP)   # a computer too busy to run ur3dq: its heartbeat stops
+        try:
+            assert wait_for(lambda: not freedrive(), timeout=10)   # the controller's watchdog ended the program
+        finally:
+            process.send_signal(signal.SIGCONT)
+        process.stdin.write("\n")
+        process.stdin.flush()
+        line = process.stderr.readline()
+        process.stdin.write("q\n")
+        process.stdin.flush()
+        process.communicate(timeout=20)
+    assert "not recorded: freedrive ended" in line and "watchdog stopped it: ur3dq's heartbeat came late" in line, line
+    assert "f then Enter switches it on again" in line

@@ -107,8 +107,9 @@ def _teach(settings: Settings, robot: Robot, prefix: str, note: str) -> None:
                 err.print("Freedrive is on again.")
                 continue
             if not robot.freedrive_active():
-                err.print("not recorded: freedrive was switched off by another program sent to the controller; "
-                          "f then Enter switches it on again, q ends")
+                err.print("not recorded: freedrive ended (another program replaced its own, or the controller's "
+                          "watchdog stopped it: ur3dq's heartbeat came late); f then Enter switches it on again, "
+                          "q ends")
                 continue
             taken = [pose.name for pose in settings.store.load()]
             try:
