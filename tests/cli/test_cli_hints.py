@@ -35,7 +35,8 @@ def test_export_urscript_given_a_file_name_says_to_use_output(run_in_process, st
     if program == "v2":
         assert run_in_process("poses", "add-step", "wait", "1").returncode == 0   # the store becomes a program
     result = run_in_process("export-urscript", "job.script")
-    assert result.returncode == 2 and "-o job.script" in result.stderr, result.stderr
+    assert result.returncode == 2 and "is a file, not a step name: use -o job.script" in result.stderr
+    assert all(len(line) <= 80 for line in result.stderr.splitlines()), result.stderr
     assert run_in_process("export-urscript", "-o", "job.script").returncode == 0
     assert "\ndef ur3dq_" in (store.parent / "job.script").read_text()
 
