@@ -93,3 +93,17 @@ def test_a_bare_number_far_beyond_the_usual_asks_for_its_unit(run_in_process, st
                                   ("poses", "add-step", "wait", "60")])
 def test_a_bare_number_within_the_usual_is_taken(run_in_process, store, args):
     assert run_in_process(*args).returncode == 0
+
+
+def test_the_run_questions_summary_wraps_within_80_columns_under_its_own_line():
+    from ur3dq.cli.plan_summary import PlanFigures, summary_lines
+    from ur3dq.units import Units
+
+    figures = PlanFigures(10, 7, 4, 3, 5.0, 0.611, 0.8, "above-place", "home", "retract-place")
+    verdict = "Path check (cell cell.json): clear; closest 106.9 mm to the cell at 'retract-pick'"
+    lines = summary_lines(figures, verdict, ["speed of 'retract-place' lowered to 250 mm/s (the ur3's limit)"],
+                          Units())
+    assert all(len(line) <= 80 for line in lines), lines
+    assert "('above-place')" in " ".join(lines) and "'retract-pick'" in " ".join(lines)
+    assert all(line.startswith("  ") for line in lines[1:]), lines   # a continued line stays under its own
+    assert len(lines) <= 10
