@@ -151,3 +151,21 @@ def test_teach_names_a_late_heartbeat_when_freedrive_ends_with_the_watchdog(simu
         process.communicate(timeout=20)
     assert "not recorded: freedrive ended" in line and "watchdog stopped it: ur3dq's heartbeat came late" in line, line
     assert "f then Enter switches it on again" in line
+
+
+def test_a_jog_step_stopped_short_says_the_key_again_goes_on(simulator, tmp_path):
+    running, arm = simulator
+    arm.place(PLACE)
+    with cli_process(tmp_path, "--host", running.host, "jog", stdin=subprocess.PIPE) as process:
+        process.stdin.write("s<+")   # 10° at 10 % of the jog's limit: a step of seconds
+        process.stdin.flush()
+        assert wait_for(lambda: np.max(np.abs(arm.joint_speeds())) > 0.01, timeout=30), "the step never started"
+        process.send_signal(signal.SIGSTOP)   # a computer too busy to run ur3dq: the heartbeat stops, the program too
+        try:
+            assert wait_for(lambda: np.max(np.abs(arm.joint_speeds())) < 1e-6, timeout=10)
+        finally:
+            process.send_signal(signal.SIGCONT)
+        process.stdin.write("q")
+        process.stdin.flush()
+        _, stderr = process.communicate(timeout=30)
+    assert "J1+ stopped short: program" in stderr and "; the key again goes on" in stderr, stderr
