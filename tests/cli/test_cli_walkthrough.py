@@ -143,6 +143,7 @@ def test_teach_names_a_late_heartbeat_when_freedrive_ends_with_the_watchdog(simu
             assert wait_for(lambda: not freedrive(), timeout=10)   # the controller's watchdog ended the program
         finally:
             process.send_signal(signal.SIGCONT)
+        time.sleep(1.0)   # its state stream catches up (a person's Enter never comes at once after a stall)
         process.stdin.write("\n")
         process.stdin.flush()
         line = process.stderr.readline()
