@@ -348,7 +348,7 @@ def _report_interrupt(interrupt):
     for note in separate_notes(interrupt):
         click.echo(note, err=True)
     notes = [note for note in getattr(interrupt, "__notes__", None) or [] if not note.startswith(SEPARATE_NOTE)]
-    click.echo(f"Error: {' '.join(' '.join([text, *notes]).split())}", err=True)
+    show_error(" ".join(" ".join([text, *notes]).split()))
     return exit_code_for_interrupt(interrupt)
 
 

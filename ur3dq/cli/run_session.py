@@ -126,10 +126,10 @@ def ended_early(settings: Settings, error: BaseException, stop: ProgramStop, ste
     quit_run = controls is not None and controls.stop_choice == "quit"
     command = resume_command(settings)
     written = None if quit_run else _write_state(settings, error, stop, record, names, controls)
-    err.print(f"Stopped during {escape(step_text(stop.position, step, program_length))}.", soft_wrap=True)
-    err.print(where_text(stop, settings.deg), soft_wrap=True)
+    err.print(f"Stopped during {escape(step_text(stop.position, step, program_length))}.")
+    err.print(where_text(stop, settings.deg))
     if stop.outputs_on:
-        err.print(f"{stop.outputs_text().capitalize()} (switched on by the program).", soft_wrap=True)
+        err.print(f"{stop.outputs_text().capitalize()} (switched on by the program).")
     if quit_run:
         clear_resume_state(settings.store_path)
         return Cancelled(f"quit during step {stop.position} {stop.step_name!r}: the run is abandoned (nothing to "
@@ -207,7 +207,7 @@ def announce_resume(settings: Settings, plan: Sequence[PlannedStep], first: int,
     offset, planned = waypoint
     err.print(escape(f"{head}: first a {planned.move} move from where the arm is (joints {joints} "
                      f"{'°' if settings.deg else 'rad'}) to the target of step {first + offset} "
-                     f"{planned.step.name!r}; the path check runs from those joints."), soft_wrap=True)
+                     f"{planned.step.name!r}; the path check runs from those joints."))
 
 
 def replay_stop(robot: Any, position: int, name: str) -> ProgramStop:

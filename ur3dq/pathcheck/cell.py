@@ -84,6 +84,10 @@ class Cell:
         return dataclasses.replace(self, margin=_length(margin, "cell margin"))
 
 
+#: A cell file to start from, shown when the named one does not exist: a 2 m table whose top is the base's foot.
+STARTER_CELL = '{"boxes": [{"name": "table", "min": [-1, -1, -0.05], "max": [1, 1, 0]}], "margin": 0.01}'
+
+
 def cell_from_dict(data: object, origin: str = "cell") -> Cell:
     """A Cell from the decoded JSON object; ValueError naming `origin` and the bad key."""
     try:
@@ -99,6 +103,9 @@ def load_cell(path: str | os.PathLike[str]) -> Cell:
     try:
         with open(path, "rb") as stream:
             raw = stream.read(MAX_CELL_FILE_BYTES + 1)   # never more: a huge file is refused, not read
+    except FileNotFoundError:
+        raise StoreError(f"{source}: no such file. Write it (JSON, metres, the base frame; docs/cell-file.md), e.g. "
+                         f"a table top at the arm's foot: {STARTER_CELL}") from None
     except OSError as error:
         raise StoreError(f"{source}: cannot read it ({error.strerror or error})") from None
     if len(raw) > MAX_CELL_FILE_BYTES:

@@ -196,6 +196,6 @@ def _set_up(sock: socket.socket, fields: list[tuple[str, str]], deadline: float,
     refused = [f"{name} ({found})" for (name, kind), found in zip(fields, types) if found != kind]
     if recipe == 0 or refused or len(types) != len(names):
         raise RobotConnectionError(
-            f"{where} refused {', '.join(refused) or ', '.join(names)}: is another RTDE client writing them "
-            "(a second ur3dq on this arm, a user's RTDEIOInterface)?")
+            f"{where} refused {', '.join(refused) or ', '.join(names)}: another client writes them; end the other "
+            "ur3dq command on this arm (a record-pose --teach, jog, run-poses) or RTDE client, and try again")
     return recipe
