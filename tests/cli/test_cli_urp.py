@@ -22,8 +22,8 @@ HOME = "0.3, -1.3, 1.4, -1.7, -1.57, 0.4"
 NEAR = "0.5, -1.2, 1.3, -1.7, -1.57, 0.4"
 
 
-def program(main, top=""):
-    return (f'<URProgram name="cell" installation="default">{UR5E}<children>{top}'
+def program(main, top="", kinematics=UR5E):
+    return (f'<URProgram name="cell" installation="default">{kinematics}<children>{top}'
             f'<MainProgram runOnlyOnce="true"><children>{main}</children></MainProgram></children></URProgram>')
 
 
@@ -169,3 +169,24 @@ def test_the_comparison_is_with_the_connected_arm_when_there_is_one(run_cli, arm
     result = run_cli("--host", arm.host, "import-urp", "cell.urp", "--json")
     assert result.returncode == 0, result.stderr
     assert "cell.urp was saved on a UR3E; the connected UR3 is a UR3" in result.stderr
+
+
+def test_a_kept_script_runs_on_the_arm_with_the_rest_of_the_program(run_cli, arm, tmp_path):
+    kept = ('<If type="If"><expression><ExpressionIO><pin referencedName="digital_in[0]"/></ExpressionIO>'
+            '</expression><children><Set type="DigitalOutput"><pin referencedName="digital_out[5]"/>'
+            '<digitalValue>1</digitalValue></Set></children></If><If type="Else"><children>'
+            '<Set type="DigitalOutput"><pin referencedName="digital_out[6]"/><digitalValue>1</digitalValue></Set>'
+            "</children></If>")
+    ur3 = UR5E.replace("0.1625,", "0.1519,").replace("-0.425, -0.3922,", "-0.24365, -0.21325,").replace(
+        "0.1333, 0.0997, 0.0996", "0.11235, 0.08535, 0.0819")
+    write(tmp_path / "cell.urp", program(kept + '<Move motionType="MoveJ" speed="1.0" acceleration="1.2" '
+                                         f'useActiveTCP="false"><children>{waypoint("pick", HOME)}</children></Move>',
+                                         kinematics=ur3))
+    assert run_cli("import-urp", "cell.urp", "--keep-script").returncode == 0
+    ran = run_cli("--host", arm.host, "run-poses", "--yes")
+    assert ran.returncode == 0, ran.stderr
+    assert "runs as it is: its motions are not checked" in ran.stderr
+    import rtde_receive
+
+    outputs = int(rtde_receive.RTDEReceiveInterface(arm.host).getActualDigitalOutputBits())
+    assert (outputs >> 6) & 1 and not (outputs >> 5) & 1   # digital_in[0] is off: the Else branch ran

@@ -1,6 +1,6 @@
 """An exported program played by the simulator's dashboard (`load`, `play`) moves the arm through the joints
-`run-poses` moves it through, at every waypoint within 1e-6 rad: random programs of every move type, relative
-waypoints, outputs and waits, on a CB3 (plain XML), an e-series arm (gzip) and a calibrated one."""
+`run-poses` plans (and, imported back, runs), at every waypoint within 1e-6 rad: random programs of every move
+type, relative waypoints, outputs and waits, on a CB3 (plain XML), an e-series arm (gzip) and a calibrated one."""
 import itertools
 import json
 import threading
@@ -124,8 +124,11 @@ def test_a_played_urp_moves_the_arm_through_the_joints_run_poses_moves_it_throug
 
         assert_passes_through(recorded_path(simulator.host, play), targets, "the played .urp")
 
-        def run_poses():
-            ran = run_cli(*host, "run-poses", "--yes", timeout=180)
+        imported = run_cli(*host, "--store", "imported.json", "import-urp", "cell.urp")
+        assert imported.returncode == 0, imported.stderr
+
+        def run_poses():   # the program imported from the file: run as any other
+            ran = run_cli(*host, "--store", "imported.json", "run-poses", "--yes", timeout=180)
             assert ran.returncode == 0, ran.stderr
 
         assert_passes_through(recorded_path(simulator.host, run_poses), targets, "run-poses")

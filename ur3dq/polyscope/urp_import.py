@@ -49,6 +49,7 @@ from ur3dq.program.steps import (
     WaitInput,
     Waypoint,
 )
+from ur3dq.units import DURATION, show
 
 MOVE_TYPES = {"MoveJ": "joint", "MoveL": "linear", "MoveP": "process"}
 PIN_KINDS = {"digital": "standard", "config": "configurable", "tool": "tool"}
@@ -236,7 +237,8 @@ class Importer:
         if kind == "Sleep":
             seconds = number_field(node, "waitTime", path)
             if not 0 < seconds <= MAX_WAIT_S:
-                raise NodeError(path, f"a wait of {seconds:g} s has no ur3dq step (more than 0, at most a day)")
+                raise NodeError(path, f"a wait of {show(seconds, DURATION)} has no ur3dq step (more than 0, at most "
+                                      "a day)")
             return [Entry(path, label, None, lambda name, previous: Wait(name, seconds))]
         if kind == "DigitalInput":
             family, pin = split_pin(self.program.pin(node, path))
