@@ -247,20 +247,18 @@ class Importer:
                 raise NodeError(path, f"input {family}[{pin}] has no ur3dq step (digital_in, config_in and tool_in "
                                       "pins only)")
             on = field_text(node, "digitalValue").lower() in TRUE_WORDS
-            entry = Entry(path, label, None, lambda name, previous: WaitInput(name, source, pin, on, MAX_WAIT_S))
-            entry.build = self._wait_input(entry, source, pin, on)
+
+            def wait_input(name: str, previous: object) -> Step:
+                timeout = (entry.annotation or {}).get("timeout", MAX_WAIT_S)   # the export's annotation, if any
+                if timeout == MAX_WAIT_S:
+                    self.warnings.append(f"{path}: PolyScope waits for the input for ever; ur3dq fails the run "
+                                         "after a day")
+                return WaitInput(name, source, pin, on, timeout)  # type: ignore[arg-type]  # WaitInput checks it
+
+            entry = Entry(path, label, None, wait_input)
             return [entry]
         raise NodeError(path, f"a wait for {'an analog input' if kind == 'AnalogInput' else 'a condition'} has no "
                               "ur3dq step")
-
-    def _wait_input(self, entry: Entry, source: str, pin: int, on: bool) -> Build:
-        def build(name: str, previous: object) -> Step:
-            timeout = (entry.annotation or {}).get("timeout", MAX_WAIT_S)
-            if timeout == MAX_WAIT_S:
-                self.warnings.append(f"{entry.path}: PolyScope waits for the input for ever; ur3dq fails the run "
-                                     "after a day")
-            return WaitInput(name, source, pin, on, timeout)  # type: ignore[arg-type]  # checked by WaitInput
-        return build
 
     def popup(self, node: Element, path: str) -> list[Entry]:
         text = node.get("message") or node.findtext("message") or ""
