@@ -4,7 +4,10 @@ exit code and the store unchanged, quickly."""
 import gzip
 import json
 import shutil
+import struct
 import time
+import tracemalloc
+import zlib
 from pathlib import Path
 
 import pytest
@@ -116,6 +119,23 @@ def test_a_node_without_a_step_is_refused_by_its_path_or_kept_with_a_warning(run
     assert "if (get_standard_digital_in(0)):" in run_in_process("export-urscript").stdout
 
 
+def gzip_bomb(mib):
+    """A valid gzip of `<URProgram>`, `mib` MiB of blanks and `</URProgram>` (1 GiB in 1 MB): one compressed MiB
+    repeated (full flushes make the blocks independent), with the true CRC and length."""
+    blanks = b" " * (1 << 20)
+    deflate = zlib.compressobj(9, zlib.DEFLATED, -zlib.MAX_WBITS)
+    head = deflate.compress(b"<URProgram>") + deflate.flush(zlib.Z_FULL_FLUSH)
+    block = deflate.compress(blanks) + deflate.flush(zlib.Z_FULL_FLUSH)
+    tail = deflate.compress(b"</URProgram>") + deflate.flush()
+    crc = zlib.crc32(b"<URProgram>")
+    for _ in range(mib):
+        crc = zlib.crc32(blanks, crc)
+    crc = zlib.crc32(b"</URProgram>", crc)
+    size = (mib << 20) + len(b"<URProgram></URProgram>")
+    header = b"\x1f\x8b\x08\x00\x00\x00\x00\x00\x02\xff"   # deflate, no name, no time stamp
+    return header + head + block * mib + tail + struct.pack("<II", crc, size % 2**32)
+
+
 BILLION_LAUGHS = ('<?xml version="1.0"?><!DOCTYPE lolz [<!ENTITY lol "lol">'
                   + "".join(f'<!ENTITY lol{n} "{("&lol" + str(n - 1) + ";") * 10 if n > 1 else "&lol;" * 10}">'
                             for n in range(1, 10))
@@ -127,14 +147,14 @@ HOSTILE = {
     "billion laughs": (gzip.compress(BILLION_LAUGHS.encode(), mtime=0), "refused: the XML declares a DTD"),
     "deep nesting": (gzip.compress(b"<URProgram>" + b"<children>" * 100_000 + b"</children>" * 100_000
                                    + b"</URProgram>", mtime=0), "nested deeper than 200 levels"),
-    "gzip bomb": (gzip.compress(b"<URProgram>" + b" " * (33 * 1024 * 1024) + b"</URProgram>", mtime=0),
-                  "decompresses to more than 32 MB of XML"),
+    "gzip bomb": (lambda: gzip_bomb(1024), "decompresses to more than 32 MB of XML"),
 }
+MEMORY_BOUND = 80 * 1024 * 1024   # the 32 MB of XML a program may expand to, with room for the parse
 
 
 @pytest.mark.timeout(60)
 @pytest.mark.parametrize("kind", [*HOSTILE, "100 MB", "missing"])
-def test_bad_and_hostile_files_fail_with_one_line_and_exit_3_quickly(run_in_process, tmp_path, kind):
+def test_bad_and_hostile_files_fail_with_one_line_exit_3_quickly_in_bounded_memory(run_in_process, tmp_path, kind):
     shutil.copy(EXAMPLE, tmp_path / "poses.json")
     before = (tmp_path / "poses.json").read_bytes()
     path = tmp_path / "bad.urp"
@@ -147,10 +167,16 @@ def test_bad_and_hostile_files_fail_with_one_line_and_exit_3_quickly(run_in_proc
         message = "cannot be read"
     else:
         content, message = HOSTILE[kind]
-        path.write_bytes(content)
+        path.write_bytes(content() if callable(content) else content)
     started = time.monotonic()
-    result = run_in_process("import-urp", "bad.urp", "--append")
+    tracemalloc.start()
+    try:
+        result = run_in_process("import-urp", "bad.urp", "--append")
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
     assert time.monotonic() - started < 20
+    assert peak < MEMORY_BOUND, f"{peak / 2**20:.0f} MiB allocated"
     assert_one_line_error(result, 3, "bad.urp", message)
     assert (tmp_path / "poses.json").read_bytes() == before
 
@@ -164,8 +190,9 @@ def test_a_program_saved_on_another_arm_says_so(run_in_process, tmp_path):
 
 
 def test_the_comparison_is_with_the_connected_arm_when_there_is_one(run_cli, arm, tmp_path):
-    write(tmp_path / "cell.urp", CELL.replace(UR5E, UR5E.replace("0.1625,", "0.1529,").replace("-0.425,", "-0.24355,")
-                                              .replace("0.1333, 0.0997, 0.0996", "0.13105, 0.08535, 0.0921")))
+    ur3e = UR5E.replace("0.1625,", "0.15185,").replace("-0.425, -0.3922,", "-0.24355, -0.2132,").replace(
+        "0.1333, 0.0997, 0.0996", "0.13105, 0.08535, 0.0921")
+    write(tmp_path / "cell.urp", CELL.replace(UR5E, ur3e))
     result = run_cli("--host", arm.host, "import-urp", "cell.urp", "--json")
     assert result.returncode == 0, result.stderr
     assert "cell.urp was saved on a UR3E; the connected UR3 is a UR3" in result.stderr
