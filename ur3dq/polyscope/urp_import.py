@@ -62,10 +62,12 @@ Build = Callable[[str, "tuple[str, DualQuaternion] | None"], Step]
 class UnsupportedNodes(ValueError):
     """Nodes ur3dq has no step for, each named by its path; the import changed nothing."""
 
-    def __init__(self, source: str, problems: list[NodeError], keep_script: bool) -> None:
+    def __init__(self, source: str, problems: list[NodeError], keep_script: bool, keepable: int = 0) -> None:
         shown = "; ".join(f"{problem.path} ({problem.reason})" for problem in problems[:8])
         more = f"; and {len(problems) - 8} more" if len(problems) > 8 else ""
-        fix = "" if keep_script else ": import with --keep-script to keep them as URScript (not path-checked)"
+        them = "them" if keepable == len(problems) else f"{keepable} of them"
+        fix = f": import with --keep-script to keep {them} as URScript (not path-checked)" \
+            if keepable and not keep_script else ""
         count = f"{len(problems)} node{'s' if len(problems) > 1 else ''}"
         super().__init__(f"{source}: {count} without a ur3dq step: {shown}{more}{fix}")
         self.problems = problems
@@ -105,6 +107,7 @@ class Importer:
         self.keep_script = keep_script
         self.origin = origin
         self.problems: list[NodeError] = []
+        self.keepable = 0   # how many of the problems --keep-script would keep
         self.warnings: list[str] = []
         self.kept: set[int] = set()
         self.kept_writer = KeptScriptWriter(program, self.position)
@@ -178,14 +181,16 @@ class Importer:
         """A kept-script entry for `chain` (a waypoint of `move`) with --keep-script, if ur3dq can write its
         URScript; else a problem."""
         path = self.program.path_to(parent, chain[0])
-        if not self.keep_script:
-            self.problems.append(NodeError(path, reason))
-            return []
         try:
             script = self.kept_writer.waypoint_script(move, chain[0], path) if move is not None else \
                 self.kept_writer.script(chain, path)
         except NodeError as error:
-            self.problems.append(error)
+            self.problems.append(error if self.keep_script else
+                                 NodeError(path, f"{reason}; --keep-script cannot keep it: {error.reason}"))
+            return []
+        if not self.keep_script:
+            self.problems.append(NodeError(path, reason))
+            self.keepable += 1
             return []
         origin = f"{self.origin}: {path}"
         self.after_waypoint = False   # where a kept script leaves the arm is not known
@@ -541,7 +546,7 @@ def import_program(tree: ProgramTree, model_name: str | None = None, keep_script
     except NodeError as error:
         raise UrpFileError(str(error)) from None
     if importer.problems:
-        raise UnsupportedNodes(tree.source, importer.problems, keep_script)
+        raise UnsupportedNodes(tree.source, importer.problems, keep_script, importer.keepable)
     if not steps:
         raise ValueError(f"{tree.source}: the program has no node ur3dq can import")
     kept = [step.name for step in steps if isinstance(step, KeptScript)]
