@@ -217,3 +217,31 @@ def test_a_kept_script_runs_on_the_arm_with_the_rest_of_the_program(run_cli, arm
 
     outputs = int(rtde_receive.RTDEReceiveInterface(arm.host).getActualDigitalOutputBits())
     assert (outputs >> 6) & 1 and not (outputs >> 5) & 1   # digital_in[0] is off: the Else branch ran
+
+
+def test_export_with_the_arm_s_calibration_says_when_the_poses_were_taught_on_another_arm(run_cli, arm, tmp_path):
+    data = json.loads(EXAMPLE.read_text())
+    data["poses"][1]["robot_model"] = "ur5"
+    (tmp_path / "poses.json").write_text(json.dumps(data))
+    exported = run_cli("--host", arm.host, "export-urp", "-o", "cell.urp", "--calibration", "robot")
+    assert exported.returncode == 0, exported.stderr
+    assert ("Warning: poses of the program were taught on a UR5, not on the connected UR3: the file carries the "
+            "connected arm's calibration") in exported.stderr
+    same = run_cli("--host", arm.host, "export-urp", "-o", "part.urp", "--calibration", "robot", "--to", "demo-1")
+    assert same.returncode == 0 and "taught" not in same.stderr, same.stderr
+
+
+def test_the_serial_numbers_of_the_poses_are_compared_with_the_connected_arm_s():
+    import dataclasses
+
+    from ur3dq.cli.export_urp import taught_elsewhere
+    from ur3dq.store import PoseStore
+
+    steps = PoseStore(EXAMPLE).load_program()
+    mine = [dataclasses.replace(step, pose=dataclasses.replace(step.pose, robot_serial="20203500001"))
+            for step in steps]
+    assert taught_elsewhere(mine, "ur3", "20203500001") is None
+    assert taught_elsewhere(mine, "ur3", None) is None   # a CB3 does not tell its serial number
+    assert taught_elsewhere(mine[:1] + steps[1:], "ur3", "20203500002") == (
+        "poses of the program were taught on the arm with serial number 20203500001, not on the connected UR3 "
+        "(serial number 20203500002): the file carries the connected arm's calibration and its IK joints")
