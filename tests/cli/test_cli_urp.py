@@ -73,6 +73,23 @@ def test_an_imported_program_lists_checks_plots_and_exports_like_any_other(run_i
     assert (tmp_path / "again.json").read_text().count('"type"') == 6
 
 
+def test_the_path_check_of_an_imported_program_finds_a_new_fixture_in_its_way(run_in_process, tmp_path):
+    """Why most people import: is my old program safe with the new fixture? A box where the TCP goes at 'place'."""
+    from ur3dq.kinematics import robot_model
+
+    write(tmp_path / "cell.urp", CELL)
+    assert run_in_process("import-urp", "cell.urp").returncode == 0
+    assert run_in_process("check").returncode == 0
+    tcp = robot_model("ur5e").with_tcp((0, 0, 0.1, 0, 0, 0)).fk([float(v) for v in NEAR.split(",")]).translation
+    fixture = {"name": "new fixture", "min": [v - 0.03 for v in tcp], "max": [v + 0.03 for v in tcp]}
+    tool = {"capsule": {"from": [0, 0, 0], "to": [0, 0, 0.1], "radius": 0.02}}   # the TCP offset's tool
+    (tmp_path / "cell.json").write_text(json.dumps({"boxes": [fixture], "tool": tool}))
+    for command in (("check",), ("run-poses", "--dry-run")):
+        checked = run_in_process(*command, "--cell", "cell.json")
+        assert checked.returncode == 4, (command, checked.stderr)
+        assert "step 'place'" in checked.stdout + checked.stderr and '"new fixture"' in checked.stdout + checked.stderr
+
+
 def test_export_urp_writes_the_same_bytes_for_the_same_program_and_never_the_store(run_in_process, tmp_path):
     shutil.copy(EXAMPLE, tmp_path / "poses.json")
     store = (tmp_path / "poses.json").read_bytes()
