@@ -246,11 +246,13 @@ def test_a_node_without_a_step_is_refused_by_its_path_or_kept_as_polyscope_s_urs
         import_program(program)
     assert [problem.path for problem in refused.value.problems] == [path]
     assert f": 1 node without a ur3dq step: {path} (" in str(refused.value)
-    assert "import with --keep-script" in str(refused.value)
-    if script is None:   # no URScript ur3dq can write: refused with --keep-script too
+    if script is None:   # no URScript ur3dq can write: refused with --keep-script too, and the message says so
+        assert "--keep-script cannot keep it" in str(refused.value)
+        assert "import with --keep-script" not in str(refused.value)
         with pytest.raises(UnsupportedNodes, match="1 node without a ur3dq step"):
             import_program(program, keep_script=True)
         return
+    assert str(refused.value).endswith(": import with --keep-script to keep them as URScript (not path-checked)")
     imported = import_program(program, keep_script=True)
     kept = [step for step in imported.steps if isinstance(step, KeptScript)]
     assert len(kept) == 1 and kept[0].origin == f"cell.urp: {path}"
@@ -259,6 +261,36 @@ def test_a_node_without_a_step_is_refused_by_its_path_or_kept_as_polyscope_s_urs
         assert any(candidate.strip().startswith(line.strip()) and candidate.startswith(line[:len(line) -
                    len(line.lstrip())]) for candidate in lines), (line, kept[0].script)
     assert any("kept as URScript" in line and "not path-checked" in line for line in imported.warnings)
+
+
+TOP_LEVEL = {
+    "Thread": (f'<Thread name="Thread_1" runOnlyOnce="false"><children>{SLEEP}</children></Thread>', "Thread_1",
+               ["thread Thread_1():", "  while (True):", "    sleep(0.1)", "threadId_Thread_1 = run Thread_1()"]),
+    "Variables": (f"<InitVariablesNode><children>{UNSUPPORTED['Assignment'][0]}</children></InitVariablesNode>",
+                  "Init Variables", ["global count=0"]),
+    "BeforeStart": (f'<SpecialSequence type="BeforeStart"><children>{UNSUPPORTED["If"][0]}</children>'
+                    "</SpecialSequence>", "BeforeStart/If digital_in[0]", ["if (get_standard_digital_in(0)):"]),
+    "Unknown node": ("<Palletizing/>", "Palletizing", None),
+}
+
+
+@pytest.mark.parametrize("kind", TOP_LEVEL)
+def test_a_top_level_node_without_a_step_is_refused_by_its_path_or_kept(kind):
+    xml, path, script = TOP_LEVEL[kind]
+    program = tree(SLEEP, top=xml)
+    with pytest.raises(UnsupportedNodes) as refused:
+        import_program(program)
+    assert [problem.path for problem in refused.value.problems] == [path]
+    assert ("import with --keep-script" in str(refused.value)) == (script is not None)
+    if script is None:
+        with pytest.raises(UnsupportedNodes, match=f"1 node without a ur3dq step: {path} "):
+            import_program(program, keep_script=True)
+        return
+    imported = import_program(program, keep_script=True)
+    assert [step.kind for step in imported.steps] == ["kept-script", "wait"]
+    assert imported.steps[0].origin == f"cell.urp: {path}"
+    lines = imported.steps[0].script.splitlines()
+    assert all(line in lines for line in script), imported.steps[0].script
 
 
 def test_every_node_without_a_step_is_named_at_once():

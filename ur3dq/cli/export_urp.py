@@ -66,9 +66,14 @@ def export_urp(settings: Settings, output: Path, speed: float | None, accelerati
     joint_acceleration = or_default(acceleration, DEFAULT_ACCELERATION)
     defaults = Defaults(joint_acceleration=joint_acceleration, joint_speed=joint_speed, blend=blend)
     travel = check_max_travel(or_default(max_travel, DEFAULT_MAX_JOINT_TRAVEL))
+    warnings = []
     if calibration == "robot":
         with robot_session(settings, max_joint_travel=travel) as robot:
             model = robot.model
+            other_arm = taught_elsewhere(part, model.name, robot.serial_number)
+        if other_arm:
+            warnings.append(other_arm)
+            click.echo(f"Warning: {other_arm}", err=True)
     else:
         model = nominal_model(settings, steps)
     plan = plan_program(model, part, None, defaults, 1.0, replay_joints, travel, resolve_from=steps)
@@ -77,7 +82,7 @@ def export_urp(settings: Settings, output: Path, speed: float | None, accelerati
     write_atomically(output, data)
     kind = "PolyScope 5, gzip" if is_e_series(model) else "PolyScope 3, XML"
     report(settings, {"program": output.stem, "file": str(output), "steps": [p.step.name for p in plan],
-                      "model": model.name, "calibration": calibration},
+                      "model": model.name, "calibration": calibration, "warnings": warnings},
            f"Wrote {output}: {count_text(len(plan), 'step')} for a {model.name} ({kind}, "
            f"{'calibrated' if model.calibrated else 'nominal'} kinematics).")
 
@@ -88,3 +93,22 @@ def nominal_model(settings: Settings, steps: list[Step]) -> URModel:
 
     first = next((step.pose for step in steps if isinstance(step, Waypoint)), None)
     return robot_model(settings.model or (first.robot_model if first else "ur3"))
+
+
+def taught_elsewhere(steps: list[Step], model_name: str, serial: str | None) -> str | None:
+    """A warning when waypoints of `steps` were recorded on another model, or on an arm of another serial number
+    (when both are known), than the connected arm `model_name` (`serial`); else None.
+
+    >>> taught_elsewhere([], "ur5e", None) is None
+    True
+    """
+    poses = [step.pose for step in steps if isinstance(step, Waypoint)]
+    models = sorted({pose.robot_model for pose in poses} - {model_name})
+    serials = sorted({pose.robot_serial for pose in poses if pose.robot_serial} - {serial}) if serial else []
+    if not models and not serials:
+        return None
+    where = [f"on a {'/'.join(name.upper() for name in models)}"] if models else []
+    where += [f"on the arm with serial number {', '.join(serials)}"] if serials else []
+    connected = f"the connected {model_name.upper()}" + (f" (serial number {serial})" if serial else "")
+    return (f"poses of the program were taught {' and '.join(where)}, not on {connected}: the file carries the "
+            "connected arm's calibration and its IK joints")

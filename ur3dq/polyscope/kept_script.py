@@ -90,8 +90,11 @@ class KeptScriptWriter:
         path = self.program.path_to(parent, node)
         handler = _HANDLERS.get(node.tag)
         if handler is None or if_kind(node) in ("ElseIf", "Else"):
-            reason = f"{if_kind(node)} without its If" if if_kind(node) else f"ur3dq cannot generate <{node.tag}>"
-            raise NodeError(path, reason)
+            if if_kind(node):
+                raise NodeError(path, f"{if_kind(node)} without its If")
+            if node.tag == "Contributed":
+                raise NodeError(path, "a URCap node's URScript comes from its URCap on the pendant")
+            raise NodeError(path, f"ur3dq cannot generate <{node.tag}>")
         handler(self, node, path)
 
     def _no_continuous_check(self, node: Element, path: str) -> None:
@@ -210,6 +213,10 @@ class KeptScriptWriter:
         self.marker(self.program.label(node))
         self.block(self.program.children(node), path)
 
+    def init_variables(self, node: Element, path: str) -> None:
+        self.marker("Init Variables")
+        self.block(self.program.children(node), path)
+
     def halt(self, node: Element, path: str) -> None:
         self.marker("Halt")
         self.line("halt")
@@ -314,5 +321,5 @@ _HANDLERS: dict[str, Callable[[KeptScriptWriter, Element, str], None]] = {
     "Loop": KeptScriptWriter.loop, "Script": KeptScriptWriter.script_node, "Popup": KeptScriptWriter.popup,
     "Comment": KeptScriptWriter.comment, "Folder": KeptScriptWriter.folder,
     "Assignment": KeptScriptWriter.assignment, "Halt": KeptScriptWriter.halt, "Thread": KeptScriptWriter.thread,
-    "CallSubProgram": KeptScriptWriter.call,
+    "CallSubProgram": KeptScriptWriter.call, "InitVariablesNode": KeptScriptWriter.init_variables,
 }

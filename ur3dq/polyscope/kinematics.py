@@ -12,6 +12,7 @@ PolyScope 5 also keeps one per waypoint. An uncalibrated arm or URSim writes the
 """
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -19,11 +20,17 @@ from xml.etree.ElementTree import Element
 
 import numpy as np
 
+from ur3dq import dqarray
 from ur3dq.kinematics import MODEL_NAMES, robot_model
+from ur3dq.kinematics.chain import SerialChain
 from ur3dq.kinematics.models import DHParameters, URModel, robot_model_from_dh
 
 NOMINAL_TOLERANCE = 1e-9     # DH values this close to the catalogue are the catalogue (files round α to 1e-9)
-MODEL_TOLERANCE_M = 0.005    # a calibrated arm's d1, a2, d5, d6 stay this close to its model's
+MODEL_TOLERANCE_M = 0.005    # a calibrated arm puts its flange this close to where its model's goes
+# where the flanges are compared: stretched out, folded, and wrists turned (each catalogue model differs from every
+# other by centimetres in at least one of them)
+PROBE_JOINTS = np.array([[0.0, 0.0, 0.0, 0.0, 0.0, 0.0], [0.3, -1.3, 1.4, -1.7, -1.57, 0.4],
+                         [-1.0, -2.0, -1.0, 1.0, 1.0, -2.0], [2.0, -0.5, 2.5, 0.5, 2.0, 1.0]])
 COLUMNS = ("deltaTheta", "a", "d", "alpha")
 
 
@@ -67,16 +74,10 @@ class SavedKinematics:
                    valid_checksum=element.get("validChecksum", "false").lower() == "true")
 
     def model_name(self) -> str | None:
-        """The catalogue model whose d1, a2, d5, d6 these are (within 5 mm), or None. (A factory calibration
-        trades a3 and d2..d4 against each other by up to hundreds of metres: they say nothing of the model.)"""
-        best, best_error = None, MODEL_TOLERANCE_M
-        for name in MODEL_NAMES:
-            nominal = DHParameters.nominal(name)
-            error = max(abs(self.d[0] - nominal.d[0]), abs(self.a[1] - nominal.a[1]), abs(self.d[4] - nominal.d[4]),
-                        abs(self.d[5] - nominal.d[5]))
-            if error < best_error:
-                best, best_error = name, error
-        return best
+        """The catalogue model whose flange these DH put where that model's does (within 5 mm at a few joint
+        configurations), or None. (The columns themselves may not resemble the catalogue's: a factory calibration
+        trades a2, a3, d2..d4 and θ against each other by up to hundreds of metres.)"""
+        return _closest_model(self.theta, self.a, self.d, self.alpha)
 
     def is_nominal(self, name: str | None = None) -> bool:
         """True when these are the catalogue DH of `name` (default: the model they are closest to)."""
@@ -94,6 +95,29 @@ class SavedKinematics:
         if self.is_nominal(name):
             return robot_model(name)
         return robot_model_from_dh(name, self.a, self.d, self.alpha, self.theta)
+
+
+@functools.lru_cache(maxsize=64)   # PolyScope 5 repeats the program's kinematics in every waypoint
+def _closest_model(theta: tuple[float, ...], a: tuple[float, ...], d: tuple[float, ...],
+                   alpha: tuple[float, ...]) -> str | None:
+    here = flange_positions(theta, a, d, alpha)
+    best, best_error = None, MODEL_TOLERANCE_M
+    for name in MODEL_NAMES:
+        nominal = DHParameters.nominal(name)
+        there = flange_positions(*(tuple(column) for column in (nominal.theta, nominal.a, nominal.d, nominal.alpha)))
+        error = float(np.max(np.linalg.norm(here - there, axis=1)))
+        if error < best_error:
+            best, best_error = name, error
+    return best
+
+
+@functools.lru_cache(maxsize=64)
+def flange_positions(theta: tuple[float, ...], a: tuple[float, ...], d: tuple[float, ...],
+                     alpha: tuple[float, ...]) -> np.ndarray:
+    """(len(PROBE_JOINTS), 3) flange positions of the standard DH columns at PROBE_JOINTS (read-only)."""
+    positions = dqarray.translation(SerialChain.from_dh(a, d, alpha, theta).fk_batch(PROBE_JOINTS))
+    positions.flags.writeable = False
+    return positions
 
 
 def largest_tcp_difference(saved_on: URModel, other: URModel, joints: Sequence[Sequence[float]],

@@ -49,6 +49,7 @@ from ur3dq.program.steps import (
     WaitInput,
     Waypoint,
 )
+from ur3dq.units import DURATION, show
 
 MOVE_TYPES = {"MoveJ": "joint", "MoveL": "linear", "MoveP": "process"}
 PIN_KINDS = {"digital": "standard", "config": "configurable", "tool": "tool"}
@@ -61,10 +62,12 @@ Build = Callable[[str, "tuple[str, DualQuaternion] | None"], Step]
 class UnsupportedNodes(ValueError):
     """Nodes ur3dq has no step for, each named by its path; the import changed nothing."""
 
-    def __init__(self, source: str, problems: list[NodeError], keep_script: bool) -> None:
+    def __init__(self, source: str, problems: list[NodeError], keep_script: bool, keepable: int = 0) -> None:
         shown = "; ".join(f"{problem.path} ({problem.reason})" for problem in problems[:8])
         more = f"; and {len(problems) - 8} more" if len(problems) > 8 else ""
-        fix = "" if keep_script else ": import with --keep-script to keep them as URScript (not path-checked)"
+        them = "them" if keepable == len(problems) else f"{keepable} of them"
+        fix = f": import with --keep-script to keep {them} as URScript (not path-checked)" \
+            if keepable and not keep_script else ""
         count = f"{len(problems)} node{'s' if len(problems) > 1 else ''}"
         super().__init__(f"{source}: {count} without a ur3dq step: {shown}{more}{fix}")
         self.problems = problems
@@ -104,6 +107,7 @@ class Importer:
         self.keep_script = keep_script
         self.origin = origin
         self.problems: list[NodeError] = []
+        self.keepable = 0   # how many of the problems --keep-script would keep
         self.warnings: list[str] = []
         self.kept: set[int] = set()
         self.kept_writer = KeptScriptWriter(program, self.position)
@@ -177,14 +181,16 @@ class Importer:
         """A kept-script entry for `chain` (a waypoint of `move`) with --keep-script, if ur3dq can write its
         URScript; else a problem."""
         path = self.program.path_to(parent, chain[0])
-        if not self.keep_script:
-            self.problems.append(NodeError(path, reason))
-            return []
         try:
             script = self.kept_writer.waypoint_script(move, chain[0], path) if move is not None else \
                 self.kept_writer.script(chain, path)
         except NodeError as error:
-            self.problems.append(error)
+            self.problems.append(error if self.keep_script else
+                                 NodeError(path, f"{reason}; --keep-script cannot keep it: {error.reason}"))
+            return []
+        if not self.keep_script:
+            self.problems.append(NodeError(path, reason))
+            self.keepable += 1
             return []
         origin = f"{self.origin}: {path}"
         self.after_waypoint = False   # where a kept script leaves the arm is not known
@@ -236,7 +242,8 @@ class Importer:
         if kind == "Sleep":
             seconds = number_field(node, "waitTime", path)
             if not 0 < seconds <= MAX_WAIT_S:
-                raise NodeError(path, f"a wait of {seconds:g} s has no ur3dq step (more than 0, at most a day)")
+                raise NodeError(path, f"a wait of {show(seconds, DURATION)} has no ur3dq step (more than 0, at most "
+                                      "a day)")
             return [Entry(path, label, None, lambda name, previous: Wait(name, seconds))]
         if kind == "DigitalInput":
             family, pin = split_pin(self.program.pin(node, path))
@@ -245,20 +252,18 @@ class Importer:
                 raise NodeError(path, f"input {family}[{pin}] has no ur3dq step (digital_in, config_in and tool_in "
                                       "pins only)")
             on = field_text(node, "digitalValue").lower() in TRUE_WORDS
-            entry = Entry(path, label, None, lambda name, previous: WaitInput(name, source, pin, on, MAX_WAIT_S))
-            entry.build = self._wait_input(entry, source, pin, on)
+
+            def wait_input(name: str, previous: object) -> Step:
+                timeout = (entry.annotation or {}).get("timeout", MAX_WAIT_S)   # the export's annotation, if any
+                if timeout == MAX_WAIT_S:
+                    self.warnings.append(f"{path}: PolyScope waits for the input for ever; ur3dq fails the run "
+                                         "after a day")
+                return WaitInput(name, source, pin, on, timeout)  # type: ignore[arg-type]  # WaitInput checks it
+
+            entry = Entry(path, label, None, wait_input)
             return [entry]
         raise NodeError(path, f"a wait for {'an analog input' if kind == 'AnalogInput' else 'a condition'} has no "
                               "ur3dq step")
-
-    def _wait_input(self, entry: Entry, source: str, pin: int, on: bool) -> Build:
-        def build(name: str, previous: object) -> Step:
-            timeout = (entry.annotation or {}).get("timeout", MAX_WAIT_S)
-            if timeout == MAX_WAIT_S:
-                self.warnings.append(f"{entry.path}: PolyScope waits for the input for ever; ur3dq fails the run "
-                                     "after a day")
-            return WaitInput(name, source, pin, on, timeout)  # type: ignore[arg-type]  # checked by WaitInput
-        return build
 
     def popup(self, node: Element, path: str) -> list[Entry]:
         text = node.get("message") or node.findtext("message") or ""
@@ -541,7 +546,7 @@ def import_program(tree: ProgramTree, model_name: str | None = None, keep_script
     except NodeError as error:
         raise UrpFileError(str(error)) from None
     if importer.problems:
-        raise UnsupportedNodes(tree.source, importer.problems, keep_script)
+        raise UnsupportedNodes(tree.source, importer.problems, keep_script, importer.keepable)
     if not steps:
         raise ValueError(f"{tree.source}: the program has no node ur3dq can import")
     kept = [step.name for step in steps if isinstance(step, KeptScript)]
