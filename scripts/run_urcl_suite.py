@@ -17,6 +17,11 @@ simulator and every case run at the lowest real-time priority (``chrt --rr 1``; 
 FIFO 99 itself), as a controller runs its loop and as URCL's real-time guide sets up the client's machine.
 ``--no-realtime`` runs them as ordinary processes.
 
+URCL up to ``c5d1e26`` (2.14.0) has a defect in its test harness that fails RTDEClientTest's four fake-server
+cases on some builds: its fake RTDE server passes an uninitialised byte count to ``TCPServer::writeUnchecked``,
+which sends from that offset. UR fixed it in URCL PR #573 (``written = 0;`` at the top of ``writeUnchecked``);
+build a URCL that has it (docs/client-compatibility.md).
+
 Not part of the test suite or CI (it needs the outside build). Usage::
 
     scripts/run_urcl_suite.py URCL_BUILD_DIR --model ur5 --version 3.14.3
