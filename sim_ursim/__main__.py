@@ -96,6 +96,11 @@ def main(ctx, model, software_version, host, initial_q, frequency, calibration, 
         simulator.stop()
 
 
+#: The way on when no simulator answers: it usually runs on another loopback address.
+ELSEWHERE_HINT = ("; is the simulator on another address? Pass --host ADDRESS (or export UR3DQ_HOST); "
+                  "`ur3dq sim status` names the one `ur3dq sim start` runs")
+
+
 @main.command()
 @click.argument("kind", type=click.Choice(FAULT_COMMANDS))
 @click.option("--host", default="127.0.0.1", show_default=True, help="Address of the running simulator.")
@@ -114,7 +119,7 @@ def fault(kind, host, port, seconds, reason):
     try:
         reply = send_request(host, kind, port=port, **arguments)
     except OSError as error:
-        raise click.ClickException(f"no simulator control channel on {host}:{port}: {error}") from None
+        raise click.ClickException(f"no simulator control channel on {host}:{port}: {error}{ELSEWHERE_HINT}") from None
     if not reply.get("ok"):
         raise click.ClickException(reply.get("error", "refused"))
     click.echo(reply["message"])
@@ -152,7 +157,7 @@ def _control(host, port, command, **arguments):
     try:
         reply = send_request(host, command, port=port, **arguments)
     except OSError as error:
-        raise click.ClickException(f"no simulator control channel on {host}:{port}: {error}") from None
+        raise click.ClickException(f"no simulator control channel on {host}:{port}: {error}{ELSEWHERE_HINT}") from None
     if not reply.get("ok"):
         raise click.ClickException(reply.get("error", "refused"))
     return reply

@@ -14,6 +14,7 @@ import logging
 import threading
 import time
 from collections.abc import Callable
+from typing import TypeAlias
 
 import numpy as np
 
@@ -34,6 +35,11 @@ JOINT_SPEED_TOLERANCE = 1.05  # movel/speedl may exceed a joint's max speed by 5
 SINGULARITY_STOP_CODE = (204, 3)
 DEFAULT_STOP_CODE = (209, 0)
 
+#: A move that queues and blends (movej, movel), and every segment a MotionEntry runs (streaming and stops too).
+PlannedMove: TypeAlias = trajectories.JointMove | trajectories.LinearMove
+Segment: TypeAlias = (PlannedMove | trajectories.JointSpeed | trajectories.CartesianSpeed | trajectories.ServoTarget
+                      | trajectories.Stop)
+
 
 class MotionFault(Exception):
     """A running motion must end in a protective stop: `reason` for the stop, `program_reason` for the program,
@@ -52,7 +58,7 @@ class Motion:
     def __init__(self, kind: str, blend_radius: float = 0.0):
         self.kind = kind
         self.blend_radius = blend_radius
-        self.error = None
+        self.error: str | None = None
         self._ended = threading.Event()
 
     @property
@@ -93,11 +99,11 @@ class Motion:
 class MotionEntry:
     """A segment being executed, the Motion it reports to, and whether trajectory time follows the slider."""
 
-    segment: object
+    segment: Segment | None  # None for a planned move until it starts (`plan` builds it)
     motion: Motion
     follows_slider: bool
-    target_q: np.ndarray = None  # planned moves: where the arm ends (for blending and queued starts)
-    plan: object = None  # planned moves: start_q -> segment, called when the move starts
+    target_q: np.ndarray | None = None  # planned moves: where the arm ends (for blending and queued starts)
+    plan: Callable[[np.ndarray], PlannedMove] | None = None  # planned moves: start_q -> segment, when it starts
     in_blend_zone: bool = False
 
 
@@ -123,12 +129,14 @@ class MotionQueue:
     def end_q(self, q_now: np.ndarray) -> np.ndarray:
         """Where the arm will be when a newly queued move starts: the last queued/active target, else q_now."""
         for entry in reversed(self.waiting):
+            assert entry.target_q is not None   # a queued move is a planned one, with its target
             return entry.target_q
         if self.active is not None and self.active.target_q is not None:
             return self.active.target_q
         return np.array(q_now)
 
-    def enqueue(self, entry: "MotionEntry", plan: Callable, q_now: np.ndarray, qd_now: np.ndarray) -> None:
+    def enqueue(self, entry: "MotionEntry", plan: Callable[[np.ndarray], PlannedMove], q_now: np.ndarray,
+                qd_now: np.ndarray) -> None:
         """Queue a planned move; `plan(start_q)` builds its segment when it starts."""
         entry.plan = plan
         streaming = self.active is not None and self.active.target_q is None
@@ -142,6 +150,7 @@ class MotionQueue:
     def _start_next(self, start_q: np.ndarray, blended: bool) -> None:
         """Start the first queued move from start_q (superposed on the current one when blended)."""
         entry = self.waiting.pop(0)
+        assert entry.plan is not None   # enqueue gives every waiting move its plan
         try:
             entry.segment = entry.plan(start_q)
         except (ValueError, kinematics.IKError) as error:
@@ -162,23 +171,25 @@ class MotionQueue:
         ramp keeps them exact, whereas the measured speed already includes the speed slider (each restart would
         shrink it again) and any measurement error.
         """
-        active = self.active
-        if active is not None and self.tail is None and active.segment.kind == kind:
-            return active.segment.commanded_speed
+        segment = self.active.segment if self.active is not None and self.tail is None else None
+        if isinstance(segment, (trajectories.JointSpeed, trajectories.CartesianSpeed)) and segment.kind == kind:
+            return segment.commanded_speed
         return np.array(measured, dtype=float)
 
-    def replace(self, segment, kind: str, follows_slider: bool) -> Motion:
+    def replace(self, segment: trajectories.JointSpeed | trajectories.CartesianSpeed | trajectories.ServoTarget,
+                kind: str, follows_slider: bool) -> Motion:
         """Streaming commands (speedj, speedl, servoj) take over at once from whatever runs. A held speed command
         first uses the time its thread's previous one left in the cycle just moved (trajectories.SpeedRamp); when
         that covers all of it, its Motion is over at once."""
-        unused = self._unused_time_of(getattr(segment, "hold_owner", None))
+        ramp = segment if isinstance(segment, trajectories.SpeedRamp) else None
+        unused = self._unused_time_of(None if ramp is None else ramp.hold_owner)
         self.end_all(lambda entry: None if entry.motion.kind == kind else f"interrupted by {kind}")
         self.tail = None
         entry = MotionEntry(segment, Motion(kind), follows_slider)
         self.active = entry
-        if unused > 0:
-            segment.start_within(unused)
-            if segment.holding:
+        if ramp is not None and unused > 0:
+            ramp.start_within(unused)
+            if ramp.holding:
                 entry.motion._finish(None)
         return entry.motion
 
@@ -187,7 +198,7 @@ class MotionQueue:
         active = self.active
         if owner is None or active is None or self.tail is not None:
             return 0.0
-        if getattr(active.segment, "hold_owner", None) is not owner:
+        if not isinstance(active.segment, trajectories.SpeedRamp) or active.segment.hold_owner is not owner:
             return 0.0
         return active.segment.unused_time
 
@@ -231,11 +242,14 @@ class MotionQueue:
         Cartesian motion, or has no IK solution; the arm then stays at q.
         """
         active = self.active
+        assert active is not None and active.segment is not None   # called only while a motion runs
         try:
             new_q = active.segment.advance(planned_dt if active.follows_slider else dt, q)
             if self.tail is not None:
                 # Blend: the rest of the previous move plus this move's displacement from its own start.
                 tail = self.tail
+                # only planned moves blend: both the tail and the move started inside its blend zone
+                assert isinstance(tail.segment, PlannedMove) and isinstance(active.segment, PlannedMove)
                 new_q = tail.segment.advance(planned_dt) + (new_q - active.segment.q_start)
                 if tail.segment.finished:
                     self.tail = None
@@ -267,7 +281,8 @@ class MotionQueue:
         """The script thread whose held speedj/speedl has moved its time and waits for that thread's next command
         (trajectories.SpeedRamp), or None."""
         active = self.active
-        if active is None or self.tail is not None or not getattr(active.segment, "holding", False):
+        if active is None or self.tail is not None or not isinstance(active.segment, trajectories.SpeedRamp) \
+                or not active.segment.holding:
             return None
         return active.segment.hold_owner
 
@@ -275,7 +290,8 @@ class MotionQueue:
         """The script thread `owner` will not follow its held speedj/speedl with another command
         (trajectories.SpeedRamp)."""
         active = self.active
-        if active is not None and getattr(active.segment, "hold_owner", None) is owner:
+        if active is not None and isinstance(active.segment, trajectories.SpeedRamp) \
+                and active.segment.hold_owner is owner:
             active.segment.release()
 
     def _finish_or_blend(self, active, new_q) -> None:

@@ -70,3 +70,20 @@ def add_note(error: BaseException, note: str) -> None:
         notes = []
         error.__notes__ = notes   # type: ignore[attr-defined]
     notes.append(note)
+
+
+#: How a note that stands on a line of its own begins: the command line prints such notes before the error's one
+#: line instead of as a clause of it (ur3dq.cli.app.separate_notes).
+SEPARATE_NOTE = "note: "
+
+
+def add_separate_note(error: BaseException, note: str) -> None:
+    """Attach `note` to `error` as a fact of its own (a further failure while handling it, say), which the command
+    line prints on its own line before the error's line.
+
+    >>> error = ValueError("the connection dropped")
+    >>> add_separate_note(error, "sending stopj after this error also failed")
+    >>> error.__notes__
+    ['note: sending stopj after this error also failed']
+    """
+    add_note(error, SEPARATE_NOTE + note)

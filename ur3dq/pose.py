@@ -7,6 +7,7 @@ pose came from a robot, the six joint angles that produced it. Metres and radian
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import unicodedata
 from collections.abc import Iterable, Sequence
 from datetime import datetime, timedelta, timezone
@@ -256,6 +257,16 @@ def next_free_name(prefix: str, taken: Iterable[str]) -> str:
         if dash and head == prefix and tail.isdigit():
             used.append(int(tail))
     return f"{prefix}-{max(used) + 1}"
+
+
+def closest_name_text(name: str, names: Iterable[str], otherwise: str = "") -> str:
+    """"; did you mean 'pick'?" when one of `names` is close to the mistyped `name`, else `otherwise`.
+
+    >>> closest_name_text("pik", ["home", "pick", "place"])
+    "; did you mean 'pick'?"
+    """
+    close = difflib.get_close_matches(name, list(names), n=1, cutoff=0.6)
+    return f"; did you mean {close[0]!r}?" if close else otherwise
 
 
 def numbering_prefix(name: str) -> str:

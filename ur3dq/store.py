@@ -401,7 +401,7 @@ class PoseStore:
         def edit(steps: list[Step]) -> tuple[list[Step], Pose | Step]:
             find_step(steps, old, str(self.path))
             if new != old and any(s.name == new for s in steps):
-                raise StoreError(f"a pose named {new!r} already exists")
+                raise StoreError(f"a pose named {new!r} already exists: choose another name, or remove it first")
             try:
                 result = renamed_steps(steps, old, new)
             except ValueError as error:

@@ -21,9 +21,10 @@ import contextlib
 import itertools
 import logging
 import threading
-from collections.abc import Callable, Collection, Iterator, Mapping
+from collections.abc import Callable, Collection, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 
+from sim_ursim.motion_queue import Motion
 from sim_ursim.urscript import nodes
 from sim_ursim.urscript.operators import BINARY, NUMERIC_FAST_PATH, PLAIN_NUMBERS, require_number
 from sim_ursim.urscript.values import Pose, ScriptError, copy_value, to_str, truth
@@ -36,8 +37,7 @@ MIN_STATEMENTS_PER_FRAME = 200  # a controller runs a URCL spline step (~55 stat
 MAX_CALL_DEPTH = 100  # nested function calls of one script thread before the run-time error "stack overflow"
 STACK_OVERFLOW = "runtime_error:stack overflow:"  # UR does not publish its controller's text for this error
 KILLED_MOVE_DECELERATION = 4.0  # rad/s²: the arm's stop when the thread running its move is killed
-# Names a script may read without assigning them (built-in constants).
-BUILTIN_CONSTANTS = {"pi": 3.141592653589793}
+BUILTIN_CONSTANTS = {"pi": 3.141592653589793}  # names a script may read without assigning them
 
 
 class CompileError(ValueError):
@@ -146,13 +146,13 @@ class ThreadContext:
         self.name = name
         self.cancel = threading.Event()
         self.done = threading.Event()
-        self.frames = []  # one dict of locals per active function call / thread body
+        self.frames: list[dict[str, object]] = []  # one dict of locals per active function call / thread body
         self.critical = 0
         self.line = 0  # line of the statement being executed
-        self.motion = None  # the Motion this thread is waiting for, if any
-        self.last_timeout = None  # this thread's last blocking read, if it timed out: a later halt is explained by it
+        self.motion: Motion | None = None  # the Motion this thread is waiting for, if any
+        self.last_timeout: str | None = None  # its last blocking read, if it timed out: explains a later halt
         self.running = False  # running statements (holding the scheduler), not waiting for anything
-        self.awaiting_hold = None  # the held speedj/speedl Motion this thread waits for (builtins.motion)
+        self.awaiting_hold: Motion | None = None  # the held speedj/speedl Motion it waits for (builtins.motion)
         self._statements_in_slice = 0
         self._slice = max(MIN_STATEMENTS_PER_FRAME, int(STATEMENTS_PER_SECOND * execution.controller.period))
 
@@ -236,7 +236,7 @@ class ThreadContext:
                 self.cancel.wait(self.controller.period)
                 return
 
-    def run_motion(self, command: Callable[[], object]) -> None:
+    def run_motion(self, command: Callable[[], Motion]) -> None:
         """Issue a motion with `command()` (returns a Motion) and block until it is done, interruptibly.
 
         ScriptError with the motion's error if it failed. A motion cut short because the program was paused (the
@@ -274,18 +274,18 @@ class Execution:
         self.program = program
         self.controller = controller
         self.builtins = builtins
-        self.globals = {}
+        self.globals: dict[str, object] = {}
         self.scheduler = threading.Lock()
         self.unpaused = threading.Event()
         self.unpaused.set()
-        self.error = None  # the first URScriptRuntimeError of any thread
-        self.end_reason = None  # why the program ended, for the log: the first halt, error or stop
+        self.error: URScriptRuntimeError | None = None  # the first URScriptRuntimeError of any thread
+        self.end_reason: str | None = None  # why the program ended, for the log: the first halt, error or stop
         self.holds_freedrive = False  # freedrive_mode() ran, end_freedrive_mode() not: freedrive ends with the program
-        self._threads = {}
+        self._threads: dict[object, ThreadContext] = {}   # by handle (a script value: run's result, kill's operand)
         self._handles = itertools.count(1)
-        self._contexts = []
+        self._contexts: list[ThreadContext] = []
         self._contexts_lock = threading.Lock()
-        self._python_threads = set()  # idents of the Python threads running this program's script threads
+        self._python_threads: set[int] = set()  # idents of the Python threads running this program's script threads
         self.main = self._new_context(program.name)
 
     def owns_current_thread(self) -> bool:
@@ -349,7 +349,7 @@ class Execution:
             self.end_reason = reason
 
     # --- statements
-    def exec_block(self, ctx: ThreadContext, body: list) -> None:
+    def exec_block(self, ctx: ThreadContext, body: Sequence[nodes.Node]) -> None:
         """Execute statements in order."""
         unpaused = self.unpaused
         for statement in body:
@@ -520,8 +520,8 @@ class Execution:
         try:
             if node.op == "not":
                 return not truth(value)
-            require_number(value, node.op)
-            return -value if node.op == "-" else value
+            number = require_number(value, node.op)
+            return -number if node.op == "-" else number
         except ScriptError as error:
             raise URScriptRuntimeError(node.line, node.column, error.text) from None
 

@@ -8,10 +8,11 @@ import operator
 from sim_ursim.urscript.values import ScriptError, to_str, truth
 
 
-def require_number(value, op):
-    """ScriptError unless value is an int/float (booleans count as numbers, as 0/1)."""
+def require_number(value: object, op: str) -> int | float:
+    """`value` if it is an int/float (booleans count as numbers, as 0/1), else ScriptError."""
     if not isinstance(value, (int, float)):
         raise ScriptError(f"runtime_error:type mismatch:{op} needs a number, got {to_str(value)}:")
+    return value
 
 
 def _arithmetic(symbol, function):

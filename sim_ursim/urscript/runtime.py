@@ -43,8 +43,8 @@ class ProgramRunner:
         self._builtins = BUILTINS if builtins is None else builtins
         self._lock = threading.RLock()
         self._submit_lock = threading.Lock()  # one replacement at a time
-        self._main = None
-        self._secondary = []
+        self._main: _Running | None = None
+        self._secondary: list[_Running] = []
         self._paused = False
 
     # ----------------------------------------------------------------------------------------------- queries

@@ -43,7 +43,7 @@ def test_freedrive_ended_by_another_program_is_reported_and_recoverable(own_arm,
         process.stdin.write("\n")
         process.stdin.flush()
         line = process.stderr.readline()
-        assert "not recorded: freedrive was switched off by another program" in line, line
+        assert "not recorded: freedrive ended (another program replaced its own" in line, line
         process.stdin.write("f\n")
         process.stdin.flush()
         assert "Freedrive is on again" in process.stderr.readline()
@@ -77,3 +77,14 @@ def test_a_dropped_connection_shows_ur3dqs_own_words_not_ur_rtdes(own_arm, tmp_p
     assert process.returncode in (0, 6), stderr  # freedrive may have ended with the dropped program: said in words
     for foreign in ("RTDE", "boost", "Exception", "asio"):
         assert foreign not in stderr + stdout, stderr
+
+
+def test_enter_twice_without_moving_warns_that_the_second_pose_is_at_the_first_ones_spot(arm, run_cli):
+    """Teach: Enter pressed twice with the arm where it was stores two poses at one spot; the second is named as
+    such, with the command that removes it (both are kept: a program may pass a spot twice)."""
+    arm.place(PLACE)
+    result = run_cli("--host", arm.host, "record-pose", "--teach", "--name", "t", input="\n\nq\n")
+    assert result.returncode == 0, result.stderr
+    assert "Warning: 't-2' is at the spot of 't-1' (the arm did not move?); `ur3dq poses rm t-2` removes it" \
+        in result.stderr.replace("\n", " "), result.stderr
+    assert "Warning" not in result.stderr.split("recorded 't-2'")[0]

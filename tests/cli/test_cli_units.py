@@ -119,9 +119,9 @@ def test_every_angular_value_follows_deg_before_or_after_the_command(monkeypatch
     (tmp_path / "1").write_text("")   # a FILE argument the parse needs
     members = member_types(param)
     count = param.nargs if param.nargs > 0 else 6
-    words = ["60"] * count
-    for options, expected in (({}, 60.0), ({"deg_before": True}, math.radians(60)),
-                              ({"deg_after": True}, math.radians(60))):
+    words = ["3"] * count   # bare: within every option's bare range (an offset's turn: up to π rad)
+    for options, expected in (({}, 3.0), ({"deg_before": True}, math.radians(3)),
+                              ({"deg_after": True}, math.radians(3))):
         values = si_values(parse(monkeypatch, path, command, param, words, **options), param)
         assert values and values == pytest.approx([expected] * len(values)), options
     typed = [explicit(member) for member in members] * (count // len(members))

@@ -102,6 +102,16 @@ def test_a_bad_cell_file_is_one_line_naming_the_file(run, tmp_path, content, cod
     assert result.stderr.strip().count("\n") == 0 and "bad.json" in result.stderr and fragment in result.stderr
 
 
+def test_a_missing_cell_file_is_refused_with_one_to_start_from(run, tmp_path):
+    result = run("--cell", "cell.json")
+    assert result.returncode == 3 and result.stderr.strip().count("\n") == 0, result.stderr
+    assert "cell file cell.json: no such file" in result.stderr and "docs/cell-file.md" in result.stderr
+    (tmp_path / "cell.json").write_text(result.stderr[result.stderr.index("{"):])   # the example, as printed
+    started = run("--cell", "cell.json")
+    assert started.returncode == 0, started.stderr
+    assert "path clear: 2 moves" in started.stdout
+
+
 def test_run_poses_refuses_before_moving_when_the_path_check_fails(run, tmp_path):
     cell = box_under_the_sweep(tmp_path)
     result = run("--dry-run", command="run-poses", UR3DQ_CELL=str(cell))

@@ -141,3 +141,36 @@ def test_step_watch_reports_progress_end_and_a_failed_wait_naming_the_step():
     with pytest.raises(ProgramError, match=r"step 'part' \(wait-input\): input tool DI1 did not turn off within 3 s"):
         watch.note(TextMessage("ur3dq_fail:6"))
     assert expected_seconds(plan) >= plan[0].duration + 0.5 + 3.0
+
+
+class _ArmAtRest:
+    """A robot at rest whose state shows no output on (as a stale or a late stream may)."""
+
+    def state(self):
+        from types import SimpleNamespace
+
+        return SimpleNamespace(joint_speeds=np.zeros(6), joints=Q_PICK, tcp_pose=np.zeros(6))
+
+    def io_state(self):
+        from types import SimpleNamespace
+
+        return SimpleNamespace(outputs_on=lambda: [])
+
+
+@pytest.mark.parametrize("ended", [True, False], ids=["its end seen", "its end not seen"])
+def test_a_stop_without_the_programs_end_names_every_output_it_may_have_left_on(ended):
+    """A frozen, late or dropped stream: the program may have run past the last step it reported (and switched the
+    gripper on) while the state still shows the output off."""
+    from ur3dq.program.runner import StepWatch, program_stop
+    from ur3dq.robot.primary import KeyMessage, TextMessage
+
+    steps = [pick_waypoint(), DigitalOut("grip", "tool", 0, True), Wait("settle", 0.5),
+             DigitalOut("release", "tool", 0, False)]
+    watch = StepWatch(plan_program(MODEL, steps, start_joints=Q_PICK + 0.1))
+    watch.program_name = "ur3dq_program_1"
+    watch.note(TextMessage("ur3dq_step:1"))
+    if ended:
+        watch.note(KeyMessage(0, 0, "PROGRAM_XXX_STOPPED", "ur3dq_program_1"))
+    stop = program_stop(_ArmAtRest(), watch)
+    assert (stop.position, stop.step_name) == (1, "pick")
+    assert stop.outputs_text() == ("" if ended else "tool output 0 may still be on")

@@ -116,6 +116,34 @@ def test_protective_stop_during_motion(own_sim_robot, home):
     robot.movej(home)
 
 
+def test_a_protective_stop_is_left_to_the_controller(own_sim_robot, home):
+    """The controller stops the arm itself: the driver sends no stopj of its own, which (gentler) would replace the
+    controller's stop and lengthen the arm's way to rest."""
+    from ur3dq.robot.primary import KeyMessage
+    from ur3dq.robot.primary_client import PrimaryClient
+
+    host, robot = own_sim_robot
+    primary = PrimaryClient(host)
+    messages = primary.watch()
+    try:
+        with WhenMoving(host, home, lambda: inject(host, "protective-stop", reason="test")) as watch:
+            error, _ = timed_failure(robot, home + LONG_MOVE)
+        assert isinstance(error, ProtectiveStopError)
+        assert wait_for(lambda: np.max(np.abs(robot.state().joint_speeds)) < 1e-6, timeout=2)
+        rest_after = time.monotonic() - watch.fired_at
+        time.sleep(0.3)
+    finally:
+        primary.unwatch(messages)
+        primary.close()
+    started = []
+    while not messages.empty():
+        message = messages.get_nowait()
+        if isinstance(message, KeyMessage) and message.title.endswith("_STARTED"):
+            started.append(message.text)
+    assert not [name for name in started if name.startswith("ur3dq_stop")], started
+    assert rest_after < 0.5, f"the arm came to rest {rest_after:.2f} s after the protective stop"
+
+
 def test_emergency_stop_during_motion(own_sim_robot, home):
     host, robot = own_sim_robot
     with WhenMoving(host, home, lambda: inject(host, "emergency-stop")) as timer:

@@ -126,3 +126,23 @@ def test_a_stop_after_a_heartbeat_gap_names_the_heartbeat_watchdog(gap, named):
     assert str(caught.value).endswith("heartbeat wrote nothing for 0.143 s; the watchdog stops a program after "
                                       "0.1 s)") == named
     assert ("heartbeat watchdog" in str(caught.value)) == named
+
+
+def test_a_program_another_client_started_after_ours_is_named_as_the_cause():
+    outcome = watch()
+    outcome.note_message(key("PROGRAM_XXX_STARTED"))
+    outcome.finished(status(0.2, running=True, moving=True), 0.0)
+    outcome.note_message(key("PROGRAM_XXX_STOPPED"))
+    outcome.note_message(key("PROGRAM_XXX_STARTED", name="other"))
+    assert not outcome.finished(status(0.3, running=True), 0.1)
+    with pytest.raises(ProgramError, match="0.2000 rad from its target: another client replaced it with its own "
+                                           "program 'other'"):
+        outcome.finished(status(0.3, running=True), 0.1 + SETTLE_TIME + 0.01)
+
+
+def test_a_stop_without_error_or_heartbeat_gap_says_another_client_may_have_stopped_it():
+    outcome = MotionWatch("p", TARGET, running_at_send=False, heartbeat=_Beats(0.02))
+    outcome.finished(status(0.2, running=True, moving=True), 0.0)
+    outcome.finished(status(0.3, running=False), 0.1)
+    with pytest.raises(ProgramError, match="stopped it without an error, as when another client stops the program"):
+        outcome.finished(status(0.3, running=False), 0.1 + SETTLE_TIME + 0.01)

@@ -114,6 +114,9 @@ def test_fault_shutdown_ends_the_process():
 def test_fault_without_a_simulator_says_so():
     result = cli("fault", "emergency-stop", "--host", free_loopback_address())
     assert result.returncode == 1 and "no simulator control channel on" in result.stderr
+    assert "Pass --host ADDRESS (or export UR3DQ_HOST)" in result.stderr
+    moved = cli("move-by-hand", "0", "0", "0", "0", "0", "0", "--host", free_loopback_address())
+    assert moved.returncode == 1 and "Pass --host ADDRESS" in moved.stderr
 
 
 @pytest.mark.parametrize("arguments, message", [

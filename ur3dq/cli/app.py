@@ -20,7 +20,15 @@ from rich.console import Console
 from ur3dq.cli.background_simulator import SimulatorError, running_simulator_host
 from ur3dq.cli.library_output import own_output
 from ur3dq.cli.signals import exit_code_for_interrupt, polite_signals_interrupt, signal_name
-from ur3dq.errors import RobotConnectionError, RobotError, SafetyCheckError, StoreError, UR3DQError
+from ur3dq.errors import (
+    SEPARATE_NOTE,
+    RobotConnectionError,
+    RobotError,
+    SafetyCheckError,
+    StoreError,
+    UR3DQError,
+    add_note,
+)
 from ur3dq.kinematics import MODEL_NAMES
 from ur3dq.store import DEFAULT_STORE_PATH, PoseStore, store_file_role
 from ur3dq.units import Units
@@ -242,10 +250,24 @@ def cli(ctx: click.Context, host: str | None, backend: str, model: str | None, s
 
 
 def one_line(error: BaseException) -> str:
-    """The error's message (and any notes) as one line."""
+    """The error's message and the notes that extend it (where a run stopped, how to go on) as one line."""
     text = str(error) or type(error).__name__
-    notes = getattr(error, "__notes__", None) or []
+    notes = [note for note in getattr(error, "__notes__", None) or [] if not note.startswith(SEPARATE_NOTE)]
     return " ".join(" ".join([text, *notes]).split())
+
+
+def separate_notes(error: BaseException) -> list[str]:
+    """The error's notes that stand on lines of their own (errors.add_separate_note), each as one line."""
+    return [" ".join(note.split()) for note in getattr(error, "__notes__", None) or []
+            if note.startswith(SEPARATE_NOTE)]
+
+
+def show_error_of(error: BaseException, prefix: str = "") -> None:
+    """Print the error's separate notes, a line each, then its `Error: ...` line (the last line: scripts read
+    it)."""
+    for note in separate_notes(error):
+        click.echo(note, err=True)
+    show_error(prefix + one_line(error))
 
 
 def exit_code_for(error: BaseException) -> int:
@@ -293,16 +315,16 @@ def main(argv=None) -> None:
         if cancelled.deliberate:
             click.echo(str(cancelled)[0].upper() + str(cancelled)[1:], err=True)
         else:
-            show_error(one_line(cancelled))
+            show_error_of(cancelled)
         code = EXIT_CANCELLED
     except (UR3DQError, ValueError, OSError) as error:
-        show_error(one_line(error))
+        show_error_of(error)
         code = exit_code_for(error)
     except Exception as error:  # a bug: still one line, the traceback on request
         if os.environ.get("UR3DQ_DEBUG"):
             raise
-        show_error(f"internal error ({type(error).__name__}): {one_line(error)} (set UR3DQ_DEBUG=1 for the "
-                   "traceback)")
+        add_note(error, "(set UR3DQ_DEBUG=1 for the traceback)")
+        show_error_of(error, prefix=f"internal error ({type(error).__name__}): ")
         code = EXIT_INTERNAL
     sys.exit(code if isinstance(code, int) else EXIT_OK)
 
@@ -323,8 +345,10 @@ def _report_interrupt(interrupt):
     (130 for Ctrl-C, 128 + n for signal n)."""
     name = signal_name(interrupt)
     text = f"interrupted by {name}" if name else str(interrupt) or "interrupted"
-    notes = getattr(interrupt, "__notes__", None) or []
-    click.echo(f"Error: {' '.join(' '.join([text, *notes]).split())}", err=True)
+    for note in separate_notes(interrupt):
+        click.echo(note, err=True)
+    notes = [note for note in getattr(interrupt, "__notes__", None) or [] if not note.startswith(SEPARATE_NOTE)]
+    show_error(" ".join(" ".join([text, *notes]).split()))
     return exit_code_for_interrupt(interrupt)
 
 

@@ -60,6 +60,9 @@ def export_urscript(settings: Settings, names: tuple[str, ...], output: Path, sp
           --loop 10 -o cell.script
     """
     check_blend(blend)
+    files = [name for name in names if Path(name).suffix.lower() in (".script", ".urscript")]
+    if files and str(output) == "-":
+        raise click.UsageError(f"{files[0]!r} is a file, not a step name: use -o {files[0]}")
     if start or end or settings.store.version() == 2:  # a cell program: the same program run-poses sends
         if names or loops > 1:
             raise click.UsageError("a cell program is exported as a whole or --from/--to: no NAMES, no --loop")

@@ -11,6 +11,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import sys
+import textwrap
 from collections.abc import Iterator
 from typing import Any, TextIO
 
@@ -20,7 +21,7 @@ from ur3dq.cli.app import Settings, cli, emit_json, robot_session
 from ur3dq.cli.operator_controls import cbreak, read_key
 from ur3dq.cli.options import display_options
 from ur3dq.cli.program_workflow import same_spot_as
-from ur3dq.errors import RobotError, StoreError
+from ur3dq.errors import MotionTimeoutError, ProgramError, RobotError, StoreError
 from ur3dq.pose import next_free_name
 from ur3dq.replay import read_pose
 from ur3dq.robot import jog_steps
@@ -78,7 +79,7 @@ def screen_lines(screen: JogScreen, title: str, joints: Any, tcp: Any, store: st
         f"Speed  {SPEED_SHARES[screen.speed]:.0%} of the jog limit  < >: slower / faster "
         f"({show(screen.speed_for(step), _speed_kind(step), SCREEN_UNITS, 1)})",
         "",
-        "Joints °  " + " ".join(f"J{i + 1} {value:+8.2f}" for i, value in enumerate(angle)),
+        "Joints °  " + " ".join(f"J{i + 1} {value:+7.2f}" for i, value in enumerate(angle)),
         "TCP mm    " + " ".join(f"{name} {value:+8.1f}" for name, value in zip("XYZ", position, strict=True)),
         "TCP °     " + " ".join(f"{name} {value:+8.2f}" for name, value in zip(("RX", "RY", "RZ"), rotation,
                                                                               strict=True)),
@@ -89,8 +90,8 @@ def screen_lines(screen: JogScreen, title: str, joints: Any, tcp: Any, store: st
         f"r  record this pose into {store}"[:WIDTH],
         "q  quit",
         "",
-        screen.message[:WIDTH],
     ]
+    lines += textwrap.wrap(screen.message, WIDTH)[:HEIGHT - 1 - len(lines)]   # a refusal's fix is at its end
     return [line[:WIDTH] for line in lines] + [""] * (HEIGHT - 1 - len(lines))
 
 
@@ -191,6 +192,8 @@ def _step(robot: Any, screen: JogScreen, direction: int) -> None:
     try:
         robot.jog(step, screen.speed_for(step))
         screen.message = f"Moved {step.label} by {STEP_SIZES[screen.step]:g} {unit}."
+    except (ProgramError, MotionTimeoutError) as error:   # it ran and stopped short: the same key goes on
+        screen.message = f"{step.label} stopped short: {' '.join(str(error).split())}; the key again goes on"
     except (ValueError, RobotError) as error:   # refused (a limit, reach, the path) or stopped: say so, go on
         screen.message = f"{step.label} not moved: {' '.join(str(error).split())}"
     finally:

@@ -72,9 +72,10 @@ class Quantity(click.ParamType):  # type: ignore[type-arg, unused-ignore]  # gen
     a ValueError naming the option and an example (exit 4, one line).
     """
 
-    def __init__(self, kind: Kind) -> None:
+    def __init__(self, kind: Kind, bare_limit: tuple[float, str, str] | None = None) -> None:
         self.kind = kind
         self.name = kind.name
+        self.bare_limit = bare_limit   # (SI limit, its words, the unit likely meant) for a bare number
 
     def get_metavar(self, param: click.Parameter, ctx: click.Context | None = None) -> str:
         """What --help shows after the option: the quantity (DISTANCE, ANGLE, SPEED, ...)."""
@@ -83,7 +84,23 @@ class Quantity(click.ParamType):  # type: ignore[type-arg, unused-ignore]  # gen
     def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> float:
         if isinstance(value, float) and not isinstance(value, bool):
             return value  # already SI: a default given in code, or a value converted before
-        return parse(value, self.kind, units_of(ctx), _option_name(param))
+        units, name = units_of(ctx), _option_name(param)
+        si = parse(value, self.kind, units, name)
+        if self.bare_limit is not None and abs(si) > self.bare_limit[0] and _is_bare(value):
+            limit, words, meant = self.bare_limit
+            unit = units.bare_unit(self.kind)
+            raise ValueError(f"{name} {value}: a bare number is read in {unit}, and {value} {unit} is more than "
+                             f"{words}; type {value}{meant}, or {value}{unit} if that is meant")
+        return si
+
+
+def _is_bare(value: Any) -> bool:
+    """Whether a typed value is a number without a unit."""
+    try:
+        plain_number(value)
+    except ValueError:
+        return False
+    return True
 
 
 @dataclasses.dataclass(frozen=True)
@@ -124,7 +141,11 @@ class Typed(click.ParamType):  # type: ignore[type-arg, unused-ignore]  # generi
                 return typed
             except ValueError as error:
                 errors.append(error)
-        raise errors[0]
+        if len(self.kinds) == 1:
+            raise errors[0]
+        kinds = " nor a ".join(kind.name for kind in self.kinds)   # the move type is not known yet: name both
+        examples = " or ".join(kind.example for kind in self.kinds)
+        raise ValueError(f"{typed.option}: {typed.text!r} is neither a {kinds}; for example {examples}")
 
 
 def _set_flag(ctx: click.Context, param: click.Parameter, value: bool) -> None:

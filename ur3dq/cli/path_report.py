@@ -10,6 +10,8 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+import numpy as np
+import numpy.typing as npt
 from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
@@ -18,11 +20,13 @@ from rich.text import Text
 from ur3dq.cli.app import Settings
 from ur3dq.cli.display import NARROW_WIDTH, Column, count_text, fitted_table
 from ur3dq.errors import SafetyCheckError
-from ur3dq.pathcheck import PathPlan, PathSegment, check_path, load_cell
+from ur3dq.kinematics.models import URModel
+from ur3dq.pathcheck import Cell, PathPlan, PathSegment, check_path, load_cell
 from ur3dq.pathcheck.reports import PathCheckResult
 from ur3dq.program.path import path_plan_of
 from ur3dq.program.plan import PlannedStep
 from ur3dq.program.steps import KeptScript
+from ur3dq.replay import PlanStep
 
 DEFAULT_JOINT_SPEED = 1.05     # rad/s (movej's default)
 DEFAULT_LINEAR_SPEED = 0.25    # m/s (movel's default)
@@ -59,13 +63,13 @@ def margins_legend(result: PathCheckResult) -> str:
         f"nearest obstacle (≥ {1000 * limits.get('cell', 0.0):.0f})"])
 
 
-def path_plan_from_replay(steps, start_joints, move: str, speed: float, acceleration: float,
-                          blend: float) -> PathPlan:
+def path_plan_from_replay(steps: Sequence[PlanStep], start_joints: npt.ArrayLike | None, move: str, speed: float,
+                          acceleration: float, blend: float) -> PathPlan:
     """The PathPlan of a replay plan.
 
     The PathPlan of replay `steps` (ur3dq.replay.PlanStep) from `start_joints`; without a start (dry run, no
     robot) the plan starts at the first pose, whose configuration is then checked as a move of length 0."""
-    start = steps[0].joints if start_joints is None else start_joints
+    start = np.asarray(steps[0].joints if start_joints is None else start_joints, dtype=float)
     count = len(steps)
     blends = [blend] * (count - 1) + [0.0]
     return PathPlan(start, PathSegment.joint_targets([step.pose.name for step in steps], [move] * count,
@@ -73,8 +77,9 @@ def path_plan_from_replay(steps, start_joints, move: str, speed: float, accelera
                                                      [acceleration] * count, blends, [None] * count))
 
 
-def check_replay(model, steps, cell_path, start_joints=None, blend: float = 0.0, loops: int = 1,
-                 keep_samples: bool = True) -> tuple:
+def check_replay(model: URModel, steps: Sequence[PlanStep], cell_path: str | Path | None,
+                 start_joints: npt.ArrayLike | None = None, blend: float = 0.0, loops: int = 1,
+                 keep_samples: bool = True) -> tuple[PathCheckResult, Cell | None]:
     """The path check of a movej replay.
 
     (PathCheckResult, Cell or None) of a movej replay of `steps`; `loops` > 1 adds the move from the last pose
@@ -88,7 +93,9 @@ def check_replay(model, steps, cell_path, start_joints=None, blend: float = 0.0,
     return check_path(model, PathPlan(plan.start_joints, segments), cell, keep_samples=keep_samples), cell
 
 
-def check_program(model, plan, cell_path, start_joints=None, keep_samples: bool = True) -> tuple:
+def check_program(model: URModel, plan: Sequence[PlannedStep], cell_path: str | Path | None,
+                  start_joints: npt.ArrayLike | None = None,
+                  keep_samples: bool = True) -> tuple[PathCheckResult | None, Cell | None]:
     """The path check of a planned cell program.
 
     (PathCheckResult or None when no step moves the arm, Cell or None) of a cell program
@@ -197,7 +204,7 @@ def margins_table(result: PathCheckResult, title: str, width: int | None = None)
 MAX_MARGIN_ROWS = 200   # a table of 10⁵ moves is unreadable (and takes rich a minute): the moves that matter
 
 
-def _rows_worth_showing(result) -> list[int]:
+def _rows_worth_showing(result: PathCheckResult) -> list[int]:
     """Indices of the moves the margins table shows: all of them up to MAX_MARGIN_ROWS, else the moves with a
     problem and, for each check, the move with its smallest margin (in program order)."""
     if len(result.steps) <= MAX_MARGIN_ROWS:

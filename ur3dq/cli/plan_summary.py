@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import textwrap
 from collections.abc import Sequence
 
 from ur3dq.cli.display import count_text
@@ -11,6 +12,7 @@ from ur3dq.program.plan import PlannedStep
 from ur3dq.replay import PlanStep
 from ur3dq.units import ANGLE, LENGTH, Units, show
 
+WIDTH = 80          # columns of the smallest terminal the question must fit
 MAX_WARNINGS = 4   # warning lines shown above the question; the rest are counted (the full plan lists them)
 
 
@@ -65,8 +67,8 @@ def replay_figures(steps: Sequence[PlanStep], loops: int = 1) -> PlanFigures:
 
 
 def summary_lines(figures: PlanFigures, verdict: str, warnings: Sequence[str], units: Units) -> list[str]:
-    """The summary above the run question: at most 5 + MAX_WARNINGS lines, each under 80 columns unless a step
-    name is that long."""
+    """The summary above the run question: 5 + MAX_WARNINGS lines or so, each wrapped within 80 columns (a
+    continued line indented under its own), unless a step name alone is longer."""
     what = [count_text(figures.moves, "move")]
     if figures.linear:
         what.append(f"{figures.linear} linear")
@@ -84,7 +86,8 @@ def summary_lines(figures: PlanFigures, verdict: str, warnings: Sequence[str], u
         shown.append(f"... and {len(warnings) - MAX_WARNINGS} more (--plan lists them)")
     lines += [f"  Warning: {warning}" for warning in shown]
     lines.append("  The full plan and the check's table: --plan (or --dry-run to stop there).")
-    return lines
+    return [part for line in lines for part in textwrap.wrap(line, WIDTH, subsequent_indent="    ",
+                                                              break_long_words=False, break_on_hyphens=False)]
 
 
 def _angle(radians: float, units: Units) -> str:

@@ -5,10 +5,12 @@ with other commands are in program_workflow.py.
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Callable
 from pathlib import Path
 
 import click
+import numpy as np
 from rich.markup import escape
 from rich.text import Text
 
@@ -50,6 +52,7 @@ from ur3dq.cli.program_workflow import (
 )
 from ur3dq.errors import StoreError
 from ur3dq.pose import next_free_name, utc_now_iso
+from ur3dq.program.resolve import resolve_targets
 from ur3dq.program.steps import (
     PIN_COUNT,
     AnalogOut,
@@ -372,6 +375,12 @@ def move_step(settings: Settings, name: str, after: str | None, before: str | No
     report(settings, {"moved": name, "position": position}, f"Moved {name!r} to position {position}.")
 
 
+def name_taken(name: str) -> StoreError:
+    """The refusal of a new step whose name another step has, naming the ways on."""
+    return StoreError(f"a step named {name!r} already exists: choose another name, or remove it first "
+                      f"(`ur3dq poses rm {name}`)")
+
+
 @poses.command("copy", short_help="Copy a step under a new name.")
 @click.argument("name")
 @click.argument("new")
@@ -388,7 +397,7 @@ def copy_step(settings: Settings, name: str, new: str, after: str | None, before
 
     def make(steps: list[Step]) -> Step:
         if any(step.name == new for step in steps):
-            raise StoreError(f"a step named {new!r} already exists")
+            raise name_taken(new)
         step = find_step(steps, name, settings.store_path)
         if isinstance(step, Waypoint):
             return Waypoint(new, step.pose.renamed(new), step.motion)
@@ -398,6 +407,10 @@ def copy_step(settings: Settings, name: str, new: str, after: str | None, before
     report(settings, {"copied": name, "to": new}, f"Copied {name!r} to {new!r}.")
 
 
+#: An offset's turn: a bare number over a half turn is refused (a turn of 5 is 5° far more often than 286°).
+OFFSET_TURN = Quantity(ANGLE, (math.pi, "a half turn", "deg"))
+
+
 @poses.command("offset", short_help="Add a waypoint at an offset from another.")
 @click.argument("new")
 @click.option("--from", "base", required=True, metavar="N", help="The waypoint it is relative to.")
@@ -405,10 +418,10 @@ def copy_step(settings: Settings, name: str, new: str, after: str | None, before
 @click.option("--y", "dy", type=Quantity(LENGTH), default=0.0, metavar="D", help="Offset along y.")
 @click.option("--z", "dz", type=Quantity(LENGTH), default=0.0, metavar="D",
               help="Offset along z, e.g. -50mm (bare: m, mm under --mm).")
-@click.option("--rx", type=Quantity(ANGLE), default=0.0, metavar="ANGLE",
-              help="Rotation vector x, e.g. 5deg (bare: rad, ° under --deg).")
-@click.option("--ry", type=Quantity(ANGLE), default=0.0, metavar="ANGLE", help="Rotation vector y.")
-@click.option("--rz", type=Quantity(ANGLE), default=0.0, metavar="ANGLE", help="Rotation vector z.")
+@click.option("--rx", type=OFFSET_TURN, default=0.0, metavar="ANGLE",
+              help="Rotation vector x, e.g. 5deg (bare: rad up to π, ° under --deg).")
+@click.option("--ry", type=OFFSET_TURN, default=0.0, metavar="ANGLE", help="Rotation vector y.")
+@click.option("--rz", type=OFFSET_TURN, default=0.0, metavar="ANGLE", help="Rotation vector z.")
 @click.option("--frame", type=click.Choice(["tool", "base"]), default="tool", show_default=True,
               help="tool: along N's own TCP axes; base: along the robot's base axes.")
 @waypoint_motion_options
@@ -430,7 +443,7 @@ def offset(settings: Settings, new: str, base: str, dx: float, dy: float, dz: fl
 
     def make(steps: list[Step]) -> Step:
         if any(step.name == new for step in steps):
-            raise StoreError(f"a step named {new!r} already exists")
+            raise name_taken(new)
         who = f"step {new!r} (relative waypoint)"
         motion = motion_from_options(Motion(), move, speed, acceleration, blend, who, program_model(settings, steps))
         return RelativeWaypoint(new, base, (dx, dy, dz, rx, ry, rz), frame, motion,
@@ -438,7 +451,21 @@ def offset(settings: Settings, new: str, base: str, dx: float, dy: float, dz: fl
 
     step = add_step_at(settings, make, after, before)
     report(settings, {"added": step_to_dict(step)},
-           f"Added relative waypoint {new!r}: {describe_step(step, settings.units)}.")
+           f"Added relative waypoint {new!r}: {describe_step(step, settings.units)}.\n"
+           f"  {where_from_base(settings.store.load_program(), new, base)}")
+
+
+def where_from_base(steps: list[Step], name: str, base: str) -> str:
+    """Where the relative waypoint `name` lands from its waypoint `base`, in the robot's base frame and in words
+    (above, below or beside it): a tool-frame offset's direction is not what a person sees."""
+    targets = resolve_targets(steps)
+    shift = (targets[name].pose.translation - targets[base].pose.translation) * 1000.0
+    moved = float(np.linalg.norm(shift))
+    if moved < 0.05:
+        return f"Base frame: at the spot of {base!r}."
+    words = ("above" if shift[2] > 0 else "below") if abs(shift[2]) >= 0.5 * moved else "beside"
+    return (f"Base frame: {moved:.1f} mm {words} {base!r} "
+            f"(Δx {shift[0]:+.1f} Δy {shift[1]:+.1f} Δz {shift[2]:+.1f} mm).")
 
 
 # ---------------------------------------------------------------- poses add-step ...
@@ -472,7 +499,7 @@ def _add_action(build: Callable[[str], Step], prefix: str) -> None:
     def make(steps: list[Step]) -> Step:
         taken = {step.name for step in steps}
         if name and name in taken:
-            raise StoreError(f"a step named {name!r} already exists")
+            raise name_taken(name)
         return build(name or next_free_name(prefix, taken))
 
     step = add_step_at(settings, make, after, before)
@@ -511,10 +538,10 @@ def analog_out(pin: int, value: str) -> None:
 
 
 @add_step.command("wait", short_help="Wait a time, e.g. 500ms or 2s.")
-@click.argument("seconds", type=Quantity(DURATION), metavar="TIME")
+@click.argument("seconds", type=Quantity(DURATION, (60.0, "a minute", "ms")), metavar="TIME")
 @display_options
 def wait(seconds: float) -> None:
-    """Wait TIME: 500ms, 2s, or a bare number of seconds."""
+    """Wait TIME: 500ms, 2s, or a bare number of seconds up to 60 (longer: with its unit, 90s)."""
     _add_action(lambda name: Wait(name, seconds), "wait")
 
 

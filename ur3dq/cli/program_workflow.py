@@ -25,7 +25,7 @@ from ur3dq.cli.path_report import check_program, check_verdict, kept_script_warn
 from ur3dq.cli.plan_summary import program_figures, summary_lines
 from ur3dq.errors import StoreError
 from ur3dq.kinematics.models import URModel
-from ur3dq.pose import Pose, utc_now_iso
+from ur3dq.pose import Pose, closest_name_text, utc_now_iso
 from ur3dq.program.plan import Defaults, PlannedStep, motion_ranges, plan_program
 from ur3dq.program.resolve import select_range
 from ur3dq.program.script import program_script
@@ -144,6 +144,9 @@ def step_fields_text(step: Step, units: Units) -> list[tuple[str, str]]:
     return rows
 
 
+SEE_THE_LIST = "; `ur3dq poses list` shows them"   # the way on after an unknown step name
+
+
 def insertion_index(steps, after: str | None, before: str | None, source) -> int:
     """Where --after/--before put a step in `steps` (the end by default); StoreError for an unknown name."""
     if after and before:
@@ -153,14 +156,15 @@ def insertion_index(steps, after: str | None, before: str | None, source) -> int
         return len(steps)
     names = [step.name for step in steps]
     if anchor not in names:
-        raise StoreError(f"no step named {anchor!r} in {source}")
+        raise StoreError(f"no step named {anchor!r} in {source}{closest_name_text(anchor, names, SEE_THE_LIST)}")
     return names.index(anchor) + (1 if after else 0)
 
 
 def replace_step(steps, name, new, source):
     """`steps` with the step `name` replaced by `new`."""
-    if name not in [step.name for step in steps]:
-        raise StoreError(f"no step named {name!r} in {source}")
+    names = [step.name for step in steps]
+    if name not in names:
+        raise StoreError(f"no step named {name!r} in {source}{closest_name_text(name, names, SEE_THE_LIST)}")
     return [new if step.name == name else step for step in steps]
 
 
@@ -169,7 +173,8 @@ def find_step(steps, name, source):
     for step in steps:
         if step.name == name:
             return step
-    raise StoreError(f"no step named {name!r} in {source}")
+    names = [step.name for step in steps]
+    raise StoreError(f"no step named {name!r} in {source}{closest_name_text(name, names, SEE_THE_LIST)}")
 
 
 def add_step_at(settings: Settings, make_step, after, before):
@@ -347,6 +352,7 @@ def run_program_command(settings: Settings, start: str | None, end: str | None, 
                  f"Plan on the {robot.model_name} at {robot.host}", dry_run)
         if dry_run:
             return
+        run_session.confirm_replacing_foreign_program(robot, yes)
         confirm(f"Run {len(plan)} steps ({part[0].name!r} to {part[-1].name!r}) on the arm?", yes, default=False)
         options = {"speed": speed, "acceleration": acceleration, "blend": blend, "speed_scale": speed_scale,
                    "replay_joints": replay_joints, "max_travel": max_travel,

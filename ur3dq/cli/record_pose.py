@@ -73,6 +73,18 @@ def record_pose(settings: Settings, name: str | None, note: str, yes: bool, teac
         click.echo(f"Recorded {stored.name!r} in {settings.store_path}.")
 
 
+def simulator_hand_hint(robot: Robot) -> str | None:
+    """On `ur3dq sim start`'s simulator, where nobody can push the arm: the command that does, from another
+    terminal, at the arm's joints (rad) for the person to edit; None on any other controller."""
+    from ur3dq.cli.background_simulator import running_simulator_host
+
+    if robot.host != running_simulator_host():
+        return None
+    joints = " ".join(f"{value:.2f}".replace("-0.00", "0.00") for value in robot.joints())
+    return ("On the simulator, be the hand from another terminal (six joints, rad):\n"   # two lines of < 80
+            f"  sim-ursim move-by-hand --host {robot.host} \\\n      {joints}")
+
+
 def _teach(settings: Settings, robot: Robot, prefix: str, note: str) -> None:
     """Freedrive on; every line on stdin records a pose (named by the line, else prefix-N) until `q` or end of
     input; `f` switches freedrive on again after another program ended it. Freedrive goes off again at the end
@@ -83,6 +95,9 @@ def _teach(settings: Settings, robot: Robot, prefix: str, note: str) -> None:
     try:
         err.print("Freedrive is on: move the arm by hand. Enter records the pose (type a name first to name it); "
                   "q then Enter ends.")
+        hand = simulator_hand_hint(robot)
+        if hand:
+            err.print(hand, soft_wrap=True)   # as composed: a command rewrapped would lose its --host
         for line in sys.stdin:
             text = line.strip()
             if text.lower() == "q":
@@ -92,8 +107,9 @@ def _teach(settings: Settings, robot: Robot, prefix: str, note: str) -> None:
                 err.print("Freedrive is on again.")
                 continue
             if not robot.freedrive_active():
-                err.print("not recorded: freedrive was switched off by another program sent to the controller; "
-                          "f then Enter switches it on again, q ends")
+                err.print("not recorded: freedrive ended (another program replaced its own, or the controller's "
+                          "watchdog stopped it: ur3dq's heartbeat came late); f then Enter switches it on again, "
+                          "q ends")
                 continue
             taken = [pose.name for pose in settings.store.load()]
             try:

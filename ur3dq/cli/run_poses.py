@@ -163,6 +163,7 @@ def _replay(settings: Settings, poses: list[Pose], loops: int, dry_run: bool, fu
                  dry_run, f"Plan on the {robot.model_name} at {robot.host}")
         if dry_run:
             return
+        run_session.confirm_replacing_foreign_program(robot, yes)
         confirm(f"Move the arm through {count_text(len(steps), 'pose')}{f' {loops} times' if loops > 1 else ''}?", yes)
         names = [step.pose.name for step in steps] * loops
         record = run_session.run_record(settings, robot, "replay", None, options, digest)

@@ -16,11 +16,11 @@ from rich.console import Console
 from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-from ur3dq.cli.app import Cancelled, Settings
+from ur3dq.cli.app import Cancelled, Settings, confirm
 from ur3dq.cli.operator_controls import OperatorControls
 from ur3dq.cli.resume_state import ResumeState, arm_identity, clear_resume_state, store_digest
 from ur3dq.cli.signals import signal_name
-from ur3dq.errors import SafetyCheckError, StoreError, add_note
+from ur3dq.errors import RobotError, SafetyCheckError, StoreError, add_note
 from ur3dq.program.plan import PlannedStep
 from ur3dq.program.runner import ProgramStop, StepWatch, run_plan, status_at_rest
 from ur3dq.store import DEFAULT_STORE_PATH
@@ -42,6 +42,24 @@ class RunRecord:
     options: dict[str, Any]
     store_digest: str
     arm: dict[str, Any]
+
+
+def confirm_replacing_foreign_program(robot: Any, yes: bool) -> None:
+    """Before a run sends its program: another program, running or paused on the controller (another client's, the
+    pendant's), would be stopped and replaced by it (a controller runs one program at a time). Ask (default No), or
+    refuse under `yes` (RobotError, exit 6): --yes answers the question about moving the arm, not this one."""
+    status = robot.state()
+    if not (status.program_running or status.program_paused):
+        return
+    try:
+        dashboard = f" (dashboard: {robot.program_state()})"
+    except RobotError:
+        dashboard = ""
+    found = f"another program is {'paused' if status.program_paused else 'running'} on the controller{dashboard}"
+    if yes:
+        raise RobotError(f"{found}: this run would stop and replace it, so nothing was sent; stop it first (at "
+                         "the pendant, or `ur3dq robot stop`), or run without --yes to be asked")
+    confirm(f"{found[0].upper()}{found[1:]}: stop it and run this one instead?", False, default=False)
 
 
 def run_record(settings: Settings, robot: Any, kind: str, end: str | None, options: dict[str, Any],
@@ -108,10 +126,10 @@ def ended_early(settings: Settings, error: BaseException, stop: ProgramStop, ste
     quit_run = controls is not None and controls.stop_choice == "quit"
     command = resume_command(settings)
     written = None if quit_run else _write_state(settings, error, stop, record, names, controls)
-    err.print(f"Stopped during {escape(step_text(stop.position, step, program_length))}.", soft_wrap=True)
-    err.print(where_text(stop, settings.deg), soft_wrap=True)
+    err.print(f"Stopped during {escape(step_text(stop.position, step, program_length))}.")
+    err.print(where_text(stop, settings.deg))
     if stop.outputs_on:
-        err.print(f"{stop.outputs_text().capitalize()} (switched on by the program).", soft_wrap=True)
+        err.print(f"{stop.outputs_text().capitalize()} (switched on by the program).")
     if quit_run:
         clear_resume_state(settings.store_path)
         return Cancelled(f"quit during step {stop.position} {stop.step_name!r}: the run is abandoned (nothing to "
@@ -189,7 +207,7 @@ def announce_resume(settings: Settings, plan: Sequence[PlannedStep], first: int,
     offset, planned = waypoint
     err.print(escape(f"{head}: first a {planned.move} move from where the arm is (joints {joints} "
                      f"{'°' if settings.deg else 'rad'}) to the target of step {first + offset} "
-                     f"{planned.step.name!r}; the path check runs from those joints."), soft_wrap=True)
+                     f"{planned.step.name!r}; the path check runs from those joints."))
 
 
 def replay_stop(robot: Any, position: int, name: str) -> ProgramStop:

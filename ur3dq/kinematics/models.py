@@ -34,7 +34,7 @@ from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import JointLimitError
 from ur3dq.kinematics import ur_ik
 from ur3dq.kinematics.chain import SerialChain, thesis_to_dh_flange
-from ur3dq.kinematics.joints import joint_floats
+from ur3dq.kinematics.inputs import joint_floats
 
 JOINT_NAMES = ("base", "shoulder", "elbow", "wrist 1", "wrist 2", "wrist 3")
 NOMINAL_ALPHA = (math.pi / 2, 0.0, 0.0, math.pi / 2, -math.pi / 2, 0.0)

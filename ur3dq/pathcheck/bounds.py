@@ -30,11 +30,13 @@ that margin from dense samples (path_check._refine_smallest).
 from __future__ import annotations
 
 import dataclasses
-from typing import Any
 
 import numpy as np
 
+from ur3dq.array_types import BoolArray, FloatArray, IntArray
+from ur3dq.kinematics.models import URModel
 from ur3dq.pathcheck import geometry
+from ur3dq.pathcheck.checks import StepChecker
 
 #: Halvings of a move before it is sampled densely (64 intervals; a dense joint move has ~20–100 samples).
 MAX_DEPTH = 6
@@ -55,14 +57,14 @@ class Certification:
     Checks: "joint_limit" (exact: joints move linearly, so the ends hold the smallest room), and
     "self_collision" / "cell" where the checker has them."""
 
-    certified: np.ndarray
-    lower: dict
-    margins: dict
-    worst: dict
-    samples: np.ndarray
+    certified: BoolArray
+    lower: dict[str, FloatArray]
+    margins: dict[str, FloatArray]
+    worst: dict[str, IntArray]
+    samples: IntArray
 
 
-def lever_arms(model, capsules) -> np.ndarray:
+def lever_arms(model: URModel, capsules: geometry.Capsules) -> FloatArray:
     """How far each capsule's points can be from each joint's axis.
 
     (6, C) m: a bound, in every configuration, of the distance of capsule c's points from joint k + 1's axis;
@@ -77,7 +79,7 @@ def lever_arms(model, capsules) -> np.ndarray:
     return levers
 
 
-def column_rates(checker, levers: np.ndarray) -> np.ndarray:
+def column_rates(checker: StepChecker, levers: FloatArray) -> FloatArray:
     """How fast each clearance column can change per radian of each joint.
 
     (K, 6) m/rad: how fast each clearance column of checker.clearance_margins can change per radian of each
@@ -95,12 +97,12 @@ def column_rates(checker, levers: np.ndarray) -> np.ndarray:
     return np.array(rows, dtype=float).reshape(-1, 6)
 
 
-def _on_axis(capsules, c: int) -> bool:
+def _on_axis(capsules: geometry.Capsules, c: int) -> bool:
     """True when capsule c's segment lies on the z axis of its frame (the axis of the next joint)."""
     return not (np.any(capsules.a[c, :2]) or np.any(capsules.b[c, :2]))
 
 
-def certify_joint_moves(checker, q0: np.ndarray, q1: np.ndarray) -> Certification:
+def certify_joint_moves(checker: StepChecker, q0: FloatArray, q1: FloatArray) -> Certification:
     """Certify joint moves by clearance bounds, without dense samples.
 
     Certify the joint moves q0 → q1 ((M, 6) rad each) on `checker` (a checks.StepChecker: model, capsules,
@@ -113,7 +115,7 @@ def certify_joint_moves(checker, q0: np.ndarray, q1: np.ndarray) -> Certificatio
     pending = np.zeros(count, dtype=bool)
     records = _Records(_groups(checker), checker.margins.tcp_resolution, count)
     # A block of moves at a time: a move's intervals double at each depth, and so would the arrays of all moves.
-    carried = None   # (joints, margins) at the end of the block before
+    carried: tuple[FloatArray, FloatArray] | None = None   # (joints, margins) at the end of the block before
     for first in range(0, count, _BLOCK):
         block = slice(first, min(first + _BLOCK, count))
         moves = np.arange(block.start, block.stop)
@@ -133,7 +135,8 @@ def certify_joint_moves(checker, q0: np.ndarray, q1: np.ndarray) -> Certificatio
     return Certification(~failed & ~pending, {**records.lower, "joint_limit": limit_margin}, margins, worst, samples)
 
 
-def _bisect(checker, q0, delta, slopes, move, m0, m1, records, failed, pending) -> None:
+def _bisect(checker: StepChecker, q0: FloatArray, delta: FloatArray, slopes: _Slopes, move: IntArray, m0: FloatArray,
+            m1: FloatArray, records: _Records, failed: BoolArray, pending: BoolArray) -> None:
     """Halve the intervals of a block of B moves — starts q0 (B, 6), steps delta (B, 6), their columns' _Slopes,
     indices `move` (B,) among all moves, margins m0, m1 (B, K) at their starts and ends — while their bound is
     below the records' targets; mark in place (by index among all moves): failed (a sample below 0), pending (an
@@ -163,7 +166,7 @@ def _bisect(checker, q0, delta, slopes, move, m0, m1, records, failed, pending) 
         m0, m1 = np.concatenate((m0, values)), np.concatenate((values, m1))
 
 
-def column_offsets(checker) -> np.ndarray:
+def column_offsets(checker: StepChecker) -> FloatArray:
     """What each clearance column subtracts from a distance.
 
     (K,) m: what each clearance column of checker.clearance_margins subtracts from a distance — the capsules'
@@ -174,7 +177,7 @@ def column_offsets(checker) -> np.ndarray:
     return np.concatenate((pairs, cell)).astype(float)
 
 
-def column_slopes(rates: np.ndarray, steps: np.ndarray) -> tuple:
+def column_slopes(rates: FloatArray, steps: FloatArray) -> tuple[FloatArray, FloatArray]:
     """The rate and bend bounds of each column along each move.
 
     (L (M, K) m, H (M, K) m) of M joint moves with joint steps |Δq| `steps` (M, 6) rad and column rates `rates`
@@ -189,12 +192,13 @@ def column_slopes(rates: np.ndarray, steps: np.ndarray) -> tuple:
 class _Slopes:
     """A block's column_slopes — rate L (B, K), bend H (B, K) — and the columns' offsets (K,)."""
 
-    rate: np.ndarray
-    bend: np.ndarray
-    offset: np.ndarray
+    rate: FloatArray
+    bend: FloatArray
+    offset: FloatArray
 
 
-def interval_bound(m0, m1, width, rate, bend, offset) -> np.ndarray:
+def interval_bound(m0: FloatArray, m1: FloatArray, width: FloatArray, rate: FloatArray, bend: FloatArray,
+                   offset: FloatArray) -> FloatArray:
     """A lower bound of a column's margin over an interval of a move.
 
     A lower bound of a column's margin over an interval of `width` (of the move's parameter s; (B, 1)) from lower
@@ -213,21 +217,21 @@ def interval_bound(m0, m1, width, rate, bend, offset) -> np.ndarray:
     return np.where(np.isfinite(lipschitz), np.fmax(lipschitz, chord), lipschitz)
 
 
-def _column_counts(checker) -> tuple:
+def _column_counts(checker: StepChecker) -> tuple[int, int]:
     """(self-collision columns P, all columns K) of checker.clearance_margins: P capsule pairs, then one column per
     cell capsule and obstacle."""
     pairs = len(checker.pair_a)
     return pairs, pairs + len(checker.cell_capsules) * len(checker.obstacles)
 
 
-def _groups(checker) -> dict:
+def _groups(checker: StepChecker) -> dict[str, slice]:
     """{check: column slice} of checker.clearance_margins' columns, for the checks the checker has."""
     pairs, total = _column_counts(checker)
     named = {"self_collision": slice(0, pairs), "cell": slice(pairs, total)}
     return {name: columns for name, columns in named.items() if columns.stop > columns.start}
 
 
-def _evaluate(checker, joints: np.ndarray, columns=None) -> np.ndarray:
+def _evaluate(checker: StepChecker, joints: FloatArray, columns: IntArray | None = None) -> FloatArray:
     """(n, K) clearance margins of joints (n, 6), n ≥ 1, computed in chunks: all columns, or only `columns`
     (indices; the others +inf). The cell's columns are computed together (one kernel for all of them)."""
     pairs, total = _column_counts(checker)
@@ -243,7 +247,8 @@ def _evaluate(checker, joints: np.ndarray, columns=None) -> np.ndarray:
     return values
 
 
-def _start_margins(checker, q0, q1, ends, carried) -> np.ndarray:
+def _start_margins(checker: StepChecker, q0: FloatArray, q1: FloatArray, ends: FloatArray,
+                   carried: tuple[FloatArray, FloatArray] | None) -> FloatArray:
     """(B, K) margins at the starts of a block of moves q0 → q1 with margins `ends` (B, K) at their ends: a move
     that starts where the one before it ended shares its values, the first one those `carried` (joints (6,),
     margins (K,)) from the block before (None: none)."""
@@ -258,7 +263,7 @@ def _start_margins(checker, q0, q1, ends, carried) -> np.ndarray:
     return starts
 
 
-def _joint_limit(checker, q0, q1) -> tuple:
+def _joint_limit(checker: StepChecker, q0: FloatArray, q1: FloatArray) -> tuple[FloatArray, BoolArray]:
     """(smallest room (M,) rad of the move from its joint limits, True where the end has it rather than the start).
     Joints move linearly, so a move's ends hold its smallest room."""
     room0, room1 = checker.limit_room(q0)[0], checker.limit_room(q1)[0]
@@ -270,23 +275,24 @@ class _Records:
     its sample count and its smallest interval bound per check, reduced one block of moves at a time; and the
     smallest sampled margin per check so far (the bisection's targets)."""
 
-    def __init__(self, groups: dict, tolerance: float, count: int) -> None:
+    def __init__(self, groups: dict[str, slice], tolerance: float, count: int) -> None:
         self.groups, self.tolerance = groups, tolerance
         self.smallest = dict.fromkeys(groups, np.inf)
         self.margins = {name: np.full(count, np.inf) for name in groups}
         self.worst = {name: np.zeros(count, dtype=int) for name in groups}
         self.lower = {name: np.full(count, np.inf) for name in groups}
         self.samples = np.zeros(count, dtype=int)
-        self._samples: list[tuple[Any, ...]] = []
-        self._bounds: list[tuple[Any, ...]] = []   # the open block's (move, fraction, per-check values), (move, bounds)
+        # the open block's samples (move, fraction, per-check values) and bounds (move, per-check bounds)
+        self._samples: list[tuple[IntArray, FloatArray, FloatArray]] = []
+        self._bounds: list[tuple[IntArray, FloatArray]] = []
 
-    def _per_check(self, values: np.ndarray) -> np.ndarray:
+    def _per_check(self, values: FloatArray) -> FloatArray:
         """(n, checks) the smallest of each check's columns of values (n, K)."""
         if not self.groups:
             return np.zeros((len(values), 0))
         return np.stack([values[:, columns].min(axis=1) for columns in self.groups.values()], axis=1)
 
-    def add(self, move: np.ndarray, fraction: np.ndarray, values: np.ndarray) -> None:
+    def add(self, move: IntArray, fraction: FloatArray, values: FloatArray) -> None:
         """Keep samples: their moves (n,), path fractions (n,) and margins (n, K)."""
         per_check = self._per_check(values)
         self._samples.append((move, fraction, per_check))
@@ -294,11 +300,11 @@ class _Records:
             if len(move):
                 self.smallest[name] = min(self.smallest[name], float(per_check[:, k].min()))
 
-    def bound(self, move: np.ndarray, bounds: np.ndarray) -> None:
+    def bound(self, move: IntArray, bounds: FloatArray) -> None:
         """Keep lower bounds (n, K) of the margins on intervals of the moves `move` (n,)."""
         self._bounds.append((move, self._per_check(bounds)))
 
-    def targets(self) -> np.ndarray:
+    def targets(self) -> FloatArray:
         """(K,) what each column's bound must reach: 0, or its check's smallest sampled margin when higher."""
         columns = [np.full(c.stop - c.start, max(0.0, self.smallest[name] - self.tolerance))
                    for name, c in self.groups.items()]

@@ -13,10 +13,14 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
+import os
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
+from ur3dq.array_types import FloatArray
 from ur3dq.errors import StoreError
 from ur3dq.json_text import decoded, parse_json
 from ur3dq.real_numbers import is_number
@@ -32,8 +36,8 @@ class Box:
     """An axis-aligned box [lo, hi] (each (3,), metres)."""
 
     name: str
-    lo: np.ndarray
-    hi: np.ndarray
+    lo: FloatArray
+    hi: FloatArray
 
 
 @dataclasses.dataclass(frozen=True)
@@ -42,25 +46,25 @@ class ToolShape:
 
     A box tool is stored as the smallest capsule along its longest edge that contains it (conservative)."""
 
-    a: np.ndarray
-    b: np.ndarray
+    a: FloatArray
+    b: FloatArray
     radius: float
 
     @classmethod
-    def capsule(cls, a, b, radius) -> ToolShape:
+    def capsule(cls, a: Sequence[float], b: Sequence[float], radius: float) -> ToolShape:
         """A capsule tool from `a` to `b` (flange frame, m) with `radius` (m)."""
         return cls(_point(a, "tool capsule 'from'"), _point(b, "tool capsule 'to'"), _length(radius, "tool radius"))
 
     @classmethod
-    def box(cls, lo, hi) -> ToolShape:
+    def box(cls, lo: Sequence[float], hi: Sequence[float]) -> ToolShape:
         """A box tool between corners `lo` and `hi` (flange frame, m), checked as its enclosing capsule."""
-        lo, hi = _ordered(_point(lo, "tool box 'min'"), _point(hi, "tool box 'max'"), "tool box")
-        size = hi - lo
+        low, high = _ordered(_point(lo, "tool box 'min'"), _point(hi, "tool box 'max'"), "tool box")
+        size = high - low
         axis = int(np.argmax(size))
         others = [i for i in range(3) if i != axis]
-        centre = (lo + hi) / 2
+        centre = (low + high) / 2
         a, b = centre.copy(), centre.copy()
-        a[axis], b[axis] = lo[axis], hi[axis]
+        a[axis], b[axis] = low[axis], high[axis]
         # Every corner lies within half the cross-section's diagonal of the segment's end points.
         return cls(a, b, float(0.5 * np.hypot(size[others[0]], size[others[1]])))
 
@@ -70,7 +74,7 @@ class Cell:
     """floor_z (None = no floor), keep-out boxes, keep_in (Box or None), margin (m), tool (ToolShape or None)."""
 
     floor_z: float | None = None
-    boxes: tuple = ()
+    boxes: tuple[Box, ...] = ()
     keep_in: Box | None = None
     margin: float = DEFAULT_CELL_MARGIN
     tool: ToolShape | None = None
@@ -80,7 +84,11 @@ class Cell:
         return dataclasses.replace(self, margin=_length(margin, "cell margin"))
 
 
-def cell_from_dict(data, origin: str = "cell") -> Cell:
+#: A cell file to start from, shown when the named one does not exist: a 2 m table whose top is the base's foot.
+STARTER_CELL = '{"boxes": [{"name": "table", "min": [-1, -1, -0.05], "max": [1, 1, 0]}], "margin": 0.01}'
+
+
+def cell_from_dict(data: object, origin: str = "cell") -> Cell:
     """A Cell from the decoded JSON object; ValueError naming `origin` and the bad key."""
     try:
         return _parse(data)
@@ -88,14 +96,16 @@ def cell_from_dict(data, origin: str = "cell") -> Cell:
         raise ValueError(f"{origin}: {error}") from None
 
 
-def load_cell(path) -> Cell:
+def load_cell(path: str | os.PathLike[str]) -> Cell:
     """Read a cell file; StoreError (unreadable, over MAX_CELL_FILE_BYTES, not UTF-8, not JSON, nested deeper
     than json_text.MAX_NESTING) or ValueError (bad content), each naming the file."""
-    path = Path(path)
-    source = f"cell file {path}"
+    source = f"cell file {Path(path)}"
     try:
         with open(path, "rb") as stream:
             raw = stream.read(MAX_CELL_FILE_BYTES + 1)   # never more: a huge file is refused, not read
+    except FileNotFoundError:
+        raise StoreError(f"{source}: no such file. Write it (JSON, metres, the base frame; docs/cell-file.md), e.g. "
+                         f"a table top at the arm's foot: {STARTER_CELL}") from None
     except OSError as error:
         raise StoreError(f"{source}: cannot read it ({error.strerror or error})") from None
     if len(raw) > MAX_CELL_FILE_BYTES:
@@ -104,7 +114,7 @@ def load_cell(path) -> Cell:
     return cell_from_dict(parse_json(decoded(raw, source), source), source)
 
 
-def _parse(data) -> Cell:
+def _parse(data: object) -> Cell:
     if not isinstance(data, dict):
         raise ValueError("the cell must be a JSON object")
     unknown = sorted(set(data) - _KEYS)
@@ -139,7 +149,7 @@ def _parse(data) -> Cell:
     return Cell(floor_z, tuple(parsed), keep_in, margin, _tool(data.get("tool")))
 
 
-def _tool(tool) -> ToolShape | None:
+def _tool(tool: object) -> ToolShape | None:
     if tool is None:
         return None
     if isinstance(tool, dict) and set(tool) == {"capsule"} and isinstance(tool["capsule"], dict) \
@@ -153,26 +163,27 @@ def _tool(tool) -> ToolShape | None:
                      '{"box": {"min": [..], "max": [..]}} (flange frame, metres)')
 
 
-def _number(value, what: str) -> float:
-    if not is_number(value) or not math.isfinite(value):
+def _number(value: object, what: str) -> float:
+    # is_number refuses bools and text; the isinstance tells the type checker what it let through
+    if not (is_number(value) and isinstance(value, numbers.Real) and math.isfinite(value)):
         raise ValueError(f"{what} must be a finite number, got {value!r}")
     return float(value)
 
 
-def _length(value, what: str) -> float:
-    value = _number(value, what)
-    if value < 0:
-        raise ValueError(f"{what} must be ≥ 0 metres, got {value!r}")
-    return value
+def _length(value: object, what: str) -> float:
+    length = _number(value, what)
+    if length < 0:
+        raise ValueError(f"{what} must be ≥ 0 metres, got {length!r}")
+    return length
 
 
-def _point(value, what: str) -> np.ndarray:
+def _point(value: object, what: str) -> FloatArray:
     if not isinstance(value, (list, tuple)) or len(value) != 3:
         raise ValueError(f"{what} must be 3 numbers [x, y, z], got {value!r}")
     return np.array([_number(v, what) for v in value])
 
 
-def _ordered(lo: np.ndarray, hi: np.ndarray, what: str) -> tuple:
+def _ordered(lo: FloatArray, hi: FloatArray, what: str) -> tuple[FloatArray, FloatArray]:
     if np.any(lo >= hi):
         raise ValueError(f"{what}: every min must be below its max, got min {lo.tolist()} max {hi.tolist()}")
     return lo, hi

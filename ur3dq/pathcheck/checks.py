@@ -9,19 +9,26 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Any
+from collections.abc import Sequence
+from typing import TypeAlias
 
 import numpy as np
 
-from ur3dq.kinematics.models import JOINT_NAMES
+from ur3dq.array_types import FloatArray, IntArray
+from ur3dq.kinematics.models import JOINT_NAMES, URModel
 from ur3dq.pathcheck import geometry
+from ur3dq.pathcheck.cell import Cell
 from ur3dq.pathcheck.geometry import BODY_NAMES
+from ur3dq.pathcheck.path_plan import PathSegment
 
 #: Capsule/box pairs whose cheap lower-bound clearance is more than this beyond the margin are not refined (m).
 EXACT_RANGE = 0.05
 
 CHECKS = ("reach", "branch", "wrist", "elbow", "shoulder", "joint_limit", "joint_speed", "self_collision", "cell",
           "blend", "sampling")
+
+#: StepChecker.margins_of's result: {check: (margin per sample or interval, detail arrays (indices, values))}.
+SampleMargins: TypeAlias = dict[str, tuple[FloatArray | IntArray, ...]]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -49,7 +56,7 @@ class Margins:
     self_collision: float = 0.0
     cell: float | None = None
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         for field in dataclasses.fields(self):
             value = getattr(self, field.name)
             if value is None and field.name == "cell":
@@ -68,7 +75,7 @@ class Problem:
     step_index: int
     check: str
     fraction: float
-    tcp: tuple
+    tcp: tuple[float, ...]
     message: str
     hint: str
 
@@ -78,7 +85,7 @@ class Problem:
         return (f"step {self.step!r} at {self.fraction:.0%} of the move (TCP {x:.3f} {y:.3f} {z:.3f} m): "
                 f"{self.message}; {self.hint}")
 
-    def to_dict(self) -> dict:
+    def to_dict(self) -> dict[str, object]:
         """The problem as JSON-ready values."""
         return {"step": self.step, "step_index": self.step_index, "check": self.check,
                 "fraction": self.fraction, "tcp": list(self.tcp), "message": self.message, "hint": self.hint}
@@ -87,7 +94,7 @@ class Problem:
 class StepChecker:
     """Runs every check on the samples of one move; holds the model's capsules and the cell (built once)."""
 
-    def __init__(self, model, cell, margins: Margins) -> None:
+    def __init__(self, model: URModel, cell: Cell | None, margins: Margins) -> None:
         self.model = model
         self.cell = cell
         self.margins = margins
@@ -101,7 +108,7 @@ class StepChecker:
         self.cell_capsules = np.flatnonzero(bodies != 0)   # the base stands in the cell by design
         self.obstacles = self._obstacles()
 
-    def _obstacles(self) -> list:
+    def _obstacles(self) -> list[str]:
         if self.cell is None:
             return []
         names = [f'keep-out box "{box.name}"' for box in self.cell.boxes]
@@ -112,13 +119,15 @@ class StepChecker:
         return names
 
     # ------------------------------------------------------------------------------------------- per sample
-    def margins_of(self, segment, joints, fraction, tcp, extra, path_scale) -> dict:
+    def margins_of(self, segment: PathSegment, joints: FloatArray, fraction: FloatArray, tcp: FloatArray,
+                   extra: FloatArray, path_scale: float) -> SampleMargins:
         """{check: (margin (n,) or (n-1,) per sample/interval, detail arrays)} for one move's samples.
 
-        `extra` (n,) m is added to the clearance margins (blend zones); `path_scale` = the controller's path
-        'distance' of a Cartesian move (m or rad, for the joint speeds)."""
+        Samples: joints (n, 6) rad at path fractions (n,), TCP positions (n, 3) m. `extra` (n,) m is added to the
+        clearance margins (blend zones); `path_scale` = the controller's path 'distance' of a Cartesian move (m or
+        rad, for the joint speeds)."""
         m = self.margins
-        out: dict[str, tuple[Any, ...]] = {}
+        out: SampleMargins = {}
         steps = np.abs(np.diff(joints, axis=0))
         if len(steps) and segment.cartesian:   # a joint move interpolates the joints: it cannot change branch
             out["branch"] = (m.max_joint_step - steps.max(axis=1), np.argmax(steps, axis=1), steps.max(axis=1))
@@ -149,7 +158,7 @@ class StepChecker:
             out["cell"] = (value - self.cell_margin - extra, worst, value)
         return out
 
-    def limit_room(self, joints) -> tuple:
+    def limit_room(self, joints: FloatArray) -> tuple[FloatArray, IntArray]:
         """(smallest room (n,) rad of joints (n, 6) from their limits less the joint_limit margin, which joint)."""
         lower = self.model.joint_lower + self.margins.joint_limit
         upper = self.model.joint_upper - self.margins.joint_limit
@@ -157,7 +166,8 @@ class StepChecker:
             room = np.minimum(joints - lower, upper - joints)
         return room.min(axis=1), np.argmin(room, axis=1)
 
-    def _clearances(self, frames, extra_max: float, pairs=slice(None), cell: bool = True) -> tuple:
+    def _clearances(self, frames: FloatArray, extra_max: float, pairs: slice | IntArray = slice(None),
+                    cell: bool = True) -> tuple[FloatArray | None, FloatArray | None]:
         """(self gaps (n, p) m of the capsule pairs `pairs` (indices or a slice of pair_a/pair_b) or None, cell
         clearances (n, cell capsules × obstacles) m or None when the cell is absent or `cell` is False) at DH
         frames (n, 7, 4, 4); `extra_max`: the largest blend allowance (which pairs need exact distances)."""
@@ -174,7 +184,8 @@ class StepChecker:
             flat = clearance.reshape(len(clearance), -1)
         return gap, flat
 
-    def clearance_margins(self, joints, pairs=slice(None), cell: bool = True) -> tuple:
+    def clearance_margins(self, joints: FloatArray, pairs: slice | IntArray = slice(None),
+                          cell: bool = True) -> tuple[FloatArray, FloatArray]:
         """Self-collision and cell clearance margins at joint vectors.
 
         (self-collision margins (n, p), cell margins (n, cell capsules × obstacles)) m at joints (n, 6): each
@@ -186,7 +197,9 @@ class StepChecker:
         return (empty if gap is None else gap - self.margins.self_collision,
                 empty if flat is None else flat - self.cell_margin)
 
-    def _cell_clearance(self, a, b, radius, extra_max) -> np.ndarray:
+    def _cell_clearance(self, a: FloatArray, b: FloatArray, radius: FloatArray, extra_max: float) -> FloatArray:
+        """(n, C, obstacles) clearances m of capsules a→b (n, C, 3) with radii (C,) to the cell's obstacles."""
+        assert self.cell is not None   # only called when the cell has obstacles
         columns = []
         if self.cell.boxes:
             lo = np.array([box.lo for box in self.cell.boxes])
@@ -210,8 +223,10 @@ class StepChecker:
         return np.concatenate(columns, axis=-1)
 
     # ------------------------------------------------------------------------------------------- problems
-    def problems(self, index, segment, results, fraction, tcp, extra) -> list:
-        """The failed checks of one move (each at its worst sample) as Problems."""
+    def problems(self, index: int, segment: PathSegment, results: SampleMargins, fraction: FloatArray,
+                 tcp: FloatArray, extra: FloatArray) -> list[Problem]:
+        """The failed checks of move `index` (each at its worst sample) as Problems: `results` from margins_of on
+        its samples at path fractions (n,), TCP positions (n, 3) m, blend allowances `extra` (n,) m."""
         found = []
         for check, (margin, *detail) in results.items():
             if not len(margin) or float(np.min(margin)) >= 0:
@@ -223,7 +238,9 @@ class StepChecker:
                                  tuple(float(v) for v in tcp[sample]), message, hint))
         return found
 
-    def _describe(self, check, segment, k, detail, extra) -> tuple:
+    def _describe(self, check: str, segment: PathSegment, k: int, detail: Sequence[FloatArray | IntArray],
+                  extra: float) -> tuple[str, str]:
+        """(message, hint) of a failed `check` at its worst sample or interval k, from margins_of's `detail`."""
         m = self.margins
         if check == "branch":
             joint, step = int(detail[0][k]), float(detail[1][k])

@@ -27,7 +27,10 @@ import functools
 
 import numpy as np
 
+from ur3dq.array_types import FloatArray, IntArray
 from ur3dq.kinematics import MODEL_NAMES, robot_model, ur_ik
+from ur3dq.kinematics.models import URModel
+from ur3dq.pathcheck.cell import ToolShape
 
 BODY_NAMES = ("base", "shoulder", "upper arm", "forearm", "wrist 1", "wrist 2", "wrist 3", "tool")
 TOOL = 7
@@ -55,20 +58,20 @@ class Capsules:
     C capsules: body (C,) index into BODY_NAMES, frame (C,) DH frame 0..6 they are fixed in, a/b (C, 3) end
     points in that frame, radius (C,)."""
 
-    body: np.ndarray
-    frame: np.ndarray
-    a: np.ndarray
-    b: np.ndarray
-    radius: np.ndarray
+    body: IntArray
+    frame: IntArray
+    a: FloatArray
+    b: FloatArray
+    radius: FloatArray
 
 
 @functools.cache
-def _catalogue_model(name: str):
+def _catalogue_model(name: str) -> URModel:
     """The catalogue model ``name`` (built once)."""
     return robot_model(name)
 
 
-def body_model(model):
+def body_model(model: URModel) -> URModel:
     """The model whose DH frames place the link bodies: ``model`` itself, or for a calibrated arm of the catalogue its
     catalogue table. A factory calibration writes the parallel axes with hundreds of metres of cancelling d offsets,
     so its frame origins lie nowhere near the links, while it moves the links themselves by millimetres, well inside
@@ -78,7 +81,7 @@ def body_model(model):
     return _catalogue_model(model.name)
 
 
-def link_capsules(model, tool=None) -> Capsules:
+def link_capsules(model: URModel, tool: ToolShape | None = None) -> Capsules:
     """The capsules of `model` (a URModel, calibrated or not: placed by body_model) plus the ToolShape `tool`."""
     if model.name not in _LINK_GEOMETRY:
         raise ValueError(f"model: no link capsules for {model.name!r} (known: {', '.join(_LINK_GEOMETRY)})")
@@ -103,22 +106,26 @@ def link_capsules(model, tool=None) -> Capsules:
                     np.array([r[4] for r in rows], dtype=float))
 
 
-def dh_frames(model, q: np.ndarray) -> np.ndarray:
+def dh_frames(model: URModel, q: FloatArray) -> FloatArray:
     """(N, 7, 4, 4) DH frames 0..6 (6 = flange, no TCP) of the link bodies (body_model) in the base frame for joints
     q (N, 6): the kinematics' compiled DH chain (ur3dq.kinematics.ur_ik.dh_frames)."""
     return ur_ik.dh_frames(body_model(model), q)
 
 
-def capsule_points(frames: np.ndarray, capsules: Capsules) -> tuple:
+def capsule_points(frames: FloatArray, capsules: Capsules) -> tuple[FloatArray, FloatArray]:
     """(A, B): (N, C, 3) capsule end points in the base frame for frames (N, 7, 4, 4)."""
     chosen = frames[:, capsules.frame]                       # (N, C, 4, 4)
     rotation, origin = chosen[..., :3, :3], chosen[..., :3, 3]
-    # R·p + o as three column products: cheaper than einsum on these tiny matrices
-    return tuple(rotation[..., 0] * p[:, 0, None] + rotation[..., 1] * p[:, 1, None] + rotation[..., 2] * p[:, 2, None]
-                 + origin for p in (capsules.a, capsules.b))
+
+    def placed(p: FloatArray) -> FloatArray:
+        # R·p + o as three column products: cheaper than einsum on these tiny matrices
+        return rotation[..., 0] * p[:, 0, None] + rotation[..., 1] * p[:, 1, None] + rotation[..., 2] * p[:, 2, None] \
+            + origin
+
+    return placed(capsules.a), placed(capsules.b)
 
 
-def segment_segment_distance(p0, p1, q0, q1) -> np.ndarray:
+def segment_segment_distance(p0: FloatArray, p1: FloatArray, q0: FloatArray, q1: FloatArray) -> FloatArray:
     """Distance between segments p0→p1 and q0→q1 (arrays (..., 3), broadcast), exact (Ericson, §5.1.9)."""
     d1, d2, r = p1 - p0, q1 - q0, p0 - q0
     a = np.einsum("...i,...i->...", d1, d1)
@@ -138,19 +145,21 @@ def segment_segment_distance(p0, p1, q0, q1) -> np.ndarray:
         s = np.where(e <= tiny, np.where(a > tiny, np.clip(-c / a, 0.0, 1.0), 0.0), s)
     t = np.clip(t, 0.0, 1.0)
     gap = (p0 + d1 * s[..., None]) - (q0 + d2 * t[..., None])
-    return np.sqrt(np.einsum("...i,...i->...", gap, gap))
+    distance: FloatArray = np.sqrt(np.einsum("...i,...i->...", gap, gap))
+    return distance
 
 
-def segment_box_bound(p0, p1, lo, hi) -> np.ndarray:
+def segment_box_bound(p0: FloatArray, p1: FloatArray, lo: FloatArray, hi: FloatArray) -> FloatArray:
     """A cheap lower bound of segment-to-box distances.
 
     A lower bound of the distance from segments p0→p1 to boxes [lo, hi] (broadcast (..., 3)): the gap between
     the box and the segment's own bounding box (0 where they overlap). Cheap; exact when the gap is along an axis."""
     gap = np.maximum(np.maximum(lo - np.maximum(p0, p1), np.minimum(p0, p1) - hi), 0.0)
-    return np.sqrt(np.einsum("...i,...i->...", gap, gap))
+    bound: FloatArray = np.sqrt(np.einsum("...i,...i->...", gap, gap))
+    return bound
 
 
-def segment_box_distance(p0, p1, lo, hi) -> np.ndarray:
+def segment_box_distance(p0: FloatArray, p1: FloatArray, lo: FloatArray, hi: FloatArray) -> FloatArray:
     """Signed distance from segments p0→p1 (..., 3) to axis-aligned boxes [lo, hi] (broadcast (..., 3)).
 
     Outside: the exact distance (the squared distance along the segment is a convex piecewise quadratic with its
@@ -182,4 +191,5 @@ def segment_box_distance(p0, p1, lo, hi) -> np.ndarray:
     # Inside depth at the candidate points (piece middles and ends): how far the deepest one is from every face.
     candidates = np.concatenate((point, p0[..., None, :] + d[..., None, :] * ends[..., None]), axis=-2)
     depth = np.min(np.minimum(candidates - lo[..., None, :], hi[..., None, :] - candidates), axis=-1)
-    return np.where(outside > 0.0, outside, -np.maximum(np.max(depth, axis=-1), 0.0))
+    signed: FloatArray = np.where(outside > 0.0, outside, -np.maximum(np.max(depth, axis=-1), 0.0))
+    return signed

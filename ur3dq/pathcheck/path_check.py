@@ -9,21 +9,32 @@ than the TCP, so this holds for the usual arm poses). A blend radius larger than
 """
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import TypeAlias
+
 import numpy as np
 
 from ur3dq import dqarray
+from ur3dq.array_types import FloatArray
 from ur3dq.errors import UnreachablePoseError
 from ur3dq.kinematics import ur_ik
-from ur3dq.kinematics.models import JOINT_NAMES
+from ur3dq.kinematics.models import JOINT_NAMES, URModel
 from ur3dq.pathcheck import bounds, sampling
+from ur3dq.pathcheck.cell import Cell
 from ur3dq.pathcheck.checks import Margins, Problem, StepChecker
-from ur3dq.pathcheck.path_plan import PathPlan
+from ur3dq.pathcheck.path_plan import PathPlan, PathSegment
 from ur3dq.pathcheck.reports import CertifiedMoves, PathCheckResult, StepReport, StepReports, figures
 
 BRANCH_TOLERANCE = 1e-3   # rad: a linear move ending further than this from its planned joints ended elsewhere
 
+#: The arm (with the segment's TCP) and its StepChecker for a segment.
+ArmFor: TypeAlias = Callable[[PathSegment], tuple[URModel, StepChecker]]
+#: A move in check_path's window: (segment, its samples, TCP positions (n, 3) m), its row among the certified
+#: moves, or None (not sampled).
+WindowEntry: TypeAlias = tuple[PathSegment, sampling.SampledMove, FloatArray] | int | None
 
-def check_path(model, plan: PathPlan, cell=None, margins: Margins | None = None,
+
+def check_path(model: URModel, plan: PathPlan, cell: Cell | None = None, margins: Margins | None = None,
                keep_samples: bool = True) -> PathCheckResult:
     """Check a whole path before the arm moves.
 
@@ -60,9 +71,10 @@ def check_path(model, plan: PathPlan, cell=None, margins: Margins | None = None,
     (True, 'turn')
     """
     margins = margins or Margins()
-    by_tcp = {}   # tcp_offset -> (model with that TCP, its StepChecker): built once per TCP the plan uses
+    # tcp_offset -> (model with that TCP, its StepChecker): built once per TCP the plan uses
+    by_tcp: dict[tuple[float, ...] | None, tuple[URModel, StepChecker]] = {}
 
-    def arm_for(segment):
+    def arm_for(segment: PathSegment) -> tuple[URModel, StepChecker]:
         if segment.tcp_offset not in by_tcp:
             arm = model if segment.tcp_offset is None else model.with_tcp(segment.tcp_offset)
             by_tcp[segment.tcp_offset] = arm, StepChecker(arm, cell, margins)
@@ -73,10 +85,10 @@ def check_path(model, plan: PathPlan, cell=None, margins: Margins | None = None,
     unchecked: list[str] = []
     steps: list[StepReport | int] = []   # StepReports' entries
     certified = None if keep_samples else _certified_moves(plan, arm_for)
-    certified_row = {} if certified is None else certified.row_of
+    certified_row: dict[int, int] = {} if certified is None else certified.row_of
     # Moves are checked one behind the sampling: a move's blend zones need its neighbours' samples, and no
     # other move's (the window holds at most three, so memory does not grow with the plan).
-    window = {}   # index -> (segment, SampledMove, tcp (n, 3)) or None (not sampled)
+    window: dict[int, WindowEntry] = {}
     for index, segment in enumerate(plan.segments):
         if index in certified_row:
             window[index] = certified_row[index]   # an int: the row of its report in `certified`
@@ -85,9 +97,9 @@ def check_path(model, plan: PathPlan, cell=None, margins: Margins | None = None,
             unchecked.append(segment.name)
             window[index] = None
         else:
-            move, target_problem = _sample(arm_for(segment)[0], segment, index, q, margins)
-            if target_problem is not None:
-                problems.append(target_problem)
+            move = _sample(arm_for(segment)[0], segment, index, q, margins)
+            if isinstance(move, Problem):   # the target itself cannot be solved, or the move is too long
+                problems.append(move)
                 window[index] = None
                 q = segment.target_joints
             else:
@@ -108,18 +120,21 @@ def check_path(model, plan: PathPlan, cell=None, margins: Margins | None = None,
     return PathCheckResult(tuple(problems), StepReports(steps, certified), tuple(unchecked), limits)
 
 
-def _check_move(plan, window, index, arm_for, problems, steps, certified) -> None:
+def _check_move(plan: PathPlan, window: dict[int, WindowEntry], index: int, arm_for: ArmFor,
+                problems: list[Problem], steps: list[StepReport | int], certified: CertifiedMoves | None) -> None:
     """Run every check on the samples of move `index` (window[index]); add its problems and its StepReport to
     `steps` (a move the bounds certified: its row in `certified`, a CertifiedMoves, or None when samples are
     kept)."""
-    if window[index] is None:
+    entry = window[index]
+    if entry is None:
         return
-    if type(window[index]) is int:
-        certified.position[window[index]] = len(steps)
-        steps.append(window[index])
+    if isinstance(entry, int):
+        assert certified is not None   # only certified moves are kept as rows
+        certified.position[entry] = len(steps)
+        steps.append(entry)
         return
-    segment, move, tcp = window[index]
-    extra, blend_problem = _blend_allowance(plan, window, index)
+    segment, move, tcp = entry
+    extra, blend_problem = _blend_allowance(plan, window, index, tcp)
     if blend_problem is not None:
         problems.append(blend_problem)
     scale = _path_scale(move) if segment.cartesian else 0.0
@@ -137,19 +152,21 @@ def _check_move(plan, window, index, arm_for, problems, steps, certified) -> Non
                             figures(worst), end, len(tcp)))
 
 
-def _sample(model, segment, index, q, margins):
-    """(SampledMove, None) or (None, Problem) when the target itself cannot be solved or the move is too long to
-    sample (then it is not sampled)."""
+def _sample(model: URModel, segment: PathSegment, index: int, q: FloatArray,
+            margins: Margins) -> sampling.SampledMove | Problem:
+    """The SampledMove of move `index` from joints q (6,), or the Problem when the target itself cannot be solved
+    or the move is too long to sample (then it is not sampled)."""
     try:
         return _sampled(model, segment, index, q, margins)
     except sampling.TooManySamples as error:
-        return None, _unsampled(model, segment, index, error)
+        return _unsampled(model, segment, index, error)
 
 
-def _unsampled(model, segment, index, error: sampling.TooManySamples) -> Problem:
+def _unsampled(model: URModel, segment: PathSegment, index: int, error: sampling.TooManySamples) -> Problem:
     """The Problem of a move not sampled: a joint target outside the joint limits if that is why, else its length."""
     target = segment.target_joints
     pose = model.fk(target).to_array() if target is not None else segment.target_pose
+    assert pose is not None   # a segment has target_joints or target_pose
     where = tuple(float(v) for v in dqarray.translation_unchecked(pose))
     if target is not None:
         outside = (target < model.joint_lower) | (target > model.joint_upper)
@@ -165,25 +182,31 @@ def _unsampled(model, segment, index, error: sampling.TooManySamples) -> Problem
                    "coarser resolutions")
 
 
-def _sampled(model, segment, index, q, margins):
-    """(SampledMove, None) or (None, Problem) when the target itself cannot be solved."""
+def _sampled(model: URModel, segment: PathSegment, index: int, q: FloatArray,
+             margins: Margins) -> sampling.SampledMove | Problem:
+    """The SampledMove of move `index` from joints q (6,), or the Problem when the target itself cannot be
+    solved."""
     if segment.move == "joint":
         target = segment.target_joints
         if target is None:
+            pose = segment.target_pose
+            assert pose is not None   # a segment has target_joints or target_pose
             try:
-                target = model.ik(segment.target_pose, q)
+                target = model.ik(pose, q)
             except UnreachablePoseError as error:
-                where = dqarray.translation_unchecked(segment.target_pose)
-                return None, Problem(segment.name, index, "reach", 1.0, tuple(map(float, where)),
-                                     f"target unreachable: {error}", "move the target inside the arm's reach")
-        return sampling.sample_joint_move(model, q, target, margins.tcp_resolution, margins.joint_resolution), None
+                where = dqarray.translation_unchecked(pose)
+                return Problem(segment.name, index, "reach", 1.0, tuple(map(float, where)),
+                               f"target unreachable: {error}", "move the target inside the arm's reach")
+        return sampling.sample_joint_move(model, q, target, margins.tcp_resolution, margins.joint_resolution)
     pose = segment.target_pose if segment.target_pose is not None else model.fk(segment.target_joints).to_array()
-    return sampling.sample_linear_move(model, q, pose, margins.tcp_resolution, margins.joint_resolution), None
+    return sampling.sample_linear_move(model, q, pose, margins.tcp_resolution, margins.joint_resolution)
 
 
-def _end_joints(segment, index, move):
-    """(joints where the next move starts, Problem or None) after a sampled move."""
+def _end_joints(segment: PathSegment, index: int,
+                move: sampling.SampledMove) -> tuple[FloatArray | None, Problem | None]:
+    """(joints (6,) where the next move starts or None, Problem or None) after a sampled move."""
     if move.unreachable_at is not None:
+        assert move.unreachable_pose is not None   # set with unreachable_at
         where = tuple(float(v) for v in dqarray.translation_unchecked(move.unreachable_pose))
         problem = Problem(segment.name, index, "reach", move.unreachable_at, where,
                           "the straight line leaves the arm's reach here (no IK solution)",
@@ -203,7 +226,7 @@ def _end_joints(segment, index, move):
     return end, None
 
 
-def _path_scale(move) -> float:
+def _path_scale(move: sampling.SampledMove) -> float:
     """The controller's path 'distance' of a Cartesian move: max(length m, turn rad) (sim_ursim.trajectories)."""
     if len(move.poses) < 2 or move.unreachable_at is not None:
         return 0.0
@@ -211,17 +234,17 @@ def _path_scale(move) -> float:
     return float(max(metres, radians))
 
 
-def _blend_allowance(plan, window, index):
-    """(extra margin (n,) m inside the blend zones of move `index`, Problem if a blend radius is too large);
-    `window` holds the sampled moves index − 1 .. index + 1 (None where not sampled)."""
-    tcp = window[index][2]
+def _blend_allowance(plan: PathPlan, window: dict[int, WindowEntry], index: int,
+                     tcp: FloatArray) -> tuple[FloatArray, Problem | None]:
+    """(extra margin (n,) m inside the blend zones of move `index` with TCP positions `tcp` (n, 3) m, Problem if a
+    blend radius is too large); `window` holds the moves index − 1 .. index + 1 (None where not sampled)."""
     extra = np.zeros(len(tcp))
     problem = None
     segment = plan.segments[index]
 
-    def length(i):   # TCP travel of move i (m); ∞ for a following move that was not sampled (it bounds nothing)
+    def length(i: int) -> float:   # TCP travel of move i (m); ∞ for a following move not sampled (it bounds nothing)
         entry = window.get(i)
-        return np.inf if entry is None else float(np.sum(np.linalg.norm(np.diff(entry[2], axis=0), axis=1)))
+        return float(np.sum(np.linalg.norm(np.diff(entry[2], axis=0), axis=1))) if isinstance(entry, tuple) else np.inf
 
     if segment.blend > 0 and len(tcp) and index + 1 < len(plan.segments):
         extra = np.maximum(extra, np.where(np.linalg.norm(tcp - tcp[-1], axis=1) < segment.blend, segment.blend, 0))
@@ -237,12 +260,12 @@ def _blend_allowance(plan, window, index):
     return extra, problem
 
 
-def _certified_moves(plan, arm_for) -> CertifiedMoves:
+def _certified_moves(plan: PathPlan, arm_for: ArmFor) -> CertifiedMoves:
     """The joint moves the bounds certify (pathcheck.bounds), per TCP, as CertifiedMoves. Candidates: joint moves
     to known joints from known joints (the start, or a joint move's target before them), outside blend zones (whose
     allowance needs the neighbours' samples)."""
     candidates: dict[tuple[float, ...] | None, list[tuple[int, np.ndarray]]] = {}   # tcp_offset -> [(index, start)]
-    start = plan.start_joints   # where a candidate after this segment starts; None: it is no candidate
+    start: FloatArray | None = plan.start_joints   # where a candidate after this segment starts; None: no candidate
     for index, segment in enumerate(plan.segments):
         joint_move = segment.move == "joint" and segment.target_joints is not None and segment.blend == 0
         if joint_move and start is not None:

@@ -9,11 +9,13 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 
 import numpy as np
+import numpy.typing as npt
 
 from ur3dq import dqarray
+from ur3dq.array_types import FloatArray
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.pose import MAX_JOINT_ABS
 
@@ -40,19 +42,20 @@ class PathSegment:
                    cell program's waypoint taught with its own TCP: set_tcp before the move); None = the model's.
                    A linear move's straight line, and `target_pose`, belong to this TCP.
     Joint values lie within ±pose.MAX_JOINT_ABS rad (as in the pose store). Bad input: ValueError naming the
-    segment and the field.
+    segment and the field. The fields are annotated with what the segment keeps: target_joints and target_pose as
+    read-only float arrays, tcp_offset as a tuple of floats, whatever numbers (or DualQuaternion) they were given as.
     """
 
     name: str
     move: str = "joint"
-    target_joints: np.ndarray | None = None
-    target_pose: np.ndarray | DualQuaternion | None = None
+    target_joints: FloatArray | None = None   # given as any 6 numbers
+    target_pose: FloatArray | None = None     # given as 8 numbers or a DualQuaternion
     speed: float = 1.05
     acceleration: float = 1.4
     blend: float = 0.0
-    tcp_offset: tuple | None = None
+    tcp_offset: tuple[float, ...] | None = None   # given as any 6 numbers
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name:
             raise ValueError(f"path segment name must be a non-empty string, got {self.name!r}")
         if self.move not in MOVE_TYPES:
@@ -73,7 +76,9 @@ class PathSegment:
             object.__setattr__(self, "tcp_offset", _tcp_offset(self.tcp_offset, self.name))
 
     @classmethod
-    def joint_targets(cls, names, moves, targets, speeds, accelerations, blends, tcp_offsets) -> list[PathSegment]:
+    def joint_targets(cls, names: Iterable[str], moves: Iterable[str], targets: npt.ArrayLike,
+                      speeds: Iterable[float], accelerations: Iterable[float], blends: Iterable[float],
+                      tcp_offsets: Sequence[tuple[float, ...] | None]) -> list[PathSegment]:
         """Segments to joint targets, one per row.
 
         Segments to joint targets, one per row: names (n,) and moves (n,) str, targets (n, 6) rad, speeds,
@@ -86,14 +91,14 @@ class PathSegment:
         >>> [segment.name for segment in segments], segments[1].target_joints.tolist()
         (['a', 'b'], [0.1, 0.1, 0.1, 0.1, 0.1, 0.1])
         """
-        names, moves = list(names), list(moves)
-        count = len(names)
-        targets = np.array(targets, dtype=float).reshape(-1, 6) if count else np.zeros((0, 6))
-        if len(targets) != count or len(moves) != count or len(tcp_offsets) != count:
+        name_list, move_list = list(names), list(moves)
+        count = len(name_list)
+        rows = np.array(targets, dtype=float).reshape(-1, 6) if count else np.zeros((0, 6))
+        if len(rows) != count or len(move_list) != count or len(tcp_offsets) != count:
             raise ValueError(f"{count} names need as many moves, targets and TCP offsets")
         return [cls(name, move, target, None, speed, acceleration, blend, offset)
                 for name, move, target, speed, acceleration, blend, offset
-                in zip(names, moves, targets, speeds, accelerations, blends, tcp_offsets, strict=True)]
+                in zip(name_list, move_list, rows, speeds, accelerations, blends, tcp_offsets, strict=True)]
 
     @property
     def cartesian(self) -> bool:
@@ -106,10 +111,10 @@ class PathSegment:
 class PathPlan:
     """start_joints (6,) rad: where the arm is before the first segment; segments: the moves in order."""
 
-    start_joints: np.ndarray   # given as any 6 numbers, kept as a read-only array
+    start_joints: FloatArray   # given as any 6 numbers, kept as a read-only array
     segments: Sequence[PathSegment]   # kept as a tuple
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         object.__setattr__(self, "start_joints", _joint_vector(self.start_joints, "start"))
         segments = tuple(self.segments)
         if not segments:
@@ -120,7 +125,7 @@ class PathPlan:
         object.__setattr__(self, "segments", segments)
 
 
-def _finite_vector(value, size: int, name: str, what: str) -> np.ndarray:
+def _finite_vector(value: object, size: int, name: str, what: str) -> FloatArray:
     array = np.array(value, dtype=float)
     if array.shape != (size,):
         raise ValueError(f"segment {name!r}: {what} must have {size} numbers, got shape {array.shape}")
@@ -130,7 +135,7 @@ def _finite_vector(value, size: int, name: str, what: str) -> np.ndarray:
     return array
 
 
-def _joint_vector(value: object, name: str) -> np.ndarray:
+def _joint_vector(value: object, name: str) -> FloatArray:
     """(6,) read-only finite joint values within ±MAX_JOINT_ABS rad (no arm is wound up 16 turns); ValueError
     naming the segment."""
     array = _finite_vector(value, 6, name, "joints")
@@ -140,7 +145,7 @@ def _joint_vector(value: object, name: str) -> np.ndarray:
     return array
 
 
-def _unit_pose(value: object, name: str) -> np.ndarray:
+def _unit_pose(value: object, name: str) -> FloatArray:
     """(8,) read-only unit pose, normalised from within dqarray.UNIT_TOLERANCE as the IK takes it, translation
     within ±dqarray.MAX_POSE_COORDINATE m; ValueError naming the segment (a scaled or non-rigid 8-vector)."""
     array = _finite_vector(value, 8, name, "pose")
@@ -156,7 +161,7 @@ def _unit_pose(value: object, name: str) -> np.ndarray:
     return pose
 
 
-def _tcp_offset(value: object, name: str) -> tuple:
+def _tcp_offset(value: Iterable[float], name: str) -> tuple[float, ...]:
     """(6,) UR pose vector of a TCP offset, as dqarray.from_ur_pose accepts it; ValueError naming the segment."""
     offset = _finite_tuple(value, 6, name, "tcp_offset")
     try:
@@ -166,8 +171,9 @@ def _tcp_offset(value: object, name: str) -> tuple:
     return offset
 
 
-def _finite_tuple(value, size: int, name: str, what: str) -> tuple:
-    """`value` as a tuple of `size` finite floats (a hashable key: plans group their moves by TCP)."""
+def _finite_tuple(value: Iterable[float], size: int, name: str, what: str) -> tuple[float, ...]:
+    """`value` as a tuple of `size` finite floats (a hashable key: plans group their moves by TCP); ValueError
+    naming the segment for anything else (not iterable, not numbers, another count)."""
     try:
         numbers = tuple(float(v) for v in value)
     except (TypeError, ValueError):

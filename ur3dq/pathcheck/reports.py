@@ -9,12 +9,20 @@ and a margins table reads a few of them (StepReports.smallest_margins, positions
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping, Sequence
+from collections.abc import Container, Iterator, Mapping, Sequence
+from typing import TypeAlias, TypeVar, overload
 
 import numpy as np
 
+from ur3dq.array_types import FloatArray, IntArray
+from ur3dq.pathcheck.checks import Problem
+from ur3dq.pathcheck.path_plan import PathSegment
 
-class Figures(Mapping):
+#: A figure's type: float for margins, int for sample indices.
+Value = TypeVar("Value")
+
+
+class Figures(Mapping[str, Value]):
     """An immutable {check: number} mapping of a StepReport.
 
     A StepReport's margins, or its worst samples: a tuple of the numbers beside a tuple of the check names that
@@ -23,34 +31,34 @@ class Figures(Mapping):
 
     __slots__ = ("_keys", "_values")
 
-    def __init__(self, keys: tuple, values: tuple) -> None:
+    def __init__(self, keys: tuple[str, ...], values: tuple[Value, ...]) -> None:
         self._keys, self._values = keys, values
 
-    def __getitem__(self, key):
+    def __getitem__(self, key: str) -> Value:
         try:
             return self._values[self._keys.index(key)]
         except ValueError:
             raise KeyError(key) from None
 
-    def __iter__(self):
+    def __iter__(self) -> Iterator[str]:
         return iter(self._keys)
 
     def __len__(self) -> int:
         return len(self._keys)
 
-    def __contains__(self, key) -> bool:
+    def __contains__(self, key: object) -> bool:
         return key in self._keys
 
     # Tuples, not the mixins' views: those look each value up again, and a margins table reads 10⁵ reports.
-    def keys(self) -> tuple:   # type: ignore[override]  # a tuple is a fine keys view here
+    def keys(self) -> tuple[str, ...]:   # type: ignore[override]  # a tuple is a fine keys view here
         """The check names."""
         return self._keys
 
-    def values(self) -> tuple:   # type: ignore[override]
+    def values(self) -> tuple[Value, ...]:   # type: ignore[override]  # a tuple, as keys()
         """The numbers, in the order of keys()."""
         return self._values
 
-    def items(self) -> tuple:   # type: ignore[override]
+    def items(self) -> tuple[tuple[str, Value], ...]:   # type: ignore[override]  # a tuple, as keys()
         """(check, number) pairs."""
         return tuple(zip(self._keys, self._values))
 
@@ -58,7 +66,7 @@ class Figures(Mapping):
         return repr(dict(self.items()))
 
 
-def figures(values: dict) -> Figures:
+def figures(values: dict[str, Value]) -> Figures[Value]:
     """The Figures of a dict {check: number}."""
     return Figures(tuple(values), tuple(values.values()))
 
@@ -76,19 +84,23 @@ class StepReport:
 
     name: str
     move: str
-    fraction: np.ndarray | None
-    joints: np.ndarray | None
-    tcp: np.ndarray | None
+    fraction: FloatArray | None
+    joints: FloatArray | None
+    tcp: FloatArray | None
     margins: Mapping[str, float]
     worst: Mapping[str, int]
-    end_joints: np.ndarray | None
+    end_joints: FloatArray | None
     samples: int
 
-    def to_dict(self) -> dict:
+    def to_dict(self) -> dict[str, object]:
         """The report as JSON-ready values (margins rounded to 6 decimals, no samples)."""
         return {"name": self.name, "move": self.move, "samples": self.samples,
                 "margins": {k: round(float(v), 6) for k, v in self.margins.items()},
                 "end_joints": None if self.end_joints is None else [float(v) for v in self.end_joints]}
+
+
+#: A group of CertifiedMoves rows: (first row, margin keys, margins (K, M) floats, worst keys, worst (K, M) ints).
+_Group: TypeAlias = tuple[int, tuple[str, ...], FloatArray, tuple[str, ...], IntArray]
 
 
 class CertifiedMoves:
@@ -100,14 +112,15 @@ class CertifiedMoves:
     move's place among the StepReports, set by check_path as it goes."""
 
     def __init__(self) -> None:
-        self.row_of: dict = {}
-        self.segments: list = []
-        self.position: list = []
-        self._groups: list = []   # (first row, margin keys, margins (K, M) floats, worst keys, worst (K, M) ints)
-        self._samples: list = []
-        self._shared: dict = {}   # worst samples (tuple) -> their Figures: reports with equal ones share one
+        self.row_of: dict[int, int] = {}
+        self.segments: list[PathSegment] = []
+        self.position: list[int] = []
+        self._groups: list[_Group] = []
+        self._samples: list[int] = []
+        self._shared: dict[tuple[int, ...], Figures[int]] = {}   # worst samples -> their Figures, shared
 
-    def add(self, index: list, segments: list, margins: dict, worst: dict, samples: np.ndarray) -> None:
+    def add(self, index: list[int], segments: list[PathSegment], margins: dict[str, FloatArray],
+            worst: dict[str, IntArray], samples: IntArray) -> None:
         """Add a group of certified moves.
 
         Add a group of M rows: move indices and PathSegments (M each), margins and worst {check: (M,) array},
@@ -122,7 +135,7 @@ class CertifiedMoves:
                              tuple(worst), np.array(list(worst.values()), dtype=int).reshape(-1, count)))
         self._samples.extend(samples.tolist())
 
-    def _group(self, row: int) -> tuple:
+    def _group(self, row: int) -> _Group:
         for group in reversed(self._groups):
             if group[0] <= row:
                 return group
@@ -131,7 +144,7 @@ class CertifiedMoves:
     def report(self, row: int) -> StepReport:
         """The StepReport of row `row` (no samples kept; it ends on its target), its numbers as Python floats."""
         first, margin_keys, margins, worst_keys, worst = self._group(row)
-        sample = tuple(worst[:, row - first].tolist())
+        sample: tuple[int, ...] = tuple(worst[:, row - first].tolist())
         if sample not in self._shared:
             self._shared[sample] = Figures(worst_keys, sample)
         segment = self.segments[row]
@@ -139,7 +152,7 @@ class CertifiedMoves:
                           Figures(margin_keys, tuple(margins[:, row - first].tolist())), self._shared[sample],
                           segment.target_joints, self._samples[row])
 
-    def smallest(self) -> list:
+    def smallest(self) -> list[tuple[str, float, int]]:
         """[(check, margin, position)]: per group and check, the row with the smallest margin (the first such)."""
         found = []
         for first, margin_keys, margins, _, _ in self._groups:
@@ -153,7 +166,7 @@ class CertifiedMoves:
         return sum(self._samples)
 
 
-class StepReports(Sequence):
+class StepReports(Sequence[StepReport]):
     """The StepReports of a check, in plan order.
 
     The StepReports of a check in plan order (PathCheckResult.steps): each entry a StepReport, or the int row of
@@ -161,17 +174,23 @@ class StepReports(Sequence):
 
     __slots__ = ("_entries", "_certified")
 
-    def __init__(self, entries: list, certified: CertifiedMoves | None = None) -> None:
+    def __init__(self, entries: list[StepReport | int], certified: CertifiedMoves | None = None) -> None:
         self._entries, self._certified = entries, certified
 
     def __len__(self) -> int:
         return len(self._entries)
 
-    def __getitem__(self, index):
+    @overload
+    def __getitem__(self, index: int) -> StepReport: ...
+
+    @overload
+    def __getitem__(self, index: slice) -> list[StepReport]: ...
+
+    def __getitem__(self, index: int | slice) -> StepReport | list[StepReport]:
         if isinstance(index, slice):
             return [self[i] for i in range(*index.indices(len(self)))]
         entry = self._entries[index]
-        if type(entry) is int:
+        if isinstance(entry, int):
             assert self._certified is not None   # only certified moves are kept as rows
             return self._certified.report(entry)
         return entry
@@ -179,26 +198,26 @@ class StepReports(Sequence):
     def __repr__(self) -> str:
         return f"StepReports({len(self)} moves)"
 
-    def smallest_margins(self) -> dict:
+    def smallest_margins(self) -> dict[str, tuple[float, int]]:
         """{check: (smallest margin over every move, the position of the first move with it)}."""
         found = [] if self._certified is None else self._certified.smallest()
-        found += [(check, value, position) for position, entry in enumerate(self._entries) if type(entry) is not int
-                  for check, value in entry.margins.items()]
+        found += [(check, value, position) for position, entry in enumerate(self._entries)
+                  if isinstance(entry, StepReport) for check, value in entry.margins.items()]
         smallest: dict[str, tuple[float, int]] = {}
         for check, value, position in sorted(found, key=lambda item: item[2]):
             if check not in smallest or value < smallest[check][0]:
                 smallest[check] = (value, position)
         return smallest
 
-    def positions_named(self, names) -> list:
+    def positions_named(self, names: Container[str]) -> list[int]:
         """The positions of the moves named in `names` (a set), in order."""
         segments = [] if self._certified is None else self._certified.segments
         return [position for position, entry in enumerate(self._entries)
-                if (segments[entry].name if type(entry) is int else entry.name) in names]
+                if (segments[entry].name if isinstance(entry, int) else entry.name) in names]
 
     def samples(self) -> int:
         """How many samples the check evaluated over all moves."""
-        return sum(entry.samples for entry in self._entries if type(entry) is not int) + \
+        return sum(entry.samples for entry in self._entries if isinstance(entry, StepReport)) + \
             (0 if self._certified is None else self._certified.samples())
 
 
@@ -212,10 +231,10 @@ class PathCheckResult:
     value of limit + m: |sin θ5| for "wrist", a clearance in metres for "cell", ...; "joint_speed" is the
     fraction of the top speed allowed, and its margin the fraction left)."""
 
-    problems: tuple
+    problems: tuple[Problem, ...]
     steps: StepReports
-    unchecked: tuple = ()
-    limits: dict = dataclasses.field(default_factory=dict)
+    unchecked: tuple[str, ...] = ()
+    limits: dict[str, float] = dataclasses.field(default_factory=dict)
 
     @property
     def ok(self) -> bool:
@@ -231,7 +250,7 @@ class PathCheckResult:
             return f"steps {', '.join(map(repr, self.unchecked))} could not be checked (no known start)"
         return f"path clear: {len(self.steps)} moves, {self.steps.samples()} samples checked"
 
-    def to_dict(self) -> dict:
+    def to_dict(self) -> dict[str, object]:
         """The result as JSON-ready values."""
         return {"ok": self.ok, "problems": [p.to_dict() for p in self.problems],
                 "steps": [s.to_dict() for s in self.steps], "unchecked": list(self.unchecked)}

@@ -25,9 +25,12 @@ import dataclasses
 import math
 
 import numpy as np
+import numpy.typing as npt
 
 from ur3dq import dqarray
+from ur3dq.array_types import FloatArray
 from ur3dq.kinematics import ur_ik
+from ur3dq.kinematics.models import URModel
 
 MAX_REFINEMENT = 16
 MAX_SAMPLES_PER_MOVE = 200_000
@@ -58,14 +61,15 @@ class SampledMove:
     joints; unreachable_at: the fraction where the IK found no solution (None if the whole move is reachable)
     and the TCP pose (8,) asked for there."""
 
-    fraction: np.ndarray
-    joints: np.ndarray
-    poses: np.ndarray
+    fraction: FloatArray
+    joints: FloatArray
+    poses: FloatArray
     unreachable_at: float | None = None
-    unreachable_pose: np.ndarray | None = None
+    unreachable_pose: FloatArray | None = None
 
 
-def sample_joint_move(model, q0, q1, tcp_resolution: float, joint_resolution: float) -> SampledMove:
+def sample_joint_move(model: URModel, q0: npt.ArrayLike, q1: npt.ArrayLike, tcp_resolution: float,
+                      joint_resolution: float) -> SampledMove:
     """Sample a joint move q0 → q1.
 
     Samples of the synchronised joint interpolation q0 → q1: ≤ joint_resolution (rad) per joint and ≤
@@ -81,21 +85,24 @@ def sample_joint_move(model, q0, q1, tcp_resolution: float, joint_resolution: fl
     return SampledMove(fraction, joints, poses)
 
 
-def _joint_samples(model, q0, q1, count: int) -> tuple:
+def _joint_samples(model: URModel, q0: FloatArray, q1: FloatArray, count: int
+                   ) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """(fraction (count + 1,), joints (count + 1, 6), TCP poses (count + 1, 8)) evenly along q0 → q1."""
     fraction = np.linspace(0.0, 1.0, count + 1)
     joints = q0 + (q1 - q0) * fraction[:, None]
     joints[-1] = q1   # q0 + (q1 − q0)·1 may miss q1 by a rounding step; the move ends on its target
     return fraction, joints, np.ascontiguousarray(model.fk_batch(joints))
 
 
-def _largest_chord(poses: np.ndarray) -> float:
+def _largest_chord(poses: FloatArray) -> float:
+    """The longest TCP step (m) between neighbouring poses (n, 8)."""
     if len(poses) < 2:
         return 0.0
     positions = dqarray.translation_unchecked(poses)
     return float(np.max(np.linalg.norm(np.diff(positions, axis=0), axis=1)))
 
 
-def line_poses(pose0, pose1, fraction) -> np.ndarray:
+def line_poses(pose0: FloatArray, pose1: FloatArray, fraction: FloatArray) -> FloatArray:
     """(n, 8) TCP poses at `fraction` (n,) along the controller's linear path pose0 → pose1 (see the module doc)."""
     r0, r1 = pose0[:4], pose1[:4]
     p0, p1 = dqarray.translation_unchecked(pose0), dqarray.translation_unchecked(pose1)
@@ -106,12 +113,13 @@ def line_poses(pose0, pose1, fraction) -> np.ndarray:
     return np.concatenate((rotation, 0.5 * dqarray.quaternion_multiply(pure, rotation)), axis=1)
 
 
-def line_length(pose0, pose1) -> tuple:
+def line_length(pose0: FloatArray, pose1: FloatArray) -> tuple[FloatArray, FloatArray]:
     """(metres, radians) of the linear move pose0 → pose1; the controller's path 'distance' is their maximum."""
     return dqarray.pose_distance(pose0, pose1)
 
 
-def sample_linear_move(model, q0, pose1, tcp_resolution: float, joint_resolution: float) -> SampledMove:
+def sample_linear_move(model: URModel, q0: npt.ArrayLike, pose1: FloatArray, tcp_resolution: float,
+                       joint_resolution: float) -> SampledMove:
     """Samples of the linear move from the joints q0 to the TCP pose pose1 (8,), IK with branch continuity
     (TooManySamples if the resolutions ask more than MAX_SAMPLES_PER_MOVE)."""
     q0 = np.asarray(q0, dtype=float)
@@ -126,7 +134,8 @@ def sample_linear_move(model, q0, pose1, tcp_resolution: float, joint_resolution
     return move
 
 
-def _solve_line(model, q0, pose0, pose1, count: int) -> SampledMove:
+def _solve_line(model: URModel, q0: FloatArray, pose0: FloatArray, pose1: FloatArray, count: int) -> SampledMove:
+    """The move pose0 → pose1 from joints q0 at count + 1 even fractions, cut where the IK finds no solution."""
     fraction = np.linspace(0.0, 1.0, count + 1)
     poses = line_poses(pose0, pose1, fraction)
     joints, reachable = follow_branch(model, poses, q0)
@@ -136,7 +145,7 @@ def _solve_line(model, q0, pose0, pose1, count: int) -> SampledMove:
     return SampledMove(fraction, joints, poses)
 
 
-def follow_branch(model, poses: np.ndarray, q0: np.ndarray) -> tuple:
+def follow_branch(model: URModel, poses: FloatArray, q0: FloatArray) -> tuple[FloatArray, int]:
     """IK of poses along the branch of a start configuration.
 
     (joints (m, 6), m): IK of `poses` (n, 8) along the branch of q0 (poses[0] is q0's own pose), unwrapped from
@@ -163,6 +172,7 @@ def follow_branch(model, poses: np.ndarray, q0: np.ndarray) -> tuple:
     return unwrapped, m
 
 
-def _wrapped_cost(candidates: np.ndarray, q: np.ndarray) -> np.ndarray:
+def _wrapped_cost(candidates: FloatArray, q: FloatArray) -> FloatArray:
+    """Squared wrapped joint distance of each candidate (..., 6) from q (6,); +inf for a NaN (absent) one."""
     cost = np.sum(ur_ik.wrap_angle(candidates - q) ** 2, axis=-1)
     return np.where(np.isnan(cost), np.inf, cost)

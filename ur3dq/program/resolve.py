@@ -11,6 +11,7 @@ import dataclasses
 from collections.abc import Iterable, Sequence
 
 from ur3dq.dualquat import DualQuaternion
+from ur3dq.pose import closest_name_text
 from ur3dq.program.steps import RelativeWaypoint, Step, Waypoint, is_waypoint
 
 
@@ -113,7 +114,8 @@ def select_range(steps: Sequence[Step], start: str | None = None, end: str | Non
     names = [step.name for step in steps]
     for option, name in (("--from", start), ("--to", end)):
         if name is not None and name not in names:
-            raise ValueError(f"{option} {name!r}: no step of that name in the program")
+            raise ValueError(f"{option} {name!r}: no step of that name in the program"
+                             f"{closest_name_text(name, names, '; `ur3dq poses list` shows them')}")
     first = names.index(start) if start is not None else 0
     last = names.index(end) if end is not None else len(steps) - 1
     if last < first:

@@ -29,7 +29,7 @@ from ur3dq.program.plan import Defaults, PlannedStep, plan_program
 from ur3dq.program.resolve import select_range
 from ur3dq.program.script import FAIL_KEY, STEP_KEY, program_script
 from ur3dq.program.steps import DigitalOut, Step, Wait, WaitInput
-from ur3dq.robot import safety, state
+from ur3dq.robot import primary, safety, state
 from ur3dq.urscript import new_program_name
 
 if TYPE_CHECKING:
@@ -73,7 +73,8 @@ class StepWatch:
     """Follow the step reports of one running program.
 
     Follows the step reports of one running program (positions first_position .. first_position+N−1);
-    `done` once the program reported first_position+N, after its last step."""
+    `done` once the program reported first_position+N, after its last step; `ended` once the controller's key
+    message said that program (`program_name`, set by run_plan) stopped: only then are its reports known whole."""
 
     def __init__(self, plan: Iterable[PlannedStep], first_position: int = 1, progress: Progress | None = None) -> None:
         self.plan = list(plan)
@@ -81,6 +82,8 @@ class StepWatch:
         self.progress = progress
         self.current: int | None = None      # index into plan of the step running now
         self.done = False
+        self.program_name: str | None = None
+        self.ended = False
 
     @property
     def position(self) -> int:
@@ -92,6 +95,8 @@ class StepWatch:
         text = getattr(message, "text", None)
         if not isinstance(text, str):
             return
+        if self.program_name is not None and primary.is_program_stopped(message, self.program_name):
+            self.ended = True
         for key in (STEP_KEY, FAIL_KEY):
             if text.startswith(key) and text[len(key):].strip().lstrip("-").isdigit():
                 index = int(text[len(key):].strip()) - self.first
@@ -159,6 +164,7 @@ def run_plan(robot: Robot, plan: Sequence[PlannedStep], first_position: int = 1,
     final = next((p.joints for p in reversed(plan) if p.joints is not None), start)
     watch = watch or StepWatch(plan, first_position, progress)
     name = new_program_name("program")
+    watch.program_name = name
     text = program_script(plan, program_name=name, first_position=first_position,
                           restore_tcp=tuple(robot.model.tcp.to_ur_pose()))
     sent = []
@@ -177,18 +183,28 @@ def run_plan(robot: Robot, plan: Sequence[PlannedStep], first_position: int = 1,
 
 def program_stop(robot: Robot, watch: StepWatch) -> ProgramStop:
     """The ProgramStop of a run `watch` followed: its running step, and (once the arm is at rest, at most
-    REST_TIMEOUT s) where the arm is and which of the outputs the program switched on are still on."""
+    REST_TIMEOUT s) where the arm is and which of the outputs the program switched on are still on.
+
+    Without the program's end in its reports (a frozen, late or dropped stream) the program may have run on past the
+    last step reported, and what the controller's state shows may be from before: every output the program could
+    have left on by then is named as one that may still be on."""
     index = watch.position - watch.first
     switched_on = outputs_switched_on(watch.plan[:index + 1])
     status = status_at_rest(robot)
+    name = watch.plan[index].step.name
+    if not watch.ended:
+        later = [output for end in range(index + 1, len(watch.plan) + 1)
+                 for output in outputs_switched_on(watch.plan[:end])]
+        may_be_on = tuple(dict.fromkeys(switched_on + later))
+        return ProgramStop(watch.position, name, None if status is None else status.joints,
+                           None if status is None else status.tcp_pose, may_be_on, False)
     if status is None:
-        return ProgramStop(watch.position, watch.plan[index].step.name, None, None, tuple(switched_on), False)
+        return ProgramStop(watch.position, name, None, None, tuple(switched_on), False)
     try:
         still_on = set(robot.io_state().outputs_on())
     except (RobotError, KeyboardInterrupt):
-        return ProgramStop(watch.position, watch.plan[index].step.name, status.joints, status.tcp_pose,
-                           tuple(switched_on), False)
-    return ProgramStop(watch.position, watch.plan[index].step.name, status.joints, status.tcp_pose,
+        return ProgramStop(watch.position, name, status.joints, status.tcp_pose, tuple(switched_on), False)
+    return ProgramStop(watch.position, name, status.joints, status.tcp_pose,
                        tuple(output for output in switched_on if output in still_on), True)
 
 

@@ -3,12 +3,12 @@
 Ctrl-C, SIGTERM and SIGHUP reach ur3dq, which sends `stopj`; kill -9, a crash or a hang do not. For those the
 controller itself must stop: every motion program ur3dq sends first arms the controller's RTDE input watchdog
 (URScript `rtde_set_watchdog(variable, min_frequency, "stop")`, UR script manual) on HEARTBEAT_REGISTER, and the
-thread here writes a new value to that register every PERIOD over RTDE (ur_rtde's RTDEIOInterface). When the
+thread here writes a new value to that register every PERIOD over RTDE (ur3dq.robot.rtde_inputs). When the
 values stop coming, the controller stops the program, and with it the arm, 1/WATCHDOG_FREQUENCY s after the
 last one. The watchdog is removed when the program ends, so nothing changes between motions.
 
 The driver starts the heartbeat with the first program it sends (a motion, freedrive, a jog step) on this client's
-RTDE inputs (ur3dq.robot.rtde_inputs: input registers 18–22 and the digital outputs it sets); another RTDE client
+RTDE inputs (ur3dq.robot.rtde_inputs: HEARTBEAT_REGISTER and the digital outputs); another RTDE client
 holding them (a second ur3dq moving the same arm, a user's own RTDEIOInterface) makes the controller refuse them,
 and the program is refused with a line that says so.
 """
@@ -21,7 +21,8 @@ from ur3dq.errors import RobotConnectionError
 from ur3dq.robot.rtde_inputs import RTDEInputs
 from ur3dq.urscript import first_statement_added, rtde_set_watchdog_statement
 
-#: The RTDE input integer register the heartbeat counts on (ur_rtde's lower range is 18–22).
+#: The RTDE input integer register the heartbeat counts on (in ur_rtde's lower range, 18–22: a user's
+#: RTDEIOInterface on the same arm is refused while ur3dq holds it, and the other way round).
 HEARTBEAT_REGISTER = 20
 #: The controller stops a motion program this long (1/frequency) after the last heartbeat: 100 ms. The thread is
 #: Python, so anything holding the GIL longer than that stops the arm: ur_rtde's RTDEReceiveInterface destructor

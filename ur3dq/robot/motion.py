@@ -3,12 +3,56 @@
 movej moves every joint on one synchronised trapezoidal profile led by the joint with the longest travel
 (docs/conventions.md, "Motion facts"), so its duration is the trapezoid of the largest joint travel.
 """
+from __future__ import annotations
+
 import math
 
 import numpy as np
 
+from ur3dq.errors import SafetyCheckError
+
 # The slider is never read as slower than this, so a slider at 0 yields a (long) finite timeout, not a hang.
 MIN_SPEED_FRACTION = 0.05
+#: Seconds a controller may take to start a short program it was sent (a loaded simulator parses slowly).
+START_TIMEOUT = 5.0
+#: ... and per byte of program text on top: the controller parses the whole program before it starts it. sim_ursim
+#: parses about 0.6 MB per CPU second; this allows a tenth of that, for a loaded machine (1 MiB: 10.5 s more).
+PARSE_SECONDS_PER_BYTE = 1e-5
+#: The largest program ur3dq sends: a controller connection holds an incomplete program up to 4 MiB and 50,000
+#: lines and drops a client that sends more (sim_ursim's primary intake, docs/architecture.md).
+MAX_PROGRAM_BYTES = 4 * 1024 * 1024
+MAX_PROGRAM_LINES = 50_000
+
+
+def program_start_timeout(program: str) -> float:
+    r"""Seconds to wait for a controller to start `program` (URScript text): START_TIMEOUT plus its parse time.
+
+    >>> program_start_timeout("def p():\n  sleep(1)\nend\n")
+    5.00024
+    """
+    return START_TIMEOUT + len(program.encode("utf-8")) * PARSE_SECONDS_PER_BYTE
+
+
+def program_size_problem(program: str) -> str | None:
+    r"""Why `program` is too large to send (its size and the limit), or None.
+
+    >>> program_size_problem("x = 1\n" * 60_000)
+    '60,000 lines (the limit is 50,000)'
+    """
+    size, lines = len(program.encode("utf-8")), len(program.splitlines())
+    if size > MAX_PROGRAM_BYTES:
+        return f"{size / 2 ** 20:.1f} MiB (the limit is {MAX_PROGRAM_BYTES / 2 ** 20:g} MiB)"
+    if lines > MAX_PROGRAM_LINES:
+        return f"{lines:,} lines (the limit is {MAX_PROGRAM_LINES:,})"
+    return None
+
+
+def refuse_oversize(program: str, name: str) -> None:
+    """SafetyCheckError naming the size and the limit when `program` (named `name`) is too large to send."""
+    too_large = program_size_problem(program)
+    if too_large is not None:
+        raise SafetyCheckError(f"program {name} is too large to send: {too_large} of program text a controller "
+                               "connection holds at once; nothing was sent: run it in parts (run-poses --from/--to)")
 
 
 def trapezoid_duration(distance, a, v):

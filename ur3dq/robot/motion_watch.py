@@ -59,16 +59,20 @@ class MotionWatch:
         self._seen_running = False  # the state stream showed our program running
         self._ended_on_state = False  # ... and then not running
         self.last_error_text: str | None = None
+        self.replaced_by: str | None = None   # the name of a program that started after ours (another client's)
         self.runtime_error: ProgramError | None = None  # raised once the state had time to show a safety stop
         self._ended_at: float | None = None
         self._error_at: float | None = None
         self._paused_since: float | None = None   # when the program was seen paused, while it is
         self._paused_total = 0.0
+        self._started_after: float | None = None   # s from the send to the first poll that saw it started
 
     def note_message(self, message: object) -> None:
         """Update from one robot message (key messages, runtime exceptions, error codes)."""
         if primary.is_program_started(message, self.name):
             self.started = True
+        elif self.started and isinstance(message, primary.KeyMessage) and message.title.endswith("_STARTED"):
+            self.replaced_by = self.replaced_by or message.text   # another client's program took over
         elif primary.is_program_stopped(message, self.name):
             self.started = self.stopped = True
         elif isinstance(message, primary.RuntimeExceptionMessage) and self.runtime_error is None:
@@ -99,11 +103,15 @@ class MotionWatch:
     def check_progress(self, status: state.RobotStatus, elapsed: float, now: float, start_timeout: float,
                        timeout: float, timeout_note: str) -> None:
         """ProgramError when the program has not started `start_timeout` s after it was sent (`elapsed` s ago),
-        MotionTimeoutError when it ran past `timeout` s, the time it spent paused not counted (`timeout_note` says
-        what the timeout holds beyond the motion's own duration)."""
+        MotionTimeoutError when it ran past `timeout` s from its start (a controller parses a long program before
+        it starts it), the time it spent paused not counted (`timeout_note` says what the timeout holds beyond the
+        motion's own duration)."""
+        if self.started and self._started_after is None:
+            self._started_after = elapsed
         if not self.started and not self.paused and elapsed > start_timeout:
             raise ProgramError(f"the controller did not start program {self.name} within {start_timeout:.1f} s")
-        if elapsed - self.paused_seconds(now) > timeout:
+        running = elapsed - self._started_after if self._started_after is not None else 0.0
+        if running - self.paused_seconds(now) > timeout:
             raise MotionTimeoutError(
                 f"program {self.name} did not finish within {timeout:.2f} s (derived from its trapezoidal duration "
                 f"and the speed slider, {timeout_note}); the arm is {self.distance(status):.4f} rad from target")
@@ -150,16 +158,21 @@ class MotionWatch:
         return False
 
     def _stop_reason(self) -> str:
-        """What ended the program short of its target, as far as ur3dq can tell: the controller's error, or its
-        heartbeat watchdog when the heartbeat went a watchdog period without a write (the controller's key
-        message does not say why a program stopped)."""
+        """What ended the program short of its target, as far as ur3dq can tell: the controller's error, another
+        client's program that started after it, the heartbeat watchdog when the heartbeat went a watchdog period
+        without a write, else a stop without an error (the controller's key message does not say why a program
+        stopped)."""
         if self.last_error_text:
             return f": {self.last_error_text}"
+        if self.replaced_by is not None:
+            return (f": another client replaced it with its own program {self.replaced_by!r} (a controller runs one "
+                    "program at a time)")
         gap = self.heartbeat.longest_gap() if self.heartbeat is not None else 0.0
         if gap >= self.watchdog_period:
             return (f": most likely the controller's heartbeat watchdog (ur3dq's heartbeat wrote nothing for "
                     f"{gap:.3f} s; the watchdog stops a program after {self.watchdog_period:g} s)")
-        return ""
+        return (": the controller stopped it without an error, as when another client stops the program (a "
+                "dashboard or pendant stop)")
 
 
 def last_reports(watcher: queue.Queue[object], outcome: MotionWatch, on_message: Callable[[object], None],

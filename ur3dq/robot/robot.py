@@ -26,7 +26,7 @@ from ur3dq.errors import (
     RobotConnectionError,
     RobotError,
     SafetyCheckError,
-    add_note,
+    add_separate_note,
 )
 from ur3dq.robot import jog_steps, motion, primary, safety, state
 from ur3dq.robot.backend import StateBackend, calibrated_model, effective_speed_limits
@@ -48,7 +48,6 @@ URSCRIPT_DEFAULT_A = 1.4  # rad/s², URScript movej default
 URSCRIPT_DEFAULT_V = 1.05  # rad/s
 SAFE_STOP_DECELERATION = 2.0  # rad/s²: stops a 1.05 rad/s joint in 0.5 s (ur_rtde's stopJ default)
 MAX_BLEND_RADIUS = 2.0  # metres; ur_rtde's client-side bound
-START_TIMEOUT = 5.0  # s for the controller to start a sent program (generous: a loaded simulator parses slowly)
 AFTER_STOP_WAIT = 0.5  # s to read a stopped program's last reports (its end key message) before giving up
 PROGRAM_STATE_TIMEOUT = 2.0  # s for a pause or a resume to show in the state
 OUTPUT_TIMEOUT = 1.0  # s for a digital output written over RTDE to show in the state
@@ -175,8 +174,7 @@ class Robot:
         return None if cartesian is None else cartesian.tcp_offset
 
     def _ensure_streams(self):
-        """Reconnect dead state streams (and the heartbeat) with exponential backoff; ConnectionLostError if they
-        stay down."""
+        """Reconnect dead state streams and heartbeat (exponential backoff); ConnectionLostError if they stay down."""
         beating = self._heartbeat is None or self._heartbeat.alive
         if self._primary.alive and self._backend.connected and beating:
             return
@@ -201,8 +199,7 @@ class Robot:
     # --- reading ----------------------------------------------------------------------------------------------
 
     def state(self) -> RobotStatus:
-        """The newest RobotStatus (joints, TCP, robot/safety mode, program running or paused, speed fractions,
-        digital I/O, age)."""
+        """The newest RobotStatus (joints, TCP, robot/safety mode, program running or paused, speeds, I/O, age)."""
         self._ensure_streams()
         return self._backend.status()
 
@@ -490,6 +487,8 @@ class Robot:
         it to its end; any failure stops the arm before the exception leaves."""
         timeout = motion.motion_timeout(duration, status.target_speed_fraction) + self.link_delay
         program = self._armed(program, name)
+        motion.refuse_oversize(program, name)
+        start_timeout = motion.program_start_timeout(program) + self.link_delay
         watcher = self._primary.watch()
         sent = time.monotonic()
         outcome = MotionWatch(name, target, running_at_send=status.program_running, heartbeat=self._heartbeat,
@@ -507,7 +506,7 @@ class Robot:
                 now = time.monotonic()
                 if outcome.finished(status, now) and (reached_end is None or reached_end()):
                     return now - sent
-                outcome.check_progress(status, now - sent, now, START_TIMEOUT + self.link_delay, timeout,
+                outcome.check_progress(status, now - sent, now, start_timeout, timeout,
                                        f"plus the link's measured round trip of {self.link_delay:.3f} s")
                 time.sleep(self._backend.poll_period)
         except BaseException as error:
@@ -532,15 +531,17 @@ class Robot:
         return armed(program, name)
 
     def _stop_after(self, error: BaseException) -> None:
-        """Best-effort stopj after a failed or interrupted motion; a failing stop is attached, never raised."""
+        """Best-effort stopj after a failed or interrupted motion; a failing stop is attached, never raised. None after
+        a safety stop: the controller stops the arm itself, and a gentler stopj must not replace its stop."""
+        if isinstance(error, (ProtectiveStopError, EmergencyStopError)):
+            return
         try:
             self._send_stop(SAFE_STOP_DECELERATION)
         except RobotError as stop_error:
-            add_note(error, f"ur3dq: sending stopj after this error also failed: {stop_error}")
+            add_separate_note(error, f"sending stopj after this error also failed: {stop_error}")
 
     def _send_stop(self, a: float) -> None:
-        """Send a `stopj` program on the primary connection, or on a fresh one if that is gone (never via urx,
-        whose sending can block)."""
+        """Send a `stopj` program on the primary connection, or a fresh one if it is gone (never via urx: it blocks)."""
         a = min(float(a), float(np.min(self.model.max_joint_acceleration)))
         if not (math.isfinite(a) and a > 0):
             raise ValueError(f"a (deceleration) must be finite and > 0, got {a!r}")

@@ -1,97 +1,201 @@
-"""This client's RTDE inputs (port 30004): the heartbeat register and the digital outputs, through one connection.
+"""This client's RTDE inputs (port 30004): integer registers, the digital outputs and the speed slider, on one
+connection.
 
-ur_rtde's RTDEIOInterface takes RTDE input registers 18–22 and the output masks it writes for this client; every
-write goes out from the calling thread, so one lock serialises the heartbeat thread's writes and the caller's
-(ur3dq.robot.heartbeat, Robot.set_digital_out). Another RTDE client holding the same inputs (a second ur3dq moving
-the same arm, a user's own RTDEIOInterface) makes the controller refuse the connection: RobotConnectionError.
+One RTDE connection of ur3dq's own (RTDE protocol version 2, UR's "Real-Time Data Exchange" guide): an input
+recipe per purpose — each integer register asked for, and each output family's mask and bits — set up once, then
+a data package per write, as ur_rtde's RTDEIOInterface does (docs/protocols.md, 5.7). Writes go out from the
+calling thread; one lock serialises the heartbeat thread's writes and the caller's (ur3dq.robot.heartbeat,
+Robot.set_digital_out).
+
+ur_rtde's RTDEIOInterface is not used for this: when the controller goes away it aborts the process that holds it
+(after a failed write it still counts itself as started, so its disconnect, and again its destructor, writes
+RTDE's pause request to the dead socket and throws from C++ where nothing can catch it: std::terminate, exit 134).
+A write here that fails is a Python OSError: the inputs count as closed until reconnect(), and ur3dq reports the
+lost connection itself. Another RTDE client holding the same inputs (a second ur3dq moving the same arm, a user's
+own RTDEIOInterface) makes the controller answer IN_USE: RobotConnectionError naming them.
 """
 from __future__ import annotations
 
+import socket
+import struct
 import threading
-from collections.abc import Callable
-
-import rtde_io
+import time
+from collections.abc import Iterable
 
 from ur3dq.errors import RobotConnectionError
 from ur3dq.robot.io_state import io_bit
+from ur3dq.robot.probe import RTDE_PORT, connect_timeout
 
-_OUTPUT_SETTERS = {"standard": "setStandardDigitalOut", "configurable": "setConfigurableDigitalOut",
-                   "tool": "setToolDigitalOut"}
+PROTOCOL_VERSION = 2
+_HEADER = struct.Struct(">HB")   # package size (header included), package type
+_REQUEST_PROTOCOL_VERSION, _SETUP_INPUTS, _DATA, _TEXT_MESSAGE = (ord(c) for c in "VIUM")
+#: Each output family's RTDE inputs: the mask of the pins to set, and their bits.
+OUTPUT_INPUTS = {
+    "standard": ("standard_digital_output_mask", "standard_digital_output"),
+    "configurable": ("configurable_digital_output_mask", "configurable_digital_output"),
+    "tool": ("tool_digital_output_mask", "tool_digital_output"),
+}
+#: The integer registers held: ur_rtde's lower range, as its RTDEIOInterface holds it (20: the heartbeat, 21: a
+#: held jog's keep-alive, ur3dq.robot.jog).
+INPUT_INT_REGISTERS = (18, 19, 20, 21, 22)
+#: The speed slider's RTDE inputs and their types: which fields to apply (bit 0: the fraction), and the fraction.
+SPEED_SLIDER_INPUTS = (("speed_slider_mask", "UINT32"), ("speed_slider_fraction", "DOUBLE"))
+#: Seconds a write may block (the controller no longer reading) before the inputs count as lost.
+WRITE_TIMEOUT = 1.0
 
 
 class RTDEInputs:
-    """The RTDE inputs of `host`, opened at construction; RobotConnectionError if the controller refuses them.
+    """The RTDE inputs of `host`: the integer registers `int_registers` and every digital output family, opened at
+    construction; RobotConnectionError if the controller cannot be reached or refuses them.
 
     Examples
     --------
     >>> from ur3dq.robot.rtde_inputs import RTDEInputs
-    >>> inputs = RTDEInputs("127.0.0.2")           # doctest: +SKIP
-    >>> inputs.set_digital_out("tool", 0, True)     # doctest: +SKIP
+    >>> inputs = RTDEInputs("127.0.0.2")     # doctest: +SKIP
+    >>> inputs.set_int_register(20, 1), inputs.set_digital_out("tool", 0, True)     # doctest: +SKIP
+    (True, None)
     """
 
-    def __init__(self, host: str) -> None:
+    def __init__(self, host: str, int_registers: Iterable[int] = INPUT_INT_REGISTERS) -> None:
         self.host = host
         self._lock = threading.Lock()
-        self._broken = False   # a write failed: the connection is gone until reconnect() opens it again
-        try:
-            self._io = rtde_io.RTDEIOInterface(host)
-        except RuntimeError as error:
-            raise RobotConnectionError(
-                f"cannot open the RTDE inputs of {host}:30004 (input registers 18-22; is another RTDE client "
-                f"writing them?): {error}") from None
+        self._registers = tuple(int(register) for register in int_registers)
+        self._socket: socket.socket | None = None
+        self._recipes: dict[str, int] = {}   # "int R" or an output family -> recipe id
+        self._open()
 
-    def write(self, call: Callable[[rtde_io.RTDEIOInterface], object]) -> bool:
-        """call(RTDEIOInterface) under the lock; False when it reports failure or raises (a dropped connection)."""
+    # --- the connection --------------------------------------------------------------------------------------
+
+    def _open(self) -> None:
+        """Connect, agree on protocol version 2, set up one recipe per purpose. No start request: a controller
+        takes input data packages without one, as from ur_rtde's RTDEIOInterface (docs/protocols.md, 5.3)."""
+        where = f"the RTDE inputs of {self.host}:{RTDE_PORT}"
+        timeout = connect_timeout()
+        try:
+            sock = socket.create_connection((self.host, RTDE_PORT), timeout=timeout)
+        except OSError as error:
+            raise RobotConnectionError(f"cannot reach {where}: {error.strerror or error}") from None
+        try:
+            sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+            deadline = time.monotonic() + timeout
+            if _exchange(sock, _REQUEST_PROTOCOL_VERSION, struct.pack(">H", PROTOCOL_VERSION), deadline)[:1] != b"\1":
+                raise RobotConnectionError(f"{where}: the controller refused RTDE protocol version 2")
+            recipes = {f"int {register}": [(f"input_int_register_{register}", "INT32")] for register in self._registers}
+            recipes.update({family: [(name, "UINT8") for name in names] for family, names in OUTPUT_INPUTS.items()})
+            recipes["speed slider"] = list(SPEED_SLIDER_INPUTS)
+            for purpose, fields in recipes.items():
+                self._recipes[purpose] = _set_up(sock, fields, deadline, where)
+            sock.settimeout(WRITE_TIMEOUT)
+        except BaseException as error:
+            sock.close()
+            if isinstance(error, TimeoutError):
+                raise RobotConnectionError(f"{where} did not answer within {timeout:g} s") from None
+            if isinstance(error, OSError):
+                raise RobotConnectionError(f"{where}: {error.strerror or error}") from None
+            raise
+        self._socket = sock
+
+    def _write(self, purpose: str, payload: bytes) -> bool:
+        """One data package of the recipe for `purpose`; False (and the inputs closed) when it cannot be sent."""
         with self._lock:
+            sock = self._socket
+            if sock is None:
+                return False
+            body = bytes([self._recipes[purpose]]) + payload
             try:
-                written = bool(call(self._io))
-            except RuntimeError:
-                written = False
-            self._broken = self._broken or not written
-            return written
+                sock.sendall(_HEADER.pack(_HEADER.size + len(body), _DATA) + body)
+            except OSError:   # reset, broken pipe, or the controller stopped reading for WRITE_TIMEOUT
+                self._socket = None
+                sock.close()
+                return False
+            return True
+
+    # --- what the driver writes ------------------------------------------------------------------------------
 
     def set_int_register(self, register: int, value: int) -> bool:
-        """Write RTDE `input_int_register_<register>`; False when the write failed."""
-        return self.write(lambda io: io.setInputIntRegister(register, value))
+        """Write RTDE `input_int_register_<register>` (one of `int_registers`); False when the write failed."""
+        if f"int {register}" not in self._recipes:
+            raise ValueError(f"input_int_register_{register} is not one of these inputs ({self._registers})")
+        return self._write(f"int {register}", struct.pack(">i", int(value)))
 
     def set_digital_out(self, family: str, pin: int, on: bool) -> None:
         """Switch digital output `pin` of `family` ('standard', 'configurable', 'tool') on or off; ValueError for a
         pin that does not exist, RobotConnectionError when the write fails."""
         io_bit(family, pin)
-        setter = _OUTPUT_SETTERS[family]
-        if not self.write(lambda io: getattr(io, setter)(pin, bool(on))):
+        bit = 1 << int(pin)
+        if not self._write(family, struct.pack(">BB", bit, bit if on else 0)):
             raise RobotConnectionError(f"cannot switch {family} digital output {pin} {'on' if on else 'off'} "
-                                       f"through the RTDE inputs of {self.host}:30004")
+                                       f"through the RTDE inputs of {self.host}:{RTDE_PORT}")
+
+    @property
+    def connected(self) -> bool:
+        """False once a write failed or the inputs were closed."""
+        return self._socket is not None
 
     def set_speed_slider(self, fraction: float) -> None:
         """Set the controller's speed slider (0..1: the speed scaling of every motion); ValueError outside it,
         RobotConnectionError when the write fails."""
         if not (isinstance(fraction, (int, float)) and 0.0 <= fraction <= 1.0):
             raise ValueError(f"speed slider: {fraction!r} is not a fraction 0..1")
-        if not self.write(lambda io: io.setSpeedSlider(float(fraction))):
-            raise RobotConnectionError(f"cannot set the speed slider through the RTDE inputs of {self.host}:30004")
+        if not self._write("speed slider", struct.pack(">Id", 1, float(fraction))):
+            raise RobotConnectionError(f"cannot set the speed slider through the RTDE inputs of "
+                                       f"{self.host}:{RTDE_PORT}")
 
     def reconnect(self) -> bool:
-        """Open the connection again after a failed write; False (or RobotConnectionError) if refused."""
+        """Open the connection again after a failed write; RobotConnectionError if the controller refuses."""
         with self._lock:
-            try:
-                reconnected = bool(self._io.reconnect())
-            except RuntimeError as error:
-                raise RobotConnectionError(f"the RTDE inputs of {self.host}:30004 cannot reconnect: {error}") from None
-            self._broken = not reconnected
-            return reconnected
+            self._close_socket()
+            self._open()
+        return True
+
+    def _close_socket(self) -> None:
+        sock, self._socket = self._socket, None
+        if sock is not None:
+            sock.close()
 
     def close(self) -> None:
-        """Disconnect (idempotent).
+        """Disconnect (idempotent); the controller then frees the inputs for other clients."""
+        with self._lock:
+            self._close_socket()
 
-        After a failed write ur_rtde still takes the connection for open, and its disconnect — by hand or in its
-        destructor — writes to the dead socket and throws from C++ code that cannot pass the error on, which
-        aborts the process (SIGABRT, exit 134). So a broken connection is opened again first, then closed cleanly;
-        when the controller cannot be reached any more, that abort remains (a known ur_rtde 1.6 behaviour).
-        """
-        if self._broken:
-            try:
-                self.reconnect()
-            except RobotConnectionError:
-                pass
-        self.write(lambda io: io.disconnect())
+
+def _exchange(sock: socket.socket, kind: int, payload: bytes, deadline: float) -> bytes:
+    """Send a request of type `kind`, return the payload of the controller's reply of the same type (text
+    messages skipped); TimeoutError after `deadline`, ConnectionError when the controller closes."""
+    sock.sendall(_HEADER.pack(_HEADER.size + len(payload), kind) + payload)
+    while True:
+        size, reply_kind = _HEADER.unpack(_receive(sock, _HEADER.size, deadline))
+        body = _receive(sock, size - _HEADER.size, deadline) if size > _HEADER.size else b""
+        if reply_kind == kind:
+            return body
+        if reply_kind != _TEXT_MESSAGE:
+            raise ConnectionError(f"unexpected RTDE package type {reply_kind} in reply to {chr(kind)!r}")
+
+
+def _receive(sock: socket.socket, count: int, deadline: float) -> bytes:
+    data = b""
+    while len(data) < count:
+        remaining = deadline - time.monotonic()
+        if remaining <= 0:
+            raise TimeoutError
+        sock.settimeout(remaining)
+        chunk = sock.recv(count - len(data))
+        if not chunk:
+            raise ConnectionError("the controller closed the connection")
+        data += chunk
+    return data
+
+
+def _set_up(sock: socket.socket, fields: list[tuple[str, str]], deadline: float, where: str) -> int:
+    """Set up an input recipe of `fields` ((name, type) pairs); its id, or RobotConnectionError naming the inputs
+    the controller refused (IN_USE: another client writes them)."""
+    names = [name for name, _ in fields]
+    reply = _exchange(sock, _SETUP_INPUTS, ",".join(names).encode("ascii"), deadline)
+    recipe = reply[0] if reply else 0
+    types = reply[1:].decode("ascii", "replace").split(",")
+    refused = [f"{name} ({found})" for (name, kind), found in zip(fields, types) if found != kind]
+    if recipe == 0 or refused or len(types) != len(names):
+        raise RobotConnectionError(
+            f"{where} refused {', '.join(refused) or ', '.join(names)}: another client writes them; end the other "
+            "ur3dq command on this arm (a record-pose --teach, jog, run-poses) or RTDE client, and try again")
+    return recipe

@@ -110,7 +110,7 @@ def check_message(result: PathCheckResult | None, model: URModel, cell: Cell | N
     verdicts = {}
     for report in result.steps:
         verdicts[report.name] = "fail" if report.name in failed else "ok"
-        if report.tcp is None or not len(report.tcp):
+        if report.tcp is None or report.joints is None or not len(report.tcp):
             continue
         pick = np.unique(np.linspace(0, len(report.tcp) - 1, min(len(report.tcp), MAX_PATH_POINTS)).astype(int))
         own, cell_margins = checker.clearance_margins(report.joints[pick])

@@ -31,8 +31,6 @@ from typing import Any
 
 import numpy as np
 
-from ur3dq import dqarray
-from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import UnreachablePoseError
 from ur3dq.kinematics.arm import (
     CALIBRATED_TOLERANCE,
@@ -48,8 +46,7 @@ from ur3dq.kinematics.arm import (
     arm_vector,
     vector,
 )
-from ur3dq.kinematics.joints import joint_floats
-from ur3dq.real_numbers import real_array
+from ur3dq.kinematics.inputs import UNIT_WEIGHTS, joint_floats, joint_rows, joint_weights, pose_row, unit_pose_rows
 
 __all__ = [
     "CALIBRATED_TOLERANCE", "DUPLICATE_TOLERANCE", "FK_TOLERANCE_M", "FK_TOLERANCE_RAD", "LIMIT_ROUNDING",
@@ -57,10 +54,6 @@ __all__ = [
     "ik_batch", "joint_variants", "nearest_variant", "wrap_angle",
 ]
 
-#: A pose whose |r|² − 1 or r·d exceeds this (but passes the unit check) is normalised before solving: a pose
-#: read with 8 significant digits is a pose, and solved unnormalised every branch would miss the FK filter.
-EXACT_UNIT = 1e-13
-_UNIT_WEIGHTS = np.ones(6)
 _BLOCK = 4096   # poses per block of closed_form_poses: its tangents stay in the cache
 
 
@@ -104,84 +97,6 @@ def dh_frames(model: Any, joints: np.ndarray) -> np.ndarray:
     return out
 
 
-def _pose(pose: Any) -> np.ndarray:
-    """(1, 8) unit pose coefficients of a DualQuaternion or 8 numbers, normalised where off unit by more than
-    rounding (within dqarray.UNIT_TOLERANCE); ValueError naming ``pose`` for anything that is not a rigid transform.
-    Checked in Python floats: numpy's calls on 8 numbers would cost more than the IK."""
-    if isinstance(pose, DualQuaternion):
-        values = pose.to_array()
-    else:
-        try:
-            values = real_array(pose)
-        except (TypeError, ValueError) as exc:
-            raise ValueError(f"pose: expected a DualQuaternion or 8 coefficients, got {pose!r}") from exc
-        if values.shape != (8,):
-            raise ValueError(f"pose: expected a DualQuaternion or 8 coefficients, got shape {values.shape}")
-    rw, rx, ry, rz, dw, dx, dy, dz = values.tolist()
-    norm2, orthogonality = rw * rw + rx * rx + ry * ry + rz * rz, rw * dw + rx * dx + ry * dy + rz * dz
-    if not math.isfinite(norm2 + orthogonality + dw + dx + dy + dz):
-        raise ValueError("pose: contains NaN or infinite values")
-    if abs(norm2 - 1.0) > 2.0 * dqarray.UNIT_TOLERANCE:
-        raise ValueError(f"pose: rotation part is not a unit quaternion (norm² {norm2:.6g})")
-    if abs(orthogonality) > dqarray.UNIT_TOLERANCE:
-        raise ValueError(f"pose: not a unit dual quaternion (real·dual = {orthogonality:.3g}, must be 0)")
-    if abs(norm2 - 1.0) > EXACT_UNIT or abs(orthogonality) > EXACT_UNIT:
-        return dqarray.normalise(values[None])
-    return values.reshape(1, 8)
-
-
-def _unit_rows(poses: Any) -> np.ndarray:
-    """``poses`` as rows (N, 8) checked finite and unit (dqarray.UNIT_TOLERANCE), those off by more than EXACT_UNIT
-    normalised; ValueError naming ``poses`` otherwise."""
-    try:
-        rows = real_array(poses)
-    except (TypeError, ValueError) as exc:
-        raise ValueError("poses: expected numbers, 8 coefficients per pose") from exc
-    if rows.ndim != 2 or rows.shape[1] != 8:
-        raise ValueError(f"poses: expected shape (N, 8), got {rows.shape}")
-    rows = dqarray.check_unit(rows, "poses")
-    if not np.all(np.isfinite(rows)):
-        raise ValueError("poses: contains NaN or infinite values")
-    norm2 = np.einsum("ij,ij->i", rows[:, :4], rows[:, :4])
-    if np.any(np.abs(norm2 - 1.0) > 2.0 * dqarray.UNIT_TOLERANCE):
-        worst = float(norm2[np.argmax(np.abs(norm2 - 1.0))])
-        raise ValueError(f"poses: rotation part is not a unit quaternion (norm² {worst:.6g})")
-    orthogonality = np.einsum("ij,ij->i", rows[:, :4], rows[:, 4:])
-    if np.any(np.abs(orthogonality) > dqarray.UNIT_TOLERANCE):
-        worst = float(orthogonality[np.argmax(np.abs(orthogonality))])
-        raise ValueError(f"poses: not a unit dual quaternion (real·dual = {worst:.3g}, must be 0)")
-    off = (np.abs(norm2 - 1.0) > EXACT_UNIT) | (np.abs(orthogonality) > EXACT_UNIT)
-    if off.any():
-        rows = rows.copy()
-        rows[off] = dqarray.normalise(rows[off])
-    return np.ascontiguousarray(rows, dtype=float)
-
-
-def _joints(values: Any, count: int, name: str) -> np.ndarray:
-    """(count, 6) finite joint values from (6,) or (count, 6) numbers; ValueError naming ``name``."""
-    try:
-        array = real_array(values)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name}: expected 6 joint angles (radians), or a row of 6 per pose, as numbers") from exc
-    if array.shape == (6,):
-        array = np.broadcast_to(array, (count, 6))
-    if array.shape != (count, 6):
-        raise ValueError(f"{name}: expected shape (6,) or ({count}, 6), got {array.shape}")
-    if not np.all(np.isfinite(array)):
-        raise ValueError(f"{name}: contains NaN or infinite values")
-    return np.ascontiguousarray(array, dtype=float)
-
-
-def _weights(weights: Any) -> np.ndarray:
-    """Six positive finite joint weights (default all 1); ValueError naming ``weights`` otherwise."""
-    if weights is None:
-        return _UNIT_WEIGHTS
-    values = np.array(joint_floats(weights, "weights"))
-    if np.any(values <= 0.0):
-        raise ValueError(f"weights: every joint weight must be > 0, got {values.tolist()}")
-    return values
-
-
 def wrap_angle(angle: Any) -> np.ndarray:
     """Angle(s) mapped into (−π, π] (radians; floats or arrays, NaN stays NaN)."""
     angle = np.asarray(angle, dtype=float)
@@ -195,8 +110,8 @@ def ik_all_batch(model: Any, poses: Any, q_ref: Any = None) -> np.ndarray:
     """(N, 8, 6) every FK-verified solution of (N, 8) TCP poses, in (−π, π]; NaN rows where a branch is absent,
     repeats an earlier one or misses the pose. Slot k of every pose is the same sign choice (θ1, θ5, θ3), + first.
     ``q_ref`` ((6,) or (N, 6), optional) only resolves the wrist singularity, as in ``ik_all``."""
-    rows = _unit_rows(poses)
-    theta6 = np.zeros(len(rows)) if q_ref is None else wrap_angle(_joints(q_ref, len(rows), "q_ref")[:, 5])
+    rows = unit_pose_rows(poses)
+    theta6 = np.zeros(len(rows)) if q_ref is None else wrap_angle(joint_rows(q_ref, len(rows), "q_ref")[:, 5])
     out = np.empty((len(rows), 8, 6))
     kernels()[1].all_rows(arm_vector(model), rows, np.ascontiguousarray(theta6), out)
     return out
@@ -208,7 +123,7 @@ def ik_all(model: Any, pose: Any, q_ref: Any = None) -> list[np.ndarray]:
     ``q_ref`` (optional) only resolves the wrist singularity: there θ6 is q_ref[5] (0 without one) when the arm
     reaches with it (see the module notes). Raises UnreachablePoseError (a ValueError) saying why when there is none.
     """
-    row = _pose(pose)
+    row = pose_row(pose)
     theta6 = np.zeros(1) if q_ref is None else np.array([wrap_angle(joint_floats(q_ref, "q_ref")[5])])
     out = np.empty((1, 8, 6))
     kernels()[1].all_rows(arm_vector(model), row, theta6, out)
@@ -221,8 +136,8 @@ def ik_all(model: Any, pose: Any, q_ref: Any = None) -> list[np.ndarray]:
 def ik_batch(model: Any, poses: Any, q_ref: Any, weights: Any = None) -> np.ndarray:
     """(N, 6): for each (N, 8) TCP pose the solution nearest q_ref ((6,) or (N, 6)) as ``ik`` finds it; NaN rows
     where the pose is unreachable or no solution lies inside the joint limits (no exception: batches keep going)."""
-    rows = _unit_rows(poses)
-    references, weight = _joints(q_ref, len(rows), "q_ref"), _weights(weights)
+    rows = unit_pose_rows(poses)
+    references, weight = joint_rows(q_ref, len(rows), "q_ref"), joint_weights(weights)
     out, status = np.empty((len(rows), 6)), np.empty(len(rows), dtype=np.int64)
     kernels()[1].nearest_rows(arm_vector(model), rows, references, weight, out, status)
     return out
@@ -235,8 +150,8 @@ def ik(model: Any, pose: Any, q_ref: Any, weights: Any = None) -> np.ndarray:
     θ6 stays at q_ref[5] unless the arm cannot reach with it or θ4 would leave its limits. The FK filter runs on the
     joints returned. Raises UnreachablePoseError when no solution lies inside the joint limits, saying why.
     """
-    row = _pose(pose)
-    reference, weight = np.array([joint_floats(q_ref, "q_ref")]), _weights(weights)
+    row = pose_row(pose)
+    reference, weight = np.array([joint_floats(q_ref, "q_ref")]), joint_weights(weights)
     out, status = np.empty((1, 6)), np.empty(1, dtype=np.int64)
     _, nearest, solve = kernels()
     nearest.nearest_rows(arm_vector(model), row, reference, weight, out, status)
@@ -273,7 +188,7 @@ def nearest_variant(model: Any, q: Any, reference: Any) -> np.ndarray:
     """(6,) each joint of ``q`` moved by a multiple of 2π to its value inside the model's limits nearest
     ``reference`` (the rule ``ik`` applies); inf where a joint has none. A variant within LIMIT_ROUNDING past a
     limit is that limit."""
-    angles, references = _joints(q, 1, "q")[0], _joints(reference, 1, "reference")[0]
+    angles, references = joint_rows(q, 1, "q")[0], joint_rows(reference, 1, "reference")[0]
     arm, solve = arm_vector(model), kernels()[2]
     return np.array([solve.closest_variant(float(a), float(r), float(arm[LOWER + j]), float(arm[UPPER + j]),
                                            LIMIT_ROUNDING)[0]
@@ -285,7 +200,7 @@ def joint_variants(model: Any, q: Any) -> np.ndarray:
 
     A variant within LIMIT_ROUNDING past a limit is listed at the limit, as ``ik`` takes it."""
     per_joint = []
-    for angle, low, high in zip(_joints(q, 1, "q")[0].tolist(), model.joint_lower, model.joint_upper, strict=False):
+    for angle, low, high in zip(joint_rows(q, 1, "q")[0].tolist(), model.joint_lower, model.joint_upper, strict=False):
         low, high = max(low, -2.0 * math.pi), min(high, 2.0 * math.pi)
         first = angle + 2.0 * math.pi * math.ceil((low - LIMIT_ROUNDING - angle) / (2.0 * math.pi))
         stop = high + LIMIT_ROUNDING
@@ -312,7 +227,7 @@ def warm() -> None:
         fk.nominal_pose(arm, identity, *q[0].tolist())
         solve.closest_variant(0.0, 0.0, -1.0, 1.0, LIMIT_ROUNDING)
         nearest.all_rows(arm, pose, np.zeros(1), np.empty((1, 8, 6)))
-        nearest.nearest_rows(arm, pose, q, _UNIT_WEIGHTS, np.empty((1, 6)), np.empty(1, dtype=np.int64))
+        nearest.nearest_rows(arm, pose, q, UNIT_WEIGHTS, np.empty((1, 6)), np.empty(1, dtype=np.int64))
         nearest.reach_figures(arm, pose[0], np.empty(6))
         fk.chain_matrices(arm, q, np.empty((1, 7, 4, 4)))
 
