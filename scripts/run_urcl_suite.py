@@ -10,6 +10,18 @@ listen on ports 50001-50004 of every address and its fake primary server on 3000
 network namespace (``unshare -n``; it re-executes itself there), and each case whose fixture starts a fake server
 gets a namespace of its own, without the simulator.
 
+URCL's cases are timed against a real-time controller: a keep-alive written every 100 ms against a 200 ms receive
+timeout, an RTDE package awaited 100 ms, a spline's first 8 ms cycle looked for in the stream. On a shared, loaded
+machine an ordinary process can wait hundreds of milliseconds for a CPU, so by default (``--realtime``) the
+simulator and every case run at the lowest real-time priority (``chrt --rr 1``; URCL raises its own RTDE reader to
+FIFO 99 itself), as a controller runs its loop and as URCL's real-time guide sets up the client's machine.
+``--no-realtime`` runs them as ordinary processes.
+
+URCL up to ``c5d1e26`` (2.14.0) has a defect in its test harness that fails RTDEClientTest's four fake-server
+cases on some builds: its fake RTDE server passes an uninitialised byte count to ``TCPServer::writeUnchecked``,
+which sends from that offset. UR fixed it in URCL PR #573 (``written = 0;`` at the top of ``writeUnchecked``);
+build a URCL that has it (docs/client-compatibility.md).
+
 Not part of the test suite or CI (it needs the outside build). Usage::
 
     scripts/run_urcl_suite.py URCL_BUILD_DIR --model ur5 --version 3.14.3
@@ -83,6 +95,8 @@ def parse_arguments(argv: list[str]) -> argparse.Namespace:
                         help="also run this URCL example (build/examples/NAME ROBOT_IP) after the cases; repeatable")
     parser.add_argument("--timeout", type=float, default=600.0, help="seconds per case (default 600)")
     parser.add_argument("--logs", type=Path, default=None, help="directory for each case's output and the sim's log")
+    parser.add_argument("--realtime", action=argparse.BooleanOptionalAction, default=True,
+                        help="run the simulator and the cases at real-time priority `chrt --rr 1` (default: on)")
     parser.add_argument("--python", default=str(REPOSITORY / ".venv" / "bin" / "python"),
                         help="interpreter that runs sim_ursim (default: the repository's .venv)")
     return parser.parse_args(argv)
@@ -135,8 +149,27 @@ def wait_for_port(host: str, port: int, timeout: float) -> bool:
     return False
 
 
-def start_simulator(options: argparse.Namespace, programs: Path, log_path: Path) -> "subprocess.Popen[bytes]":
-    command = [options.python, "-m", "sim_ursim", "--model", options.model, "--version", options.version,
+REALTIME = ("chrt", "--rr", "1")
+
+
+def realtime_prefix(wanted: bool) -> tuple[str, ...]:
+    """`chrt --rr 1` when real-time priority is wanted and allowed here, else nothing (with a note why)."""
+    if not wanted:
+        return ()
+    try:
+        allowed = subprocess.run([*REALTIME, "true"], capture_output=True).returncode == 0
+    except FileNotFoundError:
+        allowed = False
+    if not allowed:
+        print("run_urcl_suite: real-time priority is not available (`chrt --rr 1` failed: needs CAP_SYS_NICE); "
+              "running as ordinary processes", file=sys.stderr)
+        return ()
+    return REALTIME
+
+
+def start_simulator(options: argparse.Namespace, programs: Path, log_path: Path,
+                    prefix: tuple[str, ...] = ()) -> "subprocess.Popen[bytes]":
+    command = [*prefix, options.python, "-m", "sim_ursim", "--model", options.model, "--version", options.version,
                "--host", options.host, "--programs-dir", str(programs), "--remote-control", "off"]
     log = open(log_path, "w", encoding="utf-8")
     simulator = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, cwd=REPOSITORY)
@@ -155,11 +188,12 @@ def verdict_of(returncode: int, output: str) -> str:
     return "PASS"
 
 
-def run_case(case: Case, host: str, timeout: float, log_dir: Path) -> Outcome:
+def run_case(case: Case, host: str, timeout: float, log_dir: Path, prefix: tuple[str, ...] = ()) -> Outcome:
     command = [*case.command, host] if case.name.startswith("example.") else [*case.command, "--robot_ip", host]
     if case.needs_own_namespace:
         inner = " ".join(shlex.quote(part) for part in command)
         command = ["unshare", "-n", "sh", "-c", f"ip link set lo up && exec {inner}"]
+    command = [*prefix, *command]
     began = time.monotonic()
     try:
         finished = subprocess.run(command, cwd=case.directory, capture_output=True, text=True, timeout=timeout,
@@ -209,11 +243,13 @@ def run_suite(options: argparse.Namespace) -> int:
     programs = (options.programs_dir or default_programs_dir(build, options.model)).resolve()
     log_dir = (options.logs or Path(f"urcl-suite-{options.model}-{time.strftime('%Y%m%d-%H%M%S')}")).resolve()
     log_dir.mkdir(parents=True, exist_ok=True)
-    simulator = start_simulator(options, programs, log_dir / "sim_ursim.log")
+    prefix = realtime_prefix(options.realtime)
+    load_before = os.getloadavg()[0]
+    simulator = start_simulator(options, programs, log_dir / "sim_ursim.log", prefix)
     outcomes = []
     try:
         for number, case in enumerate(cases, 1):
-            outcome = run_case(case, options.host, options.timeout, log_dir)
+            outcome = run_case(case, options.host, options.timeout, log_dir, prefix)
             outcomes.append(outcome)
             print(f"[{number:3d}/{len(cases)}] {outcome.verdict} {case.name} ({outcome.seconds:.1f} s)", flush=True)
             if simulator.poll() is not None:
@@ -222,8 +258,9 @@ def run_suite(options: argparse.Namespace) -> int:
     finally:
         simulator.terminate()
         simulator.wait(10)
-    print_table(outcomes, f"URCL integration suite against sim_ursim {options.model} {options.version} "
-                          f"(logs: {log_dir})")
+    priority = "real-time (chrt --rr 1)" if prefix else "ordinary priority"
+    print_table(outcomes, f"URCL integration suite against sim_ursim {options.model} {options.version}, {priority}, "
+                          f"load average {load_before:.1f} -> {os.getloadavg()[0]:.1f} (logs: {log_dir})")
     return 1 if any(o.verdict == "FAIL" for o in outcomes) or len(outcomes) < len(cases) else 0
 
 

@@ -173,11 +173,14 @@ class Controller:
         began = time.perf_counter()
         with self._lock:
             self._cycle_inputs.apply()
+            # The I/O as the program set it before this cycle's motion: a script thread whose move ends in this cycle
+            # writes its next outputs in the next one, however soon its Python thread wakes.
+            io_version, io_fields = self.io.versioned_snapshot()
             self._cycle += 1
             self._sim_time += dt
             if self._modes.advance(self._sim_time):
                 self._touch()
-            signature = (self._changes, self.io.version, self._q)
+            signature = (self._changes, io_version, self._q)
             if self._at_rest_and_unchanged(signature):
                 state = self._next_idle_snapshot(began)
             else:
@@ -189,8 +192,8 @@ class Controller:
                 if not np.array_equal(new_q, previous_q):
                     self._q = frozen_array(new_q)
                 self._execution_time = time.perf_counter() - began
-                state = self._snapshot(previous_q, dt)
-            self._idle_signature = (self._changes, self.io.version, self._q)
+                state = self._snapshot(previous_q, dt, io_fields)
+            self._idle_signature = (self._changes, io_version, self._q)
             self.joint_history.append(self._q)
             self._publish(state, new_cycle=True)
 
@@ -245,13 +248,15 @@ class Controller:
             self._cycle_changed.wait_for(lambda: self._state.cycle > after_cycle or self._stop_loop.is_set(), timeout)
             return self._cycles.after(after_cycle, lambda state: state.cycle)
 
-    def _snapshot(self, previous_q, dt):
-        """A full snapshot of the present cycle; TCP and elbow speeds by finite difference from previous_q over dt."""
+    def _snapshot(self, previous_q, dt, io_fields=None):
+        """A full snapshot of the present cycle (I/O fields read now unless given); TCP and elbow speeds by finite
+        difference from previous_q over dt."""
         _, frames, _, _ = self._arm.poses_at(self._q)
         tcp_speed, elbow_velocity = self._arm.speeds_between(previous_q, self._q, dt)
         zeros6 = _ZEROS6
         return ControllerState(
-            **self._status_fields(), **self._settings_fields(), **self.io.snapshot_fields(),
+            **self._status_fields(), **self._settings_fields(),
+            **(self.io.snapshot_fields() if io_fields is None else io_fields),
             cycle=self._cycle, timestamp=self._sim_time,
             target_q=self._q, target_qd=self._qd, target_qdd=self._qdd, actual_q=self._q, actual_qd=self._qd,
             actual_current=zeros6, target_current=zeros6, target_moment=zeros6, joint_control_output=zeros6,

@@ -131,6 +131,11 @@ class IOState:
         return (self.standard_digital_inputs | (self.configurable_digital_inputs << 8)
                 | (self.tool_digital_inputs << 16))
 
+    def versioned_snapshot(self) -> tuple[int, dict]:
+        """(version, snapshot_fields()) read together: no write falls between them."""
+        with self._lock:
+            return self.version, self.snapshot_fields()
+
     def snapshot_fields(self) -> dict:
         """The controller snapshot's I/O fields (ControllerState names), read now."""
         return dict(

@@ -1,6 +1,6 @@
 """URScript parser: grammar coverage, precedence, line continuation, positions in errors."""
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sim_ursim.urscript import nodes
@@ -68,6 +68,7 @@ def test_urx_number_formats_and_windows_line_endings():
     assert body[1].name == "x"
 
 
+@settings(deadline=None)  # what the parser makes of the text, not how fast: a loaded machine took 333 ms once
 @given(st.lists(st.integers(-1000, 1000), min_size=1, max_size=8),
        st.lists(st.sampled_from([" ", "\n", "\n    ", " # note\n", "\r\n\t"]), min_size=8, max_size=8))
 def test_line_breaks_inside_brackets_do_not_change_the_list(values, breaks):

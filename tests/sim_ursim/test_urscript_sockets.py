@@ -262,3 +262,45 @@ def test_a_speedj_with_time_that_nothing_follows_ramps_to_rest():
         assert wait_for(lambda: not controller.state().program_running, timeout=10)
         assert wait_for(lambda: not controller.state().motion_active, timeout=5)
         assert max(abs(v) for v in controller.state().actual_qd) < 1e-9
+
+
+# A thread is started, then the main thread reads an integer that is already in its socket: as on a controller,
+# where such a read takes no physical time, the main thread keeps its turn and kills the thread before it ran.
+TURN_PROGRAM = """def keepsTurn():
+  flag = 0
+  seen = 0
+  thread setter():
+    flag = 1
+  end
+  socket_open("{host}", {port}, "s")
+  sleep(0.3)
+  i = 0
+  while i < 20:
+    t = run setter()
+    r = socket_read_binary_integer(1, "s", 1.0)
+    seen = seen + flag
+    kill t
+    flag = 0
+    sync()
+    i = i + 1
+  end
+  write_output_integer_register(0, seen)
+  write_output_integer_register(1, 1)
+end
+"""
+
+
+def test_a_read_of_data_already_there_keeps_the_threads_turn():
+    """URCL's External Control reads a trajectory point and counts it down inside enter_critical; its main thread
+    kills the trajectory thread when the client switches mode. Before, every read let other threads run, so the kill
+    could fall between the two: the point was consumed, still counted, and the clean-up waited 0.5 s for it
+    (URCL's switching_control_mode_with_trajectory_produces_result missed its 500 ms)."""
+    with running_simulator(model="ur5e") as sim, socket.create_server((sim.host, 0)) as server:
+        server.settimeout(10)
+        controller = sim.controller
+        assert controller.run_program(TURN_PROGRAM.format(host=sim.host, port=server.getsockname()[1]), "test")
+        connection, _ = server.accept()
+        with connection:
+            connection.sendall(struct.pack(">20i", *range(20)))
+            assert wait_for(lambda: controller.state().output_int_registers[1] == 1, timeout=10)
+        assert controller.state().output_int_registers[0] == 0, "the started thread ran during reads of ready data"

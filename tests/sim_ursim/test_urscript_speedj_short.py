@@ -6,6 +6,7 @@ a CB3 at a quarter of the commanded speed."""
 import subprocess
 import sys
 import threading
+import time
 
 import numpy as np
 import pytest
@@ -128,3 +129,38 @@ def test_a_thread_streaming_held_speedj_moves_the_arm_every_cycle_while_the_host
     window = speeds[moving[0]:moving[-1] + 1]
     held = int(np.sum(window < 0.1 - 1e-9))
     assert held <= 0.05 * len(window), f"the arm held still in {held} of {len(window)} cycles"
+
+
+STEPS = """def steps():
+  write_output_float_register(1, 100.0)
+  sleep(0.1)
+  i = 1
+  while i < 40:
+    write_output_float_register(1, i)
+    speedj([0.01, 0, 0, 0, 0, 0], 1.0, get_steptime())
+    i = i + 1
+  end
+  write_output_float_register(1, 200.0)
+end
+"""
+
+
+def test_each_cycle_of_held_speedj_steps_carries_the_register_its_step_wrote():
+    """URCL's spline thread writes its spline time to an output register, then runs one speedj per cycle; its test
+    waits for the one package whose time reads below 0.01 (the first step). Before, the thread woke as soon as the
+    cycle had moved its step, while that cycle's snapshot was still being built, and its next write went into it:
+    a third of the values never reached the stream (the first one among them: 'Trajectory didn't start')."""
+    with running_simulator(model="ur5") as sim:
+        controller = sim.controller
+        controller.power_up()
+        last = controller.state().cycle
+        assert controller.run_program(STEPS, "test")
+        written: list[float] = []
+        deadline = time.monotonic() + 10
+        while not written or written[-1] != 200.0:
+            assert time.monotonic() < deadline, "the program did not end within 10 s"
+            states = controller.cycles_after(last, timeout=1)
+            last = states[-1].cycle if states else last
+            written += [float(state.output_double_registers[1]) for state in states]
+    steps = [int(value) for value in written if 0 < value < 100]
+    assert sorted(set(steps)) == list(range(1, 40)), f"steps missing from the cycles: {set(range(1, 40)) - set(steps)}"

@@ -207,8 +207,9 @@ def _read_until(ctx, what, socket_name, timeout, complete):
     """Wait until `complete(buffer)` returns (consumed, result) or the timeout passes / the socket closes.
 
     Returns the result, or None on timeout or a closed socket (noted in `ctx.last_timeout` for the log of a halt
-    that follows, as URCL's External Control script halts on a timed-out read).  The scheduler is released meanwhile
-    and a stopped program ends the wait within POLL seconds.
+    that follows, as URCL's External Control script halts on a timed-out read).  A value already in the socket is
+    taken at once, keeping the thread's turn; otherwise the scheduler is released while the read waits, and a
+    stopped program ends the wait within POLL seconds.
     """
     script_socket = _get(ctx, socket_name)
     if script_socket is None:
@@ -216,14 +217,19 @@ def _read_until(ctx, what, socket_name, timeout, complete):
     timeout = float(timeout) if isinstance(timeout, (int, float)) and not isinstance(timeout, bool) else None
     started = time.monotonic()
     deadline = None if timeout is None or timeout <= 0 else started + timeout
+    if not script_socket.closed:
+        # Data that is already there is read without waiting: no physical time passes, so the thread keeps its
+        # turn and no other script thread runs in between (inside enter_critical, External Control's trajectory
+        # thread reads a point and counts it down before its main thread may kill it).
+        script_socket.receive(0)
+    taken = _take(ctx, script_socket, complete)
+    if taken is not None:
+        return taken[0]
     with ctx.waiting():
         while True:
-            found = complete(script_socket.buffer)
-            if found is not None:
-                consumed, result = found
-                del script_socket.buffer[:consumed]
-                ctx.last_timeout = None
-                return result
+            taken = _take(ctx, script_socket, complete)
+            if taken is not None:
+                return taken[0]
             if script_socket.closed or ctx.cancel.is_set():
                 return None
             remaining = POLL if deadline is None else min(POLL, deadline - time.monotonic())
@@ -237,6 +243,17 @@ def _read_until(ctx, what, socket_name, timeout, complete):
             if complete(script_socket.buffer) is None:
                 _note_timeout(ctx, what, socket_name, timeout, started, script_socket)
                 return None
+
+
+def _take(ctx, script_socket, complete):
+    """(result,) consumed from the socket's buffer when `complete` finds a whole value there, else None."""
+    found = complete(script_socket.buffer)
+    if found is None:
+        return None
+    consumed, result = found
+    del script_socket.buffer[:consumed]
+    ctx.last_timeout = None
+    return (result,)
 
 
 def _note_timeout(ctx, what, socket_name, timeout, started, script_socket):
