@@ -95,5 +95,8 @@ def test_bad_cells_are_one_clear_error(data, fragment):
 
 
 def test_an_unreadable_cell_file_is_a_store_error(tmp_path):
-    with pytest.raises(StoreError, match="cannot read"):
+    with pytest.raises(StoreError, match="no such file. Write it"):
         load_cell(tmp_path / "missing.json")
+    (tmp_path / "folder.json").mkdir()
+    with pytest.raises(StoreError, match="cannot read"):
+        load_cell(tmp_path / "folder.json")
