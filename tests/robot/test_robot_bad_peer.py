@@ -107,14 +107,14 @@ def test_a_broken_rtde_port_gives_one_connection_error_in_bounded_time(fake_port
 
 
 def test_nothing_listening_on_the_rtde_port_is_a_connection_error():
-    from ur3dq.robot.probe import probe_rtde
+    from ur3dq.robot.rtde_wire import probe_rtde
 
     with pytest.raises(RobotConnectionError, match="cannot reach the RTDE interface"):
         probe_rtde("127.0.0.1", port=_free_port(), timeout=TIMEOUT)
 
 
 def test_a_bad_connect_timeout_setting_is_refused(monkeypatch):
-    from ur3dq.robot.probe import connect_timeout
+    from ur3dq.robot.rtde_wire import connect_timeout
 
     monkeypatch.setenv("UR3DQ_CONNECT_TIMEOUT", "nan")
     with pytest.raises(RobotConnectionError, match="UR3DQ_CONNECT_TIMEOUT"):

@@ -7,7 +7,7 @@ import rtde_receive
 from ur3dq.errors import ConnectionLostError, RobotConnectionError
 from ur3dq.robot import state
 from ur3dq.robot.io_state import IOState
-from ur3dq.robot.probe import probe_rtde
+from ur3dq.robot.rtde_wire import probe_rtde
 
 # Only what the driver reads, so no version-gated default variable can make the controller refuse the recipe.
 RTDE_VARIABLES = [

@@ -24,11 +24,17 @@ from collections.abc import Iterable
 
 from ur3dq.errors import RobotConnectionError
 from ur3dq.robot.io_state import io_bit
-from ur3dq.robot.probe import RTDE_PORT, connect_timeout
+from ur3dq.robot.rtde_wire import (
+    DATA,
+    HEADER,
+    PROTOCOL_VERSION,
+    REQUEST_PROTOCOL_VERSION,
+    RTDE_PORT,
+    SETUP_INPUTS,
+    connect_timeout,
+    exchange,
+)
 
-PROTOCOL_VERSION = 2
-_HEADER = struct.Struct(">HB")   # package size (header included), package type
-_REQUEST_PROTOCOL_VERSION, _SETUP_INPUTS, _DATA, _TEXT_MESSAGE = (ord(c) for c in "VIUM")
 #: Each output family's RTDE inputs: the mask of the pins to set, and their bits.
 OUTPUT_INPUTS = {
     "standard": ("standard_digital_output_mask", "standard_digital_output"),
@@ -78,7 +84,7 @@ class RTDEInputs:
         try:
             sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
             deadline = time.monotonic() + timeout
-            if _exchange(sock, _REQUEST_PROTOCOL_VERSION, struct.pack(">H", PROTOCOL_VERSION), deadline)[:1] != b"\1":
+            if exchange(sock, REQUEST_PROTOCOL_VERSION, struct.pack(">H", PROTOCOL_VERSION), deadline)[:1] != b"\1":
                 raise RobotConnectionError(f"{where}: the controller refused RTDE protocol version 2")
             recipes = {f"int {register}": [(f"input_int_register_{register}", "INT32")] for register in self._registers}
             recipes.update({family: [(name, "UINT8") for name in names] for family, names in OUTPUT_INPUTS.items()})
@@ -103,7 +109,7 @@ class RTDEInputs:
                 return False
             body = bytes([self._recipes[purpose]]) + payload
             try:
-                sock.sendall(_HEADER.pack(_HEADER.size + len(body), _DATA) + body)
+                sock.sendall(HEADER.pack(HEADER.size + len(body), DATA) + body)
             except OSError:   # reset, broken pipe, or the controller stopped reading for WRITE_TIMEOUT
                 self._socket = None
                 sock.close()
@@ -159,38 +165,11 @@ class RTDEInputs:
             self._close_socket()
 
 
-def _exchange(sock: socket.socket, kind: int, payload: bytes, deadline: float) -> bytes:
-    """Send a request of type `kind`, return the payload of the controller's reply of the same type (text
-    messages skipped); TimeoutError after `deadline`, ConnectionError when the controller closes."""
-    sock.sendall(_HEADER.pack(_HEADER.size + len(payload), kind) + payload)
-    while True:
-        size, reply_kind = _HEADER.unpack(_receive(sock, _HEADER.size, deadline))
-        body = _receive(sock, size - _HEADER.size, deadline) if size > _HEADER.size else b""
-        if reply_kind == kind:
-            return body
-        if reply_kind != _TEXT_MESSAGE:
-            raise ConnectionError(f"unexpected RTDE package type {reply_kind} in reply to {chr(kind)!r}")
-
-
-def _receive(sock: socket.socket, count: int, deadline: float) -> bytes:
-    data = b""
-    while len(data) < count:
-        remaining = deadline - time.monotonic()
-        if remaining <= 0:
-            raise TimeoutError
-        sock.settimeout(remaining)
-        chunk = sock.recv(count - len(data))
-        if not chunk:
-            raise ConnectionError("the controller closed the connection")
-        data += chunk
-    return data
-
-
 def _set_up(sock: socket.socket, fields: list[tuple[str, str]], deadline: float, where: str) -> int:
     """Set up an input recipe of `fields` ((name, type) pairs); its id, or RobotConnectionError naming the inputs
     the controller refused (IN_USE: another client writes them)."""
     names = [name for name, _ in fields]
-    reply = _exchange(sock, _SETUP_INPUTS, ",".join(names).encode("ascii"), deadline)
+    reply = exchange(sock, SETUP_INPUTS, ",".join(names).encode("ascii"), deadline)
     recipe = reply[0] if reply else 0
     types = reply[1:].decode("ascii", "replace").split(",")
     refused = [f"{name} ({found})" for (name, kind), found in zip(fields, types) if found != kind]
