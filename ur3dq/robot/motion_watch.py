@@ -170,7 +170,8 @@ class MotionWatch:
         gap = self.heartbeat.longest_gap() if self.heartbeat is not None else 0.0
         if gap >= self.watchdog_period:
             return (f": most likely the controller's heartbeat watchdog (ur3dq's heartbeat wrote nothing for "
-                    f"{gap:.3f} s; the watchdog stops a program after {self.watchdog_period:g} s)")
+                    f"{gap:.3f} s; the watchdog stops a program after {self.watchdog_period:g} s): this computer "
+                    "was too busy to keep the heartbeat; end what loads it, then go on")
         return (": the controller stopped it without an error, as when another client stops the program (a "
                 "dashboard or pendant stop)")
 
