@@ -14,6 +14,7 @@ import itertools
 import json
 import re
 import sys
+from collections.abc import Iterable
 
 import numpy as np
 import orjson
@@ -40,6 +41,7 @@ from ur3dq.program.steps import (
     Message,
     Motion,
     RelativeWaypoint,
+    Step,
     Wait,
     WaitInput,
     Waypoint,
@@ -459,80 +461,95 @@ def parse_document(text: str, source: str) -> tuple[int, list]:
         return version, _steps_of(version, entries, text, source)
 
 
-def _steps_of(version: int, batches, text: str, source: str) -> list:
-    """The validated steps of `batches` ((first entry's line number or None, entry objects) in file order),
-    converted CHUNK entries at a time."""
-    label = "pose" if version == SCHEMA_VERSION else "step"
-    names: list = []
-    lines: list = []
+class _StepReader:
+    """Builds the validated steps of a store's entries, naming each failure by its line (or its name)."""
 
-    def who_of(index):
-        name = names[index]
-        return f"{label} #{index + 1}" + (f" {name!r}" if isinstance(name, str) else "")
+    def __init__(self, version: int, text: str, source: str) -> None:
+        self.version, self.text, self.source = version, text, source
+        self.label = "pose" if version == SCHEMA_VERSION else "step"
+        self.names: list = []   # every entry's name (None when it has none), in file order
+        self.lines: list = []   # every entry's line number, or None
+        self.steps: list = []
 
-    def fail(index, error):
-        if index is not None and lines[index] is not None:
-            return StoreError(f"{source}:{lines[index]}: {error}")
-        return StoreError(f"{_where(text, source, names[index] if index is not None else None)}: {error}")
+    def who_of(self, index: int) -> str:
+        name = self.names[index]
+        return f"{self.label} #{index + 1}" + (f" {name!r}" if isinstance(name, str) else "")
 
-    steps: list = []
+    def fail(self, index: int | None, error: object) -> StoreError:
+        if index is not None and self.lines[index] is not None:
+            return StoreError(f"{self.source}:{self.lines[index]}: {error}")
+        name = self.names[index] if index is not None else None
+        return StoreError(f"{_where(self.text, self.source, name)}: {error}")
 
-    def convert(first: int, objects: list):
-        """Append the steps of `objects`, the entries from index `first` on."""
-        if version == SCHEMA_VERSION:   # poses only: the chunk's steps are its waypoints, the names the poses'
-            try:
-                steps.extend(map(Waypoint.of_checked_pose,
-                                 _poses_of_chunk(objects, range(len(objects)), lambda k: who_of(first + k))))
-            except ValueError as error:
-                bad = next((i for i in range(first, first + len(objects)) if str(error).startswith(who_of(i) + ":")),
-                           None)
-                raise fail(bad, error) from None
+    def add_entries(self, line: int | None, objects: list) -> None:
+        """Note the names and lines of `objects`, entries starting at `line` (None: unknown)."""
+        self.names.extend([obj.get("name") if isinstance(obj, dict) else None for obj in objects])
+        self.lines.extend(range(line, line + len(objects)) if line is not None else [None] * len(objects))
+
+    def convert(self, objects: list) -> None:
+        """Append the steps of `objects`, the entries that follow the steps built so far."""
+        first = len(self.steps)
+        if self.version == SCHEMA_VERSION:   # poses only: the chunk's steps are its waypoints
+            indices = list(range(first, first + len(objects)))
+            self.steps.extend(map(Waypoint.of_checked_pose, self._poses(objects, indices)))
             return
         is_pose = [isinstance(obj, dict) and obj.get("type") == "waypoint" for obj in objects]
         pose_indices = [first + k for k, flag in enumerate(is_pose) if flag]
-        pose_objects = [obj for obj, flag in zip(objects, is_pose) if flag]
-        try:
-            poses = iter(_poses_of_chunk(pose_objects, range(len(pose_objects)),
-                                         lambda k: who_of(pose_indices[k])))
-        except ValueError as error:
-            bad = next((i for i in pose_indices if str(error).startswith(who_of(i) + ":")), None)
-            raise fail(bad, error) from None
+        poses = iter(self._poses([obj for obj, flag in zip(objects, is_pose) if flag], pose_indices))
         for index, obj, flag in zip(range(first, first + len(objects)), objects, is_pose):
             try:
-                if flag:
-                    pose = next(poses)
-                    motion = _motion_from(obj, who_of(index))
-                    steps.append(Waypoint.of_checked_pose(pose) if motion is DEFAULT_MOTION
-                                 else Waypoint(pose.name, pose, motion))
-                elif not isinstance(obj, dict):
-                    raise ValueError(f"{who_of(index)}: must be a JSON object")
-                else:
-                    steps.append(step_from_dict(obj, who_of(index)))
+                self.steps.append(self._waypoint(next(poses), obj, index) if flag else self._step(obj, index))
             except ValueError as error:
                 message = str(error)
-                raise fail(index, message if message.startswith(label) else f"{who_of(index)}: {message}") from None
+                raise self.fail(index, message if message.startswith(self.label)
+                                else f"{self.who_of(index)}: {message}") from None
 
+    def _poses(self, objects: list, indices: list[int]) -> list:
+        """The checked poses of the waypoint entries `objects`, whose entry indices are `indices`."""
+        try:
+            return _poses_of_chunk(objects, range(len(objects)), lambda k: self.who_of(indices[k]))
+        except ValueError as error:
+            bad = next((i for i in indices if str(error).startswith(self.who_of(i) + ":")), None)
+            raise self.fail(bad, error) from None
+
+    def _waypoint(self, pose: Pose, obj: dict, index: int) -> Waypoint:
+        motion = _motion_from(obj, self.who_of(index))
+        return Waypoint.of_checked_pose(pose) if motion is DEFAULT_MOTION else Waypoint(pose.name, pose, motion)
+
+    def _step(self, obj: object, index: int) -> Step:
+        if not isinstance(obj, dict):
+            raise ValueError(f"{self.who_of(index)}: must be a JSON object")
+        return step_from_dict(obj, self.who_of(index))
+
+    def check(self) -> None:
+        """Refuse a repeated name or an unsound program, naming the entry."""
+        if len(set(self.names)) != len(self.names):   # every step is built: find the repeat's line
+            seen: set = set()
+            for index, step in enumerate(self.steps):
+                if step.name in seen:
+                    raise self.fail(index, f"{self.label} name {step.name!r} appears twice")
+                seen.add(step.name)
+        try:
+            check_program(self.steps)
+        except ValueError as error:
+            bad = next((i for i, step in enumerate(self.steps) if str(error).startswith(step.who)), None)
+            raise self.fail(bad, error) from None
+
+
+def _steps_of(version: int, batches: Iterable[tuple[int | None, list]], text: str, source: str) -> list:
+    """The validated steps of `batches` ((first entry's line number or None, entry objects) in file order),
+    converted CHUNK entries at a time."""
+    reader = _StepReader(version, text, source)
     pending: list = []   # entries read, not yet converted
     for line, objects in batches:
-        names.extend([obj.get("name") if isinstance(obj, dict) else None for obj in objects])
-        lines.extend(range(line, line + len(objects)) if line is not None else [None] * len(objects))
+        reader.add_entries(line, objects)
         pending.extend(objects)
         while len(pending) >= CHUNK:
-            convert(len(steps), pending[:CHUNK])
+            reader.convert(pending[:CHUNK])
             del pending[:CHUNK]
-    convert(len(steps), pending)
-    if len(set(names)) != len(names):   # every step is built, so `names` are their names; find the repeat's line
-        seen: set = set()
-        for index, step in enumerate(steps):
-            if step.name in seen:
-                raise fail(index, f"{label} name {step.name!r} appears twice")
-            seen.add(step.name)
-    try:
-        check_program(steps)
-    except ValueError as error:
-        bad = next((i for i, step in enumerate(steps) if str(error).startswith(step.who)), None)
-        raise fail(bad, error) from None
-    return steps
+    reader.convert(pending)
+    reader.check()
+    return reader.steps
 
 
 def parse_store(text: str, source: str) -> list[Pose]:

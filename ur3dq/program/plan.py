@@ -206,30 +206,9 @@ def plan_program(model: URModel, steps: Iterable[Step], start_joints: npt.ArrayL
     resolved = resolve_targets(resolve_from if resolve_from is not None else steps)
     waypoints = [step for step in steps if is_waypoint(step)]
     targets = [resolved[step.name] for step in waypoints]
-    batch = _solve_hinted(model, targets, replay_recorded_joints)
-    previous = None if start_joints is None else np.asarray(start_joints, dtype=float)
-    solved = []
-    for index, target in enumerate(targets):
-        q = batch.get(index)
-        if q is None:
-            q = _joints_for(model, target, previous, replay_recorded_joints)
-        solved.append(q)
-        previous = q
+    solved = _solve_targets(model, targets, start_joints, replay_recorded_joints)
     fk_errors, _ = model.fk_errors(solved, [t.coefficients for t in targets], [t.tcp_offset for t in targets])
-    # travel and TCP path of every move at once: (N, 6) joints and (N, 3) TCP positions, the start prepended
-    joints = np.array(solved).reshape(-1, 6)
-    poses = np.array([t.coefficients for t in targets], dtype=float).reshape(-1, 8)
-    if start_joints is not None:
-        joints = np.vstack([np.asarray(start_joints, dtype=float), joints])
-        start_tcp = model.with_tcp(targets[0].tcp_offset).fk(joints[0]) if targets else model.fk(joints[0])
-        poses = np.vstack([start_tcp.to_array(), poses])
-    travels = motion.leading_travels(joints)
-    # a linear/process move's leading "distance": the larger of its TCP path (m) and its rotation (rad), as a
-    # controller times movel
-    metres, radians = dqarray.pose_distance(poses[:-1], poses[1:]) if len(poses) > 1 else (np.zeros(0),) * 2
-    paths = np.maximum(metres, radians)
-    if start_joints is None and targets:  # the first move's start is unknown
-        travels, paths = np.concatenate([[np.nan], travels]), np.concatenate([[np.nan], paths])
+    travels, paths = _leading_distances(model, targets, solved, start_joints)
     limits = (float(np.min(model.max_joint_speed)), float(np.min(model.max_joint_acceleration)))
     # id(Motion) -> _motion_figures: a big program's waypoints share a few Motion objects
     shared: dict[int, tuple[str, float, float, float, tuple[str, ...]]] = {}
@@ -251,6 +230,42 @@ def plan_program(model: URModel, steps: Iterable[Step], start_joints: npt.ArrayL
                                 durations[at][0], durations[at][1], fk_errors[at], clamped))
         at += 1
     return plan
+
+
+def _solve_targets(model: URModel, targets: Sequence[Target], start_joints: npt.ArrayLike | None,
+                   replay_recorded_joints: bool) -> list[np.ndarray]:
+    """The joints of every target, each solved nearest the one before (the first nearest `start_joints`)."""
+    batch = _solve_hinted(model, targets, replay_recorded_joints)
+    previous = None if start_joints is None else np.asarray(start_joints, dtype=float)
+    solved = []
+    for index, target in enumerate(targets):
+        q = batch.get(index)
+        if q is None:
+            q = _joints_for(model, target, previous, replay_recorded_joints)
+        solved.append(q)
+        previous = q
+    return solved
+
+
+def _leading_distances(model: URModel, targets: Sequence[Target], solved: Sequence[np.ndarray],
+                       start_joints: npt.ArrayLike | None) -> tuple[np.ndarray, np.ndarray]:
+    """Each move's leading joint travel (rad) and TCP "distance", both (N,), NaN for a first move from nowhere.
+
+    A linear/process move's distance is the larger of its TCP path (m) and its rotation (rad), as a controller
+    times movel.
+    """
+    joints = np.array(solved).reshape(-1, 6)
+    poses = np.array([t.coefficients for t in targets], dtype=float).reshape(-1, 8)
+    if start_joints is not None:
+        joints = np.vstack([np.asarray(start_joints, dtype=float), joints])
+        start_tcp = model.with_tcp(targets[0].tcp_offset).fk(joints[0]) if targets else model.fk(joints[0])
+        poses = np.vstack([start_tcp.to_array(), poses])
+    travels = motion.leading_travels(joints)
+    metres, radians = dqarray.pose_distance(poses[:-1], poses[1:]) if len(poses) > 1 else (np.zeros(0),) * 2
+    paths = np.maximum(metres, radians)
+    if start_joints is None and targets:  # the first move's start is unknown
+        travels, paths = np.concatenate([[np.nan], travels]), np.concatenate([[np.nan], paths])
+    return travels, paths
 
 
 def _moves_next(steps: Sequence[Step], moving: Sequence[bool]) -> list[bool]:
