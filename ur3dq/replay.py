@@ -148,6 +148,26 @@ def choose_joints(model, pose: Pose, previous, replay_recorded_joints: bool,
     return q, source, len(solutions)
 
 
+def _choose_all(model, poses: Sequence[Pose], start: np.ndarray | None, replay_recorded_joints: bool,
+                max_joint_travel: float | None) -> list[tuple[np.ndarray, str, int]]:
+    """(joints, source, solutions) of each pose, each nearest the one before (the first nearest `start`)."""
+    solvers: dict[tuple[float, ...], Any] = {}
+    batch = {} if replay_recorded_joints else _solve_recorded(model, poses, solvers)
+    chosen: list[tuple[np.ndarray, str, int]] = []
+    for index, pose in enumerate(poses):
+        found = batch.get(index)
+        if found is None:
+            previous = chosen[-1][0] if chosen else start
+            try:
+                found = choose_joints(model, pose, previous, replay_recorded_joints, solvers)
+            except (UnreachablePoseError, JointLimitError, ValueError):
+                # the poses before come first, as pose by pose: a move among them that swings too far
+                _check_travel(poses, _travels(start, [q for q, *_ in chosen]), max_joint_travel)
+                raise
+        chosen.append(found)
+    return chosen
+
+
 def plan_replay(model, poses: Sequence[Pose], start_joints=None, a: float = 1.4, v: float = 1.05,
                 replay_recorded_joints: bool = False, max_joint_travel: float | None = None) -> list[PlanStep]:
     """The replay plan of `poses`: a joint target for each, chosen before the arm moves.
@@ -186,21 +206,8 @@ def plan_replay(model, poses: Sequence[Pose], start_joints=None, a: float = 1.4,
     [('pick', 'IK nearest recorded')]
     """
     motion.trapezoid_durations([], a, v)   # a and v checked before any IK (the durations come last)
-    solvers: dict[tuple[float, ...], Any] = {}
-    batch = {} if replay_recorded_joints else _solve_recorded(model, poses, solvers)
     start = None if start_joints is None else np.asarray(start_joints, dtype=float)
-    chosen: list[tuple[np.ndarray, str, int]] = []   # (joints, source, solutions) per pose
-    for index, pose in enumerate(poses):
-        found = batch.get(index)
-        if found is None:
-            previous = chosen[-1][0] if chosen else start
-            try:
-                found = choose_joints(model, pose, previous, replay_recorded_joints, solvers)
-            except (UnreachablePoseError, JointLimitError, ValueError):
-                # the poses before come first, as pose by pose: a move among them that swings too far
-                _check_travel(poses, _travels(start, [q for q, *_ in chosen]), max_joint_travel)
-                raise
-        chosen.append(found)
+    chosen = _choose_all(model, poses, start, replay_recorded_joints, max_joint_travel)
     joints = [q for q, *_ in chosen]
     travels = _travels(start, joints)
     _check_travel(poses, travels, max_joint_travel)

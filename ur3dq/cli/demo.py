@@ -6,7 +6,9 @@ from __future__ import annotations
 import contextlib
 import math
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 import numpy as np
@@ -22,9 +24,12 @@ from ur3dq.cli.program_workflow import plan_columns, plan_rows
 from ur3dq.errors import RobotError
 from ur3dq.program.runner import run
 from ur3dq.program.steps import DigitalOut, Motion, RelativeWaypoint, Wait, Waypoint
-from ur3dq.replay import execute_plan, plan_replay, read_pose
+from ur3dq.replay import Reached, execute_plan, plan_replay, read_pose
 from ur3dq.store import PoseStore
 from ur3dq.units import ANGULAR_ACCELERATION, ANGULAR_SPEED, Units
+
+if TYPE_CHECKING:   # the driver loads both client libraries: imported only when a robot command runs
+    from ur3dq.robot import Robot
 
 # Where the demo parks the arm and the places it records (rad): distinct, comfortably reachable, away from the
 # wrist singularity (wrist 2 ≠ 0, π), and each within π of the last so no move is refused for its travel.
@@ -93,13 +98,7 @@ def demo(settings: Settings, save, speed, acceleration, tolerance_mm, tolerance_
                                           settings.units)
             say(f"[bold]2.[/bold] Moving the arm to {len(DEMO_PLACES)} places and recording each into "
                 f"{escape(str(store.path))}")
-            recorded = []
-            for index, place in enumerate(DEMO_PLACES, start=1):
-                robot.movej(np.array(place), a=a, v=v)
-                stored = store.add(read_pose(robot, f"demo-{index}", note="recorded by ur3dq demo"),
-                                   number_if_taken=True)
-                recorded.append(stored.name)
-                say(f"   recorded {stored.name} at TCP {pose_vector_text(stored.ur_pose, settings.units)}")
+            recorded = _record_places(robot, store, a, v, say, settings.units)
             say(f"[bold]3.[/bold] Parking the arm at {angles_text(DEMO_PARK, settings.units)}")
             robot.movej(np.array(DEMO_PARK), a=a, v=v)
             say("[bold]4.[/bold] Replaying the store as run-poses does (IK of each dual quaternion, FK-checked)")
@@ -112,6 +111,24 @@ def demo(settings: Settings, save, speed, acceleration, tolerance_mm, tolerance_
             say(escape(f"   written to {program_store.path} (run it again with `ur3dq --store {program_store.path} "
                        "run-poses`)"))
             run_pick_and_place(robot, store, program_store, recorded[0], recorded[1], story)
+    _report(settings, results, say, tolerance_mm, tolerance_deg, save)
+
+
+def _record_places(robot: Robot, store: PoseStore, a: float, v: float, say: Callable[..., None],
+                   units: Units) -> list[str]:
+    """Move to each of DEMO_PLACES and record it into `store`; the names recorded."""
+    recorded = []
+    for index, place in enumerate(DEMO_PLACES, start=1):
+        robot.movej(np.array(place), a=a, v=v)
+        stored = store.add(read_pose(robot, f"demo-{index}", note="recorded by ur3dq demo"), number_if_taken=True)
+        recorded.append(stored.name)
+        say(f"   recorded {stored.name} at TCP {pose_vector_text(stored.ur_pose, units)}")
+    return recorded
+
+
+def _report(settings: Settings, results: list[Reached], say: Callable[..., None], tolerance_mm: float,
+            tolerance_deg: float, save: Path | None) -> None:
+    """Show where the arm ended vs each recorded pose; exit EXIT_NOT_REACHED if any missed the tolerance."""
     missed = [r for r in results
               if r.error_m * 1000 > tolerance_mm or math.degrees(r.error_rad) > tolerance_deg]
     if settings.json:
