@@ -89,6 +89,35 @@ def test_commands_without_kinematics_never_import_numba(command, tmp_path):
     assert result.stdout.strip().splitlines()[-1] == "false", (result.stdout, result.stderr)
 
 
+#: Runs a CLI command in this process and prints its JSON answer's solutions and whether numba was imported.
+ONE_POSE = """
+import contextlib, io, json, sys
+from ur3dq.cli import main
+out = io.StringIO()
+with contextlib.redirect_stdout(out):
+    try:
+        main(sys.argv[1:])
+    except SystemExit:
+        pass
+print(json.dumps({"answer": json.loads(out.getvalue()), "numba": "numba" in sys.modules}))
+"""
+
+
+@pytest.mark.parametrize("command", [["fk", "0.1", "-1.2", "1", "-1.4", "-1.57", "0.2", "--json"],
+                                     ["ik", "0.3", "0.1", "0.2", "0", "3.1", "0", "--json"]])
+def test_one_pose_commands_run_the_kernels_as_python_in_their_own_process(command, tmp_path):
+    """`ur3dq fk` and `ur3dq ik` solve one pose: the kernels run interpreted (no numba loaded), with the answer the
+    compiled kernels give; NUMBA_DISABLE_JIT=0 keeps them compiled."""
+    store = ["--store", str(tmp_path / "poses.json")]
+    interpreted = json.loads(run_python(ONE_POSE, *store, *command).stdout.splitlines()[-1])
+    compiled = json.loads(run_python(ONE_POSE, *store, *command, env={"NUMBA_DISABLE_JIT": "0"}).stdout
+                          .splitlines()[-1])
+    assert (interpreted["numba"], compiled["numba"]) == (False, True)
+    key = "solutions" if command[0] == "ik" else "ur_pose"
+    assert len(interpreted["answer"][key]) == len(compiled["answer"][key]) > 0
+    np.testing.assert_allclose(interpreted["answer"][key], compiled["answer"][key], rtol=0, atol=1e-12)
+
+
 def test_the_kinematics_import_numba_only_when_a_kernel_runs():
     code = ("import sys\nfrom ur3dq.kinematics import robot_model, ur_ik\nfrom ur3dq import pathcheck, replay\n"
             "model = robot_model('ur3', dh_deltas={'a': [1e-4] * 6})\nbefore = 'numba' in sys.modules\n"

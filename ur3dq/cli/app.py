@@ -293,8 +293,24 @@ def quiet_client_libraries(debug):
         logging.getLogger(name).setLevel(logging.NOTSET if debug else logging.ERROR)
 
 
+#: Whether this process is the `ur3dq` command itself (main() ran), not a program that calls the CLI's functions.
+_OWN_PROCESS = False
+
+
+def solving_one_pose() -> None:
+    """Say that the command solves one pose: in the `ur3dq` process itself, its kinematics kernels then run as the
+    Python they are (milliseconds), instead of loading numba and the compiled kernels' cache (about half a second
+    of CPU). This uses numba's own switch, NUMBA_DISABLE_JIT, which the kernels read when their modules are first
+    imported; set it to 0 to keep compiled kernels. A program that calls the CLI in its own process keeps what it
+    has."""
+    if _OWN_PROCESS and "numba" not in sys.modules:
+        os.environ.setdefault("NUMBA_DISABLE_JIT", "1")
+
+
 def main(argv=None) -> None:
     """Entry point of the `ur3dq` command: run the CLI; any error becomes `Error: ...` on stderr and an exit code."""
+    global _OWN_PROCESS
+    _OWN_PROCESS = True
     quiet_client_libraries(bool(os.environ.get("UR3DQ_DEBUG")))
     try:
         with polite_signals_interrupt():
