@@ -28,6 +28,7 @@ import argparse
 import math
 import platform
 import time
+from collections.abc import Callable
 
 import numpy as np
 import ur_analytic_ik
@@ -39,6 +40,7 @@ from sim_ursim.calibration import factory_calibration
 from sim_ursim.models import robot_model as simulator_model
 from ur3dq import dqarray
 from ur3dq.kinematics import robot_model, robot_model_from_dh, ur_ik
+from ur3dq.kinematics.models import URModel
 
 SINGLE_CALLS = 500
 
@@ -124,22 +126,42 @@ def main() -> None:
     args = parser.parse_args()
     if args.passes < 1 or args.batch < 1:
         parser.error("--passes and --batch must be at least 1")
-
     model = robot_model(args.model)
+    rng = np.random.default_rng(0)
+    singles = single_calls(model, rng)   # drawn first: the same poses as before the batches were added
+    batch_joints = rng.uniform(-math.pi, math.pi, (args.batch, 6))
+    batch_poses = model.fk_batch(batch_joints)
+    batch_references = batch_joints + rng.normal(0.0, 0.05, batch_joints.shape)
+    timings = seconds_per_pose({
+        **singles,
+        "FK  ur3dq fk_batch": (lambda: model.fk_batch(batch_joints), args.batch),
+        "IK  ur3dq ik_all_batch (all, FK-filtered)": (lambda: ur_ik.ik_all_batch(model, batch_poses), args.batch),
+        "IK  ur3dq ik_batch (nearest q_ref)": (lambda: ur_ik.ik_batch(model, batch_poses, batch_references),
+                                               args.batch),
+    }, args.passes)
+    console = Console(width=170)
+    table = Table(title=f"{model.name}: CPU time per pose (µs), best of {args.passes} interleaved passes")
+    table.add_column("measurement")
+    table.add_column("µs / pose", justify="right")
+    for name, seconds in timings.items():
+        table.add_row(name, f"{seconds * 1e6:.2f}")
+    console.print(table)
+    console.print("machine: " + machine())
+    console.print(goals_table(model, timings, args.passes))
+    console.print(residual_line(model, batch_poses))
+
+
+def single_calls(model: URModel, rng: np.random.Generator) -> dict[str, tuple[Callable[[], object], int]]:
+    """The single-call measurements of ur3dq and its peers (ur-analytic-ik, dqrobotics) on the same poses."""
     oracle = getattr(ur_analytic_ik, model.name)
     arm = dqrobotics_arm(model)
-    rng = np.random.default_rng(0)
     joints = rng.uniform(-math.pi, math.pi, (SINGLE_CALLS, 6))
     references = joints + rng.normal(0.0, 0.05, joints.shape)
     poses = [model.fk(q) for q in joints]
     matrices = [pose.to_matrix() for pose in poses]
     assert np.allclose(arm.fkm(joints[0]).vec8() * np.sign(arm.fkm(joints[0]).vec8()[0]),
                        dqarray.canonical(poses[0].to_array()), atol=1e-12), "dqrobotics arm differs from ur3dq's"
-
-    batch_joints = rng.uniform(-math.pi, math.pi, (args.batch, 6))
-    batch_poses = model.fk_batch(batch_joints)
-    batch_references = batch_joints + rng.normal(0.0, 0.05, batch_joints.shape)
-    timings = seconds_per_pose({
+    return {
         "FK  ur3dq model.fk(q)": per_call(model.fk, [(q,) for q in joints]),
         "FK  ur-analytic-ik forward_kinematics": per_call(oracle.forward_kinematics, [tuple(q) for q in joints]),
         "FK  dqrobotics fkm(q)": per_call(arm.fkm, [(q,) for q in joints]),
@@ -150,22 +172,11 @@ def main() -> None:
                                                                                            strict=True)]),
         "IK  ur3dq ik_all(pose)": per_call(lambda pose: ur_ik.ik_all(model, pose), [(p,) for p in poses]),
         "IK  ur-analytic-ik inverse_kinematics (all)": per_call(oracle.inverse_kinematics, [(m,) for m in matrices]),
-        "FK  ur3dq fk_batch": (lambda: model.fk_batch(batch_joints), args.batch),
-        "IK  ur3dq ik_all_batch (all, FK-filtered)": (lambda: ur_ik.ik_all_batch(model, batch_poses), args.batch),
-        "IK  ur3dq ik_batch (nearest q_ref)": (lambda: ur_ik.ik_batch(model, batch_poses, batch_references),
-                                               args.batch),
-    }, args.passes)
-    solutions = ur_ik.ik_all_batch(model, batch_poses)
+    }
 
-    console = Console(width=170)
-    table = Table(title=f"{model.name}: CPU time per pose (µs), best of {args.passes} interleaved passes")
-    table.add_column("measurement")
-    table.add_column("µs / pose", justify="right")
-    for name, seconds in timings.items():
-        table.add_row(name, f"{seconds * 1e6:.2f}")
-    console.print(table)
 
-    console.print("machine: " + machine())
+def goals_table(model: URModel, timings: dict[str, float], passes: int) -> Table:
+    """Each goal: ours vs the named peer in the same run, the ratio, the target and whether it is met."""
     goals = Table(title="goals: ours vs the named peer call, CPU time per pose, best of the passes")
     for column in ("goal", "ours", "µs", "peer", "µs", "ratio", "target", "met"):
         goals.add_column(column)
@@ -185,7 +196,7 @@ def main() -> None:
                       f"{timings[peer] * 1e6:.2f}", f"{ratio:.2f}×",
                       f"{'≤' if sense == 'at most' else '≥'} {target:g}×",
                       "yes" if met else "NO")
-    calibrated, recovered = calibrated_figures(model.name, args.passes)
+    calibrated, recovered = calibrated_figures(model.name, passes)
     for call, limit, peer in (("ik", 30e-6, "IK  ur-analytic-ik inverse_kinematics_closest"),
                               ("ik_all", 60e-6, "IK  ur-analytic-ik inverse_kinematics (all)"),
                               ("ik_batch", 3e-6, "IK  ur-analytic-ik inverse_kinematics_closest")):
@@ -195,14 +206,18 @@ def main() -> None:
                       "yes" if calibrated[call] <= limit else "NO")
     goals.add_row("calibrated ik(fk(q), q) recovers q", "ur3dq ik", f"{recovered:.1%}", "", "", "", "100 %",
                   "yes" if recovered == 1.0 else "NO")
-    console.print(goals)
+    return goals
 
+
+def residual_line(model: URModel, batch_poses: np.ndarray) -> str:
+    """How many solutions a pose of the batch has on average, and the worst FK residual among them."""
+    solutions = ur_ik.ik_all_batch(model, batch_poses)
     found = np.isfinite(solutions[..., 0])
     fk = model.fk_batch(np.where(found[..., None], solutions, 0.0).reshape(-1, 6)).reshape(found.shape + (8,))
     metres, radians = dqarray.pose_distance(fk[found], np.repeat(batch_poses[:, None], 8, axis=1)[found])
-    console.print(f"{args.batch} poses: {found.sum() / args.batch:.3f} solutions per pose on average; "
-                  f"FK residual of every solution ≤ {metres.max():.2e} m, {radians.max():.2e} rad "
-                  f"(filter {ur_ik.FK_TOLERANCE_M:g} m / {ur_ik.FK_TOLERANCE_RAD:g} rad)")
+    return (f"{len(batch_poses)} poses: {found.sum() / len(batch_poses):.3f} solutions per pose on average; "
+            f"FK residual of every solution ≤ {metres.max():.2e} m, {radians.max():.2e} rad "
+            f"(filter {ur_ik.FK_TOLERANCE_M:g} m / {ur_ik.FK_TOLERANCE_RAD:g} rad)")
 
 
 if __name__ == "__main__":
