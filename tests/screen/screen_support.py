@@ -10,7 +10,6 @@ import shutil
 import signal
 import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
 
@@ -64,10 +63,11 @@ def ur3dq_command(*arguments: str, store: Path, host: str | None = None) -> list
     return command + list(arguments)
 
 
-def environment() -> dict:
-    """The environment of a subprocess: no background simulator found by accident, the colour-free console."""
-    state = tempfile.mkdtemp(prefix="ur3dq-screen-state-")
-    return {**os.environ, "UR3DQ_STATE_DIR": state, "NO_COLOR": "1", "COLUMNS": "160"}
+def environment(state: Path) -> dict:
+    """The environment of a subprocess: its own state directory `state` (in the test's temporary directory, so no
+    background simulator is found by accident and nothing is left behind), the colour-free console."""
+    state.mkdir(parents=True, exist_ok=True)
+    return {**os.environ, "UR3DQ_STATE_DIR": str(state), "NO_COLOR": "1", "COLUMNS": "160"}
 
 
 @contextlib.contextmanager
@@ -78,7 +78,8 @@ def served(host: str | None, store: Path, log: Path, *options: str, timeout: flo
     started = time.monotonic()
     with open(log, "wb") as sink:
         command = ur3dq_command("serve", "--port", "0", "--deg", "--mm", *options, store=store, host=host)
-        process = subprocess.Popen(command, stdout=sink, stderr=subprocess.STDOUT, env=environment())
+        process = subprocess.Popen(command, stdout=sink, stderr=subprocess.STDOUT,
+                                   env=environment(log.parent / "state"))
     try:
         url = None
         deadline = time.monotonic() + timeout

@@ -51,7 +51,7 @@ class Cell:
 
     def cli(self, *arguments: str) -> subprocess.CompletedProcess:
         return subprocess.run(ur3dq_command(*arguments, store=self.store), capture_output=True, text=True,
-                              timeout=60, env=environment(), check=True)
+                              timeout=60, env=environment(self.store.parent / "state"), check=True)
 
 
 @pytest.fixture(scope="module")
