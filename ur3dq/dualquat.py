@@ -67,6 +67,20 @@ def multiply_coefficients(a: tuple[Any, ...], b: tuple[Any, ...]) -> tuple[Any, 
     )
 
 
+def translation_coefficients(c: tuple[Any, ...]) -> tuple[Any, ...]:
+    """t = vec(2·d·r*) of a unit 8-tuple (the vector part: no 4-vector is built for the discarded scalar), a 3-tuple;
+    floats or broadcastable arrays."""
+    rw, rx, ry, rz, dw, dx, dy, dz = c
+    return (2.0 * (-dw * rx + dx * rw - dy * rz + dz * ry), 2.0 * (-dw * ry + dx * rz + dy * rw - dz * rx),
+            2.0 * (-dw * rz - dx * ry + dy * rx + dz * rw))
+
+
+def z_axis_coefficients(c: tuple[Any, ...]) -> tuple[Any, ...]:
+    """The frame's z axis r·k·r* (the rotation matrix's third column) of a unit 8-tuple (or 4-tuple), a 3-tuple."""
+    w, x, y, z = c[0], c[1], c[2], c[3]
+    return 2.0 * (x * z + w * y), 2.0 * (y * z - w * x), 1.0 - 2.0 * (x * x + y * y)
+
+
 class DualQuaternion:
     """A dual quaternion real + ε·dual; as a pose, σ = r + ε·½·t·r (rotate, then translate, parent frame).
 
@@ -203,13 +217,7 @@ class DualQuaternion:
     @property
     def translation(self) -> np.ndarray:
         """Translation t = 2·dual·real* in the parent frame, metres."""
-        rw, rx, ry, rz, dw, dx, dy, dz = self._c
-        # Vector part of 2·d·r*, in floats: this accessor sits on the pose-comparison path.
-        return np.array((
-            2.0 * (-dw * rx + dx * rw - dy * rz + dz * ry),
-            2.0 * (-dw * ry + dx * rz + dy * rw - dz * rx),
-            2.0 * (-dw * rz - dx * ry + dy * rx + dz * rw),
-        ))
+        return np.array(translation_coefficients(self._c))
 
     def to_array(self) -> np.ndarray:
         """The 8 coefficients [rw rx ry rz dw dx dy dz]."""

@@ -29,7 +29,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ur3dq import dqarray
-from ur3dq.dualquat import DualQuaternion, multiply_coefficients
+from ur3dq.dualquat import DualQuaternion, multiply_coefficients, translation_coefficients, z_axis_coefficients
 from ur3dq.real_numbers import real_array
 
 REVOLUTE = "revolute"
@@ -328,12 +328,9 @@ class SerialChain:
         pose = self._constants[0]
         directions, points = [], []
         for i, value in enumerate(q):
-            # The axis of J_i is the local z axis of the running product just before J_i: r·(0, 0, 0, 1)·r*, and
-            # the frame's origin 2·d·r* lies on it. Written on floats: the DLS loop calls this once per pass.
-            w, x, y, z, dw, dx, dy, dz = pose
-            directions.append((2.0 * (x * z + w * y), 2.0 * (y * z - w * x), 1.0 - 2.0 * (x * x + y * y)))
-            points.append((2.0 * (-dw * x + dx * w - dy * z + dz * y), 2.0 * (-dw * y + dx * z + dy * w - dz * x),
-                           2.0 * (-dw * z - dx * y + dy * x + dz * w)))
+            # The axis of J_i is the local z axis of the running product just before J_i, through its origin.
+            directions.append(z_axis_coefficients(pose))
+            points.append(translation_coefficients(pose))
             pose = multiply_coefficients(self._after_joint(i, pose, float(value)), self._constants[i + 1])
         return np.array(directions), np.array(points)
 

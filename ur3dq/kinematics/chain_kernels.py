@@ -1,8 +1,11 @@
 """Compiled forward kinematics of a :class:`~ur3dq.kinematics.chain.SerialChain`'s product form, with its joint axes.
 
 The arrays are the chain's :meth:`~ur3dq.kinematics.chain.SerialChain.product_form`; poses are 8-tuples of floats
-(rw rx ry rz dw dx dy dz). The joint motion and the dual-quaternion product are the library's own leaf functions
-(:func:`~ur3dq.kinematics.chain.joint_motion`, :func:`~ur3dq.dualquat.multiply_coefficients`), compiled here.
+(rw rx ry rz dw dx dy dz). The joint motion, the dual-quaternion product and the read-out of a frame's z axis and
+origin are the library's own leaf functions (:func:`~ur3dq.kinematics.chain.joint_motion`,
+:func:`~ur3dq.dualquat.multiply_coefficients`, :func:`~ur3dq.dualquat.z_axis_coefficients`,
+:func:`~ur3dq.dualquat.translation_coefficients`), compiled here: the reference (SerialChain) and this kernel share
+every equation.
 
 Example
 -------
@@ -19,12 +22,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from ur3dq.dualquat import multiply_coefficients
+from ur3dq.dualquat import multiply_coefficients, translation_coefficients, z_axis_coefficients
 from ur3dq.kinematics.chain import joint_motion
 from ur3dq.kinematics.jit import kernel
 
 multiply = kernel(multiply_coefficients)
 move_joint = kernel(joint_motion)
+translation_of = kernel(translation_coefficients)
+z_axis_of = kernel(z_axis_coefficients)
 
 
 @kernel
@@ -34,25 +39,14 @@ def row_of(array: np.ndarray, i: int) -> tuple[float, ...]:
 
 
 @kernel
-def translation_of(pose: tuple[float, ...]) -> tuple[float, ...]:
-    """t = vec(2·d·r*) of a unit 8-tuple, as a 3-tuple."""
-    rw, rx, ry, rz, dw, dx, dy, dz = pose
-    return (2.0 * (-dw * rx + dx * rw - dy * rz + dz * ry), 2.0 * (-dw * ry + dx * rz + dy * rw - dz * rx),
-            2.0 * (-dw * rz - dx * ry + dy * rx + dz * rw))
-
-
-@kernel
 def chain_axes(constants: np.ndarray, revolute: np.ndarray, offsets: np.ndarray, q: np.ndarray,
                directions: np.ndarray, points: np.ndarray) -> tuple[float, ...]:
     """End pose σ(q) (8-tuple); fills ``directions`` and ``points`` (n, 3) with every joint's unit axis and a point
     on it, base frame: the local z axis r·k·r* and the origin of the running product just before the joint."""
     pose = row_of(constants, 0)
     for i in range(q.shape[0]):
-        w, x, y, z = pose[0], pose[1], pose[2], pose[3]
-        directions[i, 0] = 2.0 * (x * z + w * y)
-        directions[i, 1] = 2.0 * (y * z - w * x)
-        directions[i, 2] = 1.0 - 2.0 * (x * x + y * y)
-        origin = translation_of(pose)
-        points[i, 0], points[i, 1], points[i, 2] = origin[0], origin[1], origin[2]
+        direction, origin = z_axis_of(pose), translation_of(pose)
+        for k in range(3):
+            directions[i, k], points[i, k] = direction[k], origin[k]
         pose = multiply(move_joint(pose, revolute[i], q[i] + offsets[i]), row_of(constants, i + 1))
     return pose

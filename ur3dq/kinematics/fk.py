@@ -11,6 +11,7 @@ import math
 import numpy as np
 
 from ur3dq.kinematics.arm import DH, LENGTHS
+from ur3dq.kinematics.chain_kernels import translation_of
 from ur3dq.kinematics.jit import kernel
 
 Quaternion = tuple[float, float, float, float]
@@ -42,9 +43,8 @@ def rotation_matrix(q: Quaternion) -> Matrix:
 @kernel
 def pair_of(c: np.ndarray) -> Pair:
     """(qw, qx, qy, qz, px, py, pz) of a unit dual quaternion's 8 coefficients: p = 2·d·r*."""
-    rw, rx, ry, rz, dw, dx, dy, dz = c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]
-    return (rw, rx, ry, rz, 2.0 * (-dw * rx + dx * rw - dy * rz + dz * ry),
-            2.0 * (-dw * ry + dx * rz + dy * rw - dz * rx), 2.0 * (-dw * rz - dx * ry + dy * rx + dz * rw))
+    p = translation_of((c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]))
+    return (c[0], c[1], c[2], c[3], p[0], p[1], p[2])
 
 
 @kernel

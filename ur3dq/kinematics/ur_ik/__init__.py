@@ -61,9 +61,11 @@ _BLOCK = 4096   # poses per block of closed_form_poses: its tangents stay in the
 def kernels() -> tuple[ModuleType, ModuleType, ModuleType]:
     """The compiled kernel modules (fk, nearest, solve), imported on first use: they load numba, and the first use
     after an install compiles them (once per cache, saying so on stderr; ur3dq.kinematics.jit)."""
-    from ur3dq.kinematics import arm, fk, jit
+    from ur3dq import dualquat
+    from ur3dq.kinematics import arm, chain, chain_kernels, fk, jit
     from ur3dq.kinematics.ur_ik import nearest, solve
-    sources = sorted(Path(__file__).parent.glob("*.py")) + [Path(fk.__file__), Path(arm.__file__), Path(jit.__file__)]
+    sources = sorted(Path(__file__).parent.glob("*.py")) + [Path(str(module.__file__)) for module in (
+        fk, chain_kernels, chain, dualquat, arm, jit)]
     jit.warm_once("kinematics", tuple(str(path) for path in sources), warm)
     return fk, nearest, solve
 
