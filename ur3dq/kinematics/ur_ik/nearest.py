@@ -30,7 +30,7 @@ SPLIT_TOLERANCE = 1e-12
 def limit_excess(arm: np.ndarray, angle: float, reference: float, joint: int) -> float:
     """How far (rad, signed towards the inside) the variant of ``angle`` nearest ``reference`` lies past joint
     ``joint``'s limits beyond LIMIT_ROUNDING; 0 inside."""
-    centre = reference + equations.remainder(angle - reference, TWO_PI)
+    centre = solve.nearest_turn(angle, reference)
     lower, upper = float(arm[LOWER + joint]), float(arm[UPPER + joint])
     if centre < lower - LIMIT_ROUNDING:
         return lower - centre
@@ -63,7 +63,7 @@ def split_within_limits(arm: np.ndarray, goal: np.ndarray, row: np.ndarray, slot
             return
         moved[1], moved[2] = equations.shoulder_elbow(arm, x4, z4, cos3, 1.0 - 2.0 * (slot % 2))
         moved[3], moved[5] = theta234 + shift - moved[1] - moved[2], row[5] + sense * shift
-        centre = reference[3] + equations.remainder(moved[3] - reference[3], TWO_PI)
+        centre = solve.nearest_turn(moved[3], reference[3])
         limit = arm[LOWER + 3] if excess > 0.0 else arm[UPPER + 3]
         remaining = limit - centre
         if abs(remaining) <= SPLIT_TOLERANCE:

@@ -36,6 +36,12 @@ def wrap(angle: float) -> float:
 
 
 @kernel
+def nearest_turn(angle: float, reference: float) -> float:
+    """angle + 2πk nearest ``reference`` (rad), limits aside (IEEE remainder: exact; NaN stays NaN)."""
+    return reference + equations.remainder(angle - reference, TWO_PI)
+
+
+@kernel
 def closest_variant(angle: float, reference: float, lower: float, upper: float, rounding: float) -> tuple[float, bool]:
     """(angle + 2πk inside [lower, upper] nearest ``reference`` (rad), whether that is a limit the variant nearest
     of all was clamped onto): a variant within ``rounding`` past a limit is the limit (a joint at ±2π whose solved
@@ -43,7 +49,7 @@ def closest_variant(angle: float, reference: float, lower: float, upper: float, 
     separable and the limits are per joint."""
     if angle != angle:
         return math.inf, False
-    centre = reference + equations.remainder(angle - reference, TWO_PI)
+    centre = nearest_turn(angle, reference)
     if lower <= centre <= upper:
         return centre, False
     if lower - rounding <= centre <= upper + rounding:
