@@ -71,15 +71,7 @@ def check_path(model: URModel, plan: PathPlan, cell: Cell | None = None, margins
     (True, 'turn')
     """
     margins = margins or Margins()
-    # tcp_offset -> (model with that TCP, its StepChecker): built once per TCP the plan uses
-    by_tcp: dict[tuple[float, ...] | None, tuple[URModel, StepChecker]] = {}
-
-    def arm_for(segment: PathSegment) -> tuple[URModel, StepChecker]:
-        if segment.tcp_offset not in by_tcp:
-            arm = model if segment.tcp_offset is None else model.with_tcp(segment.tcp_offset)
-            by_tcp[segment.tcp_offset] = arm, StepChecker(arm, cell, margins)
-        return by_tcp[segment.tcp_offset]
-
+    arm_for = _ArmsByTcp(model, cell, margins)
     q: np.ndarray | None = np.array(plan.start_joints)
     problems: list[Problem] = []
     unchecked: list[str] = []
@@ -97,27 +89,50 @@ def check_path(model: URModel, plan: PathPlan, cell: Cell | None = None, margins
             unchecked.append(segment.name)
             window[index] = None
         else:
-            move = _sample(arm_for(segment)[0], segment, index, q, margins)
-            if isinstance(move, Problem):   # the target itself cannot be solved, or the move is too long
-                problems.append(move)
-                window[index] = None
-                q = segment.target_joints
-            else:
-                window[index] = (segment, move, dqarray.translation_unchecked(move.poses))
-                q, end_problem = _end_joints(segment, index, move)
-                if end_problem is not None:
-                    problems.append(end_problem)
+            window[index], q = _sampled_entry(arm_for(segment)[0], segment, index, q, margins, problems)
         if index >= 1:
             _check_move(plan, window, index - 1, arm_for, problems, steps, certified)
             window.pop(index - 2, None)
     if plan.segments:
         _check_move(plan, window, len(plan.segments) - 1, arm_for, problems, steps, certified)
     problems.sort(key=lambda p: (p.step_index, p.fraction))
+    return PathCheckResult(tuple(problems), StepReports(steps, certified), tuple(unchecked),
+                           _limits(margins, cell))
+
+
+class _ArmsByTcp:
+    """The arm with a segment's TCP and its StepChecker, built once per TCP the plan uses."""
+
+    def __init__(self, model: URModel, cell: Cell | None, margins: Margins) -> None:
+        self.model, self.cell, self.margins = model, cell, margins
+        self.by_tcp: dict[tuple[float, ...] | None, tuple[URModel, StepChecker]] = {}
+
+    def __call__(self, segment: PathSegment) -> tuple[URModel, StepChecker]:
+        if segment.tcp_offset not in self.by_tcp:
+            arm = self.model if segment.tcp_offset is None else self.model.with_tcp(segment.tcp_offset)
+            self.by_tcp[segment.tcp_offset] = arm, StepChecker(arm, self.cell, self.margins)
+        return self.by_tcp[segment.tcp_offset]
+
+
+def _sampled_entry(arm: URModel, segment: PathSegment, index: int, q: np.ndarray, margins: Margins,
+             problems: list[Problem]) -> tuple[WindowEntry, np.ndarray | None]:
+    """The window entry of a move from `q` sampled densely, and the joints it ends at; its problems are added."""
+    move = _sample(arm, segment, index, q, margins)
+    if isinstance(move, Problem):   # the target itself cannot be solved, or the move is too long
+        problems.append(move)
+        return None, segment.target_joints
+    end, end_problem = _end_joints(segment, index, move)
+    if end_problem is not None:
+        problems.append(end_problem)
+    return (segment, move, dqarray.translation_unchecked(move.poses)), end
+
+
+def _limits(margins: Margins, cell: Cell | None) -> dict[str, float]:
+    """{check: the limit its margins are measured from}."""
     cell_margin = margins.cell if margins.cell is not None else (cell.margin if cell else 0.0)
-    limits = {"wrist": margins.wrist, "elbow": margins.elbow, "shoulder": margins.shoulder,
-              "joint_limit": margins.joint_limit, "joint_speed": margins.joint_speed,
-              "self_collision": margins.self_collision, "cell": cell_margin}
-    return PathCheckResult(tuple(problems), StepReports(steps, certified), tuple(unchecked), limits)
+    return {"wrist": margins.wrist, "elbow": margins.elbow, "shoulder": margins.shoulder,
+            "joint_limit": margins.joint_limit, "joint_speed": margins.joint_speed,
+            "self_collision": margins.self_collision, "cell": cell_margin}
 
 
 def _check_move(plan: PathPlan, window: dict[int, WindowEntry], index: int, arm_for: ArmFor,
