@@ -59,15 +59,15 @@ TOOL_OUTPUT_0 = 1 << 16   # digital_output_bits: the tool outputs are bits 16-17
 # then the arm decelerates from at most FAST's speed; SLACK is the observer's sampling on a loaded machine.
 DETECTION = 1.0 / WATCHDOG_FREQUENCY + PERIOD + 0.005
 SLACK = 0.25
-# The controller stops the arm by itself (its watchdog, a safety stop) at its stop deceleration.
+# The controller stops the arm by itself (its watchdog, a safety stop) at its stop deceleration; after a lost
+# connection too, since ur3dq then ends its heartbeat rather than send a gentler stopj.
 HEARTBEAT_BOUND = DETECTION + FAST.speed / PROTECTIVE_STOP_DECELERATION + SLACK
-# ur3dq stops the arm itself after a fault it sees with stopj at SAFE_STOP_DECELERATION, a gentler stop: after a
-# lost connection that program replaces the one the watchdog would stop.
+# ur3dq stops the arm itself after a fault it sees on live connections with stopj at SAFE_STOP_DECELERATION.
 STOPJ_BOUND = DETECTION + FAST.speed / SAFE_STOP_DECELERATION + SLACK
 # The arm is at rest this long after the fault at the latest (the others leave ur3dq in charge: it must have it at
 # rest within STOPJ_BOUND of its own end).
-REST_AFTER_FAULT = {"kill-ur3dq": HEARTBEAT_BOUND, "stop-ur3dq": HEARTBEAT_BOUND, "emergency-stop": HEARTBEAT_BOUND,
-                    "protective-stop": HEARTBEAT_BOUND, "drop-connections": STOPJ_BOUND}
+REST_AFTER_FAULT = {kind: HEARTBEAT_BOUND for kind in ("kill-ur3dq", "stop-ur3dq", "emergency-stop", "protective-stop",
+                                                       "drop-connections")}
 STOPPED_DURING = re.compile(r"^Stopped during step (\d+) of 7\b", re.MULTILINE)
 
 

@@ -10,7 +10,7 @@ import pytest
 import ur3dq.robot
 from polling import wait_for
 from robot_target import needs_simulator
-from robot_test_support import inject, set_speed_slider, simulator_state
+from robot_test_support import HOME, inject, ready, set_speed_slider, simulator_state, simulator_with
 from ur3dq.errors import (
     ConnectionLostError,
     EmergencyStopError,
@@ -194,6 +194,25 @@ def test_dropped_connection_during_motion_then_reconnect_without_resending(sim_r
     assert_at_rest_short_of(robot, target)  # stopped, and the motion was not re-sent
     robot.power_on()  # the dashboard reconnects too
     robot.movej(home)  # usable again
+
+
+def test_a_dropped_connection_is_left_to_the_heartbeat_watchdog(backend, home):
+    """After every connection dropped mid-move the driver sends no stopj (that program would replace the moving one,
+    and the watchdog armed in it, with a gentler stop): it silences its heartbeat, and the controller's watchdog
+    stops the program, even though reading the state at once reconnects the streams. The next motion beats again."""
+    with simulator_with(initial_q=list(HOME)) as simulator, \
+            ur3dq.robot.connect(simulator.host, backend=backend) as robot:
+        ready(robot)
+        with WhenMoving(simulator.host, home, lambda: inject(simulator.host, "drop-connections")):
+            error, _ = timed_failure(robot, home + LONG_MOVE)
+        assert isinstance(error, ConnectionLostError)
+        robot.state()   # the streams reconnect; the heartbeat must stay silent while the program may run
+        assert wait_for(lambda: not simulator_state(simulator.host)["program_running"], timeout=2)
+        log = simulator.output()
+        assert "RTDE watchdog on input_int_register_20 expired: stop program" in log, log[-2000:]
+        assert "program ur3dq_stop" not in log, log[-2000:]
+        assert_at_rest_short_of(robot, home + LONG_MOVE)
+        robot.movej(home)   # the heartbeat beats again for the next program
 
 
 def test_frozen_stream_during_motion(sim_robot, home):

@@ -7,6 +7,7 @@ import re
 import dashboard_client
 
 from ur3dq.errors import ProtectiveStopError, RobotConnectionError, RobotError
+from ur3dq.robot.primary import model_name
 
 DASHBOARD_PORT = 29999
 _MODEL_REPLY = re.compile(r"^\s*(UR\d+)(e)?\s*$", re.IGNORECASE)
@@ -21,6 +22,19 @@ def model_from_reply(reply, major_version):
     if name == "ur16" or match.group(2) or major_version >= 5:
         return name + "e"
     return name
+
+
+def identified_model(reply: str, major_version: int, robot_type: int | None, requested: str | None) -> str:
+    """The model name of a `get robot model` reply, checked against Configuration Data's robotType (None: not sent)
+    and the model the user asked for (None: any); RobotError if they disagree."""
+    identified = model_from_reply(reply, major_version)
+    if robot_type is not None:
+        from_configuration = model_name(robot_type, major_version)
+        if from_configuration != identified:
+            raise RobotError(f"the dashboard says {identified} but Configuration Data says {from_configuration}")
+    if requested is not None and requested.lower() != identified:
+        raise RobotError(f"model {requested!r} was requested but the controller is a {identified}")
+    return identified
 
 
 def serial_from_reply(reply):

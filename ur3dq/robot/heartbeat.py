@@ -48,7 +48,8 @@ class Heartbeat:
     """A thread writing a counter to HEARTBEAT_REGISTER of the RTDE `inputs` every PERIOD s until `close()`.
 
     `alive` turns False when a write fails (the connection dropped): a program must not start then, since nothing
-    would stop it if ur3dq died. Closing the heartbeat closes `inputs`.
+    would stop it if ur3dq died. Closing the heartbeat closes `inputs`. `silence()` is how ur3dq stops a program it
+    has lost sight of: no more beats, so the controller's watchdog stops the program at the controller's own stop.
     """
 
     def __init__(self, inputs: RTDEInputs) -> None:
@@ -57,6 +58,7 @@ class Heartbeat:
         self._last_write: float | None = None   # monotonic time of the last write that went through
         self._watched_from = 0.0     # see watch_gaps
         self._longest_gap = 0.0
+        self._silenced = False
         self._start()
 
     def _start(self) -> None:
@@ -74,7 +76,23 @@ class Heartbeat:
         self._halt()
         if not self.inputs.reconnect():
             raise RobotConnectionError(f"the heartbeat to {self.host}:30004 cannot reconnect")
+        self._silenced = False
         self._start()
+
+    def silence(self) -> None:
+        """Stop the beats and disconnect, so that the controller's watchdog stops the program armed on them.
+
+        The controller stops that program 1/WATCHDOG_FREQUENCY s after the last beat, at its own stop, whether or
+        not this connection still reached it: how ur3dq stops a program once it has lost a connection to the
+        controller. `silenced` stays True until restart(), which must not come while that program may still run
+        (a new beat would keep it going)."""
+        self._silenced = True
+        self.close()
+
+    @property
+    def silenced(self) -> bool:
+        """True from silence() to the next restart()."""
+        return self._silenced
 
     def watch_gaps(self) -> None:
         """From now on, measure the longest time without a write (longest_gap): call it when a motion is sent."""

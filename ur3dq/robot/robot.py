@@ -30,7 +30,7 @@ from ur3dq.errors import (
 )
 from ur3dq.robot import jog_steps, motion, primary, safety, state
 from ur3dq.robot.backend import StateBackend, calibrated_model, effective_speed_limits
-from ur3dq.robot.dashboard import Dashboard, model_from_reply
+from ur3dq.robot.dashboard import Dashboard, identified_model
 from ur3dq.robot.heartbeat import WATCHDOG_FREQUENCY, Heartbeat, armed
 from ur3dq.robot.io_state import IOState, io_bit
 from ur3dq.robot.motion_watch import MotionWatch, drain, last_reports
@@ -54,8 +54,8 @@ OUTPUT_TIMEOUT = 1.0  # s for a digital output written over RTDE to show in the 
 REST_SPEED = 1e-3  # rad/s: a paused arm whose every joint is slower than this rests
 RECONNECT_DELAYS = (0.05, 0.1, 0.2, 0.4, 0.8)  # s between stream reconnection attempts (exponential backoff)
 MODE_CHANGE_TIMEOUT = 15.0  # s for power on / brake release to reach their robot mode
-SERIAL_NUMBER_SINCE = (5, 6)
-ROBOT_MODE_POWER_OFF = 3  # the dashboard's `get serial number` exists from PolyScope 5.6
+SERIAL_NUMBER_SINCE = (5, 6)  # the dashboard's `get serial number` exists from PolyScope 5.6
+ROBOT_MODE_POWER_OFF = 3
 
 
 class Robot:
@@ -120,8 +120,7 @@ class Robot:
     @property
     def controller_version(self):
         """(major, minor, bugfix, build) of the controller software, from the primary version message."""
-        version = self._version
-        return (version.major, version.minor, version.bugfix, version.build)
+        return (self._version.major, self._version.minor, self._version.bugfix, self._version.build)
 
     @functools.cached_property
     def serial_number(self):
@@ -150,23 +149,15 @@ class Robot:
         from ur3dq.robot.urx_backend import URXBackend
         return URXBackend(self.host, self._primary)
 
-    def _identify_model(self, requested):
+    def _identify_model(self, requested: str | None) -> str:
         """The model name from the dashboard and Configuration Data; RobotError if they or `requested` disagree."""
-        major = self._version.major
         asked = time.monotonic()
         reply = self._dashboard.robot_model_reply()
-        # The link's round trip, timed here: every report of a motion (its start, its end) comes that late, so each
-        # motion's timeout is extended by it (a slow link is no motion timeout).
+        # The link's round trip: each motion's reports come that late, so its timeout is extended by it.
         self.link_delay = time.monotonic() - asked
-        identified = model_from_reply(reply, major)
         configuration = self._primary.configuration
-        if configuration is not None:
-            from_configuration = primary.model_name(configuration.robot_type, major)
-            if from_configuration != identified:
-                raise RobotError(f"the dashboard says {identified} but Configuration Data says {from_configuration}")
-        if requested is not None and requested.lower() != identified:
-            raise RobotError(f"model {requested!r} was requested but the controller is a {identified}")
-        return identified
+        return identified_model(reply, self._version.major, None if configuration is None
+                                else configuration.robot_type, requested)
 
     def _controller_tcp_offset(self):
         """The controller's active TCP offset (UR pose vector, flange frame), or None before software 3.2."""
@@ -174,8 +165,10 @@ class Robot:
         return None if cartesian is None else cartesian.tcp_offset
 
     def _ensure_streams(self):
-        """Reconnect dead state streams and heartbeat (exponential backoff); ConnectionLostError if they stay down."""
-        beating = self._heartbeat is None or self._heartbeat.alive
+        """Reconnect dead state streams and heartbeat (exponential backoff; a silenced heartbeat stays silent until
+        the next program, _armed); ConnectionLostError if they stay down."""
+        heartbeat = self._heartbeat
+        beating = heartbeat is None or heartbeat.alive or heartbeat.silenced
         if self._primary.alive and self._backend.connected and beating:
             return
         last_error = None
@@ -187,8 +180,8 @@ class Robot:
                     self._backend.primary = self._primary
                 if not self._backend.connected:
                     self._backend.reconnect()
-                if self._heartbeat is not None and not self._heartbeat.alive:
-                    self._heartbeat.restart()
+                if heartbeat is not None and not heartbeat.alive and not heartbeat.silenced:
+                    heartbeat.restart()
                 return
             except RobotConnectionError as error:
                 last_error = error
@@ -520,10 +513,14 @@ class Robot:
     def _armed(self, program: str, name: str) -> str:
         """`program` armed on the heartbeat's watchdog (started now if it is not yet), or as it is without one;
         ConnectionLostError when the heartbeat is down: nothing would stop the program if ur3dq died."""
-        if not self._use_heartbeat:
+        if not self._use_heartbeat:   # then self._heartbeat stays None
             return program
         if self._heartbeat is None:
             self._heartbeat = Heartbeat(self._rtde_inputs())
+        elif self._heartbeat.silenced:
+            # a beat while the program it was silenced for runs would keep it going (see Heartbeat.silence)
+            self._wait_for_program(lambda status: not status.program_running)
+            self._heartbeat.restart()
         if not self._heartbeat.alive:
             raise ConnectionLostError(f"the heartbeat to {self.host} stopped: nothing would stop a program if "
                                       "ur3dq died, so none is sent (reconnect)")
@@ -531,9 +528,14 @@ class Robot:
         return armed(program, name)
 
     def _stop_after(self, error: BaseException) -> None:
-        """Best-effort stopj after a failed or interrupted motion; a failing stop is attached, never raised. None after
-        a safety stop: the controller stops the arm itself, and a gentler stopj must not replace its stop."""
+        """Stop the arm after a failed or interrupted motion, never slower than the controller's own stop: nothing
+        after a safety stop (the controller stops the arm); after a lost connection, or the heartbeat's, the
+        heartbeat silenced (the watchdog stops the program at the controller's stop: a stopj would replace it with a
+        gentler one); else (a timeout, a program error, Ctrl-C) a best-effort stopj, a failure to send it noted."""
         if isinstance(error, (ProtectiveStopError, EmergencyStopError)):
+            return
+        if self._heartbeat is not None and (isinstance(error, ConnectionLostError) or not self._heartbeat.alive):
+            self._heartbeat.silence()
             return
         try:
             self._send_stop(SAFE_STOP_DECELERATION)
@@ -616,9 +618,7 @@ class Robot:
         self._wait_for_mode({ROBOT_MODE_POWER_OFF}, "power off")
 
     def brake_release(self):
-        """Release the brakes and wait until the arm is running.
-
-        Release the brakes and wait until the arm is RUNNING; RobotError at once unless it is powered on (IDLE)
+        """Release the brakes and wait until the arm is RUNNING; RobotError at once unless it is powered on (IDLE)
         or already RUNNING (the controller would not release them)."""
         mode = self.state().robot_mode
         if mode == state.ROBOT_MODE_RUNNING:
