@@ -84,6 +84,9 @@ class Controller:
         self._stop_loop = threading.Event()
         self._cycle = 0
         self._sim_time = 0.0
+        #: The time.monotonic() at which the last computed cycle was due: its time on the controller's own timeline
+        #: (behind the host's clock while the host runs the loop late). Read by the RTDE input watchdogs.
+        self.cycle_due = time.monotonic()
         self._cycles: CycleRecord[ControllerState] = CycleRecord(round(RECORD_SECONDS / self.period))  # for streams
         self._cycle_inputs = CycleInputs()  # what clients' inputs queued for the start of the next cycle
         self.frame_turn = FrameTurn()  # the thread of a held speedj/speedl gets its turn before the next cycle
@@ -157,7 +160,7 @@ class Controller:
             clock.wait()  # a late cycle starts at once: the missed ones follow back to back, none is skipped
             self.frame_turn.await_turn(self._motions.holding_owner)
             try:
-                self._cycle_once()
+                self._cycle_once(clock.due)
             except Exception as error:  # noqa: BLE001 - a bug must not kill the loop: halt the arm, say why, go on
                 log.exception("control cycle failed; halting the arm")
                 with self._lock:
@@ -167,8 +170,9 @@ class Controller:
         """Run `action` at the next cycle's start: a controller reads its inputs once per cycle, not as they come."""
         self._cycle_inputs.add(action)
 
-    def _cycle_once(self) -> None:
-        """One control cycle of one period: apply the queued inputs, advance modes and motion, publish the snapshot."""
+    def _cycle_once(self, due: float | None = None) -> None:
+        """One control cycle of one period, due at `due` (time.monotonic; None: now): apply the queued inputs,
+        advance modes and motion, publish the snapshot."""
         dt = self.period
         began = time.perf_counter()
         with self._lock:
@@ -196,6 +200,7 @@ class Controller:
             self._idle_signature = (self._changes, io_version, self._q)
             self.joint_history.append(self._q)
             self._publish(state, new_cycle=True)
+            self.cycle_due = time.monotonic() if due is None else due
 
     def _at_rest_and_unchanged(self, signature):
         """True when nothing moves or changed since the last snapshot, so it can be reused with a new cycle number."""

@@ -47,6 +47,11 @@ class CycleClock:
         self.restarts = 0  # times the loop fell more than max_lag behind and the clock counted from now again
         self._deadline: float | None = None
 
+    @property
+    def due(self) -> float | None:
+        """The time.monotonic() at which the cycle wait() last started was due (None before the first)."""
+        return self._deadline
+
     def wait(self) -> float:
         """Block until the next cycle is due and return how late it starts [s] (0.0 when on time).
 

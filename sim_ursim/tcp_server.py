@@ -192,8 +192,12 @@ class TCPServer:
         raise NotImplementedError
 
     # ------------------------------------------------------------------------------------------------ helpers
-    def read_chunks(self, connection: Connection) -> Iterator[bytes]:
-        """What the client sends, chunk by chunk, until its end of stream or reset, a close or the server's stop."""
+    def read_chunks(self, connection: Connection, keep_until_handled: bool = False) -> Iterator[bytes]:
+        """What the client sends, chunk by chunk, until its end of stream or reset, a close or the server's stop.
+
+        With `keep_until_handled` a chunk stays in the socket until the caller asks for the next one (it is peeked,
+        then taken): a look at the socket from another thread sees every byte not yet handled."""
+        flags = socket.MSG_PEEK if keep_until_handled else 0
         while not connection.closed.is_set() and not self._stopping.is_set():
             try:
                 readable, _, _ = select.select([connection.sock], [], [], POLL_INTERVAL)
@@ -202,7 +206,7 @@ class TCPServer:
             if not readable:
                 continue
             try:
-                data = connection.sock.recv(RECEIVE_SIZE)
+                data = connection.sock.recv(RECEIVE_SIZE, flags)
             except (BlockingIOError, InterruptedError):
                 continue
             except OSError:
@@ -210,6 +214,8 @@ class TCPServer:
             if not data:
                 return
             yield data
+            if keep_until_handled and not _take(connection.sock, len(data)):
+                return
 
     def hold_while_frozen(self) -> None:
         """Block while the fault channel freezes the streams (a frozen controller answers late, not never)."""
@@ -308,3 +314,19 @@ class TCPServer:
                     self._connections.difference_update(stale)
                 for connection in stale:
                     connection.close()
+
+
+def _take(sock: socket.socket, size: int) -> bool:
+    """Take `size` bytes already peeked out of `sock`; False when the connection failed meanwhile."""
+    while size > 0:
+        try:
+            taken = len(sock.recv(size))
+        except (BlockingIOError, InterruptedError):
+            select.select([sock], [], [], POLL_INTERVAL)
+            continue
+        except OSError:
+            return False
+        if not taken:
+            return False
+        size -= taken
+    return True

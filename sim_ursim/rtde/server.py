@@ -126,7 +126,7 @@ class Session:
             self._close_locked(f"client does not read its data ({len(self._pending)} bytes waiting)")
 
     def has_unread_input(self) -> bool:
-        """True while bytes the client sent wait in the socket, not yet taken by the reader thread."""
+        """True while bytes the client sent wait in the socket, not yet handled by the reader thread."""
         try:
             return bool(self.sock.recv(1, socket.MSG_PEEK | socket.MSG_DONTWAIT))
         except OSError:   # nothing waiting (BlockingIOError), or the connection is gone
@@ -194,7 +194,9 @@ class RTDEServer(TCPServer):
         log.info("%s connected", session)
         buffer = bytearray()
         try:
-            for chunk in self.read_chunks(connection):
+            # Each chunk stays in the socket until handled: the input watchdogs' look at it (has_unread_input) then
+            # never misses a package that was read but not yet noted.
+            for chunk in self.read_chunks(connection, keep_until_handled=True):
                 buffer += chunk
                 while not session.closed:
                     package = protocol.split_package(buffer)

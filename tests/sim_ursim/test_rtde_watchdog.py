@@ -1,97 +1,115 @@
-"""sim_ursim's RTDE input watchdogs (sim_ursim/rtde/watchdog.py) on a clock of the test's own: a period without
-an input update fires the action; a stall of the simulator itself (its checks far apart, the packages that came
-in meanwhile not read yet) starts the period again, and input waiting unread in the client's socket holds the
-action back, instead of stopping a client that kept sending."""
+"""sim_ursim's RTDE input watchdogs (sim_ursim/rtde/watchdog.py) on a controller whose cycles the test computes and
+a clock of the test's own: a period's worth of computed cycles due after the last input update fires the action,
+however much or little of the host's time passed (a starved simulator computes no cycles and blames no client, and
+the cycles it catches up on were due before the packages it reads late; a silent client is caught however far apart
+the checks are), and input waiting unread in the client's socket holds the action back, instead of stopping a
+client that kept sending."""
 import socket
 from types import SimpleNamespace
 
 from sim_ursim.rtde.server import Session
-from sim_ursim.rtde.watchdog import STALL, InputWatchdogs
-from sim_ursim.tcp_server import Connection
+from sim_ursim.rtde.watchdog import InputWatchdogs
+from sim_ursim.tcp_server import Connection, TCPServer
+
+REGISTER = "input_int_register_20"
+STOP = [(REGISTER, "stop")]
+PERIOD = 0.008   # 125 Hz: a 10 Hz watchdog lets 12 cycles (96 ms) pass without an update, not 13 (104 ms)
 
 
-class FakeController:
-    """What the watchdogs use of a controller: whether the program is paused, and stopping it."""
+class Host:
+    """The host's clock and a controller on it: `compute(n)` is n control cycles, each due one period after the
+    last (on time, or late: caught up back to back), `wait(s)` lets the host's time pass."""
 
     def __init__(self):
+        self.now = 0.0
+        self.cycle_due = 0.0
         self.stopped = 0
 
     def state(self):
         return SimpleNamespace(program_paused=False)
 
+    def compute(self, cycles=1):
+        self.cycle_due += cycles * PERIOD
+        self.now = max(self.now, self.cycle_due)
+
+    def wait(self, seconds):
+        self.now += seconds
+
     def stop_program(self):
         self.stopped += 1
 
 
-def watchdogs_at(times):
-    """(InputWatchdogs whose clock reads `times[0]`, the list to set the time through, its controller)."""
-    controller = FakeController()
-    watchdogs = InputWatchdogs(controller, clock=lambda: times[0])
-    watchdogs._thread = SimpleNamespace(is_alive=lambda: True)   # no checker thread: the test calls check()
-    return watchdogs, controller
+def armed_watchdogs(frequency=10.0):
+    """(InputWatchdogs with a 10 Hz stop watchdog on REGISTER armed now, its Host); no checker thread: the test calls
+    check()."""
+    host = Host()
+    watchdogs = InputWatchdogs(host, clock=lambda: host.now)
+    watchdogs._thread = SimpleNamespace(is_alive=lambda: True)
+    watchdogs.arm(REGISTER, frequency, "stop", program_ended=lambda: False)
+    return watchdogs, host
 
 
-def arm(watchdogs, frequency=10.0):
-    watchdogs.arm("input_int_register_20", frequency, "stop", program_ended=lambda: False)
-
-
-def test_a_period_without_an_update_stops_the_program():
-    times = [0.0]
-    watchdogs, controller = watchdogs_at(times)
-    arm(watchdogs)
-    for t in (0.01, 0.02, 0.05, 0.09):
-        times[0] = t
-        watchdogs.note_update(["input_int_register_20"])
+def test_a_period_of_computed_cycles_without_an_update_stops_the_program():
+    watchdogs, host = armed_watchdogs()
+    for _ in range(12):   # the client's package every cycle
+        host.compute()
+        watchdogs.note_update([REGISTER])
         assert watchdogs.check() == []
-    for t in (0.1, 0.15, 0.185):   # checked in time, no update since 0.09
-        times[0] = t
+    for _ in range(12):   # 12 cycles without one: 96 ms
+        host.compute()
         assert watchdogs.check() == []
-    times[0] = 0.195
-    assert watchdogs.check() == [("input_int_register_20", "stop")] and controller.stopped == 1
+    host.compute()   # the 13th: 104 ms
+    assert watchdogs.check() == STOP and host.stopped == 1
 
 
-def test_a_stall_of_the_simulator_starts_the_period_again():
-    times = [0.0]
-    watchdogs, controller = watchdogs_at(times)
-    arm(watchdogs)
-    times[0] = 0.01
-    watchdogs.note_update(["input_int_register_20"])
+def test_a_starved_simulator_blames_no_client_for_its_own_pause():
+    watchdogs, host = armed_watchdogs()
+    host.compute(5)   # due at 40 ms
+    watchdogs.note_update([REGISTER])
+    host.wait(0.302)   # the host ran nothing of the simulator for three periods
+    assert watchdogs.check() == [] and host.stopped == 0
+    watchdogs.note_update([REGISTER])   # the client's packages, read once the simulator runs again (342 ms)
+    host.compute(37)   # the loop catches up on the cycles due meanwhile (up to 336 ms), back to back
+    assert watchdogs.check() == [] and host.stopped == 0
+    host.compute(13)   # the cycle that applies the package (344 ms), then 12 without one (440 ms)
     assert watchdogs.check() == []
-    times[0] = 0.01 + STALL + 0.25   # the simulator was starved: the client's packages wait in the socket
-    assert watchdogs.check() == [] and controller.stopped == 0
-    times[0] += 0.005
-    watchdogs.note_update(["input_int_register_20"])   # read now
-    assert watchdogs.check() == []
-    last = times[0]
-    for step in range(1, 20):   # then the client really stops: checked in time, one period after its last update
-        times[0] = last + 0.005 * step
-        assert watchdogs.check() == []
-    times[0] = last + 0.105
-    assert watchdogs.check() == [("input_int_register_20", "stop")] and controller.stopped == 1
+    host.compute()
+    assert watchdogs.check() == STOP
+
+
+def test_a_silent_client_is_caught_however_far_apart_the_checks_are():
+    """A heavily loaded host runs the checker 60 ms apart or worse: the silence is counted in computed cycles, so
+    the program is stopped all the same."""
+    watchdogs, host = armed_watchdogs()
+    host.compute()
+    watchdogs.note_update([REGISTER])
+    fired = []
+    for _ in range(3):   # 60 ms between checks (the host late: cycles caught up back to back)
+        host.wait(0.06)
+        host.compute(8)
+        fired += watchdogs.check()
+    assert fired == STOP and host.stopped == 1
 
 
 def test_input_waiting_unread_holds_the_action_back_until_it_is_read():
     """Loaded test runs: the checker ran on time while the thread reading the heartbeat's client was held back;
     the client wrote every 10-20 ms, nothing was read for 101 ms, and a healthy motion was stopped."""
-    times = [0.0]
-    watchdogs, controller = watchdogs_at(times)
-    unread = {"input_int_register_20": False}
+    watchdogs, host = armed_watchdogs()
+    unread = {REGISTER: False}
     watchdogs.unread_input = unread.get
-    arm(watchdogs)
-    times[0] = 0.01
-    watchdogs.note_update(["input_int_register_20"])
-    unread["input_int_register_20"] = True   # the client's next packages are in the socket, not read yet
-    for step in range(1, 60):   # checked on time all along: no stall of the checker
-        times[0] = 0.01 + 0.005 * step
+    host.compute()
+    watchdogs.note_update([REGISTER])
+    unread[REGISTER] = True   # the client's next packages are in the socket, not read yet
+    for _ in range(60):   # the cycles go on all along
+        host.compute()
         assert watchdogs.check() == []
-    watchdogs.note_update(["input_int_register_20"])   # read at last
-    unread["input_int_register_20"] = False
-    last = times[0]
-    for step in range(1, 20):   # then nothing more comes: stopped one period after the last package
-        times[0] = last + 0.005 * step
-        assert watchdogs.check() == [] and controller.stopped == 0
-    times[0] = last + 0.105
-    assert watchdogs.check() == [("input_int_register_20", "stop")] and controller.stopped == 1
+    watchdogs.note_update([REGISTER])   # read at last
+    unread[REGISTER] = False
+    for _ in range(12):   # then nothing more comes: stopped a period's worth of cycles after the last package
+        host.compute()
+        assert watchdogs.check() == [] and host.stopped == 0
+    host.compute()
+    assert watchdogs.check() == STOP and host.stopped == 1
 
 
 def test_a_session_tells_whether_its_client_sent_what_is_not_read_yet():
@@ -105,3 +123,20 @@ def test_a_session_tells_whether_its_client_sent_what_is_not_read_yet():
         assert not session.has_unread_input()
         client_side.close()   # a client gone leaves nothing to wait for
         assert not session.has_unread_input()
+
+
+def test_the_reader_leaves_a_package_in_the_socket_until_it_has_handled_it():
+    """Between the reader taking a package and noting it, a look at the socket still sees it: a check in that window
+    would otherwise take a client that kept writing for a silent one."""
+    server_side, client_side = socket.socketpair()
+    with server_side, client_side:
+        connection = Connection(server_side, ("127.0.0.1", 1), 0)
+        session = Session(connection, 1, backlog_limit=1024)
+        chunks = TCPServer(None, "127.0.0.1", 0).read_chunks(connection, keep_until_handled=True)
+        client_side.sendall(b"\x00\x08U\x01\x00\x00\x00\x01")
+        assert next(chunks) == b"\x00\x08U\x01\x00\x00\x00\x01"
+        assert session.has_unread_input()   # being handled: still in the socket
+        client_side.sendall(b"\x00\x08U\x01\x00\x00\x00\x02")
+        assert next(chunks) == b"\x00\x08U\x01\x00\x00\x00\x02"   # the first was taken, and only it
+        client_side.close()
+        assert next(chunks, None) is None and not session.has_unread_input()
