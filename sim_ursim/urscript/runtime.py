@@ -6,6 +6,8 @@ The primary/secondary/realtime servers hand every received script to `submit(sou
   do not stop the main program (the controller's ban on motion and sleep in `sec` programs is not enforced).
 - A script that fails to compile is reported (RuntimeExceptionMessage) and does not disturb the running program
   (the real controller's choice here is not documented).
+- A main program sent while a protective stop is latched is not run: the refusal is reported as an error-code
+  message naming the protective stop and its fix (a controller starts no program until the stop is unlocked).
 - Program state goes to the controller (`set_program_state`): runtime_state, robot_status_bits, dashboard and
   primary views all read it. KeyMessages PROGRAM_XXX_STARTED / PROGRAM_XXX_STOPPED carry the program name.
 - When a program is stopped, replaced, paused or fails, the arm decelerates to rest (a paused move starts again
@@ -15,11 +17,13 @@ import logging
 import threading
 from collections.abc import Callable, Mapping
 
-from sim_ursim.messages import KeyMessage, RuntimeExceptionMessage
+from sim_ursim.messages import ErrorCodeMessage, KeyMessage, RuntimeExceptionMessage
+from sim_ursim.modes import PROTECTIVE_STOP_REPORT_LEVEL
+from sim_ursim.motion_queue import DEFAULT_STOP_CODE
 from sim_ursim.urscript.builtins import BUILTINS
 from sim_ursim.urscript.interpreter import CompileError, Execution, compile_program
 from sim_ursim.urscript.parser import URScriptSyntaxError, parse
-from sim_ursim.vocabulary import PROTECTIVE_STOP_DECELERATION, CommandRefused
+from sim_ursim.vocabulary import PROTECTIVE_STOP_DECELERATION, CommandRefused, SafetyMode
 
 log = logging.getLogger("sim_ursim.urscript")
 
@@ -88,6 +92,9 @@ class ProgramRunner:
         if program.secondary:
             self._start_secondary(execution)
             return True
+        if self._controller.state().safety_mode == SafetyMode.PROTECTIVE_STOP:
+            self._refuse_during_protective_stop(program.name, origin)
+            return False
         with self._submit_lock:
             with self._lock:
                 previous = self._detach_main()
@@ -195,6 +202,17 @@ class ProgramRunner:
             self._controller.stopj(deceleration)
         except CommandRefused:
             pass
+
+    def _refuse_during_protective_stop(self, name: str, origin: str) -> None:
+        """A controller starts no program while a protective stop is latched: the program is not run, the running
+        state is left as it is (stopped), and the refusal is reported on the primary/secondary interfaces."""
+        log.warning("program %s from %s not started: protective stop", name, origin)
+        # The simulator's protective-stop code at its report level (docs/ursim.md: no source found gives the code a
+        # controller uses for this refusal).
+        self._publish(ErrorCodeMessage(code=DEFAULT_STOP_CODE[0], argument=DEFAULT_STOP_CODE[1],
+                                       report_level=PROTECTIVE_STOP_REPORT_LEVEL, data_type=0, data=0,
+                                       text=f"Program {name} not started: the robot is in a protective stop; "
+                                            "unlock the protective stop first"))
 
     def _publish(self, message):
         self._controller.messages.publish(message)

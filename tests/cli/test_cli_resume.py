@@ -16,7 +16,7 @@ import time
 import numpy as np
 import pytest
 
-from cli_support import cli_process
+from cli_support import assert_one_line_error, cli_process
 from robot_target import simulator_only
 from ur3dq import DualQuaternion
 from ur3dq.kinematics import robot_model
@@ -241,6 +241,21 @@ def test_a_fault_mid_program_names_the_step_the_outputs_left_on_and_the_way_on(r
     assert "Stopped during step 4 of 6, 'retract' (linear relative waypoint)." in stderr
     assert "The arm is at rest at x " in stderr
     assert "Tool output 0 still on (switched on by the program)." in stderr
+
+
+def test_a_run_into_a_latched_protective_stop_names_it_and_the_unlock(run_cli, tmp_path):
+    """Nothing is sent while a protective stop is latched (a controller would not run it either): one error line
+    naming the stop and the command that unlocks it, exit 6, the arm where it was."""
+    from powered_simulator import powered_simulator
+    from sim_ursim.control_channel import send_request
+
+    write_program(tmp_path / "poses.json")
+    with powered_simulator(model="ur3", initial_q=list(START)) as simulator:
+        assert send_request(simulator.host, "protective-stop", reason="test")["ok"]
+        result = run_cli("--host", simulator.host, "run-poses", "--yes")
+        state = send_request(simulator.host, "status")["state"]
+    assert_one_line_error(result, 6, "protective stop", "ur3dq robot unlock")
+    assert not state["program_running"] and np.allclose(state["q"], START, atol=1e-9)
 
 
 def test_a_replay_of_stored_poses_resumes_from_the_move_it_stopped_in(arm, run_cli, tmp_path):

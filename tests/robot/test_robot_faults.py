@@ -144,6 +144,24 @@ def test_a_protective_stop_is_left_to_the_controller(own_sim_robot, home):
     assert rest_after < 0.5, f"the arm came to rest {rest_after:.2f} s after the protective stop"
 
 
+def test_a_motion_sent_into_a_new_protective_stop_is_refused_and_named(own_sim_robot, home, monkeypatch):
+    """A protective stop latched after the driver's last look at the state and before its program arrives: the
+    controller does not run the program, and the driver names the stop and its fix at once (no stopj after it)."""
+    host, robot = own_sim_robot
+    backend, send = robot._backend, robot._backend.send_program
+
+    def send_into_a_protective_stop(program):
+        inject(host, "protective-stop", reason="test")
+        send(program)
+
+    monkeypatch.setattr(backend, "send_program", send_into_a_protective_stop)
+    error, elapsed = timed_failure(robot, home + LONG_MOVE)
+    assert isinstance(error, ProtectiveStopError) and "unlock" in str(error) and elapsed < 1.5
+    time.sleep(0.2)
+    assert not simulator_state(host)["program_running"]
+    assert np.max(np.abs(np.array(simulator_state(host)["q"]) - home)) < 1e-9   # it never moved
+
+
 def test_emergency_stop_during_motion(own_sim_robot, home):
     host, robot = own_sim_robot
     with WhenMoving(host, home, lambda: inject(host, "emergency-stop")) as timer:

@@ -660,3 +660,53 @@ def test_the_intake_refuses_an_incomplete_program_beyond_its_bounds():
     body = b"  textmsg(\"" + b"y" * 100 + b"\")\n"
     assert big.feed(b"def big():\n" + body * 20000 + b"end\n") == [
         "def big():\n" + body.decode() * 20000 + "end\n"]
+
+
+def test_a_program_sent_during_a_protective_stop_is_not_run_and_the_refusal_is_reported(clients):
+    """A controller starts no program while a protective stop is latched: a script a client sends on 30002 is not
+    run (ur_rtde's RTDEReceiveInterface sees the runtime state stay STOPPED and the arm still), and an error-code
+    message on 30001 names the protective stop and its fix. Once the stop is unlocked the same script runs."""
+    from sim_ursim.control_channel import send_request
+
+    with simulator_process(model="ur3") as process:
+        dashboard(process.host, "power on", "brake release")
+        assert wait_for(lambda: send_request(process.host, "status")["state"]["robot_mode"] == "RUNNING", timeout=10)
+        assert send_request(process.host, "protective-stop", reason="test")["ok"]
+        primary = clients(process.host, PRIMARY)
+        code = textwrap.dedent(
+            f"""
+            import socket, time
+            import rtde_receive
+            receiver = rtde_receive.RTDEReceiveInterface({process.host!r})
+            before = receiver.getActualQ()
+            def send(script):
+                with socket.create_connection(({process.host!r}, 30002)) as connection:
+                    connection.sendall(script)
+            script = b"def moved():\\n  movej([0.5, -1.3, 1.1, -1.2, -1.4, 0.3], a=2.0, v=1.5)\\nend\\n"
+            send(script)
+            states = set()
+            deadline = time.monotonic() + 0.5
+            while time.monotonic() < deadline:
+                states.add(receiver.getRuntimeState())
+                time.sleep(0.004)
+            print(sorted(states))
+            print(max(abs(a - b) for a, b in zip(before, receiver.getActualQ())))
+            send(b"set unlock protective stop\\n")
+            deadline = time.monotonic() + 5
+            while receiver.isProtectiveStopped():
+                assert time.monotonic() < deadline, "the protective stop was never unlocked"
+                time.sleep(0.004)
+            send(script)
+            deadline = time.monotonic() + 5
+            while receiver.getRuntimeState() != 2:
+                assert time.monotonic() < deadline, "the script never ran after the unlock"
+                time.sleep(0.004)
+            print("ran")
+            receiver.disconnect()
+            """
+        )
+        states, moved, ran = run_child(code).strip().splitlines()
+        refusals = primary.robot_messages(lambda subtype, data: subtype == ERROR_CODE and b"not started" in data, 3)
+    assert ast.literal_eval(states) == [1] and float(moved) < 1e-9 and ran == "ran"   # STOPPED throughout
+    text = refusals[-1][1].decode("latin-1")
+    assert "protective stop" in text and "unlock the protective stop" in text
