@@ -155,7 +155,7 @@ class _ArmAtRest:
     def state(self):
         from types import SimpleNamespace
 
-        return SimpleNamespace(joint_speeds=np.zeros(6), joints=Q_PICK, tcp_pose=np.zeros(6))
+        return SimpleNamespace(joint_speeds=np.zeros(6), joints=Q_PICK, tcp_pose=np.zeros(6), age=0.01)
 
     def io_state(self):
         from types import SimpleNamespace

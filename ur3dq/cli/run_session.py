@@ -22,7 +22,7 @@ from ur3dq.cli.resume_state import ResumeState, arm_identity, clear_resume_state
 from ur3dq.cli.signals import signal_name
 from ur3dq.errors import RobotError, SafetyCheckError, StoreError, add_note
 from ur3dq.program.plan import PlannedStep
-from ur3dq.program.runner import ProgramStop, StepWatch, run_plan, status_at_rest
+from ur3dq.program.runner import STALE_AGE, ProgramStop, StepWatch, run_plan, status_at_rest
 from ur3dq.store import DEFAULT_STORE_PATH
 from ur3dq.units import ANGLE, LENGTH, Units, to_display
 
@@ -126,7 +126,9 @@ def ended_early(settings: Settings, error: BaseException, stop: ProgramStop, ste
     quit_run = controls is not None and controls.stop_choice == "quit"
     command = resume_command(settings)
     written = None if quit_run else _write_state(settings, error, stop, record, names, controls)
-    err.print(f"Stopped during {escape(step_text(stop.position, step, program_length))}.")
+    err.print(f"Stopped during {escape(step_text(stop.position, step, program_length))}"
+              + ("." if stop.stale_for is None else f", the last step the controller reported: its state stream then "
+                 f"went silent ({stop.stale_for:.1f} s), so the program may have gone on to a later step."))
     err.print(where_text(stop, settings.deg))
     if stop.outputs_on:
         err.print(f"{stop.outputs_text().capitalize()} (switched on by the program).")
@@ -174,8 +176,10 @@ def where_text(stop: ProgramStop, deg: bool) -> str:
     x, y, z = (to_display(float(value), LENGTH, units) for value in stop.tcp_pose[:3])
     rotation = " ".join(f"{to_display(float(value), ANGLE, units):.2f}" for value in stop.tcp_pose[3:])
     joints = " ".join(f"{to_display(float(value), ANGLE, units):.2f}" for value in np.asarray(stop.joints))
-    return (f"The arm is at rest at x {x:.1f} y {y:.1f} z {z:.1f} mm, rotation {rotation} {unit} "
-            f"(joints {joints} {unit}).")
+    where = f"x {x:.1f} y {y:.1f} z {z:.1f} mm, rotation {rotation} {unit} (joints {joints} {unit})"
+    if stop.stale_for is not None:
+        return f"The last state received ({stop.stale_for:.1f} s old: the arm may have moved since) showed {where}."
+    return f"The arm is at rest at {where}."
 
 
 def resume_command(settings: Settings) -> str:
@@ -214,8 +218,9 @@ def replay_stop(robot: Any, position: int, name: str) -> ProgramStop:
     """The ProgramStop of a replay of stored poses stopped during its `position`-th move (to pose `name`): where
     the arm came to rest (a replay switches no output)."""
     status = status_at_rest(robot)
+    stale = None if status is None or status.age <= STALE_AGE else float(status.age)
     return ProgramStop(position, name, None if status is None else status.joints,
-                       None if status is None else status.tcp_pose, (), status is not None)
+                       None if status is None else status.tcp_pose, (), status is not None, stale)
 
 
 def run_replay(settings: Settings, robot: Any, execute: Callable[[Callable[[str, int, int], None]], Any],

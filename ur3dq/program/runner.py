@@ -41,16 +41,19 @@ Progress = Callable[[int, Step], None]
 MAX_STATEMENT_SECONDS = 0.05   # each action's own time on the controller (a few control cycles), for the timeout
 REST_TIMEOUT = 2.0             # s to wait for the arm to come to rest after a stop, before saying where it is
 REST_SPEED = 1e-3              # rad/s: every joint slower than this is at rest
+STALE_AGE = 0.5                # s: a state older than this when read is stale (the stream sends every 2-8 ms)
 
 
 @dataclasses.dataclass(frozen=True)
 class ProgramStop:
     """Where a program run ended early.
 
-    position, step_name: the 1-based position and name of the step that was running (the first step when the
-    program had reported none); joints (6,) rad and tcp_pose (UR pose vector) where the arm came to rest, None when
-    the controller could not be read; outputs_on: the (family, pin) of each digital output the program had switched
-    on that is still on (all it had switched on when the controller could not be read: `outputs_read` False).
+    position, step_name: the 1-based position and name of the step that was running as the program last reported
+    it (the first step when it had reported none); joints (6,) rad and tcp_pose (UR pose vector) where the arm came
+    to rest, None when the controller could not be read; outputs_on: the (family, pin) of each digital output the
+    program had switched on that is still on (all it had switched on when the controller could not be read:
+    `outputs_read` False); stale_for: None when the last state received was fresh, else its age (s): the stream
+    went silent, so the arm was then where `joints` says and may have gone on, to a later step too.
     """
 
     position: int
@@ -59,6 +62,7 @@ class ProgramStop:
     tcp_pose: np.ndarray | None
     outputs_on: tuple[tuple[str, int], ...]
     outputs_read: bool
+    stale_for: float | None = None
 
     def outputs_text(self) -> str:
         """'tool output 0 and standard output 3 still on', or '' when none is."""
@@ -196,8 +200,9 @@ def program_stop(robot: Robot, watch: StepWatch) -> ProgramStop:
         later = [output for end in range(index + 1, len(watch.plan) + 1)
                  for output in outputs_switched_on(watch.plan[:end])]
         may_be_on = tuple(dict.fromkeys(switched_on + later))
+        stale = None if status is None or status.age <= STALE_AGE else float(status.age)
         return ProgramStop(watch.position, name, None if status is None else status.joints,
-                           None if status is None else status.tcp_pose, may_be_on, False)
+                           None if status is None else status.tcp_pose, may_be_on, False, stale)
     if status is None:
         return ProgramStop(watch.position, name, None, None, tuple(switched_on), False)
     try:
@@ -220,12 +225,14 @@ def outputs_switched_on(plan: Sequence[PlannedStep]) -> list[tuple[str, int]]:
 
 
 def status_at_rest(robot: Robot) -> state.RobotStatus | None:
-    """The robot's status once every joint rests (or after REST_TIMEOUT); None when it cannot be read."""
+    """The robot's status once a fresh one shows every joint at rest (or the last one received after REST_TIMEOUT,
+    its `age` telling how stale it is); None when it cannot be read."""
     deadline = time.monotonic() + REST_TIMEOUT
     try:
         while True:
             status = robot.state()
-            if float(np.max(np.abs(status.joint_speeds))) < REST_SPEED or time.monotonic() > deadline:
+            at_rest = float(np.max(np.abs(status.joint_speeds))) < REST_SPEED and status.age <= STALE_AGE
+            if at_rest or time.monotonic() > deadline:
                 return status
             time.sleep(0.01)
     except (RobotError, KeyboardInterrupt):

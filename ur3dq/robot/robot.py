@@ -49,6 +49,7 @@ URSCRIPT_DEFAULT_V = 1.05  # rad/s
 SAFE_STOP_DECELERATION = 2.0  # rad/s²: stops a 1.05 rad/s joint in 0.5 s (ur_rtde's stopJ default)
 MAX_BLEND_RADIUS = 2.0  # metres; ur_rtde's client-side bound
 AFTER_STOP_WAIT = 0.5  # s to read a stopped program's last reports (its end key message) before giving up
+LATE_REPORTS_WAIT = 3.0  # ... when the streams went silent: a frozen controller sends its reports late, not never
 PROGRAM_STATE_TIMEOUT = 2.0  # s for a pause or a resume to show in the state
 OUTPUT_TIMEOUT = 1.0  # s for a digital output written over RTDE to show in the state
 REST_SPEED = 1e-3  # rad/s: a paused arm whose every joint is slower than this rests
@@ -365,8 +366,7 @@ class Robot:
 
     def movej_pose(self, pose: DualQuaternion, a: float | None = None, v: float | None = None) -> float:
         """Move to the TCP `pose` (DualQuaternion) through the IK solution closest to the current joints."""
-        q = self.model.ik(pose, self.joints())
-        return self.movej(q, a=a, v=v, expected_pose=pose)
+        return self.movej(self.model.ik(pose, self.joints()), a=a, v=v, expected_pose=pose)
 
     def stop(self, a: float = SAFE_STOP_DECELERATION) -> None:
         """Decelerate the arm to rest with `stopj(a)` (rad/s², clamped to the model's limit)."""
@@ -505,7 +505,8 @@ class Robot:
         except BaseException as error:
             self._stop_after(error)
             if on_message is not None:
-                last_reports(watcher, outcome, on_message, AFTER_STOP_WAIT)
+                late = isinstance(error, ConnectionLostError) and self._primary.alive
+                last_reports(watcher, outcome, on_message, LATE_REPORTS_WAIT if late else AFTER_STOP_WAIT)
             raise
         finally:
             self._primary.unwatch(watcher)
@@ -517,8 +518,7 @@ class Robot:
             return program
         if self._heartbeat is None:
             self._heartbeat = Heartbeat(self._rtde_inputs())
-        elif self._heartbeat.silenced:
-            # a beat while the program it was silenced for runs would keep it going (see Heartbeat.silence)
+        elif self._heartbeat.silenced:   # not while the program it was silenced for runs (Heartbeat.silence)
             self._wait_for_program(lambda status: not status.program_running)
             self._heartbeat.restart()
         if not self._heartbeat.alive:
