@@ -1,14 +1,17 @@
 """The layering docs/architecture.md promises, checked on the source: no import cycle between ur3dq's packages or
-modules (imports inside functions count), and no module over 700 lines."""
+modules (imports inside functions count), no module over 700 lines, and the PolyScope file format package
+(polyscope_format, shared by ur3dq and sim_ursim) imports neither of them."""
 from __future__ import annotations
 
 import ast
 from pathlib import Path
 
+import polyscope_format
 import ur3dq
 
 ROOT = Path(ur3dq.__file__).parent
 SOURCES = sorted(ROOT.rglob("*.py"))
+FORMAT_SOURCES = sorted(Path(polyscope_format.__file__).parent.rglob("*.py"))
 
 
 def module_name(path: Path) -> str:
@@ -109,9 +112,29 @@ def test_the_driver_knows_no_cell_program():
 
 
 def test_no_module_is_over_700_lines():
-    long = {name: n for name, path in MODULES.items()
+    long = {str(path.relative_to(ROOT.parent)): n for path in SOURCES + FORMAT_SOURCES
             if (n := len(path.read_text(encoding="utf-8").splitlines())) > 700}
     assert long == {}
+
+
+def top_level_imports(source: str) -> set[str]:
+    """The top-level packages `source` imports anywhere (a function's deferred import included; relative imports
+    stay inside the package and are left out)."""
+    found = set()
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Import):
+            found.update(alias.name.split(".")[0] for alias in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.module and not node.level:
+            found.add(node.module.split(".")[0])
+    return found
+
+
+def test_the_polyscope_format_package_imports_neither_ur3dq_nor_sim_ursim():
+    found = {str(path.relative_to(ROOT.parent)): sorted(packages) for path in FORMAT_SOURCES
+             if (packages := top_level_imports(path.read_text(encoding="utf-8")) & {"ur3dq", "sim_ursim"})}
+    assert found == {}
+    assert top_level_imports("def f():\n    from ur3dq.errors import StoreError\nimport sim_ursim.launch\n") == {
+        "ur3dq", "sim_ursim"}
 
 
 PROCESS_WIDE = {("gc", "disable"), ("gc", "freeze"), ("gc", "set_threshold")}
@@ -136,7 +159,7 @@ def process_wide_tricks(source: str) -> list[str]:
 def test_no_process_wide_tricks_in_library_code():
     import sim_ursim
 
-    sources = SOURCES + sorted(Path(sim_ursim.__file__).parent.rglob("*.py"))
+    sources = SOURCES + FORMAT_SOURCES + sorted(Path(sim_ursim.__file__).parent.rglob("*.py"))
     found = {str(path.relative_to(ROOT.parent)): tricks for path in sources
              if (tricks := process_wide_tricks(path.read_text(encoding="utf-8")))}
     assert found == {}

@@ -1,13 +1,16 @@
-"""The examples in ur3dq's docstrings run as written (doctest), so what a reader copies works."""
+"""The examples in ur3dq's (and the polyscope_format package's) docstrings run as written (doctest), so what a
+reader copies works."""
 import doctest
 import importlib
 import pkgutil
 
 import pytest
 
+import polyscope_format
 import ur3dq
 
-MODULES = sorted(info.name for info in pkgutil.walk_packages(ur3dq.__path__, "ur3dq.")
+MODULES = sorted(info.name for package in (ur3dq, polyscope_format)
+                 for info in pkgutil.walk_packages(package.__path__, package.__name__ + ".")
                  if not info.name.endswith("__main__"))
 WITH_EXAMPLES = [name for name in MODULES if ">>>" in (importlib.util.find_spec(name).loader.get_source(name) or "")]
 

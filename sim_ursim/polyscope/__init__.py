@@ -1,8 +1,10 @@
 """PolyScope's side of the controller: `.urp` program files read, translated to URScript and played.
 
-- urp_file.py     the hardened reader: gzip XML of bounded size and depth, no DTD or entities (defusedxml),
-                  XStream references (`reference="../../Set/pin"`) resolved
-- installation.py the program's installation: the names it gave to I/O pins
+The file format itself (the hardened reader, the installation's pin names, the node vocabulary, URScript lines) is
+the polyscope_format package, which ur3dq reads programs with too; sim_ursim never imports ur3dq.
+
+- errors.py       UrpError: a program the simulator cannot run (its base, polyscope_format's UrpFormatError: a
+                  file that is not a readable program)
 - expressions.py  expression nodes and I/O pin names -> URScript text
 - translation.py  the program tree -> one URScript `def <name>():` program, nodes in order, as PolyScope writes it
 - moves.py        Move containers and their Fixed / Relative / Variable waypoints

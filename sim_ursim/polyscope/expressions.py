@@ -4,7 +4,7 @@ An expression is stored as a sequence of parts, one XML element each: `<Expressi
 characters), `<ExpressionToken token=" and "/>`, `<ExpressionVariable>` (a program variable, by name or reference)
 and `<ExpressionIO>` (an I/O pin by its PolyScope name, read as the matching getter). A pin is named
 `digital_in[2]`, `config_out[0]`, `tool_in[1]`, `analog_in[0]`, `GP_bool_out[64]`, ...: PolyScope's default names,
-or the names the program's installation gave them (installation.py; `ProgramTree.pin_aliases`).
+or the names the program's installation gave them (polyscope_format.installation; `ProgramTree.pin_aliases`).
 
 Comparisons typed on the pendant are stored as symbols (`≟`, `≠`, `≤`, `≥`, `≔`) and become `==`, `!=`, `<=`, `>=`,
 `=`.
@@ -12,41 +12,20 @@ Comparisons typed on the pendant are stored as symbols (`≟`, `≠`, `≤`, `�
 >>> read_pin("digital_in[3]"), write_pin("config_out[1]", "True")
 ('get_standard_digital_in(3)', 'set_configurable_digital_out(1, True)')
 """
-import re
 from xml.etree.ElementTree import Element
 
-from .urp_file import ProgramTree, UrpError
+from polyscope_format.nodes import IDENTIFIER, PENDANT_SYMBOLS, PIN, PIN_FUNCTIONS, typed_text
+from polyscope_format.urp_file import ProgramTree
 
-_PIN = re.compile(r"^([A-Za-z_]+)\[(\d+)\]$")
-# PolyScope pin family -> (URScript getter, URScript setter or None)
-_PINS = {
-    "digital_in": ("get_standard_digital_in", None),
-    "digital_out": ("get_standard_digital_out", "set_standard_digital_out"),
-    "config_in": ("get_configurable_digital_in", None),
-    "configurable_in": ("get_configurable_digital_in", None),
-    "config_out": ("get_configurable_digital_out", "set_configurable_digital_out"),
-    "configurable_out": ("get_configurable_digital_out", "set_configurable_digital_out"),
-    "tool_in": ("get_tool_digital_in", None),
-    "tool_out": ("get_tool_digital_out", "set_tool_digital_out"),
-    "analog_in": ("get_standard_analog_in", None),
-    "analog_out": ("get_standard_analog_out", "set_standard_analog_out"),
-    "tool_analog_in": ("get_tool_analog_in", None),
-    "GP_bool_in": ("read_input_boolean_register", None),
-    "GP_bool_out": ("read_output_boolean_register", "write_output_boolean_register"),
-    "GP_int_in": ("read_input_integer_register", None),
-    "GP_int_out": ("read_output_integer_register", "write_output_integer_register"),
-    "GP_float_in": ("read_input_float_register", None),
-    "GP_float_out": ("read_output_float_register", "write_output_float_register"),
-}
+from .errors import UrpError
 
-
-# The pendant's expression editor writes comparisons and assignment as symbols (a PolyScope 3.6 program stores
-# `read_input_integer_register(0)≟1 and setp≠p[0, 0, 0, 0, 0, 0]`); URScript spells them with ASCII.
-_PENDANT_SYMBOLS = str.maketrans({"≟": "==", "≠": "!=", "≤": "<=", "≥": ">=", "≔": "="})
+# PolyScope pin family -> (URScript getter, URScript setter or None); some programs spell the configurable pins out
+_PINS = {**PIN_FUNCTIONS, "configurable_in": PIN_FUNCTIONS["config_in"],
+         "configurable_out": PIN_FUNCTIONS["config_out"]}
 
 
 def _pin_functions(name: str) -> tuple[str | None, str | None, int]:
-    match = _PIN.match(name.strip())
+    match = PIN.match(name.strip())
     if match is None or match.group(1) not in _PINS:
         raise UrpError(f"I/O pin {name!r} is neither one of PolyScope's default pin names nor named in the "
                        "program's installation")
@@ -85,7 +64,7 @@ def variable_name(tree: ProgramTree, variable: Element | None, where: Element) -
     if variable is None:
         raise UrpError(f"{tree.path_of(where)}: the node names no variable")
     name = tree.resolve(variable).get("name")
-    if not name or not re.match(r"^[A-Za-z_]\w*$", name):
+    if not name or not IDENTIFIER.match(name):
         raise UrpError(f"{tree.path_of(variable)}: {name!r} is not a variable name")
     return name
 
@@ -95,17 +74,16 @@ def expression_text(tree: ProgramTree, expression: Element | None, where: Elemen
     if expression is None:
         raise UrpError(f"{tree.path_of(where)}: the node has no expression")
     parts = [_part_text(tree, part) for part in expression]
-    text = "".join(parts).strip().translate(_PENDANT_SYMBOLS)
+    text = "".join(parts).strip().translate(PENDANT_SYMBOLS)
     if not text:
         raise UrpError(f"{tree.path_of(where)}: the node's expression is empty (PolyScope would not run it either)")
     return text
 
 
 def _part_text(tree: ProgramTree, part: Element) -> str:
-    if part.tag == "ExpressionChar":
-        return part.get("character", "")
-    if part.tag == "ExpressionToken":
-        return part.get("token", "")
+    typed = typed_text(part)
+    if typed is not None:
+        return typed
     if part.tag == "ExpressionVariable":
         return variable_name(tree, next(iter(part), None), part)
     if part.tag == "ExpressionIO":

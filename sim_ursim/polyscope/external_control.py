@@ -18,8 +18,10 @@ import time
 from dataclasses import dataclass
 from xml.etree.ElementTree import Element
 
+from polyscope_format.urp_file import ProgramTree
+
+from .errors import UrpError
 from .script_writer import string_literal
-from .urp_file import ProgramTree, UrpError
 
 log = logging.getLogger("sim_ursim.polyscope")
 

@@ -18,9 +18,11 @@ from dataclasses import dataclass
 from typing import Protocol
 from xml.etree.ElementTree import Element
 
+from polyscope_format.urp_file import ProgramTree
+
+from .errors import UrpError
 from .expressions import variable_name
 from .script_writer import ScriptWriter, number, number_list
-from .urp_file import ProgramTree, UrpError
 
 COMMANDS = {"MoveJ": "movej", "MoveL": "movel", "MoveP": "movep"}
 

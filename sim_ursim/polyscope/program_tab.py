@@ -18,11 +18,13 @@ import os
 from typing import Protocol
 from xml.etree.ElementTree import Element
 
+from polyscope_format.installation import with_installation
+from polyscope_format.urp_file import ProgramTree, UrpFormatError, read_urp
+
 from ..vocabulary import ControllerState
+from .errors import UrpError
 from .external_control import ExternalControl, ExternalControlSettings, check_supported
-from .installation import with_installation
 from .translation import program_urscript
-from .urp_file import ProgramTree, UrpError, read_urp
 
 log = logging.getLogger("sim_ursim.polyscope")
 
@@ -69,7 +71,7 @@ class ProgramTab:
             return f"File not found: {argument}"
         try:
             program = self._read(path)
-        except (UrpError, OSError, UnicodeDecodeError) as error:
+        except (UrpFormatError, OSError, UnicodeDecodeError) as error:
             log.warning("load %s: %s", argument, error)
             return f"Error while loading program: {argument}"
         if self.controller.state().program_running:
@@ -97,7 +99,7 @@ class ProgramTab:
             return loaded
         try:
             return program_urscript(loaded, ExternalControl(self.external_control))
-        except UrpError as error:
+        except UrpFormatError as error:
             log.warning("play %s: %s", self.controller.loaded_program, error)
             return None
 

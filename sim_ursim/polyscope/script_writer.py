@@ -1,10 +1,10 @@
 """ScriptWriter: URScript lines with PolyScope's indentation and `$ N "label"` line markers; number formatting."""
 import math
-from collections.abc import Iterator
-from contextlib import contextmanager
+
+from polyscope_format.script_lines import ScriptLines
 
 
-class ScriptWriter:
+class ScriptWriter(ScriptLines):
     """Collects URScript lines; `indented()` nests a block, `marker(label)` writes PolyScope's `$ N "label"` line.
 
     >>> writer = ScriptWriter()
@@ -13,35 +13,14 @@ class ScriptWriter:
     '$ 1 "Wait: 0.5"\\nsleep(0.5)\\n'
     """
 
-    INDENT = "  "
-
     def __init__(self, first_marker: int = 1) -> None:
-        self.lines: list[str] = []
-        self.depth = 0
+        super().__init__()
         self.next_marker = first_marker
-
-    def line(self, text: str) -> None:
-        """Append one line at the current depth (a multi-line text is split and each line indented)."""
-        for part in text.split("\n"):
-            self.lines.append(self.INDENT * self.depth + part.rstrip() if part.strip() else "")
 
     def marker(self, label: str) -> None:
         """PolyScope's line marker for the program tree (the interpreter reads it as a comment)."""
         self.line(f"$ {self.next_marker} \"{safe_text(label)}\"")
         self.next_marker += 1
-
-    @contextmanager
-    def indented(self) -> Iterator[None]:
-        """Lines written inside the `with` block are one level deeper."""
-        self.depth += 1
-        try:
-            yield
-        finally:
-            self.depth -= 1
-
-    def text(self) -> str:
-        """Every line, newline-terminated."""
-        return "".join(line + "\n" for line in self.lines)
 
 
 def safe_text(text: str) -> str:

@@ -36,14 +36,24 @@ from collections.abc import Callable
 from typing import Any
 from xml.etree.ElementTree import Element
 
+from polyscope_format.nodes import (
+    analog_comparison,
+    digital_on,
+    field_text,
+    grouped_if_chains,
+    if_branches,
+    if_kind,
+    node_children,
+)
+from polyscope_format.urp_file import ProgramTree
+
 from . import moves
+from .errors import UrpError
 from .expressions import expression_text, pin_name, read_pin, variable_name, write_pin
 from .script_writer import ScriptWriter, number, safe_text, string_literal
-from .urp_file import ProgramTree, UrpError
 
 # A URCap node's script: called with the tree and the <Contributed> element; returns URScript text.
 ContributedScript = Callable[[ProgramTree, Element], str]
-TRUE_WORDS = ("1", "true", "on", "high")
 
 
 def program_urscript(tree: ProgramTree, contributed: ContributedScript | None = None) -> str:
@@ -187,28 +197,18 @@ class Translation:
     # ------------------------------------------------------------------------------------------ blocks
     def children_of(self, element: Element) -> list[Element]:
         """The nodes under `element`'s `<children>` (references followed, placeholders dropped)."""
-        holder = element.find("children")
-        if holder is None:
-            return []
-        nodes = [self.tree.resolve(child) for child in holder]
-        return [node for node in nodes if node.tag != "Placeholder"]
+        return node_children(self.tree, element)
 
     def block(self, nodes: list[Element]) -> None:
         """Translate `nodes` in order (an If takes the ElseIf/Else siblings that follow it)."""
-        index = 0
-        while index < len(nodes):
-            node = nodes[index]
-            if _if_kind(node) == "If":
-                branches = [node]
-                while index + 1 < len(nodes) and _if_kind(nodes[index + 1]) in ("ElseIf", "Else"):
-                    index += 1
-                    branches.append(nodes[index])
-                self.located(node, self._if_chain, branches)
-            elif _if_kind(node) in ("ElseIf", "Else"):
-                raise UrpError(f"{self.tree.path_of(node)}: {_if_kind(node)} without its If")
+        for group in grouped_if_chains(nodes):
+            node = group[0]
+            if if_kind(node) == "If":
+                self.located(node, self._if_chain, group)
+            elif if_kind(node) in ("ElseIf", "Else"):
+                raise UrpError(f"{self.tree.path_of(node)}: {if_kind(node)} without its If")
             else:
                 self.located(node, self.node, node)
-            index += 1
 
     def located(self, node: Element, translate: Callable[..., None], *arguments: object) -> None:
         """Run `translate(*arguments)`; an error without a place in the tree gets `node`'s."""
@@ -230,10 +230,9 @@ class Translation:
     # ------------------------------------------------------------------------------------------ control flow
     def _if_chain(self, branches: list[Element]) -> None:
         first = branches[0]
-        nested = [child for child in self.children_of(first) if _if_kind(child) in ("ElseIf", "Else")]
-        then_nodes = [child for child in self.children_of(first) if child not in nested]
-        for number_, branch in enumerate([first, *nested, *branches[1:]]):
-            kind = _if_kind(branch) if number_ else "If"
+        then_nodes, branches = if_branches(branches, self.children_of(first))
+        for number_, branch in enumerate(branches):
+            kind = if_kind(branch) if number_ else "If"
             self._no_continuous_check(branch)
             if kind == "Else":
                 self.writer.line("else:")
@@ -291,12 +290,10 @@ class Translation:
             self.writer.line(f"sleep({number(seconds)})")
             return
         if kind == "DigitalInput":
-            value = "True" if _field_text(node, "digitalValue").lower() in TRUE_WORDS else "False"
-            condition = f"{_read(self, node)} == {value}"
+            condition = f"{_read(self, node)} == {digital_on(node)}"
         elif kind == "AnalogInput":
-            comparison = {"0": "<", "1": ">", "2": "=="}.get(_field_text(node, "analogComparison"), ">")
             threshold = number(_number_field(self.tree, node, ("analogValue",)))
-            condition = f"{_read(self, node)} {comparison} {threshold}"
+            condition = f"{_read(self, node)} {analog_comparison(node)} {threshold}"
         elif kind in ("Condition", "Expression"):
             condition = expression_text(self.tree, node.find("expression"), node)
         else:
@@ -315,7 +312,7 @@ class Translation:
             return
         pin = pin_name(self.tree, node.find("pin"), node)
         if kind == "DigitalOutput":
-            value = "True" if _field_text(node, "digitalValue").lower() in TRUE_WORDS else "False"
+            value = str(digital_on(node))
         elif kind == "AnalogOutput":
             value = number(_number_field(self.tree, node, ("analogValue",)))
         elif kind in ("Expression", "ExpressionOutput"):
@@ -393,22 +390,9 @@ class Translation:
         raise UrpError(f"{self.tree.path_of(node)}: a Thread must be at the top of the program tree")
 
 
-def _if_kind(node: Element) -> str | None:
-    """'If', 'ElseIf', 'Else' for the nodes of an if chain (5.x `<If type=...>` or separate tags), else None."""
-    if node.tag == "If":
-        return node.get("type", "If")
-    return node.tag if node.tag in ("ElseIf", "Else") else None
-
-
-def _field_text(node: Element, name: str) -> str:
-    """A field given as a child element's text or as an attribute."""
-    text = node.findtext(name)
-    return (text if text is not None else node.get(name, "")).strip()
-
-
 def _number_field(tree: ProgramTree, node: Element, names: tuple[str, ...]) -> float:
     for name in names:
-        text = _field_text(node, name)
+        text = field_text(node, name)
         if text:
             try:
                 return float(number(float(text)))

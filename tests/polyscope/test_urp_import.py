@@ -4,19 +4,6 @@ import math
 
 import numpy as np
 import pytest
-from urp_trees import (
-    CB3_WAIT_PROGRAM,
-    E_SERIES_EXTERNAL_CONTROL,
-    E_SERIES_WAIT_PROGRAM,
-    HOME,
-    expression,
-    folder,
-    move,
-    position,
-    set_digital,
-    tree,
-    waypoint,
-)
 
 from ur3dq.kinematics import robot_model
 from ur3dq.polyscope.urp_file import UrpFileError, parse_urp_bytes
@@ -33,6 +20,19 @@ from ur3dq.program.steps import (
     Wait,
     WaitInput,
     Waypoint,
+)
+from urp_samples import (
+    CB3_WAIT_PROGRAM,
+    E_SERIES_EXTERNAL_CONTROL,
+    E_SERIES_WAIT_PROGRAM,
+    HOME,
+    expression,
+    folder,
+    move,
+    position,
+    set_digital,
+    tree,
+    waypoint,
 )
 
 UR5E = robot_model("ur5e")
@@ -164,10 +164,8 @@ def test_a_polyscope_3_position_gives_the_tcp_offset_its_pose_implies():
 def test_an_installation_s_pin_names_are_read_back_to_polyscope_s(tmp_path):
     import gzip
 
-    from urp_trees import program_xml
-
-    from ur3dq.polyscope.installation import installation_pin_aliases
-    from ur3dq.polyscope.urp_file import read_urp
+    from ur3dq.polyscope.urp_file import installation_pin_aliases, read_urp
+    from urp_samples import program_xml
 
     (tmp_path / "cell.urp").write_bytes(gzip.compress(program_xml(set_digital("gripper")).encode()))
     (tmp_path / "default.installation").write_bytes(gzip.compress(
@@ -312,6 +310,14 @@ def test_a_program_without_a_main_program_or_a_model_is_refused():
         import_program(parse_urp_bytes(bare, "x.urp"))
     with pytest.raises(ValueError, match="the program has no node ur3dq can import"):
         import_program(parse_urp_bytes(bare, "x.urp"), model_name="ur5")
+
+
+def test_a_broken_reference_is_a_file_problem_of_ur3dq_s():
+    from ur3dq.errors import StoreError
+
+    with pytest.raises(UrpFileError, match=r"^cell.urp: broken reference '../../Set\[4\]/pin' at ") as refused:
+        import_program(tree('<Set type="DigitalOutput"><pin reference="../../Set[4]/pin"/></Set>'))
+    assert isinstance(refused.value, StoreError)   # exit code 3 on the command line
 
 
 def test_a_relative_waypoint_moved_on_the_pendant_comes_back_fixed():

@@ -7,8 +7,9 @@ import gzip
 
 import pytest
 
+from polyscope_format.urp_file import UrpFormatError, parse_urp_bytes
+from sim_ursim.polyscope.errors import UrpError
 from sim_ursim.polyscope.translation import program_def_name, program_urscript
-from sim_ursim.polyscope.urp_file import UrpError, parse_urp_bytes
 from sim_ursim.urscript.builtins import BUILTINS
 from sim_ursim.urscript.interpreter import compile_program
 from sim_ursim.urscript.parser import parse
@@ -173,7 +174,7 @@ def test_before_start_init_variables_threads_and_sub_programs():
     top_after = '<SubProgram reference="../MainProgram/children/CallSubProgram/subprogram"/>'
     xml = program_xml(main, run_once=False, top=top).replace("</MainProgram>", "</MainProgram>" + top_after)
     assert statements(translated(xml)) == [
-        "def test_program():",
+        "def cell():",
         "def Grip():", "global count=count + 1", "end",
         "global count=0", "global ready=True",
         "thread Watch():", "while (True):", "sleep(1.0)", "sync()", "end", "end", "threadId_Watch = run Watch()",
@@ -234,11 +235,15 @@ def test_3x_positions_relative_and_variable_waypoints():
      "</Waypoint></children></Move>", r"MainProgram/Move/Waypoint/position: '1, 2' is not 6 numbers"),
     ('<Else><children/></Else>', r"Else without its If"),
     ('<Contributed strategyClass="com.example.Gripper" strategyProgramNodeType="Grip"/>', r"URCap node 'Grip'"),
-    ('<Set type="DigitalOutput"><pin reference="../../Nowhere/pin"/></Set>', r"broken reference"),
 ])
 def test_what_the_simulator_cannot_run_is_refused_naming_the_node(main, message):
     with pytest.raises(UrpError, match=message):
         main_statements(main)
+
+
+def test_a_broken_reference_is_the_file_s_problem_and_says_where():
+    with pytest.raises(UrpFormatError, match=r"broken reference '../../Nowhere/pin' at URProgram/MainProgram/Set/pin"):
+        main_statements('<Set type="DigitalOutput"><pin reference="../../Nowhere/pin"/></Set>')
 
 
 def test_a_polyscope_3_program_with_pendant_symbols_variable_waypoints_and_a_thread():
@@ -261,7 +266,7 @@ def test_a_polyscope_3_program_with_pendant_symbols_variable_waypoints_and_a_thr
               '<Thread name="Once" runOnlyOnce="true"><children><Halt/></children></Thread>')
     xml = program_xml(main, run_once=False, top=before_start).replace("</MainProgram>", "</MainProgram>" + thread)
     assert statements(translated(xml)) == [
-        "def test_program():", "global setp=p[0,0,0,0,0,0]",
+        "def cell():", "global setp=p[0,0,0,0,0,0]",
         "thread Thread_1():", "while (True):", "while (True):", "global setp=p[0.1,0,0,0,0,0]", "end", "sync()",
         "end", "end", "threadId_Thread_1 = run Thread_1()",
         "thread Once():", "halt", "end", "threadId_Once = run Once()",

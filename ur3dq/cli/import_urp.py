@@ -13,9 +13,8 @@ from ur3dq.cli.options import display_options
 from ur3dq.errors import RobotError, StoreError
 from ur3dq.kinematics import robot_model
 from ur3dq.kinematics.models import URModel
-from ur3dq.polyscope.installation import installation_pin_aliases
 from ur3dq.polyscope.kinematics import largest_tcp_difference
-from ur3dq.polyscope.urp_file import read_urp
+from ur3dq.polyscope.urp_file import installation_pin_aliases, read_urp
 from ur3dq.polyscope.urp_import import Imported, import_program
 from ur3dq.program.steps import Step
 from ur3dq.units import LENGTH, Units, show

@@ -8,7 +8,7 @@ speed and acceleration they are, so that its waypoints that set none of their ow
 technician's edit on the pendant wins: a moved relative waypoint comes back fixed, a Move whose values changed
 keeps them.
 
->>> from ur3dq.polyscope.urp_xml import element
+>>> from polyscope_format.urp_xml import element
 >>> annotation_of(element("Comment", {"comment": 'ur3dq: {"timeout": 10.0}'}))
 {'timeout': 10.0}
 """

@@ -12,36 +12,26 @@ become `# label` comments (free text never reaches a string literal unescaped).
 """
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
 from xml.etree.ElementTree import Element
 
+from polyscope_format.nodes import analog_comparison, digital_on, grouped_if_chains, if_branches, if_kind
+from polyscope_format.script_lines import ScriptLines
 from ur3dq import urscript
-from ur3dq.polyscope.nodes import (
-    TRUE_WORDS,
-    NodeError,
-    Program,
-    field_text,
-    if_kind,
-    loop_count,
-    number_field,
-    read_pin,
-    write_pin,
-)
+from ur3dq.polyscope.nodes import NodeError, Program, loop_count, number_field, read_pin, write_pin
 
 # (joints, tcp offset, TCP pose) of a recorded position element; NodeError when it records none
 PositionReader = Callable[[Element, str], tuple[list[float], list[float], list[float]]]
 COMMANDS = {"MoveJ": "movej", "MoveL": "movel", "MoveP": "movep"}
 
 
-class KeptScriptWriter:
+class KeptScriptWriter(ScriptLines):
     """Writes the URScript of unsupported nodes; one writer per program (it numbers loop counters)."""
 
     def __init__(self, program: Program, positions: PositionReader) -> None:
+        super().__init__()
         self.program = program
         self.positions = positions
-        self.lines: list[str] = []
-        self.depth = 0
         self.loops = 0
 
     def script(self, nodes: list[Element], path: str) -> str:
@@ -56,35 +46,17 @@ class KeptScriptWriter:
         self._waypoint(move, waypoint, path)
         return "\n".join(self.lines) + "\n"
 
-    def line(self, text: str) -> None:
-        for part in text.split("\n"):
-            self.lines.append("  " * self.depth + part.rstrip() if part.strip() else "")
-
     def marker(self, label: str) -> None:
+        """PolyScope's `$ N "label"` line marker, written as a comment."""
         self.line(f"# {urscript.comment_text(label)}")
-
-    @contextmanager
-    def indented(self) -> Iterator[None]:
-        self.depth += 1
-        try:
-            yield
-        finally:
-            self.depth -= 1
 
     def block(self, nodes: list[Element], parent: str) -> None:
         """Translate `nodes` in order (an If takes the ElseIf/Else siblings that follow it)."""
-        index = 0
-        while index < len(nodes):
-            node = nodes[index]
-            if if_kind(node) == "If":
-                chain = [node]
-                while index + 1 < len(nodes) and if_kind(nodes[index + 1]) in ("ElseIf", "Else"):
-                    index += 1
-                    chain.append(nodes[index])
-                self._if_chain(chain, parent)
+        for group in grouped_if_chains(nodes):
+            if if_kind(group[0]) == "If":
+                self._if_chain(group, parent)
             else:
-                self.node(node, parent)
-            index += 1
+                self.node(group[0], parent)
 
     def node(self, node: Element, parent: str) -> None:
         path = self.program.path_to(parent, node)
@@ -103,9 +75,8 @@ class KeptScriptWriter:
 
     def _if_chain(self, chain: list[Element], parent: str) -> None:
         first = chain[0]
-        nested = [child for child in self.program.children(first) if if_kind(child) in ("ElseIf", "Else")]
-        then_nodes = [child for child in self.program.children(first) if child not in nested]
-        for number, branch in enumerate([first, *nested, *chain[1:]]):
+        then_nodes, branches = if_branches(chain, self.program.children(first))
+        for number, branch in enumerate(branches):
             path = self.program.path_to(parent, branch)
             self._no_continuous_check(branch, path)
             kind = if_kind(branch) if number else "If"
@@ -147,12 +118,10 @@ class KeptScriptWriter:
             self.line(urscript.sleep_statement(number_field(node, "waitTime", path)))
             return
         if kind == "DigitalInput":
-            value = "True" if field_text(node, "digitalValue").lower() in TRUE_WORDS else "False"
-            condition = f"{read_pin(self.program.pin(node, path), path)} == {value}"
+            condition = f"{read_pin(self.program.pin(node, path), path)} == {digital_on(node)}"
         elif kind == "AnalogInput":
-            comparison = {"0": "<", "1": ">", "2": "=="}.get(field_text(node, "analogComparison"), ">")
             threshold = urscript.format_number(number_field(node, "analogValue", path))
-            condition = f"{read_pin(self.program.pin(node, path), path)} {comparison} {threshold}"
+            condition = f"{read_pin(self.program.pin(node, path), path)} {analog_comparison(node)} {threshold}"
         elif kind in ("Condition", "Expression"):
             condition = self.program.expression(node, path)
         else:
@@ -169,7 +138,7 @@ class KeptScriptWriter:
             return
         pin = self.program.pin(node, path)
         if kind == "DigitalOutput":
-            value = "True" if field_text(node, "digitalValue").lower() in TRUE_WORDS else "False"
+            value = str(digital_on(node))
         elif kind == "AnalogOutput":
             value = urscript.format_number(number_field(node, "analogValue", path))
         elif kind in ("Expression", "ExpressionOutput"):

@@ -4,23 +4,33 @@ A node's path is how a technician finds it on the pendant's program tree: `Robot
 (the main program is "Robot Program", a folder or waypoint by its name, an If by its condition). Expressions are
 stored as parts — typed characters, tokens, variables, I/O pins — and read back as the text the pendant shows
 (its comparison symbols ≟ ≠ ≤ ≥ ≔ written as URScript's == != <= >= =). Pins are PolyScope's default names
-(`digital_in[2]`, `tool_out[0]`, `analog_out[1]`, ...) or names the program's installation gave them.
+(`digital_in[2]`, `tool_out[0]`, `analog_out[1]`, ...) or names the program's installation gave them. The
+vocabulary the simulator reads the same way (pin functions, symbols, If chains, fields) is polyscope_format.nodes.
 
->>> split_pin("config_out[3]")
-('config_out', 3)
+>>> read_pin("digital_in[3]", "Robot Program/Wait"), write_pin("config_out[1]", "True", "Robot Program/Set")
+('get_standard_digital_in(3)', 'set_configurable_digital_out(1, True)')
 """
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass, field
 from xml.etree.ElementTree import Element
 
-from ur3dq.polyscope.urp_file import ProgramTree
+from polyscope_format.nodes import (
+    IDENTIFIER,
+    PENDANT_SYMBOLS,
+    PIN,
+    PIN_FUNCTIONS,
+    TRUE_WORDS,
+    analog_comparison,
+    digital_on,
+    field_text,
+    if_kind,
+    node_children,
+    split_pin,
+    typed_text,
+)
+from polyscope_format.urp_file import ProgramTree
 
-_PIN = re.compile(r"^([A-Za-z_]+)\[(\d+)\]$")
-_IDENTIFIER = re.compile(r"^[A-Za-z_]\w*$")
-_PENDANT_SYMBOLS = str.maketrans({"≟": "==", "≠": "!=", "≤": "<=", "≥": ">=", "≔": "="})
-TRUE_WORDS = ("1", "true", "on", "high")
 LABEL_MAX = 80   # a label in a path or a step name is cut here (with …)
 
 
@@ -42,11 +52,7 @@ class Program:
 
     def children(self, element: Element) -> list[Element]:
         """The nodes under `element`'s `<children>` (references followed, empty slots dropped)."""
-        holder = element.find("children")
-        if holder is None:
-            return []
-        nodes = [self.tree.resolve(child) for child in holder]
-        return [node for node in nodes if node.tag != "Placeholder"]
+        return node_children(self.tree, element)
 
     def label(self, node: Element) -> str:
         """The node as the pendant's program tree shows it (`MoveJ`, `pick`, `Set tool_out[0]=On`, `Wait 0.5`)."""
@@ -63,16 +69,15 @@ class Program:
         expression = node.find("expression")
         if expression is None:
             raise NodeError(where, "the node has no expression")
-        text = "".join(self._part(part, where, pendant) for part in expression).strip().translate(_PENDANT_SYMBOLS)
+        text = "".join(self._part(part, where, pendant) for part in expression).strip().translate(PENDANT_SYMBOLS)
         if not text:
             raise NodeError(where, "the node's expression is empty (PolyScope would not run it either)")
         return text
 
     def _part(self, part: Element, where: str, pendant: bool) -> str:
-        if part.tag == "ExpressionChar":
-            return part.get("character", "")
-        if part.tag == "ExpressionToken":
-            return part.get("token", "")
+        typed = typed_text(part)
+        if typed is not None:
+            return typed
         if part.tag == "ExpressionVariable":
             variable = next(iter(part), None)
             return self.variable(variable, where)
@@ -83,7 +88,7 @@ class Program:
     def variable(self, variable: Element | None, where: str) -> str:
         """The name of a program variable element (by name or reference)."""
         name = None if variable is None else self.tree.resolve(variable).get("name")
-        if not name or not _IDENTIFIER.match(name):
+        if not name or not IDENTIFIER.match(name):
             raise NodeError(where, f"{name!r} is not a variable name")
         return name
 
@@ -98,7 +103,7 @@ class Program:
         if not name:
             raise NodeError(where, "the pin has no name")
         name = self.pin_aliases.get(name, name)
-        if _PIN.match(name) is None:
+        if PIN.match(name) is None:
             raise NodeError(where, f"I/O pin {name!r} is neither one of PolyScope's pin names nor named in the "
                                    "program's installation (keep the installation file beside the program)")
         return name
@@ -106,34 +111,6 @@ class Program:
     def path_to(self, parent: str, node: Element) -> str:
         """The path of `node` under the node at `parent`."""
         return f"{parent}/{self.label(node)}" if parent else self.label(node)
-
-
-def split_pin(name: str) -> tuple[str, int]:
-    """(family, number) of a default pin name: `config_out[3]` -> ('config_out', 3)."""
-    match = _PIN.match(name)
-    if match is None:
-        raise ValueError(f"{name!r} is not a pin name")
-    return match.group(1), int(match.group(2))
-
-
-# PolyScope pin family -> (URScript getter, URScript setter or None)
-PIN_FUNCTIONS = {
-    "digital_in": ("get_standard_digital_in", None),
-    "digital_out": ("get_standard_digital_out", "set_standard_digital_out"),
-    "config_in": ("get_configurable_digital_in", None),
-    "config_out": ("get_configurable_digital_out", "set_configurable_digital_out"),
-    "tool_in": ("get_tool_digital_in", None),
-    "tool_out": ("get_tool_digital_out", "set_tool_digital_out"),
-    "analog_in": ("get_standard_analog_in", None),
-    "analog_out": ("get_standard_analog_out", "set_standard_analog_out"),
-    "tool_analog_in": ("get_tool_analog_in", None),
-    "GP_bool_in": ("read_input_boolean_register", None),
-    "GP_bool_out": ("read_output_boolean_register", "write_output_boolean_register"),
-    "GP_int_in": ("read_input_integer_register", None),
-    "GP_int_out": ("read_output_integer_register", "write_output_integer_register"),
-    "GP_float_in": ("read_input_float_register", None),
-    "GP_float_out": ("read_output_float_register", "write_output_float_register"),
-}
 
 
 def read_pin(name: str, where: str) -> str:
@@ -153,12 +130,6 @@ def write_pin(name: str, value: str, where: str) -> str:
     return f"{setter}({number}, {value})"
 
 
-def field_text(node: Element, name: str) -> str:
-    """A field given as a child element's text or as an attribute (PolyScope writes both forms)."""
-    text = node.findtext(name)
-    return (text if text is not None else node.get(name, "")).strip()
-
-
 def number_field(node: Element, name: str, where: str) -> float:
     """A numeric field (child text or attribute); NodeError when missing or not a finite number."""
     text = field_text(node, name)
@@ -169,13 +140,6 @@ def number_field(node: Element, name: str, where: str) -> float:
     if value != value or value in (float("inf"), float("-inf")):
         raise NodeError(where, f"{name} {text!r} is not a finite number")
     return value
-
-
-def if_kind(node: Element) -> str | None:
-    """'If', 'ElseIf', 'Else' for the nodes of an if chain (5.x `<If type=...>` or separate tags), else None."""
-    if node.tag == "If":
-        return node.get("type", "If")
-    return node.tag if node.tag in ("ElseIf", "Else") else None
 
 
 def _label(program: Program, node: Element) -> str:
@@ -239,11 +203,10 @@ def _wait_label(program: Program, node: Element) -> str:
     if kind == "Sleep":
         return f"Wait {field_text(node, 'waitTime')}"
     if kind == "DigitalInput":
-        state = "HI" if field_text(node, "digitalValue").lower() in TRUE_WORDS else "LO"
+        state = "HI" if digital_on(node) else "LO"
         return f"Wait {program.pin(node, node.tag)}={state}"
     if kind == "AnalogInput":
-        comparison = {"0": "<", "1": ">", "2": "=="}.get(field_text(node, "analogComparison"), ">")
-        return f"Wait {program.pin(node, node.tag)}{comparison}{field_text(node, 'analogValue')}"
+        return f"Wait {program.pin(node, node.tag)}{analog_comparison(node)}{field_text(node, 'analogValue')}"
     return f"Wait {program.expression(node, node.tag, True)}"
 
 

@@ -19,12 +19,12 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from xml.etree.ElementTree import Element
 
+from polyscope_format.urp_file import ProgramTree
+from polyscope_format.urp_xml import doubles, element, file_bytes, java_double
 from ur3dq.kinematics.models import URModel
 from ur3dq.polyscope.annotations import ANNOTATION, RUN_DEFAULTS
 from ur3dq.polyscope.kinematics import SavedKinematics
 from ur3dq.polyscope.nodes import Program
-from ur3dq.polyscope.urp_file import ProgramTree
-from ur3dq.polyscope.urp_xml import doubles, element, file_bytes, java_double
 from ur3dq.program.plan import PlannedStep
 from ur3dq.program.steps import (
     MAX_WAIT_S,

@@ -22,14 +22,16 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from xml.etree.ElementTree import Element
 
+from polyscope_format.nodes import digital_on, if_kind, split_pin
+from polyscope_format.urp_file import ProgramTree, UrpFormatError
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.kinematics import robot_model
 from ur3dq.kinematics.models import URModel
 from ur3dq.polyscope.annotations import annotation_of, relative_from_annotations, run_defaults_of
 from ur3dq.polyscope.kept_script import KeptScriptWriter
 from ur3dq.polyscope.kinematics import SavedKinematics
-from ur3dq.polyscope.nodes import TRUE_WORDS, NodeError, Program, field_text, if_kind, number_field, split_pin
-from ur3dq.polyscope.urp_file import ProgramTree, UrpFileError
+from ur3dq.polyscope.nodes import NodeError, Program, number_field
+from ur3dq.polyscope.urp_file import UrpFileError
 from ur3dq.pose import Pose, name_problem, next_free_name, numbering_prefix
 from ur3dq.program.resolve import offset_pose
 from ur3dq.program.steps import (
@@ -224,7 +226,7 @@ class Importer:
             if output is None or pin >= PIN_COUNT[output]:
                 raise NodeError(path, f"output {family}[{pin}] has no ur3dq step (digital_out, config_out and "
                                       "tool_out pins only)")
-            on = field_text(node, "digitalValue").lower() in TRUE_WORDS
+            on = digital_on(node)
             return [Entry(path, self.program.label(node), None,
                           lambda name, previous: DigitalOut(name, output, pin, on))]
         if kind == "AnalogOutput":
@@ -251,7 +253,7 @@ class Importer:
             if source is None or pin >= PIN_COUNT[source]:
                 raise NodeError(path, f"input {family}[{pin}] has no ur3dq step (digital_in, config_in and tool_in "
                                       "pins only)")
-            on = field_text(node, "digitalValue").lower() in TRUE_WORDS
+            on = digital_on(node)
 
             def wait_input(name: str, previous: object) -> Step:
                 timeout = (entry.annotation or {}).get("timeout", MAX_WAIT_S)   # the export's annotation, if any
@@ -524,7 +526,7 @@ def import_program(tree: ProgramTree, model_name: str | None = None, keep_script
     taken : iterable of str
         Names already in the program the steps are added to (an imported name that is taken gets `-N`).
     pin_aliases : dict, optional
-        {name an installation gave a pin: PolyScope's name of it} (ur3dq.polyscope.installation).
+        {name an installation gave a pin: PolyScope's name of it} (ur3dq.polyscope.urp_file.installation_pin_aliases).
 
     Raises
     ------
@@ -543,7 +545,7 @@ def import_program(tree: ProgramTree, model_name: str | None = None, keep_script
     try:
         entries = importer.top_level()
         steps = importer.steps(entries, taken)
-    except NodeError as error:
+    except (NodeError, UrpFormatError) as error:
         raise UrpFileError(str(error)) from None
     if importer.problems:
         raise UnsupportedNodes(tree.source, importer.problems, keep_script, importer.keepable)

@@ -1,12 +1,12 @@
-"""The hardened `.urp` reader (sim_ursim.polyscope.urp_file): hostile and broken files end in one clear UrpError,
-quickly and without exhausting memory; XStream references resolve as PolyScope wrote them."""
+"""The hardened `.urp` reader (polyscope_format.urp_file): hostile and broken files end in one clear
+UrpFormatError, quickly and without exhausting memory; XStream references resolve as PolyScope wrote them."""
 import gzip
 import zlib
 
 import pytest
 
-from sim_ursim.polyscope import urp_file
-from sim_ursim.polyscope.urp_file import UrpError, parse_urp_bytes, read_urp
+from polyscope_format import urp_file
+from polyscope_format.urp_file import UrpFormatError, parse_urp_bytes, read_installation, read_urp
 from urp_samples import E_SERIES_WAIT_PROGRAM, program_xml, write_urp
 
 pytestmark = pytest.mark.timeout(30)  # a hostile file must never hang the reader
@@ -60,7 +60,7 @@ def _gzip(data: bytes) -> bytes:
     (b"\x1f\x8b\x08\x00garbage after the gzip magic", r"corrupt gzip data"),
 ])
 def test_broken_and_hostile_contents_are_refused_with_one_clear_line(content, message):
-    with pytest.raises(UrpError, match=message) as refused:
+    with pytest.raises(UrpFormatError, match=message) as refused:
         parse_urp_bytes(content, "prog.urp")
     assert str(refused.value).startswith("prog.urp: ") and "\n" not in str(refused.value)
 
@@ -68,7 +68,7 @@ def test_broken_and_hostile_contents_are_refused_with_one_clear_line(content, me
 def test_a_gzip_bomb_is_refused_before_it_is_expanded():
     bomb = _gzip(b"<URProgram>" + b" " * (urp_file.MAX_XML_BYTES + 1024) + b"</URProgram>")
     assert len(bomb) < 100_000  # 32 MB of spaces compress to ~32 KB
-    with pytest.raises(UrpError, match=r"decompresses to more than 32 MB of XML"):
+    with pytest.raises(UrpFormatError, match=r"decompresses to more than 32 MB of XML"):
         parse_urp_bytes(bomb, "bomb.urp")
 
 
@@ -77,17 +77,40 @@ def test_a_100_mb_file_is_refused_by_its_size(tmp_path):
     with open(huge, "wb") as sparse:  # a sparse file: 100 MB long, nothing written to disk
         sparse.write(b"\x1f\x8b")
         sparse.truncate(100 * 1000 * 1000)
-    with pytest.raises(UrpError, match=r"huge.urp: 100 MB is larger than a PolyScope program can be"):
+    with pytest.raises(UrpFormatError, match=r"huge.urp: 100 MB is larger than a PolyScope program can be"):
         read_urp(str(huge))
 
 
 def test_a_missing_file_and_a_directory_name_the_problem(tmp_path):
-    with pytest.raises(UrpError, match=r"cannot be read"):
+    with pytest.raises(UrpFormatError, match=r"cannot be read"):
         read_urp(str(tmp_path / "absent.urp"))
 
 
 def test_a_second_gzip_member_or_trailing_bytes_do_not_hide_a_truncation():
     stream = zlib.compressobj(wbits=16 + zlib.MAX_WBITS)
     partial = stream.compress(E_SERIES_WAIT_PROGRAM.encode()) + stream.flush(zlib.Z_SYNC_FLUSH)
-    with pytest.raises(UrpError, match=r"truncated"):
+    with pytest.raises(UrpFormatError, match=r"truncated"):
         parse_urp_bytes(partial, "sync-flushed.urp")
+
+
+def test_a_broken_or_endless_reference_names_where_it_stands():
+    tree = parse_urp_bytes(program_xml('<Set type="DigitalOutput"><pin reference="../../Set[7]/pin"/></Set>'
+                                       '<Folder reference="../Folder"/>').encode(), "cell.urp")
+    pin, loop = tree.root.find("children/MainProgram/children/Set/pin"), tree.root.find(
+        "children/MainProgram/children/Folder")
+    with pytest.raises(UrpFormatError, match=r"^cell.urp: broken reference '../../Set\[7\]/pin' at "
+                                             r"URProgram/MainProgram/Set/pin$"):
+        tree.resolve(pin)
+    with pytest.raises(UrpFormatError, match=r"^cell.urp: references nested deeper than 32 at "
+                                             r"URProgram/MainProgram/Folder$"):
+        tree.resolve(loop)
+
+
+def test_an_installation_reads_under_the_same_bounds_and_must_be_one(tmp_path):
+    installation = tmp_path / "default.installation"
+    installation.write_bytes(_gzip(b"<Installation><IOs/></Installation>"))
+    assert read_installation(installation).root.tag == "Installation"
+    program = write_urp(tmp_path / "cell.urp", E_SERIES_WAIT_PROGRAM)
+    with pytest.raises(UrpFormatError, match=r"cell.urp: not a PolyScope installation \(the XML's root is "
+                                             r"<URProgram>, not <Installation>\)"):
+        read_installation(program)

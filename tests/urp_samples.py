@@ -1,11 +1,13 @@
-"""PolyScope program trees for the import tests: URCL's real test programs (as PolyScope saved them) and a builder
-of synthetic ones in the same shape (the nodes as docs/polyscope.md lists them)."""
+"""PolyScope program files for the tests of polyscope_format, ur3dq's import and sim_ursim's playback: real ones
+(URCL's integration-test programs, as PolyScope saved them) and builders of synthetic trees in the same shape (the
+nodes as docs/polyscope.md lists them)."""
 import gzip
+from pathlib import Path
 
-from ur3dq.polyscope.urp_file import parse_urp_bytes
+from polyscope_format.urp_file import ProgramTree, parse_urp_bytes
 
-# Universal_Robots_Client_Library tests/resources/dockerursim/programs/{e-series,cb3}/*.urp (Apache-2.0), the
-# programs URCL's CI loads into URSim; CB3 differs in the header and the UR5's kinematics.
+# Universal_Robots_Client_Library tests/resources/dockerursim/programs/{e-series,cb3}/*.urp (gunzipped; Apache-2.0),
+# the programs URCL's CI loads into URSim; CB3 differs in the header and the UR5's kinematics.
 UR5E_KINEMATICS = """<kinematics status="NOT_INITIALIZED" validChecksum="false">
     <deltaTheta value="0.0, 0.0, 0.0, 0.0, 0.0, 0.0"/>
     <a value="0.0, -0.425, -0.3922, 0.0, 0.0, 0.0"/>
@@ -53,7 +55,8 @@ strategyURCapName="External Control">
 HOME = (0.3, -1.3, 1.4, -1.7, -1.57, 0.4)
 
 
-def program_xml(main, name="cell", top="", kinematics=UR5E_KINEMATICS, run_once=True):
+def program_xml(main: str, name: str = "cell", top: str = "", kinematics: str = UR5E_KINEMATICS,
+                run_once: bool = True) -> str:
     """A `<URProgram>` whose MainProgram holds `main` (XML of nodes); `top` adds top-level nodes before it."""
     return (f'<URProgram name="{name}" installation="default" directory="/programs" createdIn="5.12.4">'
             f"{kinematics}<children>{top}"
@@ -61,18 +64,26 @@ def program_xml(main, name="cell", top="", kinematics=UR5E_KINEMATICS, run_once=
             f"<children>{main}</children></MainProgram></children></URProgram>")
 
 
-def tree(main, **kwargs):
+def tree(main: str, **kwargs) -> ProgramTree:
     """The parsed tree of `program_xml(main, ...)` (gzip, as PolyScope 5 saves it)."""
     return parse_urp_bytes(gzip.compress(program_xml(main, **kwargs).encode(), mtime=0), "cell.urp")
 
 
-def expression(text):
+def write_urp(path: Path, xml: str) -> Path:
+    """`xml` gzip-compressed into `path` (a .urp)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_bytes(gzip.compress(xml.encode("utf-8"), mtime=0))
+    return path
+
+
+def expression(text: str) -> str:
     """An `<expression>` as PolyScope stores typed text: one ExpressionChar per character."""
     chars = "".join(f'<ExpressionChar character="{attribute(c)}"/>' for c in text)
     return f"<expression>{chars}</expression>"
 
 
-def attribute(text):
+def attribute(text: str) -> str:
+    """`text` escaped for an XML attribute value."""
     return text.replace("&", "&amp;").replace('"', "&quot;").replace("<", "&lt;").replace(">", "&gt;")
 
 
@@ -97,8 +108,10 @@ def move(kind, *nodes, speed="1.0", acceleration="1.2", extra=""):
 
 
 def set_digital(pin, on=True):
+    """A Set node switching the digital output `pin` (a PolyScope pin name or an installation's name for it)."""
     return f'<Set type="DigitalOutput"><pin referencedName="{pin}"/><digitalValue>{int(on)}</digitalValue></Set>'
 
 
 def folder(name, *nodes):
+    """A Folder holding `nodes`."""
     return f'<Folder name="{attribute(name)}"><children>{"".join(nodes)}</children></Folder>'

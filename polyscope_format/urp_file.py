@@ -1,22 +1,27 @@
-"""Read a PolyScope `.urp` file: (gzip-compressed) XML, read under hard bounds and parsed without DTDs or entities.
+"""Read a PolyScope `.urp` file safely: (gzip-compressed) XML under hard bounds, parsed without DTDs or entities.
 
 A `.urp` is what PolyScope's XStream serialiser writes, gzip-compressed by PolyScope 5 (3.x saved plain XML):
 `<URProgram>` with `<kinematics>` and the program tree under `<children>`. An object that occurs twice is written
 once and referred to by a relative XPath, `<pin reference="../../Set/pin"/>`; `ProgramTree.resolve` follows it.
+A `.installation` is read the same way (root `<Installation>`).
 
-Hostile or broken files end in `UrpError` with one line naming the problem, never in a hang or an exhausted memory:
-the file's size, the decompressed size, the element count and the nesting depth are bounded before anything is
-built, and `defusedxml` refuses DTDs and entity declarations (billion laughs, external entities).
+Hostile or broken files end in `UrpFormatError`, one line naming the file and the problem, never in a hang or an
+exhausted memory: the file's size, the decompressed size, the element count and the nesting depth are bounded
+before anything is built, and `defusedxml` refuses DTDs and entity declarations (billion laughs, external
+entities).
 
->>> tree = read_urp("wait_program.urp")                                 # doctest: +SKIP
->>> tree.root.get("name")                                               # doctest: +SKIP
-'wait_program'
+>>> tree = parse_urp_bytes(b'<URProgram name="p"><children><MainProgram/></children></URProgram>', "p.urp")
+>>> tree.name, tree.root[0][0].tag, tree.path_of(tree.root[0][0])
+('p', 'MainProgram', 'URProgram/MainProgram')
 """
+from __future__ import annotations
+
 import io
 import os
 import re
 import zlib
 from dataclasses import dataclass, field
+from pathlib import Path
 from xml.etree.ElementTree import Element, ParseError
 
 import defusedxml.ElementTree as safe_xml
@@ -31,23 +36,28 @@ GZIP_MAGIC = b"\x1f\x8b"
 _STEP = re.compile(r"^([A-Za-z_][\w.\-]*)(?:\[(\d+)\])?$")
 
 
-class UrpError(ValueError):
-    """A file that is not a PolyScope program this simulator can run; the message says what is wrong."""
+class UrpFormatError(ValueError):
+    """A file that is not a readable PolyScope program or installation (corrupt, truncated, too big, hostile XML,
+    a broken reference); the message names the file and what is wrong."""
 
 
 @dataclass(frozen=True)
 class ProgramTree:
-    """A parsed `.urp`: the `<URProgram>` root and every element's parent (for references and error paths)."""
+    """A parsed `.urp`: the `<URProgram>` root and every element's parent (for references and error paths).
+
+    `pin_aliases` maps the names the program's installation gave to I/O pins to PolyScope's default names
+    (`installation.with_installation` fills it in).
+    """
 
     root: Element
     parents: dict[Element, Element]
     source: str
-    pin_aliases: dict[str, str] = field(default_factory=dict)  # an installation's I/O names -> PolyScope's defaults
+    pin_aliases: dict[str, str] = field(default_factory=dict)
 
     @property
     def name(self) -> str:
         """The program's name as saved (`<URProgram name=...>`), or the file's stem."""
-        return self.root.get("name") or os.path.splitext(os.path.basename(self.source))[0]
+        return self.root.get("name") or Path(self.source).stem
 
     def resolve(self, element: Element) -> Element:
         """The element `element` stands for: itself, or the target of its `reference` attribute (followed)."""
@@ -56,7 +66,8 @@ class ProgramTree:
             if reference is None:
                 return element
             element = self._follow(element, reference)
-        raise UrpError(f"{self.source}: references nested deeper than {MAX_REFERENCE_HOPS} at {self.path_of(element)}")
+        raise UrpFormatError(f"{self.source}: references nested deeper than {MAX_REFERENCE_HOPS} at "
+                             f"{self.path_of(element)}")
 
     def _follow(self, start: Element, reference: str) -> Element:
         current: Element | None = start
@@ -74,11 +85,12 @@ class ProgramTree:
             index = int(match.group(2) or 1)
             current = matching[index - 1] if 0 < index <= len(matching) else None
         if current is None:
-            raise UrpError(f"{self.source}: broken reference {reference!r} at {self.path_of(start)}")
+            raise UrpFormatError(f"{self.source}: broken reference {reference!r} at {self.path_of(start)}")
         return current
 
     def path_of(self, element: Element) -> str:
-        """Where `element` sits, for messages: tags from the root with 1-based indices, `children` left out."""
+        """Where `element` sits in the XML, for messages: tags from the root with 1-based indices where a tag
+        repeats, `children` left out (`URProgram/MainProgram/Set[3]/pin`)."""
         steps = []
         current: Element | None = element
         while current is not None:
@@ -94,9 +106,9 @@ class ProgramTree:
         return "/".join(reversed(steps))
 
 
-def read_urp(path: str) -> ProgramTree:
-    """Parse the `.urp` at `path`; UrpError (one line naming the problem) when it is not a readable program."""
-    return parse_urp_bytes(_read_bounded(path), path)
+def read_urp(path: str | os.PathLike[str]) -> ProgramTree:
+    """Parse the `.urp` at `path`; UrpFormatError (one line naming the problem) when it is not a readable program."""
+    return parse_urp_bytes(_read_bounded(path), str(path))
 
 
 def parse_urp_bytes(content: bytes, source: str = "<urp>") -> ProgramTree:
@@ -105,9 +117,9 @@ def parse_urp_bytes(content: bytes, source: str = "<urp>") -> ProgramTree:
     return _parse_xml(_xml_bytes(content, source), source, "URProgram")
 
 
-def read_installation(path: str) -> ProgramTree:
+def read_installation(path: str | os.PathLike[str]) -> ProgramTree:
     """Parse a PolyScope `.installation` (gzip XML, root `<Installation>`) under the same bounds as a program."""
-    return _parse_xml(_xml_bytes(_read_bounded(path), path), path, "Installation")
+    return _parse_xml(_xml_bytes(_read_bounded(path), str(path)), str(path), "Installation")
 
 
 def _xml_bytes(content: bytes, source: str) -> bytes:
@@ -116,20 +128,21 @@ def _xml_bytes(content: bytes, source: str) -> bytes:
         return _decompressed(content, source)
     if content.lstrip(b"\xef\xbb\xbf \t\r\n").startswith(b"<"):
         return content
-    raise UrpError(f"{source}: not a PolyScope program (a .urp is XML, gzip-compressed by PolyScope 5; this file is "
-                   "neither)")
+    raise UrpFormatError(f"{source}: not a PolyScope program (a .urp is XML, gzip-compressed by PolyScope 5; this "
+                         "file is neither)")
 
 
-def _read_bounded(path: str) -> bytes:
+def _read_bounded(path: str | os.PathLike[str]) -> bytes:
+    """The bytes of `path`, refused before reading when it is larger than any PolyScope program."""
     try:
         size = os.path.getsize(path)
         if size > MAX_FILE_BYTES:
-            raise UrpError(f"{path}: {size / 1e6:.0f} MB is larger than a PolyScope program can be "
-                           f"(at most {MAX_FILE_BYTES // (1024 * 1024)} MB)")
+            raise UrpFormatError(f"{path}: {size / 1e6:.0f} MB is larger than a PolyScope program can be "
+                                 f"(at most {MAX_FILE_BYTES // (1024 * 1024)} MB)")
         with open(path, "rb") as urp:
             return urp.read(MAX_FILE_BYTES + 1)
     except OSError as error:
-        raise UrpError(f"{path}: cannot be read: {error.strerror or error}") from None
+        raise UrpFormatError(f"{path}: cannot be read: {error.strerror or error}") from None
 
 
 def _decompressed(compressed: bytes, source: str) -> bytes:
@@ -137,16 +150,18 @@ def _decompressed(compressed: bytes, source: str) -> bytes:
     try:
         xml = decompressor.decompress(compressed, MAX_XML_BYTES + 1)
     except zlib.error as error:
-        raise UrpError(f"{source}: corrupt gzip data ({error})") from None
+        raise UrpFormatError(f"{source}: corrupt gzip data ({error}); copy the file again") from None
     if len(xml) > MAX_XML_BYTES:
-        raise UrpError(f"{source}: decompresses to more than {MAX_XML_BYTES // (1024 * 1024)} MB of XML; "
-                       "refused (a PolyScope program is far smaller)")
+        raise UrpFormatError(f"{source}: decompresses to more than {MAX_XML_BYTES // (1024 * 1024)} MB of XML; "
+                             "refused (a PolyScope program is far smaller)")
     if not decompressor.eof:
-        raise UrpError(f"{source}: truncated (the gzip stream ends early); copy the file again")
+        raise UrpFormatError(f"{source}: truncated (the gzip stream ends early); copy the file again")
     return xml
 
 
 def _parse_xml(xml: bytes, source: str, root_tag: str) -> ProgramTree:
+    """The tree of `xml`, counting elements and depth while parsing; UrpFormatError when the root is not
+    `root_tag` or a bound is passed."""
     parents: dict[Element, Element] = {}
     stack: list[Element] = []
     root: Element | None = None
@@ -160,21 +175,21 @@ def _parse_xml(xml: bytes, source: str, root_tag: str) -> ProgramTree:
             if len(stack) >= MAX_DEPTH or count > MAX_ELEMENTS:
                 what = f"nested deeper than {MAX_DEPTH} levels" if len(stack) >= MAX_DEPTH else \
                     f"more than {MAX_ELEMENTS} elements"
-                raise UrpError(f"{source}: refused: the XML is {what} (a PolyScope program is not)")
+                raise UrpFormatError(f"{source}: refused: the XML is {what} (a PolyScope program is not)")
             if stack:
                 parents[element] = stack[-1]
             else:
                 root = element
             stack.append(element)
     except DefusedXmlException as error:
-        raise UrpError(f"{source}: refused: the XML declares {_forbidden(error)}, which PolyScope never writes") \
-            from None
+        raise UrpFormatError(f"{source}: refused: the XML declares {_forbidden(error)}, which PolyScope never "
+                             "writes") from None
     except ParseError as error:
-        raise UrpError(f"{source}: not a PolyScope program (its XML does not parse: {error})") from None
+        raise UrpFormatError(f"{source}: not a PolyScope program (its XML does not parse: {error})") from None
     if root is None or root.tag != root_tag:
         found = "empty" if root is None else f"<{root.tag}>"
         what = "program" if root_tag == "URProgram" else "installation"
-        raise UrpError(f"{source}: not a PolyScope {what} (the XML's root is {found}, not <{root_tag}>)")
+        raise UrpFormatError(f"{source}: not a PolyScope {what} (the XML's root is {found}, not <{root_tag}>)")
     return ProgramTree(root, parents, source)
 
 
