@@ -1,31 +1,15 @@
 """Dashboard replies that real clients depend on: ur_rtde's DashboardClient (a real client, PyPI) and the replies
 URCL's G5 dashboard client matches (src/ur/dashboard_client_implementation_g5.cpp regexes, re-played here)."""
 import re
-import socket
 import zipfile
 
 import dashboard_client
 import pytest
 
+from dashboard_lines import LineClient
 from polling import wait_for
 from sim_ursim.launch import running_simulator
 from urp_samples import E_SERIES_WAIT_PROGRAM, write_urp
-
-
-class LineClient:
-    """One dashboard connection, one reply line per command (how URCL's DashboardClientImplG5 reads)."""
-
-    def __init__(self, host):
-        self.sock = socket.create_connection((host, 29999), timeout=5)
-        self.reader = self.sock.makefile("r", encoding="utf-8")
-        self.reader.readline()
-
-    def ask(self, command):
-        self.sock.sendall(command.encode() + b"\n")
-        return self.reader.readline().rstrip("\n")
-
-    def close(self):
-        self.sock.close()
 
 
 @pytest.fixture

@@ -9,6 +9,7 @@ import threading
 import numpy as np
 import pytest
 
+from dashboard_lines import LineClient
 from polling import wait_for
 from sim_ursim.launch import running_simulator
 from sim_ursim.messages import PopupMessage
@@ -17,22 +18,6 @@ from urp_samples import E_SERIES_EXTERNAL_CONTROL, E_SERIES_WAIT_PROGRAM, progra
 Q_START = [0.0, -1.57, 1.57, -1.57, -1.57, 0.0]
 Q_MOVEJ = [0.3, -1.3, 1.4, -1.6, -1.5, 0.2]
 Q_MOVEL = [0.35, -1.25, 1.35, -1.65, -1.5, 0.25]
-
-
-class LineClient:
-    """One dashboard connection answering one line per command (how URCL's dashboard client reads)."""
-
-    def __init__(self, host):
-        self.sock = socket.create_connection((host, 29999), timeout=10)
-        self.reader = self.sock.makefile("r", encoding="utf-8")
-        self.reader.readline()
-
-    def ask(self, command):
-        self.sock.sendall(command.encode() + b"\n")
-        return self.reader.readline().rstrip("\n")
-
-    def close(self):
-        self.sock.close()
 
 
 @pytest.fixture
