@@ -107,6 +107,14 @@ def test_export_urp_writes_the_same_bytes_for_the_same_program_and_never_the_sto
     assert asked.returncode == 1   # exists: asks, and no answer is no
 
 
+def test_export_urp_without_a_file_says_how_to_name_one(run_in_process, tmp_path):
+    shutil.copy(EXAMPLE, tmp_path / "poses.json")
+    for arguments in ((), ("-o", "-")):
+        refused = run_in_process("export-urp", *arguments)
+        assert_one_line_error(refused, 2, "export-urp writes a .urp file", "-o cell.urp")
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["poses.json"]
+
+
 def test_import_into_a_program_needs_append_and_numbers_taken_names(run_in_process, tmp_path):
     shutil.copy(EXAMPLE, tmp_path / "poses.json")
     write(tmp_path / "cell.urp", CELL.replace('name="pick"', 'name="demo-1"'))

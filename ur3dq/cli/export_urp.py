@@ -28,8 +28,8 @@ from ur3dq.units import LENGTH
 
 
 @cli.command("export-urp", short_help="Write the program as a PolyScope program (.urp).")
-@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), required=True,
-              help="The .urp file to write.")
+@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path),
+              help="The .urp file to write (required).")
 @motion_options
 @click.option("--blend", type=Quantity(LENGTH), default=0.0, metavar="R",
               help="Blend radius of waypoints that set none, e.g. 10mm [default: 0].")
@@ -41,7 +41,7 @@ from ur3dq.units import LENGTH
               help="Plan on the model's catalogue kinematics, or on the connected arm's calibration.")
 @display_options
 @click.pass_obj
-def export_urp(settings: Settings, output: Path, speed: float | None, acceleration: float | None, blend: float,
+def export_urp(settings: Settings, output: Path | None, speed: float | None, acceleration: float | None, blend: float,
                replay_joints: bool, max_travel: float | None, yes: bool, start: str | None, end: str | None,
                calibration: str) -> None:
     """Write the cell program (or its --from/--to part) as a PolyScope program the pendant opens.
@@ -59,6 +59,7 @@ def export_urp(settings: Settings, output: Path, speed: float | None, accelerati
       ur3dq export-urp -o part.urp --from approach --to place --speed 60deg/s
       ur3dq export-urp -o cell.urp --calibration robot --host 192.168.0.10
     """
+    output = urp_output(output)
     check_blend(blend)
     prepare_output(settings, output, yes)
     steps, part, _ = program_part(settings, start, end)
@@ -85,6 +86,15 @@ def export_urp(settings: Settings, output: Path, speed: float | None, accelerati
                       "model": model.name, "calibration": calibration, "warnings": warnings},
            f"Wrote {output}: {count_text(len(plan), 'step')} for a {model.name} ({kind}, "
            f"{'calibrated' if model.calibrated else 'nominal'} kinematics).")
+
+
+def urp_output(output: Path | None) -> Path:
+    """The file `-o` names; UsageError (exit 2) with the fix when there is none or it is stdout (`-`, which
+    export-urscript takes for stdout): a .urp is a file for the pendant, not text."""
+    if output is None or str(output) == "-":
+        raise click.UsageError("export-urp writes a .urp file for the pendant, not to stdout: name it with -o, "
+                               "e.g. `ur3dq export-urp -o cell.urp`")
+    return output
 
 
 def nominal_model(settings: Settings, steps: list[Step]) -> URModel:
