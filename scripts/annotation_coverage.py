@@ -4,7 +4,7 @@
 A function (a method, a nested function) is fully annotated when every parameter has an annotation (the first
 parameter of a method, ``self`` or ``cls``, excepted) and it declares its return type; ``__init__`` may leave the
 return out when a parameter is annotated, as mypy allows. Lambdas are not counted. The groups are the public API
-modules that ``mypy --strict`` is meant to cover, then the rest of ``ur3dq`` and ``sim_ursim``.
+modules that ``mypy --strict`` is meant to cover, then the rest of ``ur3dq``, ``sim_ursim`` and ``polyscope_format``.
 
 Not part of the test suite (mypy enforces the strict modules). Usage::
 
@@ -75,7 +75,8 @@ def count_source(source: str) -> Count:
 
 
 def group_of(path: Path) -> str:
-    """The group a file of the repository belongs to: a public API module's name, or "other ur3dq"/"sim_ursim"."""
+    """The group a file of the repository belongs to: a public API module's name, or "other ur3dq", "sim_ursim",
+    "polyscope_format"."""
     parts = path.relative_to(REPOSITORY).with_suffix("").parts
     if parts[0] == "ur3dq" and len(parts) > 1 and parts[1] in PUBLIC:
         return parts[1]
@@ -88,18 +89,20 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--files", action="store_true", help="also list every file below 100 %%")
     arguments = parser.parse_args()
-    groups: dict[str, Count] = {name: Count() for name in (*PUBLIC, "cli", "other ur3dq", "sim_ursim")}
+    groups: dict[str, Count] = {name: Count() for name in (*PUBLIC, "cli", "other ur3dq", "sim_ursim",
+                                                           "polyscope_format")}
     files: list[tuple[Path, Count]] = []
-    for path in sorted([*(REPOSITORY / "ur3dq").rglob("*.py"), *(REPOSITORY / "sim_ursim").rglob("*.py")]):
+    for path in sorted(path for package in ("ur3dq", "sim_ursim", "polyscope_format")
+                       for path in (REPOSITORY / package).rglob("*.py")):
         count = count_source(path.read_text(encoding="utf-8"))
         groups[group_of(path)].add(count)
         files.append((path, count))
     public = Count()
     for name in PUBLIC:
         public.add(groups[name])
-    print(f"{'group':<14} {'functions':>9} {'annotated':>9} {'share':>7}")
+    print(f"{'group':<16} {'functions':>9} {'annotated':>9} {'share':>7}")
     for name, count in [*groups.items(), ("public API", public)]:
-        print(f"{name:<14} {count.functions:>9} {count.annotated:>9} {count.share():>7}")
+        print(f"{name:<16} {count.functions:>9} {count.annotated:>9} {count.share():>7}")
     if arguments.files:
         print()
         for path, count in files:
