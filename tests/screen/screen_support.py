@@ -3,6 +3,7 @@ artifacts (screenshots, the server's log) kept for people to look at."""
 from __future__ import annotations
 
 import contextlib
+import json
 import math
 import os
 import re
@@ -134,3 +135,34 @@ def keep_artifact(path: Path) -> Path:
     """A copy of `path` among the test artifacts."""
     ARTIFACTS.mkdir(parents=True, exist_ok=True)
     return Path(shutil.copy(path, ARTIFACTS / path.name))
+
+
+def expect(locator):
+    """Playwright's web-first assertions on `locator` (imported when a test first uses them)."""
+    from playwright.sync_api import expect as playwright_expect
+
+    return playwright_expect(locator)
+
+
+def hold(page, name: str, seconds: float) -> None:
+    """Hold the (enabled) button `name` pressed with the mouse for `seconds`, then release it."""
+    expect(button(page, name)).to_be_enabled(timeout=10000)
+    button(page, name).hover()
+    page.mouse.down()
+    time.sleep(seconds)
+    page.mouse.up()
+
+
+def notice_after(page, click, starts: str, timeout: float = 30.0) -> str:
+    """Click, then wait until the page's notice line starts with `starts`; that line."""
+    page.evaluate("document.getElementById('notice').textContent = ''")
+    click()
+    page.wait_for_function(f"document.getElementById('notice').textContent.startsWith({json.dumps(starts)}) || "
+                           "document.getElementById('notice').textContent.startsWith('Error')", timeout=timeout * 1000)
+    return page.locator("#notice").text_content()
+
+
+def set_speed_slider(page, percent: int) -> None:
+    """Set the page's speed slider (the controller's speed scaling) and wait until the page shows it."""
+    page.locator("#speed-slider").fill(str(percent))
+    page.wait_for_function(f"document.getElementById('speed-value').textContent === '{percent} %'", timeout=5000)

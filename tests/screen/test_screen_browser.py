@@ -14,7 +14,20 @@ import pytest
 
 from polling import wait_for
 from robot_target import simulator_only
-from screen_support import ARTIFACTS, START_Q, button, environment, readout_radians, screenshots, served, ur3dq_command
+from screen_support import (
+    ARTIFACTS,
+    START_Q,
+    button,
+    environment,
+    expect,
+    hold,
+    notice_after,
+    readout_radians,
+    screenshots,
+    served,
+    set_speed_slider,
+    ur3dq_command,
+)
 from ur3dq.store import PoseStore
 
 # Exclusive: the contract holds times (a release stops the arm within 0.02 rad, a closed page within 0.3 s, a killed
@@ -79,34 +92,11 @@ def cell(browser, tmp_path_factory):
         assert errors == [], errors
 
 
-def expect(locator):
-    from playwright.sync_api import expect as playwright_expect
-
-    return playwright_expect(locator)
-
-
 def settled(page) -> None:
     """Wait until a page has drawn the arm, and half a second more (a page still compiling its first frame sends
     no heartbeat meanwhile, and a jog needs one every 250 ms)."""
     page.wait_for_function("document.body.dataset.armDrawn === 'true'", timeout=20000)
     page.wait_for_timeout(500)
-
-
-def hold(page, name: str, seconds: float) -> None:
-    expect(button(page, name)).to_be_enabled(timeout=10000)
-    button(page, name).hover()
-    page.mouse.down()
-    time.sleep(seconds)
-    page.mouse.up()
-
-
-def notice_after(page, click, starts: str, timeout: float = 30.0) -> str:
-    """Click, then wait until the page's notice line starts with `starts`; that line."""
-    page.evaluate("document.getElementById('notice').textContent = ''")
-    click()
-    page.wait_for_function(f"document.getElementById('notice').textContent.startsWith({json.dumps(starts)}) || "
-                           "document.getElementById('notice').textContent.startsWith('Error')", timeout=timeout * 1000)
-    return page.locator("#notice").text_content()
 
 
 def test_the_page_keeps_its_contract(cell):
@@ -194,11 +184,6 @@ def test_check_passes(cell):
     expect(page.locator("#check-summary")).to_have_class("ok", timeout=10000)
     for name in ("pose-1", "pose-2", "pose-3"):
         expect(page.locator(f'[data-step="{name}"]')).to_have_class("ok")
-
-
-def set_speed_slider(page, percent: int) -> None:
-    page.locator("#speed-slider").fill(str(percent))
-    page.wait_for_function(f"document.getElementById('speed-value').textContent === '{percent} %'", timeout=5000)
 
 
 def test_run_follows_the_program_and_ends_at_the_last_pose(cell):
