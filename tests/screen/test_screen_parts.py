@@ -180,3 +180,30 @@ def test_a_jog_button_is_the_drivers_jog_step_with_the_keyboards_step_sizes():
         ScreenServer._jog_request({"axis": "J1", "step": 9})
     with pytest.raises(ValueError, match="axis 'J7'"):
         ScreenServer._jog_request({"axis": "J7"})
+
+
+@pytest.mark.parametrize("calibrated", [False, True])
+def test_the_live_arm_is_placed_where_the_path_check_places_it(calibrated):
+    from calibrated_arms import factory_model, random_configurations
+    from ur3dq.pathcheck import ToolShape
+    from ur3dq.pathcheck.geometry import capsule_points, dh_frames
+    from ur3dq.screen.scene import ArmShape
+
+    model = (factory_model("ur5e", 3) if calibrated else UR3).with_tcp([0.0, 0.01, 0.12, 0.0, 0.0, 0.3])
+    shape = ArmShape(model, ToolShape.capsule([0, 0, 0], [0, 0, 0.1], 0.03))
+    for q in random_configurations(20, 5):
+        placed = shape.placed(q)
+        a, b = capsule_points(dh_frames(model, q[None]), shape.capsules)
+        np.testing.assert_allclose(placed["capsules"], np.concatenate([a[0], b[0]], axis=1), atol=1e-6)
+        np.testing.assert_allclose(np.reshape(placed["tcp"], (4, 4)).T, model.fk(q).to_matrix(), atol=1e-6)
+
+
+def test_the_live_arm_is_drawn_without_the_compiled_kernels():
+    # The page's first arm waits for nothing the first drawing does not need: numba and the kernels' cache load
+    # in the background, for planning.
+    code = ("import sys, numpy as np; from ur3dq.kinematics import robot_model; from ur3dq.screen.scene import "
+            "ArmShape; import ur3dq.screen.server; ArmShape(robot_model('ur3')).placed(np.zeros(6)); "
+            "print(sorted(m for m in ('numba', 'ur3dq.kinematics.fk', 'rich') "
+            "if m in sys.modules))")
+    loaded = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert loaded.strip() == "[]"
