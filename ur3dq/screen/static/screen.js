@@ -1,7 +1,8 @@
 // The cell screen's page: one WebSocket to `ur3dq serve`, a heartbeat every 50 ms, the live state drawn as it
 // comes, the buttons sent as commands. Numbers arrive already written in the page's units (the server's units
 // layer); what a person types goes to the server as typed, and the server reads it in those units.
-import { View3D } from "./view3d.js";
+// The 3D view (three.js, half a megabyte to parse) loads after the socket is open and the drawing worker has
+// started, so the readouts and the worker's own three.js come in while this page parses it.
 
 const $ = (selector) => document.querySelector(selector);
 const BEAT_MS = 50;
@@ -14,7 +15,7 @@ const screen = {            // what tests and the page itself read: timing and c
 };
 window.ur3dqScreen = screen;
 
-let socket = null, state = null, program = { steps: [] }, check = null, hello = null, selected = null;
+let socket = null, state = null, program = { steps: [] }, check = null, hello = null, selected = null, scene = null;
 let nextId = 1, heldJog = null, view = null, pendingRecord = false, buttonsKey = "";
 const token = new URLSearchParams(location.search).get("token");
 
@@ -52,7 +53,7 @@ setInterval(() => send({ type: "beat" }), BEAT_MS);
 function receive(message) {
   switch (message.type) {
     case "hello": hello = message; applyHello(); break;
-    case "scene": if (view) { view.setArm(message.arm); view.setCell(message.cell); } break;
+    case "scene": scene = message; if (view) { view.setArm(message.arm); view.setCell(message.cell); } break;
     case "program": program = message; renderProgram(); break;
     case "check": check = message; renderCheck(); break;
     case "state": applyState(message); break;
@@ -472,21 +473,45 @@ function showReply(message) {
 }
 
 // ---------------------------------------------------------------------------------------------------- start
+const workerEarly = [];   // what the drawing worker said before the view was made
+// The drawing worker, started on the canvas (handed over as an OffscreenCanvas); null where the browser cannot.
+function startWorker(canvas) {
+  if (!canvas.transferControlToOffscreen || !window.Worker) return null;
+  const worker = new Worker(new URL("./draw_worker.js", import.meta.url), { type: "module" });
+  const offscreen = canvas.transferControlToOffscreen();
+  worker.postMessage({ type: "start", canvas: offscreen, ratio: Math.min(window.devicePixelRatio || 1, 2) },
+    [offscreen]);
+  worker.onmessage = (event) => workerEarly.push(event.data);   // until the view takes over (showView)
+  return worker;
+}
+
+// The 3D view once three.js is loaded: it is given what came before it (the scene, the frames, a check, the arm).
+function showView(made) {
+  view = made;
+  screen.view = view;
+  view.onArmDrawn = () => { screen.firstArmDrawnAt = Date.now(); document.body.dataset.armDrawn = "true"; };
+  workerEarly.splice(0).forEach((message) => view.fromWorker(message));
+  if (scene) { view.setArm(scene.arm); view.setCell(scene.cell); }
+  if (program.frames) view.setFrames(program.frames);
+  if (check) view.setCheck(check);
+  if (state && state.arm) view.placeArm(state.arm);
+}
+
+function noView(error) {
+  console.error(`no 3D view: ${error}`);
+  view = null;
+  $("#no-webgl").hidden = false;
+}
+
 function start() {
+  const worker = startWorker($("#scene"));
+  connect();
   buildJog();
   buildIO();
   showJogSpeed();
-  try {
-    view = new View3D($("#scene"));
-    screen.view = view;
-    view.onArmDrawn = () => { screen.firstArmDrawnAt = Date.now(); document.body.dataset.armDrawn = "true"; };
-  } catch (error) {
-    console.error(`no 3D view: ${error}`);
-    view = null;
-    $("#no-webgl").hidden = false;
-  }
   refreshButtons();
-  connect();
+  if (!worker) noView(new Error("this browser cannot draw off the page"));
+  else import("./view3d.js").then(({ View3D }) => showView(new View3D($("#scene"), worker))).catch(noView);
 }
 
 start();

@@ -5,13 +5,10 @@ import * as THREE from "./vendor/three.bundle.min.js";
 import { labelsOf } from "./scene3d.js";
 
 export class View3D {
-  constructor(canvas) {
-    if (!canvas.transferControlToOffscreen || !window.Worker) throw new Error("this browser cannot draw off the page");
+  // `worker`: draw_worker.js, already started on `canvas` (screen.js starts it before this module loads).
+  constructor(canvas, worker) {
     this.canvas = canvas;
-    this.worker = new Worker(new URL("./draw_worker.js", import.meta.url), { type: "module" });
-    const offscreen = canvas.transferControlToOffscreen();
-    this.worker.postMessage({ type: "start", canvas: offscreen, ratio: Math.min(window.devicePixelRatio || 1, 2) },
-      [offscreen]);
+    this.worker = worker;
     this.worker.onmessage = (event) => this.fromWorker(event.data);
     this.worker.onerror = (event) => console.error(`the 3D view's worker failed: ${event.message}`);
     this.camera = new THREE.PerspectiveCamera(45, 1, 0.01, 50);
