@@ -7,6 +7,9 @@ import sys
 import pytest
 
 from cli_support import UR3DQ, SimulatedArm, cli_env
+from ur3dq.cli import load_all_commands
+
+load_all_commands()   # the tests that walk cli.commands see every command (a command line imports only its own)
 
 
 @pytest.fixture

@@ -81,3 +81,15 @@ def test_the_command_line_runs_numpy_on_one_blas_thread():
 def test_a_command_that_only_reads_never_imports_the_lock_library():
     # filelock (~20 ms of a command's start) is imported by the first write or simulator start, not with the CLI
     assert _python("import sys, ur3dq.cli; print('filelock' in sys.modules)") == "False"
+
+
+def test_every_command_module_is_named_in_the_lazy_registry():
+    # A command line imports only the module of the command it names: a module that registers a command on `cli`
+    # but is missing from ur3dq.cli.COMMANDS would never be imported, and its command would silently vanish.
+    import re
+
+    from ur3dq.cli import COMMANDS
+
+    registering = {path.stem for path in CLI.glob("*.py")
+                   if re.search(r"^@cli\.(command|group)", path.read_text(encoding="utf-8"), re.MULTILINE)}
+    assert registering == {name.replace("-", "_") for name in COMMANDS}

@@ -1,5 +1,6 @@
 """The screen's parts without a browser: the page's edits with undo/redo through the store, what the page shows in
 the user's units, who may open it, and `ur3dq serve`'s refusals."""
+import ast
 import math
 import socket
 import subprocess
@@ -161,6 +162,16 @@ def test_the_command_line_does_not_load_the_web_stack(tmp_path):
             "print(sorted(m for m in sys.modules if m.split('.')[0] in ('starlette', 'uvicorn', 'websockets')))")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60, check=True)
     assert done.stdout.strip().splitlines()[-1] == "[]"
+
+
+def test_serve_starts_without_the_other_commands_and_rich():
+    code = ("import sys; from ur3dq.cli import main\n"
+            "try:\n    main(['serve', '--help'])\nexcept SystemExit:\n    pass\n"
+            "print(sorted(m for m in sys.modules if m.split('.')[0] == 'rich' or m.startswith('ur3dq.cli.')))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60, check=True)
+    loaded = ast.literal_eval(done.stdout.strip().splitlines()[-1])
+    assert loaded == ["ur3dq.cli.app", "ur3dq.cli.background_simulator", "ur3dq.cli.library_output",
+                      "ur3dq.cli.options", "ur3dq.cli.serve", "ur3dq.cli.signals"]
 
 
 def test_a_jog_button_is_the_drivers_jog_step_with_the_keyboards_step_sizes():

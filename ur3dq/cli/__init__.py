@@ -1,5 +1,7 @@
-"""The `ur3dq` command line (click): importing this package registers every command on `cli`."""
+"""The `ur3dq` command line (click): `cli`, whose commands are imported when a command line names them."""
 import os
+
+import click
 
 # One BLAS thread, set before numpy is first imported (ur3dq's own package imports none). A command's matrices are
 # small; OpenBLAS's extra threads only spin, taking CPU from the heartbeat and state threads of a driver on a small
@@ -7,8 +9,19 @@ import os
 for _variable in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_variable, "1")
 
-# Importing the command modules registers their commands; `ur3dq X` lives in cli/X.py.
-from ur3dq.cli import check, demo, export_urp, export_urscript, fk, ik, import_urp, jog, move_to, plot, poses, record_pose, robot, run_poses, serve, sim, status  # noqa: E402,F401,I001,E501
 from ur3dq.cli.app import cli, main  # noqa: E402  (after the thread count)
 
-__all__ = ["cli", "main"]
+#: `ur3dq X` lives in cli/X.py (dashes as underscores); importing that module registers the command on `cli`, which
+#: happens when a command line names it or a help page lists it.
+COMMANDS = ("check", "demo", "export-urp", "export-urscript", "fk", "ik", "import-urp", "jog", "move-to", "plot",
+            "poses", "record-pose", "robot", "run-poses", "serve", "sim", "status")
+cli.command_modules.update({name: f"ur3dq.cli.{name.replace('-', '_')}" for name in COMMANDS})
+
+
+def load_all_commands() -> dict[str, click.Command]:
+    """Every command, its module imported: `cli.commands` is then complete (for tools that walk it)."""
+    context = click.Context(cli)
+    return {name: command for name in cli.list_commands(context) if (command := cli.get_command(context, name))}
+
+
+__all__ = ["COMMANDS", "cli", "load_all_commands", "main"]

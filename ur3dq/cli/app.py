@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import functools
+import importlib
 import json
 import logging
 import os
@@ -11,11 +13,10 @@ import sys
 import textwrap
 from collections.abc import Iterable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import click
 import orjson
-from rich.console import Console
 
 from ur3dq.cli.background_simulator import SimulatorError, running_simulator_host
 from ur3dq.cli.library_output import own_output
@@ -32,6 +33,9 @@ from ur3dq.errors import (
 from ur3dq.kinematics import MODEL_NAMES
 from ur3dq.store import DEFAULT_STORE_PATH, PoseStore, store_file_role
 from ur3dq.units import Units
+
+if TYPE_CHECKING:
+    from rich.console import Console
 
 EXIT_OK = 0
 EXIT_CANCELLED = 1
@@ -73,7 +77,23 @@ COMMAND_SECTIONS = (
 
 
 class SectionedGroup(click.Group):
-    """A click group whose help lists its commands in COMMAND_SECTIONS, each summary whole."""
+    """A click group whose help lists its commands in COMMAND_SECTIONS, each summary whole, and which imports a
+    command's module when the command is first named (click's lazy loading of subcommands): `ur3dq serve` starts
+    without the imports of the sixteen other commands. `command_modules` maps each name to the module that
+    registers it on import."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.command_modules: dict[str, str] = {}
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return sorted({*self.commands, *self.command_modules})
+
+    def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
+        module = self.command_modules.get(cmd_name)
+        if cmd_name not in self.commands and module is not None:
+            importlib.import_module(module)
+        return super().get_command(ctx, cmd_name)
 
     def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
         commands = {name: command for name in self.list_commands(ctx)
@@ -108,9 +128,13 @@ class Settings:
     store_path: Path
     json: bool
     deg: bool
-    out: Console = dataclasses.field(repr=False)
     mm: bool = False
     host_source: str = "default"   # where --host came from: 'option', 'environment' or 'default'
+
+    @functools.cached_property
+    def out(self) -> Console:
+        """The console for stdout (make_console), made when a command first prints to it."""
+        return make_console()
 
     @property
     def units(self) -> Units:
@@ -126,6 +150,8 @@ class Settings:
 def make_console() -> Console:
     """A console for stdout: the terminal's width (also when stdout is piped to `head` or `less` in a terminal),
     or a wide fixed width when no terminal is attached, so tables in files and logs stay whole."""
+    from rich.console import Console  # here: a command that prints no table (`ur3dq serve`) starts without rich
+
     # COLUMNS set (as a terminal or `COLUMNS=80 ur3dq ...` does) is the width to fit, piped or not
     fixed = None if sys.stdout.isatty() or os.environ.get("COLUMNS", "").isdigit() else 160
     if fixed is not None and sys.stderr.isatty():
@@ -244,7 +270,7 @@ def cli(ctx: click.Context, host: str | None, backend: str, model: str | None, s
     """
     source = ctx.get_parameter_source("host")
     ctx.obj = Settings(host=host or None, backend=backend, model=model.lower() if model else None,
-                       store_path=store_path, json=as_json, deg=deg, out=make_console(), mm=mm,
+                       store_path=store_path, json=as_json, deg=deg, mm=mm,
                        host_source="environment" if source == click.core.ParameterSource.ENVIRONMENT
                        else "option" if host else "default")
 

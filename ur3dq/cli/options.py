@@ -12,11 +12,10 @@ import dataclasses
 import math
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import click
 import numpy as np
-from rich.console import Console
 
 from ur3dq.cli.app import Settings
 from ur3dq.dualquat import DualQuaternion
@@ -36,6 +35,9 @@ from ur3dq.units import (
     plain_number,
     show,
 )
+
+if TYPE_CHECKING:
+    from rich.console import Console
 
 F = TypeVar("F", bound=Callable[..., Any])
 
