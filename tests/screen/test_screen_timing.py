@@ -69,7 +69,7 @@ def controller_track(samples: list) -> np.ndarray:
     """Rows (time s, joint 1 rad) of the simulated arm on this machine's clock: each RTDE sample at the controller's
     own timestamp, shifted by the smallest receipt delay seen (a sampler held up by the test's own threads reads a
     sample late; the controller's timestamp says when the arm was there)."""
-    wall, stamp, angle = (np.array(column) for column in zip(*samples))
+    wall, stamp, angle = (np.array(column) for column in zip(*samples, strict=True))
     return np.column_stack([stamp + np.min(wall - stamp), angle])
 
 
