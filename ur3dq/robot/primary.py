@@ -7,6 +7,7 @@ transcribed in docs/protocols.md §3.3-3.4.
 """
 import struct
 from dataclasses import dataclass
+from typing import TypeAlias, TypedDict
 
 import numpy as np
 
@@ -67,7 +68,7 @@ class CartesianInfo:
 class KinematicsInfo:
     """Kinematics Info (sub-package 5): the controller's calibrated standard DH (metres, radians)."""
 
-    checksum: tuple
+    checksum: tuple[int, ...]
     theta: np.ndarray
     a: np.ndarray
     d: np.ndarray
@@ -178,9 +179,25 @@ class RobotState:
     board_io: BoardIO | None = None
 
 
-def split_messages(buffer):
+#: The robot messages ur3dq parses (parse_robot_message); a PrimaryClient hands them to its watchers.
+RobotMessage: TypeAlias = (VersionMessage | KeyMessage | RuntimeExceptionMessage | ErrorCodeMessage | TextMessage
+                           | SafetyModeMessage)
+
+
+class _RobotStateFields(TypedDict, total=False):
+    """The keyword arguments of RobotState that parse_robot_state has found in a message."""
+
+    robot_mode: RobotModeData
+    safety_mode: int
+    cartesian: CartesianInfo
+    kinematics: KinematicsInfo
+    configuration: ConfigurationData
+    board_io: BoardIO
+
+def split_messages(buffer: bytes) -> tuple[list[tuple[int, bytes]], bytes]:
     """(list of (message_type, body bytes), unconsumed tail) for the complete messages at the start of `buffer`."""
-    messages, offset = [], 0
+    messages: list[tuple[int, bytes]] = []
+    offset = 0
     while len(buffer) - offset >= 5:
         size, message_type = struct.unpack_from(">iB", buffer, offset)
         if size < 5 or size > MAX_MESSAGE_SIZE:
@@ -192,9 +209,10 @@ def split_messages(buffer):
     return messages, bytes(buffer[offset:])
 
 
-def split_subpackages(body):
+def split_subpackages(body: bytes) -> list[tuple[int, bytes]]:
     """List of (sub-package type, data bytes) of a robot-state message body."""
-    packages, offset = [], 0
+    packages: list[tuple[int, bytes]] = []
+    offset = 0
     while offset < len(body):
         if len(body) - offset < 5:
             raise PrimaryParseError(f"truncated sub-package header at offset {offset}")
@@ -206,9 +224,9 @@ def split_subpackages(body):
     return packages
 
 
-def parse_robot_state(body):
+def parse_robot_state(body: bytes) -> RobotState:
     """RobotState from a robot-state message body (type 16); unknown sub-packages are skipped."""
-    fields = {}
+    fields: _RobotStateFields = {}
     for package_type, data in split_subpackages(body):
         if package_type == ROBOT_MODE_DATA:
             fields["robot_mode"] = parse_robot_mode_data(data)
@@ -224,19 +242,19 @@ def parse_robot_state(body):
     return RobotState(**fields)
 
 
-def parse_robot_mode_data(data):
+def parse_robot_mode_data(data: bytes) -> RobotModeData:
     """RobotModeData from sub-package 0 data (3.0+ layouts: 33, 41 or 42 bytes after the header; the tail is unused)."""
     if len(data) < 33:
         raise PrimaryParseError(f"Robot Mode Data has {len(data)} bytes; at least 33 expected (software 3.0+)")
     return RobotModeData(*struct.unpack_from(">Q???????BBdd", data))
 
 
-def parse_masterboard_safety_mode(data):
+def parse_masterboard_safety_mode(data: bytes) -> int:
     """The safety mode (uint8) of Masterboard Data (sub-package 3, software 3.0+ layout)."""
     layout = ">iiBBddbbddffffB"
     if len(data) < struct.calcsize(layout):
         raise PrimaryParseError(f"Masterboard Data has {len(data)} bytes; too short for the 3.0+ layout")
-    return struct.unpack_from(layout, data)[-1]
+    return int(struct.unpack_from(layout, data)[-1])
 
 
 def parse_masterboard_io(data: bytes) -> BoardIO:
@@ -249,7 +267,7 @@ def parse_masterboard_io(data: bytes) -> BoardIO:
     return BoardIO(digital_in, digital_out, (in0, in1), (out0, out1))
 
 
-def parse_cartesian_info(data):
+def parse_cartesian_info(data: bytes) -> CartesianInfo:
     """CartesianInfo from sub-package 4 data: 6 doubles TCP pose, then (3.2+) 6 doubles TCP offset."""
     if len(data) < 48:
         raise PrimaryParseError(f"Cartesian Info has {len(data)} bytes; 48 or 96 expected")
@@ -258,7 +276,7 @@ def parse_cartesian_info(data):
     return CartesianInfo(pose, offset)
 
 
-def parse_kinematics_info(data):
+def parse_kinematics_info(data: bytes) -> KinematicsInfo:
     """KinematicsInfo from sub-package 5 data: checksums, DH theta, a, d, alpha (+ calibration status)."""
     if len(data) < 216:
         raise PrimaryParseError(f"Kinematics Info has {len(data)} bytes; 216 or 220 expected")
@@ -268,7 +286,7 @@ def parse_kinematics_info(data):
     return KinematicsInfo(checksum, dh[0], dh[1], dh[2], dh[3], status)
 
 
-def parse_configuration_data(data):
+def parse_configuration_data(data: bytes) -> ConfigurationData:
     """ConfigurationData from sub-package 6 data (440 bytes: limits, speeds, defaults, DH, board/robot type)."""
     if len(data) < 440:
         raise PrimaryParseError(f"Configuration Data has {len(data)} bytes; 440 expected")
@@ -284,7 +302,7 @@ def parse_configuration_data(data):
     )
 
 
-def parse_robot_message(body):
+def parse_robot_message(body: bytes) -> RobotMessage | None:
     """The message object of a robot message body (type 20), or None for message types ur3dq does not use."""
     if len(body) < 10:
         raise PrimaryParseError(f"robot message has {len(body)} bytes; at least 10 expected")
@@ -313,7 +331,7 @@ def parse_robot_message(body):
     return None
 
 
-def parse_version_message(data):
+def parse_version_message(data: bytes) -> VersionMessage:
     """VersionMessage from a version message's data (after the robot-message header); pre-3.12 layout too."""
     try:
         name_length = struct.unpack_from(">b", data)[0]
@@ -340,7 +358,7 @@ def is_program_stopped(message: object, program_name: str) -> bool:
     return isinstance(message, KeyMessage) and message.title.endswith("_STOPPED") and message.text == program_name
 
 
-def model_name(robot_type, major_version):
+def model_name(robot_type: int, major_version: int) -> str:
     """The ur3dq model name ('ur3', 'ur5e', …) of a Configuration Data robotType and controller major version."""
     if robot_type not in ROBOT_TYPE_NAMES:
         raise ValueError(f"robot type {robot_type} is not a model ur3dq knows ({sorted(ROBOT_TYPE_NAMES)})")
@@ -350,6 +368,6 @@ def model_name(robot_type, major_version):
     return name + "e" if major_version >= 5 else name
 
 
-def _text(raw):
+def _text(raw: bytes) -> str:
     """Bytes of a message text as str (UTF-8, undecodable bytes replaced)."""
     return bytes(raw).decode("utf-8", errors="replace")

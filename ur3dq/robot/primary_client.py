@@ -1,10 +1,13 @@
 """Transport for the primary interface (port 30001): a reader thread that keeps the latest robot state and
 fans robot messages (program started/stopped, runtime exceptions, errors) out to watchers. Parsing is in primary.py.
 """
+from __future__ import annotations
+
 import queue
 import socket
 import threading
 import time
+from collections.abc import Callable
 
 from ur3dq.errors import ConnectionLostError, RobotConnectionError
 from ur3dq.robot import primary
@@ -16,7 +19,7 @@ SECONDARY_PORT = 30002
 class PrimaryClient:
     """A connection to port 30001 read by a daemon thread; `close()` ends it."""
 
-    def __init__(self, host, port=PRIMARY_PORT, connect_timeout: float=2.0) -> None:
+    def __init__(self, host: str, port: int = PRIMARY_PORT, connect_timeout: float = 2.0) -> None:
         try:
             self._socket = socket.create_connection((host, port), timeout=connect_timeout)
         except OSError as error:
@@ -43,11 +46,17 @@ class PrimaryClient:
         self._thread.start()
 
     @property
-    def alive(self):
+    def alive(self) -> bool:
         """True while the reader thread runs (connection open and in step)."""
         return self._thread.is_alive()
 
-    def wait_for(self, predicate, timeout):
+    @property
+    def control_mode(self) -> int | None:
+        """The controlMode of the last Robot Mode Data (1 TEACH: freedrive, 0 POSITION), or None before one came."""
+        robot_mode = self.robot_mode
+        return None if robot_mode is None else robot_mode.control_mode
+
+    def wait_for(self, predicate: Callable[[PrimaryClient], bool], timeout: float) -> bool:
         """Block until predicate(self) is true (re-checked on every message) or `timeout` s pass; returns it."""
         deadline = time.monotonic() + timeout
         with self._changed:
@@ -58,20 +67,20 @@ class PrimaryClient:
                 self._changed.wait(min(remaining, 0.1))
             return True
 
-    def watch(self):
+    def watch(self) -> queue.Queue[object]:
         """A queue receiving every robot message parsed from now on; pass it to `unwatch` when done."""
         watcher: queue.Queue[object] = queue.Queue()
         with self._lock:
             self._watchers.append(watcher)
         return watcher
 
-    def unwatch(self, watcher) -> None:
+    def unwatch(self, watcher: queue.Queue[object]) -> None:
         """Stop delivering messages to `watcher`."""
         with self._lock:
             if watcher in self._watchers:
                 self._watchers.remove(watcher)
 
-    def send_script(self, script):
+    def send_script(self, script: str) -> None:
         """Send URScript on this connection (30001 runs it at once); ConnectionLostError if the socket fails."""
         if not self.alive:
             raise ConnectionLostError(f"the primary connection to {self.host} is closed ({self.error}); not sent")
@@ -90,7 +99,7 @@ class PrimaryClient:
         except OSError:
             pass
 
-    def _read_forever(self):
+    def _read_forever(self) -> None:
         """Reader thread body: receive, split, parse, publish — until close() or the stream breaks."""
         buffer = b""
         try:
@@ -110,7 +119,7 @@ class PrimaryClient:
             with self._changed:
                 self._changed.notify_all()
 
-    def _handle(self, message_type, body) -> None:
+    def _handle(self, message_type: int, body: bytes) -> None:
         """Store a robot state or publish a robot message."""
         if message_type == primary.ROBOT_STATE:
             state = primary.parse_robot_state(body)
@@ -141,7 +150,7 @@ class PrimaryClient:
                 self._changed.notify_all()
 
 
-def send_script(host, script, port=SECONDARY_PORT, timeout: float=1.0):
+def send_script(host: str, script: str, port: int = SECONDARY_PORT, timeout: float = 1.0) -> None:
     """Send URScript on a connection of its own and wait until it is read.
 
     Send URScript on a connection of its own (for when the main one is gone), half-close it, and wait (≤ timeout)
@@ -159,6 +168,6 @@ def send_script(host, script, port=SECONDARY_PORT, timeout: float=1.0):
         raise RobotConnectionError(f"cannot send a program to {host}:{port}: {error}") from None
 
 
-def _script_bytes(script):
+def _script_bytes(script: str) -> bytes:
     """URScript text as the bytes a controller expects: ASCII, ending with a newline."""
     return (script if script.endswith("\n") else script + "\n").encode("ascii")

@@ -659,7 +659,7 @@ class Robot:
         program = urscript.program(name, statements)
         self._backend.send_program(self._armed(program, name) if on else program)
         wanted = 1 if on else 0  # primary controlMode: 1 TEACH, 0 POSITION
-        if not self._primary.wait_for(lambda c: c.robot_mode.control_mode == wanted, timeout=2.0):
+        if not self._primary.wait_for(lambda c: c.control_mode == wanted, timeout=2.0):
             raise ProgramError(f"the controller did not switch freedrive {'on' if on else 'off'} within 2 s")
 
     def freedrive_active(self) -> bool:
@@ -673,8 +673,7 @@ class Robot:
                                       timeout=self._backend.freeze_timeout):
             raise ConnectionLostError(f"the primary interface of {self.host} sent no robot state for "
                                       f"{self._backend.freeze_timeout} s")
-        robot_mode = self._primary.robot_mode
-        return robot_mode is not None and robot_mode.control_mode == 1
+        return self._primary.control_mode == 1
 
     def _wait_for_program(self, reached: Callable[[RobotStatus], bool]) -> bool:
         """Wait (≤ PROGRAM_STATE_TIMEOUT) until reached(status); False if it never was."""
