@@ -2,7 +2,11 @@
 
 Reply interpretation is kept in pure functions; the Dashboard class only carries the connection.
 """
+from __future__ import annotations
+
 import re
+from collections.abc import Callable
+from typing import Protocol, TypeVar, cast
 
 import dashboard_client
 
@@ -12,8 +16,24 @@ from ur3dq.robot.primary import model_name
 DASHBOARD_PORT = 29999
 _MODEL_REPLY = re.compile(r"^\s*(UR\d+)(e)?\s*$", re.IGNORECASE)
 
+_Reply = TypeVar("_Reply")
 
-def model_from_reply(reply, major_version):
+
+class DashboardClientProtocol(Protocol):
+    """What ur3dq uses of ur_rtde's dashboard_client.DashboardClient (signatures as its bindings document them)."""
+
+    def connect(self, timeout_ms: int = 2000) -> None: ...
+    def isConnected(self) -> bool: ...
+    def disconnect(self) -> None: ...
+    def send(self, command: str) -> None: ...
+    def receive(self) -> str: ...
+    def getRobotModel(self) -> str: ...
+    def powerOn(self) -> None: ...
+    def powerOff(self) -> None: ...
+    def brakeRelease(self) -> None: ...
+
+
+def model_from_reply(reply: str | None, major_version: int) -> str:
     """The ur3dq model name of a `get robot model` reply ('UR3' → 'ur3', or 'ur3e' on a 5.x controller)."""
     match = _MODEL_REPLY.match(reply or "")
     if not match:
@@ -37,7 +57,7 @@ def identified_model(reply: str, major_version: int, robot_type: int | None, req
     return identified
 
 
-def serial_from_reply(reply):
+def serial_from_reply(reply: str | None) -> str | None:
     """The serial number in a `get serial number` reply (digits, e.g. '20185500000'), or None if it holds none."""
     text = (reply or "").strip()
     return text if text.isdigit() else None
@@ -51,7 +71,7 @@ def program_command_refusal(reply: str, success_prefix: str) -> str | None:
     return reply.strip() or "no reply"
 
 
-def unlock_refusal(reply):
+def unlock_refusal(reply: str) -> str | None:
     """None if an `unlock protective stop` reply means success, else the controller's reason (str)."""
     if reply.strip().lower().startswith("protective stop releasing"):
         return None
@@ -61,15 +81,15 @@ def unlock_refusal(reply):
 class Dashboard:
     """A ur_rtde DashboardClient connected to `host`, reconnected once when a command finds it dropped."""
 
-    def __init__(self, host, port=DASHBOARD_PORT, timeout_ms: int=2500) -> None:
+    def __init__(self, host: str, port: int = DASHBOARD_PORT, timeout_ms: int = 2500) -> None:
         self.host, self.port, self._timeout_ms = host, port, timeout_ms
         self._client = self._connected_client()
 
-    def robot_model_reply(self):
+    def robot_model_reply(self) -> str:
         """The raw reply to `get robot model` (e.g. 'UR3')."""
         return self._call(lambda client: client.getRobotModel())
 
-    def serial_number(self):
+    def serial_number(self) -> str | None:
         """The controller's serial number, or None where the dashboard has no such command (before PolyScope 5.6)."""
         return serial_from_reply(self._ask("get serial number"))
 
@@ -89,7 +109,7 @@ class Dashboard:
         """Send `brake release` (the caller watches the robot mode reach RUNNING)."""
         self._call(lambda client: client.brakeRelease())
 
-    def unlock_protective_stop(self):
+    def unlock_protective_stop(self) -> None:
         """Send `unlock protective stop`; ProtectiveStopError with the controller's reason if it refuses."""
         reply = self._ask("unlock protective stop")
         refusal = unlock_refusal(reply)
@@ -116,13 +136,18 @@ class Dashboard:
         except RuntimeError:
             pass
 
-    def _ask(self, command):
+    def _ask(self, command: str) -> str:
         """The reply line to one dashboard `command`, sent as is (for commands ur_rtde gates or interprets itself)."""
-        return self._call(lambda client: (client.send(command + "\n"), client.receive())[1])
+        def ask(client: DashboardClientProtocol) -> str:
+            client.send(command + "\n")
+            return client.receive()
 
-    def _connected_client(self):
+        return self._call(ask)
+
+    def _connected_client(self) -> DashboardClientProtocol:
         """A new DashboardClient that has read the server's greeting."""
-        client = dashboard_client.DashboardClient(self.host, self.port)
+        # ur_rtde ships no type information: the client is typed by the Protocol above from here on.
+        client = cast(DashboardClientProtocol, dashboard_client.DashboardClient(self.host, self.port))
         try:
             client.connect(self._timeout_ms)
         except UnicodeDecodeError:
@@ -133,7 +158,7 @@ class Dashboard:
                 from None
         return client
 
-    def _call(self, command):
+    def _call(self, command: Callable[[DashboardClientProtocol], _Reply]) -> _Reply:
         """command(client), retried once on a fresh connection if the old one was dropped (dashboard commands
         are idempotent: sending one twice leaves the controller as sending it once)."""
         if self._client.isConnected():
@@ -152,6 +177,6 @@ class Dashboard:
         except RuntimeError as error:
             raise RobotConnectionError(f"dashboard command to {self.host} failed: {error}") from None
 
-    def _garbage_error(self):
+    def _garbage_error(self) -> RobotError:
         """The error for a dashboard reply that is not text (ur_rtde decodes it as UTF-8 and fails)."""
         return RobotError(f"the dashboard server at {self.host}:{self.port} answered with bytes that are not text")
