@@ -6,9 +6,13 @@ movej moves every joint on one synchronised trapezoidal profile led by the joint
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
+from typing import cast
 
 import numpy as np
+import numpy.typing as npt
 
+from ur3dq.array_types import FloatArray
 from ur3dq.errors import SafetyCheckError
 
 # The slider is never read as slower than this, so a slider at 0 yields a (long) finite timeout, not a hang.
@@ -55,7 +59,7 @@ def refuse_oversize(program: str, name: str) -> None:
                                "connection holds at once; nothing was sent: run it in parts (run-poses --from/--to)")
 
 
-def trapezoid_duration(distance, a, v):
+def trapezoid_duration(distance: float, a: float, v: float) -> float:
     """Seconds for a rest-to-rest trapezoid over `distance` (≥ 0) with acceleration a and cruise speed v (> 0)."""
     if not (math.isfinite(distance) and distance >= 0):
         raise ValueError(f"distance must be finite and ≥ 0, got {distance!r}")
@@ -68,42 +72,47 @@ def trapezoid_duration(distance, a, v):
     return 2.0 * math.sqrt(distance / a)
 
 
-def trapezoid_durations(distances, a, v) -> np.ndarray:
+def trapezoid_durations(distances: npt.ArrayLike, a: float | npt.ArrayLike, v: float | npt.ArrayLike) -> FloatArray:
     """trapezoid_duration of many distances at once.
 
     trapezoid_duration of every distance (N,) at once (the same arithmetic, element by element; a plan of 10⁵
     moves), with a and v numbers or (N,) arrays (each move its own): seconds (N,); ValueError as
     trapezoid_duration's for the first a, v or distance that is not finite and ≥ 0 (a and v: > 0)."""
     distance = np.asarray(distances, dtype=float)
-    a, v = (value if np.ndim(value) == 0 else np.asarray(value, dtype=float) for value in (a, v))
+    acceleration: float | FloatArray
+    speed: float | FloatArray
     bad = ~(np.isfinite(distance) & (distance >= 0))
     if np.ndim(a) == 0 and np.ndim(v) == 0:   # a and v are checked even for no distance at all
-        trapezoid_duration(float(distance[bad][0]) if bad.any() else 0.0, a, v)   # its checks, its messages
+        acceleration, speed = cast(float, a), cast(float, v)   # one number each (np.ndim 0), kept as given
+        trapezoid_duration(float(distance[bad][0]) if bad.any() else 0.0, acceleration, speed)   # its checks, messages
     else:
-        bad |= ~(np.isfinite(a) & (a > 0) & np.isfinite(v) & (v > 0))
+        acceleration, speed = np.asarray(a, dtype=float), np.asarray(v, dtype=float)
+        bad |= ~(np.isfinite(acceleration) & (acceleration > 0) & np.isfinite(speed) & (speed > 0))
         if bad.any():
             first = int(np.argmax(bad))
-            trapezoid_duration(*(float(np.broadcast_to(value, distance.shape)[first]) for value in (distance, a, v)))
-    return np.where(distance >= v * v / a, distance / v + v / a, 2.0 * np.sqrt(distance / a))
+            trapezoid_duration(*(float(np.broadcast_to(value, distance.shape)[first])
+                                 for value in (distance, acceleration, speed)))
+    return np.where(distance >= speed * speed / acceleration, distance / speed + speed / acceleration,
+                    2.0 * np.sqrt(distance / acceleration))
 
 
-def leading_travel(q_from, q_to):
+def leading_travel(q_from: npt.ArrayLike, q_to: npt.ArrayLike) -> float:
     """The largest joint travel |q_to − q_from| (radians): the joint that leads a movej."""
     return float(np.abs(np.subtract(q_to, q_from, dtype=float)).max())
 
 
-def leading_travels(path) -> np.ndarray:
+def leading_travels(path: npt.ArrayLike) -> FloatArray:
     """leading_travel of each move along `path` (N, 6) rad, from row i to row i + 1: (N − 1,) (empty below 2 rows)."""
     path = np.asarray(path, dtype=float).reshape(-1, 6)
     return np.abs(np.diff(path, axis=0)).max(axis=1) if len(path) > 1 else np.zeros(0)
 
 
-def movej_duration(q_from, q_to, a, v):
+def movej_duration(q_from: npt.ArrayLike, q_to: npt.ArrayLike, a: float, v: float) -> float:
     """Seconds a movej from `q_from` to `q_to` takes at 100 % speed (trapezoid of the leading joint)."""
     return trapezoid_duration(leading_travel(q_from, q_to), a, v)
 
 
-def path_duration(q_start, targets, a, v):
+def path_duration(q_start: npt.ArrayLike, targets: Iterable[npt.ArrayLike], a: float, v: float) -> float:
     """Seconds for movej through `targets` from `q_start`, each stopping (an upper bound when moves blend)."""
     total, previous = 0.0, q_start
     for target in targets:
@@ -112,7 +121,7 @@ def path_duration(q_start, targets, a, v):
     return total
 
 
-def motion_timeout(duration, speed_fraction, margin_ratio: float=0.5, margin_s: float=1.0):
+def motion_timeout(duration: float, speed_fraction: float, margin_ratio: float = 0.5, margin_s: float = 1.0) -> float:
     """Seconds to wait for a motion of `duration` at 100 % when the speed slider reads `speed_fraction` (0..1)."""
     if not (math.isfinite(duration) and duration >= 0):
         raise ValueError(f"duration must be finite and ≥ 0, got {duration!r}")
