@@ -1,5 +1,8 @@
 """The default backend: state from ur_rtde's RTDEReceiveInterface (125/500 Hz), programs over the primary port."""
+from __future__ import annotations
+
 import time
+from typing import Protocol, cast
 
 import numpy as np
 import rtde_receive
@@ -7,6 +10,7 @@ import rtde_receive
 from ur3dq.errors import ConnectionLostError, RobotConnectionError
 from ur3dq.robot import state
 from ur3dq.robot.io_state import IOState
+from ur3dq.robot.primary_client import PrimaryClient
 from ur3dq.robot.rtde_wire import probe_rtde
 
 # Only what the driver reads, so no version-gated default variable can make the controller refuse the recipe.
@@ -18,6 +22,32 @@ RTDE_VARIABLES = [
 ]
 
 
+class RTDEReceive(Protocol):
+    """What the backend uses of ur_rtde's rtde_receive.RTDEReceiveInterface (signatures as its bindings document
+    them)."""
+
+    def isConnected(self) -> bool: ...
+    def reconnect(self) -> bool: ...
+    def disconnect(self) -> None: ...
+    def getTimestamp(self) -> float: ...
+    def getActualQ(self) -> list[float]: ...
+    def getActualQd(self) -> list[float]: ...
+    def getActualTCPPose(self) -> list[float]: ...
+    def getRobotMode(self) -> int: ...
+    def getRobotStatus(self) -> int: ...
+    def getSafetyMode(self) -> int: ...
+    def getSafetyStatusBits(self) -> int: ...
+    def getRuntimeState(self) -> int: ...
+    def getSpeedScaling(self) -> float: ...
+    def getTargetSpeedFraction(self) -> float: ...
+    def getActualDigitalInputBits(self) -> int: ...
+    def getActualDigitalOutputBits(self) -> int: ...
+    def getStandardAnalogInput0(self) -> float: ...
+    def getStandardAnalogInput1(self) -> float: ...
+    def getStandardAnalogOutput0(self) -> float: ...
+    def getStandardAnalogOutput1(self) -> float: ...
+
+
 class RTDEBackend:
     """State over RTDE, URScript on the primary connection `primary` (a PrimaryClient); `close()` disconnects."""
 
@@ -25,23 +55,25 @@ class RTDEBackend:
     poll_period = 0.001  # RTDE delivers every 2-8 ms; polling faster than that only burns CPU
     freeze_timeout = 1.0  # 125 CB3 cycles without fresh data: frozen, not just late (even on a loaded machine)
 
-    def __init__(self, host, primary) -> None:
+    def __init__(self, host: str, primary: PrimaryClient) -> None:
         self.host = host
         self.primary = primary
         probe_rtde(host)  # bounded: ur_rtde's own constructor would block without limit on a silent port
         try:
-            self._receive = rtde_receive.RTDEReceiveInterface(host, -1.0, RTDE_VARIABLES)
+            # ur_rtde ships no type information: the interface is typed by the Protocol above from here on.
+            self._receive: RTDEReceive | None = cast(
+                RTDEReceive, rtde_receive.RTDEReceiveInterface(host, -1.0, RTDE_VARIABLES))
         except RuntimeError as error:
             raise RobotConnectionError(f"cannot start the RTDE state stream from {host}:30004: {error}") from None
-        self._last_timestamp = None
+        self._last_timestamp: float | None = None
         self._last_fresh = time.monotonic()
 
     @property
-    def connected(self):
+    def connected(self) -> bool:
         """True while ur_rtde's receive thread holds the connection (False once closed)."""
         return self._receive is not None and bool(self._receive.isConnected())
 
-    def reconnect(self):
+    def reconnect(self) -> None:
         """Re-open the RTDE stream (RobotConnectionError if the controller does not answer)."""
         if self._receive is None:
             raise RobotConnectionError(f"the RTDE stream from {self.host} was closed; connect again")
@@ -53,7 +85,7 @@ class RTDEBackend:
             raise RobotConnectionError(f"RTDE reconnect to {self.host}:30004 failed: {error}") from None
         self._last_timestamp, self._last_fresh = None, time.monotonic()
 
-    def status(self):
+    def status(self) -> state.RobotStatus:
         """A RobotStatus from the newest RTDE package; ConnectionLostError if the stream has closed."""
         receive = self._receive
         try:
@@ -100,7 +132,7 @@ class RTDEBackend:
         finally:
             receive = None   # as in status(): no frame may keep the interface
 
-    def send_program(self, script) -> None:
+    def send_program(self, script: str) -> None:
         """Send URScript on the open primary connection (port 30001)."""
         self.primary.send_script(script)
 
