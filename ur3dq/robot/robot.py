@@ -11,7 +11,7 @@ import functools
 import math
 import threading
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Collection, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -119,18 +119,18 @@ class Robot:
                 part.close()
 
     @property
-    def controller_version(self):
+    def controller_version(self) -> tuple[int, int, int, int]:
         """(major, minor, bugfix, build) of the controller software, from the primary version message."""
         return (self._version.major, self._version.minor, self._version.bugfix, self._version.build)
 
     @functools.cached_property
-    def serial_number(self):
+    def serial_number(self) -> str | None:
         """The controller's serial number (dashboard, PolyScope 5.6 and later), or None where it cannot tell."""
         if self.controller_version[:2] < SERIAL_NUMBER_SINCE:
             return None
         return self._dashboard.serial_number()
 
-    def _open_primary(self):
+    def _open_primary(self) -> PrimaryClient:
         """A PrimaryClient that has received the version, robot mode, kinematics and configuration."""
         client = PrimaryClient(self.host)
         complete = client.wait_for(
@@ -160,12 +160,12 @@ class Robot:
         return identified_model(reply, self._version.major, None if configuration is None
                                 else configuration.robot_type, requested)
 
-    def _controller_tcp_offset(self):
+    def _controller_tcp_offset(self) -> np.ndarray | None:
         """The controller's active TCP offset (UR pose vector, flange frame), or None before software 3.2."""
         cartesian = self._primary.cartesian
         return None if cartesian is None else cartesian.tcp_offset
 
-    def _ensure_streams(self):
+    def _ensure_streams(self) -> None:
         """Reconnect dead state streams and heartbeat (exponential backoff; a silenced heartbeat stays silent until
         the next program, _armed); ConnectionLostError if they stay down."""
         heartbeat = self._heartbeat
@@ -605,7 +605,7 @@ class Robot:
 
     # --- power, safety, TCP, freedrive ------------------------------------------------------------------------
 
-    def power_on(self):
+    def power_on(self) -> None:
         """Power the arm on and wait until it is IDLE (brakes still held); EmergencyStopError if e-stopped."""
         if self.state().emergency_stopped:
             raise EmergencyStopError(f"power on refused: {self.host} is emergency-stopped; release the e-stop first")
@@ -617,7 +617,7 @@ class Robot:
         self._dashboard.power_off()
         self._wait_for_mode({ROBOT_MODE_POWER_OFF}, "power off")
 
-    def brake_release(self):
+    def brake_release(self) -> None:
         """Release the brakes and wait until the arm is RUNNING; RobotError at once unless it is powered on (IDLE)
         or already RUNNING (the controller would not release them)."""
         mode = self.state().robot_mode
@@ -629,7 +629,7 @@ class Robot:
         self._dashboard.brake_release()
         self._wait_for_mode({state.ROBOT_MODE_RUNNING}, "brake release")
 
-    def unlock_protective_stop(self):
+    def unlock_protective_stop(self) -> None:
         """Unlock a protective stop (the controller refuses within 5 s of it). Never called by ur3dq itself."""
         self._dashboard.unlock_protective_stop()
         deadline = time.monotonic() + 2.0
@@ -638,7 +638,7 @@ class Robot:
                 raise ProtectiveStopError(f"{self.host} still reports a protective stop 2 s after the unlock")
             time.sleep(0.01)
 
-    def set_tcp(self, tcp):
+    def set_tcp(self, tcp: PoseLike) -> None:
         """Set the controller's TCP offset (DualQuaternion or UR pose vector, flange frame); the model follows."""
         pose = tcp.to_ur_pose() if isinstance(tcp, DualQuaternion) else safety.check_pose_vector(tcp, "tcp")
         name = urscript.new_program_name("tcp")
@@ -684,7 +684,7 @@ class Robot:
             time.sleep(self._backend.poll_period)
         return True
 
-    def _wait_for_mode(self, modes, action):
+    def _wait_for_mode(self, modes: Collection[int], action: str) -> None:
         """Wait until the robot mode is one of `modes`; RobotError naming `action` after MODE_CHANGE_TIMEOUT."""
         deadline = time.monotonic() + MODE_CHANGE_TIMEOUT
         while True:
