@@ -2,6 +2,8 @@
 modes and stop flags come from our own primary-interface reader, because urx 0.11 misreads the Robot Mode Data
 of controllers newer than 3.4 (its `is_running()` stays False there), so completion is watched by ur3dq's logic.
 """
+from __future__ import annotations
+
 import logging
 import socket
 import struct
@@ -15,6 +17,7 @@ from urx.urrobot import URRobot
 from ur3dq.errors import ConnectionLostError, RobotConnectionError
 from ur3dq.robot import state
 from ur3dq.robot.io_state import IOState
+from ur3dq.robot.primary_client import PrimaryClient
 
 RUNTIME_STOPPED, RUNTIME_PLAYING, RUNTIME_PAUSED = 1, 2, 4   # RTDE runtime_state codes (io_state.RUNTIME_STATE_NAMES)
 # urx hands a program to its reader thread and waits on a condition with no timeout; if that thread has died
@@ -29,30 +32,30 @@ class URXBackend:
     poll_period = 0.005  # urx and the primary interface update at 10 Hz
     freeze_timeout = 1.5  # fifteen missed 10 Hz packets (urx itself gives up after a 0.5 s silence)
 
-    def __init__(self, host, primary) -> None:
+    def __init__(self, host: str, primary: PrimaryClient) -> None:
         self.host = host
         self.primary = primary
         self._robot = _open_urx(host)
 
     @property
-    def connected(self):
+    def connected(self) -> bool:
         """True while urx's reader thread and our primary reader both run."""
-        return self._robot.secmon.is_alive() and self.primary.alive
+        return bool(self._robot.secmon.is_alive()) and self.primary.alive
 
     def reconnect(self) -> None:
         """Open a fresh urx connection (the primary reader is reconnected by the Robot)."""
         self._shut(self._robot)
         self._robot = _open_urx(self.host)
 
-    def status(self):
+    def status(self) -> state.RobotStatus:
         """A RobotStatus from urx's newest joint/cartesian data and the primary reader's robot mode."""
         if not self.connected:
             self._shut(self._robot)  # a dead peer would leave urx's reader spinning on recv
             raise ConnectionLostError(f"the urx/primary state stream from {self.host} stopped (closed, or silent "
                                       "longer than urx's 0.5 s receive timeout)")
         data = self._robot.secmon.get_all_data()
-        mode = self.primary.robot_mode
-        if mode is None or "JointData" not in data or "CartesianInfo" not in data:
+        mode, state_time = self.primary.robot_mode, self.primary.last_state_time
+        if mode is None or state_time is None or "JointData" not in data or "CartesianInfo" not in data:
             raise ConnectionLostError(f"no complete robot state from {self.host} yet")
         joint_data, cartesian = data["JointData"], data["CartesianInfo"]
         now = time.monotonic()
@@ -68,7 +71,7 @@ class URXBackend:
             emergency_stopped=mode.emergency_stopped,
             speed_scaling=mode.speed_scaling,
             target_speed_fraction=mode.target_speed_fraction,
-            age=max(urx_age, now - self.primary.last_state_time),
+            age=max(urx_age, now - state_time),
             program_paused=mode.program_paused,
         ), f"the urx/primary state stream from {self.host}", safety_mode_reported=False)
 
@@ -83,7 +86,7 @@ class URXBackend:
             RUNTIME_STOPPED
         return IOState(board.digital_in, board.digital_out, board.analog_in, board.analog_out, runtime)
 
-    def send_program(self, script):
+    def send_program(self, script: str) -> None:
         """Send URScript through urx (port 30002); ConnectionLostError if urx cannot hand it over in time."""
         if not self._robot.secmon.is_alive():
             raise ConnectionLostError(f"urx's connection to {self.host} has stopped; program not sent")
@@ -98,7 +101,7 @@ class URXBackend:
         self._shut(self._robot)
 
     @staticmethod
-    def _shut(robot) -> None:
+    def _shut(robot: _URRobot) -> None:
         """Close a URRobot without hanging. A healthy urx reader sees its stop flag after the next 10 Hz packet;
         on a dead or frozen peer it never would (it loops on recv), so then its socket is closed under it."""
         secmon = robot.secmon
@@ -120,7 +123,7 @@ _PACKET_TYPE = 16
 _MIN_PACKET, _MAX_PACKET = 5, 2000
 
 
-def take_packet(queue: bytes):
+def take_packet(queue: bytes) -> tuple[bytes | None, bytes]:
     """Split the first packet urx would take off the front of `queue`.
 
     (packet, rest) for the first span of `queue` urx would take for a packet, or (None, rest) when there is none
@@ -147,13 +150,19 @@ def take_packet(queue: bytes):
         start += 1
 
 
-class _QuietSecondaryMonitor(urx.ursecmon.SecondaryMonitor):
+# urx ships no type information, so its classes are Any to mypy; these two subclasses are where urx enters ur3dq.
+class _QuietSecondaryMonitor(urx.ursecmon.SecondaryMonitor):  # type: ignore[misc]  # urx is untyped (above)
     """urx's 30002 reader thread, ending quietly when the stream breaks or falls silent (the error kept in `error`):
     urx's own run() dies there with a traceback on stderr, while the driver reports the loss as ConnectionLostError."""
 
+    # The attributes of urx's monitor that ur3dq reads or sets, as urx's __init__ makes them.
     _dataqueue: bytes   # urx's receive buffer
+    _s_secondary: socket.socket
+    _trystop: bool   # urx's reader loop ends when it is set
+    lastpacket_timestamp: float   # time.time() of the last packet urx parsed
 
-    error = None  # a class default: the thread starts inside urx's __init__ and may end before it returns
+    # A class default: the thread starts inside urx's __init__ and may end before it returns.
+    error: OSError | None = None
 
     def start(self) -> None:
         # urx's reader is not a daemon: on a stream of garbage it spins looking for a packet forever, and a failed
@@ -167,7 +176,7 @@ class _QuietSecondaryMonitor(urx.ursecmon.SecondaryMonitor):
         except OSError as error:  # closed, reset, or urx's 0.5 s receive timeout
             self.error = error
 
-    def _get_data(self):
+    def _get_data(self) -> bytes:
         """urx's read of the next packet, linear in the bytes read (take_packet); ConnectionResetError when the
         controller closed the connection (urx's own loop spins on the empty reads, its thread alive, so the driver
         took the connection for up and read the state of before the close as the newest)."""
@@ -180,7 +189,7 @@ class _QuietSecondaryMonitor(urx.ursecmon.SecondaryMonitor):
                 raise ConnectionResetError("the controller closed urx's connection (port 30002)")
             self._dataqueue += data
 
-    def wait(self, timeout: float=0.5):
+    def wait(self, timeout: float = 0.5) -> None:
         """urx's wait for a fresh packet; on its timeout the reader is ended and its socket closed before the
         exception leaves (urx's constructor raises it, and the half-built connection would otherwise live on)."""
         try:
@@ -195,11 +204,11 @@ class _QuietSecondaryMonitor(urx.ursecmon.SecondaryMonitor):
             raise
 
 
-class _URRobot(URRobot):
+class _URRobot(URRobot):  # type: ignore[misc]  # urx is untyped (above)
     """urx's URRobot on a _QuietSecondaryMonitor (URRobot.__init__ hard-codes its monitor class); the monitor's
     constructor already waits for the first packet, and the 125 Hz real-time monitor stays off as in urx."""
 
-    def __init__(self, host) -> None:
+    def __init__(self, host: str) -> None:
         self.logger = logging.getLogger("urx")
         self.host = host
         self.csys = None
@@ -214,15 +223,15 @@ class _URRobot(URRobot):
 URX_CONNECT_ATTEMPTS = 3
 
 
-def _open_urx(host):
+def _open_urx(host: str) -> _URRobot:
     """A connected urx URRobot, or RobotConnectionError."""
-    for attempt in range(URX_CONNECT_ATTEMPTS):
+    for _ in range(URX_CONNECT_ATTEMPTS):
         try:
             return _URRobot(host)
         except urx.ursecmon.TimeoutException:
-            if attempt + 1 == URX_CONNECT_ATTEMPTS:
-                raise RobotConnectionError(f"urx cannot connect to {host}:30002: no valid state packet within "
-                                           f"0.5 s ({URX_CONNECT_ATTEMPTS} attempts: the port is silent, slow, or "
-                                           "not sending a UR controller's data)") from None
+            continue   # urx's 0.5 s for the first packet ran out: try again
         except OSError as error:
             raise RobotConnectionError(f"urx cannot connect to {host}:30002: {error}") from None
+    raise RobotConnectionError(f"urx cannot connect to {host}:30002: no valid state packet within 0.5 s "
+                               f"({URX_CONNECT_ATTEMPTS} attempts: the port is silent, slow, or not sending a UR "
+                               "controller's data)")
