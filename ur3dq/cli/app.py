@@ -7,11 +7,12 @@ import functools
 import importlib
 import json
 import logging
+import math
 import os
 import shutil
 import sys
 import textwrap
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -36,6 +37,8 @@ from ur3dq.units import Units
 
 if TYPE_CHECKING:
     from rich.console import Console
+
+    from ur3dq.robot import Robot
 
 EXIT_OK = 0
 EXIT_CANCELLED = 1
@@ -313,7 +316,7 @@ def exit_code_for(error: BaseException) -> int:
 CLIENT_LIBRARY_LOGGERS = ("urx", "ursecmon")
 
 
-def quiet_client_libraries(debug):
+def quiet_client_libraries(debug: bool) -> None:
     """Let only errors of the client libraries' loggers through, or leave their levels alone when `debug`."""
     for name in CLIENT_LIBRARY_LOGGERS:
         logging.getLogger(name).setLevel(logging.NOTSET if debug else logging.ERROR)
@@ -333,7 +336,7 @@ def solving_one_pose() -> None:
         os.environ.setdefault("NUMBA_DISABLE_JIT", "1")
 
 
-def main(argv=None) -> None:
+def main(argv: Sequence[str] | None = None) -> None:
     """Entry point of the `ur3dq` command: run the CLI; any error becomes `Error: ...` on stderr and an exit code."""
     global _OWN_PROCESS
     _OWN_PROCESS = True
@@ -382,7 +385,7 @@ def show_error(text: str) -> None:
     click.echo(line, err=True)
 
 
-def _report_interrupt(interrupt):
+def _report_interrupt(interrupt: BaseException) -> int:
     """Print the one-line interruption error (with its notes: the step a run was in, how to go on); its exit code
     (130 for Ctrl-C, 128 + n for signal n)."""
     name = signal_name(interrupt)
@@ -395,11 +398,11 @@ def _report_interrupt(interrupt):
 
 
 @contextlib.contextmanager
-def robot_session(settings: Settings, **options):
+def robot_session(settings: Settings, max_joint_travel: float = math.pi) -> Iterator[Robot]:
     """A connected Robot for the command, closed when the block ends.
 
     A connected Robot for the host the options (or the running embedded simulator) name; closed afterwards.
-    `options` go to the driver's connect (e.g. max_joint_travel)."""
+    `max_joint_travel` (rad, the driver's default bound unless given) goes to the driver's connect."""
     from ur3dq.robot import connect  # the driver loads both client libraries: only for robot commands
 
     simulator = running_simulator_host()
@@ -408,7 +411,7 @@ def robot_session(settings: Settings, **options):
         raise RobotConnectionError(NO_ROBOT_HINT)
     with own_output():
         try:
-            robot = connect(host, backend=settings.backend, model=settings.model, **options)
+            robot = connect(host, backend=settings.backend, model=settings.model, max_joint_travel=max_joint_travel)
         except (OSError, RobotConnectionError) as error:
             reason = (error.strerror or str(error)) if isinstance(error, OSError) else str(error)
             raise RobotConnectionError(f"{reason.rstrip('.')}; {unreachable_hint(settings, host, simulator)}"

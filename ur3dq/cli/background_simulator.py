@@ -17,7 +17,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from ur3dq.errors import UR3DQError
 from ur3dq.pose import utc_now_iso
@@ -58,7 +58,7 @@ def process_is_simulator(pid: int) -> bool:
         return True
 
 
-def read_state(directory: Path) -> dict | None:
+def read_state(directory: Path) -> dict[str, Any] | None:
     """The recorded simulator if it is still running, else None (a stale or unreadable file counts as none)."""
     try:
         state = json.loads((directory / STATE_FILE_NAME).read_text(encoding="utf-8"))
@@ -80,7 +80,7 @@ def _lock(directory: Path) -> filelock.FileLock:
     return filelock.FileLock(str(directory / "sim.lock"), timeout=START_TIMEOUT_S + STOP_TIMEOUT_S)
 
 
-def start_simulator(model: str = "ur3", host: str | None = None, version: str | None = None) -> dict:
+def start_simulator(model: str = "ur3", host: str | None = None, version: str | None = None) -> dict[str, Any]:
     """Start the embedded simulator in the background and record where it serves.
 
     Start `python -m sim_ursim` detached on `host` (default: a free loopback address) and wait until it
@@ -148,7 +148,7 @@ def _preferred_address(directory: Path) -> str:
     return free_loopback_address()
 
 
-def stop_simulator() -> dict | None:
+def stop_simulator() -> dict[str, Any] | None:
     """Stop the simulator `start_simulator` started.
 
     Stop the recorded simulator (SIGTERM, then SIGKILL after 10 s) and forget it; returns its state, or None

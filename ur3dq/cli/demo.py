@@ -23,7 +23,7 @@ from ur3dq.cli.options import Quantity, display_options, or_default, speed_and_a
 from ur3dq.cli.program_workflow import plan_columns, plan_rows
 from ur3dq.errors import RobotError
 from ur3dq.program.runner import run
-from ur3dq.program.steps import DigitalOut, Motion, RelativeWaypoint, Wait, Waypoint
+from ur3dq.program.steps import DigitalOut, Motion, RelativeWaypoint, Step, Wait, Waypoint
 from ur3dq.replay import Reached, execute_plan, plan_replay, read_pose
 from ur3dq.store import PoseStore
 from ur3dq.units import ANGULAR_ACCELERATION, ANGULAR_SPEED, Units
@@ -57,7 +57,8 @@ DEMO_PLACES = (
               help="... and within this rotation.")
 @display_options
 @click.pass_obj
-def demo(settings: Settings, save, speed, acceleration, tolerance_mm, tolerance_deg):
+def demo(settings: Settings, save: Path | None, speed: float | None, acceleration: float | None,
+         tolerance_mm: float, tolerance_deg: float) -> None:
     """Run the whole job on a simulator: record poses, replay them, run a cell program.
 
     The whole job against a simulator it starts itself: power on, release the brakes, move the arm to a few
@@ -149,15 +150,15 @@ APPROACH_M = 0.05   # the approach and retract stand this far back from the part
 GRIPPER_PIN = 0     # tool digital output 0 closes the gripper
 
 
-def pick_and_place_steps(store, program_store, pick: str, place: str) -> list:
+def pick_and_place_steps(store: PoseStore, program_store: PoseStore, pick: str, place: str) -> list[Step]:
     """Write the demo's pick-and-place cell program and return its steps.
 
     Write the demo's cell program around the poses `pick` and `place` of `store` into `program_store` (a
     version-2 store, replacing what it held) and return its steps."""
     pick_pose, place_pose = store.get(pick), store.get(place)
 
-    def edit(_):
-        program = [
+    def edit(_: list[Step]) -> tuple[list[Step], list[Step]]:
+        program: list[Step] = [
             RelativeWaypoint("approach", pick, (0, 0, -APPROACH_M, 0, 0, 0), "tool", Motion("joint")),
             Waypoint(pick, pick_pose, Motion("linear", 0.05, 0.5)),
             DigitalOut("close-gripper", "tool", GRIPPER_PIN, True),
@@ -171,7 +172,8 @@ def pick_and_place_steps(store, program_store, pick: str, place: str) -> list:
     return program_store.update_program(edit)
 
 
-def run_pick_and_place(robot, store, program_store, pick: str, place: str, console: Console) -> None:
+def run_pick_and_place(robot: Robot, store: PoseStore, program_store: PoseStore, pick: str, place: str,
+                       console: Console) -> None:
     """Build and run the demo's pick-and-place program, showing each step on `console`.
 
     The program goes into `program_store`; each step is shown as the controller reports it, then the plan.
@@ -180,13 +182,15 @@ def run_pick_and_place(robot, store, program_store, pick: str, place: str, conso
     steps = pick_and_place_steps(store, program_store, pick, place)
     say = console_print = console.print
 
-    def progress(position, step):
+    def progress(position: int, step: Step) -> None:
         console_print(escape(f"   step {position}: {step.name} ({step.kind})"))
 
     plan, seconds = run(robot, steps, progress=progress)
     print_table(console, "Pick-and-place plan (one URScript program)", plan_columns(Units()),
                 plan_rows(plan, 1, Units()))
-    error_m, _ = robot.tcp_pose().distance(plan[-2].pose)
+    place_pose = plan[-2].pose   # the place waypoint's, before the gripper opens
+    assert place_pose is not None, "the program's last waypoint is the place"
+    error_m, _ = robot.tcp_pose().distance(place_pose)
     if error_m > 5e-4:
         raise RobotError(f"the pick-and-place ended {error_m * 1000:.2f} mm from {place!r}")
     say(f"   ran {len(plan)} steps in {seconds:.2f} s; the arm rests at {place!r} "

@@ -4,12 +4,12 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import functools
-from collections.abc import Iterator
-from typing import Any
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from rich import box
-from rich.console import Console
+from rich.console import Console, ConsoleOptions, JustifyMethod, RenderResult
 from rich.markup import escape  # user text (pose names) is shown as typed, never read as markup
 from rich.measure import Measurement
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
@@ -18,6 +18,9 @@ from rich.text import Text
 
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.units import ANGLE, LENGTH, Units, show, to_display, unit_label
+
+if TYPE_CHECKING:
+    from ur3dq.replay import Reached
 
 JOINT_LABELS = ("base", "shoulder", "elbow", "wrist 1", "wrist 2", "wrist 3")
 
@@ -108,15 +111,15 @@ class VectorCell:
         self.one_line = text
         self.halves = text if len(parts) != 6 else ", ".join(parts[:3]) + ",\n" + ", ".join(parts[3:])
 
-    def __rich_console__(self, console, options):
+    def __rich_console__(self, console: Console, options: ConsoleOptions) -> RenderResult:
         fits = len(self.one_line) <= options.max_width
         yield Text(self.one_line if fits else self.halves, overflow="fold")
 
-    def __rich_measure__(self, console, options):
+    def __rich_measure__(self, console: Console, options: ConsoleOptions) -> Measurement:
         return Measurement(max(len(line) for line in self.halves.splitlines()), len(self.one_line))
 
 
-def key_value_table(title: str, rows) -> Table:
+def key_value_table(title: str, rows: Iterable[tuple[str, str]]) -> Table:
     """A two-column table of (label, value) rows; a 6-number value breaks between its halves when narrow."""
     table = Table(title=title, show_header=False, title_justify="left")
     table.add_column("what", style="bold", no_wrap=True)
@@ -124,6 +127,10 @@ def key_value_table(title: str, rows) -> Table:
     for label, value in rows:
         table.add_row(label, VectorCell(value) if value.count(", ") == 5 and value.endswith("]") else value)
     return table
+
+
+#: A cell of `fitted_table`: text with rich markup, or a VectorCell.
+TableCell = str | VectorCell
 
 
 @dataclasses.dataclass(frozen=True)
@@ -135,13 +142,14 @@ class Column:
 
     header: str
     narrow_header: str | None = None
-    justify: str = "left"
+    justify: JustifyMethod = "left"
     no_wrap: bool = False
     drop_order: int | None = None
     min_width: int | None = None
 
 
-def fitted_table(title: str | None, columns, rows, width: int | None) -> Table:
+def fitted_table(title: str | None, columns: Sequence[Column], rows: Sequence[Sequence[TableCell]],
+                 width: int | None) -> Table:
     """A rich table of `rows` (lists of cells, one per Column) that reads at `width` columns (None: unlimited).
 
     Below NARROW_WIDTH it is drawn without vertical rules and with the narrow headers; columns are then left out
@@ -153,17 +161,19 @@ def fitted_table(title: str | None, columns, rows, width: int | None) -> Table:
     narrow = width is not None and width < NARROW_WIDTH
     measured = [_column_measure(column, [row[i] for row in rows], narrow) for i, column in enumerate(columns)]
 
-    def widths_of(indices, no_wrap, natural):   # each column's width, from the one measurement of its cells
+    # each column's width, from the one measurement of its cells
+    def widths_of(indices: list[int], no_wrap: list[bool], natural: bool) -> list[int]:
         return [max(columns[i].min_width or 0, measured[i][2] if natural else measured[i][1 if wrap_off else 0])
                 for i, wrap_off in zip(indices, no_wrap)]
 
     kept = list(range(len(columns)))
+    drop_orders = {i: column.drop_order for i, column in enumerate(columns) if column.drop_order is not None}
     while True:
-        droppable = [i for i in kept if columns[i].drop_order is not None]
+        droppable = [i for i in kept if i in drop_orders]
         no_wrap = [columns[i].no_wrap for i in kept]
         if width is None or not droppable or _table_width(widths_of(kept, no_wrap, False), narrow) <= width:
             break
-        kept.remove(min(droppable, key=lambda i: columns[i].drop_order))
+        kept.remove(min(droppable, key=drop_orders.__getitem__))
     shown, cells = [columns[i] for i in kept], [[row[i] for i in kept] for row in rows]
     if width is not None and _table_width(widths_of(kept, no_wrap, False), narrow) > width:
         # only the never-dropped columns are left and a name alone is longer than the room: it folds, whole
@@ -181,7 +191,8 @@ def fitted_table(title: str | None, columns, rows, width: int | None) -> Table:
     return table
 
 
-def _table(title, columns, rows, narrow: bool, widths) -> Table:
+def _table(title: str | None, columns: Sequence[Column], rows: Iterable[Sequence[TableCell]], narrow: bool,
+           widths: list[int] | None) -> Table:
     table = Table(title=title, title_justify="left", box=box.SIMPLE_HEAD if narrow else box.HEAVY_HEAD,
                   show_edge=not narrow, pad_edge=not narrow, collapse_padding=narrow)
     for index, column in enumerate(columns):
@@ -196,13 +207,13 @@ def _header(column: Column, narrow: bool) -> str:
     return column.narrow_header if narrow and column.narrow_header else column.header
 
 
-def _table_width(column_widths, narrow: bool) -> int:
+def _table_width(column_widths: Sequence[int], narrow: bool) -> int:
     """The drawn width of columns this wide: two spaces between narrow columns; rules, padding and edges else."""
     count = len(column_widths)
     return sum(column_widths) + (2 * (count - 1) if narrow else 3 * (count - 1) + 4)
 
 
-def _column_measure(column: Column, cells, narrow: bool) -> tuple[int, int, int]:
+def _column_measure(column: Column, cells: Sequence[TableCell], narrow: bool) -> tuple[int, int, int]:
     """(longest word, longest unbreakable line, longest line) over the column's header and cells: its narrowest
     width when it may wrap, its narrowest when it may not, and its natural width."""
     measures = [_cell_widths(cell) for cell in [_header(column, narrow), *cells]]
@@ -210,7 +221,7 @@ def _column_measure(column: Column, cells, narrow: bool) -> tuple[int, int, int]
     return word, unbreakable, line
 
 
-def _cell_widths(cell) -> tuple[int, int, int]:
+def _cell_widths(cell: TableCell) -> tuple[int, int, int]:
     """(longest word, longest unbreakable piece, longest line) of a cell: a str with rich markup, or a VectorCell
     (which breaks only between its halves)."""
     if isinstance(cell, VectorCell):
@@ -221,7 +232,7 @@ def _cell_widths(cell) -> tuple[int, int, int]:
     return max(len(word) for line in lines for word in line.split() or [""]), longest, longest
 
 
-def _shared_widths(minimum, natural, room: int) -> list[int]:
+def _shared_widths(minimum: list[int], natural: list[int], room: int) -> list[int]:
     """Column widths within `room`: every column its minimum, the rest shared in proportion to what each still
     wants, never beyond its natural width; when the minimums do not fit, the widest column gives up the excess."""
     spare, wanted = room - sum(minimum), [n - m for m, n in zip(minimum, natural)]
@@ -295,7 +306,8 @@ def compact_pose_text(pose: Any, units: Units) -> str:
 PLAIN_TABLE_ROWS = 2000  # beyond this, tables are printed as tab-separated lines (rich takes minutes to lay out)
 
 
-def print_table(console: Console, title: str, columns, rows, count: int | None = None) -> None:
+def print_table(console: Console, title: str, columns: Sequence[Column], rows: Iterable[Sequence[str]],
+                count: int | None = None) -> None:
     """Print a table of Columns at the console's width.
 
     A table of Columns on `console` that reads at its width (names are never cut or dropped); user text is
@@ -329,7 +341,7 @@ def plan_table(steps: Any, units: Units, title: str, width: int | None = None) -
     return fitted_table(title, columns, [[escape(cell) for cell in row] for row in rows], width)
 
 
-def replay_plan(steps: Any, units: Units, width: int | None = None) -> tuple:
+def replay_plan(steps: Any, units: Units, width: int | None = None) -> tuple[list[Column], Iterator[tuple[str, ...]]]:
     """The columns and rows of a replay plan's table.
 
     (Columns, an iterator of the rows in plain text) of the replay plan (ur3dq.replay.PlanStep list): chosen
@@ -363,7 +375,7 @@ def _replay_rows(steps: Any, units: Units, narrow: bool) -> Iterator[tuple[str, 
                distance_text(step.fk_error_m, step.fk_error_rad))
 
 
-def reached_table(results, title: str, width: int | None = None) -> Table:
+def reached_table(results: Iterable[Reached], title: str, width: int | None = None) -> Table:
     """A table of where each replayed pose ended.
 
     Where each replayed pose ended (ur3dq.replay.Reached list) vs where the replay aimed the current TCP: the
@@ -380,7 +392,7 @@ def reached_table(results, title: str, width: int | None = None) -> Table:
 
 
 @contextlib.contextmanager
-def progress_bar(console: Console):
+def progress_bar(console: Console) -> Iterator[Callable[[str, int, int], None]]:
     """A rich progress bar on `console`; yields the callback ur3dq.replay.execute_plan reports to."""
     columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
                TimeElapsedColumn())
@@ -393,7 +405,7 @@ def progress_bar(console: Console):
         yield report
 
 
-def pose_summary(pose: DualQuaternion) -> dict:
+def pose_summary(pose: DualQuaternion) -> dict[str, Any]:
     """The JSON description of a pose: UR pose vector, dual-quaternion coefficients, thesis line (SI units)."""
     return {"ur_pose": pose.to_ur_pose().tolist(), "dual_quaternion": pose.to_array().tolist(),
             "thesis_line": pose.to_thesis_line()}

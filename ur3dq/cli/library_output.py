@@ -8,11 +8,15 @@ most one ur3dq note (chatter is dropped), any other line passes through unchange
 `sys.stderr` are pointed at the original descriptors meanwhile, so ur3dq's output never waits on the thread.
 `UR3DQ_DEBUG=1` passes everything through as it came.
 """
+from __future__ import annotations
+
 import contextlib
 import os
 import sys
 import threading
 import time
+from collections.abc import Iterator
+from typing import TextIO
 
 # ur_rtde 1.6's console lines (from the strings of librtde): what each means for the user, or None for chatter
 # that needs no action (realtime-kernel hints, reconnect progress; the driver reports failed reconnects itself).
@@ -35,7 +39,7 @@ LIBRARY_PREFIXES = ("RTDEReceiveInterface", "RTDEControlInterface", "RTDEIOInter
 NOTE_REPEAT_PERIOD = 2.0  # one drop makes several threads print; the user needs one note
 
 
-def translated(line: str) -> "str | None":
+def translated(line: str) -> str | None:
     """What the user sees for one line a client library printed.
 
     What the user sees for one console line (without its newline): a ur_rtde line becomes its note or None
@@ -51,7 +55,7 @@ def translated(line: str) -> "str | None":
 class _Filter:
     """A pipe in place of descriptor `fd`; a thread copies translated lines to the original descriptor."""
 
-    def __init__(self, fd: int, last_notes: dict):
+    def __init__(self, fd: int, last_notes: dict[str, float]) -> None:
         self.fd = fd
         self.original = os.dup(fd)
         self._last_notes = last_notes
@@ -62,7 +66,7 @@ class _Filter:
                                         daemon=True)
         self._thread.start()
 
-    def _copy(self, read_end: int):
+    def _copy(self, read_end: int) -> None:
         pending = b""
         with os.fdopen(read_end, "rb", buffering=0) as pipe:
             while chunk := pipe.read(65536):
@@ -73,7 +77,7 @@ class _Filter:
         if pending:
             self._emit(pending.decode("utf-8", "replace"))
 
-    def _emit(self, line: str):
+    def _emit(self, line: str) -> None:
         text = translated(line)
         if text is None:
             return
@@ -87,19 +91,19 @@ class _Filter:
         except OSError:  # restored and closed while a child process still held the pipe: nobody to tell
             pass
 
-    def restore(self):
+    def restore(self) -> None:
         """Put the original descriptor back and let the thread copy what was still in the pipe."""
         os.dup2(self.original, self.fd)  # closes the pipe's last write end (unless a child process holds it)
         self._thread.join(1.0)
         os.close(self.original)
 
 
-def _python_stream_on(fd: int, stream):
+def _python_stream_on(fd: int, stream: TextIO) -> TextIO:
     """A text stream like `stream` writing to descriptor `fd` (left open: the filter owns it)."""
     return open(fd, "w", buffering=1, encoding=stream.encoding, errors=stream.errors, closefd=False)
 
 
-def _real_descriptor(stream, fd: int) -> bool:
+def _real_descriptor(stream: TextIO, fd: int) -> bool:
     try:
         return stream.fileno() == fd
     except (AttributeError, OSError, ValueError):  # a test runner's capture: no descriptor of its own
@@ -107,7 +111,7 @@ def _real_descriptor(stream, fd: int) -> bool:
 
 
 @contextlib.contextmanager
-def own_output():
+def own_output() -> Iterator[None]:
     """While active, ur_rtde's console lines on descriptors 1 and 2 are translated (see the module docstring).
 
     Does nothing under UR3DQ_DEBUG, or when sys.stdout/sys.stderr are not the process's descriptors 1 and 2
@@ -119,7 +123,7 @@ def own_output():
     saved_streams = sys.stdout, sys.stderr
     for stream in saved_streams:
         stream.flush()
-    last_notes: dict[int, str] = {}
+    last_notes: dict[str, float] = {}   # note -> time.monotonic() it was last shown
     filters = [_Filter(1, last_notes), _Filter(2, last_notes)]
     sys.stdout = _python_stream_on(filters[0].original, saved_streams[0])
     sys.stderr = _python_stream_on(filters[1].original, saved_streams[1])

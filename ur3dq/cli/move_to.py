@@ -55,7 +55,9 @@ def move_to(settings: Settings, name: str, yes: bool, speed_scale: float, cell_p
             require_passed(settings, result)
         confirm(f"Move the arm to {name!r}?", yes, default=False)
         seconds = run_plan(robot, plan, steps.index(step) + 1)
-        metres, radians = robot.tcp_pose().distance(plan[0].pose)
+        target = plan[0].pose
+        assert target is not None, "a planned waypoint has its pose"
+        metres, radians = robot.tcp_pose().distance(target)
     if settings.json:
         emit_json({"moved_to": name, "seconds": seconds, "error_m": metres, "error_rad": radians})
     else:

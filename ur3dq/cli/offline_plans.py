@@ -2,15 +2,22 @@
 writes)."""
 from __future__ import annotations
 
+from collections.abc import Iterable
+from typing import TYPE_CHECKING
+
 from rich.console import Console
 
 from ur3dq.cli.app import Settings
 from ur3dq.cli.options import speed_and_acceleration
 from ur3dq.errors import StoreError
-from ur3dq.replay import plan_replay
+from ur3dq.replay import PlanStep, plan_replay
+
+if TYPE_CHECKING:
+    from ur3dq.kinematics.models import URModel
 
 
-def offline_plan(settings: Settings, names, speed, acceleration, replay_joints, max_travel):
+def offline_plan(settings: Settings, names: Iterable[str] | None, speed: float, acceleration: float,
+                 replay_joints: bool, max_travel: float | None) -> tuple[URModel, list[PlanStep], float, float]:
     """(model, plan, a, v) of the stored poses on the nominal model (--model, else the first pose's), no robot."""
     from ur3dq.kinematics import robot_model
 

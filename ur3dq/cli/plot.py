@@ -22,7 +22,7 @@ from ur3dq.store_format import PROGRAM_SCHEMA_VERSION
 @display_options
 @cell_option
 @click.pass_obj
-def plot(settings: Settings, names, output: Path, yes, cell_path):
+def plot(settings: Settings, names: tuple[str, ...], output: Path, yes: bool, cell_path: Path | None) -> None:
     """A PNG of the recorded TCP path and the arm at each pose (all, or NAMES in order), on the nominal model.
 
     \b

@@ -9,9 +9,9 @@ types and reads goes through ur3dq.units (options.Quantity / options.Typed in, m
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import click
 import numpy as np
@@ -35,6 +35,9 @@ from ur3dq.units import ACCELERATION, ANGLE, DURATION, LENGTH, SPEED, Units, ang
 
 if TYPE_CHECKING:
     from ur3dq.cli.resume_state import ResumeState
+
+#: A step of a kind its maker knows (add_step_at returns what it inserted).
+StepT = TypeVar("StepT", bound=Step)
 
 # ---------------------------------------------------------------- shared options and edits
 
@@ -147,7 +150,7 @@ def step_fields_text(step: Step, units: Units) -> list[tuple[str, str]]:
 SEE_THE_LIST = "; `ur3dq poses list` shows them"   # the way on after an unknown step name
 
 
-def insertion_index(steps, after: str | None, before: str | None, source) -> int:
+def insertion_index(steps: Sequence[Step], after: str | None, before: str | None, source: str | Path) -> int:
     """Where --after/--before put a step in `steps` (the end by default); StoreError for an unknown name."""
     if after and before:
         raise click.UsageError("give --after or --before, not both")
@@ -160,7 +163,7 @@ def insertion_index(steps, after: str | None, before: str | None, source) -> int
     return names.index(anchor) + (1 if after else 0)
 
 
-def replace_step(steps, name, new, source):
+def replace_step(steps: Sequence[Step], name: str, new: Step, source: str | Path) -> list[Step]:
     """`steps` with the step `name` replaced by `new`."""
     names = [step.name for step in steps]
     if name not in names:
@@ -168,7 +171,7 @@ def replace_step(steps, name, new, source):
     return [new if step.name == name else step for step in steps]
 
 
-def find_step(steps, name, source):
+def find_step(steps: Sequence[Step], name: str, source: str | Path) -> Step:
     """The step called `name`; StoreError naming `source` if there is none."""
     for step in steps:
         if step.name == name:
@@ -177,10 +180,11 @@ def find_step(steps, name, source):
     raise StoreError(f"no step named {name!r} in {source}{closest_name_text(name, names, SEE_THE_LIST)}")
 
 
-def add_step_at(settings: Settings, make_step, after, before):
+def add_step_at(settings: Settings, make_step: Callable[[list[Step]], StepT], after: str | None,
+                before: str | None) -> StepT:
     """Insert the step `make_step(steps)` at --after/--before in one store update; returns it."""
 
-    def edit(steps):
+    def edit(steps: list[Step]) -> tuple[list[Step], StepT]:
         step = make_step(steps)
         index = insertion_index(steps, after, before, settings.store_path)
         return steps[:index] + [step] + steps[index:], step
@@ -299,7 +303,7 @@ LIST_COLUMNS = (Column("#", justify="right", no_wrap=True), Column("name", no_wr
 # ---------------------------------------------------------------- poses set / retouch / move / copy / offset
 
 
-def program_part(settings: Settings, start, end):
+def program_part(settings: Settings, start: str | None, end: str | None) -> tuple[list[Step], list[Step], int]:
     """(whole program, the --from/--to part, position of its first step)."""
     steps = settings.store.load_program()
     if not steps:
@@ -419,8 +423,9 @@ def _warn_recorded_joints(steps: list[Step], model: URModel) -> None:
         click.echo(line, err=True)
 
 
-def export_program_text(settings: Settings, start, end, speed, acceleration, blend, speed_scale, replay_joints,
-                        max_travel) -> tuple[str, int]:
+def export_program_text(settings: Settings, start: str | None, end: str | None, speed: float, acceleration: float,
+                        blend: float, speed_scale: float, replay_joints: bool,
+                        max_travel: float | None) -> tuple[str, int]:
     """The URScript text of the stored cell program and its number of steps.
 
     (the .script text of the program or its --from/--to part on the nominal model, number of steps): the same

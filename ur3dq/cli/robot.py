@@ -3,13 +3,18 @@ unlock, freedrive, stop. Each runs only when typed (ur3dq never calls them by it
 reason, where the controller would refuse it."""
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import click
 
 from ur3dq.cli.app import Settings, cli, emit_json, robot_session
 from ur3dq.cli.options import display_options
 
+if TYPE_CHECKING:
+    from ur3dq.robot import Robot
 
-def _done(settings: Settings, action: str, robot, text: str) -> None:
+
+def _done(settings: Settings, action: str, robot: Robot, text: str) -> None:
     """Report a finished controller action: one line, or JSON with the robot's modes afterwards."""
     if settings.json:
         status = robot.state()
@@ -20,7 +25,7 @@ def _done(settings: Settings, action: str, robot, text: str) -> None:
 
 
 @cli.group("robot", short_help="Power, brakes, unlock, freedrive, stop.")
-def robot_group():
+def robot_group() -> None:
     """Power, brakes, protective-stop unlock, freedrive and stop, as at the pendant (dashboard server).
 
     \b
@@ -35,7 +40,7 @@ def robot_group():
 @robot_group.command("power-on", short_help="Power the arm on (brakes held).")
 @display_options
 @click.pass_obj
-def power_on(settings: Settings):
+def power_on(settings: Settings) -> None:
     """Power the arm on (brakes still held); waits until the controller reports IDLE."""
     with robot_session(settings) as robot:
         robot.power_on()
@@ -45,7 +50,7 @@ def power_on(settings: Settings):
 @robot_group.command("power-off", short_help="Power the arm off.")
 @display_options
 @click.pass_obj
-def power_off(settings: Settings):
+def power_off(settings: Settings) -> None:
     """Power the arm off (the brakes engage); waits until the controller reports POWER_OFF."""
     with robot_session(settings) as robot:
         robot.power_off()
@@ -55,7 +60,7 @@ def power_off(settings: Settings):
 @robot_group.command("brake-release", short_help="Release the brakes.")
 @display_options
 @click.pass_obj
-def brake_release(settings: Settings):
+def brake_release(settings: Settings) -> None:
     """Release the brakes of a powered-on arm; waits until the controller reports RUNNING."""
     with robot_session(settings) as robot:
         robot.brake_release()
@@ -65,7 +70,7 @@ def brake_release(settings: Settings):
 @robot_group.command("unlock", short_help="Unlock a protective stop.")
 @display_options
 @click.pass_obj
-def unlock(settings: Settings):
+def unlock(settings: Settings) -> None:
     """Unlock a protective stop (the controller refuses within 5 s of the stop; inspect the cause first)."""
     with robot_session(settings) as robot:
         robot.unlock_protective_stop()
@@ -76,7 +81,7 @@ def unlock(settings: Settings):
 @click.argument("switch", type=click.Choice(["on", "off"]))
 @display_options
 @click.pass_obj
-def freedrive(settings: Settings, switch):
+def freedrive(settings: Settings, switch: str) -> None:
     """Freedrive on (a program on the controller holds it for up to an hour) or off."""
     with robot_session(settings) as robot:
         robot.teach_mode(switch == "on")
@@ -86,7 +91,7 @@ def freedrive(settings: Settings, switch):
 @robot_group.command("stop", short_help="Stop the arm (stopj) and the program.")
 @display_options
 @click.pass_obj
-def stop(settings: Settings):
+def stop(settings: Settings) -> None:
     """Decelerate the arm to rest (stopj) and end the running program."""
     with robot_session(settings) as robot:
         robot.stop()

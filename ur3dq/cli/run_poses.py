@@ -1,6 +1,7 @@
 """`ur3dq run-poses`: replay the stored poses, or run the stored cell program, on the arm."""
 from __future__ import annotations
 
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
@@ -29,6 +30,7 @@ from ur3dq.cli.path_report import check_replay, check_verdict, report_path_check
 from ur3dq.cli.plan_summary import replay_figures, summary_lines
 from ur3dq.cli.program_workflow import run_program_command
 from ur3dq.cli.resume_state import ResumeState, load_resume_state, store_digest
+from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import SafetyCheckError, StoreError
 from ur3dq.kinematics import robot_model
 from ur3dq.kinematics.models import URModel
@@ -47,7 +49,7 @@ from ur3dq.robot.safety import DEFAULT_MAX_JOINT_TRAVEL
 from ur3dq.units import LENGTH
 
 
-def plan_to_json(steps) -> list[dict]:
+def plan_to_json(steps: Iterable[PlanStep]) -> list[dict[str, Any]]:
     """The plan in SI units for --json."""
     return [{"pose": step.pose.name, "joints": step.joints.tolist(), "source": step.source,
              "solutions": step.solutions, "travel": step.travel, "duration": step.duration,
@@ -196,7 +198,8 @@ def _resume(settings: Settings, dry_run: bool, yes: bool, full_plan: bool) -> No
     return _replay(settings, settings.store.select(state.names), 1, dry_run, full_plan, yes, options, resume=state)
 
 
-def _for_the_current_tcp(poses, tcp_now, choice, replay_joints: bool, err: Console):
+def _for_the_current_tcp(poses: list[Pose], tcp_now: DualQuaternion, choice: str | None, replay_joints: bool,
+                         err: Console) -> list[Pose]:
     """The poses to plan, given the controller's TCP `tcp_now`: unchanged when every pose was recorded with it;
     otherwise a warning before anything moves, and the user's --tcp choice (SafetyCheckError without one)."""
     changed = [pose.name for pose in poses if tcp_changed(pose, tcp_now)]

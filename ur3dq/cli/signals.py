@@ -7,9 +7,13 @@ terminal or `kill -INT` would leave the arm moving. Stopping is the safe side, s
 
 The exit code follows the shell convention 128 + signal number: 130 for SIGINT, 143 for SIGTERM, 129 for SIGHUP.
 """
+from __future__ import annotations
+
 import contextlib
 import signal
 import threading
+from collections.abc import Iterator
+from types import FrameType
 
 # The signals a supervisor, `kill`, or a closed terminal send to end a process politely.
 POLITE_SIGNALS = tuple(sig for sig in (getattr(signal, "SIGTERM", None), getattr(signal, "SIGHUP", None)) if sig)
@@ -18,7 +22,7 @@ POLITE_SIGNALS = tuple(sig for sig in (getattr(signal, "SIGTERM", None), getattr
 class Terminated(KeyboardInterrupt):
     """A polite termination signal (SIGTERM, SIGHUP) arrived; `signum` is its number."""
 
-    def __init__(self, signum):
+    def __init__(self, signum: int) -> None:
         super().__init__(f"terminated by {signal.Signals(signum).name}")
         self.signum = signum
 
@@ -34,12 +38,12 @@ def signal_name(interrupt: BaseException) -> str | None:
     return signal.Signals(signum).name if signum is not None else None
 
 
-def _raise_terminated(signum, _frame):
+def _raise_terminated(signum: int, _frame: FrameType | None) -> None:
     raise Terminated(signum)
 
 
 @contextlib.contextmanager
-def polite_signals_interrupt():
+def polite_signals_interrupt() -> Iterator[None]:
     """Turn SIGTERM, SIGHUP and SIGINT into exceptions inside the block.
 
     While inside, SIGTERM and SIGHUP raise Terminated and SIGINT raises KeyboardInterrupt (even if it was

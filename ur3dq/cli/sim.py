@@ -9,7 +9,7 @@ from ur3dq.cli.options import display_options
 
 
 @cli.group(short_help="The embedded simulator: start, stop, status.")
-def sim():
+def sim() -> None:
     """The embedded simulator (sim_ursim) in the background, for trying ur3dq without a robot.
 
     While it runs, robot commands use it when no --host / UR3DQ_HOST is given.
@@ -30,7 +30,7 @@ def sim():
               help="Leave the arm powered off with brakes held, as a real controller boots (default: ready to move).")
 @display_options
 @click.pass_obj
-def sim_start(settings: Settings, address, software_version, powered_off):
+def sim_start(settings: Settings, address: str | None, software_version: str | None, powered_off: bool) -> None:
     """Start the simulator in the background, ready to move.
 
     Start the simulator in the background: the arm at zero joints, powered on with its brakes released
@@ -60,7 +60,7 @@ def sim_start(settings: Settings, address, software_version, powered_off):
 @sim.command("stop", short_help="Stop the simulator.")
 @display_options
 @click.pass_obj
-def sim_stop(settings: Settings):
+def sim_stop(settings: Settings) -> None:
     """Stop the simulator `ur3dq sim start` left running."""
     state = stop_simulator()
     if settings.json:
@@ -74,7 +74,7 @@ def sim_stop(settings: Settings):
 @sim.command("status", short_help="Whether the simulator runs, and where.")
 @display_options
 @click.pass_obj
-def sim_status(settings: Settings):
+def sim_status(settings: Settings) -> None:
     """Whether the simulator runs, and where."""
     state = read_state(state_directory())
     if settings.json:
