@@ -29,17 +29,18 @@ from ur3dq.store import PoseStore, find_step, renamed_steps, with_added
 from ur3dq.store_format import format_program_v2
 
 MAX_UNDO = 50
-Edit = Callable[[list], tuple]
+#: An edit: the program's steps -> (the new steps, what the edit made: the new step, the stored poses, or None).
+Edit = Callable[[list[Step]], tuple[list[Step], Any]]
 
 
 @dataclasses.dataclass(frozen=True)
 class _Done:
     description: str
-    before: list
+    before: list[Step]
     after_text: str
 
 
-def program_text(steps: list) -> str:
+def program_text(steps: list[Step]) -> str:
     """The store's text of `steps` (what decides whether two programs are the same)."""
     return format_program_v2(steps)
 
@@ -53,7 +54,7 @@ class ProgramEditor:
         self._redo: list[_Done] = []
         self._lock = threading.Lock()
 
-    def state(self) -> dict:
+    def state(self) -> dict[str, bool | str]:
         """{'can_undo', 'can_redo', 'undo_text', 'redo_text'} for the page's buttons."""
         with self._lock:
             return {"can_undo": bool(self._undo), "can_redo": bool(self._redo),
@@ -62,9 +63,9 @@ class ProgramEditor:
 
     def apply(self, description: str, edit: Edit) -> Any:
         """Apply `edit` to the store (checked, locked, atomic) and remember it for undo; returns its result."""
-        recorded: dict = {}
+        recorded: dict[str, list[Step]] = {}
 
-        def remembering(steps: list) -> tuple:
+        def remembering(steps: list[Step]) -> tuple[list[Step], Any]:
             new, result = edit(list(steps))
             recorded["before"], recorded["after"] = list(steps), list(new)
             return new, result
@@ -85,19 +86,19 @@ class ProgramEditor:
         """Apply again the last undone edit; returns what was redone. StoreError as for undo."""
         return self._swap(self._redo, self._undo, "redo")
 
-    def _swap(self, source: list, target: list, verb: str) -> str:
+    def _swap(self, source: list[_Done], target: list[_Done], verb: str) -> str:
         with self._lock:
             if not source:
                 raise StoreError(f"nothing to {verb}")
             done = source[-1]
 
-            def restore(steps: list) -> tuple:
+            def restore(steps: list[Step]) -> tuple[list[Step], list[Step]]:
                 if program_text(steps) != done.after_text:
                     raise StoreError(f"cannot {verb} {done.description!r}: the program was changed since (by the "
                                      f"command line or another page); {verb} would lose that change")
                 return done.before, list(steps)
 
-            now: list = self.store.update_program(restore)
+            now: list[Step] = self.store.update_program(restore)
             source.pop()
             target.append(_Done(done.description, now, program_text(done.before)))
             del target[:-MAX_UNDO]
@@ -107,17 +108,17 @@ class ProgramEditor:
 # ---------------------------------------------------------------- the edits (pure: steps -> (steps, result))
 
 
-def position_after(steps: list, after: str | None) -> int:
+def position_after(steps: list[Step], after: str | None) -> int:
     """Where a new step goes: just after the step `after`, or at the end."""
     if after is None:
         return len(steps)
     return [step.name for step in steps].index(find_step(steps, after, "the program").name) + 1
 
 
-def insert_step(make: Callable[[set], Step], after: str | None) -> Edit:
+def insert_step(make: Callable[[set[str]], Step], after: str | None) -> Edit:
     """Insert the step make(taken names) just after `after` (or at the end); its name must be free."""
 
-    def edit(steps: list) -> tuple:
+    def edit(steps: list[Step]) -> tuple[list[Step], Any]:
         taken = {step.name for step in steps}
         step = make(taken)
         if step.name in taken:
@@ -131,7 +132,7 @@ def insert_step(make: Callable[[set], Step], after: str | None) -> Edit:
 def record_pose(pose: Pose, after: str | None) -> Edit:
     """Store `pose` as a joint waypoint just after `after` (or at the end); a taken name is refused."""
 
-    def edit(steps: list) -> tuple:
+    def edit(steps: list[Step]) -> tuple[list[Step], Any]:
         return with_added(steps, [pose], False, position=position_after(steps, after))
 
     return edit
@@ -140,7 +141,7 @@ def record_pose(pose: Pose, after: str | None) -> Edit:
 def retouch(name: str, pose: Pose) -> Edit:
     """Re-record the waypoint `name` at `pose`, keeping its motion and place (relative waypoints follow it)."""
 
-    def edit(steps: list) -> tuple:
+    def edit(steps: list[Step]) -> tuple[list[Step], Any]:
         step = find_step(steps, name, "the program")
         if not isinstance(step, Waypoint):
             raise ValueError(f"{step.who}: only a recorded waypoint can be re-recorded")
@@ -152,7 +153,7 @@ def retouch(name: str, pose: Pose) -> Edit:
 def set_motion(name: str, motion: Motion) -> Edit:
     """Give the waypoint `name` the move type, speed and blend of `motion`."""
 
-    def edit(steps: list) -> tuple:
+    def edit(steps: list[Step]) -> tuple[list[Step], Any]:
         step = find_step(steps, name, "the program")
         if not is_waypoint(step):
             raise ValueError(f"{step.who}: not a waypoint; only waypoints have a move, speed and blend")
@@ -164,7 +165,7 @@ def set_motion(name: str, motion: Motion) -> Edit:
 def move_step(name: str, offset: int) -> Edit:
     """Move the step `name` `offset` places (−1 up, +1 down)."""
 
-    def edit(steps: list) -> tuple:
+    def edit(steps: list[Step]) -> tuple[list[Step], Any]:
         index = steps.index(find_step(steps, name, "the program"))
         to = index + offset
         if not 0 <= to < len(steps):
@@ -179,7 +180,7 @@ def move_step(name: str, offset: int) -> Edit:
 def delete_step(name: str) -> Edit:
     """Delete the step `name` (refused while a relative waypoint is based on it: the store's check)."""
 
-    def edit(steps: list) -> tuple:
+    def edit(steps: list[Step]) -> tuple[list[Step], Any]:
         doomed = find_step(steps, name, "the program")
         return [step for step in steps if step is not doomed], None
 
@@ -189,7 +190,7 @@ def delete_step(name: str) -> Edit:
 def rename_step(old: str, new: str) -> Edit:
     """Call the step `old` `new`; relative waypoints based on it follow."""
 
-    def edit(steps: list) -> tuple:
+    def edit(steps: list[Step]) -> tuple[list[Step], Any]:
         find_step(steps, old, "the program")
         if new != old and any(step.name == new for step in steps):
             raise StoreError(f"a step named {new!r} already exists")

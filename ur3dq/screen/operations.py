@@ -16,7 +16,7 @@ import math
 import threading
 import time
 from collections.abc import Callable, Iterator
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from ur3dq import units as u
 from ur3dq.errors import ProgramError, RobotConnectionError, RobotError, SafetyCheckError
@@ -58,7 +58,7 @@ class Operations:
         self._jog_lock = threading.Lock()
         self._jog_generation = 0
         self._jog: Jog | None = None
-        self.last_check: dict | None = None
+        self.last_check: dict[str, Any] | None = None   # the last `check` message
 
     # ------------------------------------------------------------------------------------------------ helpers
     def robot(self) -> Robot:
@@ -82,7 +82,7 @@ class Operations:
         finally:
             self.station.activity = None
 
-    def _robot_call(self, activity: str, call: Callable, done: str) -> str:
+    def _robot_call(self, activity: str, call: Callable[[Robot], object], done: str) -> str:
         """call(robot) while claimed; logs and returns `done` (the CLI's line)."""
         with self.claimed(activity):
             robot = self.robot()
@@ -263,7 +263,7 @@ class Operations:
         return question, move
 
     # ------------------------------------------------------------------------------------------------ check, run
-    def check(self, start: str | None) -> dict:
+    def check(self, start: str | None) -> dict[str, Any]:
         """The path check of the program (from `start`) as run-poses would run it now: planned from the arm's
         joints (from the first waypoint without a robot), every move sampled; the `check` message."""
         steps = self.station.steps
@@ -314,7 +314,7 @@ class Operations:
 
         return question, run
 
-    def _run_loops(self, robot: Robot, steps: list, part: list, first: int, loops: int) -> str:
+    def _run_loops(self, robot: Robot, steps: list[Step], part: list[Step], first: int, loops: int) -> str:
         began = time.monotonic()
         for loop in range(1, loops + 1):
             self.station.loop_text = f"{loop} / {loops}" if loops > 1 else None
@@ -359,7 +359,7 @@ class Operations:
         return "stopped"
 
     # ------------------------------------------------------------------------------------------------ edits
-    def edit(self, kind: str, fields: dict, units: u.Units) -> str:
+    def edit(self, kind: str, fields: dict[str, Any], units: u.Units) -> str:
         """Apply one edit of the page (`kind` and its `fields`), with undo; returns what was done."""
         description, change = self._edit_of(kind, fields, units)
         self.editor.apply(description, change)
@@ -367,7 +367,7 @@ class Operations:
         self.log(f"edit: {description}")
         return description
 
-    def _edit_of(self, kind: str, fields: dict, units: u.Units) -> tuple[str, editing.Edit]:
+    def _edit_of(self, kind: str, fields: dict[str, Any], units: u.Units) -> tuple[str, editing.Edit]:
         name, after = str(fields.get("name") or ""), fields.get("after")
         if kind == "motion":
             motion = self._motion_of(fields, units)
@@ -385,7 +385,7 @@ class Operations:
         raise ValueError(f"unknown edit {kind!r}")
 
     @staticmethod
-    def _motion_of(fields: dict, units: u.Units) -> Motion:
+    def _motion_of(fields: dict[str, Any], units: u.Units) -> Motion:
         """The Motion typed on the page: move type, speed and blend (blank: the run's default) in `units`."""
         move = str(fields.get("move", "joint"))
         angular = u.angular_kind(move)
@@ -395,11 +395,11 @@ class Operations:
         return Motion(move, speed, None, blend)
 
     @staticmethod
-    def _action_maker(kind: str, fields: dict, units: u.Units) -> Callable[[set], Step]:
+    def _action_maker(kind: str, fields: dict[str, Any], units: u.Units) -> Callable[[set[str]], Step]:
         """make(taken names) of a new output, wait or message step typed on the page."""
         given = str(fields.get("step_name", "")).strip()
 
-        def name(taken: set) -> str:
+        def name(taken: set[str]) -> str:
             return given or next_free_name(kind, taken)
 
         if kind == "output":

@@ -14,6 +14,7 @@ import json
 import threading
 import time
 from collections.abc import Callable
+from typing import Any
 
 from ur3dq.units import Units
 
@@ -42,7 +43,7 @@ class Page:
         """How other pages and the log name this page: '<id> (<address>, since <time>)'."""
         return f"{self.id} ({self.address}, since {self.since})"
 
-    def post(self, message: dict) -> None:
+    def post(self, message: dict[str, Any]) -> None:
         """Queue `message` for the page (from any thread)."""
         self._loop.call_soon_threadsafe(self._put, json.dumps(message), False)
 
@@ -109,13 +110,13 @@ class Pages:
             previous, self.holder = self.holder, page
             return previous if previous is not page else None
 
-    def control_of(self, page: Page) -> dict:
+    def control_of(self, page: Page) -> dict[str, bool | str | int | None]:
         """What `page` shows about control: whether it has it, and who has."""
         holder = self.holder
         return {"you": holder is page, "holder": None if holder is None else holder.label,
                 "pages": len(self._pages)}
 
-    def broadcast(self, message_for: Callable[[Page], dict]) -> None:
+    def broadcast(self, message_for: Callable[[Page], dict[str, Any]]) -> None:
         """Post message_for(page) to every page."""
         for page in self.all():
             page.post(message_for(page))

@@ -39,6 +39,7 @@ from ur3dq.screen.pages import Page, Pages
 from ur3dq.screen.station import Station, StationConfig
 
 if TYPE_CHECKING:
+    from ur3dq.program.steps import Step
     from ur3dq.robot.robot import Robot
 
 STATIC = Path(__file__).parent / "static"
@@ -126,12 +127,12 @@ class ScreenServer:
         for page in self.pages.all():
             page.post_state(json.dumps(views.state_message(snapshot, page.units, self.pages.control_of(page))))
 
-    def _on_program(self, steps: list) -> None:
+    def _on_program(self, steps: list[Step]) -> None:
         frames = scene.pose_frames(steps)
         for page in self.pages.all():
             self._post_program(page, steps, frames)
 
-    def _post_program(self, page: Page, steps: list, frames: list | None = None) -> None:
+    def _post_program(self, page: Page, steps: list[Step], frames: list[dict[str, Any]] | None = None) -> None:
         source = self.station.store_error or str(self.station.store.path)
         page.post(views.program_message(steps, page.units, self.ops.editor.state(),
                                         scene.pose_frames(steps) if frames is None else frames, source))
@@ -143,7 +144,7 @@ class ScreenServer:
         self.ops.warm_up(robot)
         self._log(f"connected to {robot.host} ({robot.model_name}); ready")
 
-    def _scene(self) -> dict:
+    def _scene(self) -> dict[str, Any]:
         shape = self.station.shape
         return {"type": "scene", "arm": None if shape is None else shape.description(),
                 "cell": scene.cell_description(self.station.config.cell)}
@@ -194,14 +195,14 @@ class ScreenServer:
                 else:
                     await asyncio.to_thread(self.ops.stop)
 
-    def _hello(self, page: Page) -> dict:
+    def _hello(self, page: Page) -> dict[str, Any]:
         config = self.config.station
         return {"type": "hello", "page": page.id, "host": config.host, "store": str(config.store_path),
                 "cell": str(config.cell_path) if config.cell_path else None,
                 "units": {"angle": page.units.angle, "length": page.units.length}, **self._jog_choices(page.units)}
 
     @staticmethod
-    def _jog_choices(units: u.Units) -> dict:
+    def _jog_choices(units: u.Units) -> dict[str, Any]:
         """The jog panel's step choices (labels in `units`) and its speed range."""
         steps = [jog_steps.step_of("J1", 1, size) for size in JOG_STEPS[1:]]
         linear = [jog_steps.step_of("X", 1, size) for size in JOG_STEPS[1:]]
@@ -229,7 +230,7 @@ class ScreenServer:
                         await asyncio.to_thread(self.ops.jog_stop, "the page's heartbeat went silent")
 
     # ------------------------------------------------------------------------------------------------ messages
-    async def _receive(self, page: Page, message: dict) -> None:
+    async def _receive(self, page: Page, message: dict[str, Any]) -> None:
         kind = message.get("type")
         if kind == "beat":
             page.last_beat = time.monotonic()
@@ -246,7 +247,7 @@ class ScreenServer:
         elif kind == "cmd":
             self._spawn(self._command(page, str(message.get("cmd")), message.get("args") or {}, message.get("id")))
 
-    def _set_units(self, page: Page, message: dict) -> None:
+    def _set_units(self, page: Page, message: dict[str, Any]) -> None:
         try:
             page.units = u.Units(angle=str(message.get("angle")), length=str(message.get("length")))
         except ValueError as error:
@@ -257,7 +258,7 @@ class ScreenServer:
         if self.ops.last_check is not None:
             page.post(views.check_for_page(self.ops.last_check, page.units))
 
-    async def _command(self, page: Page, name: str, args: dict, reply_id: object) -> None:
+    async def _command(self, page: Page, name: str, args: dict[str, Any], reply_id: object) -> None:
         reply = {"type": "reply", "id": reply_id, "cmd": name}
         try:
             if self.pages.holder is not page and name not in ("check", "default_name"):
@@ -275,7 +276,7 @@ class ScreenServer:
             reply.update(ok=False, error=f"internal error ({type(error).__name__}): {one_line(error)}")
         page.post(reply)
 
-    async def _run_command(self, page: Page, name: str, args: dict) -> str:
+    async def _run_command(self, page: Page, name: str, args: dict[str, Any]) -> str:
         ops, units = self.ops, page.units
         if name == "answer":
             return await self._answer(page, str(args.get("qid")), bool(args.get("yes")))
@@ -290,7 +291,8 @@ class ScreenServer:
             result = await asyncio.to_thread(ops.check, args.get("from"))
             self.pages.broadcast(lambda other: views.check_for_page(result, other.units))
             shown = views.check_for_page(result, units)
-            return shown["problems"][0]["line"] if shown["problems"] else result["summary"]
+            line: str = shown["problems"][0]["line"] if shown["problems"] else result["summary"]
+            return line
         if name in ("run", "move_here", "retouch", "output"):
             return await self._ask(page, name, args)
         simple = {
@@ -308,7 +310,7 @@ class ScreenServer:
         return await asyncio.to_thread(simple[name])
 
     @staticmethod
-    def _jog_request(args: dict) -> tuple[jog_steps.JogStep, float]:
+    def _jog_request(args: dict[str, Any]) -> tuple[jog_steps.JogStep, float]:
         """(JogStep, speed) of a jog button: the axis, direction, frame, the step choice (an index of JOG_STEPS)
         and the speed as a fraction of the jog's top speed."""
         fraction = float(args.get("speed", 0.1))
@@ -321,7 +323,7 @@ class ScreenServer:
                                  JOG_STEPS[index], str(args.get("frame", "base")))
         return step, step.top_speed * fraction
 
-    async def _ask(self, page: Page, name: str, args: dict) -> str:
+    async def _ask(self, page: Page, name: str, args: dict[str, Any]) -> str:
         """Prepare a motion (or output switch) that needs the operator's yes; post the question to the page."""
         ops = self.ops
         question: str | None

@@ -19,6 +19,7 @@ import numpy as np
 from ur3dq.errors import RobotError, StoreError, UR3DQError
 from ur3dq.kinematics.models import URModel
 from ur3dq.pathcheck import Cell
+from ur3dq.program.steps import Step, Waypoint
 from ur3dq.robot.io_state import DIGITAL_GROUPS, IOState
 from ur3dq.robot.jog import KEEPALIVE_REGISTER
 from ur3dq.robot.state import robot_mode_name, safety_mode_name
@@ -53,7 +54,7 @@ class Station:
     """The robot connection, the state poller and the store watcher of one `ur3dq serve`."""
 
     def __init__(self, config: StationConfig, on_state: Callable[[Snapshot], None],
-                 on_program: Callable[[list], None], prepare: Callable | None = None):
+                 on_program: Callable[[list[Step]], None], prepare: Callable[[Robot], None] | None = None):
         self.config = config
         self.store = PoseStore(config.store_path)
         self.robot: Robot | None = None
@@ -64,9 +65,9 @@ class Station:
         self._stop = threading.Event()
         self._threads: list[threading.Thread] = []
         self.connection_error: str | None = None if config.host else config.no_robot_hint
-        self.steps: list = []
+        self.steps: list[Step] = []
         self.store_error: str | None = None
-        self._store_stamp: tuple | None = None
+        self._store_stamp: tuple[int, int, int] | None = None   # the store file's mtime, size, inode
         self.activity: str | None = None        # set by the operations while they move the arm
         self.running_step: str | None = None
         self.freedrive = False                  # the controller is in freedrive (FREEDRIVE_POLL old at most)
@@ -190,7 +191,7 @@ class Station:
         """Read the store again if its file changed (or `force`); True (and on_program) when the program did."""
         try:
             info = os.stat(self.store.path)
-            stamp: tuple | None = (info.st_mtime_ns, info.st_size, info.st_ino)
+            stamp: tuple[int, int, int] | None = (info.st_mtime_ns, info.st_size, info.st_ino)
         except FileNotFoundError:
             stamp = None
         except OSError as error:
@@ -216,7 +217,7 @@ class Station:
             return self.robot.model
         from ur3dq.kinematics import robot_model
 
-        first = next((step.pose.robot_model for step in self.steps if getattr(step, "pose", None) is not None), None)
+        first = next((step.pose.robot_model for step in self.steps if isinstance(step, Waypoint)), None)
         return robot_model(self.config.model or first or "ur3")
 
     def joints(self) -> np.ndarray | None:
@@ -225,7 +226,7 @@ class Station:
         return None if robot is None else robot.joints()
 
 
-def _pins(io: IOState, inputs: bool) -> dict:
+def _pins(io: IOState, inputs: bool) -> dict[str, list[bool]]:
     """{group: [on, ...]} of the digital inputs or outputs of an I/O reading."""
     return {group: io.pins(group, inputs) for group, _, _ in DIGITAL_GROUPS}
 

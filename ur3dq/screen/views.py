@@ -6,6 +6,7 @@ Pure functions of library values (RobotStatus, steps, PathCheckResult): the serv
 from __future__ import annotations
 
 import dataclasses
+from typing import Any
 
 import numpy as np
 
@@ -34,13 +35,13 @@ class Snapshot:
     robot_mode: str
     safety_mode: str
     program: str              # STOPPED / PLAYING / PAUSED (the dashboard's words)
-    joints: tuple = (0.0,) * 6
-    tcp_pose: tuple = (0.0,) * 6
-    placed: dict | None = None   # scene.ArmShape.placed of the joints
+    joints: tuple[float, ...] = (0.0,) * 6
+    tcp_pose: tuple[float, ...] = (0.0,) * 6
+    placed: dict[str, Any] | None = None   # scene.ArmShape.placed of the joints
     speed_slider: float = 1.0
     freedrive: bool = False
-    inputs: dict | None = None   # {group: [bools]}
-    outputs: dict | None = None
+    inputs: dict[str, list[bool]] | None = None   # {group: [bools]}
+    outputs: dict[str, list[bool]] | None = None
     activity: str | None = None  # "run", "jog J1+", "move here", ... while the server moves the arm
     running_step: str | None = None
     loop: str | None = None      # "2 / 5" while a run loops
@@ -49,7 +50,7 @@ class Snapshot:
     read_at: float = 0.0         # when it was read (time.time(), s): a page can tell how old what it shows is
 
 
-def state_message(snapshot: Snapshot, units: u.Units, control: dict) -> dict:
+def state_message(snapshot: Snapshot, units: u.Units, control: dict[str, bool | str | int | None]) -> dict[str, Any]:
     """The `state` message of one page: the snapshot with its numbers in `units` and who has control."""
     joints_text = [readout(q, u.ANGLE, units) for q in snapshot.joints]
     x, y, z, rx, ry, rz = snapshot.tcp_pose
@@ -66,7 +67,7 @@ def state_message(snapshot: Snapshot, units: u.Units, control: dict) -> dict:
     }
 
 
-def step_row(step: Step, units: u.Units) -> dict:
+def step_row(step: Step, units: u.Units) -> dict[str, Any]:
     """One program step as the list shows it: name, kind, move type, speed and blend in `units`, details."""
     row = {"name": step.name, "kind": step.kind, "move": None, "speed": "", "blend": "", "details": "",
            "waypoint": is_waypoint(step), "recorded": isinstance(step, Waypoint)}
@@ -86,7 +87,8 @@ def step_row(step: Step, units: u.Units) -> dict:
     return row
 
 
-def program_message(steps: list[Step], units: u.Units, editor_state: dict, frames: list, source: str) -> dict:
+def program_message(steps: list[Step], units: u.Units, editor_state: dict[str, bool | str],
+                    frames: list[dict[str, Any]], source: str) -> dict[str, Any]:
     """The `program` message: every step's row, the undo/redo state, the poses' frames for the 3D view."""
     return {"type": "program", "steps": [step_row(step, units) for step in steps], "source": source,
             "frames": frames, **editor_state}
@@ -94,7 +96,7 @@ def program_message(steps: list[Step], units: u.Units, editor_state: dict, frame
 
 def check_message(result: PathCheckResult | None, model: URModel, cell: Cell | None, margins: Margins,
                   start_name: str | None = None, error: str | None = None,
-                  error_step: str | None = None) -> dict:
+                  error_step: str | None = None) -> dict[str, Any]:
     """The `check` message of a path check `result` (kept samples) of the program on `model` in `cell`: a verdict
     per step, the problems (one line each), and each move's sampled TCP path with its clearance per sample (m,
     the smallest of self-collision and cell margins: the page colours by it). `error` (a planning error naming
@@ -127,7 +129,7 @@ def check_message(result: PathCheckResult | None, model: URModel, cell: Cell | N
             "verdicts": verdicts, "paths": paths, "smallest_clearance": min(clearances) if clearances else None}
 
 
-def check_for_page(message: dict, units: u.Units) -> dict:
+def check_for_page(message: dict[str, Any], units: u.Units) -> dict[str, Any]:
     """A `check` message with its numbers in the page's `units`: the smallest clearance, and where each problem is
     (Problem.line's words, the TCP position in `units`; the check's own figures stay as the check wrote them)."""
     value = message.get("smallest_clearance")
@@ -136,10 +138,11 @@ def check_for_page(message: dict, units: u.Units) -> dict:
     return {**message, "problems": problems, "smallest": smallest}
 
 
-def problem_line(problem: dict, units: u.Units) -> str:
+def problem_line(problem: dict[str, Any], units: u.Units) -> str:
     """One problem of a `check` message as Problem.line says it, the TCP in `units`."""
     if problem.get("tcp") is None or "message" not in problem:
-        return problem["line"]
+        line: str = problem["line"]
+        return line
     label = u.unit_label(u.LENGTH, units)
     where = ", ".join(f"{u.to_display(v, u.LENGTH, units):.{READOUT_DIGITS[label]}f}" for v in problem["tcp"])
     where += f" {label}"
