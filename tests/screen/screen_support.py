@@ -166,3 +166,17 @@ def set_speed_slider(page, percent: int) -> None:
     """Set the page's speed slider (the controller's speed scaling) and wait until the page shows it."""
     page.locator("#speed-slider").fill(str(percent))
     page.wait_for_function(f"document.getElementById('speed-value').textContent === '{percent} %'", timeout=5000)
+
+
+def insert_gripper_and_wait(page, after: str, wait: str) -> None:
+    """Select step `after`, add the tool output 0 (the gripper) on after it, then a wait of `wait` (as typed) after
+    that output."""
+    page.locator(f'[data-step="{after}"]').click()
+    button(page, "Add output").click()
+    page.locator("#ask select[name=group]").select_option("tool")
+    button(page, "OK").click()
+    expect(page.locator('[data-step="output-1"]')).to_have_count(1)
+    button(page, "Add wait").click()
+    page.locator("#ask input[name=seconds]").fill(wait)
+    button(page, "OK").click()
+    expect(page.locator('[data-step="wait-1"]')).to_have_count(1)

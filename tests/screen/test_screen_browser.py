@@ -21,6 +21,7 @@ from screen_support import (
     environment,
     expect,
     hold,
+    insert_gripper_and_wait,
     notice_after,
     readout_radians,
     screenshots,
@@ -160,15 +161,7 @@ def test_record_three_poses_then_add_an_output_and_a_wait(cell):
         if index < 2:
             hold(page, jog, 0.4)
             assert wait_for(cell.at_rest, timeout=2.0)
-    page.locator('[data-step="pose-3"]').click()
-    button(page, "Add output").click()
-    page.locator("#ask select[name=group]").select_option("tool")
-    button(page, "OK").click()
-    expect(page.locator('[data-step="output-1"]')).to_have_count(1)
-    button(page, "Add wait").click()
-    page.locator("#ask input[name=seconds]").fill("300ms")
-    button(page, "OK").click()
-    expect(page.locator('[data-step="wait-1"]')).to_have_count(1)
+    insert_gripper_and_wait(page, "pose-3", "300ms")
     steps = PoseStore(cell.store).load_program()
     assert [step.name for step in steps] == ["pose-1", "pose-2", "pose-3", "output-1", "wait-1"]
     assert steps[3].output == "tool" and steps[4].seconds == pytest.approx(0.3)

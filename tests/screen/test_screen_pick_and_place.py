@@ -10,7 +10,17 @@ import pytest
 
 from polling import wait_for
 from robot_target import simulator_only
-from screen_support import ARTIFACTS, START_Q, button, expect, hold, notice_after, served, set_speed_slider
+from screen_support import (
+    ARTIFACTS,
+    START_Q,
+    button,
+    expect,
+    hold,
+    insert_gripper_and_wait,
+    notice_after,
+    served,
+    set_speed_slider,
+)
 from ur3dq.store import PoseStore
 
 # Exclusive: a jog held for a fixed time and a pause in mid-move, timed on a CPU of their own.
@@ -57,19 +67,6 @@ def make_linear(page, name: str) -> None:
     expect(page.locator(f'[data-step="{name}"] .move')).to_have_text("linear", timeout=3000)
 
 
-def insert_gripper_and_wait(page, after: str) -> None:
-    """Select `after`, add the tool output 0 (the gripper) on after it, then a wait after that output."""
-    page.locator(f'[data-step="{after}"]').click()
-    button(page, "Add output").click()
-    page.locator("#ask select[name=group]").select_option("tool")
-    button(page, "OK").click()
-    expect(page.locator('[data-step="output-1"]')).to_have_count(1)
-    button(page, "Add wait").click()
-    page.locator("#ask input[name=seconds]").fill("0.3")
-    button(page, "OK").click()
-    expect(page.locator('[data-step="wait-1"]')).to_have_count(1)
-
-
 def test_the_pick_and_place_job_on_the_page_alone(browser, tmp_path):
     import rtde_receive
 
@@ -98,7 +95,7 @@ def test_the_pick_and_place_job_on_the_page_alone(browser, tmp_path):
                                     "pose-4")
             make_linear(page, "pose-2")
             make_linear(page, "pose-3")
-            insert_gripper_and_wait(page, "pose-2")
+            insert_gripper_and_wait(page, "pose-2", "0.3")
             assert [step.name for step in PoseStore(store).load_program()] == PROGRAM
             button(page, "Check").click()
             expect(page.locator("#check-summary")).to_have_class("ok", timeout=10000)
