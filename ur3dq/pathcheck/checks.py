@@ -66,6 +66,10 @@ class Margins:
         if self.tcp_resolution <= 0 or self.joint_resolution <= 0 or self.joint_speed <= 0:
             raise ValueError("tcp_resolution, joint_resolution and joint_speed must be > 0")
 
+    def cell_margin_in(self, cell: Cell | None) -> float:
+        """The clearance kept to `cell`'s obstacles (m): `cell` here, else the cell file's margin, else 0."""
+        return self.cell if self.cell is not None else (cell.margin if cell else 0.0)
+
 
 @dataclasses.dataclass(frozen=True)
 class Problem:
@@ -98,7 +102,7 @@ class StepChecker:
         self.model = model
         self.cell = cell
         self.margins = margins
-        self.cell_margin = margins.cell if margins.cell is not None else (cell.margin if cell else 0.0)
+        self.cell_margin = margins.cell_margin_in(cell)
         self.capsules = geometry.link_capsules(model, cell.tool if cell else None)
         bodies = self.capsules.body
         pairs = [(i, j) for a, b in geometry.SELF_PAIRS for i in np.flatnonzero(bodies == a)

@@ -129,10 +129,9 @@ def _sampled_entry(arm: URModel, segment: PathSegment, index: int, q: np.ndarray
 
 def _limits(margins: Margins, cell: Cell | None) -> dict[str, float]:
     """{check: the limit its margins are measured from}."""
-    cell_margin = margins.cell if margins.cell is not None else (cell.margin if cell else 0.0)
     return {"wrist": margins.wrist, "elbow": margins.elbow, "shoulder": margins.shoulder,
             "joint_limit": margins.joint_limit, "joint_speed": margins.joint_speed,
-            "self_collision": margins.self_collision, "cell": cell_margin}
+            "self_collision": margins.self_collision, "cell": margins.cell_margin_in(cell)}
 
 
 def _check_move(plan: PathPlan, window: dict[int, WindowEntry], index: int, arm_for: ArmFor,
