@@ -26,7 +26,8 @@ lint: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/mypy
 
-# Lint, then two passes: the suite on two workers, then the timing measurements alone (marker `exclusive`).
+# Lint, then two passes: the suite on four workers (it mostly waits on simulated motion), then the timing
+# measurements alone (marker `exclusive`).
 test: lint warm
 	$(BIN)/python -m pytest -m "not exclusive"
 	$(BIN)/python -m pytest -m exclusive -n 0

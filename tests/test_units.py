@@ -7,6 +7,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import ur3dq.units as units_module
+from ur3dq.errors import UnreachablePoseError
 from ur3dq.units import (
     ANGLE,
     ANGULAR_ACCELERATION,
@@ -15,6 +16,7 @@ from ur3dq.units import (
     LENGTH,
     LINEAR_ACCELERATION,
     LINEAR_SPEED,
+    Measured,
     Units,
     parse,
     show,
@@ -106,3 +108,20 @@ def test_unknown_unit_choices_are_refused():
 
 def test_the_module_examples_run():
     assert doctest.testmod(units_module).failed == 0
+
+
+@pytest.mark.parametrize("value, kind, units, text", [
+    (0.84081, LENGTH, Units(), "0.8408 m"), (0.84081, LENGTH, Units(length="mm"), "840.8 mm"),
+    (0.1358, ANGLE, Units(), "0.1358 rad"), (0.1358, ANGLE, Units(angle="deg"), "7.78 °"),
+])
+def test_a_measured_value_keeps_its_resolution_in_the_chosen_units(value, kind, units, text):
+    assert Measured(value, kind, si_digits=4).shown(units) == text
+
+
+def test_an_errors_measured_values_read_in_si_until_shown_in_a_persons_units():
+    error = UnreachablePoseError("too far: {0} past {1}", measured=[Measured(0.0123, LENGTH), Measured(0.5, ANGLE)])
+    assert str(error) == "too far: 0.0123 m past 0.5000 rad"
+    wrapped = error.prefixed("pose '{odd}': ")     # a name with braces stays a name
+    assert isinstance(wrapped, UnreachablePoseError)
+    assert str(wrapped.shown_in(Units(angle="deg", length="mm"))) == "pose '{odd}': too far: 12.3 mm past 28.65 °"
+    assert str(UnreachablePoseError("no values {here}").prefixed("p: ")) == "p: no values {here}"

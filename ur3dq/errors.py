@@ -2,10 +2,52 @@
 
 Each message is meant to be shown to a person as one line: it names the thing that is wrong and why.
 """
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import TypeVar
+
+from ur3dq.units import Measured, Units
+
+AnError = TypeVar("AnError", bound="UR3DQError")
 
 
 class UR3DQError(Exception):
-    """Base class of every ur3dq error."""
+    """Base class of every ur3dq error.
+
+    A message that holds physical values keeps them as :class:`~ur3dq.units.Measured` placeholders (``{0}``,
+    ``{1}``, ... in its text), so that a user interface can show them in its user's units (`shown_in`); until
+    then, and for a program that catches the error, they read in SI.
+
+    >>> from ur3dq.units import LENGTH, Measured, Units
+    >>> error = UR3DQError("too far by {0}", measured=[Measured(0.0123, LENGTH)])
+    >>> str(error), str(error.prefixed("pose 'a': ").shown_in(Units(length="mm")))
+    ('too far by 0.0123 m', "pose 'a': too far by 12.3 mm")
+    """
+
+    def __init__(self, *args: object, measured: Sequence[Measured] = ()) -> None:
+        super().__init__(*args)
+        self.measured = tuple(measured)
+        self.units = Units()
+
+    def __str__(self) -> str:
+        text = super().__str__()
+        if not self.measured:
+            return text
+        return text.format(*(value.shown(self.units) for value in self.measured))
+
+    def shown_in(self: AnError, units: Units) -> AnError:
+        """This error, its values from now on read in `units`; returns it."""
+        self.units = units
+        return self
+
+    def prefixed(self: AnError, prefix: str) -> AnError:
+        """A new error of this kind whose message is `prefix` and then this one's (its values kept as values).
+
+        For the kinds built from a message alone, as most are."""
+        if not self.measured:
+            return type(self)(prefix + Exception.__str__(self))
+        return type(self)(literal(prefix) + Exception.__str__(self), measured=self.measured)
 
 
 class UnreachablePoseError(UR3DQError, ValueError):
@@ -54,6 +96,12 @@ class SafetyCheckError(RobotError, ValueError):
 
 class InvalidStateError(RobotError):
     """The controller sent state that cannot be true (not finite, implausible magnitude, unknown mode)."""
+
+
+def literal(text: str) -> str:
+    """`text` (a name, a controller's message) as it must stand in the text of an error with measured values: braces
+    doubled, so that it is not read as a placeholder."""
+    return text.replace("{", "{{").replace("}", "}}")
 
 
 def add_note(error: BaseException, note: str) -> None:

@@ -144,7 +144,7 @@ def choose_joints(model, pose: Pose, previous, replay_recorded_joints: bool,
         # ik (and ik_batch, which plan_replay uses for recorded joints) takes the member nearest the reference
         q = solver.ik(pose.dq, reference)
     except UnreachablePoseError as error:
-        raise UnreachablePoseError(f"pose {pose.name!r} is unreachable on the {model.name}: {error}") from None
+        raise error.prefixed(f"pose {pose.name!r} is unreachable on the {model.name}: ") from None
     return q, source, len(solutions)
 
 

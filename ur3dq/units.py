@@ -24,8 +24,8 @@ import re
 
 __all__ = [
     "ACCELERATION", "ANGLE", "ANGULAR_ACCELERATION", "ANGULAR_SPEED", "DURATION", "LENGTH", "LINEAR_ACCELERATION",
-    "LINEAR_SPEED", "SPEED", "Kind", "Units", "angular_kind", "parse", "plain_number", "show", "to_display",
-    "unit_label",
+    "LINEAR_SPEED", "SPEED", "Kind", "Measured", "Units", "angular_kind", "parse", "plain_number", "show",
+    "to_display", "unit_label",
 ]
 
 
@@ -202,3 +202,30 @@ def show(value: float, kind: Kind, units: Units = Units(), digits: int | None = 
     else:
         text = f"{shown:.{digits}f}"
     return f"{text} {label}"
+
+
+@dataclasses.dataclass(frozen=True)
+class Measured:
+    """A value inside a message (an error's text), kept in SI until a person's units are known.
+
+    `si_digits` digits after the point in SI; in other units as many as keep that resolution (4 in m are 1 in mm,
+    4 in rad are 2 in °).
+
+    >>> far = Measured(0.84081, LENGTH, si_digits=4)
+    >>> str(far), far.shown(Units(length="mm"))
+    ('0.8408 m', '840.8 mm')
+    >>> Measured(0.1358, ANGLE, si_digits=4).shown(Units(angle="deg"))
+    '7.78 °'
+    """
+
+    value: float
+    kind: Kind
+    si_digits: int = 4
+
+    def shown(self, units: Units = Units()) -> str:
+        """The value in `units`, with its unit."""
+        scale = to_display(1.0, self.kind, units)
+        return show(self.value, self.kind, units, max(0, self.si_digits - round(math.log10(scale))))
+
+    def __str__(self) -> str:
+        return self.shown()

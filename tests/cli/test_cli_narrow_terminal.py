@@ -5,7 +5,7 @@ import re
 
 import pytest
 
-from cli_support import assert_fits_with_every_name_whole
+from cli_support import Terminal, assert_fits_with_every_name_whole
 from ur3dq.kinematics import robot_model
 from ur3dq.pose import Pose
 from ur3dq.store import PoseStore
@@ -138,3 +138,16 @@ def test_a_table_piped_to_a_pager_in_a_terminal_fits_that_terminal(tmp_path):
         os.close(controller)
     assert result.returncode == 0
     assert "demo-4" in result.stdout and max(len(line) for line in result.stdout.splitlines()) <= 80
+
+
+def test_a_usage_error_wraps_between_words_on_a_terminal(tmp_path):
+    terminal = Terminal(tmp_path, "export-urp")
+    try:
+        terminal.wait_for("Error: export-urp writes")
+        terminal.process.wait(20)
+        lines = ("Error: export-urp writes" + terminal.text).splitlines()
+    finally:
+        terminal.close()
+    assert terminal.process.returncode == 2
+    assert all(len(line) <= 80 for line in lines), lines
+    assert "`ur3dq export-urp -o cell.urp`" in " ".join(line.strip() for line in lines), lines

@@ -209,3 +209,9 @@ def test_a_typed_value_keeps_the_units_it_was_typed_in():
     value = TypedValue("60", __import__("ur3dq.units").units.Units(angle="deg"), "--speed")
     assert value.si(ANGULAR_SPEED) == pytest.approx(math.radians(60))
     assert value.si(LENGTH) == 60.0   # a bare length stays metres: --deg never changes a length
+
+
+@pytest.mark.parametrize("options, reach", [((), "at most 0.4569 m"), (("--mm",), "at most 456.9 mm")])
+def test_an_unreachable_pose_is_explained_in_the_chosen_units(run_cli, options, reach):
+    result = run_cli(*options, "ik", "0.9m", "0", "0", "0", "0", "0")
+    assert result.returncode == 4 and reach in result.stderr, result.stderr

@@ -5,6 +5,7 @@ import contextlib
 import dataclasses
 import functools
 import importlib
+import io
 import json
 import logging
 import math
@@ -97,6 +98,15 @@ class SectionedGroup(click.Group):
         if cmd_name not in self.commands and module is not None:
             importlib.import_module(module)
         return super().get_command(ctx, cmd_name)
+
+    def invoke(self, ctx: click.Context) -> Any:
+        try:
+            return super().invoke(ctx)
+        except UR3DQError as error:
+            # the values in an error's text stay SI until a person reads them: in the units this person chose
+            if isinstance(ctx.obj, Settings):
+                error.shown_in(ctx.obj.units)
+            raise
 
     def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
         commands = {name: command for name in self.list_commands(ctx)
@@ -345,7 +355,7 @@ def main(argv: Sequence[str] | None = None) -> None:
         with polite_signals_interrupt():
             code = cli.main(args=argv, prog_name="ur3dq", standalone_mode=False)
     except click.ClickException as error:
-        error.show()
+        show_click_error(error)
         code = error.exit_code
     except click.Abort as error:  # click turns Ctrl-C and end-of-input into Abort
         if isinstance(error.__cause__, KeyboardInterrupt):
@@ -383,6 +393,20 @@ def show_error(text: str) -> None:
         line = textwrap.fill(line, width=max(40, width - 1), subsequent_indent="  ", break_long_words=False,
                              break_on_hyphens=False)
     click.echo(line, err=True)
+
+
+def show_click_error(error: click.ClickException) -> None:
+    """Print a usage or option error as click does (usage, help hint), its `Error: ...` line as show_error does."""
+    shown = io.StringIO()
+    error.show(file=shown)
+    text, last = shown.getvalue(), f"Error: {error.format_message()}\n"
+    if text.endswith(last):
+        head = text[:-len(last)]
+        if head:
+            click.echo(head, err=True, nl=False)
+        show_error(error.format_message())
+    else:   # a ClickException subclass that shows itself its own way
+        click.echo(text, err=True, nl=False)
 
 
 def _report_interrupt(interrupt: BaseException) -> int:

@@ -129,7 +129,7 @@ def _joints_for(model: URModel, target: Target, previous: np.ndarray | None,
     try:
         return np.asarray(solver.ik(target.pose, reference), dtype=float)
     except UnreachablePoseError as error:
-        raise UnreachablePoseError(f"{who}: unreachable on the {model.name}: {error}") from None
+        raise error.prefixed(f"{who}: unreachable on the {model.name}: ") from None
 
 
 def _solve_hinted(model: URModel, targets: Sequence[Target], replay_recorded_joints: bool) -> dict[int, np.ndarray]:

@@ -14,8 +14,9 @@ from typing import Protocol
 
 import numpy as np
 
-from ur3dq.errors import MotionTimeoutError, ProgramError, UR3DQError
+from ur3dq.errors import MotionTimeoutError, ProgramError, UR3DQError, literal
 from ur3dq.robot import primary, state
+from ur3dq.units import ANGLE, Measured
 
 #: s a stopped program may take to show the arm at rest before it counts as failed
 SETTLE_TIME = 0.3
@@ -153,8 +154,9 @@ class MotionWatch:
         # Only a state the stream delivered after the end says where the arm ended: one from before (a frozen
         # stream, garbled on the wire) shows the arm where it was then, and the stream's freeze check reports it.
         elif now - self._ended_at > SETTLE_TIME and now - status.age > self._ended_at:
-            raise ProgramError(f"program {self.name} ended with the arm {self.distance(status):.4f} rad from its "
-                               f"target{self._stop_reason()}")
+            raise ProgramError(literal(f"program {self.name}") + " ended with the arm {0} from its target"
+                               + literal(self._stop_reason()),
+                               measured=[Measured(self.distance(status), ANGLE, si_digits=4)])
         return False
 
     def _stop_reason(self) -> str:

@@ -47,6 +47,7 @@ from ur3dq.kinematics.arm import (
     vector,
 )
 from ur3dq.kinematics.inputs import UNIT_WEIGHTS, joint_floats, joint_rows, joint_weights, pose_row, unit_pose_rows
+from ur3dq.units import LENGTH, Measured
 
 __all__ = [
     "CALIBRATED_TOLERANCE", "DUPLICATE_TOLERANCE", "FK_TOLERANCE_M", "FK_TOLERANCE_RAD", "LIMIT_ROUNDING",
@@ -131,7 +132,8 @@ def ik_all(model: Any, pose: Any, q_ref: Any = None) -> list[np.ndarray]:
     kernels()[1].all_rows(arm_vector(model), row, theta6, out)
     found = out[0][~np.isnan(out[0, :, 0])]
     if not len(found):
-        raise UnreachablePoseError(f"pose unreachable for {model.name}: {_unreachable_reason(model, row[0])}")
+        reason, lengths = _unreachable_reason(model, row[0])
+        raise UnreachablePoseError(f"pose unreachable for {model.name}: {reason}", measured=lengths)
     return list(found)
 
 
@@ -161,29 +163,35 @@ def ik(model: Any, pose: Any, q_ref: Any, weights: Any = None) -> np.ndarray:
         raise UnreachablePoseError(f"pose unreachable for {model.name}: outside limits — every solution has a joint "
                                    "outside the joint limits")
     if status[0] == solve.UNREACHABLE:
-        raise UnreachablePoseError(f"pose unreachable for {model.name}: {_unreachable_reason(model, row[0])}")
+        reason, lengths = _unreachable_reason(model, row[0])
+        raise UnreachablePoseError(f"pose unreachable for {model.name}: {reason}", measured=lengths)
     answer: np.ndarray = out[0]
     return answer
 
 
-def _unreachable_reason(model: Any, pose: np.ndarray) -> str:
-    """Why ``pose`` (8 unit coefficients) has no solution on ``model``: the first constraint it violates, in words."""
+def _unreachable_reason(model: Any, pose: np.ndarray) -> tuple[str, list[Measured]]:
+    """Why ``pose`` (8 unit coefficients) has no solution on ``model``: the first constraint it violates, in words
+    whose lengths are ``{0}`` and ``{1}`` (the error's measured values, shown in its reader's units)."""
     arm, figures = arm_vector(model), np.empty(6)
     kernels()[1].reach_figures(arm, pose, figures)
     d4 = abs(arm[LENGTHS + 3])
     if figures[0] < d4 * (1.0 - DOMAIN_TOLERANCE):
-        return (f"too close to the base axis: the wrist centre is {figures[0]:.4f} m from it, "
-                f"less than the shoulder offset d4 = {d4:.4f} m")
+        return ("too close to the base axis: the wrist centre is {0} from it, less than the shoulder offset d4 = {1}",
+                _lengths(figures[0], d4))
     a2, a3 = abs(arm[LENGTHS + 1]), abs(arm[LENGTHS + 2])
     needed, longest, shortest = figures[1:5], a2 + a3, abs(a2 - a3)
     prefix = "wrist singular (θ5 = 0 or π) and no θ4 ± θ6 split reaches: " if figures[5] == 1.0 else ""
     if np.all(needed > longest):
-        return (f"{prefix}too far: the elbow would have to span {needed.min():.4f} m, "
-                f"the upper and lower arm reach at most {longest:.4f} m")
+        return (prefix + "too far: the elbow would have to span {0}, the upper and lower arm reach at most {1}",
+                _lengths(needed.min(), longest))
     if np.all(needed < shortest):
-        return (f"{prefix}too close: the elbow would have to span {needed.max():.4f} m, "
-                f"the folded arm reaches no closer than {shortest:.4f} m")
-    return "no analytic branch passes the FK filter (numerically singular pose)"
+        return (prefix + "too close: the elbow would have to span {0}, the folded arm reaches no closer than {1}",
+                _lengths(needed.max(), shortest))
+    return "no analytic branch passes the FK filter (numerically singular pose)", []
+
+
+def _lengths(*metres: float) -> list[Measured]:
+    return [Measured(float(value), LENGTH, si_digits=4) for value in metres]
 
 
 def nearest_variant(model: Any, q: Any, reference: Any) -> np.ndarray:
