@@ -8,7 +8,8 @@ Request  {"command": "protective-stop", "reason": "..."} | {"command": "emergenc
          {"command": "status"} | {"command": "shutdown"}
 Reply    {"ok": true, "message": "..."} or {"ok": false, "error": "..."}; one line of JSON each. `status` also
          answers "state": {"robot_mode", "safety_mode" (names), "program_running", "freedrive", "q" (6 rad),
-         "digital_output_bits" (0-7 standard, 8-15 configurable, 16-17 tool)} for programs.
+         "digital_output_bits" (0-7 standard, 8-15 configurable, 16-17 tool), "time" (the controller's clock, s)}
+         for programs.
 This port is not a UR interface: it exists so tests and `python -m sim_ursim fault ...` can inject faults.
 """
 import json
@@ -111,11 +112,13 @@ def status_line(state, faults):
 
 
 def status_fields(state) -> dict:
-    """The modes (names), whether a program runs, whether freedrive is on, the joints (6 rad) and the digital
-    outputs (bits 0-7 standard, 8-15 configurable, 16-17 tool) of a controller snapshot."""
+    """The modes (names), whether a program runs, whether freedrive is on, the joints (6 rad), the digital
+    outputs (bits 0-7 standard, 8-15 configurable, 16-17 tool) and the controller's time (s since it started, in
+    whole control cycles: RTDE's `timestamp`) of a controller snapshot."""
     return {"robot_mode": RobotMode.NAMES[state.robot_mode], "safety_mode": SafetyMode.NAMES[state.safety_mode],
             "program_running": bool(state.program_running), "freedrive": bool(state.freedrive),
-            "q": [float(value) for value in state.actual_q], "digital_output_bits": int(state.digital_output_bits)}
+            "q": [float(value) for value in state.actual_q], "digital_output_bits": int(state.digital_output_bits),
+            "time": float(state.timestamp)}
 
 
 def send_request(host: str, command: str, port: int = CONTROL_PORT, timeout: float = 5.0, **arguments) -> dict:
