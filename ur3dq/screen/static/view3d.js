@@ -57,7 +57,7 @@ export class View3D {
   cameraMoved() {
     this.post("camera", { position: this.camera.position.toArray(), quaternion: this.camera.quaternion.toArray(),
       aspect: this.camera.aspect });
-    this.labels.render(this.labelScene, this.camera);
+    this.renderLabels();
   }
 
   setLabels(kind, data) {
@@ -65,14 +65,39 @@ export class View3D {
     group.traverse((object) => { if (object.isCSS2DObject) object.element.remove(); });
     group.clear();
     for (const label of labelsOf(kind, data)) {
+      // the renderer places the outer element; the name inside it may be moved up out of another's way
       const element = document.createElement("div");
-      element.className = label.problem ? "pose-label problem" : "pose-label";
-      element.textContent = label.text;
+      const name = element.appendChild(document.createElement("div"));
+      name.className = label.problem ? "pose-label problem" : "pose-label";
+      name.textContent = label.text;
       const object = new THREE.CSS2DObject(element);
       object.position.set(...label.at);
       group.add(object);
     }
+    this.renderLabels();
+  }
+
+  renderLabels() {
     this.labels.render(this.labelScene, this.camera);
+    const names = [];
+    this.labelScene.traverse((object) => {
+      if (object.isCSS2DObject && object.element.style.display !== "none") names.push(object.element.firstChild);
+    });
+    // the problem labels of a check keep their place; the others in the order they were set
+    names.sort((a, b) => b.classList.contains("problem") - a.classList.contains("problem"));
+    for (const name of names) name.style.transform = "";
+    const boxes = names.map((name) => name.getBoundingClientRect());
+    const placed = [];
+    names.forEach((name, index) => {
+      const { left, right, top, height } = boxes[index];
+      let shift = 0;
+      const covered = () => placed.find((other) => left < other.right && other.left < right &&
+        top - shift < other.bottom && other.top < top - shift + height);
+      // a name that would cover one already placed goes up, above it, until it covers none
+      for (let other = covered(); other && shift < 40 * height; other = covered()) shift = top - other.top + height + 1;
+      if (shift) name.style.transform = `translateY(${-shift}px)`;
+      placed.push({ left, right, top: top - shift, bottom: top - shift + height });
+    });
   }
 
   setArm(description) {
