@@ -5,11 +5,12 @@ is a second old, and the arm may have gone on to a later step meanwhile. The rep
 never: the report must name the step they show and where the arm came to rest, not the last ones seen before the
 freeze.
 """
+import subprocess
 import time
 
 import numpy as np
 
-from cli_support import cli_process
+from cli_support import assert_one_line_error, cli_process
 from powered_simulator import powered_simulator
 from robot_target import simulator_only
 from sim_ursim.control_channel import send_request
@@ -25,6 +26,9 @@ START = np.array([0.1, -1.4, 1.5, -1.7, -1.5708, 0.0])
 Q_APPROACH = np.array([0.3, -1.3, 1.4, -1.7, -1.5708, 0.2])
 Q_PLACE = np.array([0.8, -1.2, 1.3, -1.7, -1.5708, 0.6])
 FAST = Motion("joint", 2.0, 4.0)   # the approach takes about 0.45 s
+# s: longer than ur_rtde's 2.5 s read deadline twice over after the 1 s freeze check and the 3 s wait for late
+# reports, so the RTDE session ur3dq reopens for its stop report dies too before the controller speaks again
+LONG_FREEZE = 8.0
 
 
 def write_program(path):
@@ -57,6 +61,37 @@ def test_a_freeze_during_a_move_is_reported_at_the_step_and_place_the_arm_reache
     assert "The arm is at rest at " in stderr, stderr
     x, y, z = MODEL.fk(Q_APPROACH).translation * 1000
     assert f"x {x:.1f} y {y:.1f} z {z:.1f} mm" in stderr, stderr
+
+
+def test_a_long_freeze_ends_the_run_and_the_arm_stays_stopped(tmp_path):
+    """Frozen 0.1 s into the approach for 8 s: ur_rtde ends its RTDE session after 2.5 s without data, and so does
+    the one ur3dq opens again to read where the arm rests. run-poses still ends, with exit 6 and one error line
+    naming the frozen stream and the command that goes on, the store untouched; once the freeze is over the arm
+    rests where the controller's watchdog stopped it (on the approach's target, during the wait), no program
+    running, and it stays there."""
+    store = tmp_path / "poses.json"
+    write_program(store)
+    kept = store.read_bytes()
+    with powered_simulator(model="ur3", initial_q=list(START)) as simulator:
+        host = simulator.host
+        with cli_process(tmp_path, "--host", host, "run-poses", "--yes") as process:
+            deadline = time.monotonic() + 60
+            while np.max(np.abs(np.array(send_request(host, "status")["state"]["q"]) - START)) < 0.01:
+                assert time.monotonic() < deadline and process.poll() is None, "the arm never moved"
+                time.sleep(0.005)
+            thawed_at = time.monotonic() + LONG_FREEZE
+            assert send_request(host, "freeze", seconds=LONG_FREEZE)["ok"]
+            stdout, stderr = process.communicate(timeout=30)
+        after = []
+        for wait in (max(0.0, thawed_at - time.monotonic()) + 0.5, 1.0):   # after the freeze, then a second later
+            time.sleep(wait)
+            after.append(send_request(host, "status")["state"])
+    assert_one_line_error(subprocess.CompletedProcess(process.args, process.returncode, stdout, stderr), 6,
+                          "froze", "run-poses --resume")
+    assert store.read_bytes() == kept
+    assert not any(state["program_running"] for state in after), after
+    for state in after:
+        assert np.max(np.abs(np.array(state["q"]) - Q_APPROACH)) < 1e-3, "the arm moved on after the freeze"
 
 
 def test_a_stale_last_state_is_reported_as_such():

@@ -58,13 +58,8 @@ class RTDEBackend:
     def __init__(self, host: str, primary: PrimaryClient) -> None:
         self.host = host
         self.primary = primary
-        probe_rtde(host)  # bounded: ur_rtde's own constructor would block without limit on a silent port
-        try:
-            # ur_rtde ships no type information: the interface is typed by the Protocol above from here on.
-            self._receive: RTDEReceive | None = cast(
-                RTDEReceive, rtde_receive.RTDEReceiveInterface(host, -1.0, RTDE_VARIABLES))
-        except RuntimeError as error:
-            raise RobotConnectionError(f"cannot start the RTDE state stream from {host}:30004: {error}") from None
+        self._closed = False
+        self._receive: RTDEReceive | None = _open_receive(host)
         self._last_timestamp: float | None = None
         self._last_fresh = time.monotonic()
 
@@ -74,16 +69,22 @@ class RTDEBackend:
         return self._receive is not None and bool(self._receive.isConnected())
 
     def reconnect(self) -> None:
-        """Re-open the RTDE stream (RobotConnectionError if the controller does not answer)."""
-        if self._receive is None:
+        """Re-open the RTDE stream on a new ur_rtde interface; RobotConnectionError if the controller does not
+        answer, or its stream stops again before the first package.
+
+        ur_rtde's own `reconnect()` is never called: it waits for the new session's first package without a
+        bound, and ur_rtde ends a session after 2.5 s without data, so a stream still silent by then (a controller
+        frozen longer than that) leaves that wait going forever, even once the data flows again. The
+        constructor's wait ends with its session: a new interface fails in bounded time instead."""
+        if self._closed:
             raise RobotConnectionError(f"the RTDE stream from {self.host} was closed; connect again")
-        probe_rtde(self.host)
-        try:
-            if not self._receive.reconnect():
-                raise RobotConnectionError(f"RTDE reconnect to {self.host}:30004 was refused")
-        except RuntimeError as error:
-            raise RobotConnectionError(f"RTDE reconnect to {self.host}:30004 failed: {error}") from None
+        self._destroy_receive()
+        self._receive = _open_receive(self.host)
         self._last_timestamp, self._last_fresh = None, time.monotonic()
+        if not self._receive.isConnected():
+            self._destroy_receive()
+            raise RobotConnectionError(f"the RTDE stream from {self.host}:30004 stopped again before its first "
+                                       "package (the controller is silent)")
 
     def status(self) -> state.RobotStatus:
         """A RobotStatus from the newest RTDE package; ConnectionLostError if the stream has closed."""
@@ -145,6 +146,11 @@ class RTDEBackend:
         of the process (the heartbeat included) then stops for 0.5 s and the controller's heartbeat watchdog
         stops a healthy motion. Dropping the last reference here runs it while this connection moves nothing
         (status() keeps none in its frame, which a raised error's traceback may keep)."""
+        self._closed = True
+        self._destroy_receive()
+
+    def _destroy_receive(self) -> None:
+        """Disconnect and destroy the current interface, if any (why now: close())."""
         receive, self._receive = self._receive, None
         if receive is None:
             return
@@ -153,3 +159,16 @@ class RTDEBackend:
         except RuntimeError:
             pass
         del receive
+
+
+def _open_receive(host: str) -> RTDEReceive:
+    """A new ur_rtde receive interface on `host`'s RTDE stream, after ur3dq's own bounded handshake (ur_rtde's
+    constructor would block without limit on a port that accepts and stays silent); RobotConnectionError if either
+    fails. Its wait for the first package ends when the session does: check `isConnected()`."""
+    probe_rtde(host)
+    try:
+        # ur_rtde ships no type information: the interface is typed by the Protocol above from here on.
+        return cast(RTDEReceive, rtde_receive.RTDEReceiveInterface(host, -1.0, RTDE_VARIABLES))
+    except RuntimeError as error:
+        raise RobotConnectionError(f"cannot start the RTDE state stream from {host}:30004: {error}") from None
+
