@@ -29,6 +29,7 @@ FAST = Motion("joint", 2.0, 4.0)   # the approach takes about 0.45 s
 # s: longer than ur_rtde's 2.5 s read deadline twice over after the 1 s freeze check and the 3 s wait for late
 # reports, so the RTDE session ur3dq reopens for its stop report dies too before the controller speaks again
 LONG_FREEZE = 8.0
+ENDLESS_FREEZE = 20.0   # s: well past the bound on run-poses' end once a stream froze (docs/architecture.md)
 
 
 def write_program(path):
@@ -92,6 +93,33 @@ def test_a_long_freeze_ends_the_run_and_the_arm_stays_stopped(tmp_path):
     assert not any(state["program_running"] for state in after), after
     for state in after:
         assert np.max(np.abs(np.array(state["q"]) - Q_APPROACH)) < 1e-3, "the arm moved on after the freeze"
+
+
+def test_run_poses_ends_while_the_controller_is_still_frozen(tmp_path):
+    """However long the controller stays silent, run-poses ends within a bound (the 1 s freeze check, 3 s for late
+    reports, one reconnection attempt for the stop report): here before a 20 s freeze is over, saying where the arm
+    is could not be read. Once the freeze is cleared the arm is stopped and stays so."""
+    write_program(tmp_path / "poses.json")
+    with powered_simulator(model="ur3", initial_q=list(START)) as simulator:
+        host = simulator.host
+        with cli_process(tmp_path, "--host", host, "run-poses", "--yes") as process:
+            deadline = time.monotonic() + 60
+            while np.max(np.abs(np.array(send_request(host, "status")["state"]["q"]) - START)) < 0.01:
+                assert time.monotonic() < deadline and process.poll() is None, "the arm never moved"
+                time.sleep(0.005)
+            thawed_at = time.monotonic() + ENDLESS_FREEZE
+            assert send_request(host, "freeze", seconds=ENDLESS_FREEZE)["ok"]
+            _, stderr = process.communicate(timeout=ENDLESS_FREEZE + 30)
+        ended_at = time.monotonic()
+        assert send_request(host, "reset")["ok"]
+        time.sleep(0.5)
+        rest = send_request(host, "status")["state"]
+        time.sleep(1.0)
+        later = send_request(host, "status")["state"]
+    assert ended_at < thawed_at, f"run-poses ended {ended_at - thawed_at:.1f} s after the freeze, not during it"
+    assert process.returncode == 6, stderr
+    assert "Where the arm is could not be read" in stderr, stderr
+    assert not rest["program_running"] and rest["q"] == later["q"], (rest, later)
 
 
 def test_a_stale_last_state_is_reported_as_such():

@@ -54,6 +54,7 @@ PROGRAM_STATE_TIMEOUT = 2.0  # s for a pause or a resume to show in the state
 OUTPUT_TIMEOUT = 1.0  # s for a digital output written over RTDE to show in the state
 REST_SPEED = 1e-3  # rad/s: a paused arm whose every joint is slower than this rests
 RECONNECT_DELAYS = (0.05, 0.1, 0.2, 0.4, 0.8)  # s between stream reconnection attempts (exponential backoff)
+RECONNECT_TIMEOUT = 2.0  # s from the first attempt on, no other starts: one on a silent controller takes seconds
 MODE_CHANGE_TIMEOUT = 15.0  # s for power on / brake release to reach their robot mode
 SERIAL_NUMBER_SINCE = (5, 6)  # the dashboard's `get serial number` exists from PolyScope 5.6
 ROBOT_MODE_POWER_OFF = 3
@@ -166,13 +167,13 @@ class Robot:
         return None if cartesian is None else cartesian.tcp_offset
 
     def _ensure_streams(self) -> None:
-        """Reconnect dead state streams and heartbeat (exponential backoff; a silenced heartbeat stays silent until
-        the next program, _armed); ConnectionLostError if they stay down."""
+        """Reconnect dead state streams and heartbeat (exponential backoff, RECONNECT_TIMEOUT; a silenced heartbeat
+        stays silent until the next program, _armed); ConnectionLostError if they stay down."""
         heartbeat = self._heartbeat
         beating = heartbeat is None or heartbeat.alive or heartbeat.silenced
         if self._primary.alive and self._backend.connected and beating:
             return
-        last_error = None
+        last_error, first = None, time.monotonic()
         for delay in RECONNECT_DELAYS:
             try:
                 if not self._primary.alive:
@@ -186,9 +187,10 @@ class Robot:
                 return
             except RobotConnectionError as error:
                 last_error = error
+                if time.monotonic() + delay - first > RECONNECT_TIMEOUT:
+                    break
                 time.sleep(delay)
-        raise ConnectionLostError(
-            f"the state streams from {self.host} stay down after {len(RECONNECT_DELAYS)} attempts: {last_error}")
+        raise ConnectionLostError(f"the state streams from {self.host} stay down after reconnecting: {last_error}")
 
     # --- reading ----------------------------------------------------------------------------------------------
 
@@ -643,9 +645,8 @@ class Robot:
         pose = tcp.to_ur_pose() if isinstance(tcp, DualQuaternion) else safety.check_pose_vector(tcp, "tcp")
         name = urscript.new_program_name("tcp")
         self._backend.send_program(urscript.program(name, [urscript.set_tcp_statement(pose)]))
-        applied = self._primary.wait_for(
-            lambda c: c.cartesian is not None and c.cartesian.tcp_offset is not None
-            and np.allclose(c.cartesian.tcp_offset, pose, atol=1e-9), timeout=2.0)
+        applied = self._primary.wait_for(lambda c: c.cartesian is not None and c.cartesian.tcp_offset is not None
+                                         and np.allclose(c.cartesian.tcp_offset, pose, atol=1e-9), timeout=2.0)
         if not applied:
             raise ProgramError(f"the controller did not apply TCP offset {list(pose)} within 2 s")
         self.model = self.model.with_tcp(pose)
