@@ -214,6 +214,37 @@ def test_dropped_connection_during_motion_then_reconnect_without_resending(sim_r
     robot.movej(home)  # usable again
 
 
+def test_state_fails_during_a_long_freeze_and_reads_again_after_it(sim_robot, backend):
+    """While the controller stays silent past the client libraries' own read deadlines (ur_rtde ends its session
+    after 2.5 s, urx after 0.5 s), state() raises ConnectionLostError before the freeze is over instead of waiting
+    for it: the rtde backend opens no RTDE session while the primary interface is silent too, and says so. Once the
+    freeze is over, state() reconnects and reads fresh state."""
+    host, robot = sim_robot
+    freeze = 8.0
+    thawed_at = time.monotonic() + freeze
+    inject(host, "freeze", seconds=freeze)
+    failure = None
+    while failure is None:   # the stream counts as up, its state ageing, until the library ends it
+        assert time.monotonic() < thawed_at, "state() did not fail while the controller was frozen"
+        try:
+            robot.state()
+        except ConnectionLostError as error:
+            failure = error
+        time.sleep(0.05)
+    assert time.monotonic() < thawed_at, f"state() failed only after the freeze: {failure}"
+    if backend == "rtde":
+        assert "on its primary interface either" in str(failure), failure
+    time.sleep(max(0.0, thawed_at - time.monotonic()))
+
+    def fresh():
+        try:
+            return robot.state().age < 0.5
+        except ConnectionLostError:
+            return False
+
+    assert wait_for(fresh, timeout=10.0), "state() did not read fresh state again after the freeze"
+
+
 def test_a_dropped_connection_is_left_to_the_heartbeat_watchdog(backend, home):
     """After every connection dropped mid-move the driver sends no stopj (that program would replace the moving one,
     and the watchdog armed in it, with a gentler stop): it silences its heartbeat, and the controller's watchdog

@@ -75,9 +75,15 @@ class RTDEBackend:
         ur_rtde's own `reconnect()` is never called: it waits for the new session's first package without a
         bound, and ur_rtde ends a session after 2.5 s without data, so a stream still silent by then (a controller
         frozen longer than that) leaves that wait going forever, even once the data flows again. The
-        constructor's wait ends with its session: a new interface fails in bounded time instead."""
+        constructor's wait ends with its session: a new interface fails in bounded time instead. No new session
+        is opened while the primary interface, still open, shows the controller silent too (frozen, or cut off):
+        it would wait those 2.5 s for nothing."""
         if self._closed:
             raise RobotConnectionError(f"the RTDE stream from {self.host} was closed; connect again")
+        silent = time.monotonic() - (self.primary.last_state_time or 0.0)
+        if self.primary.alive and silent > self.freeze_timeout:
+            raise RobotConnectionError(f"{self.host} has sent nothing for {silent:.1f} s, on its primary interface "
+                                       "either (frozen, or cut off)")
         self._destroy_receive()
         self._receive = _open_receive(self.host)
         self._last_timestamp, self._last_fresh = None, time.monotonic()
