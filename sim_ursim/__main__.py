@@ -8,6 +8,7 @@ import click
 
 from .calibration import factory_calibration
 from .control_channel import CONTROL_PORT, FAULT_COMMANDS, send_request
+from .cycle_clock import CLOCKS, REAL_TIME
 from .models import MODEL_NAMES, robot_model
 
 
@@ -61,10 +62,15 @@ def load_calibration(path, model):
               help="What the dashboard's `is in remote control` answers (e-series 5.6+): on, as a robot in remote "
                    "control (ur_rtde's control interface needs it); off, as URSim by default (URCL's tests expect "
                    "it). Dashboard commands are accepted either way.")
+@click.option("--clock", type=click.Choice(CLOCKS), default=REAL_TIME, show_default=True,
+              help="real-time: one control cycle per period of wall time, as a controller. fast (test pipelines "
+                   "only): while a program runs or the arm moves, cycles are computed back to back, each one "
+                   "period of simulated time, script threads in lockstep; at rest it keeps real time. RTDE "
+                   "timestamps, sleep() and waits follow simulated time (docs/ursim.md).")
 @click.option("--log-level", type=click.Choice(["DEBUG", "INFO", "WARNING"]), default="INFO", show_default=True)
 @click.pass_context
 def main(ctx, model, software_version, host, initial_q, frequency, calibration, programs_dir,
-         external_control_host, external_control_port, remote_control, log_level):
+         external_control_host, external_control_port, remote_control, clock, log_level):
     """Run a protocol-level UR controller simulator (dashboard 29999, primary 30001, secondary 30002,
     real-time 30003, RTDE 30004, fault control 29998) until Ctrl-C, SIGTERM or the dashboard's `shutdown`."""
     if ctx.invoked_subcommand is not None:
@@ -79,7 +85,7 @@ def main(ctx, model, software_version, host, initial_q, frequency, calibration, 
                               frequency=frequency, programs_directory=programs_dir,
                               external_control_host=external_control_host,
                               external_control_port=external_control_port,
-                              remote_control=remote_control == "on")
+                              remote_control=remote_control == "on", clock=clock)
     except (ValueError, OSError) as error:   # OSError: a --calibration file that cannot be read
         raise click.BadParameter(str(error)) from None
     try:

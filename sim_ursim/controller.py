@@ -20,12 +20,12 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from . import kinematics, trajectories
-from .cycle_clock import RECORD_SECONDS, CycleClock, CycleInputs, CycleRecord, FrameTurn
+from .cycle_clock import CLOCKS, FAST, REAL_TIME, RECORD_SECONDS, CycleBoard, CycleClock, CycleInputs, FrameTurn
 from .faults import Faults
 from .io import IOState
 from .messages import MessageBus
 from .models import check_version_fits, default_version, parse_version, robot_model
-from .modes import ModeMachine
+from .modes import MAIN_VOLTAGE, ModeMachine
 from .motion_queue import DEFAULT_STOP_CODE, Motion, MotionEntry, MotionFault, MotionQueue
 from .vocabulary import (
     PROTECTIVE_STOP_DECELERATION,
@@ -41,7 +41,6 @@ from .vocabulary import (
     frozen_array,
     replaced_state,
     runtime_state_of,
-    safety_status_bits,
 )
 
 log = logging.getLogger("sim_ursim.controller")
@@ -50,9 +49,6 @@ Vector = Sequence[float] | np.ndarray  # 6 (or 3) numbers: joints [rad], a pose 
 
 DEFAULT_MODE_DELAY = 0.3  # s from `power on` to IDLE and from `brake release` to RUNNING (real arms take seconds)
 PAUSE_RAMP_TIME = 0.3  # s for speed_scaling to fall to 0 on pause (and rise back to 1 on resume)
-AMBIENT_TEMPERATURE = 25.0
-POWERED_TEMPERATURE = 32.0
-MAIN_VOLTAGE = 48.0
 JOINT_HISTORY_CYCLES = 1000  # measured joints kept for get_actual_joint_positions_history (2 s at 500 Hz)
 
 
@@ -60,7 +56,12 @@ class Controller:
     """Emulated UR controller (Contract 3). Create, `start()`, command, `shutdown()`."""
 
     def __init__(self, model="ur3", version=None, initial_q=None, calibration=None, serial_number=None,
-                 frequency=None, mode_delay=DEFAULT_MODE_DELAY, unlock_delay=PROTECTIVE_STOP_UNLOCK_DELAY):
+                 frequency=None, mode_delay=DEFAULT_MODE_DELAY, unlock_delay=PROTECTIVE_STOP_UNLOCK_DELAY,
+                 clock=REAL_TIME):
+        """`clock`: REAL_TIME (a controller's), or FAST for test pipelines (see cycle_clock and docs/ursim.md)."""
+        if clock not in CLOCKS:
+            raise ValueError(f"clock must be one of {', '.join(CLOCKS)}, got {clock!r}")
+        self.clock = clock
         self.model = robot_model(model, calibration=calibration, serial_number=serial_number)
         self.version = default_version(self.model) if version is None else parse_version(version)
         check_version_fits(self.model, self.version)
@@ -79,7 +80,6 @@ class Controller:
         self._check_within_limits(start_q, "initial_q", refuse=ValueError)
 
         self._lock = threading.RLock()
-        self._cycle_changed = threading.Condition()
         self._thread = None
         self._stop_loop = threading.Event()
         self._cycle = 0
@@ -87,7 +87,6 @@ class Controller:
         #: The time.monotonic() at which the last computed cycle was due: its time on the controller's own timeline
         #: (behind the host's clock while the host runs the loop late). Read by the RTDE input watchdogs.
         self.cycle_due = time.monotonic()
-        self._cycles: CycleRecord[ControllerState] = CycleRecord(round(RECORD_SECONDS / self.period))  # for streams
         self._cycle_inputs = CycleInputs()  # what clients' inputs queued for the start of the next cycle
         self.frame_turn = FrameTurn()  # the thread of a held speedj/speedl gets its turn before the next cycle
 
@@ -113,7 +112,8 @@ class Controller:
         self._execution_time = 0.0
         self._script_control_line = 0
         self._external_force_torque = frozen_array(np.zeros(6))
-        self._state = self._snapshot(self._q, self.period)
+        self._board = CycleBoard(self._snapshot(self._q, self.period), round(RECORD_SECONDS / self.period),
+                                 _cycle_of, self._stop_loop.is_set)   # the last cycle's snapshot, and the recent ones
         self.io.on_change = lambda: self._commit(**self.io.snapshot_fields())
 
     # ---------------------------------------------------------------- lifecycle
@@ -138,8 +138,7 @@ class Controller:
             runner = self._runner
         if runner is not None and runner.is_running:
             runner.stop()
-        with self._cycle_changed:
-            self._cycle_changed.notify_all()
+        self._board.wake()
 
     def step(self, cycles: int = 1) -> ControllerState:
         """Advance `cycles` cycles synchronously (loop not started: deterministic tests); the last snapshot."""
@@ -156,15 +155,26 @@ class Controller:
 
     def _loop(self) -> None:
         clock = CycleClock(self.period)
+        fast = self.clock == FAST
         while not self._stop_loop.is_set():
-            clock.wait()  # a late cycle starts at once: the missed ones follow back to back, none is skipped
-            self.frame_turn.await_turn(self._motions.holding_owner)
+            if fast:   # no real time between two cycles: every script thread and stream takes its turn first
+                self.frame_turn.await_threads()
+                self._board.await_readers()
+            # a late cycle starts at once: the missed ones follow back to back, none is skipped
+            clock.wait(hurry=fast and self._has_work())
+            if not fast:
+                self.frame_turn.await_turn(self._motions.holding_owner)
             try:
                 self._cycle_once(clock.due)
             except Exception as error:  # noqa: BLE001 - a bug must not kill the loop: halt the arm, say why, go on
                 log.exception("control cycle failed; halting the arm")
                 with self._lock:
                     self._halt(f"simulator internal error: {error!r}")
+
+    def _has_work(self) -> bool:
+        """True while something takes simulated time: a motion, a running program, a mode change under way."""
+        return self._motions.busy or self._modes.transition_pending or (
+            self._program_running and not self._program_paused)
 
     def at_cycle_start(self, action: Callable[[], None]) -> None:
         """Run `action` at the next cycle's start: a controller reads its inputs once per cycle, not as they come."""
@@ -199,7 +209,7 @@ class Controller:
                 state = self._snapshot(previous_q, dt, io_fields)
             self._idle_signature = (self._changes, io_version, self._q)
             self.joint_history.append(self._q)
-            self._publish(state, new_cycle=True)
+            self._board.publish(state, new_cycle=True)   # under the lock: a commit never overwrites a newer cycle
             self.cycle_due = time.monotonic() if due is None else due
 
     def _at_rest_and_unchanged(self, signature):
@@ -215,14 +225,9 @@ class Controller:
         return replaced_state(self._state, cycle=self._cycle, timestamp=self._sim_time,
                               execution_time=self._execution_time)
 
-    def _publish(self, state: ControllerState, new_cycle: bool = False) -> None:
-        """Make `state` the snapshot `state()` returns, wake the waiters and record a new cycle's (under the lock,
-        so a command's commit never overwrites a newer cycle)."""
-        with self._cycle_changed:
-            self._state = state
-            if new_cycle:
-                self._cycles.append(state)
-            self._cycle_changed.notify_all()
+    @property
+    def _state(self) -> ControllerState:
+        return self._board.latest
 
     def _commit(self, **fields) -> None:
         """THE way a command or setter publishes its effect: the present snapshot with `fields` (recomputed from the
@@ -230,7 +235,7 @@ class Controller:
         a change, so the next control cycle computes a full snapshot again."""
         with self._lock:
             self._touch()
-            self._publish(replaced_state(self._state, **fields))
+            self._board.publish(replaced_state(self._state, **fields), new_cycle=False)
 
     def _touch(self):
         """Note a change the next control cycle must recompute (its idle shortcut reuses an unchanged snapshot)."""
@@ -243,15 +248,22 @@ class Controller:
 
     def wait_cycle(self, after_cycle: int, timeout: float | None = None) -> ControllerState:
         """Block until a cycle newer than `after_cycle` is published (or timeout); returns the latest snapshot."""
-        with self._cycle_changed:
-            self._cycle_changed.wait_for(lambda: self._state.cycle > after_cycle or self._stop_loop.is_set(), timeout)
-            return self._state
+        return self._board.wait_newer(after_cycle, timeout)
 
-    def cycles_after(self, after_cycle: int, timeout: float | None = None) -> list[ControllerState]:
-        """Every cycle's snapshot since `after_cycle` (RECORD_SECONDS kept), oldest first; [] after `timeout`."""
-        with self._cycle_changed:
-            self._cycle_changed.wait_for(lambda: self._state.cycle > after_cycle or self._stop_loop.is_set(), timeout)
-            return self._cycles.after(after_cycle, lambda state: state.cycle)
+    def cycles_after(self, after_cycle: int, timeout: float | None = None,
+                     reader: str | None = None) -> list[ControllerState]:
+        """Every cycle's snapshot since `after_cycle` (RECORD_SECONDS kept), oldest first; [] after `timeout`.
+        `reader`: the stream's name, for a fast clock to wait for it (`forget_reader` when it stops)."""
+        return self._board.newer(after_cycle, timeout, reader)
+
+    def forget_reader(self, reader: str) -> None:
+        """The stream `reader` reads no more cycles."""
+        self._board.forget_reader(reader)
+
+    def await_published(self) -> None:
+        """Return once the cycle being computed, if any, is published (a motion that ended in it shows in state())."""
+        with self._lock:
+            pass
 
     def _snapshot(self, previous_q, dt, io_fields=None):
         """A full snapshot of the present cycle (I/O fields read now unless given); TCP and elbow speeds by finite
@@ -273,28 +285,16 @@ class Controller:
 
     def _status_fields(self):
         """Snapshot fields that commands change between cycles: modes, status bits, program, slider, payload."""
-        modes = self._modes
-        powered = modes.powered
-        status_bits = (STATUS_BIT_POWER_ON if powered else 0) | (
-            STATUS_BIT_PROGRAM_RUNNING if self._program_running and not self._program_paused else 0) | (
-            STATUS_BIT_TEACH_BUTTON if self._freedrive else 0)
+        running = self._program_running and not self._program_paused
+        status_bits = (STATUS_BIT_POWER_ON if self._modes.powered else 0) | (
+            STATUS_BIT_PROGRAM_RUNNING if running else 0) | (STATUS_BIT_TEACH_BUTTON if self._freedrive else 0)
         return dict(
-            robot_mode=modes.robot_mode,
+            **self._modes.snapshot_fields(), robot_status_bits=status_bits,
             control_mode=ControlMode.TEACH if self._freedrive else ControlMode.POSITION,
-            safety_mode=modes.safety_mode, safety_status=modes.safety_mode,
-            safety_status_bits=safety_status_bits(modes.safety_mode),
-            robot_status_bits=status_bits,
             runtime_state=runtime_state_of(self._program_running, self._program_paused),
-            joint_mode=(modes.joint_mode,) * 6,
             program_running=self._program_running, program_paused=self._program_paused,
-            power_on=powered, brakes_released=modes.brakes_released,
-            protective_stopped=modes.safety_mode == SafetyMode.PROTECTIVE_STOP,
-            emergency_stopped=modes.safety_mode == SafetyMode.ROBOT_EMERGENCY_STOP,
             freedrive=self._freedrive, motion_active=self._motions.busy, target_speed_fraction=self._speed_slider,
             payload=self._payload, payload_cog=self._payload_cog, payload_inertia=self._payload_inertia,
-            joint_temperatures=_POWERED_TEMPERATURES if powered else _AMBIENT_TEMPERATURES,
-            actual_joint_voltage=_JOINT_VOLTAGES if powered else _ZEROS6,
-            actual_robot_voltage=MAIN_VOLTAGE if powered else 0.0,
         )
 
     def _settings_fields(self):
@@ -689,7 +689,7 @@ class Controller:
 
 
 _ZEROS6 = frozen_array(np.zeros(6))
-_AMBIENT_TEMPERATURES = frozen_array(np.full(6, AMBIENT_TEMPERATURE))
-_POWERED_TEMPERATURES = frozen_array(np.full(6, POWERED_TEMPERATURE))
-_JOINT_VOLTAGES = frozen_array(np.full(6, MAIN_VOLTAGE))
 
+
+def _cycle_of(state: ControllerState) -> int:
+    return state.cycle

@@ -11,9 +11,20 @@ event is the controller's part; this class only keeps and changes the modes and 
 import logging
 import time
 from collections.abc import Callable
+from typing import Any
+
+import numpy as np
 
 from .messages import ErrorCodeMessage, SafetyModeMessage
-from .vocabulary import CommandRefused, JointMode, RobotMode, SafetyMode, UnlockTooEarly
+from .vocabulary import (
+    CommandRefused,
+    JointMode,
+    RobotMode,
+    SafetyMode,
+    UnlockTooEarly,
+    frozen_array,
+    safety_status_bits,
+)
 
 # A protective stop's error code is reported at WARNING level (2; URCL's ReportLevel), as URCL's
 # sendScriptBlocking(fail_on_warnings=false) expects of the stop `protective_stop()` raises.
@@ -22,6 +33,13 @@ PROTECTIVE_STOP_REPORT_LEVEL = 2
 log = logging.getLogger("sim_ursim.controller")
 
 _POWERED = (RobotMode.POWER_ON, RobotMode.IDLE, RobotMode.RUNNING)
+AMBIENT_TEMPERATURE = 25.0
+POWERED_TEMPERATURE = 32.0
+MAIN_VOLTAGE = 48.0
+_AMBIENT_TEMPERATURES = frozen_array(np.full(6, AMBIENT_TEMPERATURE))
+_POWERED_TEMPERATURES = frozen_array(np.full(6, POWERED_TEMPERATURE))
+_JOINT_VOLTAGES = frozen_array(np.full(6, MAIN_VOLTAGE))
+_NO_VOLTAGES = frozen_array(np.zeros(6))
 
 
 class ModeMachine:
@@ -48,6 +66,25 @@ class ModeMachine:
         """joint_mode of every joint for the present robot mode."""
         return {RobotMode.RUNNING: JointMode.RUNNING, RobotMode.IDLE: JointMode.IDLE,
                 RobotMode.POWER_ON: JointMode.MOTOR_INITIALISATION}.get(self.robot_mode, JointMode.POWER_OFF)
+
+    @property
+    def transition_pending(self) -> bool:
+        """True while a power-on or brake-release step waits for its time."""
+        return self._pending is not None
+
+    def snapshot_fields(self) -> dict[str, Any]:
+        """The snapshot fields that follow the modes alone (ControllerState names)."""
+        powered, safety = self.powered, self.safety_mode
+        return dict(
+            robot_mode=self.robot_mode, safety_mode=safety, safety_status=safety,
+            safety_status_bits=safety_status_bits(safety), joint_mode=(self.joint_mode,) * 6,
+            power_on=powered, brakes_released=self.brakes_released,
+            protective_stopped=safety == SafetyMode.PROTECTIVE_STOP,
+            emergency_stopped=safety == SafetyMode.ROBOT_EMERGENCY_STOP,
+            joint_temperatures=_POWERED_TEMPERATURES if powered else _AMBIENT_TEMPERATURES,
+            actual_joint_voltage=_JOINT_VOLTAGES if powered else _NO_VOLTAGES,
+            actual_robot_voltage=MAIN_VOLTAGE if powered else 0.0,
+        )
 
     def require_running_normal(self, what: str) -> None:
         """CommandRefused naming `what` unless RUNNING in NORMAL safety mode."""

@@ -255,13 +255,19 @@ class RealtimeServer(_InterfaceServer):
             return sum(1 for c in self._clients if c.discontinued and not c.connection.closed.is_set())
 
     def _broadcast(self) -> None:
+        try:
+            self._broadcast_cycles()
+        finally:
+            self.controller.forget_reader("realtime")
+
+    def _broadcast_cycles(self) -> None:
         controller = self.controller
         version = tuple(controller.version)
         faults = controller.faults
         delayed = DelayLine()
         cycle = controller.state().cycle
         while not self._stopping.is_set():
-            states = controller.cycles_after(cycle, timeout=POLL_INTERVAL)
+            states = controller.cycles_after(cycle, timeout=POLL_INTERVAL, reader="realtime")
             if not states:  # no new cycle: timed out, or the control loop has stopped
                 self._stopping.wait(controller.period)
                 continue

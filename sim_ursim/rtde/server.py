@@ -380,10 +380,16 @@ class RTDEServer(TCPServer):
     # --- streaming ----------------------------------------------------------------------------------------------
 
     def _stream_loop(self) -> None:
+        try:
+            self._stream_cycles()
+        finally:
+            self.controller.forget_reader("rtde")
+
+    def _stream_cycles(self) -> None:
         controller = self.controller
         last_cycle = controller.state().cycle
         while not self.stopping:
-            states = controller.cycles_after(last_cycle, _WAIT_TIMEOUT)
+            states = controller.cycles_after(last_cycle, _WAIT_TIMEOUT, reader="rtde")
             if not states:
                 if not controller.running:
                     # cycles_after returns at once while the control loop is stopped: do not spin meanwhile.

@@ -28,7 +28,7 @@ from sim_ursim.motion_queue import Motion
 from sim_ursim.urscript import nodes
 from sim_ursim.urscript.operators import BINARY, NUMERIC_FAST_PATH, PLAIN_NUMBERS, require_number
 from sim_ursim.urscript.values import Pose, ScriptError, copy_value, to_str, truth
-from sim_ursim.vocabulary import CommandRefused
+from sim_ursim.vocabulary import CommandRefused, ControllerState
 
 log = logging.getLogger("sim_ursim.urscript")
 
@@ -153,19 +153,22 @@ class ThreadContext:
         self.last_timeout: str | None = None  # its last blocking read, if it timed out: explains a later halt
         self.running = False  # running statements (holding the scheduler), not waiting for anything
         self.awaiting_hold: Motion | None = None  # the held speedj/speedl Motion it waits for (builtins.motion)
+        self.wakes_when: Callable[[ControllerState], bool] | None = None  # the cycle a sleep or sync waits for
         self._statements_in_slice = 0
         self._slice = max(MIN_STATEMENTS_PER_FRAME, int(STATEMENTS_PER_SECOND * execution.controller.period))
 
     # --- scheduling, used by the interpreter and by blocking built-ins
     def owes_frame(self) -> bool:
-        """True while this thread runs statements or its held speed command is over (cycle_clock.FrameTurn)."""
-        motion = self.awaiting_hold
-        return self.running or (motion is not None and motion.done)
+        """True while this thread runs statements, or what it waits for has come and it has not run since: its held
+        speed command or its move is over, the cycle its sleep or sync waits for is out (cycle_clock.FrameTurn)."""
+        hold, motion, wakes_when = self.awaiting_hold, self.motion, self.wakes_when
+        return self.running or (hold is not None and hold.done) or (motion is not None and motion.done) or (
+            wakes_when is not None and wakes_when(self.controller.state()))
 
     def set_running(self, running: bool) -> None:
         """This thread starts or stops running statements (the control loop's FrameTurn is told)."""
         self.running = running
-        self.controller.frame_turn.changed()
+        self.controller.frame_turn.changed(self)
 
     def check(self) -> None:
         """Raise Cancelled if this thread was killed or its program stopped; block while the program is paused."""
@@ -180,19 +183,21 @@ class ThreadContext:
                 raise Cancelled()
 
     @contextlib.contextmanager
-    def waiting(self) -> Iterator[None]:
+    def waiting(self, keep_scheduler: bool = False) -> Iterator[None]:
         """Context manager: let other script threads run while this one waits for physical time (scheduler lock
-        released, not running). The main thread's line is published (RTDE script_control_line) here, where it stays
-        for a while, rather than on every statement."""
+        released unless `keep_scheduler`, not running). The main thread's line is published (RTDE
+        script_control_line) here, where it stays for a while, rather than on every statement."""
         if self is self.execution.main:
             self.controller.set_script_control_line(self.line)
         self._statements_in_slice = 0  # physical time passes: a new slice starts
         self.set_running(False)
-        self.execution.scheduler.release()
+        if not keep_scheduler:
+            self.execution.scheduler.release()
         try:
             yield
         finally:
-            self.execution.scheduler.acquire()
+            if not keep_scheduler:
+                self.execution.scheduler.acquire()
             self.set_running(True)
 
     def time_slice(self):
@@ -200,41 +205,32 @@ class ThreadContext:
         self._statements_in_slice += 1
         if self._statements_in_slice < self._slice:
             return
-        if self.critical:
-            self._statements_in_slice = 0
-            self.set_running(False)
-            self._wait_next_frame()  # keeping the scheduler lock: no other thread runs inside a critical section
-            self.set_running(True)
-            self.check()
-        else:
-            self.sync()
+        # inside a critical section the thread keeps the scheduler lock: no other thread runs meanwhile
+        self.sync(keep_scheduler=bool(self.critical))
 
     def sleep(self, seconds: float) -> None:
         """Wait `seconds` of controller time, whole cycles (late on a late host, like the arm), interruptibly."""
-        with self.waiting():
-            controller = self.controller
-            state = controller.state()
-            end = state.timestamp + seconds - 1e-9
-            while state.timestamp < end and not self.cancel.is_set():
-                if not controller.running:  # no cycles will come: wall time instead
-                    self.cancel.wait(end - state.timestamp)
-                    break
-                state = controller.wait_cycle(state.cycle, timeout=0.05)
-        self.check()
+        end = self.controller.state().timestamp + seconds - 1e-9
+        self._wait_for_cycle(lambda state: state.timestamp >= end, seconds)
 
-    def sync(self) -> None:
+    def sync(self, keep_scheduler: bool = False) -> None:
         """Wait for the next control cycle (the rest of this one is used up)."""
-        with self.waiting():
-            self._wait_next_frame()
-        self.check()
-
-    def _wait_next_frame(self) -> None:
-        """Block until the controller publishes a cycle after the current one (or this thread is cancelled)."""
         now = self.controller.state().cycle
-        while not self.cancel.is_set() and self.controller.wait_cycle(now, timeout=0.05).cycle <= now:
-            if not self.controller.running:  # no cycles will come: pace by the clock instead of spinning
-                self.cancel.wait(self.controller.period)
-                return
+        self._wait_for_cycle(lambda state: state.cycle > now, self.controller.period, keep_scheduler)
+
+    def _wait_for_cycle(self, wakes_when: Callable[[ControllerState], bool], seconds: float,
+                        keep_scheduler: bool = False) -> None:
+        """Wait until a published cycle satisfies `wakes_when` (owes_frame reads it), or `seconds` without a loop."""
+        self.wakes_when = wakes_when
+        with self.waiting(keep_scheduler):
+            state = self.controller.state()
+            while not wakes_when(state) and not self.cancel.is_set():
+                if not self.controller.running:   # no cycle will come: wall time instead
+                    self.cancel.wait(seconds)
+                    break
+                state = self.controller.wait_cycle(state.cycle, timeout=0.05)
+        self.wakes_when = None
+        self.check()
 
     def run_motion(self, command: Callable[[], Motion]) -> None:
         """Issue a motion with `command()` (returns a Motion) and block until it is done, interruptibly.
@@ -252,7 +248,7 @@ class ThreadContext:
                 if motion.done:
                     # The motion ends inside a control cycle whose snapshot is published just after: wait for it,
                     # so the next get_actual_* sees where the move ended.
-                    self.controller.wait_cycle(self.controller.state().cycle, timeout=5 * self.controller.period)
+                    self.controller.await_published()
             self.motion = None
             paused_meanwhile = motion.error is not None and not self.execution.unpaused.is_set()
             self.check()  # raises if cancelled; blocks while paused
@@ -294,6 +290,8 @@ class Execution:
 
     def _new_context(self, name: str) -> ThreadContext:
         context = ThreadContext(self, name)
+        context.running = True   # its thread is about to start: it owes the frame until it first waits (FrameTurn)
+        self.controller.frame_turn.join(context)
         with self._contexts_lock:
             self._contexts.append(context)
         return context
@@ -333,6 +331,7 @@ class Execution:
             self.controller.release_speed_hold(context)  # an ended thread sends no next command
             context.done.set()
             context.set_running(False)
+            self.controller.frame_turn.leave(context)
             self.scheduler.release()
             self.cancel()
         return self.error
@@ -628,6 +627,7 @@ class Execution:
             self.controller.release_speed_hold(ctx)  # an ended thread sends no next command
             ctx.done.set()
             ctx.set_running(False)
+            self.controller.frame_turn.leave(ctx)
             self.scheduler.release()
 
 

@@ -88,13 +88,13 @@ class ProgramRunner:
             log.info("script from %s refused: %s", origin, error)
             self._publish(RuntimeExceptionMessage(line=error.line, column=error.column, text=error.text))
             return False
-        execution = Execution(program, self._controller, self._builtins)
         if program.secondary:
-            self._start_secondary(execution)
+            self._start_secondary(Execution(program, self._controller, self._builtins))
             return True
         if self._controller.state().safety_mode == SafetyMode.PROTECTIVE_STOP:
             self._refuse_during_protective_stop(program.name, origin)
             return False
+        execution = Execution(program, self._controller, self._builtins)   # its main thread starts below
         with self._submit_lock:
             with self._lock:
                 previous = self._detach_main()
