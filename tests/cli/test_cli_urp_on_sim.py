@@ -2,7 +2,9 @@
 `run-poses` plans (and, imported back, runs), at every waypoint within 1e-6 rad: random programs of every move
 type, relative waypoints, outputs and waits, on a CB3 (plain XML), an e-series arm (gzip) and a calibrated one;
 on each, one program through the command line (export-urp, run-poses --dry-run, play, import-urp, run-poses) and
-MORE_PROGRAMS more exported by the library and played: 9 programs played, 3 run by run-poses."""
+MORE_PROGRAMS more exported by the library and played: 9 programs played, 3 run by run-poses. The CB3 and the
+nominal e-series arm are fast-clock simulators (docs/ursim.md: simulated time only, run-poses included); the
+calibrated e-series arm plays and runs in real time, as a controller."""
 import gzip
 import itertools
 import json
@@ -164,14 +166,15 @@ def assert_passes_through(path, targets, what):
 
 
 @pytest.mark.timeout(400)
-@pytest.mark.parametrize("model, seed, calibration", [("ur3", 7, None), ("ur5e", 11, None), ("ur5e", 23, CALIBRATION)])
+@pytest.mark.parametrize("model, seed, calibration, clock", [("ur3", 7, None, "fast"), ("ur5e", 11, None, "fast"),
+                                                             ("ur5e", 23, CALIBRATION, "real-time")])
 def test_a_played_urp_moves_the_arm_through_the_joints_run_poses_moves_it_through(run_cli, tmp_path, model, seed,
-                                                                                 calibration):
+                                                                                 calibration, clock):
     from powered_simulator import powered_simulator
 
     steps = playable(rich_program(seed, model), brisk=True)
     PoseStore(tmp_path / "poses.json").update_program(lambda old: (steps, None))
-    options = {"programs_dir": str(tmp_path), "initial_q": list(HOME)}   # the programs' IK branch
+    options = {"programs_dir": str(tmp_path), "initial_q": list(HOME), "clock": clock}   # the programs' IK branch
     if calibration:
         (tmp_path / "calibration.json").write_text(json.dumps(calibration))
         options["calibration"] = str(tmp_path / "calibration.json")
