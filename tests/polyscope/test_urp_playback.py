@@ -2,8 +2,8 @@
 fast-clock simulator: the arm passes, in order, through the joints `run-poses` moves it to at every waypoint where
 it stops, within 1e-6 rad, and within the blend radius of every waypoint it blends past. The first PROGRAMS of the
 200 programs of the export → import round trip (tests/polyscope/test_urp_round_trip.py) every run, about a minute;
-UR3DQ_URP_PLAYBACK_PROGRAMS=200 plays all 200 (six and a half minutes on a quiet 2-core machine: the simulator's
-per-cycle kinematics, not the clock, is then what takes the time).
+UR3DQ_URP_PLAYBACK_PROGRAMS=200 plays all 200 (minutes: the simulator's per-cycle kinematics, not the clock, is then
+what takes the time; figures in docs/performance.md).
 
 The evidence is the simulator's own: its RTDE stream of every control cycle (actual_q, recorded on a plain socket),
 from the cycle the program started in to the one it stopped in. The targets are the joints run-poses plans for the
