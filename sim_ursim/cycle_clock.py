@@ -140,6 +140,7 @@ class CycleBoard(Generic[Item]):
         self._cycle_of = cycle_of
         self._stopped = stopped
         self._changed = threading.Condition()
+        self._awaiting_readers = False   # a fast loop waits for the readers: tell it when one reads
 
     def publish(self, item: Item, new_cycle: bool) -> None:
         """Make `item` the latest (a new cycle's is also recorded) and wake the waiters."""
@@ -168,7 +169,8 @@ class CycleBoard(Generic[Item]):
             items = self._record.after(after_cycle, self._cycle_of)
             if reader is not None:
                 self._record.note_read(reader, self._cycle_of(items[-1]) if items else after_cycle)
-                self._changed.notify_all()
+                if self._awaiting_readers:
+                    self._changed.notify_all()
             return items
 
     def forget_reader(self, reader: str) -> None:
@@ -185,7 +187,11 @@ class CycleBoard(Generic[Item]):
             return slowest is None or slowest >= latest - self._record.size // 2 or self._stopped()
 
         with self._changed:
-            self._changed.wait_for(caught_up, timeout)
+            self._awaiting_readers = True
+            try:
+                self._changed.wait_for(caught_up, timeout)
+            finally:
+                self._awaiting_readers = False
 
 
 class CycleInputs:

@@ -11,9 +11,11 @@ than the period. So a simulator starved of the CPU blames no client for its own 
 meanwhile, and the cycles it then catches up on back to back were due before the packages it reads late, which the
 client sent in time. And a client silent for a period's worth of computed cycles is caught however late this
 process runs (a wall-clock period, restarted after the simulator's own stalls, never fired on a heavily loaded
-host). Until the reader thread has read a client's packages they wait in its socket: an expired watchdog does not
-fire while input bytes of the variable's client wait unread (`unread_input`, set by the RTDE server, which takes
-bytes out of the socket only once it has handled them). A client that stopped sending leaves nothing unread, so it
+host). With the fast clock (docs/ursim.md) a cycle is due when it is computed, so silence is judged on the host's
+clock: a client that writes on its own wall-clock pace stays alive however many cycles pass between two writes.
+Until the reader thread has read a client's packages they wait in its socket: an expired watchdog does not fire
+while input bytes of the variable's client wait unread (`unread_input`, set by the RTDE server, which takes bytes
+out of the socket only once it has handled them). A client that stopped sending leaves nothing unread, so it
 is still stopped. One watchdog per variable: arming it again replaces it. The RTDE server reports every input
 package (`note_update`); a checker thread takes the action at most 1/`CHECK_RATE` s late (of the host's time) and
 disarms a watchdog whose program has ended.
