@@ -15,7 +15,9 @@ timeout, an RTDE package awaited 100 ms, a spline's first 8 ms cycle looked for 
 machine an ordinary process can wait hundreds of milliseconds for a CPU, so by default (``--realtime``) the
 simulator and every case run at the lowest real-time priority (``chrt --rr 1``; URCL raises its own RTDE reader to
 FIFO 99 itself), as a controller runs its loop and as URCL's real-time guide sets up the client's machine.
-``--no-realtime`` runs them as ordinary processes.
+``--no-realtime`` runs them as ordinary processes. ``--busy N`` starts N busy processes (``python3 -c 'while True:
+pass'``) beside them for the whole run: a controlled load on a 2-core machine. Each case's line
+gives the simulator's CPU share meanwhile (CPU seconds of its process per wall second).
 
 URCL up to ``c5d1e26`` (2.14.0) has a defect in its test harness that fails RTDEClientTest's four fake-server
 cases on some builds: its fake RTDE server passes an uninitialised byte count to ``TCPServer::writeUnchecked``,
@@ -31,6 +33,7 @@ Not part of the test suite or CI (it needs the outside build). Usage::
 Exit status: 0 when no case failed, 1 when one did, 2 for a usage or setup problem.
 """
 import argparse
+import contextlib
 import json
 import os
 import re
@@ -39,6 +42,7 @@ import socket
 import subprocess
 import sys
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -80,6 +84,7 @@ class Outcome:
     case: Case
     verdict: str  # PASS, FAIL or SKIP
     seconds: float
+    simulator_cpu: float = float("nan")  # CPU seconds of the simulator's process per wall second of the case
 
 
 def parse_arguments(argv: list[str]) -> argparse.Namespace:
@@ -97,6 +102,8 @@ def parse_arguments(argv: list[str]) -> argparse.Namespace:
     parser.add_argument("--logs", type=Path, default=None, help="directory for each case's output and the sim's log")
     parser.add_argument("--realtime", action=argparse.BooleanOptionalAction, default=True,
                         help="run the simulator and the cases at real-time priority `chrt --rr 1` (default: on)")
+    parser.add_argument("--busy", type=int, default=0, metavar="N",
+                        help="run N busy processes (python3 -c 'while True: pass') beside the run (default 0)")
     parser.add_argument("--python", default=str(REPOSITORY / ".venv" / "bin" / "python"),
                         help="interpreter that runs sim_ursim (default: the repository's .venv)")
     return parser.parse_args(argv)
@@ -167,6 +174,31 @@ def realtime_prefix(wanted: bool) -> tuple[str, ...]:
     return REALTIME
 
 
+CLOCK_TICKS = os.sysconf("SC_CLK_TCK")
+
+
+def process_cpu_seconds(pid: int) -> float:
+    """User + system CPU seconds a process (all its threads) has used so far (nan once it is gone)."""
+    try:
+        with open(f"/proc/{pid}/stat", encoding="ascii") as handle:
+            fields = handle.read().rsplit(")", 1)[1].split()
+    except OSError:
+        return float("nan")
+    return (int(fields[11]) + int(fields[12])) / CLOCK_TICKS
+
+
+@contextlib.contextmanager
+def busy_processes(count: int) -> Iterator[None]:
+    """`count` processes that each spin on a core until the block ends (killed then)."""
+    spinners = [subprocess.Popen(["python3", "-c", "while True: pass"]) for _ in range(count)]
+    try:
+        yield
+    finally:
+        for spinner in spinners:
+            spinner.kill()
+            spinner.wait()
+
+
 def start_simulator(options: argparse.Namespace, programs: Path, log_path: Path,
                     prefix: tuple[str, ...] = ()) -> "subprocess.Popen[bytes]":
     command = [*prefix, options.python, "-m", "sim_ursim", "--model", options.model, "--version", options.version,
@@ -188,13 +220,15 @@ def verdict_of(returncode: int, output: str) -> str:
     return "PASS"
 
 
-def run_case(case: Case, host: str, timeout: float, log_dir: Path, prefix: tuple[str, ...] = ()) -> Outcome:
+def run_case(case: Case, host: str, timeout: float, log_dir: Path, prefix: tuple[str, ...] = (),
+             simulator_pid: int | None = None) -> Outcome:
     command = [*case.command, host] if case.name.startswith("example.") else [*case.command, "--robot_ip", host]
     if case.needs_own_namespace:
         inner = " ".join(shlex.quote(part) for part in command)
         command = ["unshare", "-n", "sh", "-c", f"ip link set lo up && exec {inner}"]
     command = [*prefix, *command]
     began = time.monotonic()
+    cpu_before = process_cpu_seconds(simulator_pid) if simulator_pid else float("nan")
     try:
         finished = subprocess.run(command, cwd=case.directory, capture_output=True, text=True, timeout=timeout,
                                   errors="replace")
@@ -205,8 +239,9 @@ def run_case(case: Case, host: str, timeout: float, log_dir: Path, prefix: tuple
                  for part in (expired.stdout, expired.stderr)]
         output = "".join(parts) + f"\n*** timed out after {timeout:.0f} s\n"
     seconds = time.monotonic() - began
+    cpu = (process_cpu_seconds(simulator_pid) - cpu_before) / seconds if simulator_pid else float("nan")
     (log_dir / f"{case.name}.log").write_text(output, encoding="utf-8")
-    return Outcome(case, verdict_of(returncode, output), seconds)
+    return Outcome(case, verdict_of(returncode, output), seconds, cpu)
 
 
 def print_table(outcomes: list[Outcome], title: str) -> None:
@@ -230,6 +265,26 @@ def print_table(outcomes: list[Outcome], title: str) -> None:
             print(f"  {outcome.case.name}  ({outcome.seconds:.1f} s)")
 
 
+def run_cases(cases: list[Case], options: argparse.Namespace, programs: Path, log_dir: Path,
+              prefix: tuple[str, ...]) -> list[Outcome]:
+    """Run `cases` one after the other against one simulator; stops early if the simulator exits."""
+    simulator = start_simulator(options, programs, log_dir / "sim_ursim.log", prefix)
+    outcomes = []
+    try:
+        for number, case in enumerate(cases, 1):
+            outcome = run_case(case, options.host, options.timeout, log_dir, prefix, simulator.pid)
+            outcomes.append(outcome)
+            print(f"[{number:3d}/{len(cases)}] {outcome.verdict} {case.name} ({outcome.seconds:.1f} s, simulator "
+                  f"CPU {outcome.simulator_cpu:.0%})", flush=True)
+            if simulator.poll() is not None:
+                print(f"run_urcl_suite: the simulator exited ({simulator.returncode}); see its log", file=sys.stderr)
+                break
+    finally:
+        simulator.terminate()
+        simulator.wait(10)
+    return outcomes
+
+
 def run_suite(options: argparse.Namespace) -> int:
     build = options.build.resolve()
     cases = integration_cases(build)
@@ -245,22 +300,12 @@ def run_suite(options: argparse.Namespace) -> int:
     log_dir.mkdir(parents=True, exist_ok=True)
     prefix = realtime_prefix(options.realtime)
     load_before = os.getloadavg()[0]
-    simulator = start_simulator(options, programs, log_dir / "sim_ursim.log", prefix)
-    outcomes = []
-    try:
-        for number, case in enumerate(cases, 1):
-            outcome = run_case(case, options.host, options.timeout, log_dir, prefix)
-            outcomes.append(outcome)
-            print(f"[{number:3d}/{len(cases)}] {outcome.verdict} {case.name} ({outcome.seconds:.1f} s)", flush=True)
-            if simulator.poll() is not None:
-                print(f"run_urcl_suite: the simulator exited ({simulator.returncode}); see its log", file=sys.stderr)
-                break
-    finally:
-        simulator.terminate()
-        simulator.wait(10)
+    with busy_processes(options.busy):
+        outcomes = run_cases(cases, options, programs, log_dir, prefix)
     priority = "real-time (chrt --rr 1)" if prefix else "ordinary priority"
-    print_table(outcomes, f"URCL integration suite against sim_ursim {options.model} {options.version}, {priority}, "
-                          f"load average {load_before:.1f} -> {os.getloadavg()[0]:.1f} (logs: {log_dir})")
+    busy = f", {options.busy} busy processes beside it" if options.busy else ""
+    print_table(outcomes, f"URCL integration suite against sim_ursim {options.model} {options.version}, {priority}"
+                          f"{busy}, load average {load_before:.1f} -> {os.getloadavg()[0]:.1f} (logs: {log_dir})")
     return 1 if any(o.verdict == "FAIL" for o in outcomes) or len(outcomes) < len(cases) else 0
 
 
