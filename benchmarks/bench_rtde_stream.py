@@ -8,16 +8,19 @@ the same simulator process idle with no RTDE client (CPU ratio).
 The simulator runs as `python -m sim_ursim` in a child process, so its CPU time is its own and ur_rtde (which holds
 the GIL while it blocks) can live in this process.  Run: .venv/bin/python benchmarks/bench_rtde_stream.py [seconds]
 
-Cycle completeness under load (`--under-load [--record-example PATH]`): the simulator runs beside two busy
-processes (`python -c "while 1: pass"`; on a 2-core machine more runnable processes than cores) and every frame of
-a full-rate stream is checked: consecutive `timestamp`s must be exactly one control period apart. Skipped cycles =
-the periods missing between frames (late frames are allowed, missing ones are not). Clients: UR's RTDE Python
-client's `examples/record.py` (given its path; it writes every package it receives, in order) and ur_rtde
-(`startFileRecording`). ur_rtde keeps only the newest state and its recorder samples that state on its own clock,
-one row per period, so it repeats some frames and misses others whatever the stream carries: the peer for both
-clients is the same measurement on a simulator without the busy processes, in the same run. On a machine shared
-with other work, run the whole benchmark at a raised priority (`nice -n -10`, as root) so that the two busy
-processes, not the other work, are the load. Run:
+Cycle completeness under load (`--under-load [--record-example PATH] [--clients record.py,ur_rtde,raw]`): the
+simulator runs beside two busy processes (`python -c "while 1: pass"`; on a 2-core machine more runnable processes
+than cores) and every frame of a full-rate stream is checked: consecutive `timestamp`s must be exactly one control
+period apart. Skipped cycles = the periods missing between frames (late frames are allowed, missing ones are not).
+Clients: UR's RTDE Python client's `examples/record.py` (given its path; it writes every package it receives, in
+order) and ur_rtde (`startFileRecording`). ur_rtde keeps only the newest state and its recorder samples that state
+on its own clock, one row per period, so it repeats some frames and misses others whatever the stream carries: the
+peer for both clients is the same measurement on a simulator without the busy processes, in the same run. On a
+machine shared with other work, run the whole benchmark at a raised priority (`nice -n -10`, as root) so that the
+two busy processes, not the other work, are the load (or at ordinary priority, the harder condition). The
+"raw" client (a protocol-2 reader with a recipe like URCL's) also counts late frames — arrival minus the frame's
+place on the timeline of its earliest frame, more than one period — and gives the simulator's CPU per simulated
+second; its arrival times are its own, so a late frame may be the reader's lateness as well as the simulator's. Run:
 .venv/bin/python benchmarks/bench_rtde_stream.py --under-load --record-example PATH/examples/record.py [seconds]
 """
 import argparse
@@ -25,6 +28,7 @@ import contextlib
 import csv
 import os
 import socket
+import struct
 import subprocess
 import sys
 import tempfile
@@ -33,7 +37,7 @@ import time
 import numpy as np
 import rtde_receive
 
-from sim_ursim.launch import simulator_process
+from sim_ursim.launch import SimulatorProcess, simulator_process
 from sim_ursim.rtde import protocol
 
 CLOCK_TICKS = os.sysconf("SC_CLK_TCK")
@@ -166,6 +170,55 @@ def ur_rtde_stamps(host, rate, seconds):
         os.remove(path)
 
 
+STREAM_RECIPE = ["timestamp", "actual_q", "actual_qd", "target_q", "target_qd", "target_qdd", "speed_scaling",
+                 "runtime_state", "robot_mode", "safety_mode", "actual_TCP_pose"]  # what URCL's drivers read
+
+
+def raw_frames(host: str, rate: float, seconds: float) -> tuple[np.ndarray, np.ndarray]:
+    """(timestamps, arrival times on time.monotonic) of every data package a raw protocol-2 reader gets for
+    `seconds` at `rate`, with a recipe like URCL's."""
+    stamps, arrivals = [], []
+    with socket.create_connection((host, 30004), timeout=5) as sock:
+        for request in (protocol.pack_protocol_version_request(2),
+                        protocol.pack_setup_outputs_request(STREAM_RECIPE, rate, 2), protocol.pack_start_request()):
+            sock.sendall(request)
+        sock.settimeout(seconds)  # a silent stream is a gap to measure, not an error
+        buffer = bytearray()
+        deadline = time.monotonic() + seconds
+        while time.monotonic() < deadline:
+            buffer += sock.recv(65536)
+            now = time.monotonic()
+            while (package := protocol.split_package(buffer)) is not None:
+                del buffer[:package[2]]
+                if package[0] == protocol.PackageType.DATA_PACKAGE:
+                    stamps.append(struct.unpack_from(">d", package[1], 1)[0])  # after the recipe id
+                    arrivals.append(now)
+    return np.array(stamps), np.array(arrivals)
+
+
+def lateness_line(stamps: np.ndarray, arrivals: np.ndarray, rate: float) -> str:
+    """Late frames: a frame's lateness is its arrival minus its cycle's place on the timeline of the earliest frame
+    (arrival − timestamp, least over the run, taken as on time); also the widest gap between two arrivals."""
+    period = 1.0 / rate
+    offsets = arrivals - stamps
+    lateness = offsets - offsets.min()
+    gaps = np.diff(arrivals)
+    return (f"late frames {np.sum(lateness > period)} (> 1 period), {np.sum(lateness > 0.1)} (> 100 ms), latest "
+            f"{lateness.max() * 1000:.0f} ms; widest gap between arrivals {gaps.max() * 1000:.0f} ms, "
+            f"{np.sum(gaps > 0.1)} gaps > 100 ms")
+
+
+def raw_stream_report(simulator: SimulatorProcess, rate: float, seconds: float) -> str:
+    """One report line of the raw reader: completeness, lateness, and the simulator's CPU per simulated second."""
+    pid = simulator.process.pid
+    cpu_before = process_cpu_seconds(pid)
+    stamps, arrivals = raw_frames(simulator.host, rate, seconds)
+    cpu = process_cpu_seconds(pid) - cpu_before
+    simulated = stamps[-1] - stamps[0] + 1.0 / rate
+    return (completeness_line("raw", stamps, rate) + "; " + lateness_line(stamps, arrivals, rate)
+            + f"; simulator CPU {cpu / simulated:.3f} s per simulated s")
+
+
 def completeness_line(name, stamps, rate):
     """One report line: frames, cycles they span, skipped cycles, repeats, widest gap (ur_rtde rows deduplicated)."""
     distinct = np.unique(stamps)
@@ -176,21 +229,25 @@ def completeness_line(name, stamps, rate):
             f"periods")
 
 
-def under_load(seconds, record_example, spinners=2):
+def under_load(seconds: float, record_example: str | None, spinners: int = 2,
+               clients: tuple[str, ...] = ("record.py", "ur_rtde")) -> None:
     """Skipped cycles of full-rate streams (CB3 125 Hz, e-series 500 Hz) beside `spinners` busy processes for
-    `seconds`, and the same without them (the peer, for a third of that, at least 10 s)."""
+    `seconds`, and the same without them (the peer, for a third of that, at least 10 s). Clients: "record.py"
+    (needs `record_example`), "ur_rtde", "raw" (also late frames and the simulator's CPU per simulated second)."""
     print(f"cycle completeness over {seconds:.0f} s per client and rate ({os.cpu_count()} cores)")
-    clients = [("ur_rtde", ur_rtde_stamps)]
-    if record_example:
-        clients.insert(0, ("record.py", lambda host, rate, s: record_example_stamps(record_example, host, rate, s)))
+    recorders = {"ur_rtde": ur_rtde_stamps,
+                 "record.py": lambda host, rate, s: record_example_stamps(record_example, host, rate, s)}
     for model, rate in (("ur5", 125), ("ur5e", 500)):
         for load, duration in ((spinners, seconds), (0, max(10.0, seconds / 3))):
             with simulator_process(model=model) as simulator, busy_processes(load):
                 time.sleep(1.0)
-                for name, record in clients:
-                    stamps = record(simulator.host, rate, duration)
-                    print(f"  {model} @ {rate} Hz, {load} busy processes, load average {os.getloadavg()[0]:5.2f}, "
-                          + completeness_line(name, stamps, rate))
+                for name in clients:
+                    heading = f"  {model} @ {rate} Hz, {load} busy processes, load average {os.getloadavg()[0]:5.2f}, "
+                    if name == "raw":
+                        line = raw_stream_report(simulator, rate, duration)
+                    else:
+                        line = completeness_line(name, recorders[name](simulator.host, rate, duration), rate)
+                    print(heading + line + f" (load after {os.getloadavg()[0]:.2f})", flush=True)
 
 
 def main(seconds=10.0):
@@ -214,8 +271,13 @@ if __name__ == "__main__":
     parser.add_argument("seconds", nargs="?", type=float, default=None)
     parser.add_argument("--under-load", action="store_true", help="count skipped cycles beside two busy processes")
     parser.add_argument("--record-example", help="path of UR's RTDE client examples/record.py")
+    parser.add_argument("--clients", default=None,
+                        help="comma-separated clients for --under-load: record.py, ur_rtde, raw (default: record.py "
+                             "when --record-example is given, and ur_rtde)")
     arguments = parser.parse_args()
     if arguments.under_load:
-        under_load(arguments.seconds or 60.0, arguments.record_example)
+        default = "record.py,ur_rtde" if arguments.record_example else "ur_rtde"
+        under_load(arguments.seconds or 60.0, arguments.record_example,
+                   clients=tuple((arguments.clients or default).split(",")))
     else:
         main(arguments.seconds or 10.0)
