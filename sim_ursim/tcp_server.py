@@ -116,6 +116,7 @@ class TCPServer:
         self._stopping = threading.Event()
         self._connections: set[Connection] = set()
         self._lock = threading.Lock()
+        self._connected = threading.Condition(self._lock)  # notified when a connection is added
         self._threads: list[threading.Thread] = []
         self._refused = 0  # connections refused since the last log line about them
         self._refusals_logged_at = 0.0
@@ -169,6 +170,13 @@ class TCPServer:
         """The open connections (a snapshot)."""
         with self._lock:
             return list(self._connections)
+
+    def wait_for_clients(self, timeout: float = POLL_INTERVAL) -> bool:
+        """Block until a connection is open, at most `timeout` s; True when one is. A streamer with nobody to send
+        to waits here instead of waking every control cycle."""
+        with self._connected:
+            return self._connected.wait_for(lambda: bool(self._connections) or self._stopping.is_set(), timeout) \
+                and bool(self._connections)
 
     def spawn(self, target, role: str, *args) -> threading.Thread:
         """Start a daemon thread of this server (joined by stop())."""
@@ -261,8 +269,9 @@ class TCPServer:
             except OSError:  # the client already went away
                 connection.close()
                 continue
-            with self._lock:
+            with self._connected:
                 self._connections.add(connection)
+                self._connected.notify_all()
             self.spawn(self._serve_then_forget, f"client-{peer[1]}", connection)
 
     def _refuse(self, sock: socket.socket) -> None:

@@ -267,6 +267,11 @@ class RealtimeServer(_InterfaceServer):
         delayed = DelayLine()
         cycle = controller.state().cycle
         while not self._stopping.is_set():
+            if not self.connections():  # nobody to send to: wait for a client, not for every cycle
+                controller.forget_reader("realtime")  # nor make a fast clock wait for this idle stream
+                self.wait_for_clients()
+                cycle = controller.state().cycle
+                continue
             states = controller.cycles_after(cycle, timeout=POLL_INTERVAL, reader="realtime")
             if not states:  # no new cycle: timed out, or the control loop has stopped
                 self._stopping.wait(controller.period)

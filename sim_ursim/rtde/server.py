@@ -389,6 +389,11 @@ class RTDEServer(TCPServer):
         controller = self.controller
         last_cycle = controller.state().cycle
         while not self.stopping:
+            if not self.connections():  # nobody to send to: wait for a client, not for every cycle
+                controller.forget_reader("rtde")  # nor make a fast clock wait for this idle stream
+                self.wait_for_clients()
+                last_cycle = self._first_cycle_to_send(controller.state().cycle)
+                continue
             states = controller.cycles_after(last_cycle, _WAIT_TIMEOUT, reader="rtde")
             if not states:
                 if not controller.running:
@@ -404,6 +409,11 @@ class RTDEServer(TCPServer):
             sessions = [session for session in self.sessions() if not session.connection.closed.is_set()]
             for state in states:  # every cycle, in order: a late frame is sent late, never dropped
                 self._send_cycle(state, sessions)
+
+    def _first_cycle_to_send(self, current: int) -> int:
+        """The cycle to stream after, once clients are back: the present one, or earlier if a session that started
+        meanwhile wants an earlier one."""
+        return min([current, *(session.next_cycle - 1 for session in self.sessions() if session.streaming)])
 
     def _send_cycle(self, state: ControllerState, sessions: list[Session]) -> None:
         """Queue one cycle's data package on every started session whose decimation takes this cycle."""
