@@ -233,14 +233,17 @@ def _read_only(array: Vector) -> np.ndarray:
 class ArmKinematics:
     """One arm's kinematics with its active TCP offset (a read-only pose vector in the flange frame).
 
-    Replacing `tcp_offset` changes every answer at once. `poses_at(q)` is cached while q and the offset are the same
-    objects, so an idle control cycle costs nothing.
+    Replacing `tcp_offset` changes every answer at once. `poses_at(q)` keeps its last two answers while q and the
+    offset are the same objects, so an idle control cycle costs nothing and a moving one computes the forward
+    kinematics of its new joints only (its previous joints' were computed by the cycle before).
     """
 
     def __init__(self, dh: DH, tcp_offset: Vector):
         self.dh = dh
         self.tcp_offset = _read_only(tcp_offset)
-        self._cache: tuple[Any, Any] = (None, None)   # ((q, tcp_offset), poses_at's result)
+        # The last two ((q, tcp_offset), poses_at's result), newest first; one tuple, replaced whole.
+        self._cache: tuple[tuple[Any, Any], ...] = (((None, None), None),) * 2
+        self._offset_matrix: tuple[Any, Any] = (None, None)  # (tcp_offset, its 4x4 transform)
 
     def tcp_matrix(self, q: Vector) -> np.ndarray:
         """Base→TCP transform at joints q."""
@@ -256,22 +259,31 @@ class ArmKinematics:
 
     def poses_at(self, q: np.ndarray) -> tuple[np.ndarray, list[np.ndarray], np.ndarray, np.ndarray]:
         """(TCP matrix, the 7 joint frames, TCP pose, flange pose) at q; the poses read-only."""
-        key, cached = self._cache
-        if key is not None and key[0] is q and key[1] is self.tcp_offset:
-            return cached
+        offset = self.tcp_offset
+        cache = self._cache
+        for key, cached in cache:
+            if key[0] is q and key[1] is offset:
+                return cached
         frames = joint_frames(self.dh, q)
-        tcp = frames[-1] @ pose_to_matrix(self.tcp_offset)
+        tcp = frames[-1] @ self._tcp_offset_matrix(offset)
         result = (tcp, frames, _read_only(matrix_to_pose(tcp)), _read_only(matrix_to_pose(frames[-1])))
-        self._cache = ((q, self.tcp_offset), result)
+        self._cache = (((q, offset), result), cache[0])
         return result
+
+    def _tcp_offset_matrix(self, offset: np.ndarray) -> np.ndarray:
+        """The 4x4 transform of the TCP offset `offset` (computed once per offset object)."""
+        cached_offset, matrix = self._offset_matrix
+        if cached_offset is not offset:
+            matrix = pose_to_matrix(offset)
+            self._offset_matrix = (offset, matrix)
+        return matrix
 
     def speeds_between(self, previous_q: np.ndarray, q: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
         """(TCP twist [v; ω] (6,), elbow velocity (3,)) by finite difference from previous_q to q over dt."""
         tcp, frames, _, _ = self.poses_at(q)
         if previous_q is q:
             return np.zeros(6), np.zeros(3)
-        old_frames = joint_frames(self.dh, previous_q)
-        old_tcp = old_frames[-1] @ pose_to_matrix(self.tcp_offset)
+        old_tcp, old_frames, _, _ = self.poses_at(previous_q)
         twist = np.concatenate([(tcp[:3, 3] - old_tcp[:3, 3]) / dt,
                                 matrix_to_rotation_vector(tcp[:3, :3] @ old_tcp[:3, :3].T) / dt])
         return twist, (frames[2][:3, 3] - old_frames[2][:3, 3]) / dt

@@ -18,6 +18,7 @@ from polling import wait_for
 from sim_ursim import kinematics
 from sim_ursim.controller import JOINT_HISTORY_CYCLES, Controller
 from sim_ursim.messages import SafetyModeMessage
+from sim_ursim.models import robot_model
 from sim_ursim.urscript.builtins import BUILTINS
 from sim_ursim.urscript.values import ScriptError
 from sim_ursim.vocabulary import CommandRefused, JointMode, RobotMode, RuntimeState, SafetyMode, UnlockTooEarly
@@ -540,3 +541,23 @@ def test_joint_positions_history_gives_the_measured_joints_of_earlier_cycles(ste
     for bad in (1.5, -1, JOINT_HISTORY_CYCLES):
         with pytest.raises(ScriptError, match="steps must be a whole number from 0"):
             history(script, bad)
+
+
+def test_tcp_and_elbow_speeds_are_the_finite_difference_with_the_present_tcp():
+    """speeds_between reuses the forward kinematics of the previous cycle's joints; after a TCP change it must use
+    the new TCP for both ends, as a finite difference computed from scratch does."""
+    arm = kinematics.ArmKinematics(robot_model("ur5e").dh, np.zeros(6))
+    dt = 0.002
+    previous_q, q = np.array([0.1, -1.2, 1.0, -0.5, 1.4, 0.3]), np.array([0.1002, -1.1995, 1.0004, -0.5, 1.4, 0.301])
+    for tcp in (np.zeros(6), np.array([0.0, 0.05, 0.2, 0.0, 0.3, 0.0])):
+        arm.poses_at(previous_q)  # the cycle before: its joints' kinematics (with the old TCP on the second pass)
+        arm.tcp_offset = tcp
+        arm.poses_at(q)
+        twist, elbow = arm.speeds_between(previous_q, q, dt)
+        new, old = (kinematics.tcp_matrix(arm.dh, joints, tcp) for joints in (q, previous_q))
+        expected_twist = np.concatenate([(new[:3, 3] - old[:3, 3]) / dt,
+                                         kinematics.matrix_to_rotation_vector(new[:3, :3] @ old[:3, :3].T) / dt])
+        elbows = [kinematics.joint_frames(arm.dh, joints)[2][:3, 3] for joints in (q, previous_q)]
+        assert twist == pytest.approx(expected_twist, abs=1e-9)
+        assert elbow == pytest.approx((elbows[0] - elbows[1]) / dt, abs=1e-9)
+
