@@ -143,12 +143,13 @@ class CycleBoard(Generic[Item]):
         self._awaiting_readers = False   # a fast loop waits for the readers: tell it when one reads
 
     def publish(self, item: Item, new_cycle: bool) -> None:
-        """Make `item` the latest (a new cycle's is also recorded) and wake the waiters."""
+        """Make `item` the latest; a new cycle's is also recorded and wakes the waiters (a commit's, under the same
+        cycle number, wakes nobody: every wait here is for a newer cycle)."""
         with self._changed:
             self.latest = item
             if new_cycle:
                 self._record.append(item)
-            self._changed.notify_all()
+                self._changed.notify_all()
 
     def wake(self) -> None:
         """Wake every waiter (to see that the loop stopped)."""

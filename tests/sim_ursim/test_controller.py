@@ -561,3 +561,21 @@ def test_tcp_and_elbow_speeds_are_the_finite_difference_with_the_present_tcp():
         assert twist == pytest.approx(expected_twist, abs=1e-9)
         assert elbow == pytest.approx((elbows[0] - elbows[1]) / dt, abs=1e-9)
 
+
+def test_a_command_wakes_no_thread_waiting_for_a_cycle():
+    """A command's commit publishes no new cycle: the threads waiting for one (streamers, script threads) must sleep
+    on, not wake up only to find no new cycle (at the control rate each wake-up is a turn of the GIL)."""
+    controller = Controller(model="ur5e")
+    wake_ups = []
+    condition = controller._board._changed
+    original_wait = condition.wait
+    condition.wait = lambda timeout=None: wake_ups.append(1) or original_wait(timeout)
+    waiter = threading.Thread(target=controller.wait_cycle, args=(controller.state().cycle, 2.0))
+    waiter.start()
+    wait_for(lambda: wake_ups, timeout=2.0)
+    for fraction in (0.5, 0.6, 0.7, 0.8, 0.9):
+        controller.set_speed_slider(fraction)
+        time.sleep(0.02)  # time for a woken waiter to wait again
+    controller.step()
+    waiter.join(timeout=2.0)
+    assert len(wake_ups) == 1
