@@ -541,9 +541,11 @@ class Controller:
 
     def set_script_control_line(self, line: int) -> None:
         """The URScript line being executed (RTDE script_control_line); set by the runner."""
+        line = max(0, int(line))
         with self._lock:
-            self._script_control_line = max(0, int(line))
-            self._commit(script_control_line=self._script_control_line)
+            if line != self._script_control_line:  # a thread waiting again at the same line changes nothing
+                self._script_control_line = line
+                self._commit(script_control_line=line)
 
     # ---------------------------------------------------------------- kinematics helpers
     def fk(self, q: Vector) -> np.ndarray:

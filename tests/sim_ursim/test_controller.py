@@ -562,6 +562,19 @@ def test_tcp_and_elbow_speeds_are_the_finite_difference_with_the_present_tcp():
         assert elbow == pytest.approx((elbows[0] - elbows[1]) / dt, abs=1e-9)
 
 
+def test_the_same_script_line_again_commits_nothing():
+    """The main script thread reports its line each time it starts waiting (RTDE script_control_line); waiting again
+    at the same line (a socket read in a loop) must not republish the snapshot, which marks the next cycle as
+    changed and costs a full snapshot."""
+    controller = Controller(model="ur5e")
+    controller.set_script_control_line(12)
+    published = controller.state()
+    controller.set_script_control_line(12)
+    assert controller.state() is published
+    controller.set_script_control_line(13)
+    assert controller.state().script_control_line == 13
+
+
 def test_a_command_wakes_no_thread_waiting_for_a_cycle():
     """A command's commit publishes no new cycle: the threads waiting for one (streamers, script threads) must sleep
     on, not wake up only to find no new cycle (at the control rate each wake-up is a turn of the GIL)."""
