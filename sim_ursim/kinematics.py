@@ -63,7 +63,7 @@ def matrix_to_rotation_vector(rotation: np.ndarray) -> np.ndarray:
     trace = r[0, 0] + r[1, 1] + r[2, 2]
     # Shepperd's method: pick the largest of w, x, y, z to divide by, so no precision is lost near π.
     candidates = (trace, r[0, 0], r[1, 1], r[2, 2])
-    k = int(np.argmax(candidates))
+    k = max(range(4), key=candidates.__getitem__)  # the first largest, as np.argmax, without making an array
     if k == 0:
         w = math.sqrt(max(1.0 + trace, 0.0)) / 2
         x, y, z = (r[2, 1] - r[1, 2]) / (4 * w), (r[0, 2] - r[2, 0]) / (4 * w), (r[1, 0] - r[0, 1]) / (4 * w)
