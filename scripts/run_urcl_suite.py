@@ -281,7 +281,11 @@ def run_cases(cases: list[Case], options: argparse.Namespace, programs: Path, lo
                 break
     finally:
         simulator.terminate()
-        simulator.wait(10)
+        try:
+            simulator.wait(10)
+        except subprocess.TimeoutExpired:  # a starved simulator may not finish its shutdown in time
+            simulator.kill()
+            simulator.wait()
     return outcomes
 
 
