@@ -60,6 +60,7 @@ class Motion:
         self.blend_radius = blend_radius
         self.error: str | None = None
         self._ended = threading.Event()
+        self._wake_on_end: list[threading.Event] = []  # events of waiters to set when the motion ends
 
     @property
     def done(self) -> bool:
@@ -85,10 +86,18 @@ class Motion:
             self._ended.wait(remaining)
         return True
 
+    def wake_on_end(self, event: threading.Event) -> None:
+        """Set `event` when the motion ends (at once if it has): a waiter for several things waits on one event."""
+        self._wake_on_end.append(event)
+        if self._ended.is_set():
+            event.set()
+
     def _finish(self, error: str | None = None) -> None:
         if not self._ended.is_set():
             self.error = error
             self._ended.set()
+            for event in list(self._wake_on_end):
+                event.set()
 
     def __repr__(self) -> str:
         status = "running" if not self.done else ("ok" if self.error is None else f"failed: {self.error}")

@@ -34,6 +34,7 @@ log = logging.getLogger("sim_ursim.urscript")
 
 STATEMENTS_PER_SECOND = 25_000  # computation a script thread may do per second of controller time (see above)
 MIN_STATEMENTS_PER_FRAME = 200  # a controller runs a URCL spline step (~55 statements) within a 2 ms frame
+MOTION_WAIT_CHECK = 0.05  # s: a thread waiting for a motion looks at its cancel flag at least this often
 MAX_CALL_DEPTH = 100  # nested function calls of one script thread before the run-time error "stack overflow"
 STACK_OVERFLOW = "runtime_error:stack overflow:"  # UR does not publish its controller's text for this error
 KILLED_MOVE_DECELERATION = 4.0  # rad/s²: the arm's stop when the thread running its move is killed
@@ -144,8 +145,9 @@ class ThreadContext:
         self.execution = execution
         self.controller = execution.controller
         self.name = name
-        self.cancel = threading.Event()
+        self.cancel = threading.Event()  # set through request_cancel(), which also wakes a wait_for_motion()
         self.done = threading.Event()
+        self._wake = threading.Event()  # set when the motion this thread waits for ends, or it is cancelled
         self.frames: list[dict[str, object]] = []  # one dict of locals per active function call / thread body
         self.critical = 0
         self.line = 0  # line of the statement being executed
@@ -169,6 +171,19 @@ class ThreadContext:
         """This thread starts or stops running statements (the control loop's FrameTurn is told)."""
         self.running = running
         self.controller.frame_turn.changed(self)
+
+    def request_cancel(self) -> None:
+        """Kill this thread (or stop its program): it raises Cancelled when it next checks; a motion wait ends now."""
+        self.cancel.set()
+        self._wake.set()
+
+    def wait_for_motion(self, motion: Motion) -> None:
+        """Block until `motion` ends or this thread is cancelled: either wakes it (no polling every cycle)."""
+        self._wake.clear()
+        motion.wake_on_end(self._wake)
+        while not motion.done and not self.cancel.is_set():
+            self._wake.wait(MOTION_WAIT_CHECK)
+            self._wake.clear()
 
     def check(self) -> None:
         """Raise Cancelled if this thread was killed or its program stopped; block while the program is paused."""
@@ -242,9 +257,7 @@ class ThreadContext:
             motion = command()
             self.motion = motion
             with self.waiting():
-                # Wake every control cycle: a stop/kill/new program interrupts the wait within one cycle.
-                while not motion.wait(timeout=self.controller.period) and not self.cancel.is_set():
-                    pass
+                self.wait_for_motion(motion)  # a stop/kill/new program cancels the thread and ends the wait at once
                 if motion.done:
                     # The motion ends inside a control cycle whose snapshot is published just after: wait for it,
                     # so the next get_actual_* sees where the move ended.
@@ -303,7 +316,7 @@ class Execution:
         with self._contexts_lock:
             contexts = list(self._contexts)
         for context in contexts:
-            context.cancel.set()
+            context.request_cancel()
 
     def run(self) -> URScriptRuntimeError | None:
         """Run the main thread to the end in the calling Python thread; returns the URScriptRuntimeError or None.
@@ -434,7 +447,7 @@ class Execution:
         thread = self._threads.get(handle)
         if thread is None:
             return
-        thread.cancel.set()
+        thread.request_cancel()
         motion = thread.motion
         if motion is not None and not motion.done:
             try:
@@ -600,7 +613,7 @@ class Execution:
         handle = next(self._handles)
         thread_context = self._new_context(definition.name)
         if ctx.cancel.is_set():
-            thread_context.cancel.set()
+            thread_context.request_cancel()
         self._threads[handle] = thread_context
         python_thread = threading.Thread(
             target=self._run_thread, args=(thread_context, definition), name=f"urscript-{definition.name}", daemon=True

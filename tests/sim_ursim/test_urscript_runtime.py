@@ -2,6 +2,7 @@
 and the next goal: ur_rtde's RTDEControlInterface uploading its control script to a simulator."""
 import queue
 import socket
+import threading
 import time
 
 import numpy as np
@@ -168,6 +169,35 @@ def test_stop_interrupts_a_move_and_the_arm_comes_to_rest(controller):
     assert runtime_state(controller) == RuntimeState.STOPPED
     assert wait_for(lambda: not controller.state().motion_active, timeout=2.0)
     assert controller.state().actual_q[0] < 1.0
+
+
+def _thread_runs(native_id):
+    """Times the kernel has put a thread of this process on a CPU so far (/proc's schedstat)."""
+    with open(f"/proc/self/task/{native_id}/schedstat", encoding="ascii") as stats:
+        return int(stats.read().split()[2])
+
+
+def test_a_thread_waiting_for_its_move_sleeps_until_the_move_ends_or_it_is_stopped():
+    """A script thread waiting for a move is woken by the move's end or by a stop, not every control cycle (at
+    500 Hz that was 500 wake-ups a second, each needing the GIL); a stop still ends the wait at once."""
+    c = Controller("ur3e", initial_q=HOME, mode_delay=0.01)
+    c.attach_program_runner(ProgramRunner(c))
+    c.start()
+    try:
+        c.power_up()
+        assert c.run_program(f"def long_move():\n  {LONG_MOVE}end\n")
+        wait_for(lambda: c.state().motion_active, timeout=2.0)
+        script_thread = next(t for t in threading.enumerate() if t.name == "urscript-long_move")
+        runs_before = _thread_runs(script_thread.native_id)
+        time.sleep(0.5)  # 250 control cycles of the move
+        runs = _thread_runs(script_thread.native_id) - runs_before
+        stopped = time.monotonic()
+        c.stop_program()
+        script_thread.join(timeout=2.0)
+        assert not script_thread.is_alive() and time.monotonic() - stopped < 0.5
+    finally:
+        c.shutdown()
+    assert runs <= 40
 
 
 def test_replacing_a_moving_program_stops_its_move(controller):

@@ -139,8 +139,7 @@ def _held_speed(ctx: ThreadContext, command, speed, acceleration, duration):
     ctx.awaiting_hold = motion  # once it has moved its time, the control loop waits for this thread's next command
     try:
         with ctx.waiting():
-            while not motion.wait(timeout=ctx.controller.period) and not ctx.cancel.is_set():
-                pass
+            ctx.wait_for_motion(motion)
     finally:
         ctx.awaiting_hold = None
     ctx.check()
