@@ -216,7 +216,7 @@ class CycleInputs:
 
 
 class TurnTaker(Protocol):
-    """A script thread as FrameTurn sees it (an interpreter.ThreadContext)."""
+    """A script thread as FrameTurn sees it (a script_thread.ThreadContext)."""
 
     def owes_frame(self) -> bool:
         """True while it runs statements, or what it waited for has come and it has not run yet."""

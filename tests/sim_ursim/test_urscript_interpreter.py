@@ -337,7 +337,7 @@ end
 
 
 def test_a_busy_loop_is_suspended_until_the_next_frame_when_its_slice_is_used_up(controller):
-    from sim_ursim.urscript.interpreter import MIN_STATEMENTS_PER_FRAME, STATEMENTS_PER_SECOND
+    from sim_ursim.urscript.script_thread import MIN_STATEMENTS_PER_FRAME, STATEMENTS_PER_SECOND
 
     # Two statements per iteration: the loop test and the assignment (counting only the assignment gave 5-6 frames).
     # Every used-up slice waits for a newer cycle than the one it saw, so the bound holds however loaded the box is.

@@ -8,7 +8,7 @@ when called (`UNSUPPORTED`).
 from sim_ursim.rtde.watchdog import watchdogs_of
 from sim_ursim.urscript.builtins.arguments import as_number
 from sim_ursim.urscript.builtins.registry import builtin, register
-from sim_ursim.urscript.interpreter import ThreadContext
+from sim_ursim.urscript.script_thread import ThreadContext
 from sim_ursim.urscript.values import ScriptError, number_list, to_str
 
 

@@ -10,7 +10,7 @@ from typing import Any
 
 from sim_ursim.urscript.builtins.arguments import as_integer, as_number, controller_call
 from sim_ursim.urscript.builtins.registry import builtin, register
-from sim_ursim.urscript.interpreter import ThreadContext
+from sim_ursim.urscript.script_thread import ThreadContext
 from sim_ursim.urscript.values import ScriptError
 
 # (local index offset into the flat 0-17 numbering, channel count) of each digital group

@@ -5,7 +5,7 @@ import numpy as np
 
 from sim_ursim.urscript.builtins.arguments import as_integer, as_number
 from sim_ursim.urscript.builtins.registry import builtin, register
-from sim_ursim.urscript.interpreter import ThreadContext
+from sim_ursim.urscript.script_thread import ThreadContext
 from sim_ursim.urscript.values import Pose, ScriptError, number_list, to_str
 
 

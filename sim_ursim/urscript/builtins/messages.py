@@ -1,7 +1,7 @@
 """URScript message built-ins: log text and operator popups, published on the primary interface."""
 from sim_ursim.messages import PopupMessage, TextMessage
 from sim_ursim.urscript.builtins.registry import builtin
-from sim_ursim.urscript.interpreter import ThreadContext
+from sim_ursim.urscript.script_thread import ThreadContext
 from sim_ursim.urscript.values import to_str
 
 

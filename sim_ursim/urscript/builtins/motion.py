@@ -10,7 +10,7 @@ import numpy as np
 from sim_ursim import kinematics
 from sim_ursim.urscript.builtins.arguments import as_number, controller_call
 from sim_ursim.urscript.builtins.registry import builtin
-from sim_ursim.urscript.interpreter import ThreadContext
+from sim_ursim.urscript.script_thread import ThreadContext
 from sim_ursim.urscript.values import Pose, ScriptError, number_list, to_str
 
 

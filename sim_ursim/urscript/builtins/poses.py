@@ -9,7 +9,7 @@ import numpy as np
 from sim_ursim import kinematics
 from sim_ursim.urscript.builtins.arguments import as_number, as_pose_array, to_list, to_pose
 from sim_ursim.urscript.builtins.registry import builtin
-from sim_ursim.urscript.interpreter import ThreadContext
+from sim_ursim.urscript.script_thread import ThreadContext
 from sim_ursim.urscript.values import number_list
 
 

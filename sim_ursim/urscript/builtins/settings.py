@@ -9,7 +9,7 @@ from typing import Any
 
 from sim_ursim.urscript.builtins.arguments import as_number, as_pose_array, controller_call, to_list, to_pose
 from sim_ursim.urscript.builtins.registry import builtin, register
-from sim_ursim.urscript.interpreter import ThreadContext
+from sim_ursim.urscript.script_thread import ThreadContext
 from sim_ursim.urscript.values import ScriptError, number_list
 
 
