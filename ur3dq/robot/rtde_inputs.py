@@ -51,8 +51,9 @@ WRITE_TIMEOUT = 1.0
 
 
 class RTDEInputs:
-    """The RTDE inputs of `host`: the integer registers `int_registers` and every digital output family, opened at
-    construction; RobotConnectionError if the controller cannot be reached or refuses them.
+    """The RTDE inputs of `host`: the integer registers `int_registers` and, with `outputs`, every digital output
+    family and the speed slider, opened at construction; RobotConnectionError if the controller cannot be reached or
+    refuses them.
 
     Examples
     --------
@@ -62,8 +63,9 @@ class RTDEInputs:
     (True, None)
     """
 
-    def __init__(self, host: str, int_registers: Iterable[int] = INPUT_INT_REGISTERS) -> None:
+    def __init__(self, host: str, int_registers: Iterable[int] = INPUT_INT_REGISTERS, outputs: bool = True) -> None:
         self.host = host
+        self._outputs = bool(outputs)
         self._lock = threading.Lock()
         self._registers = tuple(int(register) for register in int_registers)
         self._socket: socket.socket | None = None
@@ -87,8 +89,9 @@ class RTDEInputs:
             if exchange(sock, REQUEST_PROTOCOL_VERSION, struct.pack(">H", PROTOCOL_VERSION), deadline)[:1] != b"\1":
                 raise RobotConnectionError(f"{where}: the controller refused RTDE protocol version 2")
             recipes = {f"int {register}": [(f"input_int_register_{register}", "INT32")] for register in self._registers}
-            recipes.update({family: [(name, "UINT8") for name in names] for family, names in OUTPUT_INPUTS.items()})
-            recipes["speed slider"] = list(SPEED_SLIDER_INPUTS)
+            if self._outputs:
+                recipes.update({family: [(name, "UINT8") for name in names] for family, names in OUTPUT_INPUTS.items()})
+                recipes["speed slider"] = list(SPEED_SLIDER_INPUTS)
             for purpose, fields in recipes.items():
                 self._recipes[purpose] = _set_up(sock, fields, deadline, where)
             sock.settimeout(WRITE_TIMEOUT)
@@ -103,11 +106,14 @@ class RTDEInputs:
 
     def _write(self, purpose: str, payload: bytes) -> bool:
         """One data package of the recipe for `purpose`; False (and the inputs closed) when it cannot be sent."""
+        recipe = self._recipes.get(purpose)
+        if recipe is None:
+            raise ValueError(f"these RTDE inputs of {self.host} hold no {purpose} (opened with outputs=False)")
         with self._lock:
             sock = self._socket
             if sock is None:
                 return False
-            body = bytes([self._recipes[purpose]]) + payload
+            body = bytes([recipe]) + payload
             try:
                 sock.sendall(HEADER.pack(HEADER.size + len(body), DATA) + body)
             except OSError:   # reset, broken pipe, or the controller stopped reading for WRITE_TIMEOUT
