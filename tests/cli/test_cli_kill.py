@@ -1,5 +1,6 @@
 """kill -9 (or a hang) of `run-poses` mid-move: ur3dq can send no stopj, so the controller stops the arm by itself,
 on the heartbeat its motion programs watch (ur3dq.robot.heartbeat). Checked from outside with the simulator's state."""
+import os
 import signal
 import time
 
@@ -60,3 +61,52 @@ def test_kill_9_during_teach_ends_freedrive_within_0_3_s(arm, tmp_path):
         ended_after = time.monotonic() - killed_at
     assert ended_after < 0.3, f"freedrive ended {ended_after:.3f} s after ur3dq died"
     assert not send_request(arm.host, "status")["state"]["program_running"]
+
+
+def children_of(pid):
+    """The pids of the living processes whose parent is `pid` (from /proc)."""
+    found = []
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            try:
+                with open(f"/proc/{entry}/stat", "rb") as stat_file:
+                    stat = stat_file.read()
+            except OSError:   # it ended meanwhile
+                continue
+            state, parent = stat[stat.rfind(b")") + 2:].split()[:2]
+            if int(parent) == pid and state != b"Z":
+                found.append(int(entry))
+    return found
+
+
+def ended(pid):
+    """Whether process `pid` has ended (gone, or a zombie waiting for its new parent to reap it)."""
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as stat_file:
+            stat = stat_file.read()
+    except OSError:
+        return True
+    return stat[stat.rfind(b")") + 2:][:1] == b"Z"
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="reads processes from /proc")
+def test_the_heartbeat_process_ends_with_ur3dq(arm, tmp_path):
+    """The heartbeat beats from a process of ur3dq's own, which must never outlive it: after kill -9 of ur3dq it
+    reads the end of its pipe from ur3dq and exits. The kernel closes that pipe once it has freed ur3dq's memory,
+    which a loaded machine takes tenths of a second to do; the beats stop before (the test above)."""
+    import subprocess
+
+    from cli_support import cli_process
+
+    arm.place(START)
+    with cli_process(tmp_path, "--host", arm.host, "record-pose", "--teach", stdin=subprocess.PIPE) as process:
+        assert "Freedrive is on" in process.stderr.readline()
+        beating = children_of(process.pid)
+        assert len(beating) == 1, f"ur3dq runs {len(beating)} processes, not its heartbeat's alone"
+        killed_at = time.monotonic()
+        process.send_signal(signal.SIGKILL)
+        while not ended(beating[0]):
+            assert time.monotonic() - killed_at < 5, "the heartbeat's process outlived ur3dq by 5 s"
+            time.sleep(0.005)
+        ended_after = time.monotonic() - killed_at
+    assert ended_after < 3, f"the heartbeat's process ended {ended_after:.3f} s after ur3dq"

@@ -596,11 +596,11 @@ class Robot:
 
     @property
     def inputs(self) -> RTDEInputs:
-        """This client's RTDE inputs (opened on first use): the speed slider, registers 18-22 (20: the heartbeat)."""
+        """This client's RTDE inputs (opened on first use): outputs, speed slider, registers 18, 19, 21, 22."""
         return self._rtde_inputs()
 
     def _rtde_inputs(self) -> RTDEInputs:
-        """This client's RTDE inputs (opened on first use; the heartbeat beats on them)."""
+        """This client's RTDE inputs (opened on first use; the heartbeat opens them with its own)."""
         if self._inputs is None:
             self._inputs = RTDEInputs(self.host)
         return self._inputs

@@ -4,8 +4,8 @@ connection.
 One RTDE connection of ur3dq's own (RTDE protocol version 2, UR's "Real-Time Data Exchange" guide): an input
 recipe per purpose — each integer register asked for, and each output family's mask and bits — set up once, then
 a data package per write, as ur_rtde's RTDEIOInterface does (docs/protocols.md, 5.7). Writes go out from the
-calling thread; one lock serialises the heartbeat thread's writes and the caller's (ur3dq.robot.heartbeat,
-Robot.set_digital_out).
+calling thread; one lock serialises the writes of several threads (Robot.set_digital_out, a jog's keep-alive).
+The heartbeat's process opens a second one holding its register alone (ur3dq.robot.heartbeat_process).
 
 ur_rtde's RTDEIOInterface is not used for this: when the controller goes away it aborts the process that holds it
 (after a failed write it still counts itself as started, so its disconnect, and again its destructor, writes
@@ -41,9 +41,10 @@ OUTPUT_INPUTS = {
     "configurable": ("configurable_digital_output_mask", "configurable_digital_output"),
     "tool": ("tool_digital_output_mask", "tool_digital_output"),
 }
-#: The integer registers held: ur_rtde's lower range, as its RTDEIOInterface holds it (20: the heartbeat, 21: a
-#: held jog's keep-alive, ur3dq.robot.jog).
-INPUT_INT_REGISTERS = (18, 19, 20, 21, 22)
+#: The integer registers held: ur_rtde's lower range, as its RTDEIOInterface holds it (21: a held jog's keep-alive,
+#: ur3dq.robot.jog), but for 20, which the heartbeat's process holds on a connection of its own
+#: (ur3dq.robot.heartbeat).
+INPUT_INT_REGISTERS = (18, 19, 21, 22)
 #: The speed slider's RTDE inputs and their types: which fields to apply (bit 0: the fraction), and the fraction.
 SPEED_SLIDER_INPUTS = (("speed_slider_mask", "UINT32"), ("speed_slider_fraction", "DOUBLE"))
 #: Seconds a write may block (the controller no longer reading) before the inputs count as lost.
@@ -59,7 +60,7 @@ class RTDEInputs:
     --------
     >>> from ur3dq.robot.rtde_inputs import RTDEInputs
     >>> inputs = RTDEInputs("127.0.0.2")     # doctest: +SKIP
-    >>> inputs.set_int_register(20, 1), inputs.set_digital_out("tool", 0, True)     # doctest: +SKIP
+    >>> inputs.set_int_register(18, 1), inputs.set_digital_out("tool", 0, True)     # doctest: +SKIP
     (True, None)
     """
 
