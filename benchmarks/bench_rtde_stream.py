@@ -74,26 +74,6 @@ def ur_rtde_recording(host, seconds):
     return np.array(stamps)
 
 
-def raw_arrivals(host, rate, seconds):
-    """Arrival times (monotonic) of every data package a raw protocol-2 reader gets for `seconds`."""
-    arrivals = []
-    with socket.create_connection((host, 30004), timeout=5) as sock:
-        for request in (protocol.pack_protocol_version_request(2),
-                        protocol.pack_setup_outputs_request(["timestamp", "actual_q", "actual_TCP_pose"], rate, 2),
-                        protocol.pack_start_request()):
-            sock.sendall(request)
-        buffer = bytearray()
-        deadline = time.monotonic() + seconds
-        while time.monotonic() < deadline:
-            buffer += sock.recv(65536)
-            now = time.monotonic()
-            while (package := protocol.split_package(buffer)) is not None:
-                del buffer[:package[2]]
-                if package[0] == protocol.PackageType.DATA_PACKAGE:
-                    arrivals.append(now)
-    return np.array(arrivals)
-
-
 def p99_ms(values):
     return float(np.percentile(np.diff(values), 99) * 1000)
 
@@ -104,7 +84,7 @@ def measure(model, nominal, seconds):
         time.sleep(1.0)  # let the process settle after start-up
         _, idle_cpu = cpu_share(pid, lambda: time.sleep(3.0))
         stamps, streaming_cpu = cpu_share(pid, lambda: ur_rtde_recording(simulator.host, seconds))
-        arrivals = raw_arrivals(simulator.host, nominal, seconds)
+        _, arrivals = raw_frames(simulator.host, nominal, seconds)
     kept_rate = len(stamps) / seconds
     wire_rate = len(arrivals) / seconds
     return {

@@ -41,6 +41,15 @@ def write_program(path):
     PoseStore(path).update_program(lambda old: (steps, None))
 
 
+def wait_until_the_arm_moves(host, process):
+    """Wait (60 s at most, while `process` runs) until the simulated arm has left START: freeze it now and it freezes
+    0.1 s into the approach."""
+    deadline = time.monotonic() + 60
+    while np.max(np.abs(np.array(send_request(host, "status")["state"]["q"]) - START)) < 0.01:
+        assert time.monotonic() < deadline and process.poll() is None, "the arm never moved"
+        time.sleep(0.005)
+
+
 def test_a_freeze_during_a_move_is_reported_at_the_step_and_place_the_arm_reached(tmp_path):
     """Frozen 0.1 s into the approach for 2 s: ur3dq stops the program about 1 s later, during the wait, with the
     arm on the approach's target; the report names the wait and that place (the last report before the freeze named
@@ -49,10 +58,7 @@ def test_a_freeze_during_a_move_is_reported_at_the_step_and_place_the_arm_reache
     with powered_simulator(model="ur3", initial_q=list(START)) as simulator:
         host = simulator.host
         with cli_process(tmp_path, "--host", host, "run-poses", "--yes") as process:
-            deadline = time.monotonic() + 60
-            while np.max(np.abs(np.array(send_request(host, "status")["state"]["q"]) - START)) < 0.01:
-                assert time.monotonic() < deadline and process.poll() is None, "the arm never moved"
-                time.sleep(0.005)
+            wait_until_the_arm_moves(host, process)
             assert send_request(host, "freeze", seconds=2.0)["ok"]
             _, stderr = process.communicate(timeout=60)
         rest = np.array(send_request(host, "status")["state"]["q"])
@@ -76,10 +82,7 @@ def test_a_long_freeze_ends_the_run_and_the_arm_stays_stopped(tmp_path):
     with powered_simulator(model="ur3", initial_q=list(START)) as simulator:
         host = simulator.host
         with cli_process(tmp_path, "--host", host, "run-poses", "--yes") as process:
-            deadline = time.monotonic() + 60
-            while np.max(np.abs(np.array(send_request(host, "status")["state"]["q"]) - START)) < 0.01:
-                assert time.monotonic() < deadline and process.poll() is None, "the arm never moved"
-                time.sleep(0.005)
+            wait_until_the_arm_moves(host, process)
             thawed_at = time.monotonic() + LONG_FREEZE
             assert send_request(host, "freeze", seconds=LONG_FREEZE)["ok"]
             stdout, stderr = process.communicate(timeout=30)
@@ -103,10 +106,7 @@ def test_run_poses_ends_while_the_controller_is_still_frozen(tmp_path):
     with powered_simulator(model="ur3", initial_q=list(START)) as simulator:
         host = simulator.host
         with cli_process(tmp_path, "--host", host, "run-poses", "--yes") as process:
-            deadline = time.monotonic() + 60
-            while np.max(np.abs(np.array(send_request(host, "status")["state"]["q"]) - START)) < 0.01:
-                assert time.monotonic() < deadline and process.poll() is None, "the arm never moved"
-                time.sleep(0.005)
+            wait_until_the_arm_moves(host, process)
             thawed_at = time.monotonic() + ENDLESS_FREEZE
             assert send_request(host, "freeze", seconds=ENDLESS_FREEZE)["ok"]
             _, stderr = process.communicate(timeout=ENDLESS_FREEZE + 30)
