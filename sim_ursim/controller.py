@@ -10,6 +10,7 @@ its effect is in `state()` as soon as it returns (I/O writes too, through IOStat
 problems raise `CommandRefused` or ValueError; run-time problems end the Motion with `.error` set, and a motion
 crossing a joint or joint-speed limit raises a protective stop (motion_queue.py). Modelling choices: docs/ursim.md.
 """
+import functools
 import logging
 import math
 import threading
@@ -390,8 +391,10 @@ class Controller:
         with self._lock:
             self._require_motion_allowed("movej")
             motion = Motion("movej", r)
-            self._enqueue(MotionEntry(None, motion, True, target_q=q), lambda start: trajectories.plan_joint_move(
-                start, q, a, v, t, self.model.max_joint_speed, self.model.max_joint_acceleration))
+            tcp_matrix = self._arm.with_fixed_tcp().tcp_matrix   # its blend zone is measured at this TCP
+            self._enqueue(MotionEntry(None, motion, True, target_q=q, tcp_matrix=tcp_matrix),
+                          lambda start: trajectories.plan_joint_move(
+                              start, q, a, v, t, self.model.max_joint_speed, self.model.max_joint_acceleration))
             return motion
 
     def movel(self, pose: Vector, a: float = 1.2, v: float = 0.25, t: float = 0.0, r: float = 0.0) -> Motion:
@@ -403,9 +406,13 @@ class Controller:
             start_q = self._motions.end_q(self._q)
             q_end = self._ik_checked(pose, start_q)
             motion = Motion("movel", r)
-            self._enqueue(MotionEntry(None, motion, True, target_q=q_end), lambda start: trajectories.plan_linear_move(
-                self._arm.tcp_matrix(start), kinematics.pose_to_matrix(pose), start, q_end, a, v, t,
-                self.model.max_joint_speed, self._solve_ik))
+            # The line is the TCP's at this command, to the end of the move: a set_tcp while it still runs
+            # (blended into the next move) applies to the moves after it.
+            arm = self._arm.with_fixed_tcp()
+            self._enqueue(MotionEntry(None, motion, True, target_q=q_end, tcp_matrix=arm.tcp_matrix),
+                          lambda start: trajectories.plan_linear_move(
+                              arm.tcp_matrix(start), kinematics.pose_to_matrix(pose), start, q_end, a, v, t,
+                              self.model.max_joint_speed, functools.partial(self._solve_ik, arm=arm)))
             return motion
 
     def speedj(self, qd: Vector, a: float = 1.4, t: float = 0.0, hold_owner: object = None) -> Motion:
@@ -558,9 +565,10 @@ class Controller:
         start = self._q if q_near is None else kinematics.checked_vector(q_near, 6, "q_near")
         return self._arm.solve_ik(pose, start)
 
-    def _solve_ik(self, pose, q_near):
-        """IK for planned motions: tighter and shorter than `ik` (it runs every cycle of a movel/speedl)."""
-        return self._arm.solve_ik(pose, q_near, tolerance=1e-11, max_iterations=50)
+    def _solve_ik(self, pose, q_near, arm=None):
+        """IK for planned motions: tighter and shorter than `ik` (it runs every cycle of a movel/speedl); with the
+        present TCP, or `arm`'s (ArmKinematics.with_fixed_tcp)."""
+        return (arm or self._arm).solve_ik(pose, q_near, tolerance=1e-11, max_iterations=50)
 
     def _ik_checked(self, pose, q_near):
         try:

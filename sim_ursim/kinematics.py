@@ -245,6 +245,11 @@ class ArmKinematics:
         self._cache: tuple[tuple[Any, Any], ...] = (((None, None), None),) * 2
         self._offset_matrix: tuple[Any, Any] = (None, None)  # (tcp_offset, its 4x4 transform)
 
+    def with_fixed_tcp(self) -> "ArmKinematics":
+        """This arm with today's TCP offset, kept when a later set_tcp replaces this one's: what a planned move
+        uses from its command to its end, so that a TCP set while it still runs (blended) leaves its path alone."""
+        return ArmKinematics(self.dh, self.tcp_offset)
+
     def tcp_matrix(self, q: Vector) -> np.ndarray:
         """Base→TCP transform at joints q."""
         return tcp_matrix(self.dh, q, self.tcp_offset)

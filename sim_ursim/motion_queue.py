@@ -114,6 +114,7 @@ class MotionEntry:
     target_q: np.ndarray | None = None  # planned moves: where the arm ends (for blending and queued starts)
     plan: Callable[[np.ndarray], PlannedMove] | None = None  # planned moves: start_q -> segment, when it starts
     in_blend_zone: bool = False
+    tcp_matrix: Callable[[np.ndarray], np.ndarray] | None = None  # planned moves: the TCP of their command
 
 
 
@@ -318,8 +319,9 @@ class MotionQueue:
         if active.target_q is None or active.motion.blend_radius <= 0:
             return
         if not active.in_blend_zone:
-            here = self._tcp_matrix(new_q)[:3, 3]
-            there = self._tcp_matrix(active.target_q)[:3, 3]
+            tcp_matrix = active.tcp_matrix or self._tcp_matrix
+            here = tcp_matrix(new_q)[:3, 3]
+            there = tcp_matrix(active.target_q)[:3, 3]
             if float(np.linalg.norm(there - here)) > active.motion.blend_radius:
                 return
             # Inside the blend zone the program may go on (the URScript move returns) while the arm continues.

@@ -36,34 +36,24 @@ RECIPE = ["runtime_state", "actual_q"]
 def playable(model, steps):
     """The program as it runs unattended, and briskly: waits of at most 50 ms, input waits the simulator's inputs
     (all off) satisfy, speeds and accelerations (where set) at least a third of their range (the targets do not
-    depend on them; the time does); waypoints, blends, outputs and messages as drawn, but no blend into a move with
-    another TCP (the simulator solves the rest of a blended move with the TCP the next move sets)."""
-    tcp_of = {planned.step.name: planned.tcp_offset for planned in plan_program(model, steps, None, Defaults(),
-                                                                                resolve_from=steps)}
-    moves = [step for step in steps if isinstance(step, (Waypoint, RelativeWaypoint))]
+    depend on them; the time does); waypoints, blends, TCPs, outputs and messages as drawn."""
     result = []
     for step in steps:
         if isinstance(step, Wait):
             step = Wait(step.name, min(step.seconds, 0.05))
         elif isinstance(step, WaitInput):
             step = WaitInput(step.name, step.input, step.pin, False, step.timeout)
-        elif isinstance(step, (Waypoint, RelativeWaypoint)) and step is not moves[-1]:
-            following = moves[moves.index(step) + 1]
-            step = dataclasses.replace(step, motion=brisk(model, step.motion, np.array_equal(
-                tcp_of[following.name], tcp_of[step.name])))
         elif isinstance(step, (Waypoint, RelativeWaypoint)):
-            step = dataclasses.replace(step, motion=brisk(model, step.motion, True))
+            step = dataclasses.replace(step, motion=brisk(model, step.motion))
         result.append(step)
     return result
 
 
-def brisk(model, motion, may_blend):
-    """`motion` with its speed and acceleration (when set) at least a third of their range; its blend unset unless
-    `may_blend`."""
+def brisk(model, motion):
+    """`motion` with its speed and acceleration (when set) at least a third of their range."""
     (_, v_high), (_, a_high) = motion_ranges(model, motion.move)
     return Motion(motion.move, None if motion.speed is None else max(motion.speed, v_high / 3),
-                  None if motion.acceleration is None else max(motion.acceleration, a_high / 3),
-                  motion.blend if may_blend else None)
+                  None if motion.acceleration is None else max(motion.acceleration, a_high / 3), motion.blend)
 
 
 def played_path(dashboard, recorder, name):

@@ -263,6 +263,34 @@ def test_blended_moves_overlap_and_keep_the_speed_continuous(stepped):
     assert max(speed_jumps) <= 1.4 * 2 * stepped.period * 1.01  # at most the two superposed accelerations
 
 
+def test_a_tcp_set_while_a_blended_movel_runs_applies_to_the_next_move_only(stepped):
+    """PolyScope sets the next Move node's TCP as soon as the blended move before it returns, while the arm is
+    still on that move: its line stays the line of the TCP it was commanded with (before, the rest of it was solved
+    for the new TCP, a jump that protective-stopped the arm)."""
+    tool_a, tool_b = [0, 0, 0.05, 0, 0, 0], [0, 0.12, 0.2, 0.4, 0, 0]
+    stepped.set_tcp(tool_a)
+    start = stepped.fk(HOME)
+    first_target = start + [0.15, 0, 0, 0, 0, 0]
+    first = stepped.movel(first_target, v=0.25, r=0.02)
+    trace = [stepped.state()]
+    while not first.done:
+        trace.append(stepped.step())
+    stepped.set_tcp(tool_b)
+    second_target = stepped.fk(stepped.state().actual_q) + [0, 0.1, -0.05, 0, 0, 0]
+    second = stepped.movel(second_target, v=0.25)
+    trace += run_and_trace(stepped, second)
+    assert first.succeeded and second.succeeded, (first.error, second.error)
+    assert all(s.safety_mode == SafetyMode.NORMAL for s in trace)
+    line = (first_target - start)[:3] / np.linalg.norm((first_target - start)[:3])
+    arm_a = kinematics.ArmKinematics(stepped.model.dh, tool_a)
+    for state in trace[:len(trace) // 4]:   # the first move, well before its blend zone
+        off_line = arm_a.tcp_pose(state.actual_q)[:3] - start[:3]
+        assert np.linalg.norm(off_line - line * (off_line @ line)) < 1e-9
+    assert trace[-1].actual_tcp_pose.tolist() == pytest.approx(second_target.tolist(), abs=1e-9)
+    steps = [np.max(np.abs(b.actual_q - a.actual_q)) / stepped.period for a, b in zip(trace, trace[1:])]
+    assert max(steps) < 2.0   # rad/s: no jump where the next move takes over
+
+
 # ------------------------------------------------------------------------------------------ stops and speeds
 def test_stopj_decelerates_at_the_requested_rate(stepped):
     move = stepped.movej(np.array(HOME) + [3.0, 0, 0, 0, 0, 0], a=1.4, v=1.0)
