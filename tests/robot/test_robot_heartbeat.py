@@ -2,6 +2,8 @@
 threads (a C call, a parser) no longer stops a healthy motion, while ur3dq frozen for longer than HANG_TOLERANCE
 still stops the arm. The GIL is held here by a pure-Python loop with the switch interval raised far above it, so
 no other thread of the process runs meanwhile (a C call holding it for as long would do the same)."""
+import os
+import subprocess
 import sys
 import threading
 import time
@@ -60,6 +62,34 @@ class FreezeMidMove(threading.Thread):
                 hold_the_gil(self.seconds)
                 return
             time.sleep(0.01)
+
+
+def heartbeat_processes():
+    """Pids of this process's children that run the heartbeat."""
+    pids = []
+    for entry in os.listdir("/proc"):
+        try:
+            with open(f"/proc/{entry}/stat", "rb") as stat, open(f"/proc/{entry}/cmdline", "rb") as cmdline:
+                parent = int(stat.read().rsplit(b")", 1)[1].split()[1])
+                command = cmdline.read()
+        except (OSError, ValueError):
+            continue
+        if parent == os.getpid() and b"heartbeat_process" in command:
+            pids.append(int(entry))
+    return pids
+
+
+def real_time_allowed():
+    """Whether a process of this user may take SCHED_FIFO priority 1."""
+    probe = "import os; os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(1))"
+    return subprocess.run([sys.executable, "-c", probe], capture_output=True).returncode == 0
+
+
+def test_the_beats_run_at_real_time_priority_where_the_user_may(moving_robot):
+    _, robot = moving_robot
+    robot.movej(HOME + [0.05, 0, 0, 0, 0, 0], a=1.4, v=1.0)
+    expected = os.SCHED_FIFO if real_time_allowed() else os.SCHED_OTHER
+    assert [os.sched_getscheduler(pid) for pid in heartbeat_processes()] == [expected]
 
 
 def test_a_gil_held_for_0_3_s_does_not_stop_the_motion(moving_robot):

@@ -48,6 +48,9 @@ TICK_PERIOD = 0.05
 #: ur3dq's threads seen on a loaded machine (docs/performance.md), and ur3dq's own limit for a silent RTDE state
 #: stream (a stream silent this long is frozen).
 HANG_TOLERANCE = 1.0
+#: SCHED_FIFO priority of the beats where the user may raise it (raise_priority): the lowest, above every ordinary
+#: process.
+REALTIME_PRIORITY = 1
 #: /proc/<pid>/stat's flags bit set from the instant a process starts to exit (Linux's PF_EXITING).
 PF_EXITING = 0x4
 
@@ -134,6 +137,21 @@ class Beats:
                 return
 
 
+def raise_priority() -> bool:
+    """Run at the lowest real-time priority (SCHED_FIFO 1) where this user may; True when it does.
+
+    On a loaded machine an ordinary process can wait a quarter of a second for a CPU, longer than the watchdog
+    allows between beats, and the controller then stops a healthy program. A real-time process runs as soon as it
+    wakes. It needs CAP_SYS_NICE or an RLIMIT_RTPRIO of at least 1 (docs/architecture.md says how to grant it); without
+    it the beats run as an ordinary process. The beats sleep between writes, so they cannot hold a CPU.
+    """
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(REALTIME_PRIORITY))
+    except (AttributeError, OSError):   # not Linux, or not allowed
+        return False
+    return True
+
+
 def tell(text: str) -> None:
     """One line to the parent (BrokenPipeError when it is gone)."""
     os.write(1, text.encode("ascii", "replace") + b"\n")
@@ -149,6 +167,7 @@ def main(argv: list[str]) -> int:
     host, parent = argv[0], int(argv[1])
     if os.getppid() != parent:
         return 0
+    raise_priority()
     try:
         inputs = RTDEInputs(host, (HEARTBEAT_REGISTER,), outputs=False)
     except RobotConnectionError as error:
