@@ -10,7 +10,6 @@ its effect is in `state()` as soon as it returns (I/O writes too, through IOStat
 problems raise `CommandRefused` or ValueError; run-time problems end the Motion with `.error` set, and a motion
 crossing a joint or joint-speed limit raises a protective stop (motion_queue.py). Modelling choices: docs/ursim.md.
 """
-import functools
 import logging
 import math
 import threading
@@ -101,7 +100,7 @@ class Controller:
         self._speed_slider = 1.0
         self._speed_scaling = 1.0  # trajectory-time scaling the controller applies itself (pause ramps it to 0)
         self._freedrive = False
-        self._motions = MotionQueue(self.model, self._arm.tcp_matrix, self._solve_ik)
+        self._motions = MotionQueue(self.model, self._arm.tcp_matrix, self._arm.solve_planned)
         self._runner = None
         self._program_running = False
         self._program_paused = False
@@ -412,7 +411,7 @@ class Controller:
             self._enqueue(MotionEntry(None, motion, True, target_q=q_end, tcp_matrix=arm.tcp_matrix),
                           lambda start: trajectories.plan_linear_move(
                               arm.tcp_matrix(start), kinematics.pose_to_matrix(pose), start, q_end, a, v, t,
-                              self.model.max_joint_speed, functools.partial(self._solve_ik, arm=arm)))
+                              self.model.max_joint_speed, arm.solve_planned))
             return motion
 
     def speedj(self, qd: Vector, a: float = 1.4, t: float = 0.0, hold_owner: object = None) -> Motion:
@@ -443,7 +442,8 @@ class Controller:
         with self._lock:
             self._require_motion_allowed("speedl")
             start = self._motions.speed_ramp_start("speedl", self._state.actual_tcp_speed)
-            segment = trajectories.CartesianSpeed(start, xd, a, t, self._arm.tcp_matrix, self._solve_ik, hold_owner)
+            arm = self._arm
+            segment = trajectories.CartesianSpeed(start, xd, a, t, arm.tcp_matrix, arm.solve_planned, hold_owner)
             return self._replace_motion(segment, "speedl", True)
 
     def servoj(self, q: Vector, a: float = 0.0, v: float = 0.0, t: float = 0.008, lookahead_time: float = 0.1,
@@ -565,14 +565,9 @@ class Controller:
         start = self._q if q_near is None else kinematics.checked_vector(q_near, 6, "q_near")
         return self._arm.solve_ik(pose, start)
 
-    def _solve_ik(self, pose, q_near, arm=None):
-        """IK for planned motions: tighter and shorter than `ik` (it runs every cycle of a movel/speedl); with the
-        present TCP, or `arm`'s (ArmKinematics.with_fixed_tcp)."""
-        return (arm or self._arm).solve_ik(pose, q_near, tolerance=1e-11, max_iterations=50)
-
     def _ik_checked(self, pose, q_near):
         try:
-            q = self._solve_ik(pose, q_near)
+            q = self._arm.solve_planned(pose, q_near)
         except kinematics.IKError as error:
             raise CommandRefused(str(error)) from None
         self._check_within_limits(q, "IK solution")

@@ -262,6 +262,11 @@ class ArmKinematics:
         """Joints reaching TCP `pose` nearest to q_near (options as `inverse_kinematics`); IKError if none."""
         return inverse_kinematics(self.dh, pose, q_near, self.tcp_offset, **options)
 
+    def solve_planned(self, pose: Vector, q_near: Vector) -> np.ndarray:
+        """`solve_ik` for planned motions: tighter and shorter than the defaults (it runs every cycle of a movel or
+        speedl)."""
+        return self.solve_ik(pose, q_near, tolerance=1e-11, max_iterations=50)
+
     def poses_at(self, q: np.ndarray) -> tuple[np.ndarray, list[np.ndarray], np.ndarray, np.ndarray]:
         """(TCP matrix, the 7 joint frames, TCP pose, flange pose) at q; the poses read-only."""
         offset = self.tcp_offset
