@@ -7,7 +7,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import TypeVar
 
-from ur3dq.units import Measured, Units
+from ur3dq.units import Measured, Units, Wording, worded
 
 AnError = TypeVar("AnError", bound="UR3DQError")
 
@@ -16,8 +16,8 @@ class UR3DQError(Exception):
     """Base class of every ur3dq error.
 
     A message that holds physical values keeps them as :class:`~ur3dq.units.Measured` placeholders (``{0}``,
-    ``{1}``, ... in its text), so that a user interface can show them in its user's units (`shown_in`); until
-    then, and for a program that catches the error, they read in SI.
+    ``{1}``, ... in its text, ``units.worded``), so that a user interface can show them in its user's units
+    (`shown_in`); until then, and for a program that catches the error, they read in SI (a `fine` value in mm or °).
 
     >>> from ur3dq.units import LENGTH, Measured, Units
     >>> error = UR3DQError("too far by {0}", measured=[Measured(0.0123, LENGTH)])
@@ -34,7 +34,18 @@ class UR3DQError(Exception):
         text = super().__str__()
         if not self.measured:
             return text
-        return text.format(*(value.shown(self.units) for value in self.measured))
+        return worded(text, self.measured, self.units)
+
+    @classmethod
+    def from_wording(cls: type[AnError], text: str, measured: Sequence[Measured]) -> AnError:
+        """An error of this kind whose message is the ``units.worded`` `text` with its `measured` values (with none,
+        `text`'s doubled braces read as single ones)."""
+        return cls(text, measured=measured) if measured else cls(worded(text, ()))
+
+    def wording(self) -> Wording:
+        """(the message as a ``units.worded`` text, its values): to carry it into another message."""
+        text = Exception.__str__(self)
+        return (text if self.measured else literal(text)), self.measured
 
     def shown_in(self: AnError, units: Units) -> AnError:
         """This error, its values from now on read in `units`; returns it."""

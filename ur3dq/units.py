@@ -21,11 +21,13 @@ from __future__ import annotations
 import dataclasses
 import math
 import re
+from collections.abc import Sequence
+from typing import TypeAlias
 
 __all__ = [
     "ACCELERATION", "ANGLE", "ANGULAR_ACCELERATION", "ANGULAR_SPEED", "DURATION", "LENGTH", "LINEAR_ACCELERATION",
-    "LINEAR_SPEED", "SPEED", "Kind", "Measured", "Units", "angular_kind", "parse", "plain_number", "show",
-    "to_display", "unit_label",
+    "FINE", "LINEAR_SPEED", "SI", "SPEED", "Kind", "Measured", "Units", "angular_kind", "parse", "plain_number", "show",
+    "Wording", "to_display", "unit_label", "worded",
 ]
 
 
@@ -204,28 +206,62 @@ def show(value: float, kind: Kind, units: Units = Units(), digits: int | None = 
     return f"{text} {label}"
 
 
+#: The units a person reads without --deg or --mm (and a program reads an error's values in).
+SI = Units()
+#: The units small values read in whatever the person chose (clearances, blend radii, angles from a singularity):
+#: mm and degrees, as on the pendant; a metre or a radian would put them behind "0.0".
+FINE = Units(angle="deg", length="mm")
+
+
 @dataclasses.dataclass(frozen=True)
 class Measured:
-    """A value inside a message (an error's text), kept in SI until a person's units are known.
+    """A value inside a message (an error's text, a path-check problem), kept in SI until a person's units are known.
 
     `si_digits` digits after the point in SI; in other units as many as keep that resolution (4 in m are 1 in mm,
-    4 in rad are 2 in °).
+    4 in rad are 2 in °); None: as many as :func:`show` writes (no trailing zeros). A `fine` value is small (a
+    clearance, an angle from a singularity): it reads in :data:`FINE` units whatever the person chose. Without its
+    `unit` it is the number alone, as the first coordinates of a position whose last one carries the unit.
 
     >>> far = Measured(0.84081, LENGTH, si_digits=4)
     >>> str(far), far.shown(Units(length="mm"))
     ('0.8408 m', '840.8 mm')
     >>> Measured(0.1358, ANGLE, si_digits=4).shown(Units(angle="deg"))
     '7.78 °'
+    >>> str(Measured(0.0123, LENGTH, si_digits=4, fine=True)), str(Measured(0.3, LENGTH, 3, unit=False))
+    ('12.3 mm', '0.300')
     """
 
     value: float
     kind: Kind
-    si_digits: int = 4
+    si_digits: int | None = 4
+    fine: bool = False
+    unit: bool = True
 
     def shown(self, units: Units = Units()) -> str:
-        """The value in `units`, with its unit."""
-        scale = to_display(1.0, self.kind, units)
-        return show(self.value, self.kind, units, max(0, self.si_digits - round(math.log10(scale))))
+        """The value in `units` (in FINE units when it is `fine`), with its unit unless it goes without."""
+        units = FINE if self.fine else units
+        digits = None
+        if self.si_digits is not None:
+            digits = max(0, self.si_digits - round(math.log10(to_display(1.0, self.kind, units))))
+        text = show(self.value, self.kind, units, digits)
+        return text if self.unit else text.rsplit(" ", 1)[0]
 
     def __str__(self) -> str:
         return self.shown()
+
+
+#: A message with values in it, as it is carried from one message into another: (units.worded text, its values).
+Wording: TypeAlias = tuple[str, tuple[Measured, ...]]
+
+
+def worded(text: str, measured: Sequence[Measured], units: Units = Units()) -> str:
+    """`text` with its placeholders ``{0}``, ``{1}``, ... replaced by the `measured` values shown in `units`.
+
+    The one way a message with values in it (an error's, a path-check problem's) is written for a person: the
+    values stay SI until then. Braces meant as text are doubled in `text`, values or not (ur3dq.errors.literal).
+
+    >>> worded("{0} inside the box (margin {1})", [Measured(0.012, LENGTH, 3, fine=True),
+    ...                                            Measured(0.01, LENGTH, 3, fine=True)])
+    '12 mm inside the box (margin 10 mm)'
+    """
+    return text.format(*(value.shown(units) for value in measured))

@@ -53,7 +53,7 @@ def test_movel_through_the_wrist_singularity_is_refused_naming_the_wrist_and_the
     wrist = only(result, "wrist")
     assert not result.ok and wrist, result.summary()
     assert wrist[0].step == "approach"
-    assert "wrist singular: wrist 2 passes 0." in wrist[0].message and "keep ≥ 1.1°" in wrist[0].message
+    assert "wrist singular: wrist 2 passes 0." in wrist[0].message and "keep ≥ 1.1 °" in wrist[0].message
     assert 0.4 < wrist[0].fraction < 0.6
     assert "step 'approach' at" in wrist[0].line()
 

@@ -12,6 +12,7 @@ from ur3dq.errors import SafetyCheckError
 from ur3dq.pathcheck import Box, Cell
 from ur3dq.robot.jog import Jog
 from ur3dq.robot.jog_steps import JogStep
+from ur3dq.units import LENGTH
 
 
 @pytest.fixture(scope="module")
@@ -95,8 +96,11 @@ def test_a_jog_towards_a_box_is_shortened_before_it_and_refused_at_it(at_home):
     plan = jog.plan(JogStep("Z", -1), 0.05)
     assert plan.limited_by == "the path check" and 0.0 < plan.distance < 0.15
     near = plan.joints
-    with pytest.raises(SafetyCheckError, match="jog Z-: the arm cannot move that way"):
+    with pytest.raises(SafetyCheckError, match="jog Z-: the arm cannot move that way") as refused:
         jog.plan(JogStep("Z", -1), 0.05, start=near)
+    # its numbers are kept as values, which each screen shows in its own units
+    assert any(value.kind is LENGTH for value in refused.value.measured), refused.value.measured
+    assert 'keep-out box "wall" (margin 10 mm)' in str(refused.value)
     assert jog.plan(JogStep("Z", 1), 0.05, start=near).distance > 0.1   # away from it is free
 
 

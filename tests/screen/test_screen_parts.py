@@ -111,6 +111,31 @@ def test_a_checks_problems_are_shown_in_the_pages_units():
     assert views.check_for_page(message, u.Units())["smallest"] == "smallest clearance -0.0920 m"
 
 
+def test_a_real_checks_numbers_are_shown_in_each_pages_units_and_refuse_a_run_in_them():
+    from ur3dq.errors import SafetyCheckError
+    from ur3dq.pathcheck import Margins, PathPlan, PathSegment, check_path
+
+    q = [0.0, -1.2, 1.5, -1.8, 0.3, 0.5]
+    margin = 2 * math.pi - 1.0   # keeps every joint within ±1 rad: wrist 1 at -1.8 rad fails it by the most
+    result = check_path(UR3, PathPlan(q, [PathSegment("stay", "joint", target_joints=q)]),
+                        margins=Margins(joint_limit=margin))
+    assert [p.check for p in result.problems] == ["joint_limit"], result.summary()
+    message = views.check_message(result, UR3, None, Margins())
+    shown = views.check_for_page(message, DEG_MM)
+    problem = shown["problems"][0]
+    said = (f"joint 4 (wrist 1) at {math.degrees(-1.8):.2f} ° passes its limit [-360.00, 360.00] (margin "
+            f"{math.degrees(margin):.1f} °)")
+    assert problem["message"] == said
+    x, y, z = (1000 * v for v in result.problems[0].tcp)
+    assert problem["line"].startswith(f"step 'stay' at 0% of the move (TCP {x:.1f}, {y:.1f}, {z:.1f} mm): {said}")
+    assert "measured" not in problem and "refusal" not in shown
+    assert views.check_for_page(message, u.Units())["problems"][0]["message"] == \
+        "joint 4 (wrist 1) at -1.8000 rad passes its limit [-6.2832, 6.2832] (margin 5.283 rad)"
+    text, measured = message["refusal"]
+    refusal = SafetyCheckError.from_wording("path check: " + text, measured)
+    assert "at -1.8000 rad passes" in str(refusal) and f"{said}; use targets" in str(refusal.shown_in(DEG_MM))
+
+
 def test_typed_speeds_and_blends_are_read_in_the_pages_units():
     motion = Operations._motion_of({"move": "linear", "speed": "250", "blend": "5"}, DEG_MM)
     assert (motion.move, motion.speed, motion.blend) == ("linear", pytest.approx(0.25), pytest.approx(0.005))

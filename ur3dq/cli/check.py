@@ -115,4 +115,4 @@ def check(settings: Settings, names: tuple[str, ...], cell_path: Path | None, mo
         emit_json({**result.to_dict(), "limits": result.limits})
     require_passed(settings, result)   # each problem once, then the one-line error
     if not settings.json:
-        settings.out.print(result.summary())
+        settings.out.print(result.summary(settings.units))

@@ -17,7 +17,7 @@ from rich.table import Table
 from rich.text import Text
 
 from ur3dq.dualquat import DualQuaternion
-from ur3dq.units import ANGLE, LENGTH, Units, show, to_display, unit_label
+from ur3dq.units import ANGLE, FINE, LENGTH, Units, show, to_display, unit_label
 
 if TYPE_CHECKING:
     from ur3dq.replay import Reached
@@ -28,7 +28,6 @@ JOINT_LABELS = ("base", "shoulder", "elbow", "wrist 1", "wrist 2", "wrist 3")
 # (angle unit, length unit) → the %-format of one angle / one length: 3 decimals of ° or mm, 6 of rad or m
 _ANGLE_FORMAT = {"deg": "%.3f°", "rad": "%.6f"}
 _LENGTH_FORMAT = {"mm": "%.3f", "m": "%.6f"}
-FINE = Units(angle="deg", length="mm")   # small errors and distances: mm and degrees whatever the person chose
 
 
 def angle_text(radians: float, units: Units) -> str:

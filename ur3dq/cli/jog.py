@@ -21,7 +21,7 @@ from ur3dq.cli.app import Settings, cli, emit_json, robot_session
 from ur3dq.cli.operator_controls import cbreak, read_key
 from ur3dq.cli.options import display_options
 from ur3dq.cli.program_workflow import same_spot_as
-from ur3dq.errors import MotionTimeoutError, ProgramError, RobotError, StoreError
+from ur3dq.errors import MotionTimeoutError, ProgramError, RobotError, StoreError, UR3DQError
 from ur3dq.pose import next_free_name
 from ur3dq.replay import read_pose
 from ur3dq.robot import jog_steps
@@ -195,6 +195,8 @@ def _step(robot: Any, screen: JogScreen, direction: int) -> None:
     except (ProgramError, MotionTimeoutError) as error:   # it ran and stopped short: the same key goes on
         screen.message = f"{step.label} stopped short: {' '.join(str(error).split())}; the key again goes on"
     except (ValueError, RobotError) as error:   # refused (a limit, reach, the path) or stopped: say so, go on
+        if isinstance(error, UR3DQError):
+            error.shown_in(SCREEN_UNITS)   # the values of a refusal in the screen's units
         screen.message = f"{step.label} not moved: {' '.join(str(error).split())}"
     finally:
         _drop_typed_ahead(sys.stdin.fileno())

@@ -29,6 +29,7 @@ from ur3dq.units import (
     LENGTH,
     LINEAR_ACCELERATION,
     LINEAR_SPEED,
+    SI,
     Kind,
     Units,
     parse,
@@ -49,7 +50,6 @@ DEFAULT_ACCELERATION = 1.4   # rad/s²
 # Negative numbers such as -90 are values here, not options.
 NUMBERS_CONTEXT = {"ignore_unknown_options": True}
 DEFAULT_MODEL = "ur3"   # the model of fk/ik without --model
-SI = Units()
 
 
 def units_of(ctx: click.Context | None) -> Units:

@@ -135,17 +135,18 @@ def _report_console(settings: Settings) -> Console:
 
 def require_passed(settings: Settings, result: PathCheckResult) -> None:
     """Nothing when the check passed; else a SafetyCheckError whose one line is the first problem (where, what,
-    the fix), each further problem printed once above it (words never cut)."""
+    the fix), each further problem printed once above it (words never cut), their numbers in the user's units."""
     if result.ok:
         return
     if not result.problems:
-        raise SafetyCheckError(f"path check: {result.summary()}")
+        raise result.refusal()
     console = _report_console(settings)
     for problem in result.problems[1:]:
-        console.print(Text(problem.line()), soft_wrap=False)
+        console.print(Text(problem.line(settings.units)), soft_wrap=False)
     more = len(result.problems) - 1
-    raise SafetyCheckError(f"path check: {result.problems[0].line()}"
-                           + (f" (+{count_text(more, 'more problem')}, listed above)" if more else ""))
+    text, measured = result.problems[0].wording()   # the error reads in the user's units (the command group's)
+    raise SafetyCheckError.from_wording(
+        f"path check: {text}" + (f" (+{count_text(more, 'more problem')}, listed above)" if more else ""), measured)
 
 
 def check_verdict(result: PathCheckResult | None, cell_path: Path | None) -> str:

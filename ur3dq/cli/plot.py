@@ -46,4 +46,4 @@ def plot(settings: Settings, names: tuple[str, ...], output: Path, yes: bool, ce
     plot_poses(output, model, steps, title=f"{count_text(len(steps), 'pose')} from {settings.store_path.name} on a "
                f"{model.name}", path_check=check, cell=cell)
     report(settings, {"file": str(output), "path_check": check.to_dict()},
-           f"Wrote {output}. Path check: {check.summary()}")
+           f"Wrote {output}. Path check: {check.summary(settings.units)}")

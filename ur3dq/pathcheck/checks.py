@@ -15,11 +15,13 @@ from typing import TypeAlias
 import numpy as np
 
 from ur3dq.array_types import FloatArray, IntArray
+from ur3dq.errors import literal
 from ur3dq.kinematics.models import JOINT_NAMES, URModel
 from ur3dq.pathcheck import geometry
 from ur3dq.pathcheck.cell import Cell
 from ur3dq.pathcheck.geometry import BODY_NAMES
 from ur3dq.pathcheck.path_plan import PathSegment
+from ur3dq.units import ANGLE, ANGULAR_SPEED, LENGTH, LINEAR_SPEED, SI, Measured, Units, Wording, worded
 
 #: Capsule/box pairs whose cheap lower-bound clearance is more than this beyond the margin are not refined (m).
 EXACT_RANGE = 0.05
@@ -73,24 +75,64 @@ class Margins:
 
 @dataclasses.dataclass(frozen=True)
 class Problem:
-    """A failed check: the step (name, index), where (fraction of the move, TCP position (3,) m), what failed."""
+    """A failed check: the step (name, index), where (fraction of the move, TCP position (3,) m), what failed and
+    what would fix it.
+
+    `what` and `fix` are ``units.worded`` texts whose numbers are the `measured` values, kept in SI until a person
+    reads them: ``line(units)``, ``message_in(units)`` and ``hint_in(units)`` write them in that person's units;
+    ``message`` and ``hint`` read as ``ur3dq check`` prints them without --deg or --mm (positions, joint angles
+    and speeds in m and rad; small values, such as clearances and angles from a singularity, in mm and °).
+
+    >>> from ur3dq.units import LENGTH, Measured, Units
+    >>> problem = Problem("a", 0, "cell", 0.5, (0.3, 0.1, 0.25), 'tool capsule {0} inside "box"', "go around",
+    ...                   (Measured(0.012, LENGTH, 3, fine=True),))
+    >>> print(problem.line())
+    step 'a' at 50% of the move (TCP 0.300 0.100 0.250 m): tool capsule 12 mm inside "box"; go around
+    >>> print(problem.line(Units(length="mm")))
+    step 'a' at 50% of the move (TCP 300 100 250 mm): tool capsule 12 mm inside "box"; go around
+    """
 
     step: str
     step_index: int
     check: str
     fraction: float
     tcp: tuple[float, ...]
-    message: str
-    hint: str
+    what: str
+    fix: str
+    measured: tuple[Measured, ...] = ()
 
-    def line(self) -> str:
-        """One line naming the step, where along it, what failed and what would fix it."""
-        x, y, z = self.tcp
-        return (f"step {self.step!r} at {self.fraction:.0%} of the move (TCP {x:.3f} {y:.3f} {z:.3f} m): "
-                f"{self.message}; {self.hint}")
+    @property
+    def message(self) -> str:
+        """What failed, in the default units."""
+        return self.message_in()
+
+    @property
+    def hint(self) -> str:
+        """What would fix it, in the default units."""
+        return self.hint_in()
+
+    def message_in(self, units: Units = SI) -> str:
+        """What failed, its numbers in `units`."""
+        return worded(self.what, self.measured, units)
+
+    def hint_in(self, units: Units = SI) -> str:
+        """What would fix it, its numbers in `units`."""
+        return worded(self.fix, self.measured, units)
+
+    def line(self, units: Units = SI) -> str:
+        """One line naming the step, where along it, what failed and what would fix it, its numbers in `units`."""
+        return worded(*self.wording(), units)
+
+    def wording(self) -> Wording:
+        """(line's ``units.worded`` text, its values): to carry the line into an error's message."""
+        first = len(self.measured)
+        where = " ".join(f"{{{first + i}}}" for i in range(len(self.tcp)))
+        tcp = tuple(Measured(v, LENGTH, 3, unit=i == len(self.tcp) - 1) for i, v in enumerate(self.tcp))
+        return (f"step {literal(repr(self.step))} at {self.fraction:.0%} of the move (TCP {where}): {self.what}; "
+                f"{self.fix}"), self.measured + tcp
 
     def to_dict(self) -> dict[str, object]:
-        """The problem as JSON-ready values."""
+        """The problem as JSON-ready values (SI; the message and hint as `message` and `hint` read)."""
         return {"step": self.step, "step_index": self.step_index, "check": self.check,
                 "fraction": self.fraction, "tcp": list(self.tcp), "message": self.message, "hint": self.hint}
 
@@ -237,53 +279,43 @@ class StepChecker:
                 continue
             k = int(np.argmin(margin))
             sample = min(k + 1, len(fraction) - 1) if check in ("branch", "joint_speed") else k
-            message, hint = self._describe(check, segment, k, detail, extra[sample])
+            what, fix, measured = self._describe(check, segment, k, detail, extra[sample])
             found.append(Problem(segment.name, index, check, float(fraction[sample]),
-                                 tuple(float(v) for v in tcp[sample]), message, hint))
+                                 tuple(float(v) for v in tcp[sample]), what, fix, measured))
         return found
 
     def _describe(self, check: str, segment: PathSegment, k: int, detail: Sequence[FloatArray | IntArray],
-                  extra: float) -> tuple[str, str]:
-        """(message, hint) of a failed `check` at its worst sample or interval k, from margins_of's `detail`."""
+                  extra: float) -> tuple[str, str, tuple[Measured, ...]]:
+        """(what, fix, their measured values) of a failed `check` at its worst sample or interval k, from
+        margins_of's `detail` (Problem's texts and values)."""
         m = self.margins
         if check == "branch":
             joint, step = int(detail[0][k]), float(detail[1][k])
-            return (f"IK branch change: joint {joint + 1} ({JOINT_NAMES[joint]}) jumps {math.degrees(step):.1f}° "
-                    f"between samples (> {math.degrees(m.max_joint_step):.1f}°)",
-                    "the arm would flip: split the move with a waypoint on one branch, or use a joint move")
+            return (f"IK branch change: joint {joint + 1} ({JOINT_NAMES[joint]}) jumps {{0}} between samples "
+                    "(> {1})", "the arm would flip: split the move with a waypoint on one branch, or use a joint move",
+                    (_fine_angle(step), _fine_angle(m.max_joint_step)))
         if check == "joint_limit":
             joint = int(detail[0][k])
-            value = float(detail[1][k, joint])
-            return (f"joint {joint + 1} ({JOINT_NAMES[joint]}) at {value:.4f} rad passes its limit "
-                    f"[{self.model.joint_lower[joint]:.4f}, {self.model.joint_upper[joint]:.4f}] "
-                    f"(margin {m.joint_limit:.3f} rad)",
-                    "use targets whose joints stay nearer the middle of the range (another ±2π turn)")
-        if check == "wrist":
-            return (f"wrist singular: wrist 2 passes {_from_singular(detail[0][k])} from 0°/180° (keep "
-                    f"≥ {_from_singular(m.wrist)}, |sin θ5| ≥ {m.wrist:g})",
-                    "tilt the tool so wrist 2 stays away from 0°/180° along the line, or make it a joint move")
-        if check == "elbow":
-            return (f"elbow singular (arm stretched or folded): the elbow passes {_from_singular(detail[0][k])} "
-                    f"from straight (keep ≥ {_from_singular(m.elbow)}, |sin θ3| ≥ {m.elbow:g})",
-                    "keep the line further inside the reach, or make it a joint move")
+            return (f"joint {joint + 1} ({JOINT_NAMES[joint]}) at {{0}} passes its limit [{{1}}, {{2}}] "
+                    "(margin {3})", "use targets whose joints stay nearer the middle of the range (another ±2π turn)",
+                    (Measured(float(detail[1][k, joint]), ANGLE), *joint_limits(self.model, joint),
+                     Measured(m.joint_limit, ANGLE, 3)))
+        if check in ("wrist", "elbow"):
+            return self._singular(check, float(detail[0][k]))
         if check == "shoulder":
-            return (f"shoulder singular: wrist centre {1000 * detail[0][k]:.0f} mm from the base axis "
-                    f"< {1000 * m.shoulder:.0f} mm",
-                    "route the line away from above/below the base, or make it a joint move")
+            return ("shoulder singular: wrist centre {0} from the base axis < {1}",
+                    "route the line away from above/below the base, or make it a joint move",
+                    (_fine_length(float(detail[0][k])), _fine_length(m.shoulder)))
         if check == "joint_speed":
-            joint, ratio = int(detail[0][k]), float(detail[1][k])
-            needed = float(detail[2][k, joint])
-            slower = segment.speed * m.joint_speed / ratio
-            return (f"joint {joint + 1} ({JOINT_NAMES[joint]}) would need {needed:.2f} rad/s at "
-                    f"{segment.speed:g} m/s, over {m.joint_speed:g} × its {self.model.max_joint_speed[joint]:.2f} "
-                    f"rad/s", f"lower the step's speed to ≤ {slower:.3g} m/s or keep away from the singularity")
+            return self._too_fast(segment, int(detail[0][k]), float(detail[1][k]), float(detail[2][k, detail[0][k]]))
         if check == "self_collision":
             pair, clearance = int(detail[0][k]), float(detail[1][k])
             first = BODY_NAMES[self.capsules.body[self.pair_a[pair]]]
             second = BODY_NAMES[self.capsules.body[self.pair_b[pair]]]
             return (f"self-collision: {first} capsule {_clearance_text(clearance, 'the ' + second + ' capsule')}"
-                    f"{_margin_text(m.self_collision, extra)}",
-                    "change the wrist orientation or the elbow configuration of the target, or add a waypoint")
+                    f"{_margin_text(extra)}",
+                    "change the wrist orientation or the elbow configuration of the target, or add a waypoint",
+                    _clearance_values(clearance, m.self_collision, extra))
         if check == "cell":
             flat, clearance = int(detail[0][k]), float(detail[1][k])
             capsule, obstacle = divmod(flat, len(self.obstacles))
@@ -293,23 +325,66 @@ class StepChecker:
             hint = {"the floor": "raise the targets, or add a waypoint that keeps the arm higher",
                     "the keep-in box": "move the targets inward, or add a waypoint that stays inside"}.get(
                 name, f"add a waypoint that goes around it, move the targets, or {other_move}")
-            return (f"{body} capsule {_clearance_text(clearance, name)}{_margin_text(self.cell_margin, extra)}",
-                    hint)
+            return (f"{body} capsule {_clearance_text(clearance, literal(name))}{_margin_text(extra)}",
+                    literal(hint), _clearance_values(clearance, self.cell_margin, extra))
         raise AssertionError(check)
 
+    def _singular(self, check: str, sine: float) -> tuple[str, str, tuple[Measured, ...]]:
+        """(what, fix, values) of a wrist or elbow singularity passed at |sin θ| = `sine`."""
+        keep = getattr(self.margins, check)
+        values = (_fine_angle(_from_singular(sine)), _fine_angle(_from_singular(keep)))
+        if check == "wrist":
+            return (f"wrist singular: wrist 2 passes {{0}} from 0°/180° (keep ≥ {{1}}, |sin θ5| ≥ {keep:g})",
+                    "tilt the tool so wrist 2 stays away from 0°/180° along the line, or make it a joint move", values)
+        return (f"elbow singular (arm stretched or folded): the elbow passes {{0}} from straight (keep ≥ {{1}}, "
+                f"|sin θ3| ≥ {keep:g})", "keep the line further inside the reach, or make it a joint move", values)
 
-def _from_singular(sine: float) -> str:
-    """How far a joint whose |sin| is `sine` is from its singular angles (0° or 180°), in degrees."""
-    return f"{math.degrees(math.asin(min(1.0, max(0.0, float(sine))))):.1f}°"
+    def _too_fast(self, segment: PathSegment, joint: int, ratio: float,
+                  needed: float) -> tuple[str, str, tuple[Measured, ...]]:
+        """(what, fix, values) of joint `joint` needing `needed` rad/s, `ratio` × its top speed, on `segment`."""
+        share = self.margins.joint_speed
+        return (f"joint {joint + 1} ({JOINT_NAMES[joint]}) would need {{0}} at {{1}}, over {share:g} × its {{2}}",
+                "lower the step's speed to ≤ {3} or keep away from the singularity",
+                (Measured(needed, ANGULAR_SPEED, 2), Measured(segment.speed, LINEAR_SPEED, None),
+                 Measured(float(self.model.max_joint_speed[joint]), ANGULAR_SPEED, 2),
+                 Measured(segment.speed * share / ratio, LINEAR_SPEED)))
+
+
+def joint_limits(model: URModel, joint: int) -> tuple[Measured, Measured]:
+    """`model`'s lower and upper limit of joint `joint` as numbers alone (written [lower, upper] after the joint's
+    angle, which carries the unit)."""
+    return (Measured(float(model.joint_lower[joint]), ANGLE, unit=False),
+            Measured(float(model.joint_upper[joint]), ANGLE, unit=False))
+
+
+def _from_singular(sine: float) -> float:
+    """How far (rad) a joint whose |sin| is `sine` is from its singular angles (0 or π)."""
+    return math.asin(min(1.0, max(0.0, float(sine))))
+
+
+def _fine_angle(radians: float) -> Measured:
+    """A small angle (a joint step, an angle from a singularity) to 0.1°."""
+    return Measured(radians, ANGLE, 3, fine=True)
+
+
+def _fine_length(metres: float, si_digits: int = 3) -> Measured:
+    """A small length (a clearance, a margin, a blend radius) to 1 mm, or 0.1 mm with `si_digits` 4."""
+    return Measured(metres, LENGTH, si_digits, fine=True)
 
 
 def _clearance_text(clearance: float, what: str) -> str:
+    """How far a capsule is from `what` (a worded name) by a clearance {0} (negative: {0} is the depth inside)."""
     if what == "the keep-in box":
-        return (f"{-1000 * clearance:.0f} mm outside the keep-in box" if clearance < 0
-                else f"{1000 * clearance:.1f} mm inside the keep-in box's walls")
-    return f"{-1000 * clearance:.0f} mm inside {what}" if clearance < 0 else f"{1000 * clearance:.1f} mm from {what}"
+        return "{0} outside the keep-in box" if clearance < 0 else "{0} inside the keep-in box's walls"
+    return f"{{0}} inside {what}" if clearance < 0 else f"{{0}} from {what}"
 
 
-def _margin_text(margin: float, extra: float) -> str:
-    text = f" (margin {1000 * margin:.0f} mm"
-    return text + (f" + blend {1000 * extra:.0f} mm)" if extra > 0 else ")")
+def _clearance_values(clearance: float, margin: float, extra: float) -> tuple[Measured, ...]:
+    """The values of _clearance_text and _margin_text: the clearance (a depth when < 0), the margin, the blend."""
+    shown = _fine_length(-clearance) if clearance < 0 else _fine_length(clearance, 4)
+    return shown, _fine_length(margin), _fine_length(extra)
+
+
+def _margin_text(extra: float) -> str:
+    """The margin {1} kept, and the blend allowance {2} when there is one."""
+    return " (margin {1} + blend {2})" if extra > 0 else " (margin {1})"

@@ -21,9 +21,10 @@ from ur3dq.kinematics import ur_ik
 from ur3dq.kinematics.models import JOINT_NAMES, URModel
 from ur3dq.pathcheck import bounds, sampling
 from ur3dq.pathcheck.cell import Cell
-from ur3dq.pathcheck.checks import Margins, Problem, StepChecker
+from ur3dq.pathcheck.checks import Margins, Problem, StepChecker, joint_limits
 from ur3dq.pathcheck.path_plan import PathPlan, PathSegment
 from ur3dq.pathcheck.reports import CertifiedMoves, PathCheckResult, StepReport, StepReports, figures
+from ur3dq.units import ANGLE, LENGTH, Measured
 
 BRANCH_TOLERANCE = 1e-3   # rad: a linear move ending further than this from its planned joints ended elsewhere
 
@@ -187,9 +188,9 @@ def _unsampled(model: URModel, segment: PathSegment, index: int, error: sampling
         if outside.any():
             joint = int(np.argmax(outside))
             return Problem(segment.name, index, "joint_limit", 1.0, where,
-                           f"target joint {joint + 1} ({JOINT_NAMES[joint]}) at {target[joint]:.4g} rad lies outside "
-                           f"its limits [{model.joint_lower[joint]:.4f}, {model.joint_upper[joint]:.4f}] (move not "
-                           f"sampled)", "use a target within the joint limits")
+                           f"target joint {joint + 1} ({JOINT_NAMES[joint]}) at {{0}} lies outside its limits [{{1}}, "
+                           "{2}] (move not sampled)", "use a target within the joint limits",
+                           (Measured(float(target[joint]), ANGLE, None), *joint_limits(model, joint)))
     return Problem(segment.name, index, "sampling", 1.0, where,
                    f"the move needs {error.needed:.3g} samples at the check's resolutions, more than "
                    f"{sampling.MAX_SAMPLES_PER_MOVE} (not checked)", "split it into shorter moves, or check it at "
@@ -209,8 +210,9 @@ def _sampled(model: URModel, segment: PathSegment, index: int, q: FloatArray,
                 target = model.ik(pose, q)
             except UnreachablePoseError as error:
                 where = dqarray.translation_unchecked(pose)
+                reason, measured = error.wording()
                 return Problem(segment.name, index, "reach", 1.0, tuple(map(float, where)),
-                               f"target unreachable: {error}", "move the target inside the arm's reach")
+                               f"target unreachable: {reason}", "move the target inside the arm's reach", measured)
         return sampling.sample_joint_move(model, q, target, margins.tcp_resolution, margins.joint_resolution)
     pose = segment.target_pose if segment.target_pose is not None else model.fk(segment.target_joints).to_array()
     return sampling.sample_linear_move(model, q, pose, margins.tcp_resolution, margins.joint_resolution)
@@ -235,8 +237,8 @@ def _end_joints(segment: PathSegment, index: int,
             joint = int(np.argmax(apart))
             return end, Problem(segment.name, index, "branch", 1.0, tcp,
                                 f"the line ends on another IK branch than the planned joints (joint {joint + 1} "
-                                f"differs by {np.degrees(apart[joint]):.1f}°)",
-                                "plan the target on the start's branch, or reach it with a joint move")
+                                "differs by {0})", "plan the target on the start's branch, or reach it with a joint "
+                                "move", (Measured(float(apart[joint]), ANGLE, 3, fine=True),))
     return end, None
 
 
@@ -265,9 +267,9 @@ def _blend_allowance(plan: PathPlan, window: dict[int, WindowEntry], index: int,
         shortest = min(length(index), length(index + 1))
         if segment.blend > 0.5 * shortest:
             problem = Problem(segment.name, index, "blend", 1.0, tuple(map(float, tcp[-1])),
-                              f"blend radius {1000 * segment.blend:.0f} mm is more than half of a neighbouring "
-                              f"move ({1000 * shortest:.0f} mm of TCP travel)",
-                              "lower the blend radius to at most half of the shorter move")
+                              "blend radius {0} is more than half of a neighbouring move ({1} of TCP travel)",
+                              "lower the blend radius to at most half of the shorter move",
+                              (Measured(segment.blend, LENGTH, 3, fine=True), Measured(shortest, LENGTH, 3, fine=True)))
     previous = plan.segments[index - 1] if index > 0 else None
     if previous is not None and previous.blend > 0 and len(tcp) and window.get(index - 1) is not None:
         extra = np.maximum(extra, np.where(np.linalg.norm(tcp - tcp[0], axis=1) < previous.blend, previous.blend, 0))

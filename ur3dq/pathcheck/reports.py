@@ -15,8 +15,10 @@ from typing import TypeAlias, TypeVar, overload
 import numpy as np
 
 from ur3dq.array_types import FloatArray, IntArray
+from ur3dq.errors import SafetyCheckError, literal
 from ur3dq.pathcheck.checks import Problem
 from ur3dq.pathcheck.path_plan import PathSegment
+from ur3dq.units import SI, Units, Wording, worded
 
 #: A figure's type: float for margins, int for sample indices.
 Value = TypeVar("Value")
@@ -241,14 +243,25 @@ class PathCheckResult:
         """True when no check failed and every move was checked."""
         return not self.problems and not self.unchecked
 
-    def summary(self) -> str:
-        """One line: the first problem (with how many more), or that the path is clear."""
+    def summary(self, units: Units = SI) -> str:
+        """One line: the first problem (with how many more), its numbers in `units`, or that the path is clear."""
+        return worded(*self.summary_wording(), units)
+
+    def summary_wording(self) -> Wording:
+        """(summary's ``units.worded`` text, its values): to carry it into an error's message."""
         if self.problems:
             more = len(self.problems) - 1
-            return self.problems[0].line() + (f" (+{more} more problem{'s' * (more > 1)})" if more else "")
+            text, measured = self.problems[0].wording()
+            return text + (f" (+{more} more problem{'s' * (more > 1)})" if more else ""), measured
         if self.unchecked:
-            return f"steps {', '.join(map(repr, self.unchecked))} could not be checked (no known start)"
-        return f"path clear: {len(self.steps)} moves, {self.steps.samples()} samples checked"
+            return literal(f"steps {', '.join(map(repr, self.unchecked))} could not be checked (no known start)"), ()
+        return f"path clear: {len(self.steps)} moves, {self.steps.samples()} samples checked", ()
+
+    def refusal(self) -> SafetyCheckError:
+        """The error that refuses a motion along this failed path: "path check: " and the summary, its numbers
+        shown in the units of whoever reads it (UR3DQError.shown_in)."""
+        text, measured = self.summary_wording()
+        return SafetyCheckError.from_wording("path check: " + text, measured)
 
     def to_dict(self) -> dict[str, object]:
         """The result as JSON-ready values."""

@@ -40,13 +40,14 @@ from typing import Protocol
 import numpy as np
 
 from ur3dq import urscript
-from ur3dq.errors import RobotConnectionError, RobotError, SafetyCheckError, UnreachablePoseError
+from ur3dq.errors import RobotConnectionError, RobotError, SafetyCheckError, UnreachablePoseError, literal
 from ur3dq.kinematics.models import URModel
 from ur3dq.pathcheck import Cell, Margins, PathPlan, PathSegment, check_path
 from ur3dq.robot import safety
 from ur3dq.robot.jog_steps import JOINT_AXES, JogStep, step_target
 from ur3dq.robot.motion import trapezoid_duration
 from ur3dq.robot.rtde_inputs import RTDEInputs
+from ur3dq.units import Wording
 
 #: The RTDE input integer register the operator's keep-alive is written to (this client holds 18-22; 20 beats).
 KEEPALIVE_REGISTER = 21
@@ -146,7 +147,7 @@ class Jog:
         if joints is not None:
             return JogPlan(step, speed, move, q0, joints, wanted, limited_by)
         if not step.held:
-            raise SafetyCheckError(f"jog {step.label}: the arm cannot move that way: {problem}")
+            raise _refused(step, problem)
         # The longest jog that passes, by bisection: every distance that reaches the failing sample fails.
         best, low, high = None, 0.0, wanted * (fraction if fraction is not None else 1.0)
         for _ in range(BISECTIONS):
@@ -159,7 +160,7 @@ class Jog:
             else:
                 problem, high = failed, middle * (fraction if fraction is not None else 1.0)
         if best is None:
-            raise SafetyCheckError(f"jog {step.label}: the arm cannot move that way: {problem}")
+            raise _refused(step, problem)
         return JogPlan(step, speed, move, q0, best[0], best[1], "the path check")
 
     def _joint_room(self, q0: np.ndarray, joint: int, direction: int, held: bool) -> float:
@@ -170,9 +171,10 @@ class Jog:
         return max(room, 0.0) if math.isfinite(limit) else math.inf
 
     def _try(self, step: JogStep, speed: float, q0: np.ndarray, distance: float) -> tuple[
-            np.ndarray | None, str | None, float | None]:
-        """(end joints, None, None) when the jog of `distance` passes every check, else (None, the first problem,
-        the fraction of the move where it is, or None when the end cannot be reached at all)."""
+            np.ndarray | None, Wording | None, float | None]:
+        """(end joints, None, None) when the jog of `distance` passes every check, else (None, the first problem's
+        wording (units.worded text, values), the fraction of the move where it is, or None when the end cannot be
+        reached at all)."""
         model = self.robot.model
         try:
             move, joints, pose = step_target(model, q0, step, distance)
@@ -180,7 +182,7 @@ class Jog:
                 safety.check_fk_consistency(model, joints, pose, name="target")
             safety.check_travel(q0, joints, self.robot.max_joint_travel, name="target")
         except (UnreachablePoseError, SafetyCheckError) as error:
-            return None, str(error), None
+            return None, error.wording(), None
         segment = PathSegment(f"jog {step.label}", move, target_joints=joints, speed=speed,
                               acceleration=step.acceleration,
                               target_pose=None if pose is None else pose.to_array())
@@ -188,7 +190,7 @@ class Jog:
         if result.ok:
             return joints, None, None
         first = min(result.problems, key=lambda problem: problem.fraction)
-        return None, first.message, first.fraction
+        return None, (first.what, first.measured), first.fraction
 
     # ------------------------------------------------------------------------------------------------ motion
     def _send(self, plan: JogPlan, keep_alive: bool, on_sent: Callable[[], None] | None = None) -> float:
@@ -253,3 +255,11 @@ class Jog:
         the next one."""
         if self._ended is not None:
             self._ended.wait(ENDED_WAIT)
+
+
+def _refused(step: JogStep, problem: Wording | None) -> SafetyCheckError:
+    """The error refusing the jog `step` for `problem` (units.worded text, values): its numbers read in the units of
+    whoever shows it (UR3DQError.shown_in)."""
+    assert problem is not None, "a refused jog has a problem"
+    text, measured = problem
+    return SafetyCheckError.from_wording(literal(f"jog {step.label}: the arm cannot move that way: ") + text, measured)

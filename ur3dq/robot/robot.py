@@ -364,7 +364,7 @@ class Robot:
         cell, margins = self._path_check or (None, Margins())
         result = check_path(self.model, path, cell, margins, keep_samples=False)
         if not result.ok:
-            raise SafetyCheckError(f"path check: {result.summary()}")
+            raise result.refusal()
 
     def movej_pose(self, pose: DualQuaternion, a: float | None = None, v: float | None = None) -> float:
         """Move to the TCP `pose` (DualQuaternion) through the IK solution closest to the current joints."""

@@ -244,7 +244,7 @@ class Operations:
         if path is not None:
             result = check_path(robot.model, path, self.station.config.cell, self.margins, keep_samples=False)
             if not result.ok:
-                raise SafetyCheckError(f"path check: {result.summary()}")
+                raise result.refusal()
         planned, position = plan[0], [s.name for s in steps].index(name) + 1
         speed = "" if planned.speed is None or planned.move is None else \
             f" at {u.show(planned.speed, u.SPEED[u.angular_kind(planned.move)], units)}"
@@ -296,7 +296,10 @@ class Operations:
         robot = self.robot()
         checked = self.check(start)
         if not checked["ok"]:
-            raise SafetyCheckError(checked["summary"] if checked.get("error") else f"path check: {checked['summary']}")
+            if checked.get("error"):
+                raise SafetyCheckError(checked["summary"])
+            text, measured = checked["refusal"]   # its numbers in the units of the page that asked
+            raise SafetyCheckError.from_wording("path check: " + text, measured)
         steps = list(self.station.steps)
         part = select_range(steps, start, None)
         first = [s.name for s in steps].index(part[0].name) + 1

@@ -268,6 +268,8 @@ class ScreenServer:
             text = await self._run_command(page, name, args)
             reply.update(ok=True, text=text)
         except (UR3DQError, ValueError, OSError, PermissionError) as error:
+            if isinstance(error, UR3DQError):   # its values (a path check's, a reach's) in this page's units
+                error.shown_in(page.units)
             reply.update(ok=False, error=one_line(error))
             if name not in ("jog", "jog_stop"):
                 self._log(f"Error ({name}): {one_line(error)}")

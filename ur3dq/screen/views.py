@@ -98,9 +98,11 @@ def check_message(result: PathCheckResult | None, model: URModel, cell: Cell | N
                   start_name: str | None = None, error: str | None = None,
                   error_step: str | None = None) -> dict[str, Any]:
     """The `check` message of a path check `result` (kept samples) of the program on `model` in `cell`: a verdict
-    per step, the problems (one line each), and each move's sampled TCP path with its clearance per sample (m,
-    the smallest of self-collision and cell margins: the page colours by it). `error` (a planning error naming
-    `error_step`) stands for a check that could not run. Post it with check_for_page."""
+    per step, the problems, and each move's sampled TCP path with its clearance per sample (m, the smallest of
+    self-collision and cell margins: the page colours by it). `error` (a planning error naming `error_step`) stands
+    for a check that could not run. Each problem's message and hint are units.worded texts with their "measured"
+    values, and "refusal" is the wording of the error refusing a run along a failed path: post the message with
+    check_for_page, which writes them in a page's units."""
     if error is not None:
         return {"type": "check", "ok": False, "summary": error, "error": True, "from": start_name,
                 "problems": [{"step": error_step, "line": error, "tcp": None, "check": "plan"}],
@@ -124,27 +126,31 @@ def check_message(result: PathCheckResult | None, model: URModel, cell: Cell | N
     smallest = result.steps.smallest_margins()
     clearances = [value for check, (value, _) in smallest.items() if check in ("self_collision", "cell")]
     return {"type": "check", "ok": result.ok, "summary": result.summary(), "from": start_name,
-            "problems": [{"step": p.step, "line": p.line(), "tcp": list(p.tcp), "check": p.check,
-                          "fraction": p.fraction, "message": p.message, "hint": p.hint} for p in result.problems],
-            "verdicts": verdicts, "paths": paths, "smallest_clearance": min(clearances) if clearances else None}
+            "problems": [{"step": p.step, "tcp": list(p.tcp), "check": p.check, "fraction": p.fraction,
+                          "message": p.what, "hint": p.fix, "measured": p.measured} for p in result.problems],
+            "verdicts": verdicts, "paths": paths, "smallest_clearance": min(clearances) if clearances else None,
+            "refusal": None if result.ok else result.summary_wording()}
 
 
 def check_for_page(message: dict[str, Any], units: u.Units) -> dict[str, Any]:
-    """A `check` message with its numbers in the page's `units`: the smallest clearance, and where each problem is
-    (Problem.line's words, the TCP position in `units`; the check's own figures stay as the check wrote them)."""
+    """A `check` message (check_message) as a page in `units` reads it: the smallest clearance, and each problem's
+    message, hint and line (Problem.line's words) with their numbers and the TCP position in `units`."""
     value = message.get("smallest_clearance")
-    problems = [{**problem, "line": problem_line(problem, units)} for problem in message["problems"]]
+    problems = [problem_for_page(problem, units) for problem in message["problems"]]
     smallest = "" if value is None else f"smallest clearance {readout(value, u.LENGTH, units)}"
-    return {**message, "problems": problems, "smallest": smallest}
+    return {**{key: shown for key, shown in message.items() if key != "refusal"}, "problems": problems,
+            "smallest": smallest}
 
 
-def problem_line(problem: dict[str, Any], units: u.Units) -> str:
-    """One problem of a `check` message as Problem.line says it, the TCP in `units`."""
+def problem_for_page(problem: dict[str, Any], units: u.Units) -> dict[str, Any]:
+    """One problem of a `check` message with its message, hint and line in `units` (a planning error's line as it
+    is)."""
     if problem.get("tcp") is None or "message" not in problem:
-        line: str = problem["line"]
-        return line
+        return problem
+    measured = problem.get("measured", ())
+    message, hint = u.worded(problem["message"], measured, units), u.worded(problem["hint"], measured, units)
     label = u.unit_label(u.LENGTH, units)
     where = ", ".join(f"{u.to_display(v, u.LENGTH, units):.{READOUT_DIGITS[label]}f}" for v in problem["tcp"])
-    where += f" {label}"
-    return (f"step {problem['step']!r} at {problem['fraction']:.0%} of the move (TCP {where}): {problem['message']}; "
-            f"{problem['hint']}")
+    line = f"step {problem['step']!r} at {problem['fraction']:.0%} of the move (TCP {where} {label}): {message}; {hint}"
+    return {**{key: shown for key, shown in problem.items() if key != "measured"}, "message": message, "hint": hint,
+            "line": line}
