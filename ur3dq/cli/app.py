@@ -13,6 +13,7 @@ import os
 import shutil
 import sys
 import textwrap
+import traceback
 from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -412,6 +413,8 @@ def show_click_error(error: click.ClickException) -> None:
 def _report_interrupt(interrupt: BaseException) -> int:
     """Print the one-line interruption error (with its notes: the step a run was in, how to go on); its exit code
     (130 for Ctrl-C, 128 + n for signal n)."""
+    if os.environ.get("UR3DQ_DEBUG"):   # where the interrupt landed
+        traceback.print_exception(interrupt)
     name = signal_name(interrupt)
     text = f"interrupted by {name}" if name else str(interrupt) or "interrupted"
     for note in separate_notes(interrupt):
