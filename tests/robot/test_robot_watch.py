@@ -31,11 +31,81 @@ def test_done_when_the_program_ended_and_the_arm_rests_on_target():
     assert outcome.finished(status(0.5, running=False), 0.21)
 
 
-def test_the_stopped_key_message_ends_the_program_before_the_state_agrees():
+def test_the_stopped_key_message_ends_the_program_once_the_state_agrees():
+    """The key message comes a state cycle before the state stream shows the program ended: a caller reading the
+    state right after the motion returned found it still running."""
+    outcome = watch()
+    outcome.note_message(key("PROGRAM_XXX_STARTED"))
+    outcome.finished(status(0.4, running=True, moving=True), 0.9)
+    outcome.note_message(key("PROGRAM_XXX_STOPPED"))
+    assert not outcome.finished(status(0.5, running=True), 1.0)
+    assert outcome.finished(status(0.5, running=False), 1.008)
+
+
+def test_a_state_that_never_shows_the_program_ended_is_a_program_error():
+    outcome = MotionWatch("p", TARGET, running_at_send=False, state_lag=0.5)
+    outcome.note_message(key("PROGRAM_XXX_STARTED"))
+    outcome.note_message(key("PROGRAM_XXX_STOPPED"))
+    assert not outcome.finished(status(0.5, running=True), 1.0)
+    assert not outcome.finished(status(0.5, running=True), 1.49)
+    with pytest.raises(ProgramError, match="program p ended, but the controller's state still showed a program "
+                                           "running 0.5 s after its end"):
+        outcome.finished(status(0.5, running=True), 1.51)
+
+
+def test_a_program_shorter_than_a_state_cycle_ends_on_a_state_delivered_after_its_end():
+    """A program that ran less than a state cycle (a zero-length move): the state it ends on must come after its
+    end, or one still on its way may show it running when the caller reads the state next."""
     outcome = watch()
     outcome.note_message(key("PROGRAM_XXX_STARTED"))
     outcome.note_message(key("PROGRAM_XXX_STOPPED"))
-    assert outcome.finished(status(0.5, running=True), 1.0)
+    assert not outcome.finished(status(0.5, running=False, age=0.007), 1.0)   # delivered before its start
+    assert not outcome.finished(status(0.5, running=True), 1.005)   # the one state that caught it running
+    assert outcome.finished(status(0.5, running=False), 1.013)
+
+
+def test_a_late_start_message_of_an_earlier_program_is_no_replacement():
+    """The previous motion ended on the state's evidence before its key messages came: they arrive in this
+    watch's queue before this program's own, and are no program started after it."""
+    outcome = watch()
+    outcome.finished(status(0.4, running=True, moving=True), 0.0)
+    outcome.note_message(key("PROGRAM_XXX_STARTED", name="earlier"))
+    outcome.note_message(key("PROGRAM_XXX_STOPPED", name="earlier"))
+    outcome.note_message(key("PROGRAM_XXX_STARTED"))
+    outcome.note_message(key("PROGRAM_XXX_STOPPED"))
+    assert outcome.replaced_by is None
+    assert not outcome.finished(status(0.5, running=True), 0.1)   # still this program, on the state
+
+
+def test_a_frozen_state_showing_the_program_running_is_left_to_the_freeze_check():
+    """A stream that froze before the end delivers no state after it: the wait for the state to agree raises
+    nothing of its own, and the stream's freeze check (Robot._checked_status) keeps its bound."""
+    outcome = watch()
+    outcome.note_message(key("PROGRAM_XXX_STARTED"))
+    outcome.note_message(key("PROGRAM_XXX_STOPPED"))
+    for now in (1.0, 2.01, 2.4):   # the same state, delivered at 1.0, ageing past the state_lag of 1 s
+        assert not outcome.finished(status(0.5, running=True, age=now - 1.0), now)
+
+
+def test_an_ended_program_waiting_for_the_state_is_no_motion_timeout():
+    """Ended on its key message, the state stalled before it showed the end: the stream's freeze check names that,
+    not a motion that did not finish."""
+    outcome = watch()
+    outcome.note_message(key("PROGRAM_XXX_STARTED"))
+    outcome.check_progress(status(0.4, running=True, moving=True), 0.1, 0.1, 5.0, 1.0, "")
+    outcome.note_message(key("PROGRAM_XXX_STOPPED"))
+    assert not outcome.finished(status(0.5, running=True, age=0.9), 1.0)
+    outcome.check_progress(status(0.5, running=True, age=1.1), 1.2, 1.2, 5.0, 1.0, "")
+
+
+def test_another_clients_program_running_after_ours_ended_on_target_is_not_waited_for():
+    outcome = watch()
+    outcome.note_message(key("PROGRAM_XXX_STARTED"))
+    outcome.finished(status(0.4, running=True, moving=True), 0.9)
+    outcome.note_message(key("PROGRAM_XXX_STOPPED"))
+    assert not outcome.finished(status(0.5, running=True), 1.0)   # its start not reported yet: still ours
+    outcome.note_message(key("PROGRAM_XXX_STARTED", name="other"))
+    assert outcome.finished(status(0.5, running=True), 1.01)
 
 
 def test_key_messages_of_other_programs_are_ignored():
@@ -100,7 +170,8 @@ def test_at_rest_on_target_without_any_evidence_of_the_program_is_not_the_end():
     for tick in range(20):
         assert not outcome.finished(status(0.5, running=False), tick * SETTLE_TIME)
     outcome.note_message(key("PROGRAM_XXX_STOPPED"))
-    assert outcome.finished(status(0.5, running=False), 30.0)
+    assert not outcome.finished(status(0.5, running=False), 30.0)   # the state may be from before its start
+    assert outcome.finished(status(0.5, running=False), 30.01)   # this one came after its end
 
 
 class _Beats:

@@ -1,9 +1,11 @@
 """What is known about one sent motion program, decided from the state stream and the robot messages (pure).
 
 A motion is done only on evidence that *this* program ran and ended — its own PROGRAM_XXX_STOPPED key message, or
-the state stream showing it running and then not running — with the arm at rest on the target. Being at rest on the
-target proves nothing by itself: a closed path [B, A] or a zero-length move starts there. A paused program is
-neither running on nor ended: the watch waits, and the time it spends paused does not count against its timeout.
+the state stream showing it running and then not running — with the arm at rest on the target, and the state stream
+showing no program running (or another client's, started after it): what a caller reads next agrees with the end.
+Being at rest on the target proves nothing by itself: a closed path [B, A] or a zero-length move starts there. A
+paused program is neither running on nor ended: the watch waits, and the time it spends paused does not count
+against its timeout.
 """
 from __future__ import annotations
 
@@ -44,11 +46,15 @@ class MotionWatch:
         The heartbeat the program is armed on; a stop after a gap in it is blamed on the controller's watchdog.
     watchdog_period : float
         The watchdog's period (s): a heartbeat gap at least this long may have stopped the program.
+    state_lag : float
+        How long (s) after the program's end the state stream may go on delivering states that show a program
+        running before it counts as failed (the driver gives it as long as the stream may go without fresh data).
     """
 
     def __init__(self, name: str, target: object, running_at_send: bool, heartbeat: GapMeter | None = None,
-                 watchdog_period: float = 0.1) -> None:
+                 watchdog_period: float = 0.1, state_lag: float = 1.0) -> None:
         self.name = name
+        self.state_lag = state_lag
         self.heartbeat = heartbeat
         self.watchdog_period = watchdog_period
         self.target = np.asarray(target, dtype=float)
@@ -58,11 +64,12 @@ class MotionWatch:
         # counts as our start only after the state has shown no program since the send.
         self._running_is_ours = not running_at_send
         self._seen_running = False  # the state stream showed our program running
+        self._reported = False  # a key message of our program arrived: a program started after that is another's
         self._ended_on_state = False  # ... and then not running
         self.last_error_text: str | None = None
         self.replaced_by: str | None = None   # the name of a program that started after ours (another client's)
         self.runtime_error: ProgramError | None = None  # raised once the state had time to show a safety stop
-        self._ended_at: float | None = None
+        self._ended_at: float | None = None   # when the watch first knew the program had ended
         self._error_at: float | None = None
         self._paused_since: float | None = None   # when the program was seen paused, while it is
         self._paused_total = 0.0
@@ -71,11 +78,13 @@ class MotionWatch:
     def note_message(self, message: object) -> None:
         """Update from one robot message (key messages, runtime exceptions, error codes)."""
         if primary.is_program_started(message, self.name):
-            self.started = True
-        elif self.started and isinstance(message, primary.KeyMessage) and message.title.endswith("_STARTED"):
-            self.replaced_by = self.replaced_by or message.text   # another client's program took over
+            self.started = self._reported = True
+        elif self._reported and isinstance(message, primary.KeyMessage) and message.title.endswith("_STARTED"):
+            # Another client's program took over. Not before our own key message: a late key message of an
+            # earlier program (one that ended on the state's evidence before its reports came) precedes ours.
+            self.replaced_by = self.replaced_by or message.text
         elif primary.is_program_stopped(message, self.name):
-            self.started = self.stopped = True
+            self.started = self.stopped = self._reported = True
         elif isinstance(message, primary.RuntimeExceptionMessage) and self.runtime_error is None:
             self.runtime_error = ProgramError(
                 f"the controller reported an error in program {self.name} at line {message.line}, "
@@ -106,7 +115,11 @@ class MotionWatch:
         """ProgramError when the program has not started `start_timeout` s after it was sent (`elapsed` s ago),
         MotionTimeoutError when it ran past `timeout` s from its start (a controller parses a long program before
         it starts it), the time it spent paused not counted (`timeout_note` says what the timeout holds beyond the
-        motion's own duration)."""
+        motion's own duration). None once its STOPPED key message came: what is left, the state showing the end,
+        is bounded by `finished` (`state_lag`, SETTLE_TIME) and, on a stream that delivers nothing, by its freeze
+        check."""
+        if self.stopped:
+            return
         if self.started and self._started_after is None:
             self._started_after = elapsed
         if not self.started and not self.paused and elapsed > start_timeout:
@@ -118,8 +131,10 @@ class MotionWatch:
                 f"and the speed slider, {timeout_note}); the arm is {self.distance(status):.4f} rad from target")
 
     def finished(self, status: state.RobotStatus, now: float) -> bool:
-        """True when the program has ended with the arm at rest on target; ProgramError if it ended elsewhere or
-        the controller reported a runtime error (after SETTLE_TIME, so a safety stop behind it is seen first)."""
+        """True when the program has ended with the arm at rest on target and the state showing no program running
+        (or another client's, started after it); ProgramError if it ended elsewhere, the state never showed it
+        ended, or the controller reported a runtime error (after SETTLE_TIME, so a safety stop behind it is seen
+        first)."""
         if self.runtime_error is not None:
             if self._error_at is None:
                 self._error_at = now
@@ -133,8 +148,6 @@ class MotionWatch:
             return False
         if self._paused_since is not None:
             self._paused_total, self._paused_since = self.paused_seconds(now), None
-        # The controller's key message announces the end a state cycle before the state stream agrees; waiting
-        # for the stream too would add that cycle to every move.
         if status.program_running:
             if self._running_is_ours:
                 self.started = self._seen_running = True
@@ -147,17 +160,42 @@ class MotionWatch:
                 self._ended_on_state = True
         if not self.ended:
             return False
-        if state.at_rest_at(status, self.target):
-            return True
         if self._ended_at is None:
             self._ended_at = now
+        if self._state_shows_it_running(status, now, self._ended_at):
+            return False
+        if state.at_rest_at(status, self.target):
+            return True
         # Only a state the stream delivered after the end says where the arm ended: one from before (a frozen
         # stream, garbled on the wire) shows the arm where it was then, and the stream's freeze check reports it.
-        elif now - self._ended_at > SETTLE_TIME and now - status.age > self._ended_at:
+        if now - self._ended_at > SETTLE_TIME and now - status.age > self._ended_at:
             raise ProgramError(literal(f"program {self.name}") + " ended with the arm {0} from its target"
                                + literal(self._stop_reason()),
                                measured=[Measured(self.distance(status), ANGLE, si_digits=4)])
         return False
+
+    def _state_shows_it_running(self, status: state.RobotStatus, now: float, ended_at: float) -> bool:
+        """True while the state stream still shows a program running after this one ended (at `ended_at`, as far as
+        the watch knows).
+
+        The controller's key message announces the end a state cycle (RTDE: 2-8 ms; the primary interface: up to
+        0.1 s) before the stream agrees, and a caller reading the state next must find the program ended. A program
+        another client started after it (its key message) is not this one: the state then rightly shows it
+        running. A state showing none running agrees once the stream has shown this program running, else only
+        when it was delivered after the end (a program shorter than a state cycle may show in one state only, still
+        on its way). ProgramError when a state the stream delivered `state_lag` s after the end still shows
+        one running (a frozen stream delivers none: its freeze check reports it)."""
+        if self.replaced_by is not None:
+            return False
+        delivered = now - status.age
+        if not status.program_running:
+            return not self._seen_running and delivered <= ended_at
+        if delivered > ended_at + self.state_lag:
+            raise ProgramError(f"program {self.name} ended, but the controller's state still showed a program "
+                               f"running {self.state_lag:g} s after its end, and no other program's start was "
+                               "reported: the state stream lags far behind the controller, or a program started "
+                               "unannounced; check the link and the controller's program (`ur3dq status`), then go on")
+        return True
 
     def _stop_reason(self) -> str:
         """What ended the program short of its target, as far as ur3dq can tell: the controller's error, another

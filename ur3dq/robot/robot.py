@@ -241,8 +241,8 @@ class Robot:
         """Move to joint target `q` (rad) on a trapezoid with acceleration a (rad/s²) and speed v (rad/s).
 
         Blocks until there is evidence that this program ran and ended (its own end key message, or the state
-        stream showing it running then not running) and the arm rests at `q`; returns the wall time in seconds.
-        `expected_pose` (DualQuaternion) marks a target that came from IK: the model's FK of `q` must reach it.
+        stream showing it running then not running), the arm rests at `q` and `state()` shows it ended; returns
+        the wall time (s). `expected_pose` (DualQuaternion) marks a target from IK: the model's FK of `q` must reach it.
 
         Examples
         --------
@@ -487,7 +487,7 @@ class Robot:
         watcher = self._primary.watch()
         sent = time.monotonic()
         outcome = MotionWatch(name, target, running_at_send=status.program_running, heartbeat=self._heartbeat,
-                              watchdog_period=1.0 / WATCHDOG_FREQUENCY)
+                              watchdog_period=1.0 / WATCHDOG_FREQUENCY, state_lag=self._backend.freeze_timeout)
         try:
             self._backend.send_program(program)
             if on_sent is not None:
