@@ -63,7 +63,7 @@ DH = 9             # per joint i at DH + 5·i: a, d, θ offset, cos α, sin α (
 TCP = 39           # the TCP's dual quaternion in the flange frame (8)
 LOWER = 47         # joint limits (6)
 UPPER = 53         # joint limits (6)
-CURVATURE = 59     # M of newton.isolated: |F″(x)(d, d)| ≤ M·|d|² for the chain (1)
+THIRD_DERIVATIVE = 59  # M₃ of newton.isolated: |F‴(x)(d, d, d)| ≤ M₃·|d|³ for the chain (1)
 WRIST_NEAR = 60    # |sin(θ5/2)| or |cos(θ5/2)| below which an unreachable split moves along the wrist's family (1)
 SIZE = 61
 
@@ -109,21 +109,22 @@ def vector(a: Any, d: Any, alpha: Any, theta: Any, lengths: Any, tcp: Any, lower
     vector[TCP:TCP + 8] = tcp
     vector[LOWER:LOWER + 6] = lower
     vector[UPPER:UPPER + 6] = upper
-    vector[CURVATURE] = _curvature_bound(a, d, alpha, theta)
+    vector[THIRD_DERIVATIVE] = _third_derivative_bound(a, d, alpha, theta)
     vector[WRIST_NEAR] = WRIST_NEAR_TOLERANCE if structure else CALIBRATED_WRIST_NEAR
     vector.flags.writeable = False
     return vector
 
 
-def _curvature_bound(a: Any, d: Any, alpha: Any, theta: Any) -> float:
-    """M: |F″(x)(d, d)| ≤ M·|d|² for every x and d (6,), F = (flange position, the three columns of its rotation).
+def _third_derivative_bound(a: Any, d: Any, alpha: Any, theta: Any) -> float:
+    """M₃: |F‴(x)(d, d, d)| ≤ M₃·|d|³ for every x and d (6,), F = (flange position, its rotation columns / √2).
 
-    For joint i before or at j, ∂²F/∂θi∂θj = z_i × (z_j × (v − o_j)) (Jacobi's identity), v the position (or a
-    rotation column, with o_j = 0): at most the distance of the flange from axis j (or 1). That distance is at most
-    R = Σ |P_k − P_k−1| + |flange − P_6|, P_1 the base origin and P_k the foot of P_k−1 on axis k: P_k lies on
-    axis k and is fixed in link k−1's frame, hence in link k's, so every term is a constant of the arm (evaluated
-    at q = 0; ~a2 + a3 + d4 + d5 + d6, whatever the table's cancelling d offsets). With (Σ|dᵢ|)² ≤ 6·|d|², the
-    position and three columns give M = 6·√(R² + 3).
+    For joints i ≤ j ≤ k, ∂³F/∂θi∂θj∂θk = z_i × (z_j × (z_k × (v − o_k))), v the position (or a rotation column,
+    with o_k = 0): joint k turns what follows it about axis k, and each earlier joint turns that and the later axes.
+    Its position part is at most the distance of the flange from axis k, at most R = Σ |P_k − P_k−1| + |flange −
+    P_6|, P_1 the base origin and P_k the foot of P_k−1 on axis k: P_k lies on axis k and is fixed in link k−1's
+    frame, hence in link k's, so every term is a constant of the arm (evaluated at q = 0; ~a2 + a3 + d4 + d5 + d6,
+    whatever the table's cancelling d offsets). Its three columns / √2 are ‖[z_i]×[z_j]×[z_k]×·R‖_F / √2 ≤ 1. With
+    (Σ|dᵢ|)³ ≤ 6^1.5·|d|³, M₃ = 6^1.5·√(R² + 1).
     """
     frames = SerialChain.from_dh(a, d, alpha, theta).frames(np.zeros(6))   # DH frames 0..6
     axes = dqarray.transform_points(frames[:6], np.array([0.0, 0.0, 1.0])) - dqarray.translation(frames[:6])
@@ -133,4 +134,4 @@ def _curvature_bound(a: Any, d: Any, alpha: Any, theta: Any) -> float:
         step = axis * np.dot(foot - origin, axis) + origin - foot   # to the foot of ``foot`` on this axis
         foot, reach = foot + step, reach + float(np.linalg.norm(step))
     reach += float(np.linalg.norm(origins[6] - foot))
-    return 6.0 * math.sqrt(reach * reach + 3.0)
+    return math.sqrt(216.0 * (reach * reach + 1.0))   # 6^1.5·√(R² + 1)

@@ -19,6 +19,7 @@ Pair = tuple[float, float, float, float, float, float, float]
 Matrix = tuple[float, float, float, float, float, float, float, float, float]
 SinCos = tuple[float, float]
 Coefficients = tuple[float, float, float, float, float, float, float, float]
+Vector = tuple[float, float, float]
 
 
 
@@ -29,6 +30,12 @@ def product(a: Quaternion, b: Quaternion) -> Quaternion:
     bw, bx, by, bz = b
     return (aw * bw - ax * bx - ay * by - az * bz, aw * bx + ax * bw + ay * bz - az * by,
             aw * by - ax * bz + ay * bw + az * bx, aw * bz + ax * by - ay * bx + az * bw)
+
+
+@kernel
+def cross(a: Vector, b: Vector) -> Vector:
+    """a × b of 3-vectors."""
+    return a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]
 
 
 @kernel

@@ -179,14 +179,19 @@ def nearest(arm: np.ndarray, goal: np.ndarray, reference: np.ndarray, weights: n
 def reference_row(arm: np.ndarray, goal: np.ndarray, reference: np.ndarray, weights: np.ndarray, out: np.ndarray,
                   chain: np.ndarray, row: np.ndarray) -> bool:
     """On a calibrated arm, Newton from the reference into ``row``: True (its variants in ``out``) when that solution
-    is provably the nearest (newton.isolated), else ``row`` is kept as a candidate (NaN where Newton failed)."""
+    is provably the nearest, else ``row`` is kept as a candidate (NaN where Newton failed).
+
+    A nearer solution's variants cost less than ``out``'s c, so lie within r = √(c / min w) of the reference; both
+    solutions' exact ±2π copies (each joint within LIMIT_ROUNDING of its variant) then lie within |out − reference|
+    + r + 2·√6·LIMIT_ROUNDING (< 5·LIMIT_ROUNDING) of each other, the span newton.isolated must rule out."""
     row[:] = reference
     if not newton.refine(arm, row, goal, chain) <= CALIBRATED_TOLERANCE:
         row[:] = math.nan
         return False
     cost = solve.variants(arm, row, reference, weights, LIMIT_ROUNDING, out)[0]
-    return cost < math.inf and (cost == 0.0 or newton.isolated(arm, row, newton.proof_span(cost, weights.min()),
-                                                                 chain)) and solve.meets(arm, out, goal, chain)
+    span = math.sqrt(((out - reference) ** 2).sum()) + math.sqrt(cost / weights.min()) + 5.0 * LIMIT_ROUNDING
+    return cost < math.inf and (cost == 0.0 or newton.isolated(arm, row, span, chain)) and solve.meets(arm, out, goal,
+                                                                                                    chain)
 
 
 @kernel

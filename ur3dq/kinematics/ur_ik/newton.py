@@ -11,8 +11,8 @@ import math
 
 import numpy as np
 
-from ur3dq.kinematics.arm import CALIBRATED_TOLERANCE, CURVATURE, DH, LIMIT_ROUNDING
-from ur3dq.kinematics.fk import chain_frames
+from ur3dq.kinematics.arm import CALIBRATED_TOLERANCE, THIRD_DERIVATIVE
+from ur3dq.kinematics.fk import chain_frames, cross
 from ur3dq.kinematics.jit import kernel
 from ur3dq.kinematics.ur_ik.frames import FLANGE, FLANGE_MATRIX
 
@@ -24,8 +24,10 @@ DAMPING = 1e-9
 #: Above it a row keeps stepping: beside a singularity Newton converges linearly, which is not a floor.
 ROUNDING_CEILING = 1e-11
 #: Two solutions accepted at CALIBRATED_TOLERANCE have |F(x) − F(x′)| ≤ 4.5·tolerance (F: flange position and
-#: rotation columns; the residual's rotation part is sin φ·axis, a column moves by ≤ √2·φ); 5 leaves room.
+#: rotation columns, or those / √2; the residual's rotation part is sin φ·axis, a column moves by ≤ √2·φ).
 SOLUTION_GAP = 5.0 * CALIBRATED_TOLERANCE
+#: ``isolated`` decides with this much to spare: the rounding of its figures is ~1e-9 of them (cond(JᵀJ)·ε).
+PROOF_MARGIN = 1e-3
 
 
 @kernel
@@ -100,16 +102,22 @@ def newton_step(frames: np.ndarray, error: np.ndarray, norm: float, step: np.nda
     normal, lower, jacobian, rhs = work[0], work[1], work[2], work[3, 0]
     normal_equations(frames, error, normal, rhs, jacobian)
     cholesky(normal, -(DAMPING * DAMPING + norm * norm), DAMPING * DAMPING, lower)
-    for i in range(6):   # L·y = rhs, then Lᵀ·Δq = y
+    cholesky_solve(lower, rhs, step)
+
+
+@kernel
+def cholesky_solve(lower: np.ndarray, rhs: np.ndarray, out: np.ndarray) -> None:
+    """``out`` (6) solving L·Lᵀ·out = rhs for ``cholesky``'s factor L (6, 6): L·y = rhs, then Lᵀ·out = y."""
+    for i in range(6):
         value = rhs[i]
         for k in range(i):
-            value -= lower[i, k] * step[k]
-        step[i] = value / lower[i, i]
+            value -= lower[i, k] * out[k]
+        out[i] = value / lower[i, i]
     for i in range(5, -1, -1):
-        value = step[i]
+        value = out[i]
         for k in range(i + 1, 6):
-            value -= lower[k, i] * step[k]
-        step[i] = value / lower[i, i]
+            value -= lower[k, i] * out[k]
+        out[i] = value / lower[i, i]
 
 
 @kernel
@@ -137,29 +145,51 @@ def refine(arm: np.ndarray, q: np.ndarray, goal: np.ndarray, frames: np.ndarray)
 
 
 @kernel
-def proof_span(cost: float, least_weight: float) -> float:
-    """The distance (rad, joint space) ``isolated`` must rule out around a Newton answer at weighted cost ``cost``
-    (Σ wᵢ·Δqᵢ²) from its reference for it to be provably the nearest: a nearer solution lies within
-    2·(√(c / min w) + √6·LIMIT_ROUNDING) of it (both within the first term of the reference, up to LIMIT_ROUNDING
-    per joint), and twice that is required, for the rounding of σ."""
-    return 4.0 * (math.sqrt(cost / least_weight) + math.sqrt(6.0) * LIMIT_ROUNDING)
+def second_order(jacobian: np.ndarray, lower: np.ndarray) -> float:
+    """β² = Σᵢⱼ |A·Fᵢⱼ|² for F = (p, r₁/√2, r₂/√2, r₃/√2) (flange position and rotation columns: then JᵀJ is
+    normal_equations' matrix, ``lower`` its Cholesky factor, ``jacobian`` its rows [zₖ × ℓₖ, zₖ]), Fᵢⱼ its
+    second derivatives and A = (JᵀJ)⁻¹Jᵀ. For i ≤ j, ∂²p/∂qᵢ∂qⱼ = zᵢ × (zⱼ × ℓⱼ) and ∂²r/∂qᵢ∂qⱼ = zᵢ × (zⱼ × r)
+    (ℓⱼ = p − oⱼ: joint j turns what follows it about zⱼ, joint i ≤ j turns that and zⱼ about zᵢ), so row k of
+    Jᵀ·Fᵢⱼ is (zₖ × ℓₖ)·(zᵢ × (zⱼ × ℓⱼ)) + ½·Σ_c (zₖ × r_c)·(zᵢ × (zⱼ × r_c)), that sum being (zᵢ × zⱼ)·zₖ
+    (r_c orthonormal)."""
+    row, solved, total = np.empty(6), np.empty(6), 0.0
+    for j in range(6):
+        axis, inner = (jacobian[j, 3], jacobian[j, 4], jacobian[j, 5]), (jacobian[j, 0], jacobian[j, 1], jacobian[j, 2])
+        for i in range(j + 1):
+            first = (jacobian[i, 3], jacobian[i, 4], jacobian[i, 5])
+            moved, turned = cross(first, inner), cross(first, axis)
+            for k in range(6):
+                row[k] = (jacobian[k, 0] * moved[0] + jacobian[k, 1] * moved[1] + jacobian[k, 2] * moved[2] + 0.5
+                          * (jacobian[k, 3] * turned[0] + jacobian[k, 4] * turned[1] + jacobian[k, 5] * turned[2]))
+            cholesky_solve(lower, row, solved)
+            total += (1.0 if i == j else 2.0) * (solved[0] ** 2 + solved[1] ** 2 + solved[2] ** 2 + solved[3] ** 2
+                                                   + solved[4] ** 2 + solved[5] ** 2)
+    return total
 
 
 @kernel
 def isolated(arm: np.ndarray, q: np.ndarray, reach: float, frames: np.ndarray) -> bool:
     """Whether no other solution accepted at CALIBRATED_TOLERANCE lies within ``reach`` (rad, Euclidean in joint
-    space, any ±2π shift) of the solution q (6), other than its own copies within ~SOLUTION_GAP/σ.
+    space, any ±2π shift) of the solution q (6), other than its own copies within 2·a·SOLUTION_GAP (below).
 
-    Along x′ = x + d, |F(x′) − F(x) − G·d| ≤ ½·M·|d|² (arm.CURVATURE), and |G·d| ≥ σ·|d|, σ the least singular
-    value of the 6×6 Jacobian J. Another solution has |F(x′) − F(x)| ≤ SOLUTION_GAP, so σ·t − ½·M·t² ≤ gap for
-    t = |d|: t lies below the smaller root or beyond the larger, which exceeds ``reach`` exactly when σ exceeds
-    σ_t = max(√(2·M·gap), min(M·t, M·t/2 + gap/t)), i.e. when JᵀJ − σ_t²·I is positive definite. The radius is at
-    most 2σ/M with σ ≤ |J·e6| = √(1 + a6²): farther reaches fail without a Jacobian."""
-    bound, gap = arm[CURVATURE], SOLUTION_GAP
-    if not reach < 2.0 * math.sqrt(1.0 + arm[DH + 25] ** 2) / bound:
-        return False
-    needed = max(math.sqrt(2.0 * bound * gap), min(bound * reach, 0.5 * bound * reach + gap / reach))
-    normal, rhs, lower, error = np.empty((6, 6)), np.empty(6), np.empty((6, 6)), np.zeros(6)
+    With F, J, A and β as in ``second_order``, Taylor's theorem at q gives F(q + d) − F(q) = J·d + ½·F″[d, d] + R
+    with |R| ≤ M₃·|d|³/6 (arm.THIRD_DERIVATIVE). Another solution has |F(q + d) − F(q)| ≤ SOLUTION_GAP = g, and
+    A·J = I, so d = A·(F(q + d) − F(q)) − ½·A·F″[d, d] − A·R; with t = |d|, a = √trace((JᵀJ)⁻¹) ≥ ‖A‖ and
+    |A·F″[d, d]| ≤ β·t² (Cauchy–Schwarz over the pairs i, j):  1 ≤ a·g/t + ½·β·t + a·M₃·t²/6.  The right side is
+    convex in t, so where it stays below 1 − PROOF_MARGIN at t = 2·a·g and at t = reach, no other solution lies
+    between. β, taken at q, amplifies only the part of F″ along J's weak directions (a global bound of F″ times a
+    holds far less often)."""
+    normal, lower, jacobian, identity, column = np.empty((6, 6)), np.empty((6, 6)), np.empty((6, 6)), np.eye(6), \
+        np.empty(6)
     chain_frames(arm, q, frames)
-    normal_equations(frames, error, normal, rhs, np.empty((6, 6)))
-    return cholesky(normal, needed * needed, 0.0, lower)
+    normal_equations(frames, np.zeros(6), normal, column, jacobian)
+    if not cholesky(normal, 0.0, 0.0, lower):
+        return False
+    trace = 0.0   # trace((JᵀJ)⁻¹)
+    for k in range(6):
+        cholesky_solve(lower, identity[k], column)
+        trace += column[k]
+    a, beta = math.sqrt(trace), math.sqrt(second_order(jacobian, lower))
+    near, cubic = 2.0 * a * SOLUTION_GAP, a * arm[THIRD_DERIVATIVE] / 6.0
+    spare = [1.0 - PROOF_MARGIN - a * SOLUTION_GAP / t - 0.5 * beta * t - cubic * t * t for t in (near, reach)]
+    return reach <= near or (spare[0] >= 0.0 and spare[1] >= 0.0)

@@ -102,15 +102,6 @@ def meets(arm: np.ndarray, q: np.ndarray, goal: np.ndarray, chain: np.ndarray) -
 
 
 @kernel
-def beside_singular_wrist(rows: np.ndarray, sine: float) -> bool:
-    """Whether some row (NaN rows aside) has |sin θ5| < ``sine``."""
-    for k in range(len(rows)):
-        if abs(math.sin(rows[k, 4])) < sine:
-            return True
-    return False
-
-
-@kernel
 def turn_starts(arm: np.ndarray, goal: np.ndarray, seed: np.ndarray, elbow: int, starts: np.ndarray) -> int:
     """Starts (≤ TURNS − 1 rows into ``starts``) turned from ``seed`` along its wrist's family, its elbow sign kept
     (elbow 0: θ3 ≥ 0); returns how many (none for a regular wrist, an absent seed, or turns out of reach)."""
@@ -138,7 +129,8 @@ def fill_pair(arm: np.ndarray, goal: np.ndarray, seeds: np.ndarray, rows: np.nda
               chain: np.ndarray) -> None:
     """Where the (θ1, elbow) pair's slots beside a singular wrist hold no two solutions new to every other row, fill
     its missing or repeated slots (in slot order) with the new solutions Newton reaches from its seeds' turns."""
-    near = abs(math.sin(seeds[pair[0], 4])) < TURN_SINE or abs(math.sin(seeds[pair[1], 4])) < TURN_SINE
+    if not (abs(math.sin(seeds[pair[0], 4])) < TURN_SINE or abs(math.sin(seeds[pair[1], 4])) < TURN_SINE):
+        return
     kept, count, open_slots = np.empty((8, 6)), 0, [-1, -1]
     for slot in range(8):
         if rows[slot, 0] == rows[slot, 0] and is_new(rows[slot], kept, count):
@@ -146,7 +138,7 @@ def fill_pair(arm: np.ndarray, goal: np.ndarray, seeds: np.ndarray, rows: np.nda
             count += 1
         elif slot in pair:
             open_slots[0 if slot == pair[0] else 1] = slot
-    if not near or (open_slots[0] < 0 and open_slots[1] < 0):
+    if open_slots[0] < 0 and open_slots[1] < 0:
         return
     count = 0   # kept: the rows of the other slots
     for slot in range(8):
@@ -209,9 +201,8 @@ def candidates(arm: np.ndarray, goal: np.ndarray, theta6_ref: float, rows: np.nd
             rows[slot] = math.nan
     for elbow_pair in range(4):
         mirror_elbow(arm, goal, rows, 2 * elbow_pair, chain)
-    if beside_singular_wrist(seeds, TURN_SINE):
-        for pair in ((0, 2), (1, 3), (4, 6), (5, 7)):
-            fill_pair(arm, goal, seeds, rows, pair, chain)
+    for pair in ((0, 2), (1, 3), (4, 6), (5, 7)):
+        fill_pair(arm, goal, seeds, rows, pair, chain)
 
 
 @kernel
