@@ -43,6 +43,7 @@ bench: warm
 	$(BIN)/python benchmarks/bench_dls.py
 	$(BIN)/python benchmarks/bench_driver.py
 	$(BIN)/python benchmarks/bench_rtde_stream.py
+	$(BIN)/python benchmarks/bench_screen.py
 
 clean:
 	rm -rf $(VENV) .pytest_cache .hypothesis
