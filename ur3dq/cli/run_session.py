@@ -211,7 +211,7 @@ def announce_resume(settings: Settings, plan: Sequence[PlannedStep], first: int,
     offset, planned = waypoint
     err.print(escape(f"{head}: first a {planned.move} move from where the arm is (joints {joints} "
                      f"{'°' if settings.deg else 'rad'}) to the target of step {first + offset} "
-                     f"{planned.step.name!r}; the path check runs from those joints."))
+                     f"{planned.step.name!r}; the path check runs from those joints."), soft_wrap=True)
 
 
 def replay_stop(robot: Any, position: int, name: str) -> ProgramStop:
