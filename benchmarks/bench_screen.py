@@ -17,39 +17,30 @@ Run: .venv/bin/python benchmarks/bench_screen.py [--runs 3] [--json PATH]
 from __future__ import annotations
 
 import argparse
-import contextlib
 import json
 import math
 import os
-import re
-import signal
 import statistics
-import subprocess
 import sys
 import tempfile
 import threading
 import time
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-import dashboard_client
 import numpy as np
 import rtde_receive
 from playwright.sync_api import Browser, sync_playwright
 
 import ur3dq.robot
-from sim_ursim.launch import SimulatorProcess, simulator_process
-from ur3dq.kinematics import robot_model
-from ur3dq.pose import Pose
-from ur3dq.store import PoseStore
+from sim_ursim.launch import simulator_process
 
-CHROMIUM = os.environ.get("UR3DQ_CHROMIUM", "/usr/bin/chromium")
-CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
-                 "--disable-sync", "--no-first-run"]
-URL_LINE = re.compile(r"the cell's screen is at (http://\S+)")
-# A UR3 configuration clear of the floor, its singularities and limits: the tool points down over the table.
-START_Q = (0.0, -1.2, 1.0, -1.4, -1.57, 0.0)
+# The same simulator, server and program as the screen's tests (tests/screen/screen_support.py).
+TESTS = Path(__file__).resolve().parents[1] / "tests"
+sys.path[:0] = [str(TESTS), str(TESTS / "screen")]
+from powered_simulator import powered_simulator  # noqa: E402
+from screen_support import CHROMIUM, CHROMIUM_ARGS, START_Q, hundred_step_store, served  # noqa: E402
+
 GOALS = {"page_load_s": ("≤", 1.5), "latency_median_ms": ("≤", 100.0), "latency_p99_ms": ("≤", 250.0),
          "readout_updates_per_s": ("≥", 20.0)}
 # Every change of joint 1's readout, with the time the page showed it (ms since the epoch, as time.time() * 1000).
@@ -59,75 +50,18 @@ WATCH_READOUT = """() => { window.readouts = [];
     .observe(readout, {childList: true, characterData: true, subtree: true}); }"""
 
 
-@contextlib.contextmanager
-def served(host: str, store: Path, log: Path) -> Iterator[str]:
-    """`ur3dq serve --port 0 --deg --mm` for the robot at `host`; its URL, until the block ends (then SIGTERM)."""
-    command = [sys.executable, "-m", "ur3dq", "--store", str(store), "--host", host, "serve", "--port", "0", "--deg",
-               "--mm"]
-    environment = {**os.environ, "UR3DQ_STATE_DIR": str(log.parent / "state"), "NO_COLOR": "1"}
-    with open(log, "wb") as sink:
-        process = subprocess.Popen(command, stdout=sink, stderr=subprocess.STDOUT, env=environment)
-    try:
-        deadline = time.monotonic() + 30
-        while not (match := URL_LINE.search(log.read_text(encoding="utf-8", errors="replace"))):
-            if process.poll() is not None or time.monotonic() > deadline:
-                raise SystemExit(f"ur3dq serve printed no URL: {log.read_text()}")
-            time.sleep(0.01)
-        yield match.group(1)
-    finally:
-        process.send_signal(signal.SIGTERM)
-        try:
-            process.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            process.kill()
-            process.wait()
-
-
-@contextlib.contextmanager
-def powered_simulator() -> Iterator[SimulatorProcess]:
-    """A UR3 simulator process at START_Q, powered on with its brakes released through the dashboard."""
-    with simulator_process(model="ur3", initial_q=list(START_Q)) as simulator:
-        dashboard = dashboard_client.DashboardClient(simulator.host)
-        dashboard.connect()
-        dashboard.powerOn()
-        dashboard.brakeRelease()
-        dashboard.disconnect()
-        receive = rtde_receive.RTDEReceiveInterface(simulator.host)
-        try:
-            deadline = time.monotonic() + 15
-            while receive.getRobotMode() != 7:
-                if time.monotonic() > deadline:
-                    raise SystemExit("the simulator never got RUNNING")
-                time.sleep(0.02)
-        finally:
-            receive.disconnect()
-        yield simulator
-
-
 def page_load(browser: Browser, folder: Path) -> float:
     """Seconds from `ur3dq serve` starting to the page's first drawn arm (a new simulator, the page opened as soon
     as the server prints its URL)."""
     page = browser.new_page(viewport={"width": 1280, "height": 800})
     with simulator_process(model="ur3", initial_q=list(START_Q)) as simulator:
         started = time.time()
-        with served(simulator.host, folder / "poses.json", folder / "serve-load.log") as url:
-            page.goto(url)
+        with served(simulator.host, folder / "poses.json", folder / "serve-load.log") as server:
+            page.goto(server.url)
             page.wait_for_function("document.body.dataset.armDrawn === 'true'", timeout=20000)
             drawn = page.evaluate("window.ur3dqScreen.firstArmDrawnAt") / 1000.0
     page.close()
     return float(drawn - started)
-
-
-def hundred_step_store(path: Path) -> PoseStore:
-    """A store of 100 UR3 poses around START_Q (the program the page shows while the arm moves)."""
-    model = robot_model("ur3")
-    poses = []
-    for index in range(100):
-        q = np.array(START_Q) + np.array([0.4 * math.sin(index / 7), 0.15 * math.sin(index / 5), 0.1, 0, 0, 0])
-        poses.append(Pose.from_dual_quaternion(f"p{index:03d}", model.fk(q), "ur3", joints=tuple(q)))
-    store = PoseStore(path)
-    store.add_many(poses)
-    return store
 
 
 def moves_watched(host: str) -> tuple[list[tuple[float, float, float]], list[tuple[float, float]]]:
@@ -182,7 +116,9 @@ def live_view(browser: Browser, folder: Path) -> dict[str, Any]:
     """The live view's figures while the arm moves, with a 100-step program shown."""
     store = hundred_step_store(folder / "steps.json")
     page = browser.new_page(viewport={"width": 1280, "height": 800})
-    with powered_simulator() as simulator, served(simulator.host, store.path, folder / "serve-live.log") as url:
+    with powered_simulator(model="ur3", initial_q=list(START_Q)) as simulator, \
+            served(simulator.host, store.path, folder / "serve-live.log") as server:
+        url = server.url
         page.goto(url)
         page.wait_for_function("document.querySelectorAll('#steps li').length === 100 && "
                                "document.body.dataset.armDrawn === 'true'", timeout=20000)

@@ -14,7 +14,12 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
+
+from ur3dq.kinematics import robot_model
+from ur3dq.pose import Pose
+from ur3dq.store import PoseStore
 
 CHROMIUM = os.environ.get("UR3DQ_CHROMIUM", "/usr/bin/chromium")
 CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
@@ -24,6 +29,18 @@ SIZES = {"laptop": (1280, 800), "tablet": (800, 1280)}
 URL_LINE = re.compile(r"the cell's screen is at (http://\S+)")
 # A UR3 configuration clear of the floor, its singularities and limits: the tool points down over the table.
 START_Q = (0.0, -1.2, 1.0, -1.4, -1.57, 0.0)
+
+
+def hundred_step_store(path: Path) -> PoseStore:
+    """A store of 100 UR3 poses around START_Q (a long program for the page to show while the arm moves)."""
+    model = robot_model("ur3")
+    poses = []
+    for index in range(100):
+        q = np.array(START_Q) + np.array([0.4 * math.sin(index / 7), 0.15 * math.sin(index / 5), 0.1, 0, 0, 0])
+        poses.append(Pose.from_dual_quaternion(f"p{index:03d}", model.fk(q), "ur3", joints=tuple(q)))
+    store = PoseStore(path)
+    store.add_many(poses)
+    return store
 
 
 def require_browser() -> None:

@@ -10,10 +10,7 @@ import pytest
 from polling import wait_for
 from powered_simulator import powered_simulator
 from robot_target import simulator_only
-from screen_support import ARTIFACTS, START_Q, readout_radians, served
-from ur3dq.kinematics import robot_model
-from ur3dq.pose import Pose
-from ur3dq.store import PoseStore
+from screen_support import ARTIFACTS, START_Q, hundred_step_store, readout_radians, served
 
 pytestmark = [pytest.mark.browser, simulator_only("the live view's test moves sim_ursim")]
 
@@ -23,17 +20,6 @@ WATCH_READOUT = """() => { window.readouts = [];
   new MutationObserver(() => window.readouts.push(readout.textContent))
     .observe(readout, {childList: true, characterData: true, subtree: true}); }"""
 TURN = 0.6   # rad of joint 1, at 0.4 rad/s: about 1.5 s of motion
-
-
-def hundred_step_store(path) -> PoseStore:
-    model = robot_model("ur3")
-    poses = []
-    for index in range(100):
-        q = np.array(START_Q) + np.array([0.4 * math.sin(index / 7), 0.15 * math.sin(index / 5), 0.1, 0, 0, 0])
-        poses.append(Pose.from_dual_quaternion(f"p{index:03d}", model.fk(q), "ur3", joints=tuple(q)))
-    store = PoseStore(path)
-    store.add_many(poses)
-    return store
 
 
 def shown_joint_1(page, radians: float) -> None:
