@@ -211,7 +211,8 @@ def announce_resume(settings: Settings, plan: Sequence[PlannedStep], first: int,
     offset, planned = waypoint
     err.print(escape(f"{head}: first a {planned.move} move from where the arm is (joints {joints} "
                      f"{'°' if settings.deg else 'rad'}) to the target of step {first + offset} "
-                     f"{planned.step.name!r}; the path check runs from those joints."), soft_wrap=True)
+                     f"{planned.step.name!r}; the path check runs from those joints."),
+              soft_wrap=not err.is_terminal)   # a terminal's width, between words; a log's line, whole
 
 
 def replay_stop(robot: Any, position: int, name: str) -> ProgramStop:
