@@ -2,6 +2,7 @@
 garbage: every connection step ends within its timeout with one ur3dq error; garbage state is never taken as state."""
 import os
 import random
+import re
 import shutil
 import socket
 import subprocess
@@ -254,7 +255,8 @@ def test_urx_garbage_in_the_middle_of_a_motion_stops_the_arm_with_one_error(powe
     """Connected and moving when the garbage starts. At 4.8 s the third move ends on target within the urx freeze
     timeout of the garbage: the watch then took the frozen state for where the arm ended ("ended with the arm 0.16
     rad from its target", and at 4.0 s in stops 23 and 24 when the run started late); the frozen stream is the
-    error."""
+    error. On a loaded machine the garbage can instead start as a move ends, and the next program's send then fails
+    first: that is the one error then, naming the move that was not sent."""
     shutil.copy(EXAMPLE_STORE, tmp_path / "poses.json")
     fake = GarbledSecondary(powered_simulator.host, garbage_after=garbage_after)
     try:
@@ -262,7 +264,9 @@ def test_urx_garbage_in_the_middle_of_a_motion_stops_the_arm_with_one_error(powe
     finally:
         fake.close()
     assert result.returncode == 6, (result.stdout, result.stderr)
-    assert "no fresh valid data" in result.stderr.strip().splitlines()[-1], result.stderr
+    error = result.stderr.strip().splitlines()[-1]
+    assert "no fresh valid data" in error or re.search(r"could not send the program .* \(during move \d of 4", error), \
+        result.stderr
     receive = rtde_receive.RTDEReceiveInterface(powered_simulator.host)
     try:   # stopped (stopj), not left to run on to the last pose
         assert wait_for(lambda: max(abs(v) for v in receive.getActualQd()) < 1e-3, timeout=1.5), \
