@@ -100,7 +100,7 @@ class Controller:
         self._speed_slider = 1.0
         self._speed_scaling = 1.0  # trajectory-time scaling the controller applies itself (pause ramps it to 0)
         self._freedrive = False
-        self._motions = MotionQueue(self.model, self._arm.tcp_matrix, self._arm.solve_planned)
+        self._motions = MotionQueue(self.model)
         self._runner = None
         self._program_running = False
         self._program_paused = False

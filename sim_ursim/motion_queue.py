@@ -119,14 +119,11 @@ class MotionEntry:
 
 
 class MotionQueue:
-    """The arm's motions (see the module docstring). `tcp_matrix(q)` and `solve_ik(pose, q_near)` use the
-    controller's present TCP."""
+    """The arm's motions (see the module docstring); each planned move measures its blend zone at the TCP of its
+    command (MotionEntry.tcp_matrix)."""
 
-    def __init__(self, model: RobotModel, tcp_matrix: Callable[[np.ndarray], np.ndarray],
-                 solve_ik: Callable[[np.ndarray, np.ndarray], np.ndarray]):
+    def __init__(self, model: RobotModel):
         self.model = model
-        self._tcp_matrix = tcp_matrix
-        self._solve_ik = solve_ik
         self.active: MotionEntry | None = None
         self.tail: MotionEntry | None = None  # a move still finishing underneath its blended successor
         self.waiting: list[MotionEntry] = []  # planned moves waiting for the current one
@@ -319,9 +316,9 @@ class MotionQueue:
         if active.target_q is None or active.motion.blend_radius <= 0:
             return
         if not active.in_blend_zone:
-            tcp_matrix = active.tcp_matrix or self._tcp_matrix
-            here = tcp_matrix(new_q)[:3, 3]
-            there = tcp_matrix(active.target_q)[:3, 3]
+            assert active.tcp_matrix is not None   # a planned move carries its command's TCP
+            here = active.tcp_matrix(new_q)[:3, 3]
+            there = active.tcp_matrix(active.target_q)[:3, 3]
             if float(np.linalg.norm(there - here)) > active.motion.blend_radius:
                 return
             # Inside the blend zone the program may go on (the URScript move returns) while the arm continues.
