@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from cli_support import run_poses_mid_move
+from processes import children_of
 from robot_target import simulator_only
 from ur3dq.robot.heartbeat import PERIOD, WATCHDOG_FREQUENCY
 
@@ -61,22 +62,6 @@ def test_kill_9_during_teach_ends_freedrive_within_0_3_s(arm, tmp_path):
         ended_after = time.monotonic() - killed_at
     assert ended_after < 0.3, f"freedrive ended {ended_after:.3f} s after ur3dq died"
     assert not send_request(arm.host, "status")["state"]["program_running"]
-
-
-def children_of(pid):
-    """The pids of the living processes whose parent is `pid` (from /proc)."""
-    found = []
-    for entry in os.listdir("/proc"):
-        if entry.isdigit():
-            try:
-                with open(f"/proc/{entry}/stat", "rb") as stat_file:
-                    stat = stat_file.read()
-            except OSError:   # it ended meanwhile
-                continue
-            state, parent = stat[stat.rfind(b")") + 2:].split()[:2]
-            if int(parent) == pid and state != b"Z":
-                found.append(int(entry))
-    return found
 
 
 def ended(pid):

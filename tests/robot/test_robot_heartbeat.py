@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import ur3dq.robot
+from processes import children_of
 from robot_target import simulator_only
 from robot_test_support import HOME, ready, simulator_state, simulator_with
 from ur3dq.errors import ProgramError
@@ -66,17 +67,13 @@ class FreezeMidMove(threading.Thread):
 
 def heartbeat_processes():
     """Pids of this process's children that run the heartbeat."""
-    pids = []
-    for entry in os.listdir("/proc"):
+    def command(pid):
         try:
-            with open(f"/proc/{entry}/stat", "rb") as stat, open(f"/proc/{entry}/cmdline", "rb") as cmdline:
-                parent = int(stat.read().rsplit(b")", 1)[1].split()[1])
-                command = cmdline.read()
-        except (OSError, ValueError):
-            continue
-        if parent == os.getpid() and b"heartbeat_process" in command:
-            pids.append(int(entry))
-    return pids
+            with open(f"/proc/{pid}/cmdline", "rb") as cmdline:
+                return cmdline.read()
+        except OSError:   # it ended meanwhile
+            return b""
+    return [pid for pid in children_of(os.getpid()) if b"heartbeat_process" in command(pid)]
 
 
 def real_time_allowed():
