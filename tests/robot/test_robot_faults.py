@@ -1,5 +1,4 @@
 """Faults during motion, injected into sim_ursim: each gives its own exception, in bounded time, and the arm stops."""
-import _thread
 import signal
 import threading
 import time
@@ -19,7 +18,7 @@ from ur3dq.errors import (
     ProtectiveStopError,
     RobotError,
 )
-from ur3dq.robot import motion
+from ur3dq.robot import interrupts, motion
 
 pytestmark = needs_simulator
 
@@ -301,18 +300,33 @@ def test_timeout_allows_for_a_slow_slider(sim_robot, home):
 @pytest.fixture
 def sigint_raises():
     """SIGINT raises KeyboardInterrupt here, as in an interactive Python: a runner started in the background by a
-    shell script inherits SIGINT ignored, and then `_thread.interrupt_main` does nothing."""
+    shell script inherits SIGINT ignored, and then a SIGINT does nothing."""
     previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     yield
     signal.signal(signal.SIGINT, previous)
 
 
-def test_keyboard_interrupt_stops_the_arm(sim_robot, home, sigint_raises):
+@pytest.mark.parametrize("lead", [0.05, 0.6, 1.5])
+def test_keyboard_interrupt_stops_the_arm_and_leaves_at_a_poll(sim_robot, home, sigint_raises, lead):
+    """A real SIGINT at three points of a move: the driver raises it at its next poll, never where it landed (inside
+    a lock it would leave that lock taken: ur3dq.robot.interrupts), stops the arm, and moves again."""
     host, robot = sim_robot
     target = home + LONG_MOVE
-    with WhenMoving(host, home, _thread.interrupt_main), pytest.raises(KeyboardInterrupt):
+    main = threading.main_thread().ident
+    with WhenMoving(host, home, lambda: signal.pthread_kill(main, signal.SIGINT), lead=lead), \
+            pytest.raises(KeyboardInterrupt) as interrupted:
         robot.movej(target)
+    raised_by = innermost_frame(interrupted.tb).f_code
+    assert (raised_by.co_filename, raised_by.co_name) == (interrupts.__file__, "_raise_pending"), raised_by
     assert_at_rest_short_of(robot, target)
+    robot.movej(home)
+    assert np.max(np.abs(robot.joints() - home)) < 1e-3
+
+
+def innermost_frame(traceback):
+    while traceback.tb_next is not None:
+        traceback = traceback.tb_next
+    return traceback.tb_frame
 
 
 def test_not_running_robot_is_refused_then_powered_through_the_dashboard(sim_host, backend, home):

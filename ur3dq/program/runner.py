@@ -29,7 +29,7 @@ from ur3dq.program.plan import Defaults, PlannedStep, plan_program
 from ur3dq.program.resolve import select_range
 from ur3dq.program.script import FAIL_KEY, STEP_KEY, program_script
 from ur3dq.program.steps import DigitalOut, Step, Wait, WaitInput
-from ur3dq.robot import primary, safety, state
+from ur3dq.robot import interrupts, primary, safety, state
 from ur3dq.urscript import new_program_name
 
 if TYPE_CHECKING:
@@ -224,6 +224,7 @@ def outputs_switched_on(plan: Sequence[PlannedStep]) -> list[tuple[str, int]]:
     return [output for output, on in last.items() if on]
 
 
+@interrupts.taken_at_polls
 def status_at_rest(robot: Robot) -> state.RobotStatus | None:
     """The robot's status once a fresh one shows every joint at rest (or the last one received after REST_TIMEOUT,
     its `age` telling how stale it is); None when it cannot be read."""
@@ -234,7 +235,7 @@ def status_at_rest(robot: Robot) -> state.RobotStatus | None:
             at_rest = float(np.max(np.abs(status.joint_speeds))) < REST_SPEED and status.age <= STALE_AGE
             if at_rest or time.monotonic() > deadline:
                 return status
-            time.sleep(0.01)
+            interrupts.poll(0.01)
     except (RobotError, KeyboardInterrupt):
         return None
 

@@ -43,7 +43,7 @@ from ur3dq import urscript
 from ur3dq.errors import RobotConnectionError, RobotError, SafetyCheckError, UnreachablePoseError, literal
 from ur3dq.kinematics.models import URModel
 from ur3dq.pathcheck import Cell, Margins, PathPlan, PathSegment, check_path
-from ur3dq.robot import safety
+from ur3dq.robot import interrupts, safety
 from ur3dq.robot.jog_steps import JOINT_AXES, JogStep, step_target
 from ur3dq.robot.motion import trapezoid_duration
 from ur3dq.robot.rtde_inputs import RTDEInputs
@@ -229,8 +229,9 @@ class Jog:
 
         self._ended = ended
         threading.Thread(target=run, name="ur3dq-jog", daemon=True).start()
-        while not (sent.wait(0.01) or ended.is_set()):
-            pass
+        with interrupts.at_polls():   # a Ctrl-C inside the events' own locks would leave the jog's thread stuck
+            while not (sent.wait(0.01) or ended.is_set()):
+                interrupts.check()
         if failed and not sent.is_set():
             raise failed[0]
         self.failed, self.active = failed, plan

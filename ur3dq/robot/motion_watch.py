@@ -219,19 +219,17 @@ class MotionWatch:
 def last_reports(watcher: queue.Queue[object], outcome: MotionWatch, on_message: Callable[[object], None],
                  wait: float) -> None:
     """After a failed or interrupted program: hand `on_message` the messages it sent up to its end (its STOPPED key
-    message; at most `wait` s), so a caller following its reports (the step it had reached) misses none."""
+    message; at most `wait` s), so a caller following its reports (the step it had reached) misses none. The driver
+    calls it with Ctrl-C taken at its polls (ur3dq.robot.interrupts): a second Ctrl-C does not cut it short."""
     deadline = time.monotonic() + wait
-    try:
-        while not outcome.stopped and time.monotonic() < deadline:
-            for message in drain(watcher):
-                outcome.note_message(message)
-                try:
-                    on_message(message)
-                except UR3DQError:
-                    pass
-            time.sleep(0.01)
-    except KeyboardInterrupt:   # a second Ctrl-C: stop reading, the stop was sent already
-        pass
+    while not outcome.stopped and time.monotonic() < deadline:
+        for message in drain(watcher):
+            outcome.note_message(message)
+            try:
+                on_message(message)
+            except UR3DQError:
+                pass
+        time.sleep(0.01)
 
 
 def drain(watcher: queue.Queue[object]) -> Iterator[object]:

@@ -10,7 +10,7 @@ import time
 from collections.abc import Callable
 
 from ur3dq.errors import ConnectionLostError, RobotConnectionError
-from ur3dq.robot import primary
+from ur3dq.robot import interrupts, primary
 
 PRIMARY_PORT = 30001
 SECONDARY_PORT = 30002
@@ -56,6 +56,7 @@ class PrimaryClient:
         robot_mode = self.robot_mode
         return None if robot_mode is None else robot_mode.control_mode
 
+    @interrupts.taken_at_polls
     def wait_for(self, predicate: Callable[[PrimaryClient], bool], timeout: float) -> bool:
         """Block until predicate(self) is true (re-checked on every message) or `timeout` s pass; returns it."""
         deadline = time.monotonic() + timeout
@@ -65,6 +66,7 @@ class PrimaryClient:
                 if remaining <= 0 or not self.alive:
                     return predicate(self)
                 self._changed.wait(min(remaining, 0.1))
+                interrupts.check()   # a Ctrl-C inside the condition's own lock would leave it taken
             return True
 
     def watch(self) -> queue.Queue[object]:

@@ -28,7 +28,7 @@ from ur3dq.errors import (
     SafetyCheckError,
     add_separate_note,
 )
-from ur3dq.robot import jog_steps, motion, primary, safety, state
+from ur3dq.robot import interrupts, jog_steps, motion, primary, safety, state
 from ur3dq.robot.backend import StateBackend, calibrated_model, effective_speed_limits
 from ur3dq.robot.dashboard import Dashboard, identified_model
 from ur3dq.robot.heartbeat import WATCHDOG_FREQUENCY, Heartbeat, armed
@@ -189,7 +189,7 @@ class Robot:
                 last_error = error
                 if time.monotonic() + delay - first > RECONNECT_TIMEOUT:
                     break
-                time.sleep(delay)
+                interrupts.poll(delay)
         raise ConnectionLostError(f"the state streams from {self.host} stay down after reconnecting: {last_error}")
 
     # --- reading ----------------------------------------------------------------------------------------------
@@ -220,6 +220,7 @@ class Robot:
         """The TCP pose the controller reports, as a UR pose vector [x, y, z, rx, ry, rz]."""
         return self._fresh_status().tcp_pose
 
+    @interrupts.taken_at_polls
     def _fresh_status(self) -> RobotStatus:
         """A status no older than the backend's freeze timeout; a late stream gets that long again to catch up
         (a loaded controller or network can stall it briefly), then ConnectionLostError."""
@@ -232,7 +233,7 @@ class Robot:
             if time.monotonic() > deadline:
                 raise ConnectionLostError(
                     f"the state stream from {self.host} is frozen: no fresh data for {status.age:.2f} s")
-            time.sleep(self._backend.poll_period)
+            interrupts.poll(self._backend.poll_period)
 
     # --- motion -----------------------------------------------------------------------------------------------
 
@@ -398,7 +399,7 @@ class Robot:
                 return float(np.max(np.abs(status.joint_speeds))) < REST_SPEED
             return not status.program_running
 
-        if not self._wait_for_program(rests):
+        if not self._wait_until(lambda: rests(self.state())):
             self._send_stop(SAFE_STOP_DECELERATION)
             return "stopped"
         return "paused"
@@ -410,7 +411,7 @@ class Robot:
             if not self.state().program_paused:
                 raise RobotError(f"resume: no program is paused on {self.host}")
             self._dashboard.play()
-        if not self._wait_for_program(lambda status: not status.program_paused):
+        if not self._wait_until(lambda: not self.state().program_paused):
             raise RobotError(f"resume: the program on {self.host} is still paused {PROGRAM_STATE_TIMEOUT:g} s "
                              "after `play`")
 
@@ -474,6 +475,7 @@ class Robot:
         return self._send_watched(urscript.check_identifier(name), program, target, status, duration, on_message,
                                   reached_end, on_sent)
 
+    @interrupts.taken_at_polls
     def _send_watched(self, name: str, program: str, target: np.ndarray, status: RobotStatus,
                       duration: float, on_message: Callable[[object], None] | None = None,
                       reached_end: Callable[[], bool] | None = None,
@@ -503,7 +505,7 @@ class Robot:
                     return now - sent
                 outcome.check_progress(status, now - sent, now, start_timeout, timeout,
                                        f"plus the link's measured round trip of {self.link_delay:.3f} s")
-                time.sleep(self._backend.poll_period)
+                interrupts.poll(self._backend.poll_period)
         except BaseException as error:
             self._stop_after(error)
             if on_message is not None:
@@ -521,7 +523,7 @@ class Robot:
         if self._heartbeat is None:
             self._heartbeat = Heartbeat(self._rtde_inputs())
         elif self._heartbeat.silenced:   # not while the program it was silenced for runs (Heartbeat.silence)
-            self._wait_for_program(lambda status: not status.program_running)
+            self._wait_until(lambda: not self.state().program_running)
             self._heartbeat.restart()
         if not self._heartbeat.alive:
             raise ConnectionLostError(f"the heartbeat to {self.host} stopped: nothing would stop a program if "
@@ -587,12 +589,9 @@ class Robot:
         if not isinstance(on, bool):
             raise ValueError(f"{family} digital output {pin}: on must be True or False, got {on!r}")
         self._rtde_inputs().set_digital_out(family, pin, on)
-        deadline = time.monotonic() + OUTPUT_TIMEOUT
-        while bool(self.io_state().digital_out & bit) != on:
-            if time.monotonic() > deadline:
-                raise RobotError(f"{self.host} does not show {family} digital output {pin} "
-                                 f"{'on' if on else 'off'} {OUTPUT_TIMEOUT:g} s after it was set")
-            time.sleep(self._backend.poll_period)
+        if not self._wait_until(lambda: bool(self.io_state().digital_out & bit) == on, OUTPUT_TIMEOUT):
+            raise RobotError(f"{self.host} does not show {family} digital output {pin} "
+                             f"{'on' if on else 'off'} {OUTPUT_TIMEOUT:g} s after it was set")
 
     @property
     def inputs(self) -> RTDEInputs:
@@ -634,11 +633,8 @@ class Robot:
     def unlock_protective_stop(self) -> None:
         """Unlock a protective stop (the controller refuses within 5 s of it). Never called by ur3dq itself."""
         self._dashboard.unlock_protective_stop()
-        deadline = time.monotonic() + 2.0
-        while self.state().protective_stopped:
-            if time.monotonic() > deadline:
-                raise ProtectiveStopError(f"{self.host} still reports a protective stop 2 s after the unlock")
-            time.sleep(0.01)
+        if not self._wait_until(lambda: not self.state().protective_stopped, 2.0):
+            raise ProtectiveStopError(f"{self.host} still reports a protective stop 2 s after the unlock")
 
     def set_tcp(self, tcp: PoseLike) -> None:
         """Set the controller's TCP offset (DualQuaternion or UR pose vector, flange frame); the model follows."""
@@ -676,15 +672,17 @@ class Robot:
                                       f"{self._backend.freeze_timeout} s")
         return self._primary.control_mode == 1
 
-    def _wait_for_program(self, reached: Callable[[RobotStatus], bool]) -> bool:
-        """Wait (≤ PROGRAM_STATE_TIMEOUT) until reached(status); False if it never was."""
-        deadline = time.monotonic() + PROGRAM_STATE_TIMEOUT
-        while not reached(self.state()):
+    @interrupts.taken_at_polls
+    def _wait_until(self, reached: Callable[[], bool], timeout: float = PROGRAM_STATE_TIMEOUT) -> bool:
+        """Poll until reached() (≤ `timeout` s; a Ctrl-C taken between polls); False if it never was."""
+        deadline = time.monotonic() + timeout
+        while not reached():
             if time.monotonic() > deadline:
                 return False
-            time.sleep(self._backend.poll_period)
+            interrupts.poll(self._backend.poll_period)
         return True
 
+    @interrupts.taken_at_polls
     def _wait_for_mode(self, modes: Collection[int], action: str) -> None:
         """Wait until the robot mode is one of `modes`; RobotError naming `action` after MODE_CHANGE_TIMEOUT."""
         deadline = time.monotonic() + MODE_CHANGE_TIMEOUT
@@ -697,4 +695,4 @@ class Robot:
             if time.monotonic() > deadline:
                 raise RobotError(f"{action}: the robot is still in mode {status.robot_mode_name} after "
                                  f"{MODE_CHANGE_TIMEOUT} s")
-            time.sleep(0.02)
+            interrupts.poll(0.02)
