@@ -44,6 +44,20 @@ def cli_process(tmp_path, *args, stdin=subprocess.DEVNULL, inherited_sigint=sign
                 process.wait()
 
 
+def finish(process, timeout=30):
+    """(stdout, stderr) of a `cli_process` once it ends; AssertionError after `timeout` s, with the stack of every
+    thread it had then (ur3dq prints them on SIGQUIT: ur3dq.cli.signals), so a hang says where it hangs."""
+    try:
+        return process.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        process.send_signal(signal.SIGQUIT)
+        time.sleep(1.0)
+        process.kill()
+        stdout, stderr = process.communicate()
+        raise AssertionError(f"ur3dq {' '.join(process.args[1:])} did not end within {timeout} s; its stderr, "
+                             f"with every thread's stack:\n{stderr[-12000:]}") from None
+
+
 def assert_one_line_error(result, code, *fragments):
     """The run failed with exit `code` and ended with exactly one stderr line `Error: ...` (after any question it
     asked) containing every fragment."""

@@ -10,7 +10,7 @@ import time
 
 import numpy as np
 
-from cli_support import assert_one_line_error, cli_process
+from cli_support import assert_one_line_error, cli_process, finish
 from powered_simulator import powered_simulator
 from robot_target import simulator_only
 from sim_ursim.control_channel import send_request
@@ -85,7 +85,7 @@ def test_a_long_freeze_ends_the_run_and_the_arm_stays_stopped(tmp_path):
             wait_until_the_arm_moves(host, process)
             thawed_at = time.monotonic() + LONG_FREEZE
             assert send_request(host, "freeze", seconds=LONG_FREEZE)["ok"]
-            stdout, stderr = process.communicate(timeout=30)
+            stdout, stderr = finish(process)
         after = []
         for wait in (max(0.0, thawed_at - time.monotonic()) + 0.5, 1.0):   # after the freeze, then a second later
             time.sleep(wait)

@@ -17,7 +17,7 @@ import time
 import numpy as np
 import pytest
 
-from cli_support import assert_one_line_error, cli_process
+from cli_support import assert_one_line_error, cli_process, finish
 from robot_target import simulator_only
 from ur3dq import DualQuaternion
 from ur3dq.kinematics import robot_model
@@ -137,7 +137,7 @@ def test_ctrl_c_at_random_instants_then_resume_ends_every_run_where_an_uninterru
             reported = recorder.wait_for_a_step()
             time.sleep(instant)
             process.send_signal(signal.SIGINT)
-            stdout, stderr = process.communicate(timeout=30)
+            stdout, stderr = finish(process)
         first_run = reported + recorder.steps(settle=0.5)
         if first_run[-1] == 7:   # the instant fell after the program's end: nothing to resume
             assert process.returncode == 0 or stderr.strip().splitlines()[-1] == "Error: interrupted", stderr
@@ -171,7 +171,7 @@ def test_resume_is_refused_after_the_store_changed_and_with_nothing_to_resume(pr
     with cli_process(tmp_path, "--host", arm.host, "run-poses", "--yes") as process:
         recorder.wait_for_a_step()
         process.send_signal(signal.SIGINT)
-        process.communicate(timeout=30)
+        finish(process)
     assert process.returncode == 130 and (tmp_path / "poses.json.resume").exists()
     assert run_cli("--host", arm.host, "poses", "set", "pick", "--speed", "0.05").returncode == 0
     changed = run(run_cli, arm, "--resume")
@@ -189,7 +189,7 @@ def test_resume_on_another_arm_is_refused(program_arm, run_cli, tmp_path):
     with cli_process(tmp_path, "--host", arm.host, "run-poses", "--yes") as process:
         recorder.wait_for_a_step()
         process.send_signal(signal.SIGINT)
-        process.communicate(timeout=30)
+        finish(process)
     assert process.returncode == 130
     with powered_simulator(model="ur3", extra_args=("--calibration", "factory:7")) as other:
         refused = run_cli("--host", other.host, "run-poses", "--resume", "--yes")
@@ -214,7 +214,7 @@ def test_a_signal_pauses_the_run_on_its_path_and_sigcont_resumes_it(program_arm,
         time.sleep(1.0)
         assert np.max(np.abs(arm.joints() - held)) < 1e-9   # paused: nothing moves
         process.send_signal(signal.SIGCONT)
-        stdout, stderr = process.communicate(timeout=30)
+        stdout, stderr = finish(process)
     assert process.returncode == 0, stderr
     assert "Paused during step" in stderr and "Resumed." in stderr
     assert np.linalg.norm(arm.tcp_pose()[:3] - MODEL.fk(Q_PLACE).translation) < 5e-4
@@ -237,7 +237,7 @@ def test_a_fault_mid_program_names_the_step_the_outputs_left_on_and_the_way_on(r
                     pass
                 time.sleep(0.1)
                 assert send_request(arm.host, "protective-stop", reason="test")["ok"]
-                _, stderr = process.communicate(timeout=30)
+                _, stderr = finish(process)
         finally:
             recorder.close()
             arm.receive.disconnect()
@@ -280,7 +280,7 @@ def test_a_replay_of_stored_poses_resumes_from_the_move_it_stopped_in(arm, run_c
                 starts += getattr(message, "title", "").endswith("_STARTED") and message.text.startswith("ur3dq_move")
             time.sleep(0.3)
             process.send_signal(signal.SIGINT)
-            _, stderr = process.communicate(timeout=30)
+            _, stderr = finish(process)
     finally:
         primary.close()
     assert process.returncode == 130, stderr

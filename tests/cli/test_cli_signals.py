@@ -38,3 +38,13 @@ def test_a_polite_signal_mid_move_stops_the_arm(arm, run_cli, tmp_path, signum, 
     travel = np.max(np.abs(arm.joints() - at_signal))
     assert travel < TRAVEL_BOUND, f"the arm travelled {travel:.4f} rad after {signal.Signals(signum).name}"
     assert np.max(np.abs(arm.joints() - TARGET)) > 0.1, "the arm reached the target: the signal did not stop it"
+
+
+def test_sigquit_mid_move_prints_every_threads_stack_and_the_run_goes_on(arm, run_cli, tmp_path):
+    """SIGQUIT (Ctrl-\\) is how a user reports a hang: the stack of each thread, the motion left alone."""
+    with run_poses_mid_move(arm, run_cli, tmp_path, START, TARGET, 0.5) as process:
+        process.send_signal(signal.SIGQUIT)
+        _, stderr = process.communicate(timeout=30)
+    assert process.returncode == 0, stderr
+    assert "Current thread" in stderr and "ur3dq/robot/" in stderr and 'File "' in stderr, stderr
+    assert np.max(np.abs(arm.joints() - TARGET)) < 1e-3

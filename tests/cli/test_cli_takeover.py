@@ -8,7 +8,7 @@ import time
 import numpy as np
 import pytest
 
-from cli_support import assert_one_line_error, run_poses_mid_move
+from cli_support import assert_one_line_error, finish, run_poses_mid_move
 from polling import wait_for
 from robot_target import simulator_only
 from sim_ursim.control_channel import send_request
@@ -41,7 +41,7 @@ def program_running(host):
 def test_a_run_taken_over_by_another_client_names_the_cause(arm, run_cli, tmp_path, port, text, cause):
     with run_poses_mid_move(arm, run_cli, tmp_path, START, TARGET, SPEED) as process:
         send_to(arm.host, port, text)
-        stdout, stderr = process.communicate(timeout=30)
+        stdout, stderr = finish(process)
     assert_one_line_error(subprocess.CompletedProcess(process.args, process.returncode, stdout, stderr), 6, cause)
     assert wait_for(lambda: not program_running(arm.host), timeout=10)
 

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cli_support import cli_env, cli_process
+from cli_support import cli_env, cli_process, finish
 from polling import wait_for
 from robot_target import simulator_only
 
@@ -168,5 +168,5 @@ def test_a_jog_step_stopped_short_says_the_key_again_goes_on(simulator, tmp_path
             process.send_signal(signal.SIGCONT)
         process.stdin.write("q")
         process.stdin.flush()
-        _, stderr = process.communicate(timeout=30)
+        _, stderr = finish(process)
     assert "J1+ stopped short: program" in stderr and "; the key again goes on" in stderr, stderr

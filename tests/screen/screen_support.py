@@ -170,12 +170,24 @@ def hold(page, name: str, seconds: float) -> None:
     page.mouse.up()
 
 
-def notice_after(page, click, starts: str, timeout: float = 30.0) -> str:
-    """Click, then wait until the page's notice line starts with `starts`; that line."""
+def notice_after(page, click, starts: str, timeout: float = 30.0, server: Served | None = None) -> str:
+    """Click, then wait until the page's notice line starts with `starts`; that line. With `server`, a notice that
+    never comes fails with the server's log and the stack of its every thread (a hang says where it hangs)."""
+    from playwright.sync_api import TimeoutError as PageTimeout
+
     page.evaluate("document.getElementById('notice').textContent = ''")
     click()
-    page.wait_for_function(f"document.getElementById('notice').textContent.startsWith({json.dumps(starts)}) || "
-                           "document.getElementById('notice').textContent.startsWith('Error')", timeout=timeout * 1000)
+    try:
+        page.wait_for_function(f"document.getElementById('notice').textContent.startsWith({json.dumps(starts)}) || "
+                               "document.getElementById('notice').textContent.startsWith('Error')",
+                               timeout=timeout * 1000)
+    except PageTimeout:
+        if server is None:
+            raise
+        server.process.send_signal(signal.SIGQUIT)   # ur3dq prints every thread's stack (ur3dq.cli.signals)
+        time.sleep(1.0)
+        raise AssertionError(f"no notice {starts!r} within {timeout:g} s; the server's log, with its threads' "
+                             f"stacks:\n{server.log_text()[-12000:]}") from None
     return page.locator("#notice").text_content()
 
 

@@ -234,7 +234,7 @@ def test_run_from_the_selected_step_loops_and_stop(cell):
     button(page, "Run").click()
     button(page, "Yes").click()
     assert wait_for(lambda: float(np.max(np.abs(cell.receive.getActualQd()))) > 0.01, timeout=10)
-    notice = notice_after(page, lambda: button(page, "Stop").click(), "Error")
+    notice = notice_after(page, lambda: button(page, "Stop").click(), "Error", server=cell.server)
     assert "stopped by the operator" in notice, notice
     assert wait_for(cell.at_rest, timeout=1.0)
     expect(page.locator("#program-state")).to_have_text("STOPPED", timeout=3000)

@@ -23,7 +23,7 @@ import orjson
 
 from ur3dq.cli.background_simulator import SimulatorError, running_simulator_host
 from ur3dq.cli.library_output import own_output
-from ur3dq.cli.signals import exit_code_for_interrupt, polite_signals_interrupt, signal_name
+from ur3dq.cli.signals import exit_code_for_interrupt, polite_signals_interrupt, signal_name, stacks_on_sigquit
 from ur3dq.errors import (
     SEPARATE_NOTE,
     RobotConnectionError,
@@ -352,6 +352,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     global _OWN_PROCESS
     _OWN_PROCESS = True
     quiet_client_libraries(bool(os.environ.get("UR3DQ_DEBUG")))
+    stacks_on_sigquit()
     try:
         with polite_signals_interrupt():
             code = cli.main(args=argv, prog_name="ur3dq", standalone_mode=False)

@@ -6,11 +6,17 @@ SIGINT itself is taken back when the process started with it ignored: a shell sc
 terminal or `kill -INT` would leave the arm moving. Stopping is the safe side, so ur3dq always stops on SIGINT.
 
 The exit code follows the shell convention 128 + signal number: 130 for SIGINT, 143 for SIGTERM, 129 for SIGHUP.
+
+SIGQUIT (Ctrl-\\) prints the stack of every thread on stderr and ur3dq goes on: what a bug report about a command
+that hangs needs (`kill -QUIT <pid>`), where the default would end the process without stopping the arm.
 """
 from __future__ import annotations
 
 import contextlib
+import faulthandler
+import io
 import signal
+import sys
 import threading
 from collections.abc import Iterator
 from types import FrameType
@@ -59,3 +65,10 @@ def polite_signals_interrupt() -> Iterator[None]:
     finally:
         for sig, handler in previous.items():
             signal.signal(sig, handler)
+
+
+def stacks_on_sigquit() -> None:
+    """From now on SIGQUIT prints every thread's stack on stderr (where stderr is a descriptor) and nothing else."""
+    if hasattr(signal, "SIGQUIT"):
+        with contextlib.suppress(AttributeError, ValueError, io.UnsupportedOperation):
+            faulthandler.register(signal.SIGQUIT, file=sys.stderr, all_threads=True)
