@@ -5,8 +5,8 @@ Python raises KeyboardInterrupt in the main thread between two bytecodes, and th
 and the next thread that wants it waits forever (a `run-poses` stopped by Ctrl-C hung in its clean-up, draining the
 queue the primary interface's reader fills). While a driver call waits on the controller, the signals that raise
 (SIGINT, and SIGTERM or SIGHUP where the program has turned them into exceptions, as the CLI does) are only
-recorded; the call raises them at its next `poll()`, where it holds no lock: at most one poll period later
-(1-20 ms).
+recorded; the call raises them at its next `poll()`, where it holds no lock: within the backend's poll period (1 or
+5 ms) while a motion is watched, within 0.1 s in the other waits (a reconnection's back-off: after its delay).
 
 Use `taken_at_polls` around a method whose loop polls with `poll` (or `check`)::
 
