@@ -164,3 +164,29 @@ def test_a_joint_move_blends_into_a_linear_one(setup):
     near = [s for s in sampler.samples if np.linalg.norm(s[1][:3] - above) <= 0.02]
     assert near and min(np.linalg.norm(sample[4]) for sample in near) > 0.05
     np.testing.assert_allclose(np.array(receive.getActualQ()), Q_PICK, atol=1e-4)
+
+
+def test_a_program_stopped_as_it_leaves_where_it_ends_fails_instead_of_waiting_forever(setup):
+    """A closed program (out to a waypoint, back to the start) stopped by another thread just as the arm leaves:
+    the arm rests where the program ends, but its last step never ran. The run fails at once with a ProgramError
+    (it used to wait forever, no timeout counting once the program had ended: the screen's Stop hung so)."""
+    host, robot, receive = setup
+    robot.movej(HOME)
+    slow = Motion("joint", 0.05, 0.5)   # rad/s, rad/s²: the stop lands within the 2 mrad of "at rest on target"
+    steps = [waypoint("out", HOME + np.array([0.3, 0, 0, 0, 0, 0]), slow), waypoint("back", HOME, slow)]
+    failure = []
+
+    def run():
+        try:
+            ur3dq.program.run(robot, steps)
+        except ProgramError as error:
+            failure.append(error)
+
+    runner = threading.Thread(target=run, daemon=True)
+    runner.start()
+    assert wait_for(lambda: abs(receive.getActualQd()[0]) > 0.005, timeout=10)
+    robot.stop()
+    runner.join(10.0)
+    assert not runner.is_alive(), "the run still waits 10 s after the stop"
+    assert failure and "ended before it reported its last step" in str(failure[0]), failure
+    assert np.max(np.abs(robot.joints() - HOME)) < 2e-3   # the case at hand: at rest where the program ends

@@ -218,3 +218,22 @@ def test_a_stop_without_error_or_heartbeat_gap_says_another_client_may_have_stop
     outcome.finished(status(0.3, running=False), 0.1)
     with pytest.raises(ProgramError, match="stopped it without an error, as when another client stops the program"):
         outcome.finished(status(0.3, running=False), 0.1 + SETTLE_TIME + 0.01)
+
+
+def test_ending_at_rest_on_target_without_its_last_report_waits_for_its_end_message_then_fails():
+    """A program with step reports (reported_end) that ends at rest on its target before its last report: its
+    reports may still be on their way until its STOPPED key message, which follows them, has come; after that it
+    was stopped short, a ProgramError (no timeout counts any more: waiting on would be forever)."""
+    reported = []
+    outcome = MotionWatch("p", TARGET, running_at_send=False, reported_end=lambda: bool(reported))
+    outcome.note_message(key("PROGRAM_XXX_STARTED"))
+    outcome.finished(status(0.5, running=True, moving=True), 0.5)
+    assert not outcome.finished(status(0.5, running=False), 1.0)     # ended on the state: the reports may come
+    assert outcome.finished(status(0.5, running=False), 1.01) is False
+    reported.append(True)                                           # they came: done
+    assert outcome.finished(status(0.5, running=False), 1.02)
+    reported.clear()
+    outcome.note_message(key("PROGRAM_XXX_STOPPED"))                # its end, and still no last report
+    with pytest.raises(ProgramError, match="ended before it reported its last step, with the arm at rest where the "
+                                           "program ends: the controller stopped it without an error"):
+        outcome.finished(status(0.5, running=False), 1.03)

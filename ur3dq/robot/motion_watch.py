@@ -49,11 +49,17 @@ class MotionWatch:
     state_lag : float
         How long (s) after the program's end the state stream may go on delivering states that show a program
         running before it counts as failed (the driver gives it as long as the stream may go without fresh data).
+    reported_end : callable, optional
+        ``reported_end()`` is True once the program's own reports say it ran its last step (a cell program's step
+        reports). Then a program that ended with the arm at rest on the target but without that report was stopped
+        short (its path ends where it began, or it stopped within the tolerance of its end): a ProgramError.
     """
 
     def __init__(self, name: str, target: object, running_at_send: bool, heartbeat: GapMeter | None = None,
-                 watchdog_period: float = 0.1, state_lag: float = 1.0) -> None:
+                 watchdog_period: float = 0.1, state_lag: float = 1.0,
+                 reported_end: Callable[[], bool] | None = None) -> None:
         self.name = name
+        self.reported_end = reported_end
         self.state_lag = state_lag
         self.heartbeat = heartbeat
         self.watchdog_period = watchdog_period
@@ -165,7 +171,7 @@ class MotionWatch:
         if self._state_shows_it_running(status, now, self._ended_at):
             return False
         if state.at_rest_at(status, self.target):
-            return True
+            return self._ran_to_its_end()
         # Only a state the stream delivered after the end says where the arm ended: one from before (a frozen
         # stream, garbled on the wire) shows the arm where it was then, and the stream's freeze check reports it.
         if now - self._ended_at > SETTLE_TIME and now - status.age > self._ended_at:
@@ -173,6 +179,17 @@ class MotionWatch:
                                + literal(self._stop_reason()),
                                measured=[Measured(self.distance(status), ANGLE, si_digits=4)])
         return False
+
+    def _ran_to_its_end(self) -> bool:
+        """For a program that ended at rest on its target: True when it also reported its end (or reports none);
+        False while its reports may still be on their way (its STOPPED key message, which follows them on the same
+        stream, has not come: the motion's timeout bounds the wait); ProgramError once that message came first."""
+        if self.reported_end is None or self.reported_end():
+            return True
+        if not self.stopped:
+            return False
+        raise ProgramError(f"program {self.name} ended before it reported its last step, with the arm at rest where "
+                           "the program ends" + self._stop_reason())
 
     def _state_shows_it_running(self, status: state.RobotStatus, now: float, ended_at: float) -> bool:
         """True while the state stream still shows a program running after this one ended (at `ended_at`, as far as

@@ -465,7 +465,8 @@ class Robot:
         caller) that ends with the arm at joint `target`, expected to take `duration` s at 100 %; each robot
         message is also given to `on_message` (which may raise to fail the run; after a failure it still gets the
         program's last messages), and when `reached_end` is given the run is only done once it returns True (the
-        program's own report that it ran to its end: the arm resting at a target it started from proves nothing).
+        program's own report that it ran to its end: the arm resting at a target it started from proves nothing;
+        a program that ended without it, stopped, is a ProgramError).
         `path` (a PathPlan of the program's moves) is checked when require_path_check is on. `on_sent()` is
         called once the program is handed to the controller (an error before it: nothing was sent). Returns the
         wall time (s). Used by ur3dq.program.runner."""
@@ -489,7 +490,8 @@ class Robot:
         watcher = self._primary.watch()
         sent = time.monotonic()
         outcome = MotionWatch(name, target, running_at_send=status.program_running, heartbeat=self._heartbeat,
-                              watchdog_period=1.0 / WATCHDOG_FREQUENCY, state_lag=self._backend.freeze_timeout)
+                              watchdog_period=1.0 / WATCHDOG_FREQUENCY, state_lag=self._backend.freeze_timeout,
+                              reported_end=reached_end)
         try:
             self._backend.send_program(program)
             if on_sent is not None:
@@ -501,7 +503,7 @@ class Robot:
                         on_message(message)
                 status = self._checked_status(self._backend.status())
                 now = time.monotonic()
-                if outcome.finished(status, now) and (reached_end is None or reached_end()):
+                if outcome.finished(status, now):
                     return now - sent
                 outcome.check_progress(status, now - sent, now, start_timeout, timeout,
                                        f"plus the link's measured round trip of {self.link_delay:.3f} s")
