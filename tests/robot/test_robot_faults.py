@@ -244,6 +244,22 @@ def test_state_fails_during_a_long_freeze_and_reads_again_after_it(sim_robot, ba
     assert wait_for(fresh, timeout=10.0), "state() did not read fresh state again after the freeze"
 
 
+@pytest.mark.exclusive   # timed against a 1.6 s freeze with 0.5 s to spare: not beside a busy worker
+def test_a_reading_during_a_short_freeze_waits_for_fresh_joints(sim_robot, backend):
+    """joints() while the stream is older than its freeze timeout (1 s) but the controller thaws within that long
+    again: it waits and returns joints read after the thaw. (urx ends its own session after 0.5 s of silence, so
+    this is the rtde backend's case.)"""
+    if backend != "rtde":
+        pytest.skip("urx's session ends before its state ages past the freeze timeout")
+    host, robot = sim_robot
+    inject(host, "freeze", seconds=1.6)
+    frozen_at = time.monotonic()
+    assert wait_for(lambda: robot.state().age > 1.05, timeout=5.0)   # stale past the freeze timeout
+    robot.joints()
+    assert time.monotonic() - frozen_at >= 1.6   # it waited for the thaw
+    assert robot.state().age < 0.5
+
+
 def test_a_dropped_connection_is_left_to_the_heartbeat_watchdog(backend, home):
     """After every connection dropped mid-move the driver sends no stopj (that program would replace the moving one,
     and the watchdog armed in it, with a gentler stop): it silences its heartbeat, and the controller's watchdog

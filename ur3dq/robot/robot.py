@@ -220,20 +220,20 @@ class Robot:
         """The TCP pose the controller reports, as a UR pose vector [x, y, z, rx, ry, rz]."""
         return self._fresh_status().tcp_pose
 
-    @interrupts.taken_at_polls
     def _fresh_status(self) -> RobotStatus:
-        """A status no older than the backend's freeze timeout; a late stream gets that long again to catch up
-        (a loaded controller or network can stall it briefly), then ConnectionLostError."""
+        """A status within the freeze timeout; a briefly stalled stream gets as long again, else ConnectionLostError."""
         limit = self._backend.freeze_timeout
         deadline = time.monotonic() + limit
-        while True:
-            status = self.state()
-            if status.age <= limit:
-                return status
-            if time.monotonic() > deadline:
-                raise ConnectionLostError(
-                    f"the state stream from {self.host} is frozen: no fresh data for {status.age:.2f} s")
-            interrupts.poll(self._backend.poll_period)
+        status = self.state()
+        if status.age > limit:   # the usual reading is fresh: only a wait pays for deferring Ctrl-C
+            with interrupts.at_polls():
+                while status.age > limit:
+                    if time.monotonic() > deadline:
+                        raise ConnectionLostError(
+                            f"the state stream from {self.host} is frozen: no fresh data for {status.age:.2f} s")
+                    interrupts.poll(self._backend.poll_period)
+                    status = self.state()
+        return status
 
     # --- motion -----------------------------------------------------------------------------------------------
 
