@@ -20,7 +20,7 @@ Matrix = tuple[float, float, float, float, float, float, float, float, float]
 SinCos = tuple[float, float]
 Coefficients = tuple[float, float, float, float, float, float, float, float]
 Vector = tuple[float, float, float]
-
+Lengths = tuple[float, float, float, float, float, float]
 
 
 @kernel
@@ -55,14 +55,14 @@ def pair_of(c: np.ndarray) -> Pair:
 
 
 @kernel
-def tool_pair(flange: Pair, tool: np.ndarray) -> Pair:
-    """The pair of flange · tool (``tool``: 8 coefficients in the flange frame): r·r_t and p + R·t_t."""
-    offset = pair_of(tool)
-    w, x, y, z = product((flange[0], flange[1], flange[2], flange[3]), (tool[0], tool[1], tool[2], tool[3]))
-    m = rotation_matrix((flange[0], flange[1], flange[2], flange[3]))
-    return (w, x, y, z, flange[4] + m[0] * offset[4] + m[1] * offset[5] + m[2] * offset[6],
-            flange[5] + m[3] * offset[4] + m[4] * offset[5] + m[5] * offset[6],
-            flange[6] + m[6] * offset[4] + m[7] * offset[5] + m[8] * offset[6])
+def compose(first: Pair, second: Pair) -> Pair:
+    """The pair of first · second (``second`` given in ``first``'s frame, e.g. a tool on a flange): r₁·r₂ and
+    p₁ + R₁·p₂."""
+    w, x, y, z = product((first[0], first[1], first[2], first[3]), (second[0], second[1], second[2], second[3]))
+    m = rotation_matrix((first[0], first[1], first[2], first[3]))
+    return (w, x, y, z, first[4] + m[0] * second[4] + m[1] * second[5] + m[2] * second[6],
+            first[5] + m[3] * second[4] + m[4] * second[5] + m[5] * second[6],
+            first[6] + m[6] * second[4] + m[7] * second[5] + m[8] * second[6])
 
 
 @kernel
@@ -74,9 +74,16 @@ def dual_quaternion(pair: Pair) -> Coefficients:
 
 
 @kernel
-def closed_form(arm: np.ndarray, half1: SinCos, half234: SinCos, half_sum: SinCos, half_difference: SinCos,
+def nominal_lengths(arm: np.ndarray) -> Lengths:
+    """The closed form's lengths (d1, a2, a3, d4, d5, d6) of ``arm``."""
+    return (arm[LENGTHS], arm[LENGTHS + 1], arm[LENGTHS + 2], arm[LENGTHS + 3], arm[LENGTHS + 4], arm[LENGTHS + 5])
+
+
+@kernel
+def closed_form(lengths: Lengths, half1: SinCos, half234: SinCos, half_sum: SinCos, half_difference: SinCos,
                 full2: SinCos, full23: SinCos) -> Pair:
-    """Flange pair of a nominal UR arm from (sin, cos) of q1/2, q234/2, (q5 + q6)/2, (q5 − q6)/2, q2 and q2 + q3.
+    """Flange pair of a nominal UR arm (``lengths``: nominal_lengths) from (sin, cos) of q1/2, q234/2, (q5 + q6)/2,
+    (q5 − q6)/2, q2 and q2 + q3.
 
     Rotation r = [rz(q1)·rx(π/2)]·[rz(q234)·rx(π/2)]·[rz(q5)·rx(−π/2)·rz(q6)]: the first two factors multiply out
     to (−s1 sb, c1 cb, s1 cb, c1 sb), the third to k(cP, −cM, −sM, sP), k = 1/√2, halves 1 = q1/2, b = q234/2,
@@ -85,8 +92,7 @@ def closed_form(arm: np.ndarray, half1: SinCos, half234: SinCos, half_sum: SinCo
     planar arm (joints 2–4) in frame 1: p = (c1 ρ + s1 δ, s1 ρ − c1 δ, d1 + a2 s2 + a3 s23 − d5 c234 − d6 s5 s234),
     ρ = a2 c2 + a3 c23 + d5 s234 − d6 s5 c234, δ = d4 + d6 c5 (full angles here).
     """
-    d1, a2, a3, d4, d5, d6 = (arm[LENGTHS], arm[LENGTHS + 1], arm[LENGTHS + 2], arm[LENGTHS + 3], arm[LENGTHS + 4],
-                              arm[LENGTHS + 5])
+    d1, a2, a3, d4, d5, d6 = lengths
     (s1, c1), (sb, cb), (sp, cp), (sm, cm) = half1, half234, half_sum, half_difference
     x, y = cb * cm - sb * sp, cb * sm - sb * cp
     z, w = cb * cp + sb * sm, cb * sp + sb * cm
@@ -105,7 +111,7 @@ def closed_form(arm: np.ndarray, half1: SinCos, half234: SinCos, half_sum: SinCo
 def nominal_flange(arm: np.ndarray, q1: float, q2: float, q3: float, q4: float, q5: float, q6: float) -> Pair:
     """Flange pair of a nominal UR arm at joints q1…q6, by closed_form."""
     h1, h234, hp, hm = 0.5 * q1, 0.5 * (q2 + q3 + q4), 0.5 * (q5 + q6), 0.5 * (q5 - q6)
-    return closed_form(arm, (math.sin(h1), math.cos(h1)), (math.sin(h234), math.cos(h234)),
+    return closed_form(nominal_lengths(arm), (math.sin(h1), math.cos(h1)), (math.sin(h234), math.cos(h234)),
                        (math.sin(hp), math.cos(hp)), (math.sin(hm), math.cos(hm)), (math.sin(q2), math.cos(q2)),
                        (math.sin(q2 + q3), math.cos(q2 + q3)))
 
@@ -125,13 +131,20 @@ def half_tangent_angles(joints: np.ndarray, out: np.ndarray) -> None:
 def nominal_poses(arm: np.ndarray, tool: np.ndarray, tangents: np.ndarray, out: np.ndarray) -> None:
     """Poses (N, 8) of ``tool`` (8 coefficients in the flange frame) on a nominal arm into ``out``, from the tangents
     (6, N) of half_tangent_angles' halves: sin 2h = t·u, cos 2h = u − 1 with u = 2/(1 + t²)."""
+    # The loop reads no array but the tangents and writes a coefficient-major array of its own: LLVM then
+    # vectorises it across poses (a read of arm or tool inside it could alias a write to out, which prevents that).
+    lengths, tool_in_flange = nominal_lengths(arm), pair_of(tool)
+    poses = np.empty((8, out.shape[0]))
     for index in range(out.shape[0]):
-        flange = closed_form(arm, of_tangent(tangents[0, index]), of_tangent(tangents[1, index]),
+        flange = closed_form(lengths, of_tangent(tangents[0, index]), of_tangent(tangents[1, index]),
                              of_tangent(tangents[2, index]), of_tangent(tangents[3, index]),
                              of_tangent(tangents[4, index]), of_tangent(tangents[5, index]))
-        pose = dual_quaternion(tool_pair(flange, tool))
+        pose = dual_quaternion(compose(flange, tool_in_flange))
         for k in range(8):
-            out[index, k] = pose[k]
+            poses[k, index] = pose[k]
+    for index in range(out.shape[0]):
+        for k in range(8):
+            out[index, k] = poses[k, index]
 
 
 @kernel
@@ -146,7 +159,7 @@ def nominal_pose(arm: np.ndarray, tool: np.ndarray, q1: float, q2: float, q3: fl
                  q6: float) -> Coefficients:
     """The pose (8 coefficients) of ``tool`` (8 coefficients in the flange frame: the TCP, or the identity for the
     flange) on a nominal arm at joints q1…q6."""
-    return dual_quaternion(tool_pair(nominal_flange(arm, q1, q2, q3, q4, q5, q6), tool))
+    return dual_quaternion(compose(nominal_flange(arm, q1, q2, q3, q4, q5, q6), pair_of(tool)))
 
 
 @kernel

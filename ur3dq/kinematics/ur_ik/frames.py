@@ -11,7 +11,7 @@ import math
 import numpy as np
 
 from ur3dq.kinematics.arm import FK_TOLERANCE_M, FK_TOLERANCE_RAD, TCP
-from ur3dq.kinematics.fk import Pair, pair_of, product, rotation_matrix, tool_pair
+from ur3dq.kinematics.fk import Pair, compose, pair_of, product, rotation_matrix
 from ur3dq.kinematics.jit import kernel
 
 FLANGE, FLANGE_MATRIX, POSE, POSE_MATRIX, GOAL_SIZE = 0, 7, 16, 23, 32
@@ -45,7 +45,7 @@ def goal_of(arm: np.ndarray, pose: np.ndarray, goal: np.ndarray) -> None:
 def flange_meets(arm: np.ndarray, flange: Pair, goal: np.ndarray) -> bool:
     """The FK filter for a flange pair of the closed form: the TCP (flange · tcp) within FK_TOLERANCE_M and
     FK_TOLERANCE_RAD of the goal's pose (chord against the nearer sign, σ ≡ −σ)."""
-    tcp = tool_pair(flange, arm[TCP:TCP + 8])
+    tcp = compose(flange, pair_of(arm[TCP:TCP + 8]))
     dot = tcp[0] * goal[POSE] + tcp[1] * goal[POSE + 1] + tcp[2] * goal[POSE + 2] + tcp[3] * goal[POSE + 3]
     sign = 1.0 if dot >= 0.0 else -1.0
     chord2, distance2 = 0.0, 0.0
