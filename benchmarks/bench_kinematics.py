@@ -49,11 +49,14 @@ def seconds_per_pose(measurements: dict, passes: int) -> dict:
     """Best-of-``passes`` time per pose of each {name: (run, poses per run)}, ``run`` a no-argument callable.
 
     The passes go round-robin over all measurements, so a burst of load from elsewhere on the (shared) machine
-    hits every side alike instead of one measurement only.
+    hits every side alike instead of one measurement only. In each pass a measurement runs once untimed, then
+    timed: a batch is timed with its own arrays in memory, not right after another measurement's tens of MB
+    (on the development machine that made a 10^5-pose fk_batch twice as slow, whatever its own code did).
     """
     best = dict.fromkeys(measurements, math.inf)
     for _ in range(passes):
         for name, (run, count) in measurements.items():
+            run()
             start = time.process_time()
             run()
             best[name] = min(best[name], (time.process_time() - start) / count)
@@ -144,7 +147,7 @@ def main() -> None:
     table.add_column("measurement")
     table.add_column("µs / pose", justify="right")
     for name, seconds in timings.items():
-        table.add_row(name, f"{seconds * 1e6:.2f}")
+        table.add_row(name, f"{seconds * 1e6:#.3g}")
     console.print(table)
     console.print("machine: " + machine())
     console.print(goals_table(model, timings, args.passes))
@@ -192,7 +195,7 @@ def goals_table(model: URModel, timings: dict[str, float], passes: int) -> Table
     for goal, ours, peer, target, sense in rows:
         ratio = timings[ours] / timings[peer] if sense == "at most" else timings[peer] / timings[ours]
         met = ratio <= target if sense == "at most" else ratio >= target
-        goals.add_row(goal, ours.split("  ", 1)[1], f"{timings[ours] * 1e6:.2f}", peer.split("  ", 1)[1],
+        goals.add_row(goal, ours.split("  ", 1)[1], f"{timings[ours] * 1e6:#.3g}", peer.split("  ", 1)[1],
                       f"{timings[peer] * 1e6:.2f}", f"{ratio:.2f}×",
                       f"{'≤' if sense == 'at most' else '≥'} {target:g}×",
                       "yes" if met else "NO")
