@@ -75,10 +75,10 @@ def closed_form_poses(model: Any, joints: np.ndarray, tool: np.ndarray) -> np.nd
     """(N, 8) poses of ``tool`` (8 coefficients in the flange frame: the TCP, or the identity for the flange) on a
     nominal arm at joints (N, 6, float64, C order), by the compiled closed form."""
     fk, _, _ = kernels()
-    arm, out, work = arm_vector(model), np.empty((len(joints), 8)), np.empty((6, min(len(joints), _BLOCK)))
+    arm, out = arm_vector(model), np.empty((len(joints), 8))
     for start in range(0, len(joints), _BLOCK):
         block = slice(start, start + _BLOCK)
-        tangents = work[:, :len(out[block])]
+        tangents = np.empty((6, len(joints[block])))
         fk.half_tangent_angles(joints[block], tangents)
         np.tan(tangents, out=tangents)   # numpy's vectorised tan: every sine and cosine of the block at once
         fk.nominal_poses(arm, tool, tangents, out[block])
