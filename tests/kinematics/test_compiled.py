@@ -178,6 +178,34 @@ def test_with_nowhere_to_write_the_kernels_compile_in_memory_and_say_so(user_hom
     assert json.loads(alone.stdout) == json.loads(run_python(SOLVE).stdout)
 
 
+#: Prints how many kernels were compiled (numba's cache misses: not found in the cache nor compiled by the warm-up)
+#: by batches of a block and a half, whose last block is shorter than the others.
+BLOCK_AND_A_HALF = """
+import numpy as np
+from ur3dq.kinematics import robot_model, ur_ik
+
+def compiled():
+    return sum(sum(kernel.stats.cache_misses.values()) for module in ur_ik.kernels()
+               for kernel in vars(module).values() if hasattr(kernel, "stats"))
+
+model = robot_model("ur5e")
+before = compiled()   # the warm-up's compilations, where the cache was cold
+q = np.random.default_rng(1).uniform(-3.0, 3.0, (6100, 6))
+poses = model.fk_batch(q)
+ur_ik.ik_batch(model, poses, q)
+ur_ik.ik_all_batch(model, poses)
+print(compiled() - before)
+"""
+
+
+def test_batches_of_any_length_run_the_warmed_kernels_without_compiling_more():
+    """A batch whose last block is shorter than the others hands the kernels the same contiguous arrays the warm-up
+    compiled them for: nothing compiles at run time (silently, after the one notice)."""
+    result = run_python(BLOCK_AND_A_HALF, env={"NUMBA_DISABLE_JIT": "0"})
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.strip() == "0", result.stdout
+
+
 @pytest.mark.parametrize("name", MODEL_NAMES)
 def test_fk_batch_takes_every_sine_from_the_vectorised_tangents(name):
     """fk_batch (numpy's tan of half angles, then the closed form) and fk (libm's sin and cos) agree to 1e-14, also
