@@ -168,12 +168,11 @@ def test_the_first_use_compiles_once_per_cache_and_says_so(user_home):
 
 @pytest.mark.skipif(not AS_ANOTHER_USER, reason="needs root to run as another user")
 @pytest.mark.timeout(1200)   # a fresh compilation
-def test_with_nowhere_to_write_the_kernels_compile_in_memory_and_say_so(user_home):
+def test_with_nowhere_to_write_the_kernels_compile_in_memory_and_say_so():
     """A user who can write neither the package nor a cache directory: the kernels compile in memory, so every
     process says so (one is enough to see it), with the answer a cached compilation gives."""
-    home, user = user_home
     env = {"XDG_CACHE_HOME": "/proc/none", "HOME": "/proc/none", "NUMBA_CACHE_DIR": ""}
-    alone = run_python(SOLVE, env=env, user=user)
+    alone = run_python(SOLVE, env=env, user=NOBODY)
     assert alone.returncode == 0 and alone.stderr.count(NOTICE) == 1, alone.stderr
     assert json.loads(alone.stdout) == json.loads(run_python(SOLVE).stdout)
 
