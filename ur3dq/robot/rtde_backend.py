@@ -146,24 +146,20 @@ class RTDEBackend:
     def close(self) -> None:
         """Disconnect the RTDE stream and destroy ur_rtde's interface now (idempotent).
 
-        ur_rtde's RTDEReceiveInterface destructor waits 0.5 s holding the GIL (`disconnect()` waits as long but
-        releases it). Left to the garbage collector, that destructor runs at whatever moment a later
-        collection finds the connection in a reference cycle: during the next connection's motion, every thread
-        of the process (the heartbeat included) then stops for 0.5 s and the controller's heartbeat watchdog
-        stops a healthy motion. Dropping the last reference here runs it while this connection moves nothing
-        (status() keeps none in its frame, which a raised error's traceback may keep)."""
+        ur_rtde's RTDEReceiveInterface destructor disconnects and waits 0.5 s holding the GIL. Left to the
+        garbage collector, it runs at whatever moment a later collection finds the connection in a reference
+        cycle: during the next connection's motion, every thread of the process (the heartbeat included) then
+        stops for 0.5 s and the controller's heartbeat watchdog stops a healthy motion. Dropping the last
+        reference here runs it while this connection moves nothing (status() keeps none in its frame, which a
+        raised error's traceback may keep)."""
         self._closed = True
         self._destroy_receive()
 
     def _destroy_receive(self) -> None:
-        """Disconnect and destroy the current interface, if any (why now: close())."""
+        """Disconnect and destroy the current interface, if any (why now: close()). Only the destructor
+        disconnects: it waits its 0.5 s holding the GIL even after an explicit `disconnect()`, which would wait
+        0.5 s more (one reference: dropping it runs the destructor)."""
         receive, self._receive = self._receive, None
-        if receive is None:
-            return
-        try:
-            receive.disconnect()
-        except RuntimeError:
-            pass
         del receive
 
 
