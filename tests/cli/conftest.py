@@ -35,6 +35,11 @@ def run_in_process(tmp_path, monkeypatch, capsys):
         for key in [key for key in os.environ if key.startswith("UR3DQ_")]:
             monkeypatch.delenv(key)
         monkeypatch.setenv("UR3DQ_STATE_DIR", str(tmp_path / "state"))
+        # main() marks this process as the command's own, where `fk`, `ik` and `record-pose` switch the kernels to
+        # Python for the rest of the process (NUMBA_DISABLE_JIT=1): undone after the test, or every later test and
+        # subprocess of this worker would run them interpreted.
+        monkeypatch.setattr("ur3dq.cli.app._OWN_PROCESS", False)
+        monkeypatch.setenv("NUMBA_DISABLE_JIT", os.environ.get("NUMBA_DISABLE_JIT") or "0")
         monkeypatch.setattr(sys, "stdin", io.StringIO(input))
         capsys.readouterr()
         with pytest.raises(SystemExit) as exit_info:
