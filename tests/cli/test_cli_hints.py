@@ -61,6 +61,12 @@ def test_a_waypoint_speed_in_no_speed_unit_names_both_kinds(run_in_process, stor
     assert "60deg/s or 250mm/s" in result.stderr
 
 
+def test_a_pose_value_in_no_unit_names_a_distance_or_an_angle(run_in_process):
+    result = run_in_process("ik", "0.3", "0.1", "0.2", "0", "3.14", "nan")
+    assert result.returncode == 4 and "'nan' is neither a distance nor an angle; for example -50mm or 5deg" in \
+        result.stderr
+
+
 @pytest.mark.parametrize("args, way_on", [
     (("poses", "set", "demo1", "--speed", "1deg/s"), "did you mean 'demo-1'?"),
     (("poses", "add-step", "--after", "demo1", "wait", "1"), "did you mean 'demo-1'?"),

@@ -145,9 +145,9 @@ class Typed(click.ParamType):  # type: ignore[type-arg, unused-ignore]  # generi
                 errors.append(error)
         if len(self.kinds) == 1:
             raise errors[0]
-        kinds = " nor a ".join(kind.name for kind in self.kinds)   # the move type is not known yet: name both
-        examples = " or ".join(kind.example for kind in self.kinds)
-        raise ValueError(f"{typed.option}: {typed.text!r} is neither a {kinds}; for example {examples}")
+        kinds = " nor ".join(("an " if kind.name[0] in "aeiou" else "a ") + kind.name for kind in self.kinds)
+        examples = " or ".join(kind.example for kind in self.kinds)   # the move type is not known yet: name both
+        raise ValueError(f"{typed.option}: {typed.text!r} is neither {kinds}; for example {examples}")
 
 
 def _set_flag(ctx: click.Context, param: click.Parameter, value: bool) -> None:
