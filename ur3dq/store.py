@@ -28,6 +28,7 @@ from ur3dq.store_format import (  # noqa: F401  (re-exported: the store's public
     PROGRAM_SCHEMA_VERSION,
     SCHEMA_NAME,
     SCHEMA_VERSION,
+    UNREADABLE_FIX,
     format_program,
     format_program_v2,
     format_store,
@@ -289,7 +290,10 @@ class PoseStore:
             text = self.path.read_text(encoding="utf-8")
         except FileNotFoundError:
             return None, None, []
-        except (OSError, UnicodeDecodeError) as error:
+        except UnicodeDecodeError as error:
+            raise StoreError(f"{self.path}: not UTF-8 text (byte 0x{error.object[error.start]:02x} at offset "
+                             f"{error.start}); {UNREADABLE_FIX}") from None
+        except OSError as error:
             raise StoreError(f"{self.path}: cannot read the pose store: {error}") from None
         version, steps = parse_document(text, str(self.path))
         return text, version, steps

@@ -365,6 +365,14 @@ class _NotOwnLayout(Exception):
     """The text is not in the one-entry-per-line layout ur3dq writes: parse it as a whole instead."""
 
 
+#: What to do about a store file that cannot be read (added to each such error by parse_document).
+UNREADABLE_FIX = "the file is left as it is: correct it there, or use another store file"
+
+
+class _UnsupportedVersion(StoreError):
+    """A store of a version this ur3dq does not read: its message names its own fix."""
+
+
 _OWN_HEAD = re.compile(r'\{\n  "schema": "ur3dq\.poses",\n  "version": ([12]),\n  "(poses|steps)": \[\n')
 _OWN_TAIL = "\n  ]\n}\n"
 
@@ -435,9 +443,10 @@ def _whole_document(text: str, source: str):
     version = document.get("version")
     if type(version) is not int or version not in (SCHEMA_VERSION, PROGRAM_SCHEMA_VERSION):
         newer = type(version) is int and version > PROGRAM_SCHEMA_VERSION
-        raise StoreError(f"{source}:1: store version {version!r} is not supported (this ur3dq reads versions "
-                         f"{SCHEMA_VERSION} and {PROGRAM_SCHEMA_VERSION}"
-                         f"{'; the file was written by a newer ur3dq' if newer else ''})")
+        raise _UnsupportedVersion(f"{source}:1: store version {version!r} is not supported (this ur3dq reads "
+                                  f"versions {SCHEMA_VERSION} and {PROGRAM_SCHEMA_VERSION})"
+                                  + ("; the file was written by a newer ur3dq: upgrade ur3dq to read it" if newer
+                                     else f"; {UNREADABLE_FIX}"))
     key = "poses" if version == SCHEMA_VERSION else "steps"
     other = "steps" if key == "poses" else "poses"
     if other in document:
@@ -452,13 +461,19 @@ def parse_document(text: str, source: str) -> tuple[int, list]:
     """(version, steps) of a store file's text; StoreError with `source:line` (where known) and what is wrong.
 
     Text in ur3dq's own layout is read one entry per line, checked in chunks of CHUNK entries (bounded memory for
-    big stores, exact line numbers); anything else (a hand-edited layout) is parsed as one JSON document."""
+    big stores, exact line numbers); anything else (a hand-edited layout) is parsed as one JSON document. The
+    error's message ends with what to do (UNREADABLE_FIX, or for a newer store's version: upgrade ur3dq)."""
     try:
-        version, _, entries = _own_layout(text)
-        return version, _steps_of(version, entries, text, source)
-    except _NotOwnLayout:
-        version, _, entries = _whole_document(text, source)
-        return version, _steps_of(version, entries, text, source)
+        try:
+            version, _, entries = _own_layout(text)
+            return version, _steps_of(version, entries, text, source)
+        except _NotOwnLayout:
+            version, _, entries = _whole_document(text, source)
+            return version, _steps_of(version, entries, text, source)
+    except _UnsupportedVersion:
+        raise
+    except StoreError as error:
+        raise StoreError(f"{error}; {UNREADABLE_FIX}") from None
 
 
 class _StepReader:

@@ -17,6 +17,7 @@ from ur3dq.pose import Pose
 from ur3dq.store import (
     SCHEMA_NAME,
     SCHEMA_VERSION,
+    UNREADABLE_FIX,
     PoseStore,
     format_store,
     parse_store,
@@ -169,8 +170,10 @@ def test_broken_store_names_file_and_line_and_is_never_overwritten(tmp_path, cas
     path = tmp_path / "poses.json"
     path.write_text(text)
     store = PoseStore(path)
-    with pytest.raises(StoreError, match=str(path).replace(".", r"\.") + message):
+    with pytest.raises(StoreError, match=str(path).replace(".", r"\.") + message) as raised:
         store.load()
+    fix = "upgrade ur3dq to read it" if case == "newer version" else UNREADABLE_FIX
+    assert str(raised.value).endswith(fix)   # the one line says what to do
     for write in (lambda: store.add(make_pose("b")), lambda: store.remove("a"), lambda: store.rename("a", "b")):
         with pytest.raises(StoreError):
             write()
