@@ -90,11 +90,14 @@ class Simulator:
             if not self._started:
                 return
             self._stopped.set()
-            for server in reversed(list(self.servers.values())):
+            servers = list(reversed(self.servers.values()))
+            for server in servers:   # all first, then the joins: the threads end within one poll together
                 try:
-                    server.stop()
+                    server.begin_stop()
                 except Exception:  # noqa: BLE001 - one failing server must not keep the others running
                     log.exception("stopping a server failed")
+            for server in servers:
+                server.join()
             self.controller.shutdown()
             self._started = False
             log.info("sim_ursim on %s stopped", self.host)

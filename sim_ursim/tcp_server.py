@@ -145,10 +145,19 @@ class TCPServer:
 
     def stop(self) -> None:
         """Stop accepting, close every connection and join the server's threads."""
+        self.begin_stop()
+        self.join()
+
+    def begin_stop(self) -> None:
+        """Stop accepting and close every connection, without waiting for the threads (each ends within its poll
+        interval): a simulator stops all its servers this way, then joins them, instead of one poll each in turn."""
         self._stopping.set()
         if self._listener is not None:
             self._listener.close()
         self.drop_connections()
+
+    def join(self) -> None:
+        """Wait for the server's threads to end (after begin_stop)."""
         for thread in list(self._threads):
             if thread is not threading.current_thread():
                 thread.join(timeout=JOIN_TIMEOUT)
