@@ -21,6 +21,7 @@ from typing import Any, TypeVar
 
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import StoreError
+from ur3dq.json_text import decoded
 from ur3dq.pose import Pose, next_free_name, numbering_prefix, utc_now_iso
 from ur3dq.program.resolve import check_program
 from ur3dq.program.steps import RelativeWaypoint, Step, Waypoint
@@ -28,7 +29,6 @@ from ur3dq.store_format import (  # noqa: F401  (re-exported: the store's public
     PROGRAM_SCHEMA_VERSION,
     SCHEMA_NAME,
     SCHEMA_VERSION,
-    UNREADABLE_FIX,
     format_program,
     format_program_v2,
     format_store,
@@ -290,9 +290,9 @@ class PoseStore:
             text = self.path.read_text(encoding="utf-8")
         except FileNotFoundError:
             return None, None, []
-        except UnicodeDecodeError as error:
-            raise StoreError(f"{self.path}: not UTF-8 text (byte 0x{error.object[error.start]:02x} at offset "
-                             f"{error.start}); {UNREADABLE_FIX}") from None
+        except UnicodeDecodeError:
+            decoded(self.path.read_bytes(), str(self.path))   # raises StoreError naming the line and the byte
+            raise
         except OSError as error:
             raise StoreError(f"{self.path}: cannot read the pose store: {error}") from None
         version, steps = parse_document(text, str(self.path))

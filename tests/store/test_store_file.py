@@ -17,7 +17,6 @@ from ur3dq.pose import Pose
 from ur3dq.store import (
     SCHEMA_NAME,
     SCHEMA_VERSION,
-    UNREADABLE_FIX,
     PoseStore,
     format_store,
     parse_store,
@@ -172,12 +171,23 @@ def test_broken_store_names_file_and_line_and_is_never_overwritten(tmp_path, cas
     store = PoseStore(path)
     with pytest.raises(StoreError, match=str(path).replace(".", r"\.") + message) as raised:
         store.load()
-    fix = "upgrade ur3dq to read it" if case == "newer version" else UNREADABLE_FIX
+    fix = "upgrade ur3dq to read it" if case == "newer version" else store_format.UNREADABLE_FIX
     assert str(raised.value).endswith(fix)   # the one line says what to do
     for write in (lambda: store.add(make_pose("b")), lambda: store.remove("a"), lambda: store.rename("a", "b")):
         with pytest.raises(StoreError):
             write()
     assert path.read_text() == text
+
+
+def test_a_store_that_is_not_utf8_names_its_line_and_byte_and_is_never_overwritten(tmp_path):
+    path = tmp_path / "poses.json"
+    path.write_bytes(b'{\n  "schema": "ur3dq.poses",\n  "version": 1,\n  "poses": [\xff]}\n')
+    expected = r"poses\.json:4: not UTF-8 text \(byte 0xff at offset 57\); save it as UTF-8$"
+    with pytest.raises(StoreError, match=expected):
+        PoseStore(path).load()
+    with pytest.raises(StoreError):
+        PoseStore(path).add(make_pose("b"))
+    assert path.read_bytes().endswith(b"[\xff]}\n")
 
 
 def broken_pose(field, value):
