@@ -369,8 +369,8 @@ class _NotOwnLayout(Exception):
 UNREADABLE_FIX = "the file is left as it is: correct it there, or use another store file"
 
 
-class _UnsupportedVersion(StoreError):
-    """A store of a version this ur3dq does not read: its message names its own fix."""
+class _NewerVersion(StoreError):
+    """A store written by a newer ur3dq: its message names its own fix (upgrade)."""
 
 
 _OWN_HEAD = re.compile(r'\{\n  "schema": "ur3dq\.poses",\n  "version": ([12]),\n  "(poses|steps)": \[\n')
@@ -443,10 +443,11 @@ def _whole_document(text: str, source: str):
     version = document.get("version")
     if type(version) is not int or version not in (SCHEMA_VERSION, PROGRAM_SCHEMA_VERSION):
         newer = type(version) is int and version > PROGRAM_SCHEMA_VERSION
-        raise _UnsupportedVersion(f"{source}:1: store version {version!r} is not supported (this ur3dq reads "
-                                  f"versions {SCHEMA_VERSION} and {PROGRAM_SCHEMA_VERSION})"
-                                  + ("; the file was written by a newer ur3dq: upgrade ur3dq to read it" if newer
-                                     else f"; {UNREADABLE_FIX}"))
+        problem = (f"{source}:1: store version {version!r} is not supported (this ur3dq reads versions "
+                   f"{SCHEMA_VERSION} and {PROGRAM_SCHEMA_VERSION})")
+        if newer:
+            raise _NewerVersion(f"{problem}; the file was written by a newer ur3dq: upgrade ur3dq to read it")
+        raise StoreError(problem)
     key = "poses" if version == SCHEMA_VERSION else "steps"
     other = "steps" if key == "poses" else "poses"
     if other in document:
@@ -466,11 +467,11 @@ def parse_document(text: str, source: str) -> tuple[int, list]:
     try:
         try:
             version, _, entries = _own_layout(text)
-            return version, _steps_of(version, entries, text, source)
+            return version, _steps_of(version, entries, text, source)   # its entries may still not fit the layout
         except _NotOwnLayout:
             version, _, entries = _whole_document(text, source)
             return version, _steps_of(version, entries, text, source)
-    except _UnsupportedVersion:
+    except _NewerVersion:
         raise
     except StoreError as error:
         raise StoreError(f"{error}; {UNREADABLE_FIX}") from None
