@@ -7,6 +7,7 @@ a file nested deeper than any ur3dq file needs (MAX_NESTING) is reported at the 
 from __future__ import annotations
 
 import json
+from pathlib import Path
 from typing import Any
 
 from ur3dq.errors import StoreError
@@ -58,6 +59,16 @@ def decoded(raw: bytes, source: str) -> str:
         line = raw.count(b"\n", 0, error.start) + 1
         raise StoreError(f"{source}:{line}: not UTF-8 text (byte 0x{raw[error.start]:02x} at offset {error.start}); "
                          "save it as UTF-8") from None
+
+
+def read_utf8(path: Path) -> str:
+    """The text of `path` as Path.read_text gives it (UTF-8, universal newlines); StoreError naming `path:line` and
+    the first byte that is not UTF-8 (``decoded``); OSError as read_text raises it."""
+    try:
+        return path.read_text(encoding="utf-8")
+    except UnicodeDecodeError:
+        decoded(path.read_bytes(), str(path))   # raises, naming the line and the byte
+        raise
 
 
 def parse_json(text: str, source: str) -> Any:

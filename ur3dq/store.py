@@ -21,7 +21,7 @@ from typing import Any, TypeVar
 
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import StoreError
-from ur3dq.json_text import decoded
+from ur3dq.json_text import read_utf8
 from ur3dq.pose import Pose, next_free_name, numbering_prefix, utc_now_iso
 from ur3dq.program.resolve import check_program
 from ur3dq.program.steps import RelativeWaypoint, Step, Waypoint
@@ -287,12 +287,9 @@ class PoseStore:
     def _read(self) -> tuple[str | None, int | None, list[Step]]:
         """(file text or None, version or None, steps); ([], None) when the file does not exist yet."""
         try:
-            text = self.path.read_text(encoding="utf-8")
+            text = read_utf8(self.path)
         except FileNotFoundError:
             return None, None, []
-        except UnicodeDecodeError:
-            decoded(self.path.read_bytes(), str(self.path))   # raises StoreError naming the line and the byte
-            raise
         except OSError as error:
             raise StoreError(f"{self.path}: cannot read the pose store: {error}") from None
         version, steps = parse_document(text, str(self.path))
@@ -424,8 +421,8 @@ class PoseStore:
         stem); no joints are known for them. All or nothing."""
         file = Path(file)
         try:
-            text = file.read_text(encoding="utf-8")
-        except (OSError, UnicodeDecodeError) as error:
+            text = read_utf8(file)
+        except OSError as error:
             raise StoreError(f"{file}: cannot read: {error}") from None
         entries = parse_thesis_lines(text, str(file))
         if not entries:

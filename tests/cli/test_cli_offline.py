@@ -148,6 +148,13 @@ def test_broken_store_is_one_clear_error_and_never_overwritten(tmp_path, run_in_
     assert store.read_text() == text
 
 
+def test_an_import_file_that_is_not_utf8_names_its_line_and_byte(tmp_path, run_in_process):
+    (tmp_path / "more.txt").write_bytes(thesis_lines_of(CONFIGS[:1]).encode() + b"\xe9\n")
+    assert_one_line_error(run_in_process("poses", "import", "more.txt"), 3, "more.txt:2: not UTF-8 text (byte 0xe9",
+                          "save it as UTF-8")
+    assert not (tmp_path / "poses.json").exists()
+
+
 @pytest.fixture
 def recorded_store(tmp_path):
     """A store of the two CONFIGS poses with their joints, as record-pose writes them; awkward names included."""

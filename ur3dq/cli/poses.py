@@ -51,6 +51,7 @@ from ur3dq.cli.program_workflow import (
     step_fields_text,
 )
 from ur3dq.errors import StoreError
+from ur3dq.json_text import read_utf8
 from ur3dq.pose import next_free_name, utc_now_iso
 from ur3dq.program.resolve import resolve_targets
 from ur3dq.program.steps import (
@@ -239,7 +240,7 @@ def import_poses(settings: Settings, file: Path, prefix: str | None, tcp: tuple[
       ur3dq --model ur5 poses import recorded.txt --tcp 0 0 0.2 0 0 0
       ur3dq poses import other-cell.json
     """
-    text = file.read_text(encoding="utf-8")
+    text = read_utf8(file)
     if text.lstrip().startswith("{"):
         if prefix or tcp:
             raise ValueError(f"{file} is a JSON pose store: --prefix and --tcp apply to thesis text files only")
