@@ -424,6 +424,11 @@ class PoseStore:
             text = read_utf8(file)
         except OSError as error:
             raise StoreError(f"{file}: cannot read: {error}") from None
+        return self.add_thesis_text(text, file, robot_model, tcp_offset, prefix, note)
+
+    def add_thesis_text(self, text: str, file: Path, robot_model: str, tcp_offset: Iterable[float] = (0.0,) * 6,
+                        prefix: str | None = None, note: str = "") -> list[Pose]:
+        """Add every pose of `text`, already read from the thesis text file `file`, as import_thesis_lines does."""
         entries = parse_thesis_lines(text, str(file))
         if not entries:
             raise StoreError(f"{file}: no pose lines found")

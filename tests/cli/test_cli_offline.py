@@ -1,6 +1,7 @@
 """The CLI without a robot, through real `ur3dq` subprocesses: kinematics, the pose store, files, bad input."""
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -153,6 +154,16 @@ def test_an_import_file_that_is_not_utf8_names_its_line_and_byte(tmp_path, run_i
     assert_one_line_error(run_in_process("poses", "import", "more.txt"), 3, "more.txt:2: not UTF-8 text (byte 0xe9",
                           "save it as UTF-8")
     assert not (tmp_path / "poses.json").exists()
+
+
+def test_an_import_reads_its_file_once(tmp_path, run_in_process, monkeypatch):
+    # Read twice, a file being written by another program could be taken for thesis lines and parsed as JSON.
+    (tmp_path / "more.txt").write_text(thesis_lines_of(CONFIGS))
+    reads = []
+    read_text = Path.read_text
+    monkeypatch.setattr(Path, "read_text", lambda path, *a, **k: reads.append(path.name) or read_text(path, *a, **k))
+    assert run_in_process("poses", "import", "more.txt").returncode == 0
+    assert reads.count("more.txt") == 1
 
 
 @pytest.fixture

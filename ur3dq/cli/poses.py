@@ -247,7 +247,7 @@ def import_poses(settings: Settings, file: Path, prefix: str | None, tcp: tuple[
         added = settings.store.add_many(parse_store(text, str(file)), number_if_taken=True)
     else:
         tcp_offset = tuple(ur_pose_from_input(tcp, "--tcp").tolist()) if tcp else (0.0,) * 6
-        added = settings.store.import_thesis_lines(file, settings.model or "ur3", tcp_offset, prefix)
+        added = settings.store.add_thesis_text(text, file, settings.model or "ur3", tcp_offset, prefix)
     report(settings, {"imported": [pose.name for pose in added]},
            f"Imported {count_text(len(added), 'pose')} into {settings.store_path}: "
            f"{', '.join(p.name for p in added)}")
