@@ -38,7 +38,18 @@ def powered_simulator(urx_robots, **options):
             yield simulator
         finally:
             while urx_robots:
-                urx_robots.pop().close()
+                close_urx(urx_robots.pop())
+
+
+def close_urx(robot):
+    """Close `robot`, its realtime monitor's thread included: URRobot.close() only flags that thread to stop, so it
+    would read on after the simulator stopped, where its loop spins on the closed socket for the rest of the
+    process. urx's own RealTimeMonitor.close() joins it: it sees its flag after the next packet of the 125 Hz
+    stream."""
+    robot.close()
+    if robot.rtmon is not None:
+        robot.rtmon.join(timeout=5)
+        assert not robot.rtmon.is_alive(), "urx's realtime monitor did not end"
 
 
 @pytest.fixture
