@@ -1,6 +1,8 @@
 """Shared fixtures: a running simulator, or the official URSim / robot named by UR3DQ_TEST_HOST; the Hypothesis
 profile of the run."""
 import os
+import threading
+import time
 
 import pytest
 from hypothesis import settings
@@ -13,6 +15,22 @@ from robot_target import external_robot_host
 settings.register_profile("repeatable", derandomize=True)
 settings.register_profile("explore", derandomize=False)
 settings.load_profile(os.environ.get("UR3DQ_HYPOTHESIS", "repeatable"))
+
+#: Seconds a module's threads get to end after its last test: a server's threads see their stop within a poll.
+THREAD_END_GRACE = 5.0
+
+
+@pytest.fixture(scope="module", autouse=True)
+def no_thread_outlives_its_module():
+    """Fail a test module that leaves a thread running: one blocked for good costs little, but one spinning (urx's
+    reader on a closed socket) took a core from every later test of its worker."""
+    before = set(threading.enumerate())
+    yield
+    deadline = time.monotonic() + THREAD_END_GRACE
+    while left := [thread for thread in threading.enumerate() if thread not in before and thread.is_alive()]:
+        if time.monotonic() > deadline:
+            pytest.fail(f"threads still running after the module's tests: {sorted(t.name for t in left)}")
+        time.sleep(0.05)
 
 
 @pytest.fixture

@@ -17,6 +17,7 @@ import rtde_receive
 
 from polling import wait_for
 from powered_simulator import powered_simulator as powered_simulator_process
+from socket_threads import join_all, shut
 from ur3dq.errors import InvalidStateError, RobotConnectionError, RobotError
 from ur3dq.robot import state
 from ur3dq.store import PoseStore
@@ -41,7 +42,8 @@ class FakePort:
                 self._listener.close()
         self._listener.listen()
         self._connections = []
-        threading.Thread(target=self._serve, daemon=True).start()
+        self._threads = [threading.Thread(target=self._serve, daemon=True)]
+        self._threads[0].start()
 
     def _serve(self):
         while True:
@@ -50,7 +52,8 @@ class FakePort:
             except OSError:
                 return
             self._connections.append(connection)
-            threading.Thread(target=self._talk, args=(connection,), daemon=True).start()
+            self._threads.append(threading.Thread(target=self._talk, args=(connection,), daemon=True))
+            self._threads[-1].start()
 
     def _talk(self, connection):
         try:
@@ -63,9 +66,9 @@ class FakePort:
             pass
 
     def close(self):
-        self._listener.close()
-        for connection in self._connections:
-            connection.close()
+        for item in [self._listener, *self._connections]:
+            shut(item)
+        join_all(self._threads)
 
 
 @pytest.fixture
@@ -169,7 +172,7 @@ class GarbledSecondary:
 
     def __init__(self, target, garbage_after):
         self.target, self.garbage_after = target, garbage_after
-        self._listeners, self._sockets = [], []
+        self._listeners, self._sockets, self._threads = [], [], []
         ports = (*self.FORWARDED, 30002)
         for _ in range(20):   # a random loopback address where all five ports are free
             self.host = f"127.{random.randint(1, 254)}.{random.randint(1, 254)}.{random.randint(1, 254)}"
@@ -179,7 +182,11 @@ class GarbledSecondary:
             except OSError:
                 self.close()
         for listener, port in zip(self._listeners, ports):
-            threading.Thread(target=self._accept, args=(listener, port), daemon=True).start()
+            self._start(self._accept, listener, port)
+
+    def _start(self, target, *args):
+        self._threads.append(threading.Thread(target=target, args=args, daemon=True))
+        self._threads[-1].start()
 
     def _accept(self, listener, port):
         while True:
@@ -190,9 +197,8 @@ class GarbledSecondary:
                 return
             self._sockets += [client, upstream]
             garbled = port == 30002
-            threading.Thread(target=self._pump, args=(client, upstream, None), daemon=True).start()
-            threading.Thread(target=self._pump, args=(upstream, client, self.garbage_after if garbled else None),
-                             daemon=True).start()
+            self._start(self._pump, client, upstream, None)
+            self._start(self._pump, upstream, client, self.garbage_after if garbled else None)
 
     @staticmethod
     def _pump(source, sink, garbage_after):
@@ -212,8 +218,9 @@ class GarbledSecondary:
 
     def close(self):
         for item in self._listeners + self._sockets:
-            item.close()
+            shut(item)
         self._listeners = []
+        join_all(self._threads)
 
 
 UR3DQ = str(Path(sys.executable).with_name("ur3dq"))

@@ -13,6 +13,7 @@ from dashboard_lines import LineClient
 from polling import wait_for
 from sim_ursim.launch import running_simulator
 from sim_ursim.messages import PopupMessage
+from socket_threads import join_all, shut
 from urp_samples import E_SERIES_EXTERNAL_CONTROL, E_SERIES_WAIT_PROGRAM, program_xml, write_urp
 
 Q_START = [0.0, -1.57, 1.57, -1.57, -1.57, 0.0]
@@ -107,7 +108,8 @@ class RemotePC:
         self.port = self.server.getsockname()[1]
         self.program = program
         self.requests = []
-        threading.Thread(target=self._serve, daemon=True).start()
+        self._thread = threading.Thread(target=self._serve, daemon=True)
+        self._thread.start()
 
     def _serve(self):
         while True:
@@ -121,7 +123,8 @@ class RemotePC:
                 connection.recv(1024)  # the URCap closes; URCL keeps the connection until then
 
     def close(self):
-        self.server.close()
+        shut(self.server)
+        join_all([self._thread])
 
 
 COUNTING_SCRIPT = """# HEADER_BEGIN
