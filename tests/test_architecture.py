@@ -112,7 +112,12 @@ def test_the_driver_knows_no_cell_program():
 
 
 def test_no_module_is_over_700_lines():
-    long = {str(path.relative_to(ROOT.parent)): n for path in SOURCES + FORMAT_SOURCES
+    """Every Python file of the project: the packages, the simulator, the tests, the benchmarks and the scripts."""
+    project = ROOT.parent
+    paths = [path for folder in ("ur3dq", "polyscope_format", "sim_ursim", "tests", "benchmarks", "scripts")
+             for path in sorted((project / folder).rglob("*.py"))]
+    assert len(paths) > len(SOURCES + FORMAT_SOURCES)
+    long = {str(path.relative_to(project)): n for path in paths
             if (n := len(path.read_text(encoding="utf-8").splitlines())) > 700}
     assert long == {}
 
