@@ -111,14 +111,30 @@ def test_the_driver_knows_no_cell_program():
     assert not any(package_of(target) == "ur3dq.program" for target in driver)
 
 
-def test_no_module_is_over_700_lines():
+def project_files() -> list[Path]:
     """Every Python file of the project: the packages, the simulator, the tests, the benchmarks and the scripts."""
     project = ROOT.parent
-    paths = [path for folder in ("ur3dq", "polyscope_format", "sim_ursim", "tests", "benchmarks", "scripts")
-             for path in sorted((project / folder).rglob("*.py"))]
+    return [path for folder in ("ur3dq", "polyscope_format", "sim_ursim", "tests", "benchmarks", "scripts")
+            for path in sorted((project / folder).rglob("*.py"))]
+
+
+def test_no_module_is_over_700_lines():
+    paths = project_files()
     assert len(paths) > len(SOURCES + FORMAT_SOURCES)
-    long = {str(path.relative_to(project)): n for path in paths
+    long = {str(path.relative_to(ROOT.parent)): n for path in paths
             if (n := len(path.read_text(encoding="utf-8").splitlines())) > 700}
+    assert long == {}
+
+
+def test_no_function_body_is_over_60_lines():
+    """Counted from the first statement after the docstring: a numpydoc docstring with examples may be long."""
+    long = {}
+    for path in project_files():
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                body = node.body[1:] if ast.get_docstring(node) and len(node.body) > 1 else node.body
+                if (lines := node.end_lineno - body[0].lineno + 1) > 60:
+                    long[f"{path.relative_to(ROOT.parent)}:{node.name}"] = lines
     assert long == {}
 
 
