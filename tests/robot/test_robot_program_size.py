@@ -13,7 +13,7 @@ from ur3dq.urscript import movej_statement
 
 pytestmark = simulator_only("a program sized for the simulator's parser")
 
-# Lines of list literals: slow to parse (sim_ursim takes about 2 CPU seconds per MB of them), quick to run.
+# Lines of list literals: slow to parse (sim_ursim takes seconds of CPU per MB of them), quick to run.
 PADDING = "  x = [" + ", ".join(["1.25"] * 14) + "]\n"
 
 
@@ -29,7 +29,7 @@ def program_of(lines, target):
     return "def big():\n" + PADDING * lines + f"  {movej_statement(target, a=1.4, v=1.05)}\nend\n"
 
 
-@pytest.mark.exclusive   # a CPU-bound parse: 16 s alone, past its 32 s start timeout once beside the parallel pass
+@pytest.mark.exclusive   # a CPU-bound parse: 10-16 s alone, past its 32 s start timeout once beside the parallel pass
 def test_a_program_that_takes_longer_than_the_base_timeout_to_parse_runs_to_its_end(robot):
     target = HOME + np.array([0.05, 0, 0, 0, 0, 0])
     program = program_of(30_000, target)   # 2.6 MB: well over START_TIMEOUT of parsing on any machine
