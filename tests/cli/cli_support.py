@@ -182,3 +182,27 @@ class Terminal:
             self.process.kill()
         self.process.wait(10)
         os.close(self.master)
+
+
+#: Runs `ur3dq` in this process (its own, as the command is), then prints whether numba was imported.
+OWN_PROCESS = """
+import sys
+from ur3dq.cli import main
+try:
+    main(sys.argv[1:])
+except SystemExit as end:
+    assert not end.code, end.code
+print("numba" in sys.modules)
+"""
+
+
+def run_telling_numba(tmp_path, jit, *args):
+    """(stdout lines, "True"/"False": whether numba was imported) of `ur3dq args` run as its own process in
+    `tmp_path`, with NUMBA_DISABLE_JIT set to `jit` ("" leaves it unset, as a user's shell does)."""
+    env = {key: value for key, value in cli_env(tmp_path).items() if key != "NUMBA_DISABLE_JIT"}
+    env.update({"NUMBA_DISABLE_JIT": jit} if jit else {})
+    result = subprocess.run([sys.executable, "-c", OWN_PROCESS, *map(str, args)], capture_output=True, text=True,
+                            env=env, cwd=tmp_path, timeout=60, check=False)
+    assert result.returncode == 0, result.stderr
+    *lines, numba = result.stdout.strip().splitlines()
+    return lines, numba

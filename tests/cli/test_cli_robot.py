@@ -3,13 +3,12 @@ import json
 import signal
 import socket
 import subprocess
-import sys
 import time
 
 import numpy as np
 import pytest
 
-from cli_support import UR3DQ, assert_one_line_error, cli_env, cli_process
+from cli_support import UR3DQ, assert_one_line_error, cli_env, cli_process, run_telling_numba
 from polling import wait_for
 from robot_target import simulator_only
 from ur3dq.store import PoseStore
@@ -110,31 +109,14 @@ def test_ctrl_c_stops_the_arm(arm, run_cli, tmp_path, inherited_sigint):
     assert np.max(np.abs(arm.joints() - PLACES[0])) > 0.1, "the arm reached the target: Ctrl-C did not stop it"
 
 
-#: Runs `ur3dq` in this process (its own, as the command is), then prints whether numba was imported.
-OWN_PROCESS = """
-import sys
-from ur3dq.cli import main
-try:
-    main(sys.argv[1:])
-except SystemExit as end:
-    assert not end.code, end.code
-print("numba" in sys.modules)
-"""
-
-
 def test_record_pose_solves_its_one_pose_without_loading_numba(arm, tmp_path):
     """record-pose shows one FK (its check against the controller's TCP): the kernels run as Python, as for `ur3dq
     fk`, so a recorded pose costs no numba start-up; the table is the one compiled kernels print."""
     arm.place(PLACES[1])
     shown = {}
     for jit in ("", "0"):   # as the command starts, then with compiled kernels asked for
-        env = {key: value for key, value in cli_env(tmp_path).items() if key != "NUMBA_DISABLE_JIT"}
-        env.update({"NUMBA_DISABLE_JIT": jit} if jit else {})
-        result = subprocess.run([sys.executable, "-c", OWN_PROCESS, "--host", arm.host, "--store",
-                                 str(tmp_path / f"poses{jit}.json"), "record-pose", "--yes"],
-                                capture_output=True, text=True, env=env, cwd=tmp_path, timeout=60, check=False)
-        assert result.returncode == 0, result.stderr
-        *table, numba = result.stdout.strip().splitlines()
+        table, numba = run_telling_numba(tmp_path, jit, "--host", arm.host, "--store",
+                                         str(tmp_path / f"poses{jit}.json"), "record-pose", "--yes")
         shown[jit] = ([line for line in table if "Recorded" not in line], numba)
     assert shown[""][1] == "False" and shown["0"][1] == "True"
     assert shown[""][0] == shown["0"][0]

@@ -40,6 +40,7 @@ from ur3dq.units import Units
 if TYPE_CHECKING:
     from rich.console import Console
 
+    from ur3dq.kinematics.models import URModel
     from ur3dq.robot import Robot
 
 EXIT_OK = 0
@@ -337,13 +338,26 @@ def quiet_client_libraries(debug: bool) -> None:
 _OWN_PROCESS = False
 
 
-def solving_one_pose() -> None:
-    """Say that the command solves one pose: in the `ur3dq` process itself, its kinematics kernels then run as the
-    Python they are (milliseconds), instead of loading numba and the compiled kernels' cache (about half a second
-    of CPU). This uses numba's own switch, NUMBA_DISABLE_JIT, which the kernels read when their modules are first
-    imported; set it to 0 to keep compiled kernels. A program that calls the CLI in its own process keeps what it
-    has."""
-    if _OWN_PROCESS and "numba" not in sys.modules:
+#: Up to this many poses on an arm of nominal geometry, a command's kinematics kernels run as Python in the
+#: `ur3dq` process (solving_poses).
+FEW_POSES = 20
+
+
+def python_kernels_pay(count: int, model: URModel | None = None) -> bool:
+    """Whether solving or planning `count` poses on `model` costs less CPU with the kinematics kernels run as Python
+    than loading numba and the compiled kernels' cache (about half a second; docs/performance.md): for one pose, and
+    for up to FEW_POSES on an arm of nominal geometry. A calibrated arm's path check runs Newton steps at every
+    sample, so for more than one pose it keeps the compiled kernels."""
+    return count <= 1 or (count <= FEW_POSES and model is not None and model.dh.is_nominal_structure())
+
+
+def solving_poses(count: int, model: URModel | None = None) -> None:
+    """Say how many poses the command solves or plans, on `model`; where python_kernels_pay, in the `ur3dq` process
+    itself its kinematics kernels then run as the Python they are. Call it before the command's first kinematics
+    call: it uses numba's own switch, NUMBA_DISABLE_JIT, which the kernels read when their modules are first
+    imported (NUMBA_DISABLE_JIT=0 keeps them compiled). A program that calls the CLI in its own process keeps what
+    it has."""
+    if _OWN_PROCESS and python_kernels_pay(count, model) and "numba" not in sys.modules:
         os.environ.setdefault("NUMBA_DISABLE_JIT", "1")
 
 

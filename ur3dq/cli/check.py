@@ -9,7 +9,7 @@ from pathlib import Path
 import click
 from rich.console import Console
 
-from ur3dq.cli.app import Settings, cli, emit_json, robot_session
+from ur3dq.cli.app import Settings, cli, emit_json, robot_session, solving_poses
 from ur3dq.cli.background_simulator import running_simulator_host
 from ur3dq.cli.display import recorded_joints_warnings
 from ur3dq.cli.options import Quantity, Typed, TypedValue, cell_option, display_options
@@ -93,6 +93,7 @@ def check(settings: Settings, names: tuple[str, ...], cell_path: Path | None, mo
     else:
         model, start = robot_model(settings.model or poses[0].robot_model), None
         where = f"a nominal {model.name} (no robot: from the first pose)"
+    solving_poses(len(poses), model)
     for line in recorded_joints_warnings(poses, model):
         click.echo(line, err=True)
     if settings.store.version() == PROGRAM_SCHEMA_VERSION and not names:  # a cell program: its own moves

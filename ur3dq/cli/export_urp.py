@@ -5,7 +5,7 @@ from pathlib import Path
 
 import click
 
-from ur3dq.cli.app import Settings, cli, prepare_output, report, robot_session
+from ur3dq.cli.app import Settings, cli, prepare_output, report, robot_session, solving_poses
 from ur3dq.cli.display import count_text
 from ur3dq.cli.options import (
     DEFAULT_ACCELERATION,
@@ -77,6 +77,7 @@ def export_urp(settings: Settings, output: Path | None, speed: float | None, acc
             click.echo(f"Warning: {other_arm}", err=True)
     else:
         model = nominal_model(settings, steps)
+    solving_poses(len(part), model)
     plan = plan_program(model, part, None, defaults, 1.0, replay_joints, travel, resolve_from=steps)
     move_defaults = MoveDefaults(joint_speed, joint_acceleration, defaults.tcp_speed, defaults.tcp_acceleration)
     data = export_bytes(plan, steps, output.stem, model, move_defaults)

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import click
 
-from ur3dq.cli.app import Settings, cli, emit_json, solving_one_pose
+from ur3dq.cli.app import Settings, cli, emit_json, solving_poses
 from ur3dq.cli.display import (
     angles_text,
     coefficients_text,
@@ -43,7 +43,7 @@ def fk(settings: Settings, joints: tuple[float, ...], tcp: tuple[float, ...] | N
       ur3dq fk 0 -90deg 0 -90deg 0 0
       ur3dq --model ur5e fk 0 -90 90 -90 -90 0 --deg --tcp 0 0 0.15 0 0 0 --json
     """
-    solving_one_pose()
+    solving_poses(1)
     model = model_for(settings)
     units = settings.units
     q = joints_in_limits(model, joints_from_input(joints), units)

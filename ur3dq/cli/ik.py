@@ -4,7 +4,7 @@ from __future__ import annotations
 import click
 import numpy as np
 
-from ur3dq.cli.app import Settings, cli, emit_json, solving_one_pose
+from ur3dq.cli.app import Settings, cli, emit_json, solving_poses
 from ur3dq.cli.display import (
     NARROW_WIDTH,
     Column,
@@ -56,7 +56,7 @@ def ik(settings: Settings, values: tuple[TypedValue, ...], pose_name: str | None
       ur3dq ik 0.3 0.1 0.2 0 180 0 --deg --near 0 -90 90 -90 -90 0
       ur3dq ik --pose pick --json
     """
-    solving_one_pose()
+    solving_poses(1)
     model = model_for(settings)
     units = settings.units
     reference = joints_in_limits(model, joints_from_input(near, "--near"), units, "--near") if near else None

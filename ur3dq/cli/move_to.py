@@ -7,7 +7,7 @@ import click
 from rich.console import Console
 from rich.markup import escape
 
-from ur3dq.cli.app import Settings, cli, confirm, emit_json, robot_session
+from ur3dq.cli.app import Settings, cli, confirm, emit_json, robot_session, solving_poses
 from ur3dq.cli.options import cell_option, display_options
 from ur3dq.cli.path_report import check_program, check_verdict, require_passed
 from ur3dq.errors import StoreError
@@ -44,6 +44,7 @@ def move_to(settings: Settings, name: str, yes: bool, speed_scale: float, cell_p
         raise StoreError(f"no pose named {name!r} in {settings.store_path}: `ur3dq poses list` shows them")
     if not is_waypoint(step):
         raise click.UsageError(f"step {name!r} is a {step.kind}, not a pose: move-to takes a waypoint")
+    solving_poses(1)
     with robot_session(settings) as robot:
         plan = plan_program(robot.model, [step], robot.joints(), Defaults(), speed_scale,
                             max_joint_travel=robot.max_joint_travel, resolve_from=steps)

@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING
 
 from rich.console import Console
 
-from ur3dq.cli.app import Settings
+from ur3dq.cli.app import Settings, solving_poses
 from ur3dq.cli.options import speed_and_acceleration
 from ur3dq.errors import StoreError
 from ur3dq.replay import PlanStep, plan_replay
@@ -25,5 +25,6 @@ def offline_plan(settings: Settings, names: Iterable[str] | None, speed: float, 
     if not poses:
         raise StoreError(f"{settings.store_path} has no poses: record some with `ur3dq record-pose`")
     model = robot_model(settings.model or poses[0].robot_model)
+    solving_poses(len(poses), model)
     a, v = speed_and_acceleration(model, speed, acceleration, Console(stderr=True, highlight=False), settings.units)
     return model, plan_replay(model, poses, None, a, v, replay_joints, max_travel), a, v

@@ -18,7 +18,7 @@ import numpy as np
 from rich.console import Console
 from rich.text import Text
 
-from ur3dq.cli.app import Settings, confirm, emit_json, emit_json_list, robot_session
+from ur3dq.cli.app import Settings, confirm, emit_json, emit_json_list, robot_session, solving_poses
 from ur3dq.cli.display import Column, pose_label, pose_vector_text, print_table, recorded_joints_warnings
 from ur3dq.cli.options import TypedValue
 from ur3dq.cli.path_report import check_program, check_verdict, kept_script_warnings, report_path_check, require_passed
@@ -336,6 +336,7 @@ def run_program_command(settings: Settings, start: str | None, end: str | None, 
     if dry_run and not (settings.host or running_simulator_host()):
         first_pose = next((s.pose for s in steps if isinstance(s, Waypoint)), None)
         model = robot_model(settings.model or (first_pose.robot_model if first_pose else "ur3"))
+        solving_poses(len(part), model)
         _warn_recorded_joints(part, model)
         plan = plan_program(model, part, None, defaults, speed_scale, replay_joints, max_travel,
                             resolve_from=steps)
@@ -345,6 +346,7 @@ def run_program_command(settings: Settings, start: str | None, end: str | None, 
     from ur3dq.cli import run_session
 
     with robot_session(settings, max_joint_travel=max_travel) as robot:
+        solving_poses(len(part), robot.model)
         _warn_recorded_joints(part, robot.model)
         if resume is not None:
             resume.require_same_arm(robot)
@@ -435,6 +437,7 @@ def export_program_text(settings: Settings, start: str | None, end: str | None, 
     steps, part, first = program_part(settings, start, end)
     first_pose = next((s.pose for s in steps if isinstance(s, Waypoint)), None)
     model = robot_model(settings.model or (first_pose.robot_model if first_pose else "ur3"))
+    solving_poses(len(part), model)
     defaults = Defaults(joint_acceleration=acceleration, joint_speed=speed, blend=blend)
     plan = plan_program(model, part, None, defaults, speed_scale, replay_joints, max_travel, resolve_from=steps)
     header = [f"ur3dq export-urscript: steps {first}..{first + len(plan) - 1} of {settings.store_path} for a "

@@ -8,7 +8,7 @@ import click
 from rich.console import Console
 from rich.markup import escape
 
-from ur3dq.cli.app import Settings, cli, confirm, emit_json, one_line, robot_session, solving_one_pose
+from ur3dq.cli.app import Settings, cli, confirm, emit_json, one_line, robot_session, solving_poses
 from ur3dq.cli.display import count_text, key_value_table, pose_rows, pose_vector_text
 from ur3dq.cli.options import TypedValue, display_options, placement_options, waypoint_motion_options
 from ur3dq.cli.program_workflow import check_waypoint_options, record_waypoint, same_spot_as
@@ -46,7 +46,7 @@ def record_pose(settings: Settings, name: str | None, note: str, yes: bool, teac
       ur3dq record-pose --yes --note "above the tray"   # for scripts
       ur3dq record-pose --teach --name station   # station-1, -2, ... by hand
     """
-    solving_one_pose()   # each recorded pose is one FK at most
+    solving_poses(1)   # each recorded pose is one FK at most
     store = settings.store
     store.require_directory()
     steps = store.load_program()  # also refuses a corrupt store before touching the robot

@@ -11,7 +11,7 @@ from rich.console import Console
 from rich.text import Text
 
 from ur3dq.cli import run_session
-from ur3dq.cli.app import Settings, cli, confirm, emit_json, robot_session
+from ur3dq.cli.app import Settings, cli, confirm, emit_json, robot_session, solving_poses
 from ur3dq.cli.background_simulator import running_simulator_host
 from ur3dq.cli.display import count_text, print_table, reached_table, recorded_joints_warnings, replay_plan
 from ur3dq.cli.options import (
@@ -127,6 +127,7 @@ def run_poses(settings: Settings, names: tuple[str, ...], dry_run: bool, full_pl
     check_blend(blend)
     if dry_run and not (settings.host or running_simulator_host()):
         model = robot_model(settings.model or poses[0].robot_model)
+        solving_poses(len(poses) * loops, model)
         for line in recorded_joints_warnings(poses, model):
             click.echo(line, err=True)
         a, v = speed_and_acceleration(model, speed, acceleration, err, settings.units)
@@ -153,6 +154,7 @@ def _replay(settings: Settings, poses: list[Pose], loops: int, dry_run: bool, fu
     with robot_session(settings, max_joint_travel=max_travel) as robot:
         if resume is not None:
             resume.require_same_arm(robot)
+        solving_poses(len(poses) * loops, robot.model)
         a, v = speed_and_acceleration(robot.model, speed, acceleration, err, settings.units)
         poses = _for_the_current_tcp(poses, robot.model.tcp, options["tcp"], replay_joints, err)
         for line in recorded_joints_warnings(poses, robot.model):
