@@ -37,6 +37,12 @@ def utc_now_iso() -> str:
     return datetime.now(timezone.utc).isoformat(timespec="milliseconds").replace("+00:00", "Z")
 
 
+def parse_iso_time(text: str) -> datetime:
+    """The datetime of ISO 8601 `text`, a `Z` suffix meaning UTC on every supported Python (3.10's
+    datetime.fromisoformat refuses it); ValueError when it is not ISO 8601."""
+    return datetime.fromisoformat(text[:-1] + "+00:00" if text.endswith("Z") else text)
+
+
 def name_problem(name: object) -> str | None:
     """Why `name` cannot name a pose, or None if it can.
 
@@ -92,7 +98,7 @@ def _check_utc_time(time: object, who: str) -> None:
     try:
         if not isinstance(time, str):
             raise TypeError
-        parsed = datetime.fromisoformat(time)
+        parsed = parse_iso_time(time)
     except (TypeError, ValueError):
         raise ValueError(f"{who}: time {time!r} is not ISO 8601 (e.g. 2026-11-22T01:02:03Z)") from None
     if parsed.utcoffset() != _NO_OFFSET:  # also a time without an offset (None)
@@ -155,7 +161,7 @@ def text_fields_all_valid(names: Sequence[Any], times: Sequence[Any], robot_mode
             and all(name == name.strip() for name in names)):
         return False
     try:
-        return all(type(time) is str and datetime.fromisoformat(time).utcoffset() == _NO_OFFSET for time in times)
+        return all(type(time) is str and parse_iso_time(time).utcoffset() == _NO_OFFSET for time in times)
     except ValueError:
         return False
 

@@ -18,6 +18,7 @@ from ur3dq.errors import (
     SafetyCheckError,
     StoreError,
     UnreachablePoseError,
+    add_note,
 )
 from ur3dq.kinematics import robot_model
 from ur3dq.plot import arm_points
@@ -56,7 +57,7 @@ def test_each_error_kind_has_its_exit_code(error, code):
 
 def test_one_line_joins_lines_and_notes():
     error = RuntimeError("first\nsecond")
-    error.add_note("stopj also failed")
+    add_note(error, "stopj also failed")   # errors.add_note: BaseException.add_note is Python 3.11's
     assert one_line(error) == "first second stopj also failed"
 
 

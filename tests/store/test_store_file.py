@@ -3,6 +3,7 @@ import json
 import math
 import os
 import stat
+from datetime import datetime, timedelta, timezone
 
 import numpy as np
 import pytest
@@ -13,7 +14,7 @@ from pyquaternion import Quaternion
 from ur3dq import store_format
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import StoreError
-from ur3dq.pose import Pose
+from ur3dq.pose import Pose, parse_iso_time, utc_now_iso
 from ur3dq.store import (
     SCHEMA_NAME,
     SCHEMA_VERSION,
@@ -79,6 +80,15 @@ def test_format_then_parse_is_exact(coefficients, translation, joints, note, nam
         name, DualQuaternion.from_rotation_translation(Quaternion(coefficients).normalised, translation), "ur5",
         joints=joints, note=note)
     assert parse_store(format_store([pose]), "mem") == [pose]
+
+
+def test_times_ending_in_z_read_back_as_utc_on_every_supported_python():
+    """utc_now_iso's `Z` suffix, which Python 3.10's datetime.fromisoformat refuses (every store write failed there)."""
+    assert parse_iso_time("2026-11-22T01:02:03.456Z") == datetime(2026, 11, 22, 1, 2, 3, 456000, tzinfo=timezone.utc)
+    assert parse_iso_time(utc_now_iso()).utcoffset() == timedelta(0)
+    assert Pose.from_dual_quaternion("p", DualQuaternion.identity(), "ur3", time=utc_now_iso()).time.endswith("Z")
+    with pytest.raises(ValueError):
+        parse_iso_time("yesterday")
 
 
 def test_duplicate_name_is_refused_or_numbered(tmp_path):
