@@ -27,7 +27,7 @@ lint: $(STAMP)
 	$(BIN)/mypy
 
 # Lint and the kernels' compilation side by side (each keeps one core busy for a quarter of a minute), then two
-# passes: the suite on six workers (it mostly waits on simulated motion), then the timing measurements alone
+# passes: the suite on four workers (it mostly waits on simulated motion), then the timing measurements alone
 # (marker `exclusive`).
 test: $(STAMP)
 	$(MAKE) --no-print-directory -j2 lint warm
