@@ -14,7 +14,7 @@ from ur3dq.cli.app import FEW_POSES, python_kernels_pay
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.kinematics import robot_model, robot_model_from_dh
 from ur3dq.pose import Pose
-from ur3dq.program.steps import Motion, Waypoint
+from ur3dq.program.steps import Motion, RelativeWaypoint, Waypoint
 from ur3dq.store import PoseStore
 
 THESIS_HOME = [0, -math.pi / 2, 0, -math.pi / 2, 0, 0]
@@ -169,8 +169,9 @@ def test_an_import_reads_its_file_once(tmp_path, run_in_process, monkeypatch):
     assert reads.count("more.txt") == 1
 
 
-def write_random_program(path, waypoints):
-    """A cell program of `waypoints` random UR3 waypoints, every other move a line."""
+def write_random_program(path, waypoints, relative=0):
+    """A cell program of `waypoints` random UR3 waypoints, every other move a line, then `relative` relative waypoints
+    5 cm above the first."""
     model, draw = robot_model("ur3"), np.random.default_rng(5)
     start = np.array([0.1, -1.4, 1.5, -1.7, -1.5708, 0.0])
     steps = []
@@ -178,6 +179,7 @@ def write_random_program(path, waypoints):
         q = start + draw.uniform(-0.3, 0.3, 6)
         pose = Pose.from_dual_quaternion(f"w{index}", model.fk(q), "ur3", joints=tuple(q))
         steps.append(Waypoint(f"w{index}", pose, Motion("linear", 0.1) if index % 2 else Motion("joint", 1.0, 1.4)))
+    steps += [RelativeWaypoint(f"r{index}", "w0", (0, 0, -0.05, 0, 0, 0)) for index in range(relative)]
     PoseStore(path).update_program(lambda old: (steps, None))
 
 
@@ -189,6 +191,8 @@ def test_check_runs_the_kernels_as_python_up_to_few_poses_and_says_the_same(tmp_
     assert shown[""][1] == "False" and shown["0"][1] == "True"
     assert shown[""][0] == shown["0"][0] and "Path check" in shown[""][0][0]
     write_random_program(tmp_path / "poses.json", FEW_POSES + 1)
+    assert run_telling_numba(tmp_path, "", "check")[1] == "True"
+    write_random_program(tmp_path / "poses.json", FEW_POSES, relative=1)   # steps counted, as run-poses counts them
     assert run_telling_numba(tmp_path, "", "check")[1] == "True"
 
 

@@ -93,11 +93,14 @@ def check(settings: Settings, names: tuple[str, ...], cell_path: Path | None, mo
     else:
         model, start = robot_model(settings.model or poses[0].robot_model), None
         where = f"a nominal {model.name} (no robot: from the first pose)"
-    solving_poses(len(poses), model)
+    # a cell program is checked with its own moves: as many steps as run-poses plans, relative waypoints included
+    program = settings.store.load_program() if settings.store.version() == PROGRAM_SCHEMA_VERSION and not names \
+        else None
+    solving_poses(len(poses if program is None else program), model)
     for line in recorded_joints_warnings(poses, model):
         click.echo(line, err=True)
-    if settings.store.version() == PROGRAM_SCHEMA_VERSION and not names:  # a cell program: its own moves
-        plan = plan_program(model, settings.store.load_program(), start, replay_recorded_joints=replay_joints)
+    if program is not None:
+        plan = plan_program(model, program, start, replay_recorded_joints=replay_joints)
         for line in kept_script_warnings(plan):
             click.echo(f"Warning: {line}", err=True)
         path = path_plan_of(plan, start)
