@@ -21,8 +21,12 @@ from ur3dq.robot.primary_client import PrimaryClient
 
 RUNTIME_STOPPED, RUNTIME_PLAYING, RUNTIME_PAUSED = 1, 2, 4   # RTDE runtime_state codes (io_state.RUNTIME_STATE_NAMES)
 # urx hands a program to its reader thread and waits on a condition with no timeout; if that thread has died
-# (urx ends it on any 0.5 s gap in the stream) the wait would never return, so it is bounded here.
+# (it ends on a closed stream, or one silent for RECEIVE_TIMEOUT) the wait would never return, so it is bounded here.
 SEND_TIMEOUT = 2.0
+# How long urx's reader waits for data before it ends the session. urx's own 0.5 s ends a healthy session whenever
+# a loaded host stalls its reader thread that long; this is ur_rtde's 2.5 s, beyond the freeze timeout, so that a
+# silent stream is judged by the driver's freeze timeout on both backends, and a dead one still ends the reader.
+RECEIVE_TIMEOUT = 2.5
 
 
 class URXBackend:
@@ -30,7 +34,7 @@ class URXBackend:
 
     name = "urx"
     poll_period = 0.005  # urx and the primary interface update at 10 Hz
-    freeze_timeout = 1.5  # fifteen missed 10 Hz packets (urx itself gives up after a 0.5 s silence)
+    freeze_timeout = 1.5  # fifteen missed 10 Hz packets (the reader itself ends after RECEIVE_TIMEOUT)
 
     def __init__(self, host: str, primary: PrimaryClient) -> None:
         self.host = host
@@ -52,7 +56,7 @@ class URXBackend:
         if not self.connected:
             self._shut(self._robot)  # a dead peer would leave urx's reader spinning on recv
             raise ConnectionLostError(f"the urx/primary state stream from {self.host} stopped (closed, or silent "
-                                      "longer than urx's 0.5 s receive timeout)")
+                                      f"longer than {RECEIVE_TIMEOUT} s)")
         data = self._robot.secmon.get_all_data()
         mode, state_time = self.primary.robot_mode, self.primary.last_state_time
         if mode is None or state_time is None or "JointData" not in data or "CartesianInfo" not in data:
@@ -168,12 +172,13 @@ class _QuietSecondaryMonitor(urx.ursecmon.SecondaryMonitor):  # type: ignore[mis
         # urx's reader is not a daemon: on a stream of garbage it spins looking for a packet forever, and a failed
         # connection (urx raises from its constructor, so nobody holds the thread) kept the process from exiting.
         self.daemon = True
+        self._s_secondary.settimeout(RECEIVE_TIMEOUT)   # urx's constructor opened it with 0.5 s
         super().start()
 
     def run(self) -> None:
         try:
             super().run()
-        except OSError as error:  # closed, reset, or urx's 0.5 s receive timeout
+        except OSError as error:  # closed, reset, or silent for RECEIVE_TIMEOUT
             self.error = error
 
     def _get_data(self) -> bytes:
