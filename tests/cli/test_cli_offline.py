@@ -196,6 +196,18 @@ def test_check_runs_the_kernels_as_python_up_to_few_poses_and_says_the_same(tmp_
     assert run_telling_numba(tmp_path, "", "check")[1] == "True"
 
 
+def test_plot_draws_a_cell_program_as_run_poses_plans_it(tmp_path, run_in_process):
+    """The arm at every waypoint of the program, relative ones included, in the joints run-poses moves to; its
+    steps counted as run-poses counts them, for the kernels' mode too."""
+    write_random_program(tmp_path / "poses.json", 4, relative=1)
+    planned = json.loads(run_in_process("--json", "run-poses", "--dry-run").stdout)["plan"]
+    drawn = json.loads(run_in_process("--json", "plot", "-o", "path.png").stdout)["arms"]
+    assert [arm["name"] for arm in drawn] == ["w0", "w1", "w2", "w3", "r0"] == [step["step"] for step in planned]
+    np.testing.assert_allclose([arm["joints"] for arm in drawn], [step["joints"] for step in planned], atol=1e-12)
+    write_random_program(tmp_path / "poses.json", FEW_POSES, relative=1)
+    assert run_telling_numba(tmp_path, "", "plot", "-o", "path.png", "--yes")[1] == "True"
+
+
 def test_a_calibrated_arm_keeps_the_compiled_kernels_for_more_than_one_pose():
     """Its path check runs Newton steps at every sample: as Python, a 20-waypoint check took 3.6 s, not 1.2 s."""
     nominal = robot_model("ur5e")
