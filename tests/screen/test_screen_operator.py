@@ -1,0 +1,77 @@
+"""The screen as an operator uses it on a 1024×768 touch panel, in a real headless Chromium against `ur3dq serve` and a
+simulator process, with a 100-step program: controls big enough for a finger, a keyboard jog that ends however the
+key or the focus leaves its button, Stop in view through a whole run, the motion editor keeping what is typed, Enter
+in the dialogs, and the step list from the keyboard (each test continues the last)."""
+import numpy as np
+import pytest
+
+from robot_target import simulator_only
+from screen_support import ARTIFACTS, environment, expect, hundred_step_store, served, ur3dq_command
+
+# Exclusive: a jog must stop within a fixed time after its key comes up, on a CPU of its own.
+pytestmark = [pytest.mark.browser, pytest.mark.exclusive, simulator_only("the screen's jog and run")]
+
+SIZE = {"width": 1024, "height": 768}
+FINGER = 44   # px: the smallest control a finger hits reliably
+J1_MINUS = 'button[data-axis="J1"][data-direction="-1"]'
+# Every interactive control the page shows, with its box (a checkbox is hit through its label).
+CONTROL_BOXES = """() => [...document.querySelectorAll('button, select, input, #steps li')]
+  .filter((element) => element.offsetParent !== null && !element.closest('dialog'))
+  .map((element) => { const target = element.type === 'checkbox' ? element.closest('label') : element;
+                      const box = target.getBoundingClientRect();
+                      return {what: element.id || element.dataset.io || element.dataset.axis + element.dataset.direction
+                                    || element.dataset.step || element.tagName,
+                              width: box.width, height: box.height}; })"""
+class Cell:
+    """The module's simulator, store, server, page and an RTDE reader of the simulated arm."""
+
+    def __init__(self, store, page, receive):
+        self.store, self.page, self.receive = store, page, receive
+
+    def at_rest(self) -> bool:
+        return float(np.max(np.abs(self.receive.getActualQd()))) < 1e-3
+
+    def moving(self) -> bool:
+        return float(np.max(np.abs(self.receive.getActualQd()))) > 0.01
+
+    def cli(self, *arguments: str) -> None:
+        import subprocess
+
+        subprocess.run(ur3dq_command(*arguments, store=self.store), capture_output=True, text=True, timeout=60,
+                       env=environment(self.store.parent / "state"), check=True)
+
+
+@pytest.fixture(scope="module")
+def cell(browser, tmp_path_factory):
+    import rtde_receive
+
+    from screen_support import START_Q
+    from sim_ursim.launch import simulator_process
+
+    store = tmp_path_factory.mktemp("operator") / "poses.json"
+    hundred_step_store(store)
+    with simulator_process(model="ur3", initial_q=list(START_Q)) as simulator, \
+            served(simulator.host, store, ARTIFACTS / "screen-operator.log") as server:
+        receive = rtde_receive.RTDEReceiveInterface(simulator.host)
+        context = browser.new_context(viewport=SIZE, has_touch=True)
+        page = context.new_page()
+        errors = []
+        page.on("pageerror", lambda error: errors.append(str(error)))
+        page.goto(server.url)
+        try:
+            yield Cell(store, page, receive)
+        finally:
+            receive.disconnect()
+            context.close()
+        assert errors == [], errors
+
+
+def test_every_control_is_big_enough_for_a_finger(cell):
+    page = cell.page
+    expect(page.locator('[data-step="p099"]')).to_have_count(1, timeout=20000)
+    boxes = page.evaluate(CONTROL_BOXES)
+    assert len(boxes) > 100, boxes
+    small = [box for box in boxes if box["height"] < FINGER]
+    assert not small, f"controls under {FINGER} px high at 1024×768: {small}"
+    narrow = [box for box in boxes if box["width"] < FINGER]
+    assert not narrow, f"controls under {FINGER} px wide at 1024×768: {narrow}"
