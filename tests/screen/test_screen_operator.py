@@ -5,8 +5,9 @@ in the dialogs, and the step list from the keyboard (each test continues the las
 import numpy as np
 import pytest
 
+from polling import wait_for
 from robot_target import simulator_only
-from screen_support import ARTIFACTS, environment, expect, hundred_step_store, served, ur3dq_command
+from screen_support import ARTIFACTS, button, environment, expect, hundred_step_store, served, ur3dq_command
 
 # Exclusive: a jog must stop within a fixed time after its key comes up, on a CPU of its own.
 pytestmark = [pytest.mark.browser, pytest.mark.exclusive, simulator_only("the screen's jog and run")]
@@ -75,3 +76,52 @@ def test_every_control_is_big_enough_for_a_finger(cell):
     assert not small, f"controls under {FINGER} px high at 1024×768: {small}"
     narrow = [box for box in boxes if box["width"] < FINGER]
     assert not narrow, f"controls under {FINGER} px wide at 1024×768: {narrow}"
+
+
+def test_power_on_and_brake_release(cell):
+    page = cell.page
+    for name in ("Power on", "Brake release"):
+        expect(button(page, name)).to_be_enabled(timeout=20000)
+        button(page, name).click()
+    expect(page.locator("#robot-mode")).to_have_text("RUNNING", timeout=20000)
+    page.wait_for_function("document.body.dataset.armDrawn === 'true'", timeout=20000)
+
+
+def hold_space_on_j1_minus(cell) -> None:
+    """Focus J1-, press Space (and keep it down) until the arm moves."""
+    page = cell.page
+    expect(page.locator(J1_MINUS)).to_be_enabled(timeout=10000)
+    assert wait_for(cell.at_rest, timeout=3.0)
+    page.locator(J1_MINUS).focus()
+    page.keyboard.down(" ")
+    assert wait_for(cell.moving, timeout=3.0), "Space on J1- did not jog"
+
+
+def stays_at_rest(cell, seconds: float = 0.5) -> bool:
+    """The arm at rest within a second, and not moving again for `seconds` more."""
+    if not wait_for(cell.at_rest, timeout=1.0):
+        return False
+    q = np.array(cell.receive.getActualQ())
+    return not wait_for(lambda: not np.allclose(cell.receive.getActualQ(), q, atol=1e-5), timeout=seconds)
+
+
+def test_a_keyboard_jog_ends_when_the_focus_moves_and_the_key_comes_up_elsewhere(cell):
+    page = cell.page
+    hold_space_on_j1_minus(cell)
+    page.keyboard.press("Shift+Tab")                  # the focus leaves the held button: the jog ends there
+    assert page.evaluate("document.activeElement.id") == "jog-speed"
+    page.keyboard.up(" ")                             # and the key comes up on another element
+    assert stays_at_rest(cell), "the jog went on after Space was released on another element"
+    expect(page.locator(J1_MINUS)).not_to_have_class("held")
+    expect(page.locator("#robot-line")).not_to_contain_text("jog", timeout=3000)
+
+
+def test_a_keyboard_jog_ends_when_the_operator_clicks_elsewhere(cell):
+    page = cell.page
+    hold_space_on_j1_minus(cell)
+    page.locator("#teach-title").click()              # Space still down: the click takes the focus away
+    try:
+        assert stays_at_rest(cell), "the jog went on after a click elsewhere"
+    finally:
+        page.keyboard.up(" ")
+    assert stays_at_rest(cell)

@@ -262,7 +262,9 @@ function buildJog() {
     button.addEventListener("keydown", (event) => {
       if ((event.key === " " || event.key === "Enter") && !event.repeat) { event.preventDefault(); holdJog(button); }
     });
-    button.addEventListener("keyup", (event) => { if (event.key === " " || event.key === "Enter") releaseJog(); });
+    // A jog held by a key ends when that key comes up wherever the focus is, and when the focus leaves the button
+    // (Tab, a click or tap elsewhere): the key-up would otherwise go to another element and the arm move on.
+    button.addEventListener("focusout", () => { if (heldJog === button) releaseJog(); });
     button.addEventListener("contextmenu", (event) => event.preventDefault());
   }
 }
@@ -284,6 +286,7 @@ function releaseJog() {
 }
 
 window.addEventListener("blur", releaseJog);
+window.addEventListener("keyup", (event) => { if (event.key === " " || event.key === "Enter") releaseJog(); }, true);
 document.addEventListener("visibilitychange", () => { if (document.hidden) releaseJog(); });
 
 // ---------------------------------------------------------------------------------------------------- I/O
