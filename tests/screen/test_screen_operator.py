@@ -7,7 +7,16 @@ import pytest
 
 from polling import wait_for
 from robot_target import simulator_only
-from screen_support import ARTIFACTS, button, environment, expect, hundred_step_store, served, ur3dq_command
+from screen_support import (
+    ARTIFACTS,
+    button,
+    environment,
+    expect,
+    hundred_step_store,
+    served,
+    set_speed_slider,
+    ur3dq_command,
+)
 
 # Exclusive: a jog must stop within a fixed time after its key comes up, on a CPU of its own.
 pytestmark = [pytest.mark.browser, pytest.mark.exclusive, simulator_only("the screen's jog and run")]
@@ -23,6 +32,22 @@ CONTROL_BOXES = """() => [...document.querySelectorAll('button, select, input, #
                       return {what: element.id || element.dataset.io || element.dataset.axis + element.dataset.direction
                                     || element.dataset.step || element.tagName,
                               width: box.width, height: box.height}; })"""
+# Each frame while it runs: Stop's box, the header's height, the panels' scroll, the running step and whether the
+# step list shows it.
+WATCH_STOP = """() => { window.stopBoxes = [];
+  const look = () => {
+    const stop = document.getElementById('stop').getBoundingClientRect();
+    const row = document.querySelector('#steps [aria-current="step"]');
+    const list = document.getElementById('steps').getBoundingClientRect(), at = row && row.getBoundingClientRect();
+    window.stopBoxes.push({top: stop.top, bottom: stop.bottom, left: stop.left, right: stop.right,
+                           header: document.querySelector('header').getBoundingClientRect().height,
+                           panels: document.getElementById('panels').scrollTop, step: row ? row.dataset.step : null,
+                           followed: !!at && at.top >= list.top - 1 && at.bottom <= list.bottom + 1});
+    window.stopWatch = requestAnimationFrame(look);
+  };
+  look(); }"""
+
+
 class Cell:
     """The module's simulator, store, server, page and an RTDE reader of the simulated arm."""
 
@@ -125,3 +150,27 @@ def test_a_keyboard_jog_ends_when_the_operator_clicks_elsewhere(cell):
     finally:
         page.keyboard.up(" ")
     assert stays_at_rest(cell)
+
+
+def test_stop_stays_in_view_through_a_run_of_a_long_program(cell):
+    page = cell.page
+    set_speed_slider(page, 100)
+    button(page, "Run").click()
+    expect(page.locator("#ask")).to_contain_text("Run 100 steps")
+    page.evaluate(WATCH_STOP)
+    button(page, "Yes").click()
+    page.wait_for_function("document.querySelector('#steps [aria-current=\"step\"]')?.dataset.step >= 'p016'",
+                           timeout=60000)
+    button(page, "Stop").click()
+    expect(page.locator("#program-state")).to_have_text("STOPPED", timeout=5000)
+    boxes = page.evaluate("cancelAnimationFrame(window.stopWatch) || window.stopBoxes")
+    page.screenshot(path=str(ARTIFACTS / "screen-operator-stopped-1024.png"))
+    steps = [box["step"] for box in boxes if box["step"]]
+    assert "p001" in steps and "p015" in steps, steps
+    out = [box for box in boxes if box["top"] < 0 or box["bottom"] > SIZE["height"] or box["left"] < 0
+           or box["right"] > SIZE["width"]]
+    assert not out, f"Stop left the viewport during the run: {out[:3]}"
+    assert len({box["header"] for box in boxes}) == 1, "the header changed its height during the run"
+    assert {box["panels"] for box in boxes} == {boxes[0]["panels"]}, "the panels scrolled during the run"
+    assert [box for box in boxes if box["step"]][-1]["followed"], "the list did not show the running step"
+    assert wait_for(cell.at_rest, timeout=2.0)

@@ -125,8 +125,15 @@ function markRunning(name) {
   const row = document.querySelector(`#steps [data-step="${CSS.escape(name)}"]`);
   if (row) {
     row.setAttribute("aria-current", "step");
-    row.scrollIntoView({ block: "nearest" });
+    followInList(row);
   }
+}
+
+// Scrolls the step list alone to show `row` (scrollIntoView would scroll the panels too, and the page).
+function followInList(row) {
+  const list = $("#steps"), box = row.getBoundingClientRect(), shown = list.getBoundingClientRect();
+  if (box.top < shown.top) list.scrollTop -= shown.top - box.top;
+  else if (box.bottom > shown.bottom) list.scrollTop += box.bottom - shown.bottom;
 }
 
 // ---------------------------------------------------------------------------------------------------- buttons
