@@ -17,6 +17,7 @@ from screen_support import (
     set_speed_slider,
     ur3dq_command,
 )
+from ur3dq.store import PoseStore
 
 # Exclusive: a jog must stop within a fixed time after its key comes up, on a CPU of its own.
 pytestmark = [pytest.mark.browser, pytest.mark.exclusive, simulator_only("the screen's jog and run")]
@@ -174,3 +175,25 @@ def test_stop_stays_in_view_through_a_run_of_a_long_program(cell):
     assert {box["panels"] for box in boxes} == {boxes[0]["panels"]}, "the panels scrolled during the run"
     assert [box for box in boxes if box["step"]][-1]["followed"], "the list did not show the running step"
     assert wait_for(cell.at_rest, timeout=2.0)
+
+
+def test_typing_in_the_motion_editor_survives_an_edit_made_elsewhere(cell):
+    page = cell.page
+    page.locator('[data-step="p002"]').click()
+    page.locator("#edit-move").select_option("linear")
+    page.locator("#edit-speed").fill("250")
+    cell.cli("poses", "add-step", "--after", "p003", "wait", "100ms")
+    expect(page.locator('[data-step="wait-1"]')).to_have_count(1, timeout=5000)
+    expect(page.locator("#edit-move")).to_have_value("linear")
+    expect(page.locator("#edit-speed")).to_have_value("250")
+    button(page, "Apply").click()
+    expect(page.locator('[data-step="p002"] .speed')).to_have_text("250 mm/s", timeout=3000)
+    assert PoseStore(cell.store).get_step("p002").motion.speed == pytest.approx(0.25)
+    page.locator("#edit-speed").fill("300")           # typed, then the step itself changes: the page says so
+    cell.cli("poses", "set", "p002", "--speed", "120mm/s")
+    expect(page.locator("#edit-speed")).to_have_value("120 mm/s", timeout=5000)
+    expect(page.locator("#notice")).to_contain_text("'p002' was changed elsewhere")
+    page.locator("#edit-speed").fill("300")           # typed, then the step goes
+    cell.cli("poses", "rm", "p002", "--yes")
+    expect(page.locator('[data-step="p002"]')).to_have_count(0, timeout=5000)
+    expect(page.locator("#notice")).to_contain_text("'p002' is gone: its motion edit was not applied")

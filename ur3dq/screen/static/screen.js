@@ -211,6 +211,7 @@ bind("#add-message", () => ask("Add a message step after the selected step:", [
 (values) => edit("message", { ...values, after: selected })));
 $("#motion-editor").addEventListener("submit", (event) => {
   event.preventDefault();
+  editorFrom = { name: selected, values: editorValues() };   // applied: the step's answer may refill it
   edit("motion", { name: selected, move: $("#edit-move").value, speed: $("#edit-speed").value,
     blend: $("#edit-blend").value });
 });
@@ -388,22 +389,45 @@ function renderProgram() {
 }
 
 function select(name) {
+  const chosen = name !== selected;
   selected = name;
   for (const row of document.querySelectorAll("#steps li")) {
     const on = row.dataset.step === selected;
     row.classList.toggle("selected", on);
     row.setAttribute("aria-selected", String(on));
   }
-  fillMotionEditor();
+  fillMotionEditor(chosen);
   refreshButtons();
 }
 
-function fillMotionEditor() {
+// What the motion editor was last filled with, {name, values}: the operator has typed while the fields differ.
+let editorFrom = null;
+function editorValues() { return [$("#edit-move").value, $("#edit-speed").value, $("#edit-blend").value]; }
+
+// Fills the motion editor from the selected step, except over what the operator typed and has not applied while
+// the list merely changed around that step (`chosen`: another step was selected, which always refills it).
+function fillMotionEditor(chosen = false) {
   const step = selectedStep();
-  if (!step || !step.waypoint) return;
-  $("#edit-move").value = step.move;
-  $("#edit-speed").value = step.speed === "default" ? "" : step.speed;
-  $("#edit-blend").value = step.blend === "default" ? "" : step.blend;
+  const typed = !chosen && editorFrom && editorValues().join("\n") !== editorFrom.values.join("\n");
+  if (!step || !step.waypoint) {
+    if (typed) tell(`'${editorFrom.name}' is gone: its motion edit was not applied.`);
+    editorFrom = null;
+    return;
+  }
+  const values = [step.move, step.speed === "default" ? "" : step.speed, step.blend === "default" ? "" : step.blend];
+  if (typed && editorFrom.name === step.name) {
+    if (values.join("\n") === editorFrom.values.join("\n")) return;
+    tell(`'${step.name}' was changed elsewhere: the motion editor shows it now; your edit was not applied.`);
+  }
+  [$("#edit-move").value, $("#edit-speed").value, $("#edit-blend").value] = values;
+  editorFrom = { name: step.name, values };
+}
+
+function tell(text) {
+  const notice = $("#notice");
+  notice.textContent = text;
+  notice.className = "";
+  notice.setAttribute("role", "status");
 }
 
 function renderCheck() {
