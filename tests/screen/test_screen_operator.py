@@ -197,3 +197,25 @@ def test_typing_in_the_motion_editor_survives_an_edit_made_elsewhere(cell):
     cell.cli("poses", "rm", "p002", "--yes")
     expect(page.locator('[data-step="p002"]')).to_have_count(0, timeout=5000)
     expect(page.locator("#notice")).to_contain_text("'p002' is gone: its motion edit was not applied")
+
+
+def test_enter_in_a_text_dialog_is_ok_and_in_a_motion_question_is_no(cell):
+    page = cell.page
+    page.locator('[data-step="p003"]').click()
+    button(page, "Rename").click()
+    page.locator("#ask input[name=new]").fill("above-part")
+    page.keyboard.press("Enter")
+    expect(page.locator('[data-step="above-part"]')).to_have_count(1, timeout=5000)
+    expect(page.locator("#ask")).not_to_have_attribute("open", "")
+    button(page, "Record pose").click()
+    page.locator("#ask input[name=name]").fill("by-enter")
+    page.keyboard.press("Enter")
+    expect(page.locator('[data-step="by-enter"]')).to_have_count(1, timeout=5000)
+    assert PoseStore(cell.store).get("by-enter") is not None
+    page.locator('[data-step="p005"]').click()
+    button(page, "Move here").click()
+    expect(page.locator("#ask")).to_contain_text("Move the arm to 'p005'")
+    page.evaluate("document.getElementById('notice').textContent = ''")
+    page.keyboard.press("Enter")
+    expect(page.locator("#notice")).to_have_text("answered no: nothing done.", timeout=5000)
+    assert cell.at_rest()

@@ -481,6 +481,13 @@ function ask(text, fields, okLabel, onOk, cancelLabel = "Cancel", onCancel = nul
     return button;
   });
   $("#ask-buttons").replaceChildren(...buttons);
+  // Enter in a text field is OK (the form's own submission would just close the dialog); a question without
+  // fields has its focus on No, so Enter there is No.
+  for (const input of dialog.querySelectorAll("#ask-fields input")) {
+    input.addEventListener("keydown", (event) => {
+      if (event.key === "Enter" && !event.isComposing) { event.preventDefault(); buttons[0].click(); }
+    });
+  }
   dialog.showModal();
   const input = dialog.querySelector("input, select");
   (input || buttons[1]).focus();
