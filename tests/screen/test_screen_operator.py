@@ -219,3 +219,43 @@ def test_enter_in_a_text_dialog_is_ok_and_in_a_motion_question_is_no(cell):
     page.keyboard.press("Enter")
     expect(page.locator("#notice")).to_have_text("answered no: nothing done.", timeout=5000)
     assert cell.at_rest()
+
+
+def focused_step(page) -> str | None:
+    return page.evaluate("document.activeElement.dataset.step || null")
+
+
+def test_the_steps_are_chosen_and_edited_from_the_keyboard(cell):
+    page = cell.page
+    expect(page.locator("#steps")).to_have_attribute("role", "listbox")
+    page.locator('[data-step="p000"]').click()
+    page.locator("#add-message").focus()
+    for _ in range(5):                                # on past the motion editor to the list: one Tab stop
+        page.keyboard.press("Tab")
+        if focused_step(page):
+            break
+    assert focused_step(page) == "p000"
+    expect(page.locator('[data-step="p000"]')).to_have_attribute("role", "option")
+    order = ["p000", "p001", "above-part", "wait-1", "p004"]   # p002 deleted, p003 renamed, a wait added
+    for name in order[1:]:
+        page.keyboard.press("ArrowDown")
+        assert focused_step(page) == name
+        expect(page.locator(f'[data-step="{name}"]')).to_have_attribute("aria-selected", "true")
+    expect(page.locator('#steps [aria-selected="true"]')).to_have_count(1)
+    expect(page.locator("#motion-editor")).to_be_visible()
+    expect(page.locator("#edit-move")).to_have_value("joint")
+    cell.cli("poses", "add-step", "--after", "p010", "message", "from the shell")   # the list is drawn again
+    expect(page.locator('[data-step="message-1"]')).to_have_count(1, timeout=5000)
+    assert focused_step(page) == "p004", "the focus left the list when it was drawn again"
+    page.keyboard.press("End")
+    assert focused_step(page) == page.locator("#steps li").last.get_attribute("data-step")
+    page.keyboard.press("Home")
+    page.keyboard.press("ArrowDown")
+    assert focused_step(page) == "p001"
+    button(page, "Down").focus()                      # Down by the keyboard: the step moves, still selected
+    page.keyboard.press("Enter")
+    expect(page.locator("#steps li").nth(2)).to_have_attribute("data-step", "p001", timeout=5000)
+    expect(page.locator('[data-step="p001"]')).to_have_attribute("aria-selected", "true")
+    button(page, "Undo").focus()
+    page.keyboard.press("Enter")
+    expect(page.locator("#steps li").nth(1)).to_have_attribute("data-step", "p001", timeout=5000)

@@ -236,6 +236,18 @@ function selectNewStep() {
   namesBefore = new Set(program.steps.map((step) => step.name));
 }
 
+// The step list from the keyboard (a listbox whose selection follows the focus): arrows, Home/End, Page Up/Down.
+$("#steps").addEventListener("keydown", (event) => {
+  const rows = [...document.querySelectorAll("#steps li")], at = rows.indexOf(document.activeElement);
+  const to = { ArrowDown: at + 1, ArrowUp: at - 1, Home: 0, End: rows.length - 1, PageDown: at + 10,
+    PageUp: at - 10 }[event.key];
+  if (at < 0 || (to === undefined && event.key !== "Enter" && event.key !== " ")) return;
+  event.preventDefault();
+  const row = to === undefined ? rows[at] : rows[Math.max(0, Math.min(rows.length - 1, to))];
+  select(row.dataset.step);
+  row.focus();
+});
+
 function fromStep() {
   return $("#from-selected").checked && selected ? selected : null;
 }
@@ -359,9 +371,12 @@ function renderProgram() {
   }
   if (selected && !program.steps.some((step) => step.name === selected)) selected = null;
   const running = state && state.running_step;
+  const focused = $("#steps").contains(document.activeElement);
   $("#steps").replaceChildren(...program.steps.map((step, index) => {
     const row = document.createElement("li");
     row.dataset.step = step.name;
+    row.setAttribute("role", "option");
+    row.tabIndex = step.name === selected || (!selected && index === 0) ? 0 : -1;   // one Tab stop: the selected
     row.setAttribute("aria-selected", String(step.name === selected));
     if (step.name === selected) row.classList.add("selected");
     if (step.name === running) row.setAttribute("aria-current", "step");
@@ -383,6 +398,7 @@ function renderProgram() {
     row.addEventListener("click", () => select(step.name));
     return row;
   }));
+  if (focused) { const row = $('#steps [tabindex="0"]'); if (row) row.focus({ preventScroll: true }); }
   if (view) view.setFrames(program.frames);
   fillMotionEditor();
   refreshButtons();
@@ -395,6 +411,7 @@ function select(name) {
     const on = row.dataset.step === selected;
     row.classList.toggle("selected", on);
     row.setAttribute("aria-selected", String(on));
+    row.tabIndex = on ? 0 : -1;
   }
   fillMotionEditor(chosen);
   refreshButtons();
