@@ -113,3 +113,20 @@ def test_the_run_questions_summary_wraps_within_80_columns_under_its_own_line():
     assert "('above-place')" in " ".join(lines) and "'retract-pick'" in " ".join(lines)
     assert all(line.startswith("  ") for line in lines[1:]), lines   # a continued line stays under its own
     assert len(lines) <= 10
+
+
+def test_an_offset_the_arm_cannot_reach_is_refused_and_adds_nothing(run_in_process, store):
+    before = store.read_bytes()
+    result = run_in_process("poses", "offset", "far", "--from", "demo-1", "--z", "1000mm")
+    assert result.returncode == 4 and "step 'far' (relative waypoint): unreachable on the ur3" in result.stderr
+    assert "(nothing added: choose an offset the ur3 reaches from 'demo-1')" in result.stderr
+    assert store.read_bytes() == before
+
+
+@pytest.mark.parametrize("args, shown", [(("--rx", "5deg"), "rx,ry,rz +0.0873,+0,+0 rad"),
+                                         (("--rz", "-5deg"), "rx,ry,rz +0,+0,-0.0873 rad"),
+                                         (("--deg", "--rz", "-5"), "rx,ry,rz +0,+0,-5 °")])
+def test_an_offsets_turn_is_shown_about_each_axis_with_its_sign(run_in_process, store, args, shown):
+    result = run_in_process("poses", "offset", "turned", "--from", "demo-1", *args)
+    assert result.returncode == 0, result.stderr
+    assert f"tool {shown}." in result.stdout

@@ -14,7 +14,17 @@ import numpy as np
 from rich.markup import escape
 from rich.text import Text
 
-from ur3dq.cli.app import Settings, cli, confirm, emit_json, emit_json_list, prepare_output, report, robot_session
+from ur3dq.cli.app import (
+    Settings,
+    cli,
+    confirm,
+    emit_json,
+    emit_json_list,
+    prepare_output,
+    report,
+    robot_session,
+    solving_poses,
+)
 from ur3dq.cli.display import (
     NARROW_WIDTH,
     Column,
@@ -50,9 +60,10 @@ from ur3dq.cli.program_workflow import (
     replace_step,
     step_fields_text,
 )
-from ur3dq.errors import StoreError
+from ur3dq.errors import JointLimitError, StoreError, UnreachablePoseError, add_note
 from ur3dq.json_text import read_utf8
 from ur3dq.pose import next_free_name, utc_now_iso
+from ur3dq.program.plan import plan_program
 from ur3dq.program.resolve import resolve_targets
 from ur3dq.program.steps import (
     PIN_COUNT,
@@ -446,9 +457,18 @@ def offset(settings: Settings, new: str, base: str, dx: float, dy: float, dz: fl
         if any(step.name == new for step in steps):
             raise name_taken(new)
         who = f"step {new!r} (relative waypoint)"
-        motion = motion_from_options(Motion(), move, speed, acceleration, blend, who, program_model(settings, steps))
-        return RelativeWaypoint(new, base, (dx, dy, dz, rx, ry, rz), frame, motion,
+        model = program_model(settings, steps)
+        motion = motion_from_options(Motion(), move, speed, acceleration, blend, who, model)
+        step = RelativeWaypoint(new, base, (dx, dy, dz, rx, ry, rz), frame, motion,
                                 note=f"offset from {base} ({frame} frame), {utc_now_iso()}")
+        # refused now, not at the next check: an offset the arm cannot reach would stop every later run
+        solving_poses(1, model)
+        try:
+            plan_program(model, [step], resolve_from=[*steps, step])
+        except (UnreachablePoseError, JointLimitError) as error:
+            add_note(error, f"(nothing added: choose an offset the {model.name} reaches from {base!r})")
+            raise
+        return step
 
     step = add_step_at(settings, make, after, before)
     report(settings, {"added": step_to_dict(step)},

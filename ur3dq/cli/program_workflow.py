@@ -124,13 +124,20 @@ def describe_step(step: Step, units: Units) -> str:
     if isinstance(step, RelativeWaypoint):
         mm = Units(units.angle, "mm")
         x, y, z = (to_display(v, LENGTH, mm) for v in step.offset[:3])
-        turn = math.hypot(*step.offset[3:])
-        rotation = f" turn {show(turn, ANGLE, units, 2 if units.angle == 'deg' else 4)}" if turn else ""
         offset = ",".join(f"{round(v, 1):+g}" for v in (x, y, z))
-        return f"{motion_text(step.motion, units)}; {step.base} {offset} mm {step.frame}{rotation}"
+        return f"{motion_text(step.motion, units)}; {step.base} {offset} mm {step.frame}{_rotation_text(step, units)}"
     if isinstance(step, Wait):
         return show(step.seconds, DURATION)
     return describe(step)
+
+
+def _rotation_text(step: RelativeWaypoint, units: Units) -> str:
+    """' rx,ry,rz +5,+0,-5 °': the offset's rotation vector, each component with its sign ('' when it turns none)."""
+    if not any(step.offset[3:]):
+        return ""
+    digits = 2 if units.angle == "deg" else 4
+    vector = ",".join(f"{round(to_display(v, ANGLE, units), digits):+g}" for v in step.offset[3:])
+    return f" rx,ry,rz {vector} {unit_label(ANGLE, units)}"
 
 
 def step_fields_text(step: Step, units: Units) -> list[tuple[str, str]]:
