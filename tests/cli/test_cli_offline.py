@@ -245,6 +245,12 @@ def test_export_urscript_moves_through_the_recorded_joints(tmp_path, run_cli, re
     assert program.isascii()
 
 
+def test_checks_tables_on_stderr_fit_the_columns_set(run_cli, recorded_store):
+    result = run_cli("--json", "check", COLUMNS="80")   # a table on stderr, the JSON on stdout
+    assert result.returncode == 0, result.stderr
+    assert "Path check" in result.stderr and max(map(len, result.stderr.splitlines())) <= 80, result.stderr
+
+
 def test_plot_writes_a_png(tmp_path, run_cli, recorded_store):
     result = run_cli("plot", "-o", "path.png")
     assert result.returncode == 0, result.stderr

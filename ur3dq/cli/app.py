@@ -174,6 +174,15 @@ def make_console() -> Console:
     return Console(width=fixed, highlight=False, soft_wrap=False)
 
 
+def make_error_console() -> Console:
+    """A console for a wide table on stderr (a check's margins under --json): the terminal's width, COLUMNS when set,
+    else a wide fixed width, as make_console decides for stdout."""
+    from rich.console import Console
+
+    fixed = None if sys.stderr.isatty() or os.environ.get("COLUMNS", "").isdigit() else 160
+    return Console(stderr=True, width=fixed, highlight=False)
+
+
 JSON_SCHEMA = 1   # the "schema" key of every --json document (docs/json.md); raised when a key changes meaning
 
 

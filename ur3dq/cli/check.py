@@ -3,13 +3,11 @@ from a replay plan to the check's input and the margins table are in path_report
 from __future__ import annotations
 
 import math
-import sys
 from pathlib import Path
 
 import click
-from rich.console import Console
 
-from ur3dq.cli.app import Settings, cli, emit_json, robot_session, solving_poses
+from ur3dq.cli.app import Settings, cli, emit_json, make_error_console, robot_session, solving_poses
 from ur3dq.cli.background_simulator import running_simulator_host
 from ur3dq.cli.display import recorded_joints_warnings
 from ur3dq.cli.options import Quantity, Typed, TypedValue, cell_option, display_options
@@ -110,7 +108,7 @@ def check(settings: Settings, names: tuple[str, ...], cell_path: Path | None, mo
         steps = plan_replay(model, poses, start, replay_recorded_joints=replay_joints)
         path = path_plan_from_replay(steps, start, move, speed_si, acceleration, blend)
     result = check_path(model, path, cell, margins, keep_samples=False)   # a table and lines: no drawing
-    err = Console(stderr=True, highlight=False, width=None if sys.stderr.isatty() else 160)
+    err = make_error_console()
     title = f"Path check on {where}{f', cell {cell_path}' if cell_path else ''}: the worst point of each move"
     console = err if settings.json else settings.out
     console.print(margins_table(result, title, console.width))

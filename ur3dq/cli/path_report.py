@@ -6,7 +6,6 @@ Shared by `ur3dq check`, `run-poses` and `plot`.
 from __future__ import annotations
 
 import math
-import sys
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -17,7 +16,7 @@ from rich.markup import escape
 from rich.table import Table
 from rich.text import Text
 
-from ur3dq.cli.app import Settings
+from ur3dq.cli.app import Settings, make_error_console
 from ur3dq.cli.display import NARROW_WIDTH, Column, count_text, fitted_table
 from ur3dq.errors import SafetyCheckError
 from ur3dq.kinematics.models import URModel
@@ -129,7 +128,7 @@ def report_path_check(settings: Settings, result: PathCheckResult, cell_path: Pa
 def _report_console(settings: Settings) -> Console:
     """Where the check's report goes: stdout, or stderr under --json (stdout carries one JSON document)."""
     if settings.json:
-        return Console(stderr=True, highlight=False, width=None if sys.stderr.isatty() else 160)
+        return make_error_console()
     return settings.out
 
 
