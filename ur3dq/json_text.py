@@ -71,13 +71,23 @@ def read_utf8(path: Path) -> str:
         raise
 
 
+def decode_error_text(error: json.JSONDecodeError) -> str:
+    """json's reason without its dangling position words, which the caller gives as line and column.
+
+    >>> decode_error_text(json.JSONDecodeError("Unterminated string starting at", '"abc', 0))
+    'unterminated string'
+    """
+    reason = error.msg.removesuffix(" at").removesuffix(" starting")
+    return reason[:1].lower() + reason[1:]
+
+
 def parse_json(text: str, source: str) -> Any:
     """The JSON value of `text`; StoreError naming `source:line` when it is not JSON or nests deeper than
     MAX_NESTING levels where Python's parser gives up."""
     try:
         return json.loads(text)
     except json.JSONDecodeError as error:
-        raise StoreError(f"{source}:{error.lineno}: not valid JSON ({error.msg})") from None
+        raise StoreError(f"{source}:{error.lineno}: not valid JSON ({decode_error_text(error)})") from None
     except RecursionError:
         raise StoreError(f"{source}:{nesting_line(text)}: JSON nested deeper than {MAX_NESTING} levels") from None
     except ValueError as error:  # e.g. an integer with more digits than Python converts

@@ -21,7 +21,7 @@ import orjson
 
 from ur3dq import dqarray
 from ur3dq.errors import StoreError
-from ur3dq.json_text import MAX_NESTING, nesting_line
+from ur3dq.json_text import MAX_NESTING, decode_error_text, nesting_line
 from ur3dq.pose import (
     MAX_JOINT_ABS,
     MAX_TRANSLATION_ABS,
@@ -430,7 +430,7 @@ def _whole_document(text: str, source: str):
     try:
         document = json.loads(text)
     except json.JSONDecodeError as error:
-        raise StoreError(f"{source}:{error.lineno}:{error.colno}: not valid JSON: {error.msg}") from None
+        raise StoreError(f"{source}:{error.lineno}:{error.colno}: not valid JSON: {decode_error_text(error)}") from None
     except RecursionError:
         raise _too_deep(text, source) from None
     except ValueError as error:  # e.g. an integer with more digits than Python converts
@@ -438,8 +438,9 @@ def _whole_document(text: str, source: str):
     if not isinstance(document, dict):
         raise StoreError(f"{source}:1: not a pose store: expected a JSON object with \"schema\": \"{SCHEMA_NAME}\"")
     if document.get("schema") != SCHEMA_NAME:
-        raise StoreError(f"{source}:1: not a pose store: \"schema\" is {document.get('schema')!r}, "
-                         f"expected {SCHEMA_NAME!r}")
+        found = f"\"schema\" is {json.dumps(document['schema'])[:40]}" if "schema" in document else \
+            "it has no \"schema\" key"
+        raise StoreError(f"{source}:1: not a pose store: {found}, expected \"schema\": \"{SCHEMA_NAME}\"")
     version = document.get("version")
     if type(version) is not int or version not in (SCHEMA_VERSION, PROGRAM_SCHEMA_VERSION):
         newer = type(version) is int and version > PROGRAM_SCHEMA_VERSION

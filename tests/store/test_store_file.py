@@ -160,9 +160,14 @@ def test_write_atomically_leaves_no_temporary_and_keeps_the_mode(tmp_path):
 
 BROKEN_STORES = {
     "truncated JSON": ('{\n  "schema": "ur3dq.poses",\n  "version": 1,\n  "poses": [\n    {"name": "a"',
-                       r":5:\d+: not valid JSON"),
+                       r":5:\d+: not valid JSON: expecting ',' delimiter;"),
+    "unterminated string": ('{"schema": "ur3dq.poses", "version": 2, "steps": [{"name": "a',
+                            r":1:\d+: not valid JSON: unterminated string;"),
     "not an object": ("[1, 2]", r":1: not a pose store"),
-    "wrong schema": ('{"schema": "other", "version": 1, "poses": []}', r":1: not a pose store: \"schema\" is 'other'"),
+    "wrong schema": ('{"schema": "other", "version": 1, "poses": []}',
+                     r":1: not a pose store: \"schema\" is \"other\", expected \"schema\": \"ur3dq.poses\""),
+    "no schema": ('{"version": 2, "steps": []}', r":1: not a pose store: it has no \"schema\" key, expected"),
+    "null schema": ('{"schema": null, "version": 2, "steps": []}', r":1: not a pose store: \"schema\" is null,"),
     "newer version": ('{"schema": "ur3dq.poses", "version": 3, "steps": []}',
                       r":1: store version 3 is not supported .*newer"),
     "version true": ('{"schema": "ur3dq.poses", "version": true, "poses": []}',
