@@ -87,6 +87,8 @@ def test_the_issue_s_cell_example_loads(tmp_path):
     ([], "JSON object"), ({"floor": {"height": 0}}, '"floor"'), ({"boxes": {}}, '"boxes" must be a list'),
     ({"boxes": [{"min": [0, 0], "max": [1, 1, 1]}]}, "3 numbers"), ({"margin": -0.1}, "≥ 0"),
     ({"tool": {"cone": {}}}, '"tool"'), ({"floor": {"z": float("nan")}}, "finite"),
+    ({"floor": {"z": 1e300}}, "floor z must be within ±100 m of the base, got 1e+300 m"),   # not 300 digits later
+    ({"boxes": [{"min": [0, 0, 0], "max": [1, 1, 150]}]}, "max must be within ±100 m"),   # mm typed as m
 ])
 def test_bad_cells_are_one_clear_error(data, fragment):
     with pytest.raises(ValueError, match="cell") as error:

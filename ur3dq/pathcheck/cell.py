@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from ur3dq.array_types import FloatArray
+from ur3dq.dqarray import MAX_POSE_COORDINATE
 from ur3dq.errors import StoreError
 from ur3dq.json_text import decoded, parse_json
 from ur3dq.real_numbers import is_number
@@ -167,7 +168,11 @@ def _number(value: object, what: str) -> float:
     # is_number refuses bools and text; the isinstance tells the type checker what it let through
     if not (is_number(value) and isinstance(value, numbers.Real) and math.isfinite(value)):
         raise ValueError(f"{what} must be a finite number, got {value!r}")
-    return float(value)
+    number = float(value)
+    if abs(number) > MAX_POSE_COORDINATE:   # metres: a cell this far out is millimetres typed as metres
+        raise ValueError(f"{what} must be within ±{MAX_POSE_COORDINATE:g} m of the base, got {number:.6g} m "
+                         "(the cell file is in metres)")
+    return number
 
 
 def _length(value: object, what: str) -> float:
