@@ -16,7 +16,7 @@ from ur3dq.pose import Pose
 from ur3dq.program.steps import Motion, RelativeWaypoint, Wait, Waypoint
 from ur3dq.screen import editing, views
 from ur3dq.screen.access import is_loopback, request_allowed, token_accepted
-from ur3dq.screen.operations import Operations
+from ur3dq.screen.operations import typed_motion
 from ur3dq.store import PoseStore
 
 UR3 = robot_model("ur3")
@@ -137,13 +137,26 @@ def test_a_real_checks_numbers_are_shown_in_each_pages_units_and_refuse_a_run_in
 
 
 def test_typed_speeds_and_blends_are_read_in_the_pages_units():
-    motion = Operations._motion_of({"move": "linear", "speed": "250", "blend": "5"}, DEG_MM)
+    def typed(fields):
+        return typed_motion("p", fields, DEG_MM, UR3)(Motion())
+
+    motion = typed({"move": "linear", "speed": "250", "blend": "5"})
     assert (motion.move, motion.speed, motion.blend) == ("linear", pytest.approx(0.25), pytest.approx(0.005))
-    motion = Operations._motion_of({"move": "joint", "speed": "60", "blend": ""}, DEG_MM)
+    motion = typed({"move": "joint", "speed": "60", "blend": ""})
     assert motion.speed == pytest.approx(math.radians(60)) and motion.blend is None
-    assert Operations._motion_of({"move": "joint", "speed": "0.5rad/s"}, DEG_MM).speed == pytest.approx(0.5)
+    assert typed({"move": "joint", "speed": "0.5rad/s"}).speed == pytest.approx(0.5)
     with pytest.raises(ValueError, match="'mm/s' is a unit of linear speed"):
-        Operations._motion_of({"move": "joint", "speed": "250mm/s"}, DEG_MM)
+        typed({"move": "joint", "speed": "250mm/s"})
+
+
+def test_the_motion_editor_keeps_the_acceleration_and_checks_the_range():
+    linear = Motion("linear", 0.1, 0.5, None)
+    assert typed_motion("p", {"move": "linear", "speed": "100", "blend": "2"}, DEG_MM, UR3)(linear).acceleration == 0.5
+    assert typed_motion("p", {"move": "joint"}, DEG_MM, UR3)(linear).acceleration is None   # another kind
+    for speed in ("1e300", "1e-9", "0.5"):
+        with pytest.raises(ValueError, match=r"waypoint 'p': speed .* is outside the ur3's range for a linear move, "
+                                             r"1 mm/s to 1000 mm/s$"):
+            typed_motion("p", {"move": "linear", "speed": speed}, DEG_MM, UR3)(linear)
 
 
 def test_only_loopback_is_open_without_a_token():

@@ -26,7 +26,8 @@ from ur3dq.cli.plan_summary import program_figures, summary_lines
 from ur3dq.errors import StoreError
 from ur3dq.kinematics.models import URModel
 from ur3dq.pose import Pose, closest_name_text, utc_now_iso
-from ur3dq.program.plan import Defaults, PlannedStep, motion_ranges, plan_program
+from ur3dq.program.plan import Defaults, MotionRangeError, PlannedStep, plan_program
+from ur3dq.program.plan import check_motion_range as plan_check_motion_range
 from ur3dq.program.resolve import select_range
 from ur3dq.program.script import program_script
 from ur3dq.program.steps import Motion, RelativeWaypoint, Step, Wait, Waypoint, describe
@@ -76,19 +77,15 @@ def typed_units(*values: TypedValue | None) -> Units:
 
 
 def check_motion_range(motion: Motion, model: URModel, who: str, units: Units) -> None:
-    """ValueError naming `who` and the valid range (in `units`) when the motion's speed or acceleration is outside
-    what `model` allows for its move type (ur3dq.program.plan.motion_ranges)."""
-    angular = angular_kind(motion.move)
-    speeds, accelerations = motion_ranges(model, motion.move)
-    for value, (low, high), kind, what, example in (
-            (motion.speed, speeds, SPEED[angular], "speed", "60deg/s" if angular else "250mm/s"),
-            (motion.acceleration, accelerations, ACCELERATION[angular], "acceleration",
-             "80deg/s^2" if angular else "1200mm/s^2")):
-        if value is not None and not low <= value <= high:
-            shown = Units(units.angle, "mm")   # linear speeds read best in mm/s, as on the pendant
-            raise ValueError(f"{who}: {what} {show(value, kind, shown)} is outside the {model.name}'s range for a "
-                             f"{motion.move} move, {show(low, kind, shown)} to {show(high, kind, shown)} (e.g. "
-                             f"--{what} {example})")
+    """ValueError naming `who` and the valid range (in `units`, linear speeds in mm as on the pendant) when the
+    motion's speed or acceleration is outside what `model` allows for its move type (ur3dq.program.plan's
+    check_motion_range, the screen's too), with an example of the option."""
+    try:
+        plan_check_motion_range(motion, model, who, Units(units.angle, "mm"))
+    except MotionRangeError as error:
+        examples = {("speed", True): "60deg/s", ("speed", False): "250mm/s",
+                    ("acceleration", True): "80deg/s^2", ("acceleration", False): "1200mm/s^2"}
+        raise ValueError(f"{error} (e.g. --{error.what} {examples[error.what, error.angular]})") from None
 
 
 def program_model(settings: Settings, steps: list[Step]) -> URModel:

@@ -17,6 +17,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ur3dq import dqarray
+from ur3dq import units as u
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import JointLimitError, SafetyCheckError, UnreachablePoseError
 from ur3dq.program.resolve import Target, resolve_targets
@@ -50,6 +51,37 @@ def motion_ranges(model: URModel, move: str) -> tuple[tuple[float, float], tuple
         return ((MIN_JOINT_SPEED, float(np.min(model.max_joint_speed))),
                 (MIN_JOINT_ACCELERATION, float(np.min(model.max_joint_acceleration))))
     return (MIN_TCP_SPEED, MAX_TCP_SPEED), (MIN_TCP_ACCELERATION, MAX_TCP_ACCELERATION)
+
+
+class MotionRangeError(ValueError):
+    """A waypoint's speed or acceleration outside what its model allows; `what` is 'speed' or 'acceleration',
+    `angular` whether the move is a joint move (a caller adds its own example of a good value)."""
+
+    def __init__(self, text: str, what: str, angular: bool):
+        super().__init__(text)
+        self.what, self.angular = what, angular
+
+
+def check_motion_range(motion: Motion, model: URModel, who: str, units: u.Units) -> None:
+    """MotionRangeError naming `who` and the valid range (written in `units`) when `motion`'s speed or acceleration
+    is outside motion_ranges(model, its move): the one range check of every editor (command line and screen).
+
+    >>> from ur3dq.kinematics import robot_model
+    >>> check_motion_range(Motion("linear", 1e-9), robot_model("ur3"), "waypoint 'p1'", u.Units("deg", "mm"))
+    Traceback (most recent call last):
+    ...
+    ur3dq.program.plan.MotionRangeError: waypoint 'p1': speed 1e-06 mm/s is outside the ur3's range for a linear \
+move, 1 mm/s to 1000 mm/s
+    """
+    angular = u.angular_kind(motion.move)
+    speeds, accelerations = motion_ranges(model, motion.move)
+    for value, (low, high), kind, what in ((motion.speed, speeds, u.SPEED[angular], "speed"),
+                                           (motion.acceleration, accelerations, u.ACCELERATION[angular],
+                                            "acceleration")):
+        if value is not None and not low <= value <= high:
+            raise MotionRangeError(f"{who}: {what} {u.show(value, kind, units)} is outside the {model.name}'s range "
+                                   f"for a {motion.move} move, {u.show(low, kind, units)} to "
+                                   f"{u.show(high, kind, units)}", what, angular)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -150,13 +150,15 @@ def retouch(name: str, pose: Pose) -> Edit:
     return edit
 
 
-def set_motion(name: str, motion: Motion) -> Edit:
-    """Give the waypoint `name` the move type, speed and blend of `motion`."""
+def set_motion(name: str, new: Callable[[Motion], Motion]) -> Edit:
+    """Give the waypoint `name` the motion new(its motion now): the caller keeps what it does not change (the
+    page's editor keeps the acceleration it does not show)."""
 
     def edit(steps: list[Step]) -> tuple[list[Step], Any]:
         step = find_step(steps, name, "the program")
         if not is_waypoint(step):
             raise ValueError(f"{step.who}: not a waypoint; only waypoints have a move, speed and blend")
+        motion = new(step.motion)
         return [dataclasses.replace(s, motion=motion) if s is step else s for s in steps], None
 
     return edit

@@ -23,7 +23,7 @@ from ur3dq.errors import ProgramError, RobotConnectionError, RobotError, SafetyC
 from ur3dq.pathcheck import Margins, check_path
 from ur3dq.pose import next_free_name
 from ur3dq.program.path import path_plan_of
-from ur3dq.program.plan import Defaults, plan_program
+from ur3dq.program.plan import Defaults, check_motion_range, plan_program
 from ur3dq.program.resolve import select_range
 from ur3dq.program.runner import run_plan
 from ur3dq.program.steps import DigitalOut, Message, Motion, Step, Wait, is_waypoint
@@ -36,6 +36,7 @@ from ur3dq.screen.views import check_message
 from ur3dq.store import find_step
 
 if TYPE_CHECKING:
+    from ur3dq.kinematics.models import URModel
     from ur3dq.robot.robot import Robot
 
 MAX_LOOPS = 1000
@@ -373,8 +374,8 @@ class Operations:
     def _edit_of(self, kind: str, fields: dict[str, Any], units: u.Units) -> tuple[str, editing.Edit]:
         name, after = str(fields.get("name") or ""), fields.get("after")
         if kind == "motion":
-            motion = self._motion_of(fields, units)
-            return f"set {name!r} to a {motion.move} move", editing.set_motion(name, motion)
+            new = typed_motion(name, fields, units, self.station.model())
+            return f"set {name!r} to a {fields.get('move', 'joint')} move", editing.set_motion(name, new)
         if kind == "move":
             offset = int(fields.get("offset", 0))
             return f"move {name!r} {'up' if offset < 0 else 'down'}", editing.move_step(name, offset)
@@ -386,16 +387,6 @@ class Operations:
             make = self._action_maker(kind, fields, units)
             return f"add {'an' if kind == 'output' else 'a'} {kind} step", editing.insert_step(make, after)
         raise ValueError(f"unknown edit {kind!r}")
-
-    @staticmethod
-    def _motion_of(fields: dict[str, Any], units: u.Units) -> Motion:
-        """The Motion typed on the page: move type, speed and blend (blank: the run's default) in `units`."""
-        move = str(fields.get("move", "joint"))
-        angular = u.angular_kind(move)
-        speed_text, blend_text = str(fields.get("speed", "")).strip(), str(fields.get("blend", "")).strip()
-        speed = None if not speed_text else u.parse(speed_text, u.SPEED[angular], units, "speed")
-        blend = None if not blend_text else u.parse(blend_text, u.LENGTH, units, "blend")
-        return Motion(move, speed, None, blend)
 
     @staticmethod
     def _action_maker(kind: str, fields: dict[str, Any], units: u.Units) -> Callable[[set[str]], Step]:
@@ -425,3 +416,29 @@ class Operations:
         self.station.reload_program(force=True)
         self.log(f"redo: {done}")
         return f"redone: {done}"
+
+
+def typed_motion(name: str, fields: dict[str, Any], units: u.Units, model: URModel) -> Callable[[Motion], Motion]:
+    """new(motion) of the waypoint `name` as typed on the page (editing.set_motion's argument): move type, speed and
+    blend (blank: the run's default) read in `units`; its acceleration, which the page does not show, is kept while
+    the move stays of the same kind (joint: angular; linear/process: linear). A speed out of `model`'s range:
+    ValueError written in `units` (program.plan.check_motion_range, the command line's check).
+
+    >>> from ur3dq.kinematics import robot_model
+    >>> typed_motion("p", {"move": "linear", "blend": "2"}, u.Units("deg", "mm"), robot_model("ur3"))(
+    ...     Motion("linear", 0.1, 0.5))
+    Motion(move='linear', speed=None, acceleration=0.5, blend=0.002)
+    """
+    move = str(fields.get("move", "joint"))
+    angular = u.angular_kind(move)
+    speed_text, blend_text = str(fields.get("speed", "")).strip(), str(fields.get("blend", "")).strip()
+    speed = None if not speed_text else u.parse(speed_text, u.SPEED[angular], units, "speed")
+    blend = None if not blend_text else u.parse(blend_text, u.LENGTH, units, "blend")
+
+    def new(base: Motion) -> Motion:
+        kept = base.acceleration if u.angular_kind(base.move) == angular else None
+        motion = Motion(move, speed, kept, blend)
+        check_motion_range(motion, model, f"waypoint {name!r}", units)
+        return motion
+
+    return new

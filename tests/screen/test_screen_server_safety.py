@@ -1,0 +1,147 @@
+"""The screen server's safety rules, in a real headless Chromium against `ur3dq serve` and a powered simulator:
+Stop and Pause from every open page, a run stopped because its page closed says so (and a reloaded page shows it),
+freedrive ends with the page that turned it on, a question about a program that changed is withdrawn, the motion
+editor keeps what it does not show and refuses speeds out of range, typed pins and loop counts are whole numbers in
+range, and a store file that does not read stops Check, Run and Move here until it is repaired."""
+import subprocess
+
+import numpy as np
+import pytest
+
+from polling import wait_for
+from robot_target import simulator_only
+from screen_support import (
+    ARTIFACTS,
+    START_Q,
+    button,
+    environment,
+    expect,
+    notice_after,
+    served,
+    set_speed_slider,
+    ur3dq_command,
+)
+from ur3dq.kinematics import robot_model
+from ur3dq.pose import Pose
+from ur3dq.store import PoseStore
+
+pytestmark = [pytest.mark.browser, simulator_only("the screen's safety tests drive sim_ursim")]
+
+PROGRAM = ["p1", "p2", "p3"]
+# A raw command from a page's own origin, on a socket of its own that takes control first (as a script could).
+RAW_COMMAND = """([cmd, args]) => new Promise((done) => {
+  const socket = new WebSocket(new URL('/ws', location.href).href.replace('http', 'ws'));
+  socket.onopen = () => { socket.send(JSON.stringify({type: 'take_control'}));
+    socket.send(JSON.stringify({type: 'cmd', cmd, args, id: 1})); };
+  socket.onmessage = (event) => { const m = JSON.parse(event.data);
+    if (m.type === 'reply' && m.id === 1) { socket.close(); done(m); } }; })"""
+
+
+class Cell:
+    """The module's simulator, store, server, browser and an RTDE reader of the simulated arm."""
+
+    def __init__(self, simulator, store, server, browser, receive):
+        self.simulator, self.store, self.server, self.browser, self.receive = (simulator, store, server, browser,
+                                                                               receive)
+
+    def moving(self) -> bool:
+        return float(np.max(np.abs(self.receive.getActualQd()))) > 0.01
+
+    def at_rest(self) -> bool:
+        return float(np.max(np.abs(self.receive.getActualQd()))) < 1e-3
+
+    def cli(self, *arguments: str) -> subprocess.CompletedProcess:
+        return subprocess.run(ur3dq_command(*arguments, store=self.store), capture_output=True, text=True,
+                              timeout=60, env=environment(self.store.parent / "state"), check=True)
+
+    def open_page(self):
+        """A new page of the screen, once it shows the robot and who has control."""
+        page = self.browser.new_page(viewport={"width": 1280, "height": 800})
+        page.goto(self.server.url)
+        page.wait_for_function("document.getElementById('robot-mode').textContent === 'RUNNING' && "
+                               "document.getElementById('control-line').textContent !== ''", timeout=20000)
+        return page
+
+
+def holder_id(page) -> str:
+    """The id ('page-N') of the page that has control, as a read-only `page` shows it."""
+    expect(page.locator("#control-line")).to_contain_text("Read-only", timeout=5000)
+    return page.locator("#control-line").text_content().split()[1]
+
+
+@pytest.fixture(scope="module")
+def cell(browser, tmp_path_factory):
+    import rtde_receive
+
+    from powered_simulator import powered_simulator
+
+    folder = tmp_path_factory.mktemp("screen-safety")
+    store = folder / "poses.json"
+    model = robot_model("ur3")
+    poses = []
+    for name, turn in zip(PROGRAM, (0.0, 0.3, 0.6)):   # joint 1 turns 0.3 rad a move: seconds at a slow slider
+        q = np.array(START_Q) + np.array([turn, 0, 0, 0, 0, 0])
+        poses.append(Pose.from_dual_quaternion(name, model.fk(q), "ur3", joints=tuple(q)))
+    PoseStore(store).add_many(poses)
+    with powered_simulator(model="ur3", initial_q=list(START_Q)) as simulator, \
+            served(simulator.host, store, ARTIFACTS / "screen-server-safety.log") as server:
+        receive = rtde_receive.RTDEReceiveInterface(simulator.host)
+        try:
+            yield Cell(simulator, store, server, browser, receive)
+        finally:
+            receive.disconnect()
+
+
+def start_run(cell, page, loops: str = "100") -> None:
+    """Run the program `loops` times at a slow speed slider from `page` (answering yes), until the arm moves."""
+    set_speed_slider(page, 10)
+    page.locator("#loops").fill(loops)
+    button(page, "Run").click()
+    expect(page.locator("#ask")).to_contain_text("Run 3 steps")
+    button(page, "Yes").click()
+    assert wait_for(cell.moving, timeout=10), "the run did not start"
+
+
+def test_the_motion_editor_keeps_the_acceleration_it_does_not_show(cell):
+    cell.cli("poses", "set", "p2", "--move", "linear", "--speed", "100mm/s", "--acceleration", "500mm/s^2")
+    page = cell.open_page()
+    try:
+        page.locator('[data-step="p2"]').click()
+        expect(page.locator("#edit-move")).to_have_value("linear", timeout=5000)
+        page.locator("#edit-blend").fill("2")
+        notice = notice_after(page, lambda: button(page, "Apply").click(), "set 'p2'")
+        assert notice == "set 'p2' to a linear move", notice
+        motion = PoseStore(cell.store).get_step("p2").motion
+        assert motion.acceleration == pytest.approx(0.5) and motion.blend == pytest.approx(0.002)
+        assert motion.speed == pytest.approx(0.1)
+        page.locator("#edit-move").select_option("joint")                # a joint move: no linear acceleration
+        page.locator("#edit-speed").fill("")
+        notice_after(page, lambda: button(page, "Apply").click(), "set 'p2'")
+        assert PoseStore(cell.store).get_step("p2").motion.acceleration is None
+    finally:
+        page.close()
+
+
+def test_the_motion_editor_refuses_speeds_out_of_range_in_the_page_units(cell):
+    cell.cli("poses", "set", "p2", "--move", "linear", "--speed", "100mm/s")
+    page = cell.open_page()
+    try:
+        page.locator('[data-step="p2"]').click()
+        expect(page.locator("#edit-move")).to_have_value("linear", timeout=5000)
+        motion = PoseStore(cell.store).get_step("p2").motion
+        for typed, shown in (("1e300", "1e+300 mm/s"), ("1e-9", "1e-09 mm/s")):
+            page.locator("#edit-speed").fill(typed)
+            notice = notice_after(page, lambda: button(page, "Apply").click(), "set 'p2'")
+            assert notice == (f"Error: waypoint 'p2': speed {shown} is outside the ur3's range for a linear move, "
+                              "1 mm/s to 1000 mm/s"), notice
+            assert PoseStore(cell.store).get_step("p2").motion == motion
+        page.locator("#unit-length").select_option("m")                  # the refusal is in the page's units
+        expect(page.locator('[data-step="p2"] .speed')).to_have_text("0.1 m/s", timeout=5000)
+        page.locator("#edit-speed").fill("5")
+        notice = notice_after(page, lambda: button(page, "Apply").click(), "set 'p2'")
+        assert "speed 5 m/s is outside the ur3's range for a linear move, 0.001 m/s to 1 m/s" in notice, notice
+        page.locator("#unit-length").select_option("mm")
+        expect(page.locator('[data-step="p2"] .speed')).to_have_text("100 mm/s", timeout=5000)
+        assert PoseStore(cell.store).get_step("p2").motion == motion
+    finally:
+        page.close()
