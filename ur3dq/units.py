@@ -182,6 +182,27 @@ def plain_number(text: str | float | int, name: str = "value") -> float:
     return value
 
 
+def whole_number(text: object, name: str, low: int, high: int) -> int:
+    """A count or a pin number as typed: digits only (an int passes as it is), within low..high; ValueError naming
+    `name` and the range otherwise (a fraction, a blank, a unit, an exponent are refused, never rounded).
+
+    >>> whole_number(" 3 ", "loops", 1, 1000)
+    3
+    >>> whole_number("2.5", "loops", 1, 1000)
+    Traceback (most recent call last):
+    ...
+    ValueError: loops: '2.5' is not a whole number from 1 to 1000
+    """
+    shown = repr(text) if len(repr(text)) <= 24 else repr(text)[:20] + "…"
+    problem = ValueError(f"{name}: {shown} is not a whole number from {low} to {high}")
+    if isinstance(text, bool) or not isinstance(text, (str, int)):
+        raise problem
+    digits = str(text).strip()
+    if not re.fullmatch(r"[+-]?[0-9]{1,18}", digits) or not low <= int(digits) <= high:
+        raise problem
+    return int(digits)
+
+
 def to_display(value: float, kind: Kind, units: Units = Units()) -> float:
     """`value` (SI) in the unit `units` shows `kind` in (see :meth:`Units.bare_unit`)."""
     return value / kind.units[units.bare_unit(kind)]

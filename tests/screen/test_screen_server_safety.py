@@ -145,3 +145,28 @@ def test_the_motion_editor_refuses_speeds_out_of_range_in_the_page_units(cell):
         assert PoseStore(cell.store).get_step("p2").motion == motion
     finally:
         page.close()
+
+
+def test_pins_and_loop_counts_are_whole_numbers_in_range(cell):
+    page = cell.open_page()
+    try:
+        before = cell.store.read_text()
+        for typed in ("1.5", "", "abc", "1e300", "8"):
+            button(page, "Add output").click()
+            page.locator("#ask input[name=pin]").fill(typed)
+            notice = notice_after(page, lambda: button(page, "OK").click(), "add")
+            assert notice == f"Error: standard output pin: {typed!r} is not a whole number from 0 to 7", notice
+        assert cell.store.read_text() == before
+        button(page, "Add output").click()
+        page.locator("#ask select[name=group]").select_option("tool")
+        page.locator("#ask input[name=pin]").fill("2")
+        notice = notice_after(page, lambda: button(page, "OK").click(), "add")
+        assert notice == "Error: tool output pin: '2' is not a whole number from 0 to 1", notice
+        for typed in ("2.5", "0", "1001"):
+            page.locator("#loops").fill(typed)
+            notice = notice_after(page, lambda: button(page, "Run").click(), "asked")
+            assert notice == f"Error: loops: {typed!r} is not a whole number from 1 to 1000", notice
+            expect(page.locator("#ask")).not_to_be_visible()
+        assert cell.store.read_text() == before
+    finally:
+        page.close()

@@ -26,7 +26,7 @@ from ur3dq.program.path import path_plan_of
 from ur3dq.program.plan import Defaults, check_motion_range, plan_program
 from ur3dq.program.resolve import select_range
 from ur3dq.program.runner import run_plan
-from ur3dq.program.steps import DigitalOut, Message, Motion, Step, Wait, is_waypoint
+from ur3dq.program.steps import PIN_COUNT, DigitalOut, Message, Motion, Step, Wait, is_waypoint
 from ur3dq.replay import read_pose
 from ur3dq.robot.jog import Jog
 from ur3dq.robot.jog_steps import JogStep
@@ -397,7 +397,8 @@ class Operations:
             return given or next_free_name(kind, taken)
 
         if kind == "output":
-            group, pin, on = str(fields.get("group", "standard")), int(fields.get("pin", 0)), bool(fields.get("on"))
+            group, pin = output_pin(fields.get("group", "standard"), fields.get("pin", ""))
+            on = bool(fields.get("on"))
             return lambda taken: DigitalOut(name(taken), group, pin, on)
         if kind == "wait":
             seconds = u.parse(str(fields.get("seconds", "")), u.DURATION, units, "wait")
@@ -442,3 +443,11 @@ def typed_motion(name: str, fields: dict[str, Any], units: u.Units, model: URMod
         return motion
 
     return new
+
+
+def output_pin(group: object, pin: object) -> tuple[str, int]:
+    """(group, pin) of a digital output typed on the page: a family of PIN_COUNT and a whole pin number it has;
+    ValueError naming the field and the range otherwise (never rounded or guessed)."""
+    if group not in PIN_COUNT:
+        raise ValueError(f"digital output family {group!r} is not one of {', '.join(PIN_COUNT)}")
+    return str(group), u.whole_number(pin, f"{group} output pin", 0, PIN_COUNT[str(group)] - 1)

@@ -34,7 +34,7 @@ from ur3dq.errors import UR3DQError
 from ur3dq.robot import jog_steps
 from ur3dq.screen import scene, views
 from ur3dq.screen.access import request_allowed, token_accepted
-from ur3dq.screen.operations import Operations
+from ur3dq.screen.operations import MAX_LOOPS, Operations, output_pin
 from ur3dq.screen.pages import Page, Pages
 from ur3dq.screen.station import Station, StationConfig
 
@@ -331,7 +331,7 @@ class ScreenServer:
         question: str | None
         action: Callable[[], str]
         if name == "run":
-            loops = int(args.get("loops", 1))
+            loops = u.whole_number(args.get("loops", 1), "loops", 1, MAX_LOOPS)
             try:
                 question, action = await asyncio.to_thread(ops.prepare_run, args.get("from"), loops)
             finally:
@@ -344,7 +344,8 @@ class ScreenServer:
             step = str(args.get("name"))
             question, action = f"Re-record {step!r} at the arm's current pose?", lambda: ops.retouch(step)
         else:
-            group, pin, on = str(args.get("group")), int(args.get("pin", -1)), bool(args.get("on"))
+            group, pin = output_pin(args.get("group"), args.get("pin"))
+            on = bool(args.get("on"))
             question = ops.output_question(group, pin, on)
             if question is None:
                 return await asyncio.to_thread(ops.set_output, group, pin, on)

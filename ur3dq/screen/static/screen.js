@@ -183,7 +183,7 @@ bind("#unlock", () => command("unlock"));
 bind("#freedrive", () => command("freedrive", { on: !(state && state.freedrive) }));
 bind("#move-here", () => command("move_here", { name: selected }));
 bind("#check", () => command("check", { from: fromStep() }));
-bind("#run-button", () => command("run", { from: fromStep(), loops: Number($("#loops").value) || 1 }));
+bind("#run-button", () => command("run", { from: fromStep(), loops: $("#loops").value }));
 bind("#pause", () => command("pause"));
 bind("#resume", () => command("resume"));
 bind("#stop", () => command("stop"));
@@ -202,7 +202,7 @@ bind("#step-rename", () => ask(`Rename ${selected} to:`, [field("new", "new name
 bind("#add-output", () => ask("Add a digital output step after the selected step:", [
   choice("group", "output", ["standard", "tool", "configurable"]), field("pin", "pin", "0"),
   choice("on", "value", ["on", "off"]), field("step_name", "name (optional)", "")], "OK",
-(values) => edit("output", { ...values, pin: Number(values.pin), on: values.on === "on", after: selected })));
+(values) => edit("output", { ...values, on: values.on === "on", after: selected })));
 bind("#add-wait", () => ask("Add a wait step after the selected step:", [
   field("seconds", "seconds (or e.g. 500ms)", "0.5"), field("step_name", "name (optional)", "")], "OK",
 (values) => edit("wait", { ...values, after: selected })));
