@@ -170,3 +170,30 @@ def test_pins_and_loop_counts_are_whole_numbers_in_range(cell):
         assert cell.store.read_text() == before
     finally:
         page.close()
+
+
+def test_a_store_that_does_not_read_stops_check_run_and_move_here_until_repaired(cell):
+    page = cell.open_page()
+    good = cell.store.read_text()
+    try:
+        page.locator('[data-step="p1"]').click()
+        expect(button(page, "Run")).to_be_enabled(timeout=5000)
+        expect(button(page, "Move here")).to_be_enabled()
+        cell.store.write_text(good[:-40])                                # a truncated, hand-edited store
+        error = page.locator("#store-error")
+        expect(error).to_be_visible(timeout=5000)
+        expect(error).to_contain_text(f"repair {cell.store}")
+        expect(error).to_contain_text("does not read")
+        for name in ("Run", "Check", "Move here"):
+            expect(button(page, name)).to_be_disabled()
+        for command in ("check", "run", "move_here"):                   # refused by the server too
+            reply = page.evaluate(RAW_COMMAND, [command, {"name": "p1"}])
+            assert not reply["ok"] and "The program's file does not read" in reply["error"], (command, reply)
+        cell.store.write_text(good)
+        expect(error).to_be_hidden(timeout=5000)
+        button(page, "Take control").click()                             # the raw socket took it
+        expect(button(page, "Run")).to_be_enabled(timeout=5000)
+        expect(button(page, "Check")).to_be_enabled()
+    finally:
+        cell.store.write_text(good)
+        page.close()

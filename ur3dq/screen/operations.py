@@ -19,7 +19,7 @@ from collections.abc import Callable, Iterator
 from typing import TYPE_CHECKING, Any
 
 from ur3dq import units as u
-from ur3dq.errors import ProgramError, RobotConnectionError, RobotError, SafetyCheckError
+from ur3dq.errors import ProgramError, RobotConnectionError, RobotError, SafetyCheckError, StoreError
 from ur3dq.pathcheck import Margins, check_path
 from ur3dq.pose import next_free_name
 from ur3dq.program.path import path_plan_of
@@ -92,6 +92,22 @@ class Operations:
         line = done.format(host=robot.host)
         self.log(line)
         return line
+
+    def store_problem(self) -> str | None:
+        """While the store file does not read: what is wrong and what to do (naming the file), else None."""
+        problem = self.station.store_error
+        if problem is None:
+            return None
+        return (f"The program's file does not read: {problem}. Check, Run and Move here wait until it does: repair "
+                f"{self.station.store.path} or put back a good copy (the screen reads it again by itself).")
+
+    def program(self) -> list[Step]:
+        """The program to check, run or move along: the store's steps, or StoreError (store_problem) while the
+        store file does not read, so that nothing runs an old copy of it."""
+        problem = self.store_problem()
+        if problem is not None:
+            raise StoreError(problem)
+        return self.station.steps
 
     # ------------------------------------------------------------------------------------------------ robot panel
     def power_on(self) -> str:
@@ -234,7 +250,7 @@ class Operations:
         """(question, move): the move `ur3dq move-to NAME` makes — the waypoint `name` by its own move type and
         speed, planned from the arm and path-checked now, run by the program runner once answered yes."""
         robot = self.robot()
-        steps = self.station.steps
+        steps = self.program()
         step = find_step(steps, name, "the program")
         if not is_waypoint(step):
             raise ValueError(f"{step.who}: not a waypoint; Move here goes to waypoints")
@@ -266,8 +282,9 @@ class Operations:
     # ------------------------------------------------------------------------------------------------ check, run
     def check(self, start: str | None) -> dict[str, Any]:
         """The path check of the program (from `start`) as run-poses would run it now: planned from the arm's
-        joints (from the first waypoint without a robot), every move sampled; the `check` message."""
-        steps = self.station.steps
+        joints (from the first waypoint without a robot), every move sampled; the `check` message. StoreError
+        while the store file does not read."""
+        steps = self.program()
         model = self.station.model()
         try:
             part = select_range(steps, start, None) if steps else []

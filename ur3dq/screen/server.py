@@ -135,7 +135,8 @@ class ScreenServer:
     def _post_program(self, page: Page, steps: list[Step], frames: list[dict[str, Any]] | None = None) -> None:
         source = self.station.store_error or str(self.station.store.path)
         page.post(views.program_message(steps, page.units, self.ops.editor.state(),
-                                        scene.pose_frames(steps) if frames is None else frames, source))
+                                        scene.pose_frames(steps) if frames is None else frames, source,
+                                        self.ops.store_problem()))
 
     def _spawn(self, coroutine: Coroutine[Any, Any, None]) -> None:
         asyncio.ensure_future(coroutine)

@@ -88,10 +88,12 @@ def step_row(step: Step, units: u.Units) -> dict[str, Any]:
 
 
 def program_message(steps: list[Step], units: u.Units, editor_state: dict[str, bool | str],
-                    frames: list[dict[str, Any]], source: str) -> dict[str, Any]:
-    """The `program` message: every step's row, the undo/redo state, the poses' frames for the 3D view."""
+                    frames: list[dict[str, Any]], source: str, store_error: str | None = None) -> dict[str, Any]:
+    """The `program` message: every step's row, the undo/redo state, the poses' frames for the 3D view, and while
+    the store file does not read `store_error` (the file, the problem and the fix; `steps` are then the last good
+    ones, shown but not run)."""
     return {"type": "program", "steps": [step_row(step, units) for step in steps], "source": source,
-            "frames": frames, **editor_state}
+            "frames": frames, "store_error": store_error, **editor_state}
 
 
 def check_message(result: PathCheckResult | None, model: URModel, cell: Cell | None, margins: Margins,

@@ -150,9 +150,9 @@ function refreshButtons() {
     "#unlock": you && up && s.safety_mode === "PROTECTIVE_STOP",
     "#freedrive": you && running && (idle || (s.activity || "").startsWith("freedrive")),
     "#record": you && up,
-    "#move-here": you && running && idle && !!step && step.waypoint,
-    "#check": !!s && program.steps.length > 0,
-    "#run-button": you && running && idle && program.steps.length > 0 && s.program === "STOPPED",
+    "#move-here": you && running && idle && !!step && step.waypoint && !program.store_error,
+    "#check": !!s && program.steps.length > 0 && !program.store_error,
+    "#run-button": you && running && idle && program.steps.length > 0 && s.program === "STOPPED" && !program.store_error,
     "#pause": you && up && s.program === "PLAYING" && s.activity === "run",
     "#resume": you && up && s.program === "PAUSED",
     "#stop": you && up && (!idle || s.program !== "STOPPED"),
@@ -365,6 +365,8 @@ function selectedStep() {
 
 function renderProgram() {
   $("#program-source").textContent = program.source || "";
+  $("#store-error").textContent = program.store_error || "";
+  $("#store-error").hidden = !program.store_error;
   if (namesBefore) {
     const added = program.steps.filter((step) => !namesBefore.has(step.name));
     if (added.length === 1) { selected = added[0].name; namesBefore = null; }
