@@ -102,6 +102,57 @@ def start_run(cell, page, loops: str = "100") -> None:
     assert wait_for(cell.moving, timeout=10), "the run did not start"
 
 
+def test_every_page_may_stop_and_pause_a_run_and_the_log_names_it(cell):
+    runner = cell.open_page()
+    runner_id = None
+    other = cell.open_page()
+    try:
+        runner_id = holder_id(other)
+        start_run(cell, runner)
+        expect(button(other, "Stop")).to_be_enabled(timeout=5000)       # read-only, yet it may stop the arm
+        expect(button(other, "Pause")).to_be_enabled(timeout=5000)
+        button(other, "Pause").click()
+        expect(other.locator("#program-state")).to_have_text("PAUSED", timeout=5000)
+        assert wait_for(cell.at_rest, timeout=3.0), "a read-only page's Pause did not stop the arm"
+        button(runner, "Resume").click()
+        assert wait_for(cell.moving, timeout=10)
+        button(other, "Take control").click()                            # the page that ran it loses control...
+        expect(runner.locator("#control-line")).to_contain_text("Read-only", timeout=5000)
+        other_id = holder_id(runner)
+        expect(button(runner, "Stop")).to_be_enabled(timeout=5000)       # ...and may still stop its run
+        notice = notice_after(runner, lambda: button(runner, "Stop").click(), "Error", server=cell.server)
+        assert f"stopped by the operator (Stop on {runner_id})" in notice, notice
+        assert wait_for(cell.at_rest, timeout=3.0), "the arm did not stop on Stop"
+        expect(runner.locator("#program-state")).to_have_text("STOPPED", timeout=5000)
+        expect(other.locator("#notice")).to_contain_text(f"the last run: stopped by the operator (Stop on "
+                                                         f"{runner_id})", timeout=5000)
+        log = cell.server.log_text()
+        assert f"[{runner_id}] {cell.simulator.host}: stopj sent." in log, log[-3000:]
+        assert f"[{other_id}] {cell.simulator.host}: " in log, log[-3000:]    # its Pause
+    finally:
+        runner.close()
+        other.close()
+
+
+def test_a_run_stopped_because_its_page_closed_says_so_after_a_reload(cell):
+    page = cell.open_page()
+    try:
+        expect(page.locator("#control-line")).to_have_text("You have control.", timeout=5000)
+        start_run(cell, page)
+        page.reload()
+        assert wait_for(cell.at_rest, timeout=3.0), "the run went on after its page closed"
+        expect(page.locator("#notice")).to_contain_text("the last run: stopped: the page that had control",
+                                                        timeout=10000)
+        assert "stopped by the operator" not in page.locator("#notice").text_content()
+        expect(button(page, "Run")).to_be_enabled(timeout=10000)
+    finally:
+        page.close()
+    log = cell.server.log_text()
+    assert "the controlling page closed during run: stopping the arm" in log
+    closed = [line for line in log.splitlines() if "the controlling page closed during run" in line][-1]
+    assert closed.split()[1] != "[server]", closed
+
+
 def test_the_motion_editor_keeps_the_acceleration_it_does_not_show(cell):
     cell.cli("poses", "set", "p2", "--move", "linear", "--speed", "100mm/s", "--acceleration", "500mm/s^2")
     page = cell.open_page()

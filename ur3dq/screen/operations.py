@@ -40,6 +40,7 @@ if TYPE_CHECKING:
     from ur3dq.robot.robot import Robot
 
 MAX_LOOPS = 1000
+STOPPED_BY_OPERATOR = "stopped by the operator (Stop)"
 
 
 class Busy(RobotError):
@@ -55,7 +56,7 @@ class Operations:
         self.editor = editing.ProgramEditor(station.store)
         self.margins = Margins()
         self._claim_lock = threading.Lock()
-        self._stop_requested = threading.Event()
+        self._stop_reason: str | None = None   # why the run in progress was stopped (None: it was not)
         self._jog_lock = threading.Lock()
         self._jog_generation = 0
         self._jog: Jog | None = None
@@ -326,7 +327,7 @@ class Operations:
 
         def run() -> str:
             with self.claimed("run"):
-                self._stop_requested.clear()
+                self._stop_reason = None
                 self.log(f"{question} yes")
                 try:
                     return self._run_loops(robot, steps, part, first, loops)
@@ -349,8 +350,8 @@ class Operations:
             try:
                 run_plan(robot, plan, first, shown)
             except RobotError as error:
-                if self._stop_requested.is_set():
-                    raise ProgramError("stopped by the operator (Stop)") from error
+                if self._stop_reason is not None:
+                    raise ProgramError(self._stop_reason) from error
                 raise
         seconds = time.monotonic() - began
         line = f"Ran {len(part)} steps in {seconds:.2f} s." if loops == 1 else \
@@ -371,9 +372,9 @@ class Operations:
         self.log(f"{robot.host}: resumed.")
         return "resumed"
 
-    def stop(self) -> str:
-        """Stop whatever moves (stopj) and end a run and its loops."""
-        self._stop_requested.set()
+    def stop(self, reason: str = STOPPED_BY_OPERATOR) -> str:
+        """Stop whatever moves (stopj) and end a run and its loops; a run stopped ends with ProgramError(reason)."""
+        self._stop_reason = reason
         robot = self.robot()
         robot.stop()
         self.log(f"{robot.host}: stopj sent.")

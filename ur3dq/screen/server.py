@@ -3,14 +3,17 @@
 Starlette routes served by uvicorn. The page talks JSON over its WebSocket: the server sends `hello`, `scene`,
 `program`, `check`, the live `state` (STATE_RATE a second), `confirm` questions and `reply`s; the page sends
 `beat` (its heartbeat, every 50 ms), `units`, `take_control` and `cmd` (a button). Commands run in worker threads
-(ur3dq.screen.operations); only the page holding control may give them. Every motion stops when the controlling page
-closes or its heartbeat goes silent for JOG_SILENCE (a jog), and the controller stops a motion by itself when this
-server dies (the driver's heartbeat).
+(ur3dq.screen.operations); only the page holding control may give them, except Stop and Pause (any open page, as
+the pendant's stop button) and the read-only ones (ANY_PAGE). Every motion stops when the controlling page closes or
+its heartbeat goes silent for JOG_SILENCE (a jog), and the controller stops a motion by itself when this server
+dies (the driver's heartbeat).
+Log lines name the page that acted.
 """
 from __future__ import annotations
 
 import asyncio
 import contextlib
+import contextvars
 import dataclasses
 import functools
 import json
@@ -46,6 +49,21 @@ STATIC = Path(__file__).parent / "static"
 JOG_SILENCE = 0.25      # s without the controlling page's heartbeat that stop a jog (the controller's own at 0.25 s)
 WATCH_PERIOD = 0.05     # s between the server's checks of that silence
 JOG_STEPS = (None, *jog_steps.STEP_SIZES)     # mm or degrees (the keyboard jog's); None: as far as held
+# Commands every open page may give: stopping the arm is never refused (as the pendant's stop button), and these
+# others read or propose only.
+ANY_PAGE = ("stop", "pause", "check", "default_name")
+RUNS = ("run", "move_here")   # the questions whose outcome a page opened later still shows
+# The page whose message is being handled (a context variable: worker threads started by asyncio.to_thread see it).
+_acting: contextvars.ContextVar[Page | None] = contextvars.ContextVar("acting", default=None)
+
+
+@dataclasses.dataclass(frozen=True)
+class Question:
+    """An open `confirm`: the page asked, the command and what a yes does."""
+
+    page: Page
+    cmd: str
+    action: Callable[[], str]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -75,7 +93,8 @@ class ScreenServer:
         self._log_line = log or (lambda line: print(line, file=sys.stderr, flush=True))
         self.station = Station(config.station, self._on_state, self._on_program, prepare=self._prepare)
         self.ops = Operations(self.station, self._log)
-        self._questions: dict[str, tuple[Page, Callable[[], str]]] = {}
+        self._questions: dict[str, Question] = {}
+        self._last_run: dict[str, Any] | None = None   # the last run's (or move's) outcome, for pages opened later
         self._loop: asyncio.AbstractEventLoop | None = None
         self._scene_of: object = None   # the robot whose arm the pages were last sent
         self.app = Starlette(routes=[
@@ -99,8 +118,9 @@ class ScreenServer:
             await asyncio.to_thread(self.station.close)
 
     def _log(self, line: str) -> None:
-        holder = self.pages.holder
-        self._log_line(f"{time.strftime('%H:%M:%S')} [{holder.id if holder else 'server'}] {line}")
+        """Log `line` under the page that acted (the one whose message is being handled), else 'server'."""
+        acting = _acting.get()
+        self._log_line(f"{time.strftime('%H:%M:%S')} [{acting.id if acting else 'server'}] {line}")
 
     # ------------------------------------------------------------------------------------------------ HTTP
     def _token_ok(self, given: str | None) -> bool:
@@ -162,6 +182,7 @@ class ScreenServer:
         page = Page(f"{client.host}:{client.port}" if client else "?", asyncio.get_running_loop(),
                     self.config.units)
         self.pages.join(page)
+        _acting.set(page)
         self._log(f"{page.label} opened the screen" + (" and has control" if self.pages.holder is page else ""))
         sender = asyncio.create_task(self._send_loop(websocket, page))
         try:
@@ -170,6 +191,8 @@ class ScreenServer:
             self._post_program(page, self.station.steps)
             if self.ops.last_check is not None:
                 page.post(views.check_for_page(self.ops.last_check, page.units))
+            if self._last_run is not None:
+                page.post(self._last_run)
             while True:
                 message = json.loads(await websocket.receive_text())
                 await self._receive(page, message)
@@ -194,7 +217,7 @@ class ScreenServer:
                 if self.station.activity.startswith("jog"):
                     await asyncio.to_thread(self.ops.jog_stop, "the page closed")
                 else:
-                    await asyncio.to_thread(self.ops.stop)
+                    await asyncio.to_thread(self.ops.stop, f"stopped: the page that had control ({page.id}) closed")
 
     def _hello(self, page: Page) -> dict[str, Any]:
         config = self.config.station
@@ -261,8 +284,9 @@ class ScreenServer:
 
     async def _command(self, page: Page, name: str, args: dict[str, Any], reply_id: object) -> None:
         reply = {"type": "reply", "id": reply_id, "cmd": name}
+        _acting.set(page)
         try:
-            if self.pages.holder is not page and name not in ("check", "default_name"):
+            if self.pages.holder is not page and name not in ANY_PAGE:
                 holder = self.pages.holder
                 raise PermissionError("this page is read-only: " + (f"{holder.label} has control; take control "
                                                                     "first" if holder else "take control first"))
@@ -300,7 +324,8 @@ class ScreenServer:
             return await self._ask(page, name, args)
         simple = {
             "power_on": ops.power_on, "power_off": ops.power_off, "brake_release": ops.brake_release,
-            "unlock": ops.unlock, "pause": ops.pause, "resume": ops.resume, "stop": ops.stop, "undo": ops.undo,
+            "unlock": ops.unlock, "pause": ops.pause, "resume": ops.resume, "undo": ops.undo,
+            "stop": lambda: ops.stop(f"stopped by the operator (Stop on {page.id})"),
             "redo": ops.redo, "default_name": ops.default_pose_name,
             "freedrive": lambda: ops.freedrive(bool(args.get("on"))),
             "speed": lambda: ops.set_speed_slider(float(args.get("fraction", -1))),
@@ -352,15 +377,34 @@ class ScreenServer:
                 return await asyncio.to_thread(ops.set_output, group, pin, on)
             action = functools.partial(ops.set_output, group, pin, on)
         qid = secrets.token_hex(6)
-        self._questions = {qid: (page, action)}   # only the newest question can be answered
+        self._questions = {qid: Question(page, name, action)}   # only the newest question can be answered
         page.post({"type": "confirm", "qid": qid, "question": question, "cmd": name})
         return "asked"
 
     async def _answer(self, page: Page, qid: str, yes: bool) -> str:
+        """Do what the question `qid` asked once answered yes, if it is still open; note a run's outcome for every
+        page."""
         asked = self._questions.pop(qid, None)
-        if asked is None or asked[0] is not page:
+        if asked is None or asked.page is not page:
             raise ValueError("that question is no longer open: ask again")
         if not yes:
             self._log("answered no: nothing done.")
             return "answered no: nothing done."
-        return await asyncio.to_thread(asked[1])
+        if asked.cmd not in RUNS:
+            return await asyncio.to_thread(asked.action)
+        try:
+            done = await asyncio.to_thread(asked.action)
+        except (UR3DQError, OSError) as error:
+            self._note_run({"ok": False, "error": f"the last {asked.cmd.replace('_', ' ')}: {one_line(error)}"})
+            raise
+        self._note_run({"ok": True, "text": f"the last {asked.cmd.replace('_', ' ')}: {done}"})
+        return done
+
+    def _note_run(self, outcome: dict[str, Any]) -> None:
+        """Keep a run's outcome for the pages opened later (a reload mid-run shows how it ended) and show it on the
+        other open pages (the one that answered gets its reply)."""
+        self._last_run = {"type": "reply", "id": None, "cmd": "last_run", **outcome}
+        acting = _acting.get()
+        for other in self.pages.all():
+            if other is not acting:
+                other.post(self._last_run)

@@ -153,9 +153,9 @@ function refreshButtons() {
     "#move-here": you && running && idle && !!step && step.waypoint && !program.store_error,
     "#check": !!s && program.steps.length > 0 && !program.store_error,
     "#run-button": you && running && idle && program.steps.length > 0 && s.program === "STOPPED" && !program.store_error,
-    "#pause": you && up && s.program === "PLAYING" && s.activity === "run",
+    "#pause": up && s.program === "PLAYING" && s.activity === "run",   // every page may pause and stop
     "#resume": you && up && s.program === "PAUSED",
-    "#stop": you && up && (!idle || s.program !== "STOPPED"),
+    "#stop": up && (!idle || s.program !== "STOPPED"),
     "#undo": you && !!program.can_undo, "#redo": you && !!program.can_redo,
     "#step-up": you && !!step, "#step-down": you && !!step, "#step-rename": you && !!step,
     "#step-delete": you && !!step, "#retouch": you && up && !!step && step.recorded,
