@@ -153,6 +153,23 @@ def test_a_run_stopped_because_its_page_closed_says_so_after_a_reload(cell):
     assert closed.split()[1] != "[server]", closed
 
 
+def test_freedrive_ends_when_the_page_that_turned_it_on_closes_or_loses_control(cell):
+    for how in ("close", "take control"):
+        owner, other = cell.open_page(), cell.open_page()
+        try:
+            expect(owner.locator("#control-line")).to_have_text("You have control.", timeout=5000)
+            button(owner, "Freedrive").click()
+            expect(other.locator("#freedrive")).to_have_attribute("aria-pressed", "true", timeout=5000)
+            if how == "close":
+                owner.close()
+            else:
+                button(other, "Take control").click()
+            expect(other.locator("#freedrive")).to_have_attribute("aria-pressed", "false", timeout=5000)
+        finally:
+            owner.close()
+            other.close()
+
+
 def test_the_motion_editor_keeps_the_acceleration_it_does_not_show(cell):
     cell.cli("poses", "set", "p2", "--move", "linear", "--speed", "100mm/s", "--acceleration", "500mm/s^2")
     page = cell.open_page()

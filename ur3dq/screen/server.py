@@ -5,8 +5,8 @@ Starlette routes served by uvicorn. The page talks JSON over its WebSocket: the 
 `beat` (its heartbeat, every 50 ms), `units`, `take_control` and `cmd` (a button). Commands run in worker threads
 (ur3dq.screen.operations); only the page holding control may give them, except Stop and Pause (any open page, as
 the pendant's stop button) and the read-only ones (ANY_PAGE). Every motion stops when the controlling page closes or
-its heartbeat goes silent for JOG_SILENCE (a jog), and the controller stops a motion by itself when this server
-dies (the driver's heartbeat).
+its heartbeat goes silent for JOG_SILENCE (a jog), freedrive ends when the page that turned it on closes or loses
+control, and the controller stops a motion by itself when this server dies (the driver's heartbeat).
 Log lines name the page that acted.
 """
 from __future__ import annotations
@@ -94,6 +94,7 @@ class ScreenServer:
         self.station = Station(config.station, self._on_state, self._on_program, prepare=self._prepare)
         self.ops = Operations(self.station, self._log)
         self._questions: dict[str, Question] = {}
+        self._freedrive_by: Page | None = None    # the page that turned freedrive on (it ends when that page goes)
         self._last_run: dict[str, Any] | None = None   # the last run's (or move's) outcome, for pages opened later
         self._loop: asyncio.AbstractEventLoop | None = None
         self._scene_of: object = None   # the robot whose arm the pages were last sent
@@ -218,6 +219,18 @@ class ScreenServer:
                     await asyncio.to_thread(self.ops.jog_stop, "the page closed")
                 else:
                     await asyncio.to_thread(self.ops.stop, f"stopped: the page that had control ({page.id}) closed")
+        await self._end_freedrive_of(page, "closed")
+
+    async def _end_freedrive_of(self, page: Page, why: str) -> None:
+        """End freedrive if `page` turned it on (it closed or lost control: nobody is there to turn it off)."""
+        if self._freedrive_by is not page:
+            return
+        self._freedrive_by = None
+        self._log(f"the page that turned freedrive on {why}: ending freedrive")
+        try:
+            await asyncio.to_thread(self.ops.freedrive, False)
+        except (UR3DQError, OSError) as error:
+            self._log(f"Error (freedrive off): {one_line(error)}")
 
     def _hello(self, page: Page) -> dict[str, Any]:
         config = self.config.station
@@ -268,6 +281,8 @@ class ScreenServer:
             self._log(f"{page.label} took control" + (f" from {previous.label}" if previous else ""))
             if previous is not None and (self.station.activity or "").startswith("jog"):
                 await asyncio.to_thread(self.ops.jog_stop, "control was taken over")
+            if previous is not None:
+                await self._end_freedrive_of(previous, "lost control")
         elif kind == "cmd":
             self._spawn(self._command(page, str(message.get("cmd")), message.get("args") or {}, message.get("id")))
 
@@ -327,7 +342,7 @@ class ScreenServer:
             "unlock": ops.unlock, "pause": ops.pause, "resume": ops.resume, "undo": ops.undo,
             "stop": lambda: ops.stop(f"stopped by the operator (Stop on {page.id})"),
             "redo": ops.redo, "default_name": ops.default_pose_name,
-            "freedrive": lambda: ops.freedrive(bool(args.get("on"))),
+            "freedrive": lambda: self._freedrive(page, bool(args.get("on"))),
             "speed": lambda: ops.set_speed_slider(float(args.get("fraction", -1))),
             "record": lambda: ops.record(str(args.get("name", "")).strip() or ops.default_pose_name(),
                                          args.get("after")),
@@ -336,6 +351,12 @@ class ScreenServer:
         if name not in simple:
             raise ValueError(f"unknown command {name!r}")
         return await asyncio.to_thread(simple[name])
+
+    def _freedrive(self, page: Page, on: bool) -> str:
+        """Freedrive on or off (in a worker thread); `page` turned it on: it ends when that page goes."""
+        done = self.ops.freedrive(on)
+        self._freedrive_by = page if on else None
+        return done
 
     @staticmethod
     def _jog_request(args: dict[str, Any]) -> tuple[jog_steps.JogStep, float]:
