@@ -170,6 +170,31 @@ def test_freedrive_ends_when_the_page_that_turned_it_on_closes_or_loses_control(
             other.close()
 
 
+def test_a_question_about_a_program_that_changed_is_withdrawn(cell):
+    saved = cell.store.read_text()
+    page = cell.open_page()
+    try:
+        set_speed_slider(page, 100)
+        page.locator("#loops").fill("1")
+        button(page, "Run").click()
+        expect(page.locator("#ask")).to_contain_text("Run 3 steps ('p1' to 'p3') on the arm?")
+        cell.cli("poses", "rm", "p3", "--yes")
+        expect(page.locator("#notice")).to_contain_text("the program changed while the question (run) was open",
+                                                        timeout=5000)
+        expect(page.locator("#ask")).not_to_be_visible()
+        assert cell.at_rest()
+        page.locator('[data-step="p2"]').click()
+        button(page, "Move here").click()
+        expect(page.locator("#ask")).to_contain_text("Move the arm to 'p2'")
+        cell.cli("poses", "rename", "p1", "start")
+        expect(page.locator("#notice")).to_contain_text("the program changed", timeout=5000)
+        expect(page.locator("#ask")).not_to_be_visible()
+        assert cell.at_rest()
+    finally:
+        page.close()
+        cell.store.write_text(saved)
+
+
 def test_the_motion_editor_keeps_the_acceleration_it_does_not_show(cell):
     cell.cli("poses", "set", "p2", "--move", "linear", "--speed", "100mm/s", "--acceleration", "500mm/s^2")
     page = cell.open_page()

@@ -6,8 +6,9 @@ Starlette routes served by uvicorn. The page talks JSON over its WebSocket: the 
 (ur3dq.screen.operations); only the page holding control may give them, except Stop and Pause (any open page, as
 the pendant's stop button) and the read-only ones (ANY_PAGE). Every motion stops when the controlling page closes or
 its heartbeat goes silent for JOG_SILENCE (a jog), freedrive ends when the page that turned it on closes or loses
-control, and the controller stops a motion by itself when this server dies (the driver's heartbeat).
-Log lines name the page that acted.
+control, and the controller stops a motion by itself when this server dies (the driver's heartbeat). A question
+(`confirm`) about the program is withdrawn when the program changes before it is answered. Log lines name the page
+that acted.
 """
 from __future__ import annotations
 
@@ -37,6 +38,7 @@ from ur3dq.errors import UR3DQError
 from ur3dq.robot import jog_steps
 from ur3dq.screen import scene, views
 from ur3dq.screen.access import request_allowed, token_accepted
+from ur3dq.screen.editing import program_text
 from ur3dq.screen.operations import MAX_LOOPS, Operations, output_pin
 from ur3dq.screen.pages import Page, Pages
 from ur3dq.screen.station import Station, StationConfig
@@ -59,11 +61,13 @@ _acting: contextvars.ContextVar[Page | None] = contextvars.ContextVar("acting", 
 
 @dataclasses.dataclass(frozen=True)
 class Question:
-    """An open `confirm`: the page asked, the command and what a yes does."""
+    """An open `confirm`: the page asked, the command, what a yes does and the program's text when it was asked
+    (None: a question about no program, an output switch)."""
 
     page: Page
     cmd: str
     action: Callable[[], str]
+    program: str | None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -152,6 +156,20 @@ class ScreenServer:
         frames = scene.pose_frames(steps)
         for page in self.pages.all():
             self._post_program(page, steps, frames)
+        if self._loop is not None and any(q.program is not None for q in tuple(self._questions.values())):
+            text = program_text(steps) if self.station.store_error is None else None
+            self._loop.call_soon_threadsafe(self._withdraw_stale, text)
+
+    def _withdraw_stale(self, program: str | None) -> None:
+        """Withdraw the open question about a program other than `program` (None: the store does not read)."""
+        for qid, question in list(self._questions.items()):
+            if question.program is not None and question.program != program:
+                del self._questions[qid]
+                why = (f"the program changed while the question ({question.cmd}) was open: nothing done; look at "
+                       "the program and ask again")
+                question.page.post({"type": "withdrawn", "qid": qid})
+                question.page.post({"type": "reply", "id": None, "cmd": question.cmd, "ok": False, "error": why})
+                self._log(f"question withdrawn: {why}")
 
     def _post_program(self, page: Page, steps: list[Step], frames: list[dict[str, Any]] | None = None) -> None:
         source = self.station.store_error or str(self.station.store.path)
@@ -373,10 +391,12 @@ class ScreenServer:
         return step, step.top_speed * fraction
 
     async def _ask(self, page: Page, name: str, args: dict[str, Any]) -> str:
-        """Prepare a motion (or output switch) that needs the operator's yes; post the question to the page."""
+        """Prepare a motion (or output switch) that needs the operator's yes; post the question to the page. The
+        program's text is kept with a question about it: a change before the answer withdraws the question."""
         ops = self.ops
         question: str | None
         action: Callable[[], str]
+        program = program_text(ops.program()) if name in ("run", "move_here", "retouch") else None
         if name == "run":
             loops = u.whole_number(args.get("loops", 1), "loops", 1, MAX_LOOPS)
             try:
@@ -398,19 +418,23 @@ class ScreenServer:
                 return await asyncio.to_thread(ops.set_output, group, pin, on)
             action = functools.partial(ops.set_output, group, pin, on)
         qid = secrets.token_hex(6)
-        self._questions = {qid: Question(page, name, action)}   # only the newest question can be answered
+        self._questions = {qid: Question(page, name, action, program)}   # only the newest question can be answered
         page.post({"type": "confirm", "qid": qid, "question": question, "cmd": name})
         return "asked"
 
     async def _answer(self, page: Page, qid: str, yes: bool) -> str:
-        """Do what the question `qid` asked once answered yes, if it is still open; note a run's outcome for every
-        page."""
+        """Do what the question `qid` asked once answered yes, if it is still open and its program is still the
+        store's (read again now: a change made a moment ago is seen); note a run's outcome for every page."""
         asked = self._questions.pop(qid, None)
         if asked is None or asked.page is not page:
             raise ValueError("that question is no longer open: ask again")
         if not yes:
             self._log("answered no: nothing done.")
             return "answered no: nothing done."
+        if asked.program is not None:
+            await asyncio.to_thread(self.station.reload_program)
+            if program_text(self.ops.program()) != asked.program:
+                raise ValueError("the program changed since the question was asked: nothing done; ask again")
         if asked.cmd not in RUNS:
             return await asyncio.to_thread(asked.action)
         try:

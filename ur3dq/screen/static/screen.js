@@ -58,6 +58,7 @@ function receive(message) {
     case "check": check = message; renderCheck(); break;
     case "state": applyState(message); break;
     case "confirm": confirmQuestion(message); break;
+    case "withdrawn": if ($("#ask").open && $("#ask").dataset.qid === message.qid) $("#ask").close(); break;
     case "reply": showReply(message); break;
   }
 }
@@ -476,6 +477,7 @@ function choice(name, label, options) { return { name, label, options }; }
 // A modal question: `fields` to fill in, then onOk(values) on OK (or onCancel() on Cancel / No).
 function ask(text, fields, okLabel, onOk, cancelLabel = "Cancel", onCancel = null) {
   const dialog = $("#ask");
+  delete dialog.dataset.qid;
   $("#ask-text").textContent = text;
   $("#ask-fields").replaceChildren(...fields.map((spec) => {
     const label = document.createElement("label");
@@ -515,6 +517,7 @@ function ask(text, fields, okLabel, onOk, cancelLabel = "Cancel", onCancel = nul
 function confirmQuestion(message) {
   ask(message.question, [], "Yes", () => command("answer", { qid: message.qid, yes: true }), "No",
     () => command("answer", { qid: message.qid, yes: false }));
+  $("#ask").dataset.qid = message.qid;   // a question the server withdraws closes ("withdrawn")
 }
 
 function showReply(message) {
