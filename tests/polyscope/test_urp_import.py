@@ -334,3 +334,16 @@ def test_a_relative_waypoint_moved_on_the_pendant_comes_back_fixed():
     imported = import_program(parse_urp_bytes(moved.encode(), "cell.urp"))
     assert isinstance(imported.steps[1], Waypoint)
     assert any("step 'above': no longer where its base and offset put it" in line for line in imported.warnings)
+
+
+@pytest.mark.parametrize("parameters, refusal", [
+    ('cartesianSpeed="1e300"', "place (the waypoint: speed 1e+300 m/s is outside the ur5e's range for a linear move"),
+    ('cartesianAcceleration="1e-9"', "(the waypoint: acceleration 1e-09 m/s² is outside the ur5e's range"),
+])
+def test_a_speed_or_acceleration_out_of_the_arms_range_is_refused_by_its_node(parameters, refusal):
+    """What `poses set` refuses does not come in through a file (the plan would lower it to the limit)."""
+    program = tree(move("MoveL", waypoint("place", HOME, (0.0,) * 6, parameters), speed="0.25", acceleration="1.2",
+                        extra='positionType="CartesianPose"'))
+    with pytest.raises(UnsupportedNodes) as refused:
+        import_program(program)
+    assert refusal in str(refused.value)

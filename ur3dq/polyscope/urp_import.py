@@ -33,6 +33,7 @@ from ur3dq.polyscope.kinematics import SavedKinematics
 from ur3dq.polyscope.nodes import NodeError, Program, number_field
 from ur3dq.polyscope.urp_file import UrpFileError
 from ur3dq.pose import Pose, name_problem, next_free_name, numbering_prefix
+from ur3dq.program.plan import check_motion_range
 from ur3dq.program.resolve import offset_pose
 from ur3dq.program.steps import (
     ANALOG_PIN_COUNT,
@@ -51,7 +52,7 @@ from ur3dq.program.steps import (
     WaitInput,
     Waypoint,
 )
-from ur3dq.units import DURATION, show
+from ur3dq.units import DURATION, Units, show
 
 MOVE_TYPES = {"MoveJ": "joint", "MoveL": "linear", "MoveP": "process"}
 PIN_KINDS = {"digital": "standard", "config": "configurable", "tool": "tool"}
@@ -381,9 +382,12 @@ class Importer:
             if parameters.get("blendRadius"):
                 blend = number_field(parameters, "blendRadius", path)
         try:
-            return Motion(MOVE_TYPES[kind], speed, acceleration, blend)
+            motion = Motion(MOVE_TYPES[kind], speed, acceleration, blend)
+            # the range `poses set` allows: a file is an editor too (the plan would only lower it, with a warning)
+            check_motion_range(motion, self.model, "the waypoint", Units())
         except ValueError as error:
             raise NodeError(path, str(error).removeprefix("motion: ")) from None
+        return motion
 
     def position(self, element: Element, path: str) -> tuple[list[float], list[float], list[float]]:
         """(joints, TCP offset, TCP pose) of a recorded position: 5.x `<JointAngles>`, `<TCPOffset>` and its own
