@@ -94,7 +94,29 @@ def test_a_bare_number_far_beyond_the_usual_asks_for_its_unit(run_in_process, st
     assert run_in_process(*with_unit).returncode == 0   # typed with its unit, it is taken as typed
 
 
+@pytest.mark.parametrize("args, refusal", [
+    (("poses", "offset", "down", "--from", "demo-1", "--z", "-50"),   # 50 m is past any offset: no "if meant"
+     "--z -50: a bare number is read in m, and -50 m is more than a metre; type -50mm"),
+    (("poses", "add-step", "wait-input", "3", "on", "--timeout", "100"),
+     "--timeout 100: a bare number is read in s, and 100 s is more than a minute; type 100ms, or 100s if that is "
+     "meant"),
+    (("poses", "add-step", "wait", "1e300"), "and 1e300 s is more than a minute; the most it takes is 86400 s"),
+    (("--deg", "poses", "offset", "turned", "--from", "demo-1", "--rz", "500"),
+     "500 ° is more than a half turn; type 500deg if that is meant"),
+    (("check", "--margin", "5"), "--margin 5: a bare number is read in m, and 5 m is more than half a metre; "
+                                 "type 5mm"),
+    (("poses", "set", "demo-2", "--blend", "20"), "and 20 m is more than half a metre; type 20mm"),
+])
+def test_a_bare_number_past_the_usual_is_offered_only_what_the_option_takes(run_in_process, store, args, refusal):
+    before = store.read_bytes()
+    result = run_in_process(*args)
+    assert result.returncode == 4 and result.stderr.rstrip().endswith(refusal), result.stderr   # all it offers
+    assert store.read_bytes() == before
+
+
 @pytest.mark.parametrize("args", [("poses", "offset", "turned", "--from", "demo-1", "--rz", "3"),
+                                  ("poses", "offset", "down", "--from", "demo-1", "--z", "-0.05"),
+                                  ("check", "--margin", "0.02"),
                                   ("--deg", "poses", "offset", "turned", "--from", "demo-1", "--rz", "5"),
                                   ("poses", "add-step", "wait", "60")])
 def test_a_bare_number_within_the_usual_is_taken(run_in_process, store, args):

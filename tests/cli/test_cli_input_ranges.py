@@ -27,7 +27,7 @@ def two_poses(tmp_path):
     (("--speed", "250mm/s"), "--speed takes a joint speed"),
     (("--max-travel", "nan"), "--max-travel: 'nan' is not an angle"),
     (("--max-travel", "400deg"), "--max-travel must be an angle in (0, 360°]"),
-    (("--blend", "1e9"), "--blend must be a radius in [0, 2000 mm]"),
+    (("--blend", "1e9mm"), "--blend must be a radius in [0, 1000 mm]"),   # the waypoint's own bound
 ])
 @pytest.mark.parametrize("command", ["run-poses --dry-run", "export-urscript"])
 def test_options_outside_their_range_are_refused_with_the_range(run_in_process, two_poses, command, options,

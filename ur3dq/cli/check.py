@@ -10,7 +10,7 @@ import click
 from ur3dq.cli.app import Settings, cli, emit_json, make_error_console, robot_session, solving_poses
 from ur3dq.cli.background_simulator import running_simulator_host
 from ur3dq.cli.display import recorded_joints_warnings
-from ur3dq.cli.options import Quantity, Typed, TypedValue, cell_option, display_options
+from ur3dq.cli.options import SMALL_LENGTH, Typed, TypedValue, cell_option, display_options
 from ur3dq.cli.path_report import (
     DEFAULT_JOINT_ACCELERATION,
     DEFAULT_JOINT_SPEED,
@@ -29,7 +29,7 @@ from ur3dq.program.path import path_plan_of
 from ur3dq.program.plan import plan_program
 from ur3dq.replay import plan_replay
 from ur3dq.store_format import PROGRAM_SCHEMA_VERSION
-from ur3dq.units import ANGULAR_SPEED, LENGTH, LINEAR_SPEED
+from ur3dq.units import ANGULAR_SPEED, LINEAR_SPEED
 
 
 @cli.command("check", short_help="Check the whole path against the cell, no motion.")
@@ -40,15 +40,15 @@ from ur3dq.units import ANGULAR_SPEED, LENGTH, LINEAR_SPEED
 @click.option("--speed", type=Typed([ANGULAR_SPEED, LINEAR_SPEED]), default=None, metavar="V",
               help=f"Joint moves: e.g. 60deg/s [{DEFAULT_JOINT_SPEED} rad/s]; linear/process: e.g. 250mm/s "
                    f"[{DEFAULT_LINEAR_SPEED * 1000:g} mm/s].")
-@click.option("--blend", type=Quantity(LENGTH), default=0.0, metavar="R",
+@click.option("--blend", type=SMALL_LENGTH, default=0.0, metavar="R",
               help="Blend radius between moves, e.g. 10mm [default: 0].")
-@click.option("--margin", type=Quantity(LENGTH), default=None, metavar="D",
+@click.option("--margin", type=SMALL_LENGTH, default=None, metavar="D",
               help="Clearance kept from the cell, e.g. 20mm [default: the cell file's].")
-@click.option("--self-margin", type=Quantity(LENGTH), default=0.0, metavar="D",
+@click.option("--self-margin", type=SMALL_LENGTH, default=0.0, metavar="D",
               help="Clearance between the arm's own links [default: 0 mm].")
 @click.option("--wrist", type=float, default=Margins.wrist, show_default=True, help="Smallest |sin θ5| on a line.")
 @click.option("--elbow", type=float, default=Margins.elbow, show_default=True, help="Smallest |sin θ3| on a line.")
-@click.option("--shoulder", type=Quantity(LENGTH), default=Margins.shoulder, metavar="D",
+@click.option("--shoulder", type=SMALL_LENGTH, default=Margins.shoulder, metavar="D",
               help=f"Smallest wrist-centre distance from the base axis on a line [default: "
                    f"{Margins.shoulder * 1000:g} mm].")
 @click.option("--joints", "replay_joints", is_flag=True, help="Check the recorded joint angles instead of IK.")

@@ -21,7 +21,7 @@ from ur3dq.cli.app import Settings
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.kinematics import robot_model
 from ur3dq.kinematics.models import URModel
-from ur3dq.program.steps import MOVE_TYPES
+from ur3dq.program.steps import MAX_BLEND_M, MOVE_TYPES
 from ur3dq.units import (
     ANGLE,
     ANGULAR_ACCELERATION,
@@ -44,7 +44,6 @@ F = TypeVar("F", bound=Callable[..., Any])
 
 MIN_SPEED = 1e-3           # rad/s: slower than this a move of one degree takes over 17 s; a typo, not a wish
 MIN_ACCELERATION = 1e-3    # rad/s²
-MAX_BLEND_RADIUS = 2.0     # metres, the driver's bound (ur3dq.robot.robot.MAX_BLEND_RADIUS)
 DEFAULT_SPEED = 1.05         # rad/s, URScript's movej default
 DEFAULT_ACCELERATION = 1.4   # rad/s²
 # Negative numbers such as -90 are values here, not options.
@@ -74,10 +73,12 @@ class Quantity(click.ParamType):  # type: ignore[type-arg, unused-ignore]  # gen
     a ValueError naming the option and an example (exit 4, one line).
     """
 
-    def __init__(self, kind: Kind, bare_limit: tuple[float, str, str] | None = None) -> None:
+    def __init__(self, kind: Kind, bare_limit: tuple[float, str, str] | None = None, most: float | None = None
+                 ) -> None:
         self.kind = kind
         self.name = kind.name
         self.bare_limit = bare_limit   # (SI limit, its words, the unit likely meant) for a bare number
+        self.most = most   # SI: the largest value the option takes (a bare number past it is offered no "if meant")
 
     def get_metavar(self, param: click.Parameter, ctx: click.Context | None = None) -> str:
         """What --help shows after the option: the quantity (DISTANCE, ANGLE, SPEED, ...)."""
@@ -92,8 +93,26 @@ class Quantity(click.ParamType):  # type: ignore[type-arg, unused-ignore]  # gen
             limit, words, meant = self.bare_limit
             unit = units.bare_unit(self.kind)
             raise ValueError(f"{name} {value}: a bare number is read in {unit}, and {value} {unit} is more than "
-                             f"{words}; type {value}{meant}, or {value}{unit} if that is meant")
+                             f"{words}; {self._way_on(value, meant, si, units, name)}")
         return si
+
+    def _way_on(self, value: str, meant: str, si: float, units: Units, name: str) -> str:
+        """What to type instead of a bare `value` (`si` as read) past the bare limit: with the unit likely `meant`,
+        or as read, with its unit; each only if the option takes it (self.most)."""
+        unit = units.bare_unit(self.kind)
+        ways: dict[float, str] = {}   # SI value -> text: under --deg, 5deg and a bare 5 are one way, not two
+        for text in (f"{value}{meant}", f"{value}{unit}"):
+            value_si = parse(text, self.kind, units, name)
+            if self.most is None or abs(value_si) <= self.most:
+                ways.setdefault(value_si, text)
+        if not ways:
+            return f"the most it takes is {show(self.most or 0.0, self.kind, units)}"
+        lines = [f"{text} if that is meant" if value_si == si else text for value_si, text in ways.items()]
+        return "type " + ", or ".join(lines)
+
+
+#: A clearance or blend radius: a bare number over half a metre is millimetres typed without their unit.
+SMALL_LENGTH = Quantity(LENGTH, (0.5, "half a metre", "mm"), most=MAX_BLEND_M)
 
 
 def _is_bare(value: Any) -> bool:
@@ -270,9 +289,9 @@ def check_max_travel(max_travel: float) -> float:
 
 
 def check_blend(blend: float) -> float:
-    """--blend in metres if it is in [0, MAX_BLEND_RADIUS]; ValueError naming the range."""
-    if not (math.isfinite(blend) and 0 <= blend <= MAX_BLEND_RADIUS):
-        raise ValueError(f"--blend must be a radius in [0, {MAX_BLEND_RADIUS * 1000:g} mm], got {blend * 1000:g} mm")
+    """--blend in metres if it is in [0, MAX_BLEND_M] (a waypoint's own bound); ValueError naming the range."""
+    if not (math.isfinite(blend) and 0 <= blend <= MAX_BLEND_M):
+        raise ValueError(f"--blend must be a radius in [0, {MAX_BLEND_M * 1000:g} mm], got {blend * 1000:g} mm")
     return blend
 
 
@@ -290,7 +309,7 @@ def waypoint_motion_options(command: F) -> F:
     """--move, --speed, --acceleration, --blend of a waypoint (speed and acceleration: TypedValue, whose kind is
     the move's; blend SI metres)."""
     for option in (
-        click.option("--blend", type=Quantity(LENGTH), metavar="R",
+        click.option("--blend", type=SMALL_LENGTH, metavar="R",
                      help="Blend radius into the next waypoint, e.g. 20mm (bare: m, mm under --mm)."),
         click.option("--acceleration", type=WAYPOINT_ACCELERATION, metavar="A",
                      help="Joint move: e.g. 80deg/s^2 (bare rad/s²); linear/process: e.g. 1200mm/s^2 (bare "

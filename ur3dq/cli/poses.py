@@ -66,6 +66,8 @@ from ur3dq.pose import next_free_name, utc_now_iso
 from ur3dq.program.plan import plan_program
 from ur3dq.program.resolve import resolve_targets
 from ur3dq.program.steps import (
+    MAX_OFFSET_M,
+    MAX_WAIT_S,
     PIN_COUNT,
     AnalogOut,
     DigitalOut,
@@ -421,14 +423,18 @@ def copy_step(settings: Settings, name: str, new: str, after: str | None, before
 
 #: An offset's turn: a bare number over a half turn is refused (a turn of 5 is 5° far more often than 286°).
 OFFSET_TURN = Quantity(ANGLE, (math.pi, "a half turn", "deg"))
+#: An offset's shift: a bare number over a metre is millimetres typed without their unit.
+OFFSET_LENGTH = Quantity(LENGTH, (1.0, "a metre", "mm"), most=MAX_OFFSET_M)
+#: A wait or a wait's timeout: a bare number over a minute is milliseconds typed without their unit.
+WAIT_TIME = Quantity(DURATION, (60.0, "a minute", "ms"), most=MAX_WAIT_S)
 
 
 @poses.command("offset", short_help="Add a waypoint at an offset from another.")
 @click.argument("new")
 @click.option("--from", "base", required=True, metavar="N", help="The waypoint it is relative to.")
-@click.option("--x", "dx", type=Quantity(LENGTH), default=0.0, metavar="D", help="Offset along x, e.g. 20mm.")
-@click.option("--y", "dy", type=Quantity(LENGTH), default=0.0, metavar="D", help="Offset along y.")
-@click.option("--z", "dz", type=Quantity(LENGTH), default=0.0, metavar="D",
+@click.option("--x", "dx", type=OFFSET_LENGTH, default=0.0, metavar="D", help="Offset along x, e.g. 20mm.")
+@click.option("--y", "dy", type=OFFSET_LENGTH, default=0.0, metavar="D", help="Offset along y.")
+@click.option("--z", "dz", type=OFFSET_LENGTH, default=0.0, metavar="D",
               help="Offset along z, e.g. -50mm (bare: m, mm under --mm).")
 @click.option("--rx", type=OFFSET_TURN, default=0.0, metavar="ANGLE",
               help="Rotation vector x, e.g. 5deg (bare: rad up to π, ° under --deg).")
@@ -559,7 +565,7 @@ def analog_out(pin: int, value: str) -> None:
 
 
 @add_step.command("wait", short_help="Wait a time, e.g. 500ms or 2s.")
-@click.argument("seconds", type=Quantity(DURATION, (60.0, "a minute", "ms")), metavar="TIME")
+@click.argument("seconds", type=WAIT_TIME, metavar="TIME")
 @display_options
 def wait(seconds: float) -> None:
     """Wait TIME: 500ms, 2s, or a bare number of seconds up to 60 (longer: with its unit, 90s)."""
@@ -569,7 +575,7 @@ def wait(seconds: float) -> None:
 @add_step.command("wait-input", short_help="Wait until a digital input is on/off.")
 @click.argument("pin", type=int)
 @click.argument("value", type=ON_OFF)
-@click.option("--timeout", type=Quantity(DURATION), default="10s", show_default=True, metavar="TIME",
+@click.option("--timeout", type=WAIT_TIME, default="10s", show_default=True, metavar="TIME",
               help="Fail the run if the input has not changed after this long.")
 @click.option("--input", "kind", type=click.Choice(["standard", "tool", "configurable"]), default="standard",
               show_default=True, help="Which digital inputs PIN is one of.")
