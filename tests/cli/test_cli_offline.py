@@ -284,3 +284,15 @@ def test_dry_run_plan_reads_speed_in_degrees_with_deg(run_in_process, recorded_s
     assert plan[1]["duration"] == pytest.approx(motion.movej_duration(CONFIGS[0], CONFIGS[1], 1.4, math.radians(30)))
     too_far = run_in_process("--deg", "run-poses", "--dry-run", "--max-travel", 30)
     assert_one_line_error(too_far, 4, "more than --max-travel")
+
+
+@pytest.mark.parametrize("args", [("--host", "127.0.0.99:30002", "status"), ("status", "--host", "127.0.0.1.5"),
+                                  ("--host", "127.0.0.1 2", "poses", "list")])
+def test_a_host_that_is_no_address_is_a_usage_error_before_anything_is_contacted(run_in_process, args):
+    result = run_in_process(*args)
+    assert result.returncode == 2 and "is not an IP address or a host name: give it without a port" in result.stderr
+
+
+def test_a_simulator_address_that_is_no_loopback_address_is_refused_as_such(run_in_process):
+    assert_one_line_error(run_in_process("sim", "start", "--address", "127.0.0.1.5"), 4,
+                          "--address '127.0.0.1.5': the embedded simulator binds loopback addresses only")

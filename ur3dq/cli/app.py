@@ -6,10 +6,12 @@ import dataclasses
 import functools
 import importlib
 import io
+import ipaddress
 import json
 import logging
 import math
 import os
+import re
 import shutil
 import sys
 import textwrap
@@ -183,6 +185,39 @@ def make_error_console() -> Console:
     return Console(stderr=True, width=fixed, highlight=False)
 
 
+#: A host name (RFC 1123 labels); its last label is not all digits, so a mistyped address is no name.
+_LABEL = r"[a-z0-9]([a-z0-9-]{0,61}[a-z0-9])?"
+_HOST_NAME = re.compile(rf"(?!.{{254}})({_LABEL}\.)*(?![0-9]+\.?$){_LABEL}\.?", re.IGNORECASE)
+
+
+def is_host(text: str) -> bool:
+    """Whether `text` names a host: an IPv4 or IPv6 address, or a host name (never a port, a path or spaces).
+
+    >>> [is_host(text) for text in ("127.0.0.2", "ur3-cell.local", "::1", "127.0.0.99:30002", "127.0.0.1.5")]
+    [True, True, True, False, False]
+    """
+    try:
+        ipaddress.ip_address(text)
+        return True
+    except ValueError:
+        return _HOST_NAME.fullmatch(text) is not None
+
+
+class HostType(click.ParamType):  # type: ignore[type-arg, unused-ignore]  # generic only in newer click
+    """--host (and UR3DQ_HOST): an address or a host name, refused as a usage error when it is neither."""
+
+    name = "address"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> str:
+        if not is_host(str(value)):
+            self.fail(f"{value!r} is not an IP address or a host name: give it without a port (ur3dq uses the "
+                      "controller's own ports)", param, ctx)
+        return str(value)
+
+
+HOST = HostType()
+
+
 JSON_SCHEMA = 1   # the "schema" key of every --json document (docs/json.md); raised when a key changes meaning
 
 
@@ -262,7 +297,7 @@ def prepare_output(settings: Settings, path: Path, yes: bool) -> None:
     context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 80},
     epilog=EXIT_CODES_EPILOG,
 )
-@click.option("--host", envvar="UR3DQ_HOST", metavar="ADDRESS",
+@click.option("--host", envvar="UR3DQ_HOST", type=HOST, metavar="ADDRESS",
               help="Robot or URSim (env UR3DQ_HOST) [default: `ur3dq sim start`'s].")
 @click.option("--backend", type=click.Choice(["rtde", "urx"]), default="rtde", metavar="rtde|urx",
               help="Client library for state and programs [default: rtde].")

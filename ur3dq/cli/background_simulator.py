@@ -9,6 +9,7 @@ so a stale file (reboot, kill -9, reused pid) is recognised and never leads to s
 """
 from __future__ import annotations
 
+import ipaddress
 import json
 import os
 import random
@@ -80,6 +81,14 @@ def _lock(directory: Path) -> filelock.FileLock:
     return filelock.FileLock(str(directory / "sim.lock"), timeout=START_TIMEOUT_S + STOP_TIMEOUT_S)
 
 
+def is_loopback_ipv4(text: str) -> bool:
+    """Whether `text` is an IPv4 address in 127.0.0.0/8, written as one (`127.0.0.3`, not `127.0.0.1.5`)."""
+    try:
+        return ipaddress.IPv4Address(text).is_loopback
+    except ValueError:
+        return False
+
+
 def start_simulator(model: str = "ur3", host: str | None = None, version: str | None = None) -> dict[str, Any]:
     """Start the embedded simulator in the background and record where it serves.
 
@@ -96,7 +105,7 @@ def start_simulator(model: str = "ur3", host: str | None = None, version: str | 
                                  "`ur3dq sim stop` first")
         if host is None:
             host = _preferred_address(directory)
-        elif not host.startswith("127."):
+        elif not is_loopback_ipv4(host):
             raise ValueError(f"--address {host!r}: the embedded simulator binds loopback addresses only (127.x.y.z)")
         elif not ports_bindable(host):
             raise SimulatorError(f"the robot ports on {host} are taken: choose another --address (e.g. 127.0.0.3)")

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any, TypeVar
 import click
 import numpy as np
 
-from ur3dq.cli.app import Settings
+from ur3dq.cli.app import HOST, Settings
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.kinematics import robot_model
 from ur3dq.kinematics.models import URModel
@@ -195,7 +195,7 @@ def global_options(command: F) -> F:
             ("--store", "store_path", click.Path(dir_okay=False, path_type=Path), "The JSON pose store."),
             ("--backend", "backend", click.Choice(["rtde", "urx"]), "Client library for state and programs."),
             ("--model", "model", click.Choice(MODEL_NAMES, case_sensitive=False), "Robot model."),
-            ("--host", "host", str, "The robot or URSim to talk to.")):
+            ("--host", "host", HOST, "The robot or URSim to talk to.")):
         command = click.option(flag, name, type=kind, default=None, expose_value=False, callback=_set_value,
                                hidden=True, help=f"{text} (as before the command)")(command)
     return command
