@@ -169,7 +169,6 @@ class Station:
         if robot is None:
             return self._without_robot()
         try:
-            read_at = time.time()
             status = robot.state()
             io = robot.io_state()
         except RobotError as error:
@@ -180,7 +179,8 @@ class Station:
         return Snapshot(True, robot_mode_name(status.robot_mode), safety_mode_name(status.safety_mode), program,
                         tuple(float(q) for q in status.joints), tuple(float(v) for v in status.tcp_pose), placed,
                         float(status.target_speed_fraction), self.freedrive, _pins(io, True), _pins(io, False),
-                        self.activity, self.running_step, self.loop_text, ready=self.ready, read_at=read_at)
+                        self.activity, self.running_step, self.loop_text, ready=self.ready,
+                        read_at=time.time() - status.age, age=float(status.age))
 
     def _without_robot(self) -> Snapshot:
         return Snapshot(False, "DISCONNECTED", "", "STOPPED", activity=self.activity, running_step=self.running_step,

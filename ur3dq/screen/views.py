@@ -18,6 +18,9 @@ from ur3dq.program.steps import RelativeWaypoint, Step, Waypoint, describe, is_w
 
 #: Digits after the point of the live readouts (0.01° / 0.1 mm; 1e-4 rad / m).
 READOUT_DIGITS = {"°": 2, "rad": 4, "mm": 1, "m": 4, "°/s": 1, "rad/s": 3, "mm/s": 0, "m/s": 3}
+#: Data older than this (s) is stale: the controller streams at 125-500 Hz and the station reads at 30 Hz, so a
+#: healthy reading is a few ms old; a third of a second means the stream went silent (a frozen or gone controller).
+STALE_AFTER = 0.3
 #: At most this many samples of one move go to the page (its path is drawn as a line through them).
 MAX_PATH_POINTS = 120
 
@@ -47,23 +50,30 @@ class Snapshot:
     loop: str | None = None      # "2 / 5" while a run loops
     message: str | None = None   # why there is no robot (connection error), else None
     ready: bool = False          # connected and prepared: motions may start
-    read_at: float = 0.0         # when it was read (time.time(), s): a page can tell how old what it shows is
+    read_at: float = 0.0         # when the controller last sent fresh data (time.time(), s)
+    age: float = 0.0             # how old that data was when read (RobotStatus.age, s): a frozen stream grows it
 
 
 def state_message(snapshot: Snapshot, units: u.Units, control: dict[str, bool | str | int | None]) -> dict[str, Any]:
-    """The `state` message of one page: the snapshot with its numbers in `units` and who has control."""
+    """The `state` message of one page: the snapshot with its numbers in `units` and who has control.
+
+    Stale data (older than STALE_AFTER) claims no mode: the robot, safety and program modes read "UNKNOWN" (the
+    page offers Stop, never Run or a jog, on them) and "stale" says for how long nothing came ("no data for
+    1.2 s"); the joints and TCP are the last ones read, which the page greys out. "age" is the data's age (s)."""
     joints_text = [readout(q, u.ANGLE, units) for q in snapshot.joints]
     x, y, z, rx, ry, rz = snapshot.tcp_pose
+    stale = snapshot.connected and snapshot.age > STALE_AFTER
+    modes = ("UNKNOWN",) * 3 if stale else (snapshot.robot_mode, snapshot.safety_mode, snapshot.program)
     return {
-        "type": "state", "connected": snapshot.connected, "robot_mode": snapshot.robot_mode,
-        "safety_mode": snapshot.safety_mode, "program": snapshot.program, "joints": list(snapshot.joints),
-        "joints_text": joints_text,
+        "type": "state", "connected": snapshot.connected, "robot_mode": modes[0], "safety_mode": modes[1],
+        "program": modes[2], "joints": list(snapshot.joints), "joints_text": joints_text,
         "tcp_text": [readout(v, u.LENGTH, units) for v in (x, y, z)] + [readout(v, u.ANGLE, units) for v in
                                                                         (rx, ry, rz)],
         "arm": snapshot.placed, "speed_slider": snapshot.speed_slider, "freedrive": snapshot.freedrive,
         "inputs": snapshot.inputs, "outputs": snapshot.outputs,
         "activity": snapshot.activity, "running_step": snapshot.running_step, "loop": snapshot.loop,
-        "message": snapshot.message, "ready": snapshot.ready, "read_at": snapshot.read_at, "control": control,
+        "message": snapshot.message, "ready": snapshot.ready, "read_at": snapshot.read_at, "age": snapshot.age,
+        "stale": f"no data for {u.show(snapshot.age, u.DURATION, digits=1)}" if stale else None, "control": control,
     }
 
 

@@ -91,9 +91,11 @@ function applyState(message) {
   setText($("#safety-mode"), message.safety_mode || "—");
   setText($("#program-state"), message.program);
   const doing = message.activity ? ` — ${message.activity}` : "";
-  setText($("#robot-line"), message.connected
-    ? `${hello ? hello.host : ""}: ${message.robot_mode}, ${message.safety_mode}, program ${message.program}${doing}`
+  const live = message.stale ? `${message.stale}: state unknown`
+    : `${message.robot_mode}, ${message.safety_mode}, program ${message.program}`;
+  setText($("#robot-line"), message.connected ? `${hello ? hello.host : ""}: ${live}${doing}`
     : `no robot: ${message.message || "connecting…"}`);
+  markStale(!!message.stale);
   const control = message.control;
   const line = $("#control-line");
   setText(line, control.you ? "You have control." : control.holder
@@ -113,6 +115,19 @@ function applyState(message) {
     message.program, message.activity, message.freedrive, message.control]);
   if (key !== buttonsKey) { buttonsKey = key; refreshButtons(); }   // a moving arm changes none of them
 }
+
+// Readouts of stale data (the server says so, or no state came for STATE_SILENCE_MS) are greyed out.
+const STATE_SILENCE_MS = 1000;
+function markStale(stale) {
+  document.body.classList.toggle("stale", stale);
+}
+setInterval(() => {
+  const last = screen.updateTimes.length ? screen.updateTimes[screen.updateTimes.length - 1][1] : null;
+  if (state && last !== null && Date.now() - last > STATE_SILENCE_MS) {
+    markStale(true);
+    setText($("#robot-line"), "no state from ur3dq serve for over a second: state unknown");
+  }
+}, 250);
 
 function setText(element, text) {
   if (element && element.textContent !== text) element.textContent = text;
