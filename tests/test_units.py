@@ -125,3 +125,25 @@ def test_an_errors_measured_values_read_in_si_until_shown_in_a_persons_units():
     assert isinstance(wrapped, UnreachablePoseError)
     assert str(wrapped.shown_in(Units(angle="deg", length="mm"))) == "pose '{odd}': too far: 12.3 mm past 28.65 °"
     assert str(UnreachablePoseError("no values {here}").prefixed("p: ")) == "p: no values {here}"
+
+
+@pytest.mark.parametrize("value, kind, units, shown", [
+    (math.radians(60.16064), ANGULAR_SPEED, Units(angle="deg"), "60.16 °/s"),   # a move's speed, a jog's
+    (0.1, ANGULAR_SPEED, Units(angle="deg"), "5.73 °/s"),
+    (0.0123456, LENGTH, Units(length="mm"), "12.3 mm"), (0.5, DURATION, Units(), "0.5 s"),
+    (0.25, LINEAR_SPEED, Units(length="mm"), "250 mm/s"), (1e-12, LENGTH, Units(length="mm"), "1e-09 mm"),
+])
+def test_every_value_is_shown_at_its_units_one_precision(value, kind, units, shown):
+    assert show(value, kind, units) == shown
+
+
+@pytest.mark.parametrize("text, bounds, said", [
+    ("-5", {"above": 0.0}, "speed must be more than 0 °/s, got -5 °/s"),
+    ("-5mm/s", {"above": 0.0}, "'mm/s' is a unit of linear speed"),
+    ("1e300", {"at_least": 0.0, "at_most": 1.0}, "speed must be from 0 °/s to 57.3 °/s, got 1e300 °/s"),
+    ("90deg/s", {"at_most": 1.0}, "speed must be at most 57.3 °/s, got 90deg/s"),
+])
+def test_a_value_out_of_its_bounds_is_named_as_typed_in_the_typed_units(text, bounds, said):
+    with pytest.raises(ValueError) as refused:
+        parse(text, ANGULAR_SPEED, Units(angle="deg"), "speed", **bounds)
+    assert said in str(refused.value) and "0.0872" not in str(refused.value)

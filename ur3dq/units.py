@@ -26,8 +26,8 @@ from typing import TypeAlias
 
 __all__ = [
     "ACCELERATION", "ANGLE", "ANGULAR_ACCELERATION", "ANGULAR_SPEED", "DURATION", "LENGTH", "LINEAR_ACCELERATION",
-    "FINE", "LINEAR_SPEED", "SI", "SPEED", "Kind", "Measured", "Units", "angular_kind", "parse", "plain_number", "show",
-    "Wording", "to_display", "unit_label", "worded",
+    "DISPLAY_DIGITS", "FINE", "LINEAR_SPEED", "SI", "SPEED", "Kind", "Measured", "Units", "angular_kind", "parse",
+    "plain_number", "position_text", "show", "typed_text", "Wording", "to_display", "unit_label", "within", "worded",
 ]
 
 
@@ -71,6 +71,11 @@ DURATION = Kind("duration", "s", {"s": 1.0, "ms": 1e-3}, False, "500ms")
 # A move's speed is angular for a joint move and linear for a linear or process move: see angular_kind.
 SPEED = {True: ANGULAR_SPEED, False: LINEAR_SPEED}
 ACCELERATION = {True: ANGULAR_ACCELERATION, False: LINEAR_ACCELERATION}
+
+#: Digits after the point a value shows with, per unit it is shown in: one display precision per quantity (0.01° /
+#: 0.1 mm and the same resolution in the other units, 1 ms), for every message and readout.
+DISPLAY_DIGITS = {"°": 2, "rad": 4, "mm": 1, "m": 4, "°/s": 2, "rad/s": 4, "mm/s": 1, "m/s": 4, "°/s²": 1,
+                  "rad/s²": 3, "mm/s²": 0, "m/s²": 3, "s": 3}
 
 _NUMBER = re.compile(r"\s*([+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?)\s*(\S*)\s*\Z")
 _ALL_KINDS = (LENGTH, ANGLE, LINEAR_SPEED, ANGULAR_SPEED, LINEAR_ACCELERATION, ANGULAR_ACCELERATION, DURATION)
@@ -118,7 +123,8 @@ def _kind_named_by(unit: str) -> Kind | None:
     return next((kind for kind in _ALL_KINDS if unit in kind.units), None)
 
 
-def parse(text: str | float | int, kind: Kind, units: Units = Units(), name: str = "value") -> float:
+def parse(text: str | float | int, kind: Kind, units: Units = Units(), name: str = "value", *,
+          above: float | None = None, at_least: float | None = None, at_most: float | None = None) -> float:
     """The SI value of `text`, a number a person typed for a quantity of `kind`.
 
     Parameters
@@ -132,6 +138,9 @@ def parse(text: str | float | int, kind: Kind, units: Units = Units(), name: str
         The person's chosen units, for bare numbers.
     name : str
         The option or field the value came from, named in the error.
+    above, at_least, at_most : float, optional
+        Bounds (SI) the value must keep: a value outside them is refused naming the value as typed and the bounds
+        in `units` (``speed must be more than 0 °/s, got -5 °/s``), never in SI.
 
     Returns
     -------
@@ -163,7 +172,49 @@ def parse(text: str | float | int, kind: Kind, units: Units = Units(), name: str
         what = f"{unit!r} is a unit of {other.name}" if other else f"{unit!r} is not a unit ur3dq knows"
         raise ValueError(f"{name} takes {_a(kind.name)} ({', '.join(kind.units)}), but {what}; for example "
                          f"{kind.example}")
-    return value * kind.units[unit]
+    return within(value * kind.units[unit], text, kind, units, name, above=above, at_least=at_least, at_most=at_most)
+
+
+def within(si: float, text: str | float | int, kind: Kind, units: Units = Units(), name: str = "value", *,
+           above: float | None = None, at_least: float | None = None, at_most: float | None = None) -> float:
+    """`si` (the value of what was typed, `text`) if it keeps the bounds (SI), else ValueError naming `name`, the
+    bounds in `units` and the value as typed (typed_text): where the value was read before its bounds were known."""
+    low_ok = (above is None or si > above) and (at_least is None or si >= at_least)
+    if not (low_ok and (at_most is None or si <= at_most)):
+        raise ValueError(f"{name} must be {_bounds(kind, units, above, at_least, at_most)}, got "
+                         f"{typed_text(text, kind, units)}")
+    return si
+
+
+def _bounds(kind: Kind, units: Units, above: float | None, at_least: float | None, at_most: float | None) -> str:
+    """'more than 0 mm/s', 'from 0 mm to 1000 mm', 'at most 2 s': the bounds in `units`."""
+    low = None if at_least is None else show(at_least, kind, units)
+    high = None if at_most is None else show(at_most, kind, units)
+    if low is not None and high is not None:
+        return f"from {low} to {high}"
+    words = [f"more than {show(above, kind, units)}"] if above is not None else [f"at least {low}"] if low else []
+    return " and ".join(words + ([f"at most {high}"] if high is not None else []))
+
+
+def typed_text(text: str | float | int, kind: Kind, units: Units = Units()) -> str:
+    """What a person typed for `kind`, with the unit a bare number is read in: ``'-5 °/s'``, ``'250mm/s'``.
+
+    >>> typed_text("-5", ANGULAR_SPEED, Units(angle="deg")), typed_text(" 1e300mm", LENGTH)
+    ('-5 °/s', '1e300mm')
+    """
+    typed = str(text).strip()
+    match = _NUMBER.match(typed)
+    return f"{typed} {units.bare_unit(kind)}" if match is not None and not match.group(2) else typed
+
+
+def position_text(values: Sequence[float], units: Units = Units()) -> str:
+    """A position (x, y, z in m) as every message writes it, at the display precision of its unit.
+
+    >>> position_text((-0.37982, -0.11237, 0.3125), Units(length="mm"))
+    '-379.8, -112.4, 312.5 mm'
+    """
+    label = unit_label(LENGTH, units)
+    return ", ".join(f"{to_display(v, LENGTH, units):.{DISPLAY_DIGITS[label]}f}" for v in values) + f" {label}"
 
 
 def plain_number(text: str | float | int, name: str = "value") -> float:
@@ -216,12 +267,22 @@ def unit_label(kind: Kind, units: Units = Units()) -> str:
 def show(value: float, kind: Kind, units: Units = Units(), digits: int | None = None) -> str:
     """`value` (SI) as a person reads it: the number in the chosen units and its unit (``'250 mm'``, ``'60 °/s'``).
 
-    `digits` after the point, by default enough for 0.1 mm / 0.01° resolution and no trailing zeros.
+    `digits` after the point, by default the unit's DISPLAY_DIGITS (0.1 mm / 0.01° resolution) without trailing
+    zeros; a value too small to show so (not zero) keeps two significant digits, so that it does not read as 0.
+
+    >>> show(0.1, ANGULAR_SPEED, Units(angle="deg")), show(0.5, DURATION), show(1e-12, LENGTH, Units(length="mm"))
+    ('5.73 °/s', '0.5 s', '1e-09 mm')
     """
     shown = to_display(value, kind, units)
     label = unit_label(kind, units)
     if digits is None:
-        text = f"{shown:.6g}" if abs(shown) >= 1e-4 or shown == 0 else f"{shown:.3g}"
+        text = f"{shown:.{DISPLAY_DIGITS.get(label, 4)}f}"
+        if "." in text:
+            text = text.rstrip("0").rstrip(".")
+        if shown != 0 and float(text) == 0:
+            text = f"{shown:.2g}"
+        if text == "-0":
+            text = "0"
     else:
         text = f"{shown:.{digits}f}"
     return f"{text} {label}"

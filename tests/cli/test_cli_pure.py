@@ -74,7 +74,7 @@ def test_clamp_to_model():
     assert clamp_to_model(10.0, UR3.max_joint_speed, "--speed", ANGULAR_SPEED, Units()) == \
         (pytest.approx(math.pi), True)
     for bad in (0.0, -1.0, math.nan, math.inf):
-        with pytest.raises(ValueError, match=r"--speed must be in \[0 rad/s, 3.14159 rad/s\]"):
+        with pytest.raises(ValueError, match=r"--speed must be in \[0 rad/s, 3.1416 rad/s\]"):
             clamp_to_model(bad, UR3.max_joint_speed, "--speed", ANGULAR_SPEED, Units())
     with pytest.raises(ValueError, match=r"--speed must be in \[0 °/s, 180 °/s\]"):
         clamp_to_model(-1.0, UR3.max_joint_speed, "--speed", ANGULAR_SPEED, DEG)

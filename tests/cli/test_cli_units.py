@@ -171,13 +171,23 @@ def test_a_linear_speed_in_mm_per_s_is_stored_in_metres_per_second(run_in_proces
      ["step 'demo-2' (waypoint): speed 50000 mm/s is outside the ur3's range for a linear move, 1 mm/s to 1000 mm/s",
       "--speed 250mm/s"]),
     (("poses", "set", "demo-1", "--speed", "60"),
-     ["speed 60 rad/s is outside the ur3's range for a joint move, 0.001 rad/s to 3.14159 rad/s"]),
-    (("--deg", "poses", "set", "demo-1", "--speed", "500"), ["speed 500 °/s", "0.0572958 °/s to 180 °/s"]),
+     ["speed 60 rad/s is outside the ur3's range for a joint move, 0.001 rad/s to 3.1416 rad/s"]),
+    (("--deg", "poses", "set", "demo-1", "--speed", "500"), ["speed 500 °/s", "0.06 °/s to 180 °/s"]),
     (("poses", "set", "demo-2", "--speed", "60deg/s"),
      ["step 'demo-2' (waypoint) is a linear move", "'deg/s' is a unit of joint speed", "--move joint"]),
     (("poses", "set", "demo-1", "--speed", "250mm/s"), ["is a joint move", "--move linear"]),
     (("poses", "set", "demo-2", "--acceleration", "9m/s^2"), ["acceleration 9000 mm/s²", "to 4000 mm/s²"]),
     (("poses", "offset", "x", "--from", "demo-1", "--z", "5 km"), ["--z", "'km' is not a unit ur3dq knows"]),
+    # a value out of its bounds is named as typed, in the typed units (never its SI value, -0.0872664...)
+    (("--deg", "--mm", "poses", "set", "demo-1", "--speed", "-5"),
+     ["step 'demo-1' (waypoint): --speed must be more than 0 °/s, got -5 °/s"]),
+    (("--deg", "--mm", "poses", "set", "demo-2", "--speed", "-5"), ["--speed must be more than 0 mm/s, got -5 mm/s"]),
+    (("--deg", "--mm", "poses", "set", "demo-1", "--blend", "-5"),
+     ["step 'demo-1' (waypoint): --blend must be from 0 mm to 1000 mm, got -5 mm"]),
+    (("--deg", "--mm", "poses", "set", "demo-1", "--blend", "1e300"),
+     ["--blend must be from 0 mm to 1000 mm, got 1e300 mm"]),
+    (("--mm", "poses", "set", "demo-1", "--blend", "-0.5cm"), ["--blend must be from 0 mm to 1000 mm, got -0.5cm"]),
+    (("poses", "add-step", "wait", "1e-300"), ["a wait lasts at least 0.002 s (one control cycle), got 1e-300 s"]),
 ])
 def test_out_of_range_or_wrong_unit_is_refused_when_set(run_in_process, program, args, fragments):
     before = program.path.read_bytes()

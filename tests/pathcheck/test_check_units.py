@@ -100,7 +100,7 @@ def test_under_mm_the_tcp_a_clearance_and_a_speed_read_in_millimetres(checked):
     problems, margins, limits = si(checked)
     for (step, _), problem in problems.items():
         x, y, z = (1000 * v for v in problem["tcp"])
-        assert f"step {step!r} at {problem['fraction']:.0%} of the move (TCP {x:.0f} {y:.0f} {z:.0f} mm)" in text
+        assert f"step {step!r} at {problem['fraction']:.0%} of the move (TCP {x:.1f}, {y:.1f}, {z:.1f} mm)" in text
     depth = -1000 * (margins["low"]["cell"] + limits["cell"])
     assert f'wrist 3 capsule {depth:.0f} mm inside keep-out box "fixture" (margin 5 mm)' in text
     ratio = limits["joint_speed"] - margins["across"]["joint_speed"]
@@ -113,7 +113,7 @@ def test_without_options_the_tcp_is_in_metres_and_the_small_values_in_mm_and_deg
     text = " ".join(text.split())
     problems, margins, limits = si(checked)
     x, y, z = problems[("twist", "joint_limit")]["tcp"]
-    assert code == 4 and f"(TCP {x:.3f} {y:.3f} {z:.3f} m): joint 6 (wrist 3) at 6.5000 rad passes its limit " \
+    assert code == 4 and f"(TCP {x:.4f}, {y:.4f}, {z:.4f} m): joint 6 (wrist 3) at 6.5000 rad passes its limit " \
                          "[-6.2832, 6.2832] (margin 0.000 rad)" in text
     depth = -1000 * (margins["low"]["cell"] + limits["cell"])
     assert f'wrist 3 capsule {depth:.0f} mm inside keep-out box "fixture" (margin 5 mm)' in text

@@ -134,6 +134,7 @@ def test_a_real_checks_numbers_are_shown_in_each_pages_units_and_refuse_a_run_in
     text, measured = message["refusal"]
     refusal = SafetyCheckError.from_wording("path check: " + text, measured)
     assert "at -1.8000 rad passes" in str(refusal) and f"{said}; use targets" in str(refusal.shown_in(DEG_MM))
+    assert f"(TCP {x:.1f}, {y:.1f}, {z:.1f} mm)" in str(refusal)   # the run's refusal writes the TCP as the check
 
 
 def test_typed_speeds_and_blends_are_read_in_the_pages_units():

@@ -35,6 +35,7 @@ from ur3dq.units import (
     parse,
     plain_number,
     show,
+    within,
 )
 
 if TYPE_CHECKING:
@@ -137,6 +138,11 @@ class TypedValue:
         """The value in SI as a quantity of `kind`; ValueError naming the option when its unit is of another
         kind."""
         return parse(self.text, kind, self.units, self.option)
+
+    def within(self, si: float, kind: Kind, **bounds: float) -> float:
+        """`si` (this value as `kind`) if it keeps units.within's `bounds`, else ValueError naming the option, the
+        bounds in the typed units and the value as typed."""
+        return within(si, self.text, kind, self.units, self.option, **bounds)
 
 
 class Typed(click.ParamType):  # type: ignore[type-arg, unused-ignore]  # generic only in newer click
@@ -306,10 +312,10 @@ WAYPOINT_ACCELERATION = Typed([ANGULAR_ACCELERATION, LINEAR_ACCELERATION])
 
 
 def waypoint_motion_options(command: F) -> F:
-    """--move, --speed, --acceleration, --blend of a waypoint (speed and acceleration: TypedValue, whose kind is
-    the move's; blend SI metres)."""
+    """--move, --speed, --acceleration, --blend of a waypoint (TypedValue: speed and acceleration of the move's
+    kind; all three bounded where the step is known, program_workflow.motion_from_options)."""
     for option in (
-        click.option("--blend", type=SMALL_LENGTH, metavar="R",
+        click.option("--blend", type=Typed([LENGTH]), metavar="R",
                      help="Blend radius into the next waypoint, e.g. 20mm (bare: m, mm under --mm)."),
         click.option("--acceleration", type=WAYPOINT_ACCELERATION, metavar="A",
                      help="Joint move: e.g. 80deg/s^2 (bare rad/s²); linear/process: e.g. 1200mm/s^2 (bare "

@@ -304,7 +304,7 @@ def export_poses(settings: Settings, file: Path, names: tuple[str, ...], file_fo
 @display_options
 @click.pass_obj
 def set_waypoint(settings: Settings, name: str, move: str | None, speed: TypedValue | None,
-                 acceleration: TypedValue | None, blend: float | None, clear: bool) -> None:
+                 acceleration: TypedValue | None, blend: TypedValue | None, clear: bool) -> None:
     """Change how the arm moves to the waypoint NAME (only the options given change). A value out of the
     model's range for the move type is refused with the range.
 
@@ -448,7 +448,7 @@ WAIT_TIME = Quantity(DURATION, (60.0, "a minute", "ms"), most=MAX_WAIT_S)
 @click.pass_obj
 def offset(settings: Settings, new: str, base: str, dx: float, dy: float, dz: float, rx: float, ry: float,
            rz: float, frame: str, move: str | None, speed: TypedValue | None, acceleration: TypedValue | None,
-           blend: float | None, after: str | None, before: str | None) -> None:
+           blend: TypedValue | None, after: str | None, before: str | None) -> None:
     """A relative waypoint NEW at an offset from the waypoint N; it follows N when N is re-taught.
 
     \b

@@ -30,7 +30,7 @@ from ur3dq.program.plan import Defaults, MotionRangeError, PlannedStep, plan_pro
 from ur3dq.program.plan import check_motion_range as plan_check_motion_range
 from ur3dq.program.resolve import select_range
 from ur3dq.program.script import program_script
-from ur3dq.program.steps import Motion, RelativeWaypoint, Step, Wait, Waypoint, describe
+from ur3dq.program.steps import MAX_BLEND_M, Motion, RelativeWaypoint, Step, Wait, Waypoint, describe
 from ur3dq.store_format import PROGRAM_SCHEMA_VERSION, step_to_dict
 from ur3dq.units import ACCELERATION, ANGLE, DURATION, LENGTH, SPEED, Units, angular_kind, show, to_display, unit_label
 
@@ -44,7 +44,7 @@ StepT = TypeVar("StepT", bound=Step)
 
 
 def motion_from_options(base: Motion, move: str | None, speed: TypedValue | None,
-                        acceleration: TypedValue | None, blend: float | None, who: str,
+                        acceleration: TypedValue | None, blend: TypedValue | None, who: str,
                         model: URModel) -> Motion:
     """`base` with the options that were given replacing its values: the speed and acceleration read as the
     resulting move type's kind (joint: angular, linear/process: linear) and refused, naming `who` and the valid
@@ -58,13 +58,23 @@ def motion_from_options(base: Motion, move: str | None, speed: TypedValue | None
             values.append(stored if keep else None)
             continue
         try:
-            values.append(typed.si(kinds[angular]))
+            si = typed.si(kinds[angular])
         except ValueError as error:
             other = "joint" if not angular else "linear"
             raise ValueError(f"{who} is a {new_move} move: {error} (or make it a {other} move with --move "
                              f"{other})") from None
+        try:   # refused in the units it was typed in (Motion's own check would name the SI value)
+            values.append(typed.within(si, kinds[angular], above=0.0))
+        except ValueError as error:
+            raise ValueError(f"{who}: {error}") from None
+    radius = base.blend
+    if blend is not None:
+        try:
+            radius = blend.within(blend.si(LENGTH), LENGTH, at_least=0.0, at_most=MAX_BLEND_M)
+        except ValueError as error:
+            raise ValueError(f"{who}: {error}") from None
     try:
-        motion = Motion(new_move, values[0], values[1], base.blend if blend is None else blend)
+        motion = Motion(new_move, values[0], values[1], radius)
     except ValueError as error:
         raise ValueError(f"{who}: {str(error).removeprefix('motion: ')}") from None
     check_motion_range(motion, model, who, typed_units(speed, acceleration))
@@ -197,7 +207,7 @@ def add_step_at(settings: Settings, make_step: Callable[[list[Step]], StepT], af
 
 
 def check_waypoint_options(settings: Settings, name: str | None, move: str | None, speed: TypedValue | None,
-                           acceleration: TypedValue | None, blend: float | None, after: str | None,
+                           acceleration: TypedValue | None, blend: TypedValue | None, after: str | None,
                            before: str | None, steps: list[Step]) -> Motion:
     """Check record-pose's waypoint options before the arm is read.
 

@@ -31,7 +31,7 @@ if TYPE_CHECKING:
 @display_options
 @click.pass_obj
 def record_pose(settings: Settings, name: str | None, note: str, yes: bool, teach: bool, move: str | None,
-                speed: TypedValue | None, acceleration: TypedValue | None, blend: float | None, after: str | None,
+                speed: TypedValue | None, acceleration: TypedValue | None, blend: TypedValue | None, after: str | None,
                 before: str | None) -> None:
     """Record the arm's current pose: shows joints, TCP pose and dual quaternion, asks "Record this pose?".
 

@@ -87,9 +87,9 @@ class Problem:
     >>> problem = Problem("a", 0, "cell", 0.5, (0.3, 0.1, 0.25), 'tool capsule {0} inside "box"', "go around",
     ...                   (Measured(0.012, LENGTH, 3, fine=True),))
     >>> print(problem.line())
-    step 'a' at 50% of the move (TCP 0.300 0.100 0.250 m): tool capsule 12 mm inside "box"; go around
+    step 'a' at 50% of the move (TCP 0.3000, 0.1000, 0.2500 m): tool capsule 12 mm inside "box"; go around
     >>> print(problem.line(Units(length="mm")))
-    step 'a' at 50% of the move (TCP 300 100 250 mm): tool capsule 12 mm inside "box"; go around
+    step 'a' at 50% of the move (TCP 300.0, 100.0, 250.0 mm): tool capsule 12 mm inside "box"; go around
     """
 
     step: str
@@ -126,8 +126,9 @@ class Problem:
     def wording(self) -> Wording:
         """(line's ``units.worded`` text, its values): to carry the line into an error's message."""
         first = len(self.measured)
-        where = " ".join(f"{{{first + i}}}" for i in range(len(self.tcp)))
-        tcp = tuple(Measured(v, LENGTH, 3, unit=i == len(self.tcp) - 1) for i, v in enumerate(self.tcp))
+        where = ", ".join(f"{{{first + i}}}" for i in range(len(self.tcp)))
+        # units.position_text's precision (0.1 mm), as the screen writes the same position
+        tcp = tuple(Measured(v, LENGTH, 4, unit=i == len(self.tcp) - 1) for i, v in enumerate(self.tcp))
         return (f"step {literal(repr(self.step))} at {self.fraction:.0%} of the move (TCP {where}): {self.what}; "
                 f"{self.fix}"), self.measured + tcp
 

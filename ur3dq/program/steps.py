@@ -15,6 +15,7 @@ from typing import TypeGuard
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.pose import Pose, name_problem, unstorable_text_problem
 from ur3dq.real_numbers import is_number
+from ur3dq.units import DURATION, show
 
 MOVE_TYPES = ("joint", "linear", "process")    # movej, movel, movep
 FRAMES = ("tool", "base")                       # the frame a relative waypoint's offset is expressed in
@@ -25,6 +26,9 @@ PIN_COUNT = {"standard": 8, "tool": 2, "configurable": 8}
 ANALOG_PIN_COUNT = 2
 MAX_BLEND_M = 1.0          # larger than any UR's reach: a bigger radius is a typo (e.g. mm for m)
 MAX_WAIT_S = 24 * 3600.0   # a day; longer is a typo
+# One e-Series control cycle: a shorter wait is a typo (1e-300 s), and a controller sleeps at least a cycle anyway
+# (a CB3's is 8 ms).
+MIN_WAIT_S = 0.002
 MAX_MESSAGE_LENGTH = 200   # URScript strings reach the controller log; the sanitiser allows ≤ 255
 MAX_OFFSET_M = 5.0         # a relative waypoint further than this from its base is a typo
 DEFAULT_WAIT_INPUT_TIMEOUT_S = 10.0
@@ -239,14 +243,18 @@ class AnalogOut(Step):
 
 @dataclasses.dataclass(frozen=True)
 class Wait(Step):
-    """Hold the program for `seconds`."""
+    """Hold the program for `seconds` (MIN_WAIT_S to MAX_WAIT_S)."""
 
     seconds: float = 0.0
     kind = "wait"
 
     def __post_init__(self) -> None:
         self._check_name()
-        object.__setattr__(self, "seconds", _positive(self.seconds, "seconds", self.who, False, MAX_WAIT_S))
+        seconds = _positive(self.seconds, "seconds", self.who, False, MAX_WAIT_S)
+        if seconds is not None and seconds < MIN_WAIT_S:
+            raise ValueError(f"{self.who}: a wait lasts at least {show(MIN_WAIT_S, DURATION)} (one control cycle), "
+                             f"got {show(seconds, DURATION)}")
+        object.__setattr__(self, "seconds", seconds)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -350,9 +358,9 @@ def describe(step: Step) -> str:
     if isinstance(step, AnalogOut):
         return f"AO{step.pin} = {step.value:g}"
     if isinstance(step, Wait):
-        return f"{step.seconds:g} s"
+        return show(step.seconds, DURATION)
     if isinstance(step, WaitInput):
-        return f"{step.input} DI{step.pin} {'on' if step.on else 'off'} ≤{step.timeout:g} s"
+        return f"{step.input} DI{step.pin} {'on' if step.on else 'off'} ≤{show(step.timeout, DURATION)}"
     if isinstance(step, Message):
         return step.text
     if isinstance(step, Comment):

@@ -26,7 +26,7 @@ from ur3dq.program.path import path_plan_of
 from ur3dq.program.plan import Defaults, check_motion_range, plan_program
 from ur3dq.program.resolve import select_range
 from ur3dq.program.runner import run_plan
-from ur3dq.program.steps import PIN_COUNT, DigitalOut, Message, Motion, Step, Wait, is_waypoint
+from ur3dq.program.steps import MAX_BLEND_M, PIN_COUNT, DigitalOut, Message, Motion, Step, Wait, is_waypoint
 from ur3dq.replay import read_pose
 from ur3dq.robot.jog import Jog
 from ur3dq.robot.jog_steps import JogStep
@@ -267,7 +267,7 @@ class Operations:
         speed = "" if planned.speed is None or planned.move is None else \
             f" at {u.show(planned.speed, u.SPEED[u.angular_kind(planned.move)], units)}"
         travel = "" if planned.travel is None else \
-            f", the largest joint turning {u.show(planned.travel, u.ANGLE, units, 3)}"
+            f", the largest joint turning {u.show(planned.travel, u.ANGLE, units)}"
         question = f"Move the arm to {name!r} (a {planned.move} move{speed}{travel})?"
 
         def move() -> str:
@@ -451,8 +451,10 @@ def typed_motion(name: str, fields: dict[str, Any], units: u.Units, model: URMod
     move = str(fields.get("move", "joint"))
     angular = u.angular_kind(move)
     speed_text, blend_text = str(fields.get("speed", "")).strip(), str(fields.get("blend", "")).strip()
-    speed = None if not speed_text else u.parse(speed_text, u.SPEED[angular], units, "speed")
-    blend = None if not blend_text else u.parse(blend_text, u.LENGTH, units, "blend")
+    # bounded here, where the typed units are known: Motion's own check would name the SI value
+    speed = None if not speed_text else u.parse(speed_text, u.SPEED[angular], units, "speed", above=0.0)
+    blend = None if not blend_text else u.parse(blend_text, u.LENGTH, units, "blend", at_least=0.0,
+                                                at_most=MAX_BLEND_M)
 
     def new(base: Motion) -> Motion:
         kept = base.acceleration if u.angular_kind(base.move) == angular else None

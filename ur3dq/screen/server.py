@@ -263,8 +263,8 @@ class ScreenServer:
         linear = [jog_steps.step_of("X", 1, size) for size in JOG_STEPS[1:]]
         return {"joint_steps": ["continuous"] + [u.show(step.distance, u.ANGLE, units) for step in steps],
                 "linear_steps": ["continuous"] + [u.show(step.distance, u.LENGTH, units) for step in linear],
-                "max_joint_speed": views.readout(jog_steps.MAX_JOINT_SPEED, u.ANGULAR_SPEED, units),
-                "max_tcp_speed": views.readout(jog_steps.MAX_TCP_SPEED, u.LINEAR_SPEED, units)}
+                "max_joint_speed": u.show(jog_steps.MAX_JOINT_SPEED, u.ANGULAR_SPEED, units),
+                "max_tcp_speed": u.show(jog_steps.MAX_TCP_SPEED, u.LINEAR_SPEED, units)}
 
     async def _watch_silence(self) -> None:
         """Stop a jog whose controlling page's heartbeat has gone silent for JOG_SILENCE. After this loop itself

@@ -16,8 +16,8 @@ from ur3dq.pathcheck import Cell, Margins, PathCheckResult
 from ur3dq.pathcheck.checks import StepChecker
 from ur3dq.program.steps import RelativeWaypoint, Step, Waypoint, describe, is_waypoint
 
-#: Digits after the point of the live readouts (0.01° / 0.1 mm; 1e-4 rad / m).
-READOUT_DIGITS = {"°": 2, "rad": 4, "mm": 1, "m": 4, "°/s": 1, "rad/s": 3, "mm/s": 0, "m/s": 3}
+#: Digits after the point of the live readouts: the units layer's one display precision (0.01° / 0.1 mm).
+READOUT_DIGITS = u.DISPLAY_DIGITS
 #: Data older than this (s) is stale: the controller streams at 125-500 Hz and the station reads at 30 Hz, so a
 #: healthy reading is a few ms old; a third of a second means the stream went silent (a frozen or gone controller).
 STALE_AFTER = 0.3
@@ -161,8 +161,7 @@ def problem_for_page(problem: dict[str, Any], units: u.Units) -> dict[str, Any]:
         return problem
     measured = problem.get("measured", ())
     message, hint = u.worded(problem["message"], measured, units), u.worded(problem["hint"], measured, units)
-    label = u.unit_label(u.LENGTH, units)
-    where = ", ".join(f"{u.to_display(v, u.LENGTH, units):.{READOUT_DIGITS[label]}f}" for v in problem["tcp"])
-    line = f"step {problem['step']!r} at {problem['fraction']:.0%} of the move (TCP {where} {label}): {message}; {hint}"
+    where = u.position_text(problem["tcp"], units)
+    line = f"step {problem['step']!r} at {problem['fraction']:.0%} of the move (TCP {where}): {message}; {hint}"
     return {**{key: shown for key, shown in problem.items() if key != "measured"}, "message": message, "hint": hint,
             "line": line}
