@@ -109,6 +109,13 @@ class InvalidStateError(RobotError):
     """The controller sent state that cannot be true (not finite, implausible magnitude, unknown mode)."""
 
 
+# How the driver's errors tell a person to clear what blocks a motion: the command line's and Python's ways. A user
+# interface with buttons of its own shows its own words instead (ur3dq.screen.views.error_text).
+UNLOCK_HINT = "(`ur3dq robot unlock`; in Python robot.unlock_protective_stop())"
+POWER_ON_HINT = ("(`ur3dq robot power-on`, `ur3dq robot brake-release`; in Python robot.power_on(), "
+                 "robot.brake_release())")
+
+
 def literal(text: str) -> str:
     """`text` (a name, a controller's message) as it must stand in the text of an error with measured values: braces
     doubled, so that it is not read as a placeholder."""

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ur3dq import urscript
+from ur3dq import errors, urscript
 from ur3dq.dualquat import DualQuaternion
 from ur3dq.errors import (
     ConnectionLostError,
@@ -436,8 +436,7 @@ class Robot:
         status = self._checked_status(self._fresh_status())
         if status.robot_mode != state.ROBOT_MODE_RUNNING:
             raise RobotError(f"the robot is in mode {status.robot_mode_name}, not RUNNING: "
-                             "power it on and release the brakes first (`ur3dq robot power-on`, `ur3dq robot "
-                             "brake-release`; in Python robot.power_on(), robot.brake_release())")
+                             f"power it on and release the brakes first {errors.POWER_ON_HINT}")
         return status
 
     def _checked_status(self, status: RobotStatus) -> RobotStatus:
@@ -447,7 +446,7 @@ class Robot:
                                      "release the e-stop and power on again")
         if status.protective_stopped:
             raise ProtectiveStopError(f"{self.host} is in a protective stop; inspect the cause, then unlock it "
-                                      "(`ur3dq robot unlock`; in Python robot.unlock_protective_stop())")
+                                      f"{errors.UNLOCK_HINT}")
         if status.age > self._backend.freeze_timeout:
             raise ConnectionLostError(f"the state stream from {self.host} froze: no fresh valid data for "
                                       f"{status.age:.2f} s (silent, frozen, or sending what is not UR state)")

@@ -328,7 +328,7 @@ class ScreenServer:
         except (UR3DQError, ValueError, OSError, PermissionError) as error:
             if isinstance(error, UR3DQError):   # its values (a path check's, a reach's) in this page's units
                 error.shown_in(page.units)
-            reply.update(ok=False, error=one_line(error))
+            reply.update(ok=False, error=views.error_text(one_line(error)))   # its hints point at the buttons
             if name not in ("jog", "jog_stop"):
                 self._log(f"Error ({name}): {one_line(error)}")
         except Exception as error:   # a bug: one line for the page, the traceback in the server's log

@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from ur3dq import units as u
+from ur3dq.errors import POWER_ON_HINT, UNLOCK_HINT
 from ur3dq.kinematics.models import URModel
 from ur3dq.pathcheck import Cell, Margins, PathCheckResult
 from ur3dq.pathcheck.checks import StepChecker
@@ -52,6 +53,18 @@ class Snapshot:
     ready: bool = False          # connected and prepared: motions may start
     read_at: float = 0.0         # when the controller last sent fresh data (time.time(), s)
     age: float = 0.0             # how old that data was when read (RobotStatus.age, s): a frozen stream grows it
+
+
+#: The driver's command-line hints and the screen's own words for them: its buttons.
+SCREEN_HINTS = {UNLOCK_HINT: "(press Unlock)", POWER_ON_HINT: "(press Power on, then Brake release)"}
+
+
+def error_text(text: str) -> str:
+    """An error's one line as the screen shows it: the driver's hints to type `ur3dq robot unlock` or call
+    robot.unlock_protective_stop() point at the screen's buttons instead (the exception keeps its text)."""
+    for hint, screen in SCREEN_HINTS.items():
+        text = text.replace(hint, screen)
+    return text
 
 
 def state_message(snapshot: Snapshot, units: u.Units, control: dict[str, bool | str | int | None]) -> dict[str, Any]:
