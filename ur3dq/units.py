@@ -268,14 +268,19 @@ def show(value: float, kind: Kind, units: Units = Units(), digits: int | None = 
     """`value` (SI) as a person reads it: the number in the chosen units and its unit (``'250 mm'``, ``'60 °/s'``).
 
     `digits` after the point, by default the unit's DISPLAY_DIGITS (0.1 mm / 0.01° resolution) without trailing
-    zeros; a value too small to show so (not zero) keeps two significant digits, so that it does not read as 0.
+    zeros; a value too small to show so (not zero) keeps two significant digits, so that it does not read as 0, and
+    one too large for any arm (a typo, a hostile file) is shown with its exponent, not as hundreds of digits.
 
     >>> show(0.1, ANGULAR_SPEED, Units(angle="deg")), show(0.5, DURATION), show(1e-12, LENGTH, Units(length="mm"))
     ('5.73 °/s', '0.5 s', '1e-09 mm')
+    >>> show(1e300, LINEAR_SPEED, Units(length="mm"))
+    '1e+303 mm/s'
     """
     shown = to_display(value, kind, units)
     label = unit_label(kind, units)
-    if digits is None:
+    if abs(shown) >= 1e9:
+        text = f"{shown:.6g}"
+    elif digits is None:
         text = f"{shown:.{DISPLAY_DIGITS.get(label, 4)}f}"
         if "." in text:
             text = text.rstrip("0").rstrip(".")

@@ -41,7 +41,7 @@ def v1_store(tmp_path):
     (("poses", "set", "demo-1", "--speed", "0"), 4,
      ["step 'demo-1' (waypoint): --speed must be more than 0 rad/s, got 0 rad/s"]),
     (("poses", "set", "demo-1", "--blend", "1e9m"), 4,
-     ["step 'demo-1' (waypoint): --blend must be from 0 m to 1 m, got 1e9 m"]),
+     ["step 'demo-1' (waypoint): --blend must be from 0 m to 1 m, got 1e9m"]),
     (("poses", "offset", "up", "--from", "gone", "--z", "0.1"), 4,
      ["step 'up' (relative waypoint): its base waypoint 'gone' is not in the program"]),
     (("poses", "offset", "far", "--from", "demo-1", "--z", "1e6m"), 4, ["step 'far' (relative waypoint): offset"]),

@@ -337,8 +337,8 @@ def test_a_relative_waypoint_moved_on_the_pendant_comes_back_fixed():
 
 
 @pytest.mark.parametrize("parameters, refusal", [
-    ('cartesianSpeed="1e300"', "place (the waypoint: speed 1e+300 m/s is outside the ur5e's range for a linear move"),
-    ('cartesianAcceleration="1e-9"', "(the waypoint: acceleration 1e-09 m/s² is outside the ur5e's range"),
+    ('cartesianSpeed="1e300"', "place (the waypoint: speed 1e+303 mm/s is outside the ur5e's range for a linear move"),
+    ('cartesianAcceleration="1e-9"', "(the waypoint: acceleration 1e-06 mm/s² is outside the ur5e's range"),
 ])
 def test_a_speed_or_acceleration_out_of_the_arms_range_is_refused_by_its_node(parameters, refusal):
     """What `poses set` refuses does not come in through a file (the plan would lower it to the limit)."""
