@@ -16,12 +16,12 @@ from ur3dq.cli.path_report import (
     DEFAULT_JOINT_SPEED,
     DEFAULT_LINEAR_ACCELERATION,
     DEFAULT_LINEAR_SPEED,
-    kept_script_warnings,
     margins_legend,
     margins_table,
     path_plan_from_replay,
     require_passed,
 )
+from ur3dq.cli.plan_warnings import plan_warnings
 from ur3dq.errors import StoreError
 from ur3dq.kinematics import robot_model
 from ur3dq.pathcheck import MOVE_TYPES, Margins, check_path, load_cell
@@ -99,7 +99,7 @@ def check(settings: Settings, names: tuple[str, ...], cell_path: Path | None, mo
         click.echo(line, err=True)
     if program is not None:
         plan = plan_program(model, program, start, replay_recorded_joints=replay_joints)
-        for line in kept_script_warnings(plan):
+        for line in plan_warnings(plan, settings.units):
             click.echo(f"Warning: {line}", err=True)
         path = path_plan_of(plan, start)
         if path is None:

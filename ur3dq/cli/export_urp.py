@@ -7,10 +7,12 @@ import click
 
 from ur3dq.cli.app import Settings, cli, prepare_output, report, robot_session, solving_poses
 from ur3dq.cli.display import count_text
+from ur3dq.cli.export_plans import checked_program_plan, clamped_joint_defaults
 from ur3dq.cli.options import (
     DEFAULT_ACCELERATION,
     DEFAULT_SPEED,
     Quantity,
+    cell_option,
     check_blend,
     check_max_travel,
     display_options,
@@ -20,7 +22,7 @@ from ur3dq.cli.options import (
 from ur3dq.cli.program_workflow import program_part
 from ur3dq.kinematics.models import URModel
 from ur3dq.polyscope.urp_export import MoveDefaults, export_bytes, is_e_series
-from ur3dq.program.plan import Defaults, plan_program
+from ur3dq.program.plan import Defaults
 from ur3dq.program.steps import Step, Waypoint
 from ur3dq.robot.safety import DEFAULT_MAX_JOINT_TRAVEL
 from ur3dq.store import write_atomically
@@ -39,11 +41,12 @@ from ur3dq.units import LENGTH
 @click.option("--to", "end", metavar="N", help="End at the step N.")
 @click.option("--calibration", type=click.Choice(["nominal", "robot"]), default="nominal", show_default=True,
               help="Plan on the model's catalogue kinematics, or on the connected arm's calibration.")
+@cell_option
 @display_options
 @click.pass_obj
 def export_urp(settings: Settings, output: Path | None, speed: float | None, acceleration: float | None, blend: float,
                replay_joints: bool, max_travel: float | None, yes: bool, start: str | None, end: str | None,
-               calibration: str) -> None:
+               calibration: str, cell_path: Path | None) -> None:
     """Write the cell program (or its --from/--to part) as a PolyScope program the pendant opens.
 
     The tree mirrors the program: a MoveJ, MoveL or MoveP per run of waypoints of one move type, each waypoint
@@ -53,9 +56,13 @@ def export_urp(settings: Settings, output: Path | None, speed: float | None, acc
     program (docs/polyscope.md says what maps to what). e-series arms get a gzip file (PolyScope 5), CB3 arms
     plain XML (PolyScope 3).
 
+    Planned and checked as `run-poses --dry-run` plans and checks it: speeds and accelerations above the model's
+    limits are lowered to them (the Move nodes' too), with the same warnings; a program whose path check fails
+    (in the --cell cell if given) is not written: the check's one-line error, exit code 4.
+
     \b
     Examples:
-      ur3dq export-urp -o cell.urp
+      ur3dq export-urp -o cell.urp --cell cell.json
       ur3dq export-urp -o part.urp --from approach --to place --speed 60deg/s
       ur3dq export-urp -o cell.urp --calibration robot --host 192.168.0.10
     """
@@ -63,9 +70,8 @@ def export_urp(settings: Settings, output: Path | None, speed: float | None, acc
     check_blend(blend)
     prepare_output(settings, output, yes)
     steps, part, _ = program_part(settings, start, end)
-    joint_speed = or_default(speed, DEFAULT_SPEED)
-    joint_acceleration = or_default(acceleration, DEFAULT_ACCELERATION)
-    defaults = Defaults(joint_acceleration=joint_acceleration, joint_speed=joint_speed, blend=blend)
+    defaults = Defaults(joint_acceleration=or_default(acceleration, DEFAULT_ACCELERATION),
+                        joint_speed=or_default(speed, DEFAULT_SPEED), blend=blend)
     travel = check_max_travel(or_default(max_travel, DEFAULT_MAX_JOINT_TRAVEL))
     warnings = []
     if calibration == "robot":
@@ -78,8 +84,11 @@ def export_urp(settings: Settings, output: Path | None, speed: float | None, acc
     else:
         model = nominal_model(settings, steps)
     solving_poses(len(part), model)
-    plan = plan_program(model, part, None, defaults, 1.0, replay_joints, travel, resolve_from=steps)
-    move_defaults = MoveDefaults(joint_speed, joint_acceleration, defaults.tcp_speed, defaults.tcp_acceleration)
+    plan, plan_lines = checked_program_plan(settings, model, steps, part, defaults, replay_joints, travel, cell_path)
+    warnings += plan_lines
+    # a waypoint that sets no speed of its own takes its Move's: the Move carries what the plan lowered it to
+    move_defaults = MoveDefaults(*clamped_joint_defaults(model, defaults), defaults.tcp_speed,
+                                 defaults.tcp_acceleration)
     data = export_bytes(plan, steps, output.stem, model, move_defaults)
     write_atomically(output, data)
     kind = "PolyScope 5, gzip" if is_e_series(model) else "PolyScope 3, XML"

@@ -73,7 +73,8 @@ def path_plan_from_replay(steps: Sequence[PlanStep], start_joints: npt.ArrayLike
     blends = [blend] * (count - 1) + [0.0]
     return PathPlan(start, PathSegment.joint_targets([step.pose.name for step in steps], [move] * count,
                                                      [step.joints for step in steps], [speed] * count,
-                                                     [acceleration] * count, blends, [None] * count))
+                                                     [acceleration] * count, blends, [None] * count),
+                    start_known=start_joints is not None)
 
 
 def check_replay(model: URModel, steps: Sequence[PlanStep], cell_path: str | Path | None,
@@ -89,7 +90,8 @@ def check_replay(model: URModel, steps: Sequence[PlanStep], cell_path: str | Pat
     if loops > 1:
         segments.append(PathSegment(f"{steps[0].pose.name} (next loop)", "joint", target_joints=steps[0].joints))
     cell = load_cell(cell_path) if cell_path else None
-    return check_path(model, PathPlan(plan.start_joints, segments), cell, keep_samples=keep_samples), cell
+    whole = PathPlan(plan.start_joints, segments, plan.start_known)
+    return check_path(model, whole, cell, keep_samples=keep_samples), cell
 
 
 def check_program(model: URModel, plan: Sequence[PlannedStep], cell_path: str | Path | None,
@@ -132,14 +134,15 @@ def _report_console(settings: Settings) -> Console:
     return settings.out
 
 
-def require_passed(settings: Settings, result: PathCheckResult) -> None:
+def require_passed(settings: Settings, result: PathCheckResult, console: Console | None = None) -> None:
     """Nothing when the check passed; else a SafetyCheckError whose one line is the first problem (where, what,
-    the fix), each further problem printed once above it (words never cut), their numbers in the user's units."""
+    the fix), each further problem printed once above it (words never cut; on `console`, default stdout, stderr
+    under --json), their numbers in the user's units."""
     if result.ok:
         return
     if not result.problems:
         raise result.refusal()
-    console = _report_console(settings)
+    console = console or _report_console(settings)
     for problem in result.problems[1:]:
         console.print(Text(problem.line(settings.units)), soft_wrap=False)
     more = len(result.problems) - 1

@@ -10,7 +10,8 @@ from ur3dq.cli.app import Settings, cli, prepare_output, report, solving_poses
 from ur3dq.cli.display import count_text
 from ur3dq.cli.offline_plans import offline_plan
 from ur3dq.cli.options import DEFAULT_ACCELERATION, DEFAULT_SPEED, cell_option, display_options
-from ur3dq.cli.path_report import check_program, check_replay, kept_script_warnings
+from ur3dq.cli.path_report import check_program, check_replay
+from ur3dq.cli.plan_warnings import plan_warnings
 from ur3dq.cli.program_workflow import program_model
 from ur3dq.errors import StoreError
 from ur3dq.program.plan import PlannedStep, plan_program
@@ -63,13 +64,13 @@ def plot(settings: Settings, names: tuple[str, ...], output: Path, yes: bool, ce
 
 
 def _planned_program(settings: Settings) -> tuple[URModel, list[PlannedStep]]:
-    """(nominal model, plan) of the store's cell program, without a robot, its kept-script warnings on stderr."""
+    """(nominal model, plan) of the store's cell program, without a robot, its warnings on stderr."""
     program = settings.store.load_program()
     if not any(isinstance(step, Waypoint) for step in program):
         raise StoreError(f"{settings.store_path} has no poses: record some with `ur3dq record-pose`")
     model = program_model(settings, program)
     solving_poses(len(program), model)   # every step, relative waypoints included, as run-poses counts them
     plan = plan_program(model, program)
-    for line in kept_script_warnings(plan):
+    for line in plan_warnings(plan, settings.units):
         click.echo(f"Warning: {line}", err=True)
     return model, plan

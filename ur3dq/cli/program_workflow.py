@@ -1,5 +1,5 @@
 """The cell-program workflows behind the commands (no command is defined here): waypoint edits, the program
-tables, and the program paths of `record-pose`, `run-poses` and `export-urscript`.
+tables, and the program paths of `record-pose` and `run-poses` (the exports: export_plans.py).
 
 Every edit is one locked, atomic store update (PoseStore.update_program): the new program is checked first and a
 bad one changes nothing (one line naming the step, exit 4). The store is SI: rad/s, rad/s² for joint moves, m/s,
@@ -21,15 +21,15 @@ from rich.text import Text
 from ur3dq.cli.app import Settings, confirm, emit_json, emit_json_list, robot_session, solving_poses
 from ur3dq.cli.display import Column, pose_label, pose_vector_text, print_table, recorded_joints_warnings
 from ur3dq.cli.options import TypedValue
-from ur3dq.cli.path_report import check_program, check_verdict, kept_script_warnings, report_path_check, require_passed
+from ur3dq.cli.path_report import check_program, check_verdict, report_path_check, require_passed
 from ur3dq.cli.plan_summary import program_figures, summary_lines
+from ur3dq.cli.plan_warnings import plan_warnings
 from ur3dq.errors import StoreError
 from ur3dq.kinematics.models import URModel
-from ur3dq.pose import Pose, closest_name_text, utc_now_iso
+from ur3dq.pose import Pose, closest_name_text
 from ur3dq.program.plan import Defaults, MotionRangeError, PlannedStep, plan_program
 from ur3dq.program.plan import check_motion_range as plan_check_motion_range
 from ur3dq.program.resolve import select_range
-from ur3dq.program.script import program_script
 from ur3dq.program.steps import MAX_BLEND_M, Motion, RelativeWaypoint, Step, Wait, Waypoint, describe
 from ur3dq.store_format import PROGRAM_SCHEMA_VERSION, step_to_dict
 from ur3dq.units import ACCELERATION, ANGLE, DURATION, LENGTH, SPEED, Units, angular_kind, show, to_display, unit_label
@@ -391,11 +391,11 @@ def _present(settings: Settings, model: URModel, plan: list[PlannedStep], start_
     the summary; the check's problems once; SafetyCheckError when it failed. A dry run's (`final`) JSON is
     printed here; a run's after the run."""
     result, _ = check_program(model, plan, cell_path, start_joints, keep_samples=False)
-    warnings = clamp_warnings(plan, settings.units) + kept_script_warnings(plan)
+    warnings = plan_warnings(plan, settings.units)
     if full:
         console = Console(stderr=True, highlight=False) if settings.json else settings.out
         print_table(console, title, plan_columns(settings.units), plan_rows(plan, first, settings.units), len(plan))
-        for warning in warnings:   # what was lowered to the model's (or the TCP's) limits
+        for warning in warnings:   # what was lowered to the limits, blends dropped, script kept as it is
             click.echo(warning, err=True)
         if result is not None:
             report_path_check(settings, result, cell_path)
@@ -416,45 +416,10 @@ def plan_json(plan: list[PlannedStep], units: Units) -> dict[str, Any]:
                       "joints": None if p.joints is None else p.joints.tolist(), "speed": p.speed,
                       "acceleration": p.acceleration, "blend": p.blend, "travel": p.travel,
                       "duration": p.duration, "clamped": list(p.clamped)} for p in plan],
-            "warnings": clamp_warnings(plan, units) + kept_script_warnings(plan)}
-
-
-def clamp_warnings(plan: list[PlannedStep], units: Units) -> list[str]:
-    """One line per step whose speed or acceleration the plan lowered to the model's limits, in `units`."""
-    lines = []
-    for planned in plan:
-        if planned.clamped:
-            angular = angular_kind(planned.move or "joint")
-            shown = _move_units(units, angular)
-            lowered = [f"{what} lowered to {show(value, kinds[angular], shown)}" for what, value, kinds in (
-                ("speed", planned.speed, SPEED), ("acceleration", planned.acceleration, ACCELERATION))
-                if any(text.startswith(what) for text in planned.clamped) and value is not None]
-            lines.append(f"{planned.step.name!r}: {', '.join(lowered)} ({planned.move} move limit)")
-    return lines
+            "warnings": plan_warnings(plan, units)}
 
 
 def _warn_recorded_joints(steps: list[Step], model: URModel) -> None:
     """A line on stderr per recorded waypoint whose joints put its TCP elsewhere than its pose, on `model`."""
     for line in recorded_joints_warnings([step.pose for step in steps if isinstance(step, Waypoint)], model):
         click.echo(line, err=True)
-
-
-def export_program_text(settings: Settings, start: str | None, end: str | None, speed: float, acceleration: float,
-                        blend: float, speed_scale: float, replay_joints: bool,
-                        max_travel: float | None) -> tuple[str, int]:
-    """The URScript text of the stored cell program and its number of steps.
-
-    (the .script text of the program or its --from/--to part on the nominal model, number of steps): the same
-    program run-poses sends."""
-    from ur3dq.kinematics import robot_model
-
-    steps, part, first = program_part(settings, start, end)
-    first_pose = next((s.pose for s in steps if isinstance(s, Waypoint)), None)
-    model = robot_model(settings.model or (first_pose.robot_model if first_pose else "ur3"))
-    solving_poses(len(part), model)
-    defaults = Defaults(joint_acceleration=acceleration, joint_speed=speed, blend=blend)
-    plan = plan_program(model, part, None, defaults, speed_scale, replay_joints, max_travel, resolve_from=steps)
-    header = [f"ur3dq export-urscript: steps {first}..{first + len(plan) - 1} of {settings.store_path} for a "
-              f"{model.name}", f"generated {utc_now_iso()}",
-              "the first move starts wherever the arm is: check it at low speed first"]
-    return program_script(plan, header=header, first_position=first), len(plan)

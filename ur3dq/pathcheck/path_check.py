@@ -258,8 +258,10 @@ def _blend_allowance(plan: PathPlan, window: dict[int, WindowEntry], index: int,
     problem = None
     segment = plan.segments[index]
 
-    def length(i: int) -> float:   # TCP travel of move i (m); ∞ for a following move not sampled (it bounds nothing)
-        entry = window.get(i)
+    def length(i: int) -> float:   # TCP travel of move i (m); ∞ for a move not sampled, or the first move from an
+        entry = window.get(i)      # unknown start (a stand-in of length 0): neither bounds the blend
+        if i == 0 and not plan.start_known:
+            return np.inf
         return float(np.sum(np.linalg.norm(np.diff(entry[2], axis=0), axis=1))) if isinstance(entry, tuple) else np.inf
 
     if segment.blend > 0 and len(tcp) and index + 1 < len(plan.segments):

@@ -109,10 +109,16 @@ class PathSegment:
 
 @dataclasses.dataclass(frozen=True)
 class PathPlan:
-    """start_joints (6,) rad: where the arm is before the first segment; segments: the moves in order."""
+    """start_joints (6,) rad: where the arm is before the first segment; segments: the moves in order.
+
+    start_known=False says the arm's position is not known (a plan checked offline): start_joints is then the first
+    segment's target, whose configuration is checked as a move of length 0, and that move is no neighbour that
+    limits the first waypoint's blend radius (the real move into it comes from wherever the arm will be).
+    """
 
     start_joints: FloatArray   # given as any 6 numbers, kept as a read-only array
     segments: Sequence[PathSegment]   # kept as a tuple
+    start_known: bool = True
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "start_joints", _joint_vector(self.start_joints, "start"))

@@ -22,11 +22,11 @@ def path_plan_of(plan: Sequence[PlannedStep], start_joints: npt.ArrayLike | None
 
     The PathPlan of `plan` (ur3dq.program.plan.PlannedStep list) from `start_joints` (6,) rad; without a start
     (a dry run with no robot) from the first waypoint's joints, whose configuration is then checked as a move of
-    length 0. None when the plan has no waypoint (nothing moves)."""
+    length 0 (PathPlan.start_known False). None when the plan has no waypoint (nothing moves)."""
     moves = [planned for planned in plan if planned.joints is not None]
     if not moves:
         return None
     start = np.asarray(moves[0].joints if start_joints is None else start_joints, dtype=float)
     fields = ([getattr(planned, name) for planned in moves]
               for name in ("name", "move", "joints", "speed", "acceleration", "blend", "tcp_offset"))
-    return PathPlan(start, PathSegment.joint_targets(*fields))
+    return PathPlan(start, PathSegment.joint_targets(*fields), start_known=start_joints is not None)
