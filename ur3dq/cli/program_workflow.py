@@ -22,7 +22,7 @@ from ur3dq.cli.app import Settings, confirm, emit_json, emit_json_list, robot_se
 from ur3dq.cli.display import Column, pose_label, pose_vector_text, print_table, recorded_joints_warnings
 from ur3dq.cli.options import TypedValue
 from ur3dq.cli.path_report import check_program, check_verdict, report_path_check, require_passed
-from ur3dq.cli.plan_summary import program_figures, summary_lines
+from ur3dq.cli.plan_summary import program_figures, summary_lines, wait_time
 from ur3dq.cli.plan_warnings import plan_warnings
 from ur3dq.errors import StoreError
 from ur3dq.kinematics.models import URModel
@@ -30,7 +30,7 @@ from ur3dq.pose import Pose, closest_name_text
 from ur3dq.program.plan import Defaults, MotionRangeError, PlannedStep, plan_program
 from ur3dq.program.plan import check_motion_range as plan_check_motion_range
 from ur3dq.program.resolve import select_range
-from ur3dq.program.steps import MAX_BLEND_M, Motion, RelativeWaypoint, Step, Wait, Waypoint, describe
+from ur3dq.program.steps import MAX_BLEND_M, Motion, RelativeWaypoint, Step, Wait, WaitInput, Waypoint, describe
 from ur3dq.store_format import PROGRAM_SCHEMA_VERSION, step_to_dict
 from ur3dq.units import ACCELERATION, ANGLE, DURATION, LENGTH, SPEED, Units, angular_kind, show, to_display, unit_label
 
@@ -287,7 +287,9 @@ def plan_rows(plan: list[PlannedStep], first: int, units: Units) -> Iterator[tup
     for offset, planned in enumerate(plan):
         step = planned.step
         if planned.joints is None:
-            yield str(first + offset), step.name, step.kind, describe_step(step, units), "", "", "", ""
+            seconds, limit = wait_time(step)
+            held = f"{seconds:.2f} s" if seconds is not None else "" if limit is None else f"≤ {limit:.2f} s"
+            yield str(first + offset), step.name, step.kind, describe_step(step, units), "", "", "", held
             continue
         angular = angular_kind(planned.move or "joint")
         yield (str(first + offset), step.name, planned.move or "", _TARGET_FORMAT[units.angle] % tuple(
@@ -411,11 +413,14 @@ def _present(settings: Settings, model: URModel, plan: list[PlannedStep], start_
 
 
 def plan_json(plan: list[PlannedStep], units: Units) -> dict[str, Any]:
-    """The plan of a cell program for --json (SI), with what was lowered to the limits."""
+    """The plan of a cell program for --json (SI), with what was lowered to the limits: a step's `duration` is its
+    move's time, or a wait's seconds; a wait for an input has none, but its `timeout`."""
     return {"plan": [{"step": p.step.name, "type": p.move or p.step.kind,
                       "joints": None if p.joints is None else p.joints.tolist(), "speed": p.speed,
                       "acceleration": p.acceleration, "blend": p.blend, "travel": p.travel,
-                      "duration": p.duration, "clamped": list(p.clamped)} for p in plan],
+                      "duration": p.duration if p.joints is not None else wait_time(p.step)[0],
+                      "clamped": list(p.clamped),
+                      **({"timeout": p.step.timeout} if isinstance(p.step, WaitInput) else {})} for p in plan],
             "warnings": plan_warnings(plan, units)}
 
 
