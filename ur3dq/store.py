@@ -98,6 +98,30 @@ def with_added(steps: list[Step], new: Iterable[Pose], number_if_taken: bool,
     return result, added
 
 
+def with_added_steps(steps: list[Step], new: Iterable[Step]) -> tuple[list[Step], list[Step], list[tuple[str, str]]]:
+    """Another program's steps appended after `steps` (what `poses import` of a store file does).
+
+    Returns (the whole new step list, the steps as added, [(name in `new`, name as added)] of those renamed): every
+    step of `new` is kept as it is (move types, speeds, blends, relative waypoints, actions), a name already in
+    `steps` gets the next free `-N` name, and the relative waypoints of `new` follow their base's new name.
+
+    >>> from ur3dq.program.steps import Wait
+    >>> result, added, renamed = with_added_steps([Wait("settle", 1.0)], [Wait("settle", 2.0)])
+    >>> [step.name for step in result], renamed
+    (['settle', 'settle-1'], [('settle', 'settle-1')])
+    """
+    new = list(new)
+    existing = {step.name for step in steps}
+    taken = existing | {step.name for step in new}
+    renamed = []
+    for name in [step.name for step in new if step.name in existing]:
+        free = next_free_name(numbering_prefix(name), taken)
+        taken.add(free)
+        new = renamed_steps(new, name, free)
+        renamed.append((name, free))
+    return list(steps) + new, new, renamed
+
+
 def find_step(steps: Sequence[Step], name: str, source: str) -> Step:
     """The step called `name`, or StoreError listing the names there are."""
     for step in steps:

@@ -70,3 +70,4 @@ def test_waits_count_in_the_plan_s_time_and_json(run_in_process, program):
     assert figures.seconds == pytest.approx(moving + 30.0) and figures.input_wait_limit == 10.0
     text = " ".join(line.strip() for line in summary_lines(figures, "Path check (no cell file): clear", [], Units()))
     assert f"about {moving + 30.0:.1f} s at 100 % (30 s of it waits), plus up to 10 s waiting for inputs" in text
+

@@ -80,8 +80,8 @@ from ur3dq.program.steps import (
     Waypoint,
     is_waypoint,
 )
-from ur3dq.store import format_thesis_lines, write_atomically
-from ur3dq.store_format import format_store, parse_store, pose_to_dict, step_to_dict
+from ur3dq.store import format_thesis_lines, with_added_steps, write_atomically
+from ur3dq.store_format import format_store, parse_document, pose_to_dict, step_to_dict
 from ur3dq.units import ANGLE, DURATION, LENGTH, plain_number, unit_label
 
 
@@ -243,7 +243,9 @@ def import_poses(settings: Settings, file: Path, prefix: str | None, tcp: tuple[
     """Add the poses of FILE (thesis lines or a ur3dq store).
 
     Add the poses of FILE: the thesis' text lines (`q.w q.x q.y q.z 0 p.x p.y p.z`, one pose a line,
-    `#` comments allowed) or another ur3dq JSON store. All or nothing; taken names are numbered on.
+    `#` comments allowed) or another ur3dq JSON store, whose whole cell program is appended after the stored
+    steps, each step as it is (move types, speeds, blends, relative waypoints, outputs, waits, messages). All or
+    nothing; taken names are numbered on (said on stderr), relative waypoints following their base.
 
     Thesis lines carry no joints and no model: --model (default ur3) and --tcp say what they were recorded with.
 
@@ -257,13 +259,30 @@ def import_poses(settings: Settings, file: Path, prefix: str | None, tcp: tuple[
     if text.lstrip().startswith("{"):
         if prefix or tcp:
             raise ValueError(f"{file} is a JSON pose store: --prefix and --tcp apply to thesis text files only")
-        added = settings.store.add_many(parse_store(text, str(file)), number_if_taken=True)
-    else:
-        tcp_offset = tuple(ur_pose_from_input(tcp, "--tcp").tolist()) if tcp else (0.0,) * 6
-        added = settings.store.add_thesis_text(text, file, settings.model or "ur3", tcp_offset, prefix)
+        return _import_store(settings, file, text)
+    tcp_offset = tuple(ur_pose_from_input(tcp, "--tcp").tolist()) if tcp else (0.0,) * 6
+    added = settings.store.add_thesis_text(text, file, settings.model or "ur3", tcp_offset, prefix)
     report(settings, {"imported": [pose.name for pose in added]},
            f"Imported {count_text(len(added), 'pose')} into {settings.store_path}: "
            f"{', '.join(p.name for p in added)}")
+
+
+def _import_store(settings: Settings, file: Path, text: str) -> None:
+    """`poses import` of another ur3dq store: its whole program appended, each step as it is (with_added_steps);
+    a taken name numbered on, with a warning naming both."""
+    _, steps = parse_document(text, str(file))
+
+    def edit(existing: list[Step]) -> tuple[list[Step], tuple[list[Step], list[tuple[str, str]]]]:
+        result, added, renamed = with_added_steps(existing, steps)
+        return result, (added, renamed)
+
+    added, renamed = settings.store.update_program(edit)
+    for old, new in renamed:
+        click.echo(f"Warning: the name {old!r} is taken; imported as {new!r}", err=True)
+    plain = all(isinstance(step, Waypoint) and step.motion == Motion() for step in added)
+    report(settings, {"imported": [step.name for step in added]},
+           f"Imported {count_text(len(added), 'pose' if plain else 'step')} into {settings.store_path}: "
+           f"{', '.join(step.name for step in added)}")
 
 
 @poses.command("export", short_help="Write poses to thesis lines or a JSON store.")
