@@ -19,7 +19,7 @@ REFUSED = [   # (move, speed, blend, the notice)
     ("joint", "", "-5", "Error: blend must be from 0 mm to 1000 mm, got -5 mm"),
     ("joint", "", "1e300", "Error: blend must be from 0 mm to 1000 mm, got 1e300 mm"),
     ("linear", "-0.5m/s", "", "Error: speed must be more than 0 mm/s, got -0.5m/s"),
-    ("joint", "1e-9", "", "Error: step 'p': speed 1e-09 °/s is outside the ur3's range for a joint move, "
+    ("joint", "1e-9", "", "Error: waypoint 'p': speed 1e-09 °/s is outside the ur3's range for a joint move, "
                           "0.06 °/s to 180 °/s"),
 ]
 

@@ -384,7 +384,7 @@ class Importer:
         try:
             motion = Motion(MOVE_TYPES[kind], speed, acceleration, blend)
             # the range `poses set` allows: a file is an editor too (the plan would only lower it, with a warning)
-            check_motion_range(motion, self.model, "the waypoint", Units())
+            check_motion_range(motion, self.model, "the waypoint", Units(length="mm"))   # as the pendant shows
         except ValueError as error:
             raise NodeError(path, str(error).removeprefix("motion: ")) from None
         return motion

@@ -63,9 +63,9 @@ class MotionRangeError(ValueError):
 
 
 def check_motion_range(motion: Motion, model: URModel, who: str, units: u.Units) -> None:
-    """MotionRangeError naming `who` and the valid range (angles in `units`, lengths in mm as on the pendant) when
-    `motion`'s speed or acceleration is outside motion_ranges(model, its move): the one range check of every editor
-    (command line, screen and .urp import).
+    """MotionRangeError naming `who` and the valid range (written in `units`) when `motion`'s speed or acceleration
+    is outside motion_ranges(model, its move): the one range check of every editor (command line, screen and .urp
+    import).
 
     >>> from ur3dq.kinematics import robot_model
     >>> check_motion_range(Motion("linear", 1e-9), robot_model("ur3"), "waypoint 'p1'", u.Units("deg", "mm"))
@@ -76,7 +76,6 @@ move, 1 mm/s to 1000 mm/s
     """
     angular = u.angular_kind(motion.move)
     speeds, accelerations = motion_ranges(model, motion.move)
-    units = u.Units(units.angle, "mm")   # linear speeds read best in mm/s, as on the pendant
     for value, (low, high), kind, what in ((motion.speed, speeds, u.SPEED[angular], "speed"),
                                            (motion.acceleration, accelerations, u.ACCELERATION[angular],
                                             "acceleration")):
