@@ -101,6 +101,10 @@ class MotionTimeoutError(RobotError):
     """A motion did not finish within the time derived from its own expected duration."""
 
 
+class NotReachedError(RobotError):
+    """A motion ended, but away from where it aimed the TCP (beyond the command's tolerance)."""
+
+
 class SafetyCheckError(RobotError, ValueError):
     """A motion was refused before sending: it failed a safety check (limits, travel, FK consistency)."""
 

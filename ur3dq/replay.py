@@ -17,7 +17,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Callable, Sequence
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -75,7 +75,14 @@ def tcp_pose_for(pose: Pose, tcp_now: DualQuaternion) -> DualQuaternion:
     return pose.dq * DualQuaternion.from_ur_pose(pose.tcp_offset).inverse() * tcp_now
 
 
-def tcp_changed(pose: Pose, tcp_now: DualQuaternion, tol_m: float = 1e-4, tol_rad: float = 1e-3) -> bool:
+class TaughtWithTcp(Protocol):
+    """Anything taught with a TCP offset (flange frame, UR pose vector): a Pose, a program's resolved Target."""
+
+    @property
+    def tcp_offset(self) -> Sequence[float]: ...
+
+
+def tcp_changed(pose: TaughtWithTcp, tcp_now: DualQuaternion, tol_m: float = 1e-4, tol_rad: float = 1e-3) -> bool:
     """True if `pose` was recorded with a TCP offset other than `tcp_now` (beyond 0.1 mm / 1 mrad)."""
     metres, radians = DualQuaternion.from_ur_pose(pose.tcp_offset).distance(tcp_now)
     return metres > tol_m or radians > tol_rad

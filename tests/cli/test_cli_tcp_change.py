@@ -60,3 +60,41 @@ def test_tcp_recorded_puts_the_flange_back_and_the_table_says_so(arm_with_a_chan
     assert result.returncode == 0, result.stderr
     assert "recorded flange: 100.0 mm from the recorded TCP" in result.stdout
     np.testing.assert_allclose(robot.joints(), RECORDED_AT, atol=1e-4)
+
+
+def test_a_cell_program_and_move_to_refuse_a_changed_tcp_without_a_choice(arm_with_a_changed_tcp, run_cli):
+    host, robot = arm_with_a_changed_tcp
+    assert run_cli("poses", "offset", "above", "--from", "p", "--z", "-0.03", "--before", "p").returncode == 0
+    for args in (("run-poses", "--dry-run"), ("run-poses", "--yes"), ("move-to", "p", "--yes")):
+        result = run_cli("--host", host, *args)
+        assert result.returncode == 4, (args, result.stdout, result.stderr)
+        assert "Warning: the controller's TCP offset" in result.stderr, (args, result.stderr)
+        assert "--tcp recorded" in result.stderr.splitlines()[-1], (args, result.stderr)
+        np.testing.assert_allclose(robot.joints(), ELSEWHERE, atol=1e-6)
+
+
+def test_a_cell_program_honours_tcp_current_and_recorded(arm_with_a_changed_tcp, run_cli, tmp_path):
+    host, robot = arm_with_a_changed_tcp
+    assert run_cli("poses", "offset", "above", "--from", "p", "--z", "-0.03", "--before", "p").returncode == 0
+    recorded = PoseStore(tmp_path / "poses.json").get("p")
+    result = run_cli("--host", host, "run-poses", "--yes", "--tcp", "current")
+    assert result.returncode == 0, result.stderr
+    assert robot.tcp_pose().distance(recorded.dq)[0] < 1e-4   # the current (longer) TCP on the taught pose
+    robot.movej(ELSEWHERE, a=3.0, v=2.0)
+    result = run_cli("--host", host, "run-poses", "--yes", "--tcp", "recorded")
+    assert result.returncode == 0, result.stderr
+    np.testing.assert_allclose(robot.joints(), RECORDED_AT, atol=1e-4)   # the flange where it was taught
+
+
+def test_move_to_honours_tcp_current_and_recorded(arm_with_a_changed_tcp, run_cli, tmp_path):
+    host, robot = arm_with_a_changed_tcp
+    recorded = PoseStore(tmp_path / "poses.json").get("p")
+    result = run_cli("--host", host, "move-to", "p", "--yes", "--tcp", "current", "--json")
+    assert result.returncode == 0, result.stderr
+    assert json.loads(result.stdout)["error_m"] < 1e-4
+    assert robot.tcp_pose().distance(recorded.dq)[0] < 1e-4
+    robot.movej(ELSEWHERE, a=3.0, v=2.0)
+    result = run_cli("--host", host, "move-to", "p", "--yes", "--tcp", "recorded")
+    assert result.returncode == 0, result.stderr
+    assert "the TCP aimed 100.0 mm from the pose" in result.stdout and "is 0.000 mm" in result.stdout
+    np.testing.assert_allclose(robot.joints(), RECORDED_AT, atol=1e-4)

@@ -28,6 +28,7 @@ from ur3dq.cli.library_output import own_output
 from ur3dq.cli.signals import exit_code_for_interrupt, polite_signals_interrupt, signal_name, stacks_on_sigquit
 from ur3dq.errors import (
     SEPARATE_NOTE,
+    NotReachedError,
     RobotConnectionError,
     RobotError,
     SafetyCheckError,
@@ -62,6 +63,7 @@ ERROR_EXIT_CODES = (
     (StoreError, EXIT_STORE),
     (RobotConnectionError, EXIT_NO_ROBOT),
     (SafetyCheckError, EXIT_INPUT),
+    (NotReachedError, EXIT_NOT_REACHED),
     (RobotError, EXIT_ROBOT),
     (ValueError, EXIT_INPUT),
     (OSError, EXIT_STORE),
@@ -71,9 +73,9 @@ EXIT_CODES_EPILOG = (
     f"Exit codes: {EXIT_OK} done, {EXIT_CANCELLED} cancelled at a question (or pass --yes), {EXIT_USAGE} bad command "
     f"line, {EXIT_STORE} store or file problem (store unchanged), {EXIT_INPUT} bad input (unreachable pose, limits, "
     f"NaN, out of range, failed path check), {EXIT_NO_ROBOT} no robot reachable, {EXIT_ROBOT} robot fault (stop, "
-    f"program error, lost connection, timeout), {EXIT_NOT_REACHED} demo missed a pose, {EXIT_SIMULATOR} simulator "
-    f"would not start/stop, {EXIT_INTERNAL} internal error (UR3DQ_DEBUG=1 shows it), {EXIT_INTERRUPTED} Ctrl-C (arm "
-    "stopped), 143/129 SIGTERM/SIGHUP (as Ctrl-C).")
+    f"program error, lost connection, timeout), {EXIT_NOT_REACHED} a move missed its pose (demo, move-to), "
+    f"{EXIT_SIMULATOR} simulator would not start/stop, {EXIT_INTERNAL} internal error (UR3DQ_DEBUG=1 shows it), "
+    f"{EXIT_INTERRUPTED} Ctrl-C (arm stopped), 143/129 SIGTERM/SIGHUP (as Ctrl-C).")
 
 # The top-level help lists the commands by what they are for (a command not named here is listed under "More").
 COMMAND_SECTIONS = (

@@ -10,11 +10,15 @@ from rich.markup import escape
 from ur3dq.cli.app import Settings, cli, confirm, emit_json, robot_session, solving_poses
 from ur3dq.cli.options import cell_option, display_options
 from ur3dq.cli.path_report import check_program, check_verdict, require_passed
-from ur3dq.errors import StoreError
+from ur3dq.cli.tcp_check import aimed_pose, steps_for_the_current_tcp, tcp_option
+from ur3dq.errors import NotReachedError, StoreError
 from ur3dq.program.plan import Defaults, PlannedStep, plan_program
 from ur3dq.program.runner import run_plan
 from ur3dq.program.steps import is_waypoint
 from ur3dq.units import ANGLE, LENGTH, SPEED, Units, angular_kind, show
+
+REACHED_M = 1e-3     # a move to a pose that ends further than this from where it aimed the TCP did not reach it
+REACHED_RAD = 1e-2
 
 
 @cli.command("move-to", short_help="Move the arm to one recorded pose (checked, asked).")
@@ -22,16 +26,20 @@ from ur3dq.units import ANGLE, LENGTH, SPEED, Units, angular_kind, show
 @click.option("--yes", "-y", is_flag=True, help="Move without asking.")
 @click.option("--speed-scale", type=click.FloatRange(0.0, 1.0, min_open=True), default=1.0, show_default=True,
               metavar="F", help="Scale the move's speed by F (0 < F ≤ 1).")
+@tcp_option
 @cell_option
 @display_options
 @click.pass_obj
-def move_to(settings: Settings, name: str, yes: bool, speed_scale: float, cell_path: Path | None) -> None:
+def move_to(settings: Settings, name: str, yes: bool, speed_scale: float, tcp_choice: str | None,
+            cell_path: Path | None) -> None:
     """Move the arm to the recorded pose NAME (a waypoint or relative waypoint of the store).
 
     The target is planned from where the arm is (the IK solution nearest the pose's recorded joints), by the
     waypoint's own move type and speed (a joint move at URScript's default speed for a plain pose); the whole
-    path is checked from the arm's joints (in --cell if given) before the question, which defaults to No.
-    Ctrl-C stops the arm.
+    path is checked from the arm's joints (in --cell if given) before the question, which defaults to No. If the
+    controller's TCP offset changed since the pose was taught, that is said and --tcp recorded or --tcp current
+    is required. Ctrl-C stops the arm. A move that ends more than 1 mm or 0.01 rad from where it aimed the TCP
+    exits 7.
 
     \b
     Examples:
@@ -46,9 +54,11 @@ def move_to(settings: Settings, name: str, yes: bool, speed_scale: float, cell_p
         raise click.UsageError(f"step {name!r} is a {step.kind}, not a pose: move-to takes a waypoint")
     solving_poses(1)
     with robot_session(settings) as robot:
+        err = Console(stderr=True, highlight=False)
+        steps = steps_for_the_current_tcp(steps, [name], robot.model.tcp, tcp_choice, False, err)
+        step = steps[[candidate.name for candidate in steps].index(name)]
         plan = plan_program(robot.model, [step], robot.joints(), Defaults(), speed_scale,
                             max_joint_travel=robot.max_joint_travel, resolve_from=steps)
-        err = Console(stderr=True, highlight=False)
         err.print(escape(move_summary(plan[0], settings)), soft_wrap=True)
         result, _ = check_program(robot.model, plan, cell_path, robot.joints(), keep_samples=False)
         err.print(escape(check_verdict(result, cell_path)), soft_wrap=True)
@@ -56,14 +66,25 @@ def move_to(settings: Settings, name: str, yes: bool, speed_scale: float, cell_p
             require_passed(settings, result)
         confirm(f"Move the arm to {name!r}?", yes, default=False)
         seconds = run_plan(robot, plan, steps.index(step) + 1)
-        target = plan[0].pose
-        assert target is not None, "a planned waypoint has its pose"
+        taught = plan[0].pose
+        assert taught is not None, "a planned waypoint has its pose"
+        target = aimed_pose(taught, plan[0].tcp_offset, robot.model.tcp)
         metres, radians = robot.tcp_pose().distance(target)
+    off_m = target.distance(taught)[0]
     if settings.json:
-        emit_json({"moved_to": name, "seconds": seconds, "error_m": metres, "error_rad": radians})
+        emit_json({"moved_to": name, "seconds": seconds, "error_m": metres, "error_rad": radians,
+                   "target_from_recorded_m": off_m})
     else:
+        aimed = "it" if off_m < 1e-4 else f"where it was aimed (the flange where it was taught: the TCP aimed " \
+            f"{show(off_m, LENGTH, _mm(settings), 1)} from the pose)"
         click.echo(f"At {name!r}: the TCP is {show(metres, LENGTH, _mm(settings), 3)} and "
-                   f"{show(radians, ANGLE, settings.units, 4)} from it ({seconds:.2f} s).")
+                   f"{show(radians, ANGLE, settings.units, 4)} from {aimed} ({seconds:.2f} s).")
+    if metres > REACHED_M or radians > REACHED_RAD:
+        raise NotReachedError(f"the move to {name!r} ended {show(metres, LENGTH, _mm(settings), 3)} and "
+                              f"{show(radians, ANGLE, settings.units, 4)} from where it aimed the TCP (more than "
+                              f"{show(REACHED_M, LENGTH, _mm(settings), 0)} or "
+                              f"{show(REACHED_RAD, ANGLE, settings.units, 3)}): check the "
+                              "TCP offset and the arm (`ur3dq status`)")
 
 
 def move_summary(planned: PlannedStep, settings: Settings) -> str:

@@ -331,7 +331,7 @@ def program_part(settings: Settings, start: str | None, end: str | None) -> tupl
 def run_program_command(settings: Settings, start: str | None, end: str | None, speed_scale: float, dry_run: bool,
                         yes: bool, speed: float, acceleration: float, blend: float, replay_joints: bool,
                         max_travel: float, cell_path: Path | None = None, full_plan: bool = False,
-                        resume: ResumeState | None = None) -> None:
+                        resume: ResumeState | None = None, tcp_choice: str | None = None) -> None:
     """`run-poses` of a cell program: plan, check, ask, run.
 
     `run-poses` of a cell program (a version-2 store, or --from/--to/--speed-scale): plan, the whole-path check
@@ -339,7 +339,8 @@ def run_program_command(settings: Settings, start: str | None, end: str | None, 
     check's margins with `full_plan` or a dry run), and the run as one URScript program with the running step
     shown and the operator's controls (ur3dq.cli.run_session). Speeds SI. `resume` (a ResumeState) goes on from
     its step on the arm it stopped on: the plan starts from the arm's actual joints, so its first move is a new
-    path, checked as such."""
+    path, checked as such. `tcp_choice` is --tcp: a program taught with another TCP than the controller's is
+    refused without it (ur3dq.cli.tcp_check)."""
     from ur3dq.cli.background_simulator import running_simulator_host
     from ur3dq.cli.resume_state import store_digest
     from ur3dq.kinematics import robot_model
@@ -360,12 +361,16 @@ def run_program_command(settings: Settings, start: str | None, end: str | None, 
                  f"Plan on a nominal {model.name} (no robot: travel from the first step)")
         return
     from ur3dq.cli import run_session
+    from ur3dq.cli.tcp_check import steps_for_the_current_tcp
 
     with robot_session(settings, max_joint_travel=max_travel) as robot:
         solving_poses(len(part), robot.model)
-        _warn_recorded_joints(part, robot.model)
         if resume is not None:
             resume.require_same_arm(robot)
+        steps = steps_for_the_current_tcp(steps, [step.name for step in part], robot.model.tcp, tcp_choice,
+                                          replay_joints, Console(stderr=True, highlight=False))
+        part = steps[first - 1:first - 1 + len(part)]
+        _warn_recorded_joints(part, robot.model)
         plan = plan_program(robot.model, part, robot.joints(), defaults, speed_scale, replay_joints, max_travel,
                             resolve_from=steps)
         if resume is not None:
@@ -377,7 +382,7 @@ def run_program_command(settings: Settings, start: str | None, end: str | None, 
         run_session.confirm_replacing_foreign_program(robot, yes)
         confirm(f"Run {len(plan)} steps ({part[0].name!r} to {part[-1].name!r}) on the arm?", yes, default=False)
         options = {"speed": speed, "acceleration": acceleration, "blend": blend, "speed_scale": speed_scale,
-                   "replay_joints": replay_joints, "max_travel": max_travel,
+                   "replay_joints": replay_joints, "max_travel": max_travel, "tcp": tcp_choice,
                    "cell": None if cell_path is None else str(cell_path)}
         record = run_session.run_record(settings, robot, "program", end, options, digest)
         seconds = run_session.run_program(settings, robot, plan, first, len(steps), record)

@@ -30,21 +30,12 @@ from ur3dq.cli.path_report import check_replay, check_verdict, report_path_check
 from ur3dq.cli.plan_summary import replay_figures, summary_lines
 from ur3dq.cli.program_workflow import run_program_command
 from ur3dq.cli.resume_state import ResumeState, load_resume_state, store_digest
-from ur3dq.dualquat import DualQuaternion
+from ur3dq.cli.tcp_check import for_the_current_tcp, tcp_option
 from ur3dq.errors import SafetyCheckError, StoreError
 from ur3dq.kinematics import robot_model
 from ur3dq.kinematics.models import URModel
 from ur3dq.pose import Pose
-from ur3dq.replay import (
-    TCP_CURRENT,
-    TCP_RECORDED,
-    PlanStep,
-    execute_plan,
-    loop_closing_travel,
-    plan_replay,
-    retarget_to_tcp,
-    tcp_changed,
-)
+from ur3dq.replay import PlanStep, execute_plan, loop_closing_travel, plan_replay
 from ur3dq.robot.safety import DEFAULT_MAX_JOINT_TRAVEL
 from ur3dq.units import LENGTH
 
@@ -69,9 +60,7 @@ def plan_to_json(steps: Iterable[PlanStep]) -> list[dict[str, Any]]:
               help="Run the sequence this many times.")
 @click.option("--joints", "replay_joints", is_flag=True,
               help="Replay the recorded joint angles directly instead of solving IK.")
-@click.option("--tcp", "tcp_choice", type=click.Choice([TCP_RECORDED, TCP_CURRENT]),
-              help="When the controller's TCP offset changed since a pose was recorded (required then): "
-                   "`recorded` puts the flange where it was, `current` puts the current TCP on the recorded pose.")
+@tcp_option
 @click.option("--from", "start", metavar="N", help="Run the program from the step N (resume after a stop).")
 @click.option("--to", "end", metavar="N", help="Run the program up to the step N.")
 @click.option("--speed-scale", type=float, default=None, metavar="F",
@@ -120,7 +109,8 @@ def run_poses(settings: Settings, names: tuple[str, ...], dry_run: bool, full_pl
             raise click.UsageError("a cell program runs as a whole or --from/--to: no NAMES, no --loop")
         check_blend(blend)
         return run_program_command(settings, start, end, 1.0 if speed_scale is None else speed_scale, dry_run,
-                                   yes, speed, acceleration, blend, replay_joints, max_travel, cell_path, full_plan)
+                                   yes, speed, acceleration, blend, replay_joints, max_travel, cell_path, full_plan,
+                                   tcp_choice=tcp_choice)
     poses = settings.store.select(names)
     if not poses:
         raise StoreError(f"{settings.store_path} has no poses: record some with `ur3dq record-pose`")
@@ -156,7 +146,7 @@ def _replay(settings: Settings, poses: list[Pose], loops: int, dry_run: bool, fu
             resume.require_same_arm(robot)
         solving_poses(len(poses) * loops, robot.model)
         a, v = speed_and_acceleration(robot.model, speed, acceleration, err, settings.units)
-        poses = _for_the_current_tcp(poses, robot.model.tcp, options["tcp"], replay_joints, err)
+        poses = for_the_current_tcp(poses, robot.model.tcp, options["tcp"], replay_joints, err)
         for line in recorded_joints_warnings(poses, robot.model):
             click.echo(line, err=True)
         steps = plan_replay(robot.model, poses, robot.joints(), a, v, replay_joints, max_travel)
@@ -193,32 +183,11 @@ def _resume(settings: Settings, dry_run: bool, yes: bool, full_plan: bool) -> No
         return run_program_command(settings, state.step, state.end, options["speed_scale"], dry_run, yes,
                                    options["speed"], options["acceleration"], options["blend"],
                                    options["replay_joints"], options["max_travel"], cell_path, full_plan,
-                                   resume=state)
+                                   resume=state, tcp_choice=options.get("tcp"))
     Console(stderr=True, highlight=False).print(Text(
         f"Resuming the replay at move {state.position}, to {state.step!r}: first a movej from where the arm is, "
         "path-checked from its joints."))
     return _replay(settings, settings.store.select(state.names), 1, dry_run, full_plan, yes, options, resume=state)
-
-
-def _for_the_current_tcp(poses: list[Pose], tcp_now: DualQuaternion, choice: str | None, replay_joints: bool,
-                         err: Console) -> list[Pose]:
-    """The poses to plan, given the controller's TCP `tcp_now`: unchanged when every pose was recorded with it;
-    otherwise a warning before anything moves, and the user's --tcp choice (SafetyCheckError without one)."""
-    changed = [pose.name for pose in poses if tcp_changed(pose, tcp_now)]
-    if not changed:
-        return poses
-    current = ", ".join(f"{value:.4f}" for value in tcp_now.to_ur_pose())
-    err.print(f"Warning: the controller's TCP offset (p[{current}]) differs from the one {', '.join(changed)} "
-              "was recorded with.")
-    if choice is None:
-        raise SafetyCheckError(f"the TCP offset changed since {', '.join(changed)} was recorded: choose --tcp "
-                               "recorded (the flange goes where it was) or --tcp current (the current TCP goes on "
-                               "the recorded pose)")
-    if choice == TCP_CURRENT:
-        if replay_joints:
-            raise SafetyCheckError("--tcp current needs IK for the new TCP: drop --joints")
-        return [retarget_to_tcp(pose, tcp_now) for pose in poses]
-    return poses
 
 
 def _present(settings: Settings, model: URModel, steps: list[PlanStep], start_joints: np.ndarray | None,
