@@ -2,7 +2,12 @@
 warnings), the full plan one flag away; the embedded simulator keeps its address, and a refused host says where
 ur3dq's simulator runs."""
 import shutil
+import signal
 from pathlib import Path
+
+import numpy as np
+
+from cli_support import Terminal
 
 EXAMPLE = Path(__file__).parents[2] / "poses" / "example-poses.json"
 
@@ -57,3 +62,22 @@ def test_the_simulator_keeps_its_address_and_a_refused_host_points_at_it(run_cli
         run_cli("sim", "stop")
     nothing = run_cli("--host", "127.9.9.9", "status")
     assert "no ur3dq simulator is running" in nothing.stderr and "ur3dq sim start" in nothing.stderr
+
+
+def test_ctrl_c_at_the_run_question_cancels_and_exits_130(run_cli, arm, tmp_path):
+    shutil.copy(EXAMPLE, tmp_path / "poses.json")
+    thirteen_steps(run_cli)
+    before = arm.joints()
+    terminal = Terminal(tmp_path, "--host", arm.host, "run-poses", "--max-travel", "360deg")
+    try:
+        terminal.wait_for("Run 13 steps")
+        terminal.wait_for("[y/N]")
+        terminal.process.send_signal(signal.SIGINT)   # Ctrl-C (this pty is not the process's controlling tty)
+        terminal.wait_for('Cancelled at "Run 13 steps')
+        terminal.process.wait(20)
+        rest = terminal.text
+    finally:
+        terminal.close()
+    assert terminal.process.returncode == 130, rest
+    assert "(Ctrl-C): nothing done." in rest and "Error" not in rest, rest
+    np.testing.assert_allclose(arm.joints(), before, atol=1e-9)

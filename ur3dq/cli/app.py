@@ -75,7 +75,8 @@ EXIT_CODES_EPILOG = (
     f"NaN, out of range, failed path check), {EXIT_NO_ROBOT} no robot reachable, {EXIT_ROBOT} robot fault (stop, "
     f"program error, lost connection, timeout), {EXIT_NOT_REACHED} a move missed its pose (demo, move-to), "
     f"{EXIT_SIMULATOR} simulator would not start/stop, {EXIT_INTERNAL} internal error (UR3DQ_DEBUG=1 shows it), "
-    f"{EXIT_INTERRUPTED} Ctrl-C (arm stopped), 143/129 SIGTERM/SIGHUP (as Ctrl-C).")
+    f"{EXIT_INTERRUPTED} Ctrl-C (arm stopped; at a question: cancelled, nothing done), "
+    "143/129 SIGTERM/SIGHUP (as Ctrl-C).")
 
 # The top-level help lists the commands by what they are for (a command not named here is listed under "More").
 COMMAND_SECTIONS = (
@@ -135,6 +136,10 @@ class Cancelled(UR3DQError):
     def __init__(self, message: str, deliberate: bool = False):
         super().__init__(message)
         self.deliberate = deliberate
+
+
+class CancelledAtQuestion(KeyboardInterrupt):
+    """Ctrl-C at a question: nothing was done; said as a cancel (not an error), exit 130 as for any Ctrl-C."""
 
 
 @dataclasses.dataclass
@@ -266,7 +271,14 @@ def confirm(question: str, assume_yes: bool, default: bool = False) -> None:
         return
     try:
         answer = click.confirm(question, default=default, err=True)
-    except click.Abort:
+    except click.Abort as abort:
+        interrupt = abort.__context__   # click turns Ctrl-C (and SIGTERM, SIGHUP: signals.py) into Abort
+        if isinstance(interrupt, KeyboardInterrupt):
+            if not sys.stdin.isatty():   # a terminal's line discipline ends the question's line itself
+                click.echo(err=True)
+            if type(interrupt) is KeyboardInterrupt:
+                raise CancelledAtQuestion(f"cancelled at {question!r} (Ctrl-C): nothing done.") from None
+            raise interrupt from None
         answer = None
     if answer is None or not sys.stdin.isatty():
         click.echo(err=True)  # a piped or missing answer is not echoed: end the question's line
@@ -476,6 +488,9 @@ def _report_interrupt(interrupt: BaseException) -> int:
     (130 for Ctrl-C, 128 + n for signal n)."""
     if os.environ.get("UR3DQ_DEBUG"):   # where the interrupt landed
         traceback.print_exception(interrupt)
+    if isinstance(interrupt, CancelledAtQuestion):   # the user's choice, said plainly as a "no" is
+        click.echo(str(interrupt)[0].upper() + str(interrupt)[1:], err=True)
+        return exit_code_for_interrupt(interrupt)
     name = signal_name(interrupt)
     text = f"interrupted by {name}" if name else str(interrupt) or "interrupted"
     for note in separate_notes(interrupt):
