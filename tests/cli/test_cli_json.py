@@ -133,7 +133,7 @@ def test_simulator_commands_match_their_schemas(run_cli, tmp_path):
         validate(("robot", "power-off"), run_cli("robot", "power-off", "--json"))
         validate(("robot", "power-on"), run_cli("robot", "power-on", "--json"))
         validate(("robot", "brake-release"), run_cli("robot", "brake-release", "--json"))
-        validate(("robot", "freedrive"), run_cli("robot", "freedrive", "on", "--json"))
+        validate(("robot", "freedrive"), run_cli("robot", "freedrive", "on", "--json", input="\n"))   # Enter ends it
         validate(("robot", "freedrive"), run_cli("robot", "freedrive", "off", "--json"))
     finally:
         stopped = validate(("sim", "stop"), run_cli("sim", "stop", "--json"))

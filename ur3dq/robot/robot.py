@@ -620,8 +620,7 @@ class Robot:
         self._wait_for_mode({ROBOT_MODE_POWER_OFF}, "power off")
 
     def brake_release(self) -> None:
-        """Release the brakes and wait until the arm is RUNNING; RobotError at once unless it is powered on (IDLE)
-        or already RUNNING (the controller would not release them)."""
+        """Release the brakes and wait until RUNNING (done if it is); RobotError unless IDLE: the controller refuses."""
         mode = self.state().robot_mode
         if mode == state.ROBOT_MODE_RUNNING:
             return
@@ -631,11 +630,14 @@ class Robot:
         self._dashboard.brake_release()
         self._wait_for_mode({state.ROBOT_MODE_RUNNING}, "brake release")
 
-    def unlock_protective_stop(self) -> None:
-        """Unlock a protective stop (the controller refuses within 5 s of it). Never called by ur3dq itself."""
+    def unlock_protective_stop(self) -> bool:
+        """Unlock a protective stop (refused within 5 s of it): False if none, EmergencyStopError if e-stopped."""
+        if not state.unlock_needed(self.state(), self.host):
+            return False
         self._dashboard.unlock_protective_stop()
         if not self._wait_until(lambda: not self.state().protective_stopped, 2.0):
             raise ProtectiveStopError(f"{self.host} still reports a protective stop 2 s after the unlock")
+        return True
 
     def set_tcp(self, tcp: PoseLike) -> None:
         """Set the controller's TCP offset (DualQuaternion or UR pose vector, flange frame); the model follows."""
@@ -661,9 +663,7 @@ class Robot:
             raise ProgramError(f"the controller did not switch freedrive {'on' if on else 'off'} within 2 s")
 
     def freedrive_active(self) -> bool:
-        """Whether the controller is in freedrive now.
-
-        True while the controller is in freedrive (primary controlMode TEACH): another program sent to the
+        """Whether the controller is in freedrive now (primary controlMode TEACH): another program sent to the
         controller ends ur3dq's freedrive program, so a teach session checks this before each recording."""
         self._ensure_streams()
         asked = time.monotonic()  # a state message sent after the question, not one from before a change

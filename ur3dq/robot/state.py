@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ur3dq.errors import InvalidStateError
+from ur3dq.errors import EmergencyStopError, InvalidStateError
 
 ROBOT_MODE_NAMES = {
     -1: "NO_CONTROLLER", 0: "DISCONNECTED", 1: "CONFIRM_SAFETY", 2: "BOOTING", 3: "POWER_OFF", 4: "POWER_ON",
@@ -100,6 +100,15 @@ def protective_stopped_from(safety_status_bits: int, safety_mode: int) -> bool:
 def emergency_stopped_from(safety_status_bits: int, safety_mode: int) -> bool:
     """True if RTDE reports an emergency stop: safety_status_bits bit 7, or a (system/robot) e-stop safety mode."""
     return bool(int(safety_status_bits) & _SAFETY_BIT_EMERGENCY_STOPPED) or int(safety_mode) in EMERGENCY_SAFETY_MODES
+
+
+def unlock_needed(status: RobotStatus, host: str) -> bool:
+    """Whether `status` shows a protective stop to unlock; EmergencyStopError, with its fix, during an emergency
+    stop (no unlock ends that)."""
+    if status.emergency_stopped:
+        raise EmergencyStopError(f"{host} is emergency-stopped ({status.safety_mode_name}), which no unlock ends: "
+                                 "release the e-stop button, then `ur3dq robot power-on`")
+    return status.protective_stopped
 
 
 def at_rest_at(status: RobotStatus, target: object, position_tolerance: float = 2e-3,
