@@ -145,3 +145,10 @@ def test_unlock_says_when_there_is_nothing_to_unlock_and_names_an_emergency_stop
     result = run_cli("--host", host, "robot", "unlock")
     assert_one_line_error(result, 6, "emergency-stopped", "release the e-stop")
     assert "unlocked" not in result.stdout
+
+
+def test_a_jog_script_whose_steps_all_fail_exits_with_the_robot_fault_code(powered_off_sim, run_cli):
+    host = powered_off_sim
+    result = run_cli("--host", host, "jog", input="1+-q")
+    assert "J1+ not moved" in result.stderr and "Jog ended." in result.stdout
+    assert_one_line_error(result, 6, "2 jog steps of 2 did not move", "POWER_OFF")

@@ -8,7 +8,8 @@ import time
 import numpy as np
 import pytest
 
-from cli_support import run_poses_mid_move
+from cli_support import cli_process, finish, run_poses_mid_move
+from polling import wait_for
 from robot_target import simulator_only
 
 pytestmark = simulator_only("placing the arm by hand")
@@ -48,3 +49,43 @@ def test_sigquit_mid_move_prints_every_threads_stack_and_the_run_goes_on(arm, ru
     assert process.returncode == 0, stderr
     assert "Current thread" in stderr and "ur3dq/robot/" in stderr and 'File "' in stderr, stderr
     assert np.max(np.abs(arm.joints() - TARGET)) < 1e-3
+
+
+def moving(arm):
+    return np.max(np.abs(arm.joint_speeds())) > 0.02
+
+
+def assert_the_rest_is_said(arm, stderr, code, process, during):
+    """The report of a command stopped by SIGTERM mid-move: the step, where the arm rests (as run-poses says it),
+    then the error line naming the signal."""
+    assert process.returncode == code, stderr
+    assert during in stderr, stderr
+    assert wait_for(lambda: not moving(arm), timeout=5)
+    rest = next(line for line in stderr.splitlines() if line.startswith("The arm is at rest at x "))
+    x, y, z = (float(rest.split(f" {axis} ")[1].split()[0]) for axis in "xyz")
+    np.testing.assert_allclose([x, y, z], arm.tcp_pose()[:3] * 1000, atol=0.1)
+    assert stderr.strip().splitlines()[-1].startswith("Error: interrupted by SIGTERM"), stderr
+
+
+def test_sigterm_during_move_to_says_where_the_arm_rests(arm, run_cli, tmp_path):
+    arm.place(TARGET)
+    assert run_cli("--host", arm.host, "record-pose", "--name", "far", "--yes").returncode == 0
+    arm.place(START)
+    with cli_process(tmp_path, "--host", arm.host, "move-to", "far", "--yes", "--speed-scale", "0.1") as process:
+        assert wait_for(lambda: moving(arm) or process.poll() is not None, timeout=20) and moving(arm)
+        process.send_signal(signal.SIGTERM)
+        _, stderr = finish(process)
+    assert_the_rest_is_said(arm, stderr, 143, process, "Stopped during the move to 'far'.")
+
+
+def test_sigterm_during_a_jog_step_says_where_the_arm_rests(arm, tmp_path):
+    import subprocess
+
+    arm.place(START)
+    with cli_process(tmp_path, "--host", arm.host, "jog", stdin=subprocess.PIPE) as process:
+        process.stdin.write("s<1+")   # a 10° step of J1 at 10 % of the jog's speed: seconds long
+        process.stdin.flush()
+        assert wait_for(lambda: moving(arm) or process.poll() is not None, timeout=20) and moving(arm)
+        process.send_signal(signal.SIGTERM)
+        _, stderr = finish(process)
+    assert_the_rest_is_said(arm, stderr, 143, process, "Stopped during the jog step J1+ by 10 °.")

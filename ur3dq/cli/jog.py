@@ -16,12 +16,16 @@ from collections.abc import Iterator
 from typing import Any, TextIO
 
 import click
+from rich.console import Console
+from rich.markup import escape
 
 from ur3dq.cli.app import Settings, cli, emit_json, robot_session
+from ur3dq.cli.display import count_text
 from ur3dq.cli.operator_controls import cbreak, read_key
 from ur3dq.cli.options import display_options
 from ur3dq.cli.program_workflow import same_spot_as
-from ur3dq.errors import MotionTimeoutError, ProgramError, RobotError, StoreError, UR3DQError
+from ur3dq.cli.run_session import replay_stop, where_text
+from ur3dq.errors import MotionTimeoutError, ProgramError, RobotError, StoreError, UR3DQError, add_note
 from ur3dq.pose import next_free_name
 from ur3dq.replay import read_pose
 from ur3dq.robot import jog_steps
@@ -47,6 +51,10 @@ class JogScreen:
     step: int = 1
     speed: int = 1
     message: str = "Ready. 1-6 pick an axis, + or - move it one step."
+    tried: int = 0                     # jog steps asked for, and of those not moved or stopped short
+    failed: int = 0
+    last_failure: str = ""
+    moving: str | None = None          # the step running now ("J1+ by 1 °"), for where an interrupt stopped it
 
     @property
     def axes(self) -> tuple[str, ...]:
@@ -144,23 +152,42 @@ def jog(settings: Settings) -> None:
         screen = JogScreen()
         title = f"{robot.model_name} at {robot.host}"
         keys = cbreak(fd) if sys.stdin.isatty() else contextlib.nullcontext()
-        with keys, full_screen(sys.stdout) if drawn else contextlib.nullcontext():
-            while True:
-                if drawn:
-                    status = robot.state()
-                    draw(sys.stdout, screen_lines(screen, title, status.joints, status.tcp_pose,
-                                                  str(settings.store_path)))
-                key = read_key(fd, REFRESH)
-                if key in ("q", ""):
-                    break
-                if key is not None:
-                    _act(settings, robot, screen, key, recorded)
-                    if not drawn:
-                        click.echo(screen.message, err=True)
+        try:
+            with keys, full_screen(sys.stdout) if drawn else contextlib.nullcontext():
+                while True:
+                    if drawn:
+                        status = robot.state()
+                        draw(sys.stdout, screen_lines(screen, title, status.joints, status.tcp_pose,
+                                                      str(settings.store_path)))
+                    key = read_key(fd, REFRESH)
+                    if key in ("q", ""):
+                        break
+                    if key is not None:
+                        _act(settings, robot, screen, key, recorded)
+                        if not drawn:
+                            click.echo(screen.message, err=True)
+        except KeyboardInterrupt as interrupt:   # after the screen is restored: where the arm came to rest
+            _say_where_it_rests(settings, robot, screen, interrupt)
+            raise
     if settings.json:
         emit_json({"recorded": recorded, "store": str(settings.store_path)})
     else:
         click.echo("Jog ended." + (f" Recorded {', '.join(recorded)}." if recorded else ""))
+    if screen.failed and not drawn:   # a script's steps: its exit says whether they all moved
+        raise RobotError(f"{count_text(screen.failed, 'jog step')} of {screen.tried} did not move as asked; the "
+                         f"last: {screen.last_failure}")
+
+
+def _say_where_it_rests(settings: Settings, robot: Any, screen: JogScreen, interrupt: BaseException) -> None:
+    """Ctrl-C or SIGTERM during a jog: say the step it stopped (if one was running) and where the arm came to rest,
+    as run-poses does, and name the step on the error's line."""
+    step = screen.moving
+    stop = replay_stop(robot, screen.tried, step or "")
+    err = Console(stderr=True, highlight=False)
+    err.print(escape(f"Stopped during the jog step {step}." if step else "Stopped between jog steps."),
+              soft_wrap=True)
+    err.print(where_text(stop, settings.deg), soft_wrap=True)
+    add_note(interrupt, f"(during the jog step {step})" if step else "(between jog steps)")
 
 
 def _act(settings: Settings, robot: Any, screen: JogScreen, key: str, recorded: list[str]) -> None:
@@ -189,17 +216,23 @@ def _step(robot: Any, screen: JogScreen, direction: int) -> None:
     """One jog step, run to its end; then the keys typed meanwhile are dropped."""
     step = screen.jog_step(direction)
     unit = "mm" if step.linear else "°"
+    screen.tried += 1
+    screen.moving = f"{step.label} by {STEP_SIZES[screen.step]:g} {unit}"
     try:
         robot.jog(step, screen.speed_for(step))
-        screen.message = f"Moved {step.label} by {STEP_SIZES[screen.step]:g} {unit}."
+        screen.message = f"Moved {screen.moving}."
     except (ProgramError, MotionTimeoutError) as error:   # it ran and stopped short: the same key goes on
         screen.message = f"{step.label} stopped short: {' '.join(str(error).split())}; the key again goes on"
     except (ValueError, RobotError) as error:   # refused (a limit, reach, the path) or stopped: say so, go on
         if isinstance(error, UR3DQError):
             error.shown_in(SCREEN_UNITS)   # the values of a refusal in the screen's units
         screen.message = f"{step.label} not moved: {' '.join(str(error).split())}"
+    else:
+        screen.moving = None
+        return
     finally:
         _drop_typed_ahead(sys.stdin.fileno())
+    screen.failed, screen.last_failure, screen.moving = screen.failed + 1, screen.message, None
 
 
 def _record(settings: Settings, robot: Any, recorded: list[str]) -> str:

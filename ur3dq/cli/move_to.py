@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 from rich.console import Console
@@ -10,12 +11,16 @@ from rich.markup import escape
 from ur3dq.cli.app import Settings, cli, confirm, emit_json, robot_session, solving_poses
 from ur3dq.cli.options import cell_option, display_options
 from ur3dq.cli.path_report import check_program, check_verdict, require_passed
+from ur3dq.cli.run_session import where_text
 from ur3dq.cli.tcp_check import aimed_pose, steps_for_the_current_tcp, tcp_option
 from ur3dq.errors import NotReachedError, StoreError
 from ur3dq.program.plan import Defaults, PlannedStep, plan_program
 from ur3dq.program.runner import run_plan
 from ur3dq.program.steps import is_waypoint
 from ur3dq.units import ANGLE, LENGTH, SPEED, Units, angular_kind, show
+
+if TYPE_CHECKING:
+    from ur3dq.robot import Robot
 
 REACHED_M = 1e-3     # a move to a pose that ends further than this from where it aimed the TCP did not reach it
 REACHED_RAD = 1e-2
@@ -65,7 +70,7 @@ def move_to(settings: Settings, name: str, yes: bool, speed_scale: float, tcp_ch
         if result is not None:
             require_passed(settings, result)
         confirm(f"Move the arm to {name!r}?", yes, default=False)
-        seconds = run_plan(robot, plan, steps.index(step) + 1)
+        seconds = _run(settings, robot, plan, steps.index(step) + 1)
         taught = plan[0].pose
         assert taught is not None, "a planned waypoint has its pose"
         target = aimed_pose(taught, plan[0].tcp_offset, robot.model.tcp)
@@ -85,6 +90,20 @@ def move_to(settings: Settings, name: str, yes: bool, speed_scale: float, tcp_ch
                               f"{show(REACHED_M, LENGTH, _mm(settings), 0)} or "
                               f"{show(REACHED_RAD, ANGLE, settings.units, 3)}): check the "
                               "TCP offset and the arm (`ur3dq status`)")
+
+
+def _run(settings: Settings, robot: Robot, plan: list[PlannedStep], position: int) -> float:
+    """Run the planned move (the program's step `position`); one that ends early says where the arm came to rest
+    (as run-poses does) before its error leaves."""
+    try:
+        return run_plan(robot, plan, position)
+    except BaseException as error:
+        stop = getattr(error, "program_stop", None)
+        if stop is not None:
+            err = Console(stderr=True, highlight=False)
+            err.print(escape(f"Stopped during the move to {plan[0].step.name!r}."), soft_wrap=True)
+            err.print(where_text(stop, settings.deg), soft_wrap=True)
+        raise
 
 
 def move_summary(planned: PlannedStep, settings: Settings) -> str:
