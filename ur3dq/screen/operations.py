@@ -84,13 +84,14 @@ class Operations:
         finally:
             self.station.activity = None
 
-    def _robot_call(self, activity: str, call: Callable[[Robot], object], done: str) -> str:
-        """call(robot) while claimed; logs and returns `done` (the CLI's line)."""
+    def _robot_call(self, activity: str, call: Callable[[Robot], object], done: str, moot: str | None = None) -> str:
+        """call(robot) while claimed; logs and returns `done` (the CLI's line), or `moot` when the call answered
+        False (there was nothing to do)."""
         with self.claimed(activity):
             robot = self.robot()
             with self.station.robot_lock:
-                call(robot)
-        line = done.format(host=robot.host)
+                outcome = call(robot)
+        line = (moot if outcome is False and moot is not None else done).format(host=robot.host)
         self.log(line)
         return line
 
@@ -123,7 +124,8 @@ class Operations:
                                 "{host}: brakes released, the arm is RUNNING.")
 
     def unlock(self) -> str:
-        return self._robot_call("unlock", lambda r: r.unlock_protective_stop(), "{host}: protective stop unlocked.")
+        return self._robot_call("unlock", lambda r: r.unlock_protective_stop(), "{host}: protective stop unlocked.",
+                                "{host}: no protective stop to unlock.")
 
     def freedrive(self, on: bool) -> str:
         switch = "on" if on else "off"
