@@ -105,6 +105,10 @@ def test_a_bare_number_far_beyond_the_usual_asks_for_its_unit(run_in_process, st
      "500 ° is more than a half turn; type 500deg if that is meant"),
     (("check", "--margin", "5"), "--margin 5: a bare number is read in m, and 5 m is more than half a metre; "
                                  "type 5mm"),
+    (("run-poses", "--dry-run", "--blend", "20"), "--blend 20: a bare number is read in m, and 20 m is more than "
+                                                  "half a metre; type 20mm"),
+    (("export-urp", "--blend", "0.6", "-o", "cell.urp"), "and 0.6 m is more than half a metre; type 0.6mm, or 0.6m if "
+                                                        "that is meant"),
 ])
 def test_a_bare_number_past_the_usual_is_offered_only_what_the_option_takes(run_in_process, store, args, refusal):
     before = store.read_bytes()

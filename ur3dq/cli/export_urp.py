@@ -11,7 +11,7 @@ from ur3dq.cli.export_plans import checked_program_plan, clamped_joint_defaults
 from ur3dq.cli.options import (
     DEFAULT_ACCELERATION,
     DEFAULT_SPEED,
-    Quantity,
+    SMALL_LENGTH,
     cell_option,
     check_blend,
     check_max_travel,
@@ -26,14 +26,13 @@ from ur3dq.program.plan import Defaults
 from ur3dq.program.steps import Step, Waypoint
 from ur3dq.robot.safety import DEFAULT_MAX_JOINT_TRAVEL
 from ur3dq.store import write_atomically
-from ur3dq.units import LENGTH
 
 
 @cli.command("export-urp", short_help="Write the program as a PolyScope program (.urp).")
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path),
               help="The .urp file to write (required).")
 @motion_options
-@click.option("--blend", type=Quantity(LENGTH), default=0.0, metavar="R",
+@click.option("--blend", type=SMALL_LENGTH, default=0.0, metavar="R",
               help="Blend radius of waypoints that set none, e.g. 10mm [default: 0].")
 @click.option("--joints", "replay_joints", is_flag=True, help="Write the recorded joints instead of solving IK.")
 @click.option("--yes", "-y", is_flag=True, help="Overwrite the output file without asking.")

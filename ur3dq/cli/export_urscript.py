@@ -12,7 +12,7 @@ from ur3dq.cli.offline_plans import offline_plan
 from ur3dq.cli.options import (
     DEFAULT_ACCELERATION,
     DEFAULT_SPEED,
-    Quantity,
+    SMALL_LENGTH,
     cell_option,
     check_blend,
     check_max_travel,
@@ -27,7 +27,6 @@ from ur3dq.program.script import program_script
 from ur3dq.replay import describe_speeds, replay_script
 from ur3dq.robot.safety import DEFAULT_MAX_JOINT_TRAVEL
 from ur3dq.store import write_atomically
-from ur3dq.units import LENGTH
 
 
 @cli.command("export-urscript", short_help="Write the program as a URScript .script file.")
@@ -35,7 +34,7 @@ from ur3dq.units import LENGTH
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), default=Path("-"),
               show_default=True, help="The .script file to write (`-`: stdout).")
 @motion_options
-@click.option("--blend", type=Quantity(LENGTH), default=0.0, metavar="R",
+@click.option("--blend", type=SMALL_LENGTH, default=0.0, metavar="R",
               help="Blend radius between poses, e.g. 10mm [default: 0].")
 @click.option("--loop", "loops", type=click.IntRange(min=1), default=1, show_default=True,
               help="Repeat the sequence this many times.")

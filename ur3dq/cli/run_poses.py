@@ -17,7 +17,7 @@ from ur3dq.cli.display import count_text, print_table, reached_table, recorded_j
 from ur3dq.cli.options import (
     DEFAULT_ACCELERATION,
     DEFAULT_SPEED,
-    Quantity,
+    SMALL_LENGTH,
     cell_option,
     check_blend,
     check_max_travel,
@@ -37,7 +37,6 @@ from ur3dq.kinematics.models import URModel
 from ur3dq.pose import Pose
 from ur3dq.replay import PlanStep, execute_plan, loop_closing_travel, plan_replay
 from ur3dq.robot.safety import DEFAULT_MAX_JOINT_TRAVEL
-from ur3dq.units import LENGTH
 
 
 def plan_to_json(steps: Iterable[PlanStep]) -> list[dict[str, Any]]:
@@ -54,7 +53,7 @@ def plan_to_json(steps: Iterable[PlanStep]) -> list[dict[str, Any]]:
               help="Show the full plan table and the path check's table before the question.")
 @click.option("--yes", "-y", is_flag=True, help="Move without asking.")
 @motion_options
-@click.option("--blend", type=Quantity(LENGTH), default=0.0, metavar="R",
+@click.option("--blend", type=SMALL_LENGTH, default=0.0, metavar="R",
               help="Blend radius, e.g. 20mm: the poses become one smooth path [default: 0, stop at each pose].")
 @click.option("--loop", "loops", type=click.IntRange(min=1), default=1, show_default=True,
               help="Run the sequence this many times.")
