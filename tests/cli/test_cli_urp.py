@@ -235,7 +235,7 @@ def test_a_kept_script_runs_on_the_arm_with_the_rest_of_the_program(run_cli, arm
                                          f'useActiveTCP="false"><children>{waypoint("pick", HOME)}</children></Move>',
                                          kinematics=ur3))
     assert run_cli("import-urp", "cell.urp", "--keep-script").returncode == 0
-    ran = run_cli("--host", arm.host, "run-poses", "--yes")
+    ran = run_cli("--host", arm.host, "run-poses", "--yes", "--tcp", "recorded")   # the .urp's own TCP
     assert ran.returncode == 0, ran.stderr
     assert "runs as it is: its motions are not checked" in " ".join(ran.stderr.split())   # wrapped at 80 columns
     import rtde_receive

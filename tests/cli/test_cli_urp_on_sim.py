@@ -182,7 +182,8 @@ def test_a_played_urp_moves_the_arm_through_the_joints_run_poses_moves_it_throug
         host = ("--host", simulator.host)
         exported = run_cli(*host, "export-urp", "-o", "cell.urp", "--calibration", "robot", "--json")
         assert exported.returncode == 0, exported.stderr
-        planned = run_cli(*host, "run-poses", "--dry-run", "--json")
+        # the program sets each waypoint's own TCP, whatever the controller's is: --tcp recorded says so
+        planned = run_cli(*host, "run-poses", "--dry-run", "--json", "--tcp", "recorded")
         assert planned.returncode == 0, planned.stderr
         targets = [np.array(step["joints"]) for step in json.loads(planned.stdout)["plan"] if step["joints"]]
 
@@ -200,7 +201,7 @@ def test_a_played_urp_moves_the_arm_through_the_joints_run_poses_moves_it_throug
             assert (tmp_path / "again" / "cell.urp").read_bytes() == (tmp_path / "cell.urp").read_bytes()
 
         def run_poses():   # the program imported from the file: run as any other
-            ran = run_cli(*host, "--store", "imported.json", "run-poses", "--yes", timeout=180)
+            ran = run_cli(*host, "--store", "imported.json", "run-poses", "--yes", "--tcp", "recorded", timeout=180)
             assert ran.returncode == 0, ran.stderr
 
         assert_passes_through(recorded_path(simulator.host, run_poses), targets, "run-poses")

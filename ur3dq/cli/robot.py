@@ -36,7 +36,7 @@ def robot_group() -> None:
     Examples:
       ur3dq robot power-on && ur3dq robot brake-release
       ur3dq robot unlock           # after finding why a protective stop came
-      ur3dq robot freedrive on     # move the arm by hand until Enter (or `... off`)
+      ur3dq robot freedrive on     # move the arm by hand until Enter
       ur3dq robot stop             # decelerate the arm to rest (stopj)
     """
 

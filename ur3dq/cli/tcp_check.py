@@ -79,7 +79,8 @@ def _retarget(changed: list[str], tcp_now: DualQuaternion, choice: str | None, r
             err.print(f"Note: --tcp {choice} changes nothing: every pose was taught with the controller's TCP offset.")
         return False
     current = ", ".join(f"{value:.4f}" for value in tcp_now.to_ur_pose())
-    names = ", ".join(changed)
+    names = ", ".join(repr(name) for name in changed[:3]) + (f" and {len(changed) - 3} more" if len(changed) > 3
+                                                               else "")
     err.print(escape(f"Warning: the controller's TCP offset (p[{current}]) differs from the one {names} "
                      "was recorded with."), soft_wrap=True)
     if choice is None:
