@@ -119,6 +119,24 @@ def served(host: str | None, store: Path, log: Path, *options: str, timeout: flo
                 process.wait()
 
 
+@contextlib.contextmanager
+def page_on_powered_arm(browser, store: Path, log: Path):
+    """(page, simulator, server): a 1280×800 page on `ur3dq serve` (served) against a powered simulator at START_Q,
+    once the server says it is ready; the page is closed after the block."""
+    from polling import wait_for
+    from powered_simulator import powered_simulator
+
+    page = browser.new_page(viewport={"width": 1280, "height": 800})
+    try:
+        with powered_simulator(initial_q=",".join(map(str, START_Q))) as simulator, \
+                served(simulator.host, store, log) as server:
+            page.goto(server.url)
+            assert wait_for(lambda: "; ready" in server.log_text(), timeout=30), server.log_text()
+            yield page, simulator, server
+    finally:
+        page.close()
+
+
 def button(page, name: str):
     """The page's button whose accessible name is exactly `name`."""
     return page.get_by_role("button", name=name, exact=True)

@@ -5,10 +5,8 @@ import re
 
 import pytest
 
-from polling import wait_for
-from powered_simulator import powered_simulator
 from robot_target import simulator_only
-from screen_support import ARTIFACTS, START_Q, button, expect, hold, served
+from screen_support import ARTIFACTS, button, expect, hold, page_on_powered_arm
 
 pytestmark = [pytest.mark.browser, simulator_only("the messages test protective-stops sim_ursim")]
 
@@ -19,11 +17,8 @@ SPEED = r"(-?\d+(?:\.\d+)?) °/s"
 def test_a_jogs_speed_reads_as_its_label_and_a_protective_stop_points_at_unlock(browser, tmp_path):
     from sim_ursim.control_channel import send_request
 
-    page = browser.new_page(viewport={"width": 1280, "height": 800})
-    with powered_simulator(initial_q=",".join(map(str, START_Q))) as simulator, \
-            served(simulator.host, tmp_path / "poses.json", ARTIFACTS / "screen-robot-messages.log") as server:
-        page.goto(server.url)
-        assert wait_for(lambda: "; ready" in server.log_text(), timeout=30), server.log_text()
+    with page_on_powered_arm(browser, tmp_path / "poses.json", ARTIFACTS / "screen-robot-messages.log") as \
+            (page, simulator, _):
         label = page.locator("#jog-speed-value").text_content()
         hold(page, "J1+", 0.3)
         page.wait_for_function(f"{NOTICE}.startsWith('jog J1+')", timeout=10000)
@@ -35,7 +30,6 @@ def test_a_jogs_speed_reads_as_its_label_and_a_protective_stop_points_at_unlock(
         hold(page, "J1+", 0.3)
         page.wait_for_function(f"{NOTICE}.startsWith('Error')", timeout=10000)
         refusal = page.locator("#notice").text_content()
-    page.close()
     assert "protective stop" in refusal and "(press Unlock)" in refusal, refusal
     assert "ur3dq robot unlock" not in refusal and "unlock_protective_stop" not in refusal, refusal
     top = float(re.search(r"of " + SPEED, label).group(1))

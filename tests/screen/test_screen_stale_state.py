@@ -6,10 +6,8 @@ import time
 
 import pytest
 
-from polling import wait_for
-from powered_simulator import powered_simulator
 from robot_target import simulator_only
-from screen_support import ARTIFACTS, START_Q, served
+from screen_support import ARTIFACTS, START_Q, page_on_powered_arm
 
 pytestmark = [pytest.mark.browser, simulator_only("the stale-state test freezes sim_ursim's streams")]
 
@@ -22,11 +20,8 @@ STALE = f"document.body.classList.contains('stale') && {ROBOT_LINE}.includes('no
 def test_a_frozen_stream_is_shown_stale_within_a_second_and_live_after_the_thaw(browser, tmp_path):
     from sim_ursim.control_channel import send_request
 
-    page = browser.new_page(viewport={"width": 1280, "height": 800})
-    with powered_simulator(initial_q=",".join(map(str, START_Q))) as simulator, \
-            served(simulator.host, tmp_path / "poses.json", ARTIFACTS / "screen-stale-server.log") as server:
-        page.goto(server.url)
-        assert wait_for(lambda: "; ready" in server.log_text(), timeout=30), server.log_text()
+    with page_on_powered_arm(browser, tmp_path / "poses.json", ARTIFACTS / "screen-stale-server.log") as \
+            (page, simulator, _):
         with socket.create_connection((simulator.host, 30002), timeout=5) as secondary:   # a slow program plays
             target = [START_Q[0] + 1.0, *START_Q[1:]]
             secondary.sendall(f"movej({target}, a=1.0, v=0.05)\n".encode())
@@ -46,7 +41,6 @@ def test_a_frozen_stream_is_shown_stale_within_a_second_and_live_after_the_thaw(
         page.wait_for_function(f"!document.body.classList.contains('stale') && {ROBOT_LINE}.includes('RUNNING')",
                                timeout=15000)
         page.screenshot(path=str(ARTIFACTS / "screen-stale-after-thaw.png"))
-    page.close()
     assert stale_during_freeze
     assert shown_after < SHOWN_STALE_WITHIN_S, shown_after
     assert "PLAYING" not in line and "RUNNING" not in line, line
