@@ -73,6 +73,11 @@ def check_motion_range(motion: Motion, model: URModel, who: str, units: u.Units)
     ...
     ur3dq.program.plan.MotionRangeError: waypoint 'p1': speed 1e-06 mm/s is outside the ur3's range for a linear \
 move, 1 mm/s to 1000 mm/s
+    >>> check_motion_range(Motion("linear", 1.0000000001), robot_model("ur3"), "waypoint 'p1'", u.Units("deg", "mm"))
+    Traceback (most recent call last):
+    ...
+    ur3dq.program.plan.MotionRangeError: waypoint 'p1': speed 1000.0000001 mm/s is outside the ur3's range for a \
+linear move, 1 mm/s to 1000 mm/s
     """
     angular = u.angular_kind(motion.move)
     speeds, accelerations = motion_ranges(model, motion.move)
@@ -80,9 +85,12 @@ move, 1 mm/s to 1000 mm/s
                                            (motion.acceleration, accelerations, u.ACCELERATION[angular],
                                             "acceleration")):
         if value is not None and not low <= value <= high:
-            raise MotionRangeError(f"{who}: {what} {u.show(value, kind, units)} is outside the {model.name}'s range "
-                                   f"for a {motion.move} move, {u.show(low, kind, units)} to "
-                                   f"{u.show(high, kind, units)}", what, angular)
+            bounds = u.show(low, kind, units), u.show(high, kind, units)
+            shown = u.show(value, kind, units)
+            if shown in bounds:   # just past a bound: rounded, it would read as inside the range
+                shown = f"{u.to_display(value, kind, units):.12g} {u.unit_label(kind, units)}"
+            raise MotionRangeError(f"{who}: {what} {shown} is outside the {model.name}'s range for a {motion.move} "
+                                   f"move, {bounds[0]} to {bounds[1]}", what, angular)
 
 
 @dataclasses.dataclass(frozen=True)
