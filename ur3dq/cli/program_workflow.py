@@ -32,7 +32,19 @@ from ur3dq.program.plan import check_motion_range as plan_check_motion_range
 from ur3dq.program.resolve import select_range
 from ur3dq.program.steps import MAX_BLEND_M, Motion, RelativeWaypoint, Step, Wait, WaitInput, Waypoint, describe
 from ur3dq.store_format import PROGRAM_SCHEMA_VERSION, step_to_dict
-from ur3dq.units import ACCELERATION, ANGLE, DURATION, LENGTH, SPEED, Units, angular_kind, show, to_display, unit_label
+from ur3dq.units import (
+    ACCELERATION,
+    ANGLE,
+    DISPLAY_DIGITS,
+    DURATION,
+    LENGTH,
+    SPEED,
+    Units,
+    angular_kind,
+    show,
+    to_display,
+    unit_label,
+)
 
 if TYPE_CHECKING:
     from ur3dq.cli.resume_state import ResumeState
@@ -142,9 +154,9 @@ def _rotation_text(step: RelativeWaypoint, units: Units) -> str:
     """' rx,ry,rz +5,+0,-5 °': the offset's rotation vector, each component with its sign ('' when it turns none)."""
     if not any(step.offset[3:]):
         return ""
-    digits = 2 if units.angle == "deg" else 4
-    vector = ",".join(f"{round(to_display(v, ANGLE, units), digits):+g}" for v in step.offset[3:])
-    return f" rx,ry,rz {vector} {unit_label(ANGLE, units)}"
+    label = unit_label(ANGLE, units)
+    vector = ",".join(f"{round(to_display(v, ANGLE, units), DISPLAY_DIGITS[label]):+g}" for v in step.offset[3:])
+    return f" rx,ry,rz {vector} {label}"
 
 
 def step_fields_text(step: Step, units: Units) -> list[tuple[str, str]]:
