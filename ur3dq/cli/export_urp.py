@@ -19,8 +19,7 @@ from ur3dq.cli.options import (
     motion_options,
     or_default,
 )
-from ur3dq.cli.program_workflow import program_part
-from ur3dq.kinematics.models import URModel
+from ur3dq.cli.program_workflow import program_model, program_part
 from ur3dq.polyscope.urp_export import MoveDefaults, export_bytes, is_e_series
 from ur3dq.program.plan import Defaults
 from ur3dq.program.steps import Step, Waypoint
@@ -81,7 +80,7 @@ def export_urp(settings: Settings, output: Path | None, speed: float | None, acc
             warnings.append(other_arm)
             click.echo(f"Warning: {other_arm}", err=True)
     else:
-        model = nominal_model(settings, steps)
+        model = program_model(settings, steps)
     solving_poses(len(part), model)
     plan, plan_lines = checked_program_plan(settings, model, steps, part, defaults, replay_joints, travel, cell_path)
     warnings += plan_lines
@@ -104,14 +103,6 @@ def urp_output(output: Path | None) -> Path:
         raise click.UsageError("export-urp writes a .urp file for the pendant, not to stdout: name it with -o, "
                                "e.g. `ur3dq export-urp -o cell.urp`")
     return output
-
-
-def nominal_model(settings: Settings, steps: list[Step]) -> URModel:
-    """The catalogue model of the program: --model, else the first recorded pose's, else the UR3."""
-    from ur3dq.kinematics import robot_model
-
-    first = next((step.pose for step in steps if isinstance(step, Waypoint)), None)
-    return robot_model(settings.model or (first.robot_model if first else "ur3"))
 
 
 def taught_elsewhere(steps: list[Step], model_name: str, serial: str | None) -> str | None:
